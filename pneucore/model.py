@@ -1,0 +1,407 @@
+"""The actuator model as plain dataclasses that round-trip to JSON.
+
+``Model.from_dict(d)`` validates everything and raises one
+:class:`~pneucore.validation.FieldError` (a ``ValueError``) naming the field
+path; ``Model.to_dict()`` gives back plain JSON. Units are SI, pressures
+absolute [Pa], temperatures [K].
+"""
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+from typing import Optional
+
+from .flow import FLOW_LAWS, R_LAMINAR
+from .friction import FRICTION_LAWS
+from .gas import GAMMA_AIR, P_ATM, R_AIR, T_REF
+from .heat import HEAT_MODELS
+from .jack import annulus_area, rod_area
+from .validation import FieldError, choice, known_keys, mapping, number, number_list
+
+#: Edges of each valve kind and the opening range of their tables
+VALVE_KINDS = {
+    "4/2": {"ports": ("P-A", "A-R", "P-B", "B-R"), "range": (-1.0, 1.0)},
+    "3/2": {"ports": ("P-A", "A-R"), "range": (0.0, 1.0)},
+}
+
+
+@dataclass
+class Jack:
+    """Cylinder geometry and load.
+
+    Parameters
+    ----------
+    bore : float  Bore (piston) diameter [m]
+    rod_a : float  Rod diameter on the chamber-A side, 0 = no rod [m]
+    rod_b : float  Rod diameter on the chamber-B side, 0 = no rod [m]
+    stroke : float  Stroke [m]
+    dead_volume_a : float  Volume of chamber A at x = 0, ports included [m^3]
+    dead_volume_b : float  Volume of chamber B at x = stroke [m^3]
+    moving_mass : float  Piston, rod and load mass [kg]
+    load_force : float  Constant external force pushing towards x = 0 [N]
+    wall_area_a, wall_area_b : float or None  Heat-exchange area override [m^2];
+        None = lateral area of the gas column plus both end faces, following the piston
+    """
+    bore: float = 0.032
+    rod_a: float = 0.012
+    rod_b: float = 0.012
+    stroke: float = 0.25
+    dead_volume_a: float = 5e-6
+    dead_volume_b: float = 5e-6
+    moving_mass: float = 2.0
+    load_force: float = 0.0
+    wall_area_a: Optional[float] = None
+    wall_area_b: Optional[float] = None
+
+    @property
+    def area_a(self):
+        """Annulus area of chamber A [m^2]."""
+        return annulus_area(self.bore, self.rod_a)
+
+    @property
+    def area_b(self):
+        """Annulus area of chamber B [m^2]."""
+        return annulus_area(self.bore, self.rod_b)
+
+    @property
+    def rod_area_a(self):
+        """Rod cross-section on side A [m^2]."""
+        return rod_area(self.rod_a)
+
+    @property
+    def rod_area_b(self):
+        """Rod cross-section on side B [m^2]."""
+        return rod_area(self.rod_b)
+
+    def volumes(self, x):
+        """Chamber volumes ``(V_a, V_b)`` at position ``x`` [m] (Eq. 23-24) [m^3]."""
+        return (self.area_a * x + self.dead_volume_a,
+                self.area_b * (self.stroke - x) + self.dead_volume_b)
+
+    @classmethod
+    def from_dict(cls, d, path="jack"):
+        mapping(d, path)
+        known_keys(d, cls.__dataclass_fields__, path)
+        j = cls(**{**cls().__dict__, **d})
+        j.bore = number(j.bore, f"{path}.bore", positive=True)
+        j.rod_a = number(j.rod_a, f"{path}.rod_a", nonnegative=True)
+        j.rod_b = number(j.rod_b, f"{path}.rod_b", nonnegative=True)
+        for side in ("a", "b"):
+            if getattr(j, f"rod_{side}") >= j.bore:
+                raise FieldError(f"{path}.rod_{side}",
+                                 f"rod diameter {getattr(j, f'rod_{side}'):g} m must be smaller "
+                                 f"than the bore {j.bore:g} m")
+        j.stroke = number(j.stroke, f"{path}.stroke", positive=True)
+        j.dead_volume_a = number(j.dead_volume_a, f"{path}.dead_volume_a", positive=True)
+        j.dead_volume_b = number(j.dead_volume_b, f"{path}.dead_volume_b", positive=True)
+        j.moving_mass = number(j.moving_mass, f"{path}.moving_mass", positive=True)
+        j.load_force = number(j.load_force, f"{path}.load_force")
+        j.wall_area_a = number(j.wall_area_a, f"{path}.wall_area_a", positive=True, allow_none=True)
+        j.wall_area_b = number(j.wall_area_b, f"{path}.wall_area_b", positive=True, allow_none=True)
+        return j
+
+    def to_dict(self):
+        return dict(self.__dict__)
+
+
+@dataclass
+class PortTable:
+    """One metering edge: sonic conductance and critical ratio against spool opening.
+
+    Parameters
+    ----------
+    opening : list of float  Strictly increasing spool openings [-]
+    C : list of float  Sonic conductance at each opening [m^3/(s Pa)]
+    b : list of float  Critical pressure ratio at each opening, in [0, 1) [-]
+    m : list of float or None  Subsonic index at each opening [-]; None = 0.5 (Eq. 4)
+    """
+    opening: list
+    C: list
+    b: list
+    m: Optional[list] = None
+
+    @classmethod
+    def from_dict(cls, d, path, u_range=(-1.0, 1.0)):
+        mapping(d, path)
+        known_keys(d, ("opening", "C", "b", "m"), path)
+        for key in ("opening", "C", "b"):
+            if key not in d:
+                raise FieldError(f"{path}.{key}", "is required")
+        lo, hi = u_range
+        opening = number_list(d["opening"], f"{path}.opening", low=lo, high=hi)
+        for i in range(1, len(opening)):
+            if opening[i] <= opening[i - 1]:
+                raise FieldError(f"{path}.opening[{i}]",
+                                 f"openings must be strictly increasing ({opening[i - 1]:g} then {opening[i]:g})")
+        n = len(opening)
+        C = number_list(d["C"], f"{path}.C", nonnegative=True)
+        b = number_list(d["b"], f"{path}.b", low=0.0, high=1.0, high_open=True)
+        m = d.get("m")
+        if m is not None:
+            m = number_list(m, f"{path}.m", positive=True, high=2.0)
+        for key, vals in (("C", C), ("b", b), ("m", m)):
+            if vals is not None and len(vals) != n:
+                raise FieldError(f"{path}.{key}", f"must have one value per opening ({n}), got {len(vals)}")
+        return cls(opening, C, b, m)
+
+    def to_dict(self):
+        d = {"opening": list(self.opening), "C": list(self.C), "b": list(self.b)}
+        if self.m is not None:
+            d["m"] = list(self.m)
+        return d
+
+    @property
+    def C_max(self):
+        """Largest conductance of the table [m^3/(s Pa)]."""
+        return max(self.C)
+
+    @property
+    def b_at_C_max(self):
+        """Critical ratio at the largest conductance [-]."""
+        return self.b[self.C.index(max(self.C))]
+
+
+@dataclass
+class Valve:
+    """Directional control valve.
+
+    Parameters
+    ----------
+    kind : str  ``"4/2"`` (edges P-A, A-R, P-B, B-R, opening in [-1, 1]) or
+        ``"3/2"`` (edges P-A, A-R, opening in [0, 1]; chamber B at constant pressure)
+    ports : dict  Edge name -> :class:`PortTable`
+    b_chamber_pressure : float or None  3/2 mode: absolute pressure held in
+        chamber B [Pa]; None = half the supply pressure, as in the paper
+    flow_law : str  Name in :data:`pneucore.flow.FLOW_LAWS` (``iso6358`` or ``saint_venant``)
+    laminar_ratio : float  Pressure ratio above which edge flows are linearised [-]
+    """
+    kind: str = "4/2"
+    ports: dict = field(default_factory=dict)
+    b_chamber_pressure: Optional[float] = None
+    flow_law: str = "iso6358"
+    laminar_ratio: float = R_LAMINAR
+
+    @classmethod
+    def from_dict(cls, d, path="valve"):
+        mapping(d, path)
+        known_keys(d, cls.__dataclass_fields__, path)
+        kind = choice(d.get("kind", "4/2"), VALVE_KINDS, f"{path}.kind")
+        spec = VALVE_KINDS[kind]
+        ports_in = mapping(d.get("ports", {}), f"{path}.ports")
+        known_keys(ports_in, spec["ports"], f"{path}.ports")
+        ports = {}
+        for name in spec["ports"]:
+            if name not in ports_in:
+                raise FieldError(f"{path}.ports.{name}", f"is required for a {kind} valve")
+            ports[name] = PortTable.from_dict(ports_in[name], f"{path}.ports.{name}", spec["range"])
+        bcp = number(d.get("b_chamber_pressure"), f"{path}.b_chamber_pressure", positive=True,
+                     allow_none=True)
+        law = choice(d.get("flow_law", "iso6358"), FLOW_LAWS, f"{path}.flow_law")
+        r_lam = number(d.get("laminar_ratio", R_LAMINAR), f"{path}.laminar_ratio", low=0.9,
+                       high=1.0, high_open=True)
+        return cls(kind, ports, bcp, law, r_lam)
+
+    def to_dict(self):
+        return {"kind": self.kind, "ports": {k: p.to_dict() for k, p in self.ports.items()},
+                "b_chamber_pressure": self.b_chamber_pressure, "flow_law": self.flow_law,
+                "laminar_ratio": self.laminar_ratio}
+
+    @property
+    def opening_range(self):
+        """Valid command range ``(low, high)`` of this valve kind [-]."""
+        return VALVE_KINDS[self.kind]["range"]
+
+
+@dataclass
+class Source:
+    """A pressure node: supply or ambient.
+
+    Parameters
+    ----------
+    pressure : float  Absolute pressure [Pa]
+    temperature : float  Temperature [K]
+    """
+    pressure: float
+    temperature: float = T_REF
+
+    @classmethod
+    def from_dict(cls, d, path, default_pressure):
+        mapping(d, path)
+        known_keys(d, ("pressure", "temperature"), path)
+        p = number(d.get("pressure", default_pressure), f"{path}.pressure", positive=True)
+        T = number(d.get("temperature", T_REF), f"{path}.temperature", positive=True)
+        return cls(p, T)
+
+    def to_dict(self):
+        return {"pressure": self.pressure, "temperature": self.temperature}
+
+
+@dataclass
+class Heat:
+    """Heat exchange model.
+
+    Parameters
+    ----------
+    model : str  Name in :data:`pneucore.heat.HEAT_MODELS` (isothermal, adiabatic, convective)
+    coefficient : float  Convection coefficient h of Eq. 9 [W/(m^2 K)]
+    """
+    model: str = "convective"
+    coefficient: float = 25.0
+
+    @classmethod
+    def from_dict(cls, d, path="heat"):
+        mapping(d, path)
+        known_keys(d, ("model", "coefficient"), path)
+        model = choice(d.get("model", "convective"), HEAT_MODELS, f"{path}.model")
+        h = number(d.get("coefficient", 25.0), f"{path}.coefficient", nonnegative=True, high=1e6)
+        return cls(model, h)
+
+    def to_dict(self):
+        return {"model": self.model, "coefficient": self.coefficient}
+
+
+@dataclass
+class FrictionSet:
+    """Friction coefficients of one quadrant (Eq. 18-20, gauge pressures).
+
+    Parameters
+    ----------
+    fc0 : float  Constant Coulomb force [N]
+    fc_a, fc_b : float  Coulomb force per gauge pressure in A and B [N/Pa]
+    kv0 : float  Constant viscous coefficient [N s/m]
+    kv_a, kv_b : float  Viscous coefficient per gauge pressure [N s/(m Pa)]
+    """
+    fc0: float = 10.0
+    fc_a: float = 0.0
+    fc_b: float = 0.0
+    kv0: float = 30.0
+    kv_a: float = 0.0
+    kv_b: float = 0.0
+
+    @classmethod
+    def from_dict(cls, d, path):
+        mapping(d, path)
+        known_keys(d, cls.__dataclass_fields__, path)
+        out = cls()
+        for key in cls.__dataclass_fields__:
+            kw = {"nonnegative": True} if key in ("fc0", "kv0") else {}
+            setattr(out, key, number(d.get(key, getattr(out, key)), f"{path}.{key}", **kw))
+        return out
+
+    def to_dict(self):
+        return dict(self.__dict__)
+
+
+@dataclass
+class Friction:
+    """Piston friction: extension (v > 0) and retraction (v < 0) sets, and the law's name."""
+    extend: FrictionSet = field(default_factory=FrictionSet)
+    retract: FrictionSet = field(default_factory=FrictionSet)
+    law: str = "coulomb_viscous"
+
+    @classmethod
+    def from_dict(cls, d, path="friction"):
+        mapping(d, path)
+        known_keys(d, ("extend", "retract", "law"), path)
+        ext = FrictionSet.from_dict(d.get("extend", {}), f"{path}.extend")
+        ret = FrictionSet.from_dict(d.get("retract", d.get("extend", {})), f"{path}.retract")
+        law = choice(d.get("law", "coulomb_viscous"), FRICTION_LAWS, f"{path}.law")
+        return cls(ext, ret, law)
+
+    def to_dict(self):
+        return {"extend": self.extend.to_dict(), "retract": self.retract.to_dict(), "law": self.law}
+
+
+@dataclass
+class Gas:
+    """Ideal gas (Eq. 10-11).
+
+    Parameters
+    ----------
+    r : float  Specific gas constant [J/(kg K)]
+    gamma : float  Ratio of specific heats [-]
+    """
+    r: float = R_AIR
+    gamma: float = GAMMA_AIR
+
+    @classmethod
+    def from_dict(cls, d, path="gas"):
+        mapping(d, path)
+        known_keys(d, ("r", "gamma"), path)
+        return cls(number(d.get("r", R_AIR), f"{path}.r", positive=True),
+                   number(d.get("gamma", GAMMA_AIR), f"{path}.gamma", low=1.0, low_open=True, high=2.0))
+
+    def to_dict(self):
+        return {"r": self.r, "gamma": self.gamma}
+
+
+@dataclass
+class Model:
+    """A complete actuator model: jack, valve, supply, ambient, heat, friction, effects.
+
+    ``effects`` maps catalog effect names (:mod:`pneucore.effects`) to their
+    parameters; an empty dict is the paper's base model.
+    """
+    jack: Jack = field(default_factory=Jack)
+    valve: Valve = field(default_factory=Valve)
+    supply: Source = field(default_factory=lambda: Source(7e5))
+    ambient: Source = field(default_factory=lambda: Source(P_ATM))
+    heat: Heat = field(default_factory=Heat)
+    friction: Friction = field(default_factory=Friction)
+    effects: dict = field(default_factory=dict)
+    gas: Gas = field(default_factory=Gas)
+    name: str = ""
+
+    @classmethod
+    def from_dict(cls, d):
+        """Build and validate a model from plain JSON (see the README for the shape)."""
+        if isinstance(d, Model):
+            return d.copy()
+        mapping(d, "model")
+        known_keys(d, ("jack", "valve", "supply", "ambient", "heat", "friction", "effects", "gas",
+                       "name", "description", "notes"), "")
+        for key in ("jack", "valve"):
+            if key not in d:
+                raise FieldError(key, "is required")
+        m = cls(
+            jack=Jack.from_dict(d["jack"]),
+            valve=Valve.from_dict(d["valve"]),
+            supply=Source.from_dict(d.get("supply", {}), "supply", 7e5),
+            ambient=Source.from_dict(d.get("ambient", {}), "ambient", P_ATM),
+            heat=Heat.from_dict(d.get("heat", {})),
+            friction=Friction.from_dict(d.get("friction", {})),
+            effects=dict(mapping(d.get("effects") or {}, "effects")),
+            gas=Gas.from_dict(d.get("gas", {})),
+            name=str(d.get("name", "")),
+        )
+        if m.supply.pressure <= m.ambient.pressure:
+            raise FieldError("supply.pressure", f"supply pressure {m.supply.pressure:g} Pa must exceed "
+                                                f"the ambient pressure {m.ambient.pressure:g} Pa")
+        if m.valve.b_chamber_pressure is not None and m.valve.kind != "3/2":
+            raise FieldError("valve.b_chamber_pressure", "only applies to a 3/2 valve")
+        from .effects import validate_effects
+        m.effects = validate_effects(m.effects, m)
+        return m
+
+    def to_dict(self):
+        """Plain JSON of the model (round-trips through :meth:`from_dict`)."""
+        d = {"jack": self.jack.to_dict(), "valve": self.valve.to_dict(),
+             "supply": self.supply.to_dict(), "ambient": self.ambient.to_dict(),
+             "heat": self.heat.to_dict(), "friction": self.friction.to_dict(),
+             "effects": copy.deepcopy(self.effects), "gas": self.gas.to_dict()}
+        if self.name:
+            d["name"] = self.name
+        return d
+
+    def copy(self):
+        """Deep copy."""
+        return copy.deepcopy(self)
+
+    @property
+    def b_chamber_pressure(self):
+        """Constant chamber-B pressure in 3/2 mode [Pa] (half the supply by default), else None."""
+        if self.valve.kind != "3/2":
+            return None
+        if self.valve.b_chamber_pressure is not None:
+            return self.valve.b_chamber_pressure
+        return 0.5 * self.supply.pressure

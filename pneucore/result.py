@@ -1,0 +1,142 @@
+"""The response object of a simulation: plain arrays, events, statistics, export."""
+from __future__ import annotations
+
+import numpy as np
+
+from . import layout as L
+from .integrator import ST_BACKSTEPS, ST_EVENTS, ST_FEVALS, ST_JACOBIANS, ST_REJECTED, ST_STEPS, \
+    STATUS_MESSAGES
+
+#: Sampled series of every result, with their units
+SERIES_UNITS = {
+    "t": "s", "u": "-", "p_a": "Pa", "p_b": "Pa", "T_a": "K", "T_b": "K", "m_a": "kg", "m_b": "kg",
+    "x": "m", "v": "m/s", "a": "m/s^2", "q_a": "kg/s", "q_b": "kg/s", "friction": "N",
+    "mode": "-", "u_eff": "-", "p_supply": "Pa", "q_supply": "kg/s", "net_force": "N",
+    "heat_a": "W", "heat_b": "W", "V_a": "m^3", "V_b": "m^3",
+}
+
+
+class SimulationResult:
+    """Sampled series, events and solver statistics of one simulation.
+
+    Attributes
+    ----------
+    t : ndarray  Sample times [s]
+    u : ndarray  Valve command [-]
+    p_a, p_b : ndarray  Chamber pressures [Pa abs]
+    T_a, T_b : ndarray  Gas temperatures [K]
+    m_a, m_b : ndarray  Gas masses [kg]
+    x, v, a : ndarray  Position [m], velocity [m/s], acceleration [m/s^2]
+    q_a, q_b : ndarray  Net valve mass flow into each chamber [kg/s]
+    friction : ndarray  Friction force, positive towards -x [N] (holding force while stuck, 0 at a stop)
+    mode : ndarray of str  ``slide``, ``stick``, ``stop`` or ``locked``
+    events : list of dict  ``{"t": [s], "kind": "command|slip|stick|stop|reverse", "mode": ...}``
+    stats : dict  Solver statistics (steps, rejected, rhs evaluations, jacobians, events, back-steps)
+    series : dict  Every sampled series by name, including effect states (e.g. ``p_a_sensor``)
+    """
+
+    def __init__(self, series, events, stats, model, scenario, status=0, message="ok"):
+        self.series = series
+        self.events = events
+        self.stats = stats
+        self.model = model
+        self.scenario = scenario
+        self.status = status
+        self.message = message
+        for k, v in series.items():
+            setattr(self, k, v)
+
+    @classmethod
+    def from_core(cls, model, scenario, core, t_out, y_out, aux_out, mode_out, u_out,
+                  ev_t, ev_kind, ev_mode, stats, status, t_reached):
+        eff = core["effective_model"]
+        s = {"t": t_out, "u": u_out}
+        s["p_a"] = aux_out[:, L.AUX_PA]
+        s["p_b"] = aux_out[:, L.AUX_PB]
+        s["T_a"] = y_out[:, L.Y_TA]
+        s["T_b"] = y_out[:, L.Y_TB]
+        s["m_a"] = y_out[:, L.Y_MA]
+        V_b = aux_out[:, L.AUX_VB]
+        if eff.valve.kind == "3/2":
+            s["m_b"] = s["p_b"] * V_b / (eff.gas.r * s["T_b"])
+        else:
+            s["m_b"] = y_out[:, L.Y_MB]
+        s["x"] = y_out[:, L.Y_X]
+        s["v"] = y_out[:, L.Y_V]
+        s["a"] = aux_out[:, L.AUX_ACC]
+        s["q_a"] = aux_out[:, L.AUX_QA]
+        s["q_b"] = aux_out[:, L.AUX_QB]
+        s["friction"] = aux_out[:, L.AUX_FRICTION]
+        names = np.array(L.MODE_NAMES + ("",))
+        s["mode"] = names[np.where(mode_out >= 0, mode_out, len(L.MODE_NAMES))]
+        s["u_eff"] = aux_out[:, L.AUX_UEFF]
+        s["p_supply"] = aux_out[:, L.AUX_PSUP]
+        s["q_supply"] = aux_out[:, L.AUX_QSUP]
+        s["net_force"] = aux_out[:, L.AUX_FNET]
+        s["heat_a"] = aux_out[:, L.AUX_HEAT_A]
+        s["heat_b"] = aux_out[:, L.AUX_HEAT_B]
+        s["V_a"] = aux_out[:, L.AUX_VA]
+        s["V_b"] = V_b
+        for i, name in enumerate(core["state_names"][L.N_BASE_STATES:]):
+            s[name] = y_out[:, L.N_BASE_STATES + i]
+        events = [{"t": float(t), "kind": L.EVENT_NAMES[k], "mode": L.MODE_DETAIL[m]}
+                  for t, k, m in zip(ev_t, ev_kind, ev_mode)]
+        st = {"steps": int(stats[ST_STEPS]), "rejected": int(stats[ST_REJECTED]),
+              "rhs_evaluations": int(stats[ST_FEVALS]), "jacobians": int(stats[ST_JACOBIANS]),
+              "events": int(stats[ST_EVENTS]), "backsteps": int(stats[ST_BACKSTEPS]),
+              "t_reached": float(t_reached), "method": "RODAS4 (Rosenbrock, order 4, L-stable)",
+              "rtol": scenario.solver.rtol}
+        return cls(s, events, st, model, scenario, status, STATUS_MESSAGES[status])
+
+    # -- views -------------------------------------------------------------------
+    def observed(self, name):
+        """The series a sensor would report: ``p_a``/``p_b`` through the transducer lag if modelled."""
+        lagged = f"{name}_sensor"
+        if lagged in self.series:
+            return self.series[lagged]
+        return self.series[name]
+
+    def events_of(self, kind):
+        """Times [s] of the events of one kind (``command``, ``slip``, ``stick``, ``stop``, ``reverse``)."""
+        return [e["t"] for e in self.events if e["kind"] == kind]
+
+    def to_dict(self, series=None):
+        """Plain JSON: series as lists (NaN -> None), events, stats, units, model and scenario."""
+        names = series or list(self.series)
+        out = {}
+        for k in names:
+            v = self.series[k]
+            if v.dtype.kind == "f":
+                out[k] = [None if not np.isfinite(x) else float(x) for x in v]
+            else:
+                out[k] = v.tolist()
+        return {"series": out, "units": {k: SERIES_UNITS.get(k, _state_unit(k)) for k in names},
+                "events": list(self.events), "stats": dict(self.stats), "status": self.status,
+                "message": self.message, "model": self.model.to_dict(),
+                "scenario": self.scenario.to_dict()}
+
+    def to_pandas(self):
+        """A ``pandas.DataFrame`` indexed by time (needs pandas)."""
+        try:
+            import pandas as pd
+        except ImportError as exc:  # pragma: no cover - pandas is optional
+            raise ImportError("to_pandas() needs pandas: pip install pandas") from exc
+        df = pd.DataFrame({k: v for k, v in self.series.items() if k != "t"}, index=self.series["t"])
+        df.index.name = "t"
+        return df
+
+    def __repr__(self):
+        return (f"SimulationResult({len(self.t)} samples, {len(self.events)} events, "
+                f"{self.stats['steps']} steps, status={self.message!r})")
+
+
+def _state_unit(name):
+    if name.startswith("p_"):
+        return "Pa"
+    if name.startswith("m_"):
+        return "kg"
+    if name.startswith("u_spool_rate"):
+        return "1/s"
+    if name.startswith("u_"):
+        return "-"
+    return ""

@@ -1,0 +1,232 @@
+"""``simulate(model, scenario)``: assemble the compiled core's inputs, run it, wrap the result."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from . import layout as L
+from .effects import EFFECTS, CoreBuild, effective_model
+from .flow import FLOW_LAWS
+from .heat import HEAT_MODELS
+from .integrator import ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES, integrate, specialize
+from .model import Model
+from .result import SimulationResult
+from .rhs import no_terms
+from .scenario import Scenario
+from .valve import pack_tables
+
+
+class SimulationError(RuntimeError):
+    """The integration could not proceed; ``result`` holds the samples computed so far."""
+
+    def __init__(self, message, result=None):
+        super().__init__(message)
+        self.result = result
+
+
+def _initial_mode(model, scenario):
+    if scenario.locked:
+        return L.MODE_LOCKED
+    if scenario.x0 <= 0.0:
+        return L.MODE_STOP_LOW
+    if scenario.x0 >= model.jack.stroke:
+        return L.MODE_STOP_HIGH
+    return L.MODE_STICK
+
+
+def _compose_hooks(hooks):
+    """One compiled hook calling each user effect's terms with its own parameters and states."""
+    fn = no_terms
+    for terms, off, n, i0 in hooks:
+        prev = fn
+
+        def make(prev, terms, off, n, i0):
+            @njit
+            def hook(t, y, sig, prm_user, out, dy):
+                prev(t, y, sig, prm_user, out, dy)
+                terms(t, y, sig, prm_user[off:off + n], out, dy, i0)
+            return hook
+        fn = make(prev, terms, off, n, i0)
+    return fn
+
+
+def build_core(model, scenario):
+    """Assemble the flat arrays of the compiled core.
+
+    Returns
+    -------
+    core : dict  ``y0``, ``atol``, ``mode0``, ``model`` tuple, ``hook``, ``state_names``,
+        ``state_units`` and the effective model (effects' transforms applied)
+    """
+    eff = effective_model(model)
+    j, g = eff.jack, eff.gas
+    prm = np.zeros(L.N_PRM)
+    P = L.PRM_INDEX
+    prm[P["R"]] = g.r
+    prm[P["GAMMA"]] = g.gamma
+    prm[P["SUP"]] = eff.supply.pressure
+    prm[P["T_SUP"]] = eff.supply.temperature
+    prm[P["ATM"]] = eff.ambient.pressure
+    prm[P["T_ATM"]] = eff.ambient.temperature
+    prm[P["A_A"]] = j.area_a
+    prm[P["A_B"]] = j.area_b
+    prm[P["A_ROD_A"]] = j.rod_area_a
+    prm[P["A_ROD_B"]] = j.rod_area_b
+    prm[P["STROKE"]] = j.stroke
+    prm[P["V0_A"]] = j.dead_volume_a
+    prm[P["V0_B"]] = j.dead_volume_b
+    prm[P["MASS"]] = j.moving_mass
+    prm[P["LOAD"]] = j.load_force
+    prm[P["BORE"]] = j.bore
+    prm[P["ROD_A"]] = j.rod_a
+    prm[P["ROD_B"]] = j.rod_b
+    prm[P["WALL_A"]] = j.wall_area_a or 0.0
+    prm[P["WALL_B"]] = j.wall_area_b or 0.0
+    heat = HEAT_MODELS[eff.heat.model]
+    prm[P["H"]] = heat.core_coefficient(eff.heat.coefficient)
+    prm[P["ISOTHERMAL"]] = 1.0 if heat.isothermal else 0.0
+    for side, fs in (("FE", eff.friction.extend), ("FR", eff.friction.retract)):
+        for key in ("fc0", "fc_a", "fc_b", "kv0", "kv_a", "kv_b"):
+            prm[P[f"{side}_{key.upper().replace('_', '')}"]] = getattr(fs, key)
+    prm[P["STRIBECK_RATIO"]] = 1.0
+    prm[P["STRIBECK_V"]] = 0.01
+    prm[P["FLOW_LAW"]] = FLOW_LAWS[eff.valve.flow_law].code
+    prm[P["R_LAM"]] = eff.valve.laminar_ratio
+    if eff.valve.kind == "3/2":
+        prm[P["B_CONST"]] = eff.b_chamber_pressure
+    for k, name in enumerate(L.PORT_NAMES):
+        port = eff.valve.ports.get(name)
+        if port is not None:
+            prm[P["CMAX_PA"] + k] = port.C_max
+            prm[P["BMAX_PA"] + k] = port.b_at_C_max
+    tx, tC, tb, tm, toff = pack_tables(eff.valve.ports)
+
+    # initial state (Eq. 22-24): m = p V / (r T)
+    ini = scenario.initial
+    x0 = min(max(scenario.x0, 0.0), j.stroke)
+    V_a, V_b = j.volumes(x0)
+    T_amb = eff.ambient.temperature
+    isothermal = heat.isothermal
+    T_a = T_amb if isothermal or ini.T_a is None else ini.T_a
+    T_b = T_amb if isothermal or ini.T_b is None else ini.T_b
+    p_a = ini.p_a if ini.p_a is not None else eff.ambient.pressure
+    if eff.valve.kind == "3/2":
+        p_b = eff.b_chamber_pressure
+        T_b = T_amb
+    else:
+        p_b = ini.p_b if ini.p_b is not None else eff.ambient.pressure
+    y_base = [p_a * V_a / (g.r * T_a), T_a, p_b * V_b / (g.r * T_b), T_b, x0, 0.0]
+
+    iy = -np.ones(L.N_IY, np.int64)
+    iy[L.IY_NUSER] = 0
+    u0 = _command_at_zero(scenario)
+    build = CoreBuild(prm, iy, eff, {"u0": u0, "p_a": p_a, "p_b": p_b})
+    user_params, hooks = [], []
+    for name, params in model.effects.items():
+        e = EFFECTS[name]
+        if e.pack is not None:
+            e.pack(params, build)
+        if e.terms is not None:
+            i0 = L.N_BASE_STATES + len(build.states)
+            for k, sname in enumerate(e.states):
+                build.add_state(sname, params.get(f"{sname}_0", 0.0), 1e-9)
+            hooks.append((e.terms, len(user_params), len(e.parameters), i0))
+            user_params += [params[p.name] for p in e.parameters]
+            if iy[L.IY_USER0] < 0 and e.states:
+                iy[L.IY_USER0] = i0
+            iy[L.IY_NUSER] += len(e.states)
+    hook = _compose_hooks(hooks) if hooks else no_terms
+    iy[L.IY_HOOK] = 1 if hooks else 0
+
+    rtol = scenario.solver.rtol
+    r, T_ref = g.r, T_amb
+    # absolute tolerance per state: a fraction rtol of a small but meaningful magnitude
+    m_floor_a = 0.1 * eff.ambient.pressure * j.dead_volume_a / (r * T_ref)
+    m_floor_b = 0.1 * eff.ambient.pressure * j.dead_volume_b / (r * T_ref)
+    atol_base = [rtol * m_floor_a, rtol * T_ref, rtol * m_floor_b, rtol * T_ref,
+                 rtol * j.stroke, rtol * 0.1]
+    y0 = np.array(y_base + [s[1] for s in build.states])
+    atol = np.array(atol_base + [max(s[2], 1e-30) for s in build.states])
+    names = list(L.BASE_STATE_NAMES) + [s[0] for s in build.states]
+    core_model = (prm, iy, tx, tC, tb, tm, toff, np.array(user_params, float))
+    return {"y0": y0, "atol": atol, "mode0": _initial_mode(eff, scenario), "model": core_model,
+            "hook": hook, "state_names": names, "effective_model": eff}
+
+
+def _command_at_zero(scenario):
+    u = scenario.command[0][1]
+    for t, v in scenario.command:
+        if t <= 0.0:
+            u = v
+    return u
+
+
+def simulate(model, scenario, raise_on_error=True):
+    """Simulate the actuator.
+
+    Parameters
+    ----------
+    model : Model or dict  The actuator (validated; see :class:`pneucore.model.Model`)
+    scenario : Scenario or dict  Command, duration, sampling, initial state
+    raise_on_error : bool  Raise :class:`SimulationError` if the solver cannot proceed
+        (the partial result is attached); else return the partial result with
+        ``result.status`` set
+
+    Returns
+    -------
+    result : SimulationResult  Sampled series, events and solver statistics
+
+    Examples
+    --------
+    >>> from pneucore import simulate, model_preset, scenario_preset
+    >>> res = simulate(model_preset("paper-4way"), scenario_preset("paper-fig10-pulses"))
+    >>> res.p_a.shape
+    (1001,)
+    """
+    model = Model.from_dict(model) if not isinstance(model, Model) else model
+    scenario = Scenario.from_dict(scenario, model)
+    core = build_core(model, scenario)
+    n_out = int(math.floor(scenario.duration / scenario.sample_period + 1e-9)) + 1
+    t_out = np.arange(n_out) * scenario.sample_period
+    t_out[-1] = min(t_out[-1], scenario.duration)
+    n = core["y0"].shape[0]
+    y_out = np.empty((n_out, n))
+    aux_out = np.empty((n_out, L.N_AUX))
+    mode_out = np.empty(n_out, np.int64)
+    u_out = np.empty(n_out)
+    max_ev = scenario.solver.max_events
+    cmd = np.asarray(scenario.command, float)
+    # the event log starts small and is redone once with the exact size if it overflows
+    cap = min(max_ev, 256 + 4 * len(cmd))
+    run = integrate if core["hook"] is no_terms else specialize(core["hook"])
+    while True:
+        ev_t = np.empty(cap)
+        ev_kind = np.empty(cap, np.int64)
+        ev_mode = np.empty(cap, np.int64)
+        stats = np.zeros(N_STATS, np.int64)
+        status, n_ev, t_reached = run(
+            core["y0"], core["mode0"], core["model"], cmd[:, 0].copy(),
+            cmd[:, 1].copy(), scenario.command_interpolation == "linear", scenario.duration, t_out,
+            scenario.solver.rtol, core["atol"], scenario.solver.max_step, 1e-6,
+            scenario.solver.max_steps, y_out, aux_out, mode_out, u_out, ev_t, ev_kind, ev_mode, stats)
+        if status == ERR_EVENTS_OVERFLOW and cap < max_ev:
+            cap = max_ev
+            continue
+        break
+    n_ev = min(n_ev, cap)
+    if status != OK:
+        # samples after the point reached were never written: mark them missing
+        bad = t_out > t_reached
+        y_out[bad] = np.nan
+        aux_out[bad] = np.nan
+        u_out[bad] = np.nan
+        mode_out[bad] = -1
+    res = SimulationResult.from_core(model, scenario, core, t_out, y_out, aux_out, mode_out, u_out,
+                                     ev_t[:n_ev], ev_kind[:n_ev], ev_mode[:n_ev], stats,
+                                     status, t_reached)
+    if status != OK and raise_on_error:
+        raise SimulationError(f"simulation stopped at t = {t_reached:.6g} s: {STATUS_MESSAGES[status]}",
+                              res)
+    return res

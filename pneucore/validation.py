@@ -1,0 +1,82 @@
+"""Checks that turn bad input into one clear ``ValueError`` naming the field path."""
+import math
+
+
+class FieldError(ValueError):
+    """Invalid input; ``path`` is the dotted field path (e.g. ``jack.rod_a``)."""
+
+    def __init__(self, path, message):
+        self.path = path
+        self.detail = message
+        super().__init__(f"{path}: {message}")
+
+
+def number(value, path, *, positive=False, nonnegative=False, low=None, high=None,
+           low_open=False, high_open=False, allow_none=False):
+    """Check and return ``value`` as a finite float, with optional bounds.
+
+    Parameters
+    ----------
+    value : object  The input value
+    path : str  Dotted field path used in the error message
+    positive, nonnegative : bool  Require > 0 or >= 0
+    low, high : float or None  Bounds; ``low_open`` / ``high_open`` exclude them
+    allow_none : bool  Accept ``None`` (returned as is)
+    """
+    if value is None:
+        if allow_none:
+            return None
+        raise FieldError(path, "is required (got null)")
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        try:
+            import numpy as np
+            if isinstance(value, np.generic) and np.issubdtype(type(value), np.number):
+                value = float(value)
+            else:
+                raise TypeError
+        except TypeError:
+            raise FieldError(path, f"must be a number, got {type(value).__name__} {value!r}") from None
+    value = float(value)
+    if not math.isfinite(value):
+        raise FieldError(path, f"must be a finite number, got {value}")
+    if positive and value <= 0.0:
+        raise FieldError(path, f"must be > 0, got {value:g}")
+    if nonnegative and value < 0.0:
+        raise FieldError(path, f"must be >= 0, got {value:g}")
+    if low is not None and (value < low or (low_open and value == low)):
+        raise FieldError(path, f"must be {'>' if low_open else '>='} {low:g}, got {value:g}")
+    if high is not None and (value > high or (high_open and value == high)):
+        raise FieldError(path, f"must be {'<' if high_open else '<='} {high:g}, got {value:g}")
+    return value
+
+
+def number_list(values, path, *, min_len=1, **bounds):
+    """Check a list of finite numbers; each element's path is ``path[i]``."""
+    if not isinstance(values, (list, tuple)) and not hasattr(values, "tolist"):
+        raise FieldError(path, f"must be a list of numbers, got {type(values).__name__}")
+    values = list(values.tolist() if hasattr(values, "tolist") else values)
+    if len(values) < min_len:
+        raise FieldError(path, f"must have at least {min_len} value(s), got {len(values)}")
+    return [number(v, f"{path}[{i}]", **bounds) for i, v in enumerate(values)]
+
+
+def mapping(value, path):
+    """Check that ``value`` is a dict (JSON object)."""
+    if not isinstance(value, dict):
+        raise FieldError(path, f"must be an object, got {type(value).__name__}")
+    return value
+
+
+def known_keys(d, allowed, path):
+    """Reject keys not in ``allowed`` (catches typos such as ``jack.bor``)."""
+    for key in d:
+        if key not in allowed:
+            where = f"{path}.{key}" if path else key
+            raise FieldError(where, f"unknown field; expected one of {sorted(allowed)}")
+
+
+def choice(value, options, path):
+    """Check that ``value`` is one of ``options`` (a registry's names)."""
+    if value not in options:
+        raise FieldError(path, f"unknown value {value!r}; expected one of {sorted(options)}")
+    return value

@@ -1,0 +1,487 @@
+"""Tests for pneucore.measurement."""
+
+import io
+import json
+import math
+import pickle
+import re
+
+import numpy as np
+import pytest
+
+import pneucore.measurement as meas
+from pneucore.measurement import (
+    MAX_SAMPLES,
+    MIN_SAMPLES,
+    SIGNAL_UNITS,
+    SIGNALS,
+    Measurement,
+    MeasurementError,
+    parse_header,
+    read_csv,
+)
+
+
+# ----------------------------------------------------------------- helpers
+
+def make_csv(columns, n=12, delimiter=",", overrides=None, comments=()):
+    """CSV text with a regular time base plus `columns` {header: value or fn(i)}.
+
+    `overrides` maps (header, row) -> cell text, row being 1-based.
+    """
+    overrides = overrides or {}
+    headers = list(columns)
+    lines = list(comments) + [delimiter.join(headers)]
+    for i in range(n):
+        cells = []
+        for h in headers:
+            v = columns[h]
+            cell = v(i) if callable(v) else v
+            cell = overrides.get((h, i + 1), cell)
+            cells.append(str(cell))
+        lines.append(delimiter.join(cells))
+    return "\n".join(lines) + "\n"
+
+
+def basic(**extra):
+    cols = {"t": lambda i: f"{0.01 * i:.2f}", "u": 0, "p_a": 200000}
+    cols.update(extra)
+    return cols
+
+
+def assert_points_at(exc, column, row):
+    """The error carries and names the column and the data row."""
+    err = exc.value
+    assert err.column == column
+    assert err.row == row
+    msg = str(err)
+    assert f"column {column!r}" in msg
+    if row is None:
+        assert "row" not in msg.split(":")[0]
+    else:
+        assert re.search(rf"\brow {row}\b", msg), msg
+
+
+# ------------------------------------------------------------- constants
+
+def test_signal_tables():
+    assert SIGNALS == ("u", "p_a", "p_b", "x", "v", "T_a", "T_b")
+    assert SIGNAL_UNITS == {"u": "-", "p_a": "Pa", "p_b": "Pa", "x": "m",
+                            "v": "m/s", "T_a": "K", "T_b": "K"}
+    assert MIN_SAMPLES == 10
+    assert MAX_SAMPLES == 2_000_000
+
+
+# ------------------------------------------------------- unit conversions
+
+# All conversions below are exact in binary floating point (integer products
+# or a single correctly rounded division/addition), so they are compared with
+# == and need no tolerance.
+@pytest.mark.parametrize("header, value, expected", [
+    ("p_a", 250000.0, 250000.0),
+    ("p_a[Pa]", 250000.0, 250000.0),
+    ("p_a[bar]", 1.0, 1e5),
+    ("p_b[bar]", 6.0, 6e5),
+    ("p_a[kPa]", 300.0, 300000.0),
+    ("p_a[MPa]", 0.5, 500000.0),
+    ("p_a[barg]", 2.0, 301300.0),
+    ("p_a[kPag]", 100.0, 201300.0),
+    ("p_a[MPag]", 1.0, 1101300.0),
+    ("p_a[Pag]", 0.0, 101300.0),
+    ("T_a[K]", 300.0, 300.0),
+    ("T_a[degC]", 20.0, 293.15),
+    ("T_b[C]", 20.0, 293.15),
+    ("T_a[degF]", 68.0, 293.15),
+    ("x[m]", 0.1, 0.1),
+    ("x[mm]", 25.0, 0.025),
+    ("x[cm]", 2.5, 0.025),
+    ("x[um]", 250.0, 0.00025),
+    ("v[m/s]", 0.3, 0.3),
+    ("v[mm/s]", 300.0, 0.3),
+    ("t[s]", 5.0, 5.0),
+    ("t[ms]", 5.0, 0.005),
+    ("u[-]", 0.25, 0.25),
+    ("u[%]", 50.0, 0.5),
+])
+def test_parse_header_conversions(header, value, expected):
+    signal, convert = parse_header(header)
+    assert signal == header.split("[")[0]
+    assert float(convert(value)) == expected
+
+
+def test_psi_conversion():
+    _, convert = parse_header("p_a[psi]")
+    # 1 psi = 0.45359237 kg * 9.80665 m/s^2 / (0.0254 m)^2 = 6894.757293168361 Pa;
+    # rel 1e-12 leaves room for a few ulp of rounding in the product, nothing more.
+    assert float(convert(1.0)) == pytest.approx(6894.757293168361, rel=1e-12)
+    _, convert_g = parse_header("p_a[psig]")
+    # same as above: only floating-point rounding of one product and one sum
+    assert float(convert_g(10.0)) == pytest.approx(68947.57293168361 + 101300.0, rel=1e-12)
+
+
+def test_gauge_uses_given_ambient_pressure():
+    _, convert = parse_header("p_a[barg]", ambient_pressure=95000.0)
+    assert float(convert(2.0)) == 295000.0  # exact: 2e5 + 95000 are integers
+    m = read_csv(make_csv(basic(**{"p_b[barg]": 2})), ambient_pressure=95000.0)
+    assert np.all(m["p_b"] == 295000.0)  # exact, as above
+
+
+def test_parse_header_whitespace():
+    assert parse_header("  p_a [ kPa ] ")[0] == "p_a"
+    assert float(parse_header("  p_a [ kPa ] ")[1](1.0)) == 1000.0  # exact integer
+
+
+def test_read_csv_converts_every_column():
+    text = make_csv({
+        "t[ms]": lambda i: 5 * i,
+        "u[%]": 50,
+        "p_a[bar]": 1,
+        "p_b[barg]": 2,
+        "x[mm]": 25,
+        "v[mm/s]": 300,
+        "T_a[degC]": 20,
+        "T_b[degF]": 68,
+    })
+    m = read_csv(text)
+    # Exact comparisons: each conversion is one correctly rounded operation
+    # whose result is the nearest double to the decimal literal.
+    assert m.t[1] == 0.005
+    assert np.all(m["u"] == 0.5)
+    assert np.all(m["p_a"] == 1e5)
+    assert np.all(m["p_b"] == 301300.0)
+    assert np.all(m["x"] == 0.025)
+    assert np.all(m["v"] == 0.3)
+    assert np.all(m["T_a"] == 293.15)
+    assert np.all(m["T_b"] == 293.15)
+    assert m.meta["columns"]["p_b"] == "p_b[barg]"
+    for arr in [m.t, *m.signals.values()]:
+        assert arr.dtype == np.float64
+
+
+# ------------------------------------------------------------- reading
+
+def test_irregular_sampling_is_accepted():
+    times = [0.0, 0.001, 0.003, 0.0035, 0.01, 0.02, 0.021, 0.05, 0.1, 0.1001, 0.3]
+    m = read_csv(make_csv(basic(t=lambda i: times[i]), n=len(times)))
+    assert m.t.tolist() == times
+    assert m.n == len(times)
+    assert m.duration == 0.3  # exact: 0.3 - 0.0
+
+
+def test_missing_cells_become_nan_and_none_in_to_dict():
+    overrides = {("p_a", 2): "", ("p_a", 3): "NaN", ("p_a", 4): "nan", ("p_a", 5): "NA",
+                 ("x", 7): "  "}
+    m = read_csv(make_csv(basic(x=0.01), overrides=overrides))
+    assert np.isnan(m["p_a"][1:5]).all()
+    assert np.isfinite(m["p_a"][[0, 5, 6]]).all()
+    assert np.isnan(m["x"][6])
+    d = m.to_dict()
+    assert d["p_a"][1:5] == [None, None, None, None]
+    assert d["x"][6] is None
+    json.dumps(d, allow_nan=False)  # plain JSON, no NaN tokens
+
+
+def test_missing_u_is_held():
+    overrides = {("u", 4): "", ("u", 5): "NA", ("u", 8): "nan"}
+    m = read_csv(make_csv(basic(u=lambda i: i / 100), overrides=overrides))
+    u = m["u"].tolist()
+    assert u[3] == u[2] == 0.02
+    assert u[4] == 0.02
+    assert u[7] == u[6] == 0.06
+    assert not np.isnan(m["u"]).any()
+
+
+def test_semicolon_delimiter_whitespace_and_comments():
+    text = (
+        "# rig 3, jack DNC-32\n"
+        "\n"
+        " t [s] ; u ;  p_a[bar] \n"
+        + "".join(f" {0.1 * i:.1f} ;  0.5 ; 2 \n" for i in range(10))
+        + "# end of file\n"
+    )
+    m = read_csv(text)
+    assert m.n == 10
+    assert np.all(m["p_a"] == 2e5)  # exact integer product
+    assert np.all(m["u"] == 0.5)
+
+
+def test_read_from_path_and_file_like(tmp_path):
+    text = make_csv(basic())
+    path = tmp_path / "step_run_07.csv"
+    path.write_text("\ufeff" + text, encoding="utf-8")  # Excel-style BOM
+    m = read_csv(path)
+    assert m.name == "step_run_07"
+    assert m.meta["source"] == str(path)
+    assert read_csv(str(path), name="custom").name == "custom"
+    assert read_csv(io.StringIO(text)).n == 12
+    assert read_csv(io.BytesIO(text.encode())).n == 12
+    assert read_csv(text).name == ""
+
+
+def test_trailing_delimiter_is_tolerated():
+    text = "t,u,x,\n" + "".join(f"{i},0,0.1,\n" for i in range(10))
+    assert read_csv(text).measured_signals == ("x",)
+
+
+# ------------------------------------------------------- dict round trip
+
+def test_from_dict_to_dict_round_trip():
+    d = {"t": [0.1 * i for i in range(10)],
+         "u": [0.0] * 5 + [1.0] * 5,
+         "p_a": [2e5, None, 3e5, 3e5, 3e5, 4e5, 4e5, None, 5e5, 5e5],
+         "x": [0.0, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09],
+         "name": "run1"}
+    m = Measurement.from_dict(d)
+    assert np.isnan(m["p_a"][1])
+    out = m.to_dict()
+    assert out == d
+    back = Measurement.from_dict(json.loads(json.dumps(out)))
+    assert back.name == "run1"
+    np.testing.assert_array_equal(back.t, m.t)
+    assert back.signals.keys() == m.signals.keys()
+    for k in m.signals:
+        np.testing.assert_array_equal(back[k], m[k])  # NaN == NaN here
+
+
+def test_from_dict_units_and_gauge():
+    d = {"t[ms]": list(range(0, 100, 10)), "u[%]": [100] * 10,
+         "p_a[barg]": [2] * 9 + [None], "T_a[degC]": [20] * 10}
+    m = Measurement.from_dict(d, ambient_pressure=100000.0)
+    assert m.t[1] == 0.01  # exact: 10 / 1000 correctly rounded
+    assert np.all(m["u"] == 1.0)
+    assert m["p_a"][0] == 300000.0  # exact integers
+    assert np.isnan(m["p_a"][9])
+    assert m["T_a"][0] == 293.15  # exact: 20 + 273.15 rounds to the literal
+    assert set(m.to_dict()) == {"t", "u", "p_a", "T_a"}
+
+
+def test_from_dict_length_mismatch():
+    d = {"t": list(range(10)), "u": [0] * 10, "x": [0] * 9}
+    with pytest.raises(MeasurementError, match="9 values") as exc:
+        Measurement.from_dict(d)
+    assert exc.value.column == "x"
+
+
+def test_from_dict_non_numeric_names_key_and_index():
+    d = {"t": list(range(10)), "u": [0] * 10, "p_b[kPa]": [200] * 6 + ["abc"] + [200] * 3}
+    with pytest.raises(MeasurementError, match="'abc' is not a number") as exc:
+        Measurement.from_dict(d)
+    assert_points_at(exc, "p_b[kPa]", 7)
+
+
+# ---------------------------------------------------------- properties
+
+def test_properties_getitem_and_slice():
+    # p_b is only measured during the first 3 samples
+    m = read_csv(make_csv(basic(x=0.02, p_b=lambda i: 3e5 if i < 3 else ""), n=30))
+    assert m.n == 30
+    assert m.duration == 0.29  # exact: 0.29 - 0.0
+    assert m.measured_signals == ("p_a", "p_b", "x")
+    assert m["t"] is m.t
+    assert "p_b" in m and "T_a" not in m
+    with pytest.raises(KeyError, match="T_a"):
+        m["T_a"]
+    s = m.slice(0.05, 0.2)
+    assert s.t[0] == 0.05 and s.t[-1] == 0.2
+    assert s.n == 16
+    assert s.measured_signals == ("p_a", "x")  # p_b kept, but all NaN in the window
+    assert np.isnan(s["p_b"]).all()
+    s.signals["x"][0] = -1.0
+    assert m["x"][5] == 0.02  # slice copies data
+    with pytest.raises(MeasurementError, match="holds 3 samples"):
+        m.slice(0.0, 0.02)
+
+
+def test_command_breakpoints_on_step():
+    m = read_csv(make_csv(basic(u=lambda i: 0 if i < 5 else 0.8), n=12))
+    assert m.command_breakpoints() == [[0.0, 0.0], [0.05, 0.8]]
+    const = read_csv(make_csv(basic(u=0.3)))
+    assert const.command_breakpoints() == [[0.0, 0.3]]
+    pulse = Measurement.from_dict({"t": list(range(10)), "u": [0, 0, 1, 1, None, -1, -1, 0, 0, 0],
+                                   "x": [0] * 10})
+    assert pulse.command_breakpoints() == [[0.0, 0.0], [2.0, 1.0], [5.0, -1.0], [7.0, 0.0]]
+
+
+# ---------------------------------------------------------- error paths
+
+def test_error_decreasing_time():
+    k = 6
+    cols = basic(**{"t[s]": lambda i: f"{0.1 * i:.1f}"})
+    del cols["t"]
+    text = make_csv(cols, overrides={("t[s]", k): "0.3"})
+    with pytest.raises(MeasurementError, match="not strictly increasing") as exc:
+        read_csv(text)
+    assert_points_at(exc, "t[s]", k)
+
+
+def test_error_repeated_time():
+    with pytest.raises(MeasurementError, match="not strictly increasing") as exc:
+        read_csv(make_csv(basic(), overrides={("t", 4): "0.02"}))
+    assert_points_at(exc, "t", 4)
+
+
+def test_error_missing_time():
+    with pytest.raises(MeasurementError, match="time is missing") as exc:
+        read_csv(make_csv(basic(), overrides={("t", 3): ""}))
+    assert_points_at(exc, "t", 3)
+
+
+def test_error_non_numeric_cell():
+    cols = {"t": lambda i: i, "u": 0, "p_a[bar]": 2}
+    with pytest.raises(MeasurementError) as exc:
+        read_csv(make_csv(cols, n=20, overrides={("p_a[bar]", 17): "abc"}))
+    assert str(exc.value) == "column 'p_a[bar]', row 17 (line 18): 'abc' is not a number"
+    assert_points_at(exc, "p_a[bar]", 17)
+    assert exc.value.line == 18
+
+
+def test_error_row_numbers_skip_comment_lines():
+    text = make_csv(basic(), overrides={("p_a", 3): "x1"}, comments=["# a", "# b"])
+    with pytest.raises(MeasurementError) as exc:
+        read_csv(text)
+    assert_points_at(exc, "p_a", 3)
+    assert exc.value.line == 6  # 2 comments + header + 3rd data row
+
+
+def test_error_decimal_comma_hint():
+    text = make_csv(basic(), delimiter=";", overrides={("p_a", 2): "2,5"})
+    with pytest.raises(MeasurementError, match="decimal comma") as exc:
+        read_csv(text)
+    assert_points_at(exc, "p_a", 2)
+
+
+def test_error_unknown_column():
+    with pytest.raises(MeasurementError) as exc:
+        read_csv(make_csv(basic(pressure=1)))
+    assert_points_at(exc, "pressure", None)
+    for known in ("t", "u", "p_a", "p_b", "x", "v", "T_a", "T_b"):
+        assert known in str(exc.value)
+    with pytest.raises(MeasurementError, match="did you mean 'p_a'") as exc:
+        parse_header("P_a[bar]")
+    assert exc.value.column == "P_a[bar]"
+
+
+def test_error_unknown_unit():
+    with pytest.raises(MeasurementError) as exc:
+        read_csv(make_csv(basic(**{"x[inch]": 1})))
+    assert_points_at(exc, "x[inch]", None)
+    assert "'inch'" in str(exc.value)
+    for unit in ("m", "mm", "cm", "um"):
+        assert unit in str(exc.value)
+    with pytest.raises(MeasurementError, match="barg") as exc:
+        parse_header("p_a[atm]")
+    # a pressure unit is not accepted for a temperature column
+    with pytest.raises(MeasurementError, match="degC") as exc:
+        parse_header("T_a[bar]")
+    assert exc.value.column == "T_a[bar]"
+
+
+def test_error_all_missing_signal():
+    with pytest.raises(MeasurementError, match="entirely missing") as exc:
+        read_csv(make_csv(basic(**{"p_b[bar]": ""})))
+    assert_points_at(exc, "p_b[bar]", None)
+
+
+def test_error_too_few_samples():
+    with pytest.raises(MeasurementError) as exc:
+        read_csv(make_csv(basic(), n=7))
+    msg = str(exc.value)
+    assert "7 data rows found" in msg and "10" in msg
+    assert exc.value.column is None and exc.value.row is None
+
+
+def test_error_too_many_samples(monkeypatch):
+    monkeypatch.setattr(meas, "MAX_SAMPLES", 15)
+    with pytest.raises(MeasurementError, match="MAX_SAMPLES = 15") as exc:
+        read_csv(make_csv(basic(), n=20))
+    assert exc.value.row == 16
+    with pytest.raises(MeasurementError, match="too many samples"):
+        Measurement.from_dict({"t": list(range(20)), "u": [0] * 20, "x": [0] * 20})
+
+
+@pytest.mark.parametrize("cell", ["inf", "-inf", "Infinity"])
+def test_error_infinite_value(cell):
+    with pytest.raises(MeasurementError, match="infinite") as exc:
+        read_csv(make_csv(basic(x=0.1), overrides={("x", 9): cell}))
+    assert_points_at(exc, "x", 9)
+
+
+def test_error_infinite_time():
+    with pytest.raises(MeasurementError, match="infinite") as exc:
+        read_csv(make_csv(basic(), overrides={("t", 12): "inf"}))
+    assert_points_at(exc, "t", 12)
+
+
+def test_error_negative_absolute_pressure():
+    with pytest.raises(MeasurementError, match="not positive") as exc:
+        read_csv(make_csv(basic(**{"p_b[barg]": 1}), overrides={("p_b[barg]", 5): "-1.5"}))
+    assert_points_at(exc, "p_b[barg]", 5)
+    with pytest.raises(MeasurementError, match="not positive") as exc:
+        read_csv(make_csv(basic(), overrides={("p_a", 2): "-5"}))
+    assert_points_at(exc, "p_a", 2)
+
+
+def test_error_non_positive_temperature():
+    with pytest.raises(MeasurementError, match="temperature") as exc:
+        read_csv(make_csv(basic(**{"T_a[degC]": 20}),
+                          overrides={("T_a[degC]", 3): "-300"}))
+    assert_points_at(exc, "T_a[degC]", 3)
+
+
+def test_error_leading_missing_u():
+    with pytest.raises(MeasurementError, match="first command sample is missing") as exc:
+        read_csv(make_csv({"t": lambda i: i, "u[%]": 10, "x": 0}, overrides={("u[%]", 1): ""}))
+    assert_points_at(exc, "u[%]", 1)
+
+
+def test_error_u_out_of_range():
+    with pytest.raises(MeasurementError, match=r"u\[%\]") as exc:
+        read_csv(make_csv(basic(u=lambda i: 0 if i < 3 else 50)))
+    assert_points_at(exc, "u", 4)
+
+
+def test_error_duplicate_column():
+    with pytest.raises(MeasurementError, match="duplicate") as exc:
+        read_csv(make_csv(basic(**{"x[mm]": 1, "x[m]": 0.001})))
+    assert_points_at(exc, "x[m]", None)
+    assert "'x[mm]'" in str(exc.value)
+    with pytest.raises(MeasurementError, match="duplicate") as exc:
+        read_csv(make_csv({"t": lambda i: i, "u": 0, "p_a[bar]": 2, "p_a[Pa]": 2e5}))
+    assert "'p_a[bar]'" in str(exc.value) and "'p_a[Pa]'" in str(exc.value)
+
+
+@pytest.mark.parametrize("missing", ["t", "u"])
+def test_error_required_column(missing):
+    cols = basic()
+    del cols[missing]
+    with pytest.raises(MeasurementError, match="required column") as exc:
+        read_csv(make_csv(cols))
+    assert_points_at(exc, missing, None)
+
+
+def test_error_no_measured_signal():
+    with pytest.raises(MeasurementError, match="no measured signal"):
+        read_csv(make_csv({"t": lambda i: i, "u": 0}))
+
+
+def test_error_short_row():
+    text = make_csv(basic())
+    lines = text.splitlines()
+    lines[4] = "0.03,0"  # data row 4 lacks the p_a cell
+    with pytest.raises(MeasurementError, match="2 cells") as exc:
+        read_csv("\n".join(lines) + "\n")
+    assert_points_at(exc, "p_a", 4)
+
+
+def test_error_bad_ambient_pressure():
+    with pytest.raises(MeasurementError, match="ambient_pressure"):
+        read_csv(make_csv(basic()), ambient_pressure=-1.0)
+
+
+def test_error_is_value_error_and_picklable():
+    err = MeasurementError("'abc' is not a number", column="p_a[bar]", row=17)
+    assert isinstance(err, ValueError)
+    assert str(err) == "column 'p_a[bar]', row 17: 'abc' is not a number"
+    back = pickle.loads(pickle.dumps(err))
+    assert (back.column, back.row, str(back)) == (err.column, err.row, str(err))
+    assert str(MeasurementError("plain")) == "plain"
