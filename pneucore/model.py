@@ -351,6 +351,8 @@ class Model:
     effects: dict = field(default_factory=dict)
     gas: Gas = field(default_factory=Gas)
     name: str = ""
+    description: str = ""
+    notes: str = ""
 
     @classmethod
     def from_dict(cls, d):
@@ -373,6 +375,8 @@ class Model:
             effects=dict(mapping(d.get("effects") or {}, "effects")),
             gas=Gas.from_dict(d.get("gas", {})),
             name=str(d.get("name", "")),
+            description=str(d.get("description", "")),
+            notes=str(d.get("notes", "")),
         )
         if m.supply.pressure <= m.ambient.pressure:
             raise FieldError("supply.pressure", f"supply pressure {m.supply.pressure:g} Pa must exceed "
@@ -389,8 +393,9 @@ class Model:
              "supply": self.supply.to_dict(), "ambient": self.ambient.to_dict(),
              "heat": self.heat.to_dict(), "friction": self.friction.to_dict(),
              "effects": copy.deepcopy(self.effects), "gas": self.gas.to_dict()}
-        if self.name:
-            d["name"] = self.name
+        for key in ("name", "description", "notes"):
+            if getattr(self, key):
+                d[key] = getattr(self, key)
         return d
 
     def copy(self):

@@ -90,6 +90,7 @@ class Scenario:
     initial: Initial = field(default_factory=Initial)
     solver: Solver = field(default_factory=Solver)
     name: str = ""
+    description: str = ""
 
     @classmethod
     def from_dict(cls, d, model=None):
@@ -150,6 +151,7 @@ class Scenario:
                                   low=10, high=1e7)),
         )
         s.name = str(d.get("name", ""))
+        s.description = str(d.get("description", ""))
         if model is not None:
             s.check_against(model)
         return s
@@ -180,8 +182,9 @@ class Scenario:
              "command": [list(p) for p in self.command],
              "command_interpolation": self.command_interpolation, "locked": self.locked,
              "x0": self.x0, "initial": self.initial.to_dict(), "solver": self.solver.to_dict()}
-        if self.name:
-            d["name"] = self.name
+        for key in ("name", "description"):
+            if getattr(self, key):
+                d[key] = getattr(self, key)
         return d
 
 
