@@ -328,7 +328,7 @@ def _event_at(theta, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u0, seg
     return ev[k]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
               h_max, h_init, max_steps, y_out, aux_out, mode_out, u_out,
               ev_t, ev_kind, ev_mode, stats):
@@ -570,7 +570,10 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
             continue
 
         # --- accepted step without state event: samples in (t, t1] --------------------
-        while k_out < n_out and t_out[k_out] <= t1:
+        # (a sample exactly at a command breakpoint is taken after the switch: the
+        # command is right-continuous, u(t_k) = u_k)
+        at_switch = last and t_stop == seg_end and t_stop < t_end
+        while k_out < n_out and (t_out[k_out] < t1 or (t_out[k_out] == t1 and not at_switch)):
             theta = (t_out[k_out] - t) / (t1 - t)
             _hermite(theta, t1 - t, y, f0, y1, f1, ytmp)
             for i in range(n):
@@ -641,7 +644,7 @@ def specialize(hook):
     for name in ("_feval", "_rodas_step", "_jacobian", "_settle", "_transition", "_event_at",
                  "integrate"):
         f = globals()[name].py_func
-        glb[name] = njit(types.FunctionType(f.__code__, glb, f.__name__, f.__defaults__,
+        glb[name] = njit(nogil=True)(types.FunctionType(f.__code__, glb, f.__name__, f.__defaults__,
                                             f.__closure__))
     _SPECIALIZED[hook] = glb["integrate"]
     return glb["integrate"]

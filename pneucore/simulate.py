@@ -163,7 +163,7 @@ def _command_at_zero(scenario):
     return u
 
 
-def simulate(model, scenario, raise_on_error=True):
+def simulate(model, scenario, raise_on_error=True, t_out=None):
     """Simulate the actuator.
 
     Parameters
@@ -173,6 +173,8 @@ def simulate(model, scenario, raise_on_error=True):
     raise_on_error : bool  Raise :class:`SimulationError` if the solver cannot proceed
         (the partial result is attached); else return the partial result with
         ``result.status`` set
+    t_out : array_like or None  Sample times [s], increasing, within [0, duration]
+        (e.g. a measurement's irregular time base); None = every ``sample_period``
 
     Returns
     -------
@@ -188,9 +190,17 @@ def simulate(model, scenario, raise_on_error=True):
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     scenario = Scenario.from_dict(scenario, model)
     core = build_core(model, scenario)
-    n_out = int(math.floor(scenario.duration / scenario.sample_period + 1e-9)) + 1
-    t_out = np.arange(n_out) * scenario.sample_period
-    t_out[-1] = min(t_out[-1], scenario.duration)
+    if t_out is None:
+        n_out = int(math.floor(scenario.duration / scenario.sample_period + 1e-9)) + 1
+        t_out = np.arange(n_out) * scenario.sample_period
+        t_out[-1] = min(t_out[-1], scenario.duration)
+    else:
+        t_out = np.array(t_out, dtype=float)
+        n_out = t_out.shape[0]
+        if n_out == 0 or not np.all(np.isfinite(t_out)) or np.any(np.diff(t_out) <= 0) \
+                or t_out[0] < 0 or t_out[-1] > scenario.duration * (1 + 1e-12):
+            raise ValueError("t_out: sample times must be finite, increasing and within "
+                             "[0, scenario.duration]")
     n = core["y0"].shape[0]
     y_out = np.empty((n_out, n))
     aux_out = np.empty((n_out, L.N_AUX))

@@ -1,0 +1,296 @@
+"""Error measures: the paper's Eq. 25, phases, worst windows, noise level, residual tests."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import stats
+
+#: Human names of the chambers for window descriptions
+_CHAMBER = {"p_a": "A", "p_b": "B", "T_a": "A", "T_b": "B"}
+
+
+def eq25_error(measured, simulated):
+    """Mean relative error of the paper, Eq. 25 [-].
+
+    .. math:: \\varepsilon = \\sqrt{\\frac{\\sum (P_g - P_s)^2}{\\sum P_s^2}}
+
+    where ``P_s`` is the measured and ``P_g`` the simulated value; samples
+    where either is missing (NaN) are skipped.
+
+    Parameters
+    ----------
+    measured : array_like  Measured samples (the paper's P_s)
+    simulated : array_like  Simulated samples (P_g)
+
+    Returns
+    -------
+    eps : float  Relative error (0.0201 = 2.01 %); NaN if no sample is usable
+    """
+    m = np.asarray(measured, float)
+    s = np.asarray(simulated, float)
+    ok = np.isfinite(m) & np.isfinite(s)
+    if not ok.any():
+        return float("nan")
+    den = np.sum(m[ok] ** 2)
+    if den == 0.0:
+        return float("nan")
+    return float(math.sqrt(np.sum((s[ok] - m[ok]) ** 2) / den))
+
+
+def noise_sigma(y, lsb=0.0):
+    """Robust estimate of white measurement noise from second differences.
+
+    For a smooth signal sampled finely, ``y[i+1] - 2 y[i] + y[i-1]`` is
+    dominated by noise of variance ``6 sigma^2``; the median absolute
+    deviation makes the estimate insensitive to the few samples around
+    fast transients. Floored at the quantisation noise ``lsb / sqrt(12)``.
+
+    Parameters
+    ----------
+    y : array_like  Samples (NaN allowed)
+    lsb : float  Quantisation step, if known (same unit as y)
+
+    Returns
+    -------
+    sigma : float  Noise standard deviation (unit of y)
+    """
+    y = np.asarray(y, float)
+    y = y[np.isfinite(y)]
+    floor = lsb / math.sqrt(12.0)
+    if y.size < 5:
+        return max(floor, 0.0)
+    d2 = y[2:] - 2.0 * y[1:-1] + y[:-2]
+    mad = np.median(np.abs(d2 - np.median(d2)))
+    sigma = 1.4826 * mad / math.sqrt(6.0)
+    return float(max(sigma, floor))
+
+
+def command_phases(t, u):
+    """Label each sample with the valve phase it belongs to (paper Table 2).
+
+    After a command change the phase is ``valve opens`` when the opening
+    magnitude grows, ``valve closes`` when it shrinks and ``valve reverses``
+    when it flips sign at equal magnitude; before the first change it is
+    ``initial``.
+
+    Parameters
+    ----------
+    t : ndarray  Sample times [s]
+    u : ndarray  Command [-]
+
+    Returns
+    -------
+    labels : ndarray of str
+    """
+    u = np.asarray(u, float)
+    labels = np.full(u.shape[0], "initial", dtype=object)
+    current = "initial"
+    for i in range(1, u.shape[0]):
+        if u[i] != u[i - 1]:
+            a, b = abs(u[i - 1]), abs(u[i])
+            if b > a + 1e-12:
+                current = "valve opens"
+            elif b < a - 1e-12:
+                current = "valve closes"
+            else:
+                current = "valve reverses"
+        labels[i] = current
+    return labels.astype(str)
+
+
+_PISTON = {"slide": "piston moving", "stick": "piston stuck", "stop": "piston at a stop",
+           "locked": "piston locked", "": "unknown"}
+
+
+def piston_phases(mode):
+    """Piston state labels (``piston moving``, ``piston stuck``, ...) from simulated modes."""
+    return np.array([_PISTON.get(m, m) for m in mode], dtype=str)
+
+
+def phase_errors(measured, simulated, labels):
+    """Eq. 25 error of one signal within each phase label.
+
+    Returns
+    -------
+    errors : dict  label -> {"error": float, "n": samples}
+    """
+    out = {}
+    for lab in dict.fromkeys(labels):
+        sel = labels == lab
+        n = int(np.sum(sel & np.isfinite(measured) & np.isfinite(simulated)))
+        if n:
+            out[str(lab)] = {"error": eq25_error(measured[sel], simulated[sel]), "n": n}
+    return out
+
+
+def _trend(series, t, i0, i1):
+    seg = series[i0:i1]
+    ok = np.isfinite(seg)
+    if ok.sum() < 2:
+        return 0.0
+    tt = t[i0:i1][ok]
+    slope = np.polyfit(tt - tt[0], seg[ok], 1)[0]
+    return slope
+
+
+def describe_window(signal, t0, t1, cmd_phase, piston, p_trend=None, x_trend=None):
+    """One sentence for a failure window, e.g. ``p_b, 0.38-0.45 s, valve closes, chamber B expanding, piston stuck``."""
+    parts = [signal, f"{t0:.3f}-{t1:.3f} s", cmd_phase]
+    if signal in _CHAMBER and p_trend is not None:
+        ch = _CHAMBER[signal]
+        if p_trend > 0:
+            parts.append(f"chamber {ch} compressing")
+        elif p_trend < 0:
+            parts.append(f"chamber {ch} expanding")
+        else:
+            parts.append(f"chamber {ch} steady")
+    if signal in ("x", "v") and x_trend is not None and piston == "piston moving":
+        piston = "piston extending" if x_trend > 0 else "piston retracting"
+    parts.append(piston)
+    return ", ".join(parts)
+
+
+def worst_windows(t, measured, simulated, cmd_labels, piston_labels, n_windows=5, width=None,
+                  experiment=""):
+    """Time windows with the largest normalised residual energy, described in words.
+
+    The residual of each signal is normalised as in Eq. 25 (divided by the
+    mean square of the measurement) so that signals of different units
+    compete on equal terms. Windows are ``width`` long (default 5 % of the
+    record, at least 10 samples); the strongest are taken greedily without
+    overlap within a signal.
+
+    Parameters
+    ----------
+    t : ndarray  Sample times [s]
+    measured, simulated : dict  Signal -> samples
+    cmd_labels, piston_labels : ndarray  Phase labels per sample
+    n_windows : int  How many windows to return
+    width : float or None  Window length [s]
+
+    Returns
+    -------
+    windows : list of dict  ``signal, t_start, t_end, share`` (fraction of that signal's
+        squared error), ``energy`` (contribution to Eq. 25^2), ``phase``, ``piston``, ``description``
+    """
+    n = t.shape[0]
+    if n < 3:
+        return []
+    dt = float(np.median(np.diff(t)))
+    if width is None:
+        width = 0.05 * (t[-1] - t[0])
+    w = int(max(10, round(width / dt)))
+    w = min(w, n)
+    cands = []
+    for sig, m in measured.items():
+        s = simulated[sig]
+        ok = np.isfinite(m) & np.isfinite(s)
+        if ok.sum() < 3:
+            continue
+        ms = np.mean(m[ok] ** 2)
+        if ms == 0:
+            continue
+        z = np.where(ok, (s - m) ** 2, 0.0) / (ms * ok.sum())
+        total = z.sum()
+        if total <= 0:
+            continue
+        csum = np.concatenate([[0.0], np.cumsum(z)])
+        energy = csum[w:] - csum[:-w]
+        taken = np.zeros(energy.shape[0], bool)
+        for _ in range(n_windows):
+            e = np.where(taken, -1.0, energy)
+            k = int(np.argmax(e))
+            if e[k] <= 0:
+                break
+            lo, hi = max(0, k - w + 1), min(energy.shape[0], k + w)
+            taken[lo:hi] = True
+            cands.append((float(energy[k]), sig, k, k + w - 1, float(energy[k] / total)))
+    cands.sort(key=lambda c: -c[0])
+    out = []
+    for energy, sig, i0, i1, share in cands[:n_windows]:
+        mid = (i0 + i1) // 2
+        cmd = _majority(cmd_labels[i0:i1 + 1])
+        pis = _majority(piston_labels[i0:i1 + 1])
+        p_tr = None
+        if sig in _CHAMBER:
+            slope = _trend(measured[sig], t, i0, i1 + 1)
+            scale = np.nanmax(np.abs(measured[sig])) / max(t[-1] - t[0], 1e-9)
+            p_tr = 0.0 if abs(slope) < 0.02 * scale else slope
+        x_tr = None
+        if "x" in simulated:
+            x_tr = _trend(simulated["x"], t, i0, i1 + 1)
+        desc = describe_window(sig, t[i0], t[i1], cmd, pis, p_tr, x_tr)
+        if experiment:
+            desc = f"{experiment}: {desc}"
+        out.append({"signal": sig, "t_start": float(t[i0]), "t_end": float(t[i1]),
+                    "t_mid": float(t[mid]), "energy": energy, "share": share,
+                    "phase": cmd, "piston": pis, "description": desc, "experiment": experiment})
+    return out
+
+
+def _majority(labels):
+    if len(labels) == 0:
+        return ""
+    vals, counts = np.unique(labels, return_counts=True)
+    return str(vals[int(np.argmax(counts))])
+
+
+def ljung_box(residual, lags=20):
+    """Ljung-Box portmanteau test of residual whiteness.
+
+    ``Q = N (N + 2) sum_{k=1..h} rho_k^2 / (N - k)``, chi-square with ``h``
+    degrees of freedom when the residual is white (Ljung & Box, Biometrika 1978).
+
+    Returns
+    -------
+    Q : float, p_value : float
+    """
+    r = np.asarray(residual, float)
+    r = r[np.isfinite(r)]
+    n = r.shape[0]
+    h = min(lags, max(1, n // 5))
+    if n < 10:
+        return float("nan"), float("nan")
+    r = r - r.mean()
+    den = np.sum(r * r)
+    if den == 0:
+        return 0.0, 1.0
+    q = 0.0
+    for k in range(1, h + 1):
+        rho = np.sum(r[k:] * r[:-k]) / den
+        q += rho * rho / (n - k)
+    q *= n * (n + 2)
+    return float(q), float(stats.chi2.sf(q, h))
+
+
+def cross_correlation_test(residual, inp, lags=20):
+    """Test that the residual is uncorrelated with an input (e.g. the command).
+
+    ``S = N sum_{k=0..h} rho_{r,u}(k)^2``, approximately chi-square with ``h + 1``
+    degrees of freedom when residual and input are independent (Ljung,
+    System Identification, 2nd ed., Sect. 16.6).
+
+    Returns
+    -------
+    S : float, p_value : float
+    """
+    r = np.asarray(residual, float)
+    u = np.asarray(inp, float)
+    ok = np.isfinite(r) & np.isfinite(u)
+    r, u = r[ok], u[ok]
+    n = r.shape[0]
+    if n < 10:
+        return float("nan"), float("nan")
+    r = r - r.mean()
+    u = u - u.mean()
+    den = math.sqrt(np.sum(r * r) * np.sum(u * u))
+    if den == 0:
+        return 0.0, 1.0
+    h = min(lags, n // 5)
+    s = 0.0
+    for k in range(0, h + 1):
+        rho = np.sum(r[k:] * u[:n - k]) / den
+        s += rho * rho
+    s *= n
+    return float(s), float(stats.chi2.sf(s, h + 1))
