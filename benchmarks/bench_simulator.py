@@ -99,6 +99,7 @@ def compile_times():
     env["PYTHONPATH"] = ROOT + os.pathsep + env.get("PYTHONPATH", "")
     code = _CHILD.format(model=MODEL, scenario=SCENARIO)
     out = {}
+    stamp = _source_stamp()
     try:
         for label in ("cold", "cached"):
             t0 = time.perf_counter()
@@ -111,9 +112,18 @@ def compile_times():
             d["process_wall_s"] = wall
             out[label] = d
         out["cache_files"] = sum(len(files) for _, _, files in os.walk(cache))
+        # numba invalidates a cache entry when its source file changes: an edit of
+        # pneucore during the measurement makes the "cached" run recompile
+        out["sources_changed_during_run"] = _source_stamp() != stamp
     finally:
         shutil.rmtree(cache, ignore_errors=True)
     return out
+
+
+def _source_stamp():
+    pkg = os.path.join(ROOT, "pneucore")
+    return sorted((f, os.stat(os.path.join(pkg, f)).st_mtime_ns)
+                  for f in os.listdir(pkg) if f.endswith(".py"))
 
 
 def time_calls(fn, runs):
@@ -155,6 +165,16 @@ def main(argv=None):
         print(f"  cached : import {cached['import_s']:.2f} s, first simulate() "
               f"{cached['first_call_s']:.3f} s (cache load + run), process "
               f"{cached['process_wall_s']:.2f} s   ({ct['cache_files']} cache files)")
+        if ct["sources_changed_during_run"]:
+            print("  warning: pneucore sources changed during the measurement; numba recompiled, "
+                  "rerun for clean figures")
+        try:
+            load = os.getloadavg()[0]
+            print(f"  load average {load:.2f} on {info['usable_cores']} cores "
+                  "(other processes inflate these times)")
+            ct["load_average"] = load
+        except OSError:
+            pass
         figures["compile"] = {**ct, "target_s": TARGET_COMPILE_S, "meets_target": ok}
 
     # -- 2. pneucore warm timing -------------------------------------------------------

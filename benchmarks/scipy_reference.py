@@ -469,7 +469,7 @@ def simulate_scipy(model_dict, scenario_dict, method="LSODA", rtol=1e-8, atol=No
                     d *= 2.0
                 take_samples(t_ev, sol.sol, mode, u0, slope, ta)
                 y = np.array(sol.sol(t_ev), float)
-                t = t_ev
+                t = float(t_ev)
                 if kind == "slip":
                     y[5] = 0.0
                     mode = target

@@ -70,6 +70,24 @@ class Effect:
     state_units: tuple = ()
     user: bool = False
     observable_in: tuple = ("locked", "free")
+    fit_params: tuple = ()
+    probe: dict = field(default_factory=dict)
+
+    @property
+    def diagnosis_params(self):
+        """Parameters the diagnosis refits (all parameters unless ``fit_params`` says otherwise)."""
+        return tuple(self.fit_params) or tuple(p.name for p in self.parameters)
+
+    @property
+    def score_params(self):
+        """Parameters that carry the effect's strength (they have an ``off`` value)."""
+        return tuple(n for n in self.diagnosis_params if self.param(n).off is not None)
+
+    def probe_values(self):
+        """A moderate strength used to probe the outputs' sensitivity to the effect."""
+        vals = self.defaults()
+        vals.update(self.probe)
+        return vals
 
     def param(self, name):
         for p in self.parameters:
@@ -90,7 +108,8 @@ class Effect:
         return {"name": self.name, "description": self.description, "signature": self.signature,
                 "reference": self.reference, "strength": self.strength,
                 "parameters": [p.to_dict() for p in self.parameters],
-                "states": list(self.states), "user": self.user}
+                "fit_params": list(self.diagnosis_params), "states": list(self.states),
+                "user": self.user, "observable_in": list(self.observable_in)}
 
 
 class CoreBuild:
@@ -291,21 +310,22 @@ for _e in [
            "compression and too slow on expansion, errors largest while the valve closes",
            "Maré, Geider & Colin, Eq. 9 and Table 2",
            [Parameter("h", "W/(m^2 K)", 25.0, 0.0, 2000.0, 0.0, "convection coefficient")],
-           strength="h", transform=_heat_transform, applies=_heat_applies),
+           strength="h", transform=_heat_transform, applies=_heat_applies, probe={"h": 25.0}),
     Effect("piston_leakage",
            "laminar leak across the piston seal, A <-> B, carrying enthalpy",
            "pressures of a locked jack converge towards each other while the valve is closed; "
            "chamber pressure difference decays, piston drifts under load",
            "Beater, Pneumatic Drives (2007), seal leakage; laminar leak q = G (p_a - p_b)",
            [Parameter("conductance", "kg/(s Pa)", 5e-11, 0.0, 1e-8, 0.0, "leak conductance G")],
-           strength="conductance", pack=_pack_slot("G_AB", "conductance")),
+           strength="conductance", pack=_pack_slot("G_AB", "conductance"), probe={"conductance": 5e-11}),
     Effect("external_leakage",
            "laminar leak from each chamber to ambient (rod seal, fittings)",
            "a pressurised chamber decays towards ambient while the valve is closed",
            "Beater, Pneumatic Drives (2007); laminar leak q = G (p - p_atm)",
            [Parameter("conductance_a", "kg/(s Pa)", 5e-11, 0.0, 1e-8, 0.0, "leak of chamber A"),
             Parameter("conductance_b", "kg/(s Pa)", 5e-11, 0.0, 1e-8, 0.0, "leak of chamber B")],
-           strength="conductance_a", pack=_pack_ext_leak),
+           strength="conductance_a", pack=_pack_ext_leak,
+           probe={"conductance_a": 5e-11, "conductance_b": 5e-11}),
     Effect("valve_spool_dynamics",
            "spool lag between command and effective opening (first order, or second order if "
            "natural_frequency > 0)",
@@ -316,20 +336,22 @@ for _e in [
             Parameter("natural_frequency", "rad/s", 0.0, 0.0, 5000.0, 0.0,
                       "second-order natural frequency (0 = first order)"),
             Parameter("damping", "-", 0.7, 0.05, 5.0, None, "second-order damping ratio")],
-           strength="time_constant", pack=_pack_spool),
+           strength="time_constant", pack=_pack_spool, fit_params=("time_constant",),
+           probe={"time_constant": 0.005, "natural_frequency": 0.0}),
     Effect("valve_null_leakage",
            "leakage of a centred spool: a fraction of each edge's full C on all four edges",
            "with the valve centred, both chambers drift towards the supply/exhaust equilibrium",
            "ISO 10770-1 (internal leakage of proportional valves); paper Fig. 2 overlap",
            [Parameter("fraction", "-", 0.005, 0.0, 0.2, 0.0, "leak conductance / full conductance")],
-           strength="fraction", pack=_pack_null_leak),
+           strength="fraction", pack=_pack_null_leak, probe={"fraction": 0.005}),
     Effect("stribeck_friction",
            "breakaway friction above Coulomb: Fc + (Fs - Fc) exp(-(v/vs)^2)",
            "piston starts late and then jumps; position error right after each start from rest",
            "Armstrong-Hélouvry (1991), Control of machines with friction",
            [Parameter("static_ratio", "-", 1.5, 1.0, 5.0, 1.0, "Fs / Fc"),
             Parameter("stribeck_velocity", "m/s", 0.01, 1e-4, 1.0, None, "Stribeck velocity vs")],
-           strength="static_ratio", pack=_pack_stribeck, observable_in=("free",)),
+           strength="static_ratio", pack=_pack_stribeck, observable_in=("free",),
+           probe={"static_ratio": 1.5}),
     Effect("pressure_dependent_friction",
            "Coulomb and viscous friction that grow with the chamber pressures (Eq. 19-20)",
            "position and velocity errors that grow with the working pressure; a constant-friction "
@@ -339,7 +361,8 @@ for _e in [
             Parameter("fc_b", "N/Pa", 0.0, -2e-4, 2e-4, 0.0, "Coulomb per gauge pressure in B"),
             Parameter("kv_a", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "viscous per gauge pressure in A"),
             Parameter("kv_b", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "viscous per gauge pressure in B")],
-           strength="fc_a", transform=_pdf_transform, applies=_pdf_applies, observable_in=("free",)),
+           strength="fc_a", transform=_pdf_transform, applies=_pdf_applies, observable_in=("free",),
+           fit_params=("fc_a", "fc_b"), probe={"fc_a": 1e-5, "fc_b": 1e-5}),
     Effect("quadrant_friction",
            "different extend and retract friction (the quadrant effect); parameters are the "
            "retract set minus the extend set",
@@ -352,14 +375,15 @@ for _e in [
             Parameter("kv_a", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "retract - extend viscous per p_a"),
             Parameter("kv_b", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "retract - extend viscous per p_b")],
            strength="fc0", transform=_quadrant_transform, applies=_quadrant_applies,
-           observable_in=("free",)),
+           observable_in=("free",), fit_params=("fc0", "kv0"), probe={"fc0": 5.0, "kv0": 10.0}),
     Effect("dead_volume",
            "extra volume between valve and chamber (tubing, fittings)",
            "pressure rises and falls slower than the model, most at the small-volume end of stroke",
            "paper Eq. 23-24 (dead volumes v_m)",
            [Parameter("volume_a", "m^3", 0.0, 0.0, 1e-3, 0.0, "extra volume on A"),
             Parameter("volume_b", "m^3", 0.0, 0.0, 1e-3, 0.0, "extra volume on B")],
-           strength="volume_a", transform=_dead_transform),
+           strength="volume_a", transform=_dead_transform,
+           probe={"volume_a": 5e-6, "volume_b": 5e-6}),
     Effect("supply_pressure_drop",
            "finite supply: a regulator conductance feeding an (isothermal) supply-line volume",
            "filling chamber pressure sags below the model while flow is high, then recovers",
@@ -367,12 +391,12 @@ for _e in [
            [Parameter("C", "m^3/(s Pa)", 2e-8, 0.0, 1e-6, 0.0, "regulator sonic conductance (0 = ideal supply)"),
             Parameter("b", "-", 0.3, 0.0, 0.99, None, "regulator critical ratio"),
             Parameter("volume", "m^3", 1e-4, 1e-7, 1e-2, None, "supply-line volume")],
-           strength="C", pack=_pack_supply),
+           strength="C", pack=_pack_supply, fit_params=("C",), probe={"C": 5e-8}),
     Effect("sensor_lag",
            "first-order lag of the pressure transducers",
            "measured pressures trail the model by a fixed delay at every fast transient",
            "paper Sect. 4 (phase lags of the acquisition chain)",
            [Parameter("time_constant", "s", 0.002, 0.0, 0.1, 0.0, "transducer time constant")],
-           strength="time_constant", pack=_pack_sensor),
+           strength="time_constant", pack=_pack_sensor, probe={"time_constant": 0.002}),
 ]:
     register_effect(_e)

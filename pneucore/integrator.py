@@ -165,12 +165,12 @@ def _feval(t, y, mode, seg_t0, seg_u0, seg_slope, model, dy, aux):
 def _hermite(theta, h, y0, f0, y1, f1, out):
     t2 = theta * theta
     t3 = t2 * theta
-    h00 = 2.0 * t3 - 3.0 * t2 + 1.0
     h10 = t3 - 2.0 * t2 + theta
     h01 = -2.0 * t3 + 3.0 * t2
     h11 = t3 - t2
+    # written as y0 + h01 (y1 - y0) + ...: exact when the state is constant (h00 + h01 = 1)
     for i in range(y0.shape[0]):
-        out[i] = h00 * y0[i] + h10 * h * f0[i] + h01 * y1[i] + h11 * h * f1[i]
+        out[i] = y0[i] + h01 * (y1[i] - y0[i]) + h10 * h * f0[i] + h11 * h * f1[i]
 
 
 @njit(cache=True)

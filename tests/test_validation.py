@@ -23,7 +23,6 @@ import re
 import numpy as np
 import pytest
 
-import pneucore
 from pneucore import (FieldError, Model, Scenario, SimulationError, model_preset, scenario_preset,
                       simulate)
 from pneucore.scenario import MAX_DURATION, MAX_SAMPLES
@@ -506,7 +505,8 @@ def test_event_budget_exhausted_raises(paper4, pulses):
 def test_normal_result_has_no_nan(model_name, scenario_name):
     res = simulate(model_preset(model_name), scenario_preset(scenario_name))
     assert res.status == 0 and res.message == "ok"
-    assert res.stats["t_reached"] == pytest.approx(1.0, abs=1e-12)  # float end time of the run
+    # the last step is clipped to the end time; allow round-off of summing step sizes
+    assert res.stats["t_reached"] == pytest.approx(1.0, abs=1e-12)
     for name, v in res.series.items():
         if v.dtype.kind == "f":
             assert np.all(np.isfinite(v)), name
