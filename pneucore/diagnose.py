@@ -195,7 +195,7 @@ def _explain(eff, cand, floor_overall):
 
 
 def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT, alpha=ALPHA,
-             datasets=None, progress=None, max_nfev=30):
+             datasets=None, progress=None, max_nfev=30, refit_existing=True):
     """Rank the catalog effects the model lacks by how well each explains the residual.
 
     Parameters
@@ -208,6 +208,9 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     n_refit : int  Number of leading candidates refitted
     alpha : float  Significance level (split over the refits)
     progress : callable or None  ``progress(fraction, step)`` for long runs
+    refit_existing : bool  Also treat the parameters of catalog effects already in the model
+        as uncertain: they were fitted on a model that lacked what is sought now, so they are
+        refitted jointly (otherwise their bias makes a spurious extra effect look useful)
 
     Returns
     -------
@@ -241,7 +244,12 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
 
     # -- null model: uncertain base parameters refitted ----------------------------
     report(0.02, "fitting the base model")
-    u_specs = parse_parameters(model, uncertain) if uncertain else []
+    unc = {p: {} for p in uncertain} if isinstance(uncertain, (list, tuple)) else dict(uncertain)
+    if refit_existing:
+        for name in model.effects:
+            for p in EFFECTS[name].diagnosis_params:
+                unc.setdefault(f"effects.{name}.{p}", {})
+    u_specs = parse_parameters(model, unc) if unc else []
     if u_specs:
         null_fit = fit(model, exps, u_specs, max_nfev=max_nfev)
         base = null_fit.model

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 from . import layout as L
-from .validation import FieldError, mapping, number
+from .validation import FieldError, mapping, number, optional_mapping
 
 
 @dataclass
@@ -173,7 +173,7 @@ def validate_effects(effects, model):
         if name not in EFFECTS:
             raise FieldError(path, f"unknown effect; the catalog has {sorted(EFFECTS)}")
         eff = EFFECTS[name]
-        params = mapping(params if params is not None else {}, path)
+        params = optional_mapping(params, path)
         known = {p.name for p in eff.parameters}
         for key in params:
             if key not in known:
@@ -182,6 +182,9 @@ def validate_effects(effects, model):
         for p in eff.parameters:
             v = params.get(p.name, p.default)
             vals[p.name] = number(v, f"{path}.{p.name}", low=p.min, high=p.max)
+        ok, why = eff.applicable(model)
+        if not ok:
+            raise FieldError(path, f"cannot be added to this model: {why}")
         out[name] = vals
     return out
 
@@ -357,8 +360,8 @@ for _e in [
            "position and velocity errors that grow with the working pressure; a constant-friction "
            "model is right at low pressure only",
            "Maré, Geider & Colin, Eq. 19-20",
-           [Parameter("fc_a", "N/Pa", 0.0, -2e-4, 2e-4, 0.0, "Coulomb per gauge pressure in A"),
-            Parameter("fc_b", "N/Pa", 0.0, -2e-4, 2e-4, 0.0, "Coulomb per gauge pressure in B"),
+           [Parameter("fc_a", "N/Pa", 1e-5, -2e-4, 2e-4, 0.0, "Coulomb per gauge pressure in A"),
+            Parameter("fc_b", "N/Pa", 1e-5, -2e-4, 2e-4, 0.0, "Coulomb per gauge pressure in B"),
             Parameter("kv_a", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "viscous per gauge pressure in A"),
             Parameter("kv_b", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "viscous per gauge pressure in B")],
            strength="fc_a", transform=_pdf_transform, applies=_pdf_applies, observable_in=("free",),
@@ -368,10 +371,10 @@ for _e in [
            "retract set minus the extend set",
            "position error of one sign on extension strokes and another on retraction strokes",
            "Maré (1993); paper Sect. 2.3",
-           [Parameter("fc0", "N", 0.0, -500.0, 500.0, 0.0, "retract - extend constant Coulomb"),
+           [Parameter("fc0", "N", 5.0, -500.0, 500.0, 0.0, "retract - extend constant Coulomb"),
             Parameter("fc_a", "N/Pa", 0.0, -2e-4, 2e-4, 0.0, "retract - extend Coulomb per p_a"),
             Parameter("fc_b", "N/Pa", 0.0, -2e-4, 2e-4, 0.0, "retract - extend Coulomb per p_b"),
-            Parameter("kv0", "N s/m", 0.0, -2000.0, 2000.0, 0.0, "retract - extend viscous"),
+            Parameter("kv0", "N s/m", 10.0, -2000.0, 2000.0, 0.0, "retract - extend viscous"),
             Parameter("kv_a", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "retract - extend viscous per p_a"),
             Parameter("kv_b", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "retract - extend viscous per p_b")],
            strength="fc0", transform=_quadrant_transform, applies=_quadrant_applies,
@@ -380,8 +383,8 @@ for _e in [
            "extra volume between valve and chamber (tubing, fittings)",
            "pressure rises and falls slower than the model, most at the small-volume end of stroke",
            "paper Eq. 23-24 (dead volumes v_m)",
-           [Parameter("volume_a", "m^3", 0.0, 0.0, 1e-3, 0.0, "extra volume on A"),
-            Parameter("volume_b", "m^3", 0.0, 0.0, 1e-3, 0.0, "extra volume on B")],
+           [Parameter("volume_a", "m^3", 5e-6, 0.0, 1e-3, 0.0, "extra volume on A"),
+            Parameter("volume_b", "m^3", 5e-6, 0.0, 1e-3, 0.0, "extra volume on B")],
            strength="volume_a", transform=_dead_transform,
            probe={"volume_a": 5e-6, "volume_b": 5e-6}),
     Effect("supply_pressure_drop",

@@ -16,7 +16,7 @@ from .friction import FRICTION_LAWS
 from .gas import GAMMA_AIR, P_ATM, R_AIR, T_REF
 from .heat import HEAT_MODELS
 from .jack import annulus_area, rod_area
-from .validation import FieldError, choice, known_keys, mapping, number, number_list
+from .validation import FieldError, choice, known_keys, mapping, number, number_list, optional_mapping
 
 #: Edges of each valve kind and the opening range of their tables
 VALVE_KINDS = {
@@ -187,7 +187,7 @@ class Valve:
         known_keys(d, cls.__dataclass_fields__, path)
         kind = choice(d.get("kind", "4/2"), VALVE_KINDS, f"{path}.kind")
         spec = VALVE_KINDS[kind]
-        ports_in = mapping(d.get("ports", {}), f"{path}.ports")
+        ports_in = optional_mapping(d.get("ports"), f"{path}.ports")
         known_keys(ports_in, spec["ports"], f"{path}.ports")
         ports = {}
         for name in spec["ports"]:
@@ -372,7 +372,7 @@ class Model:
             ambient=Source.from_dict(d.get("ambient", {}), "ambient", P_ATM),
             heat=Heat.from_dict(d.get("heat", {})),
             friction=Friction.from_dict(d.get("friction", {})),
-            effects=dict(mapping(d.get("effects") or {}, "effects")),
+            effects=dict(optional_mapping(d.get("effects"), "effects")),
             gas=Gas.from_dict(d.get("gas", {})),
             name=str(d.get("name", "")),
             description=str(d.get("description", "")),

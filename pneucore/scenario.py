@@ -17,7 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Optional
 
-from .validation import FieldError, choice, known_keys, mapping, number
+from .validation import FieldError, choice, integer, known_keys, mapping, number, optional_mapping
 
 #: Longest simulated time accepted [s]
 MAX_DURATION = 3600.0
@@ -105,10 +105,10 @@ class Scenario:
                             high=MAX_DURATION)
         s.sample_period = number(d.get("sample_period", s.sample_period), "scenario.sample_period",
                                  positive=True)
-        n_samples = int(s.duration / s.sample_period + 1e-9) + 1
+        n_samples = s.duration / s.sample_period + 1.0
         if n_samples > MAX_SAMPLES:
             raise FieldError("scenario.sample_period",
-                             f"{n_samples} output samples requested; the limit is {MAX_SAMPLES} "
+                             f"{n_samples:.4g} output samples requested; the limit is {MAX_SAMPLES} "
                              f"(increase the sample period or shorten the duration)")
         cmd = d.get("command", s.command)
         if not isinstance(cmd, (list, tuple)) or len(cmd) == 0:
@@ -135,20 +135,20 @@ class Scenario:
             raise FieldError("scenario.locked", f"must be true or false, got {locked!r}")
         s.locked = locked
         s.x0 = number(d.get("x0", s.x0), "scenario.x0", nonnegative=True)
-        ini = mapping(d.get("initial") or {}, "scenario.initial")
+        ini = optional_mapping(d.get("initial"), "scenario.initial")
         known_keys(ini, ("p_a", "p_b", "T_a", "T_b"), "scenario.initial")
         s.initial = Initial(*(number(ini.get(k), f"scenario.initial.{k}", positive=True, allow_none=True)
                               for k in ("p_a", "p_b", "T_a", "T_b")))
-        sol = mapping(d.get("solver") or {}, "scenario.solver")
+        sol = optional_mapping(d.get("solver"), "scenario.solver")
         known_keys(sol, ("rtol", "max_step", "max_steps", "max_events"), "scenario.solver")
         s.solver = Solver(
             rtol=number(sol.get("rtol", 1e-5), "scenario.solver.rtol", low=1e-13, high=1e-2),
             max_step=number(sol.get("max_step", 0.02), "scenario.solver.max_step", positive=True,
                             high=1.0),
-            max_steps=int(number(sol.get("max_steps", 5_000_000), "scenario.solver.max_steps",
-                                 low=10, high=1e8)),
-            max_events=int(number(sol.get("max_events", 200_000), "scenario.solver.max_events",
-                                  low=10, high=1e7)),
+            max_steps=integer(sol.get("max_steps", 5_000_000), "scenario.solver.max_steps",
+                              low=10, high=1e8),
+            max_events=integer(sol.get("max_events", 200_000), "scenario.solver.max_events",
+                               low=10, high=1e7),
         )
         s.name = str(d.get("name", ""))
         s.description = str(d.get("description", ""))

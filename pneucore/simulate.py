@@ -36,8 +36,18 @@ def _initial_mode(model, scenario):
     return L.MODE_STICK
 
 
+_HOOKS = {}
+
+
 def _compose_hooks(hooks):
-    """One compiled hook calling each user effect's terms with its own parameters and states."""
+    """One compiled hook calling each user effect's terms with its own parameters and states.
+
+    Memoised on the user functions and their layout, so the specialised core
+    (:func:`pneucore.integrator.specialize`) is compiled once per process.
+    """
+    key = tuple(hooks)
+    if key in _HOOKS:
+        return _HOOKS[key]
     fn = no_terms
     for terms, off, n, i0 in hooks:
         prev = fn
@@ -49,6 +59,7 @@ def _compose_hooks(hooks):
                 terms(t, y, sig, prm_user[off:off + n], out, dy, i0)
             return hook
         fn = make(prev, terms, off, n, i0)
+    _HOOKS[key] = fn
     return fn
 
 

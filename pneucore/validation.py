@@ -36,7 +36,10 @@ def number(value, path, *, positive=False, nonnegative=False, low=None, high=Non
                 raise TypeError
         except TypeError:
             raise FieldError(path, f"must be a number, got {type(value).__name__} {value!r}") from None
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:
+        raise FieldError(path, f"must be a finite number, got an integer with {len(str(value))} digits") from None
     if not math.isfinite(value):
         raise FieldError(path, f"must be a finite number, got {value}")
     if positive and value <= 0.0:
@@ -60,6 +63,21 @@ def number_list(values, path, *, min_len=1, **bounds):
     return [number(v, f"{path}[{i}]", **bounds) for i, v in enumerate(values)]
 
 
+def integer(value, path, low=None, high=None):
+    """Check an integer-valued number (``10`` or ``10.0``, not ``10.7``)."""
+    v = number(value, path, low=low, high=high)
+    if v != int(v):
+        raise FieldError(path, f"must be a whole number, got {v:g}")
+    return int(v)
+
+
+def optional_mapping(value, path):
+    """A dict, or ``{}`` when the value is null/absent; anything else is an error."""
+    if value is None:
+        return {}
+    return mapping(value, path)
+
+
 def mapping(value, path):
     """Check that ``value`` is a dict (JSON object)."""
     if not isinstance(value, dict):
@@ -77,6 +95,6 @@ def known_keys(d, allowed, path):
 
 def choice(value, options, path):
     """Check that ``value`` is one of ``options`` (a registry's names)."""
-    if value not in options:
+    if not isinstance(value, str) or value not in options:
         raise FieldError(path, f"unknown value {value!r}; expected one of {sorted(options)}")
     return value
