@@ -7,7 +7,7 @@ the upstream temperature and leaves with the chamber temperature.
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def chamber_pressure(m, T, V, r):
     """Ideal-gas pressure ``p = m r T / V`` (Eq. 22-24).
 
@@ -25,7 +25,7 @@ def chamber_pressure(m, T, V, r):
     return m * r * T / V
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def enthalpy_flow(q, T_source, T_chamber, cp):
     """Enthalpy carried by a mass flow ``q`` into the chamber [W].
 
@@ -44,7 +44,7 @@ def enthalpy_flow(q, T_source, T_chamber, cp):
     return cp * T_chamber * q
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def chamber_rates(m, T, p, dVdt, q, H, Q, cv, isothermal):
     """Mass and temperature derivatives of a chamber (paper Eq. 14-15).
 

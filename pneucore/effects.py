@@ -190,7 +190,12 @@ def validate_effects(effects, model):
 
 
 def effective_model(model):
-    """The model with every effect's ``transform`` applied (base parameters rewritten)."""
+    """The model with every effect's ``transform`` applied (base parameters rewritten).
+
+    Returns ``model`` itself (not a copy) when no effect transforms it.
+    """
+    if not any(EFFECTS[name].transform is not None for name in model.effects):
+        return model
     m = copy.deepcopy(model)
     for name, params in model.effects.items():
         eff = EFFECTS[name]

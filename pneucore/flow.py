@@ -24,7 +24,7 @@ from .gas import GAMMA_AIR, R_AIR, RHO_REF, T_REF
 R_LAMINAR = 0.999
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def iso6358_ratio_function(ratio, b, m):
     """Dimensionless flow function of ISO 6358 (paper Eq. 4-5).
 
@@ -49,14 +49,14 @@ def iso6358_ratio_function(ratio, b, m):
     return w ** m
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _iso_phi_linearised(ratio, b, m, r_lam):
     if ratio <= r_lam:
         return iso6358_ratio_function(ratio, b, m)
     return iso6358_ratio_function(r_lam, b, m) * (1.0 - ratio) / (1.0 - r_lam)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def iso6358_mass_flow(p1, T1, p2, T2, C, b, m, r_lam, r, gamma):
     """Mass flow through an ISO 6358 restriction, in either direction.
 
@@ -105,7 +105,7 @@ def iso6358_mass_flow(p1, T1, p2, T2, C, b, m, r_lam, r, gamma):
     return -C * RHO_REF * p2 * math.sqrt(T_REF / T2) * _iso_phi_linearised(p1 / p2, b, m, r_lam)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def saint_venant_critical_ratio(gamma):
     """Theoretical critical pressure ratio of an ideal nozzle (paper Eq. 3).
 
@@ -116,7 +116,7 @@ def saint_venant_critical_ratio(gamma):
     return (2.0 / (gamma + 1.0)) ** (gamma / (gamma - 1.0))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def saint_venant_area(C, r, gamma):
     """Throat area of an ideal nozzle with the same choked flow as conductance ``C``.
 
@@ -136,7 +136,7 @@ def saint_venant_area(C, r, gamma):
     return C * RHO_REF * math.sqrt(r * T_REF) / math.sqrt(k)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _sv_phi(ratio, gamma):
     # Flow function normalised by its choked value, Eq. 1 / Eq. 2.
     omega = saint_venant_critical_ratio(gamma)
@@ -149,14 +149,14 @@ def _sv_phi(ratio, gamma):
     return math.sqrt(sub / son)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _sv_phi_linearised(ratio, gamma, r_lam):
     if ratio <= r_lam:
         return _sv_phi(ratio, gamma)
     return _sv_phi(r_lam, gamma) * (1.0 - ratio) / (1.0 - r_lam)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def saint_venant_mass_flow(p1, T1, p2, T2, C, b, m, r_lam, r, gamma):
     """Mass flow through an ideal nozzle (Saint-Venant, paper Eq. 1-3).
 
@@ -185,7 +185,7 @@ def saint_venant_mass_flow(p1, T1, p2, T2, C, b, m, r_lam, r, gamma):
     return -s * p2 * math.sqrt(son / (r * T2)) * _sv_phi_linearised(p1 / p2, gamma, r_lam)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def laminar_mass_flow(p1, T1, p2, T2, G):
     """Laminar leak ``q = G (p1 - p2)`` from side 1 to side 2.
 

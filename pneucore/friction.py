@@ -14,7 +14,7 @@ import math
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def coulomb_level(fc0, fc_a, fc_b, p_a, p_b, p_atm):
     """Coulomb friction level ``Fc(p)`` (Eq. 20), clipped at zero [N].
 
@@ -29,14 +29,14 @@ def coulomb_level(fc0, fc_a, fc_b, p_a, p_b, p_atm):
     return f if f > 0.0 else 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def viscous_coefficient(kv0, kv_a, kv_b, p_a, p_b, p_atm):
     """Viscous coefficient ``Kv(p)`` (Eq. 19), clipped at zero [N s/m]."""
     k = kv0 + kv_a * (p_a - p_atm) + kv_b * (p_b - p_atm)
     return k if k > 0.0 else 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def stribeck_factor(v, ratio, v_s):
     """Breakaway factor ``1 + (ratio - 1) exp(-(v / v_s)^2)`` multiplying Fc [-].
 
@@ -55,7 +55,7 @@ def stribeck_factor(v, ratio, v_s):
     return 1.0 + (ratio - 1.0) * math.exp(-z * z)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def sliding_friction(v, direction, fc, kv, ratio, v_s):
     """Friction force opposing a sliding piston, Eq. 18 [N].
 

@@ -9,7 +9,7 @@ simulator picks one by name through :data:`HEAT_MODELS`
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def convective_heat_flow(h, S, T_wall, T):
     """Fixed-coefficient convective exchange, paper Eq. 9.
 

@@ -26,6 +26,9 @@ import numpy as np
 from numba import njit
 
 from . import layout as L
+from .chamber import chamber_pressure
+from .friction import coulomb_level
+from .jack import chamber_volumes, net_pressure_force
 from .rhs import rhs
 
 #: Event location tolerance on time [s] (the contract is 1e-6 s)
@@ -85,7 +88,7 @@ ST_STEPS, ST_REJECTED, ST_FEVALS, ST_JACOBIANS, ST_EVENTS, ST_BACKSTEPS = range(
 N_STATS = 6
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def command_segment(t, cmd_t, cmd_u, linear):
     """Command segment containing ``t``: (start time, value at start, slope, end time).
 
@@ -107,7 +110,7 @@ def command_segment(t, cmd_t, cmd_u, linear):
     return cmd_t[k], cmd_u[k], slope, cmd_t[k + 1]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _lu_factor(A, piv, n):
     for k in range(n):
         p = k
@@ -134,7 +137,7 @@ def _lu_factor(A, piv, n):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _lu_solve(A, piv, b, n):
     for k in range(n):
         p = piv[k]
@@ -154,14 +157,14 @@ def _lu_solve(A, piv, b, n):
         b[i] = s / A[i, i]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _feval(t, y, mode, seg_t0, seg_u0, seg_slope, model, dy, aux):
     prm, iy, tx, tC, tb, tm, toff, prm_user = model
     u = seg_u0 + seg_slope * (t - seg_t0)
     rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, dy, aux)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _hermite(theta, h, y0, f0, y1, f1, out):
     t2 = theta * theta
     t3 = t2 * theta
@@ -173,7 +176,7 @@ def _hermite(theta, h, y0, f0, y1, f1, out):
         out[i] = y0[i] + h01 * (y1[i] - y0[i]) + h10 * h * f0[i] + h11 * h * f1[i]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _rodas_step(t, y, h, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
                 ynew, err, K, W, piv, ytmp, ftmp, aux, stats):
     """One RODAS4 step of size h from (t, y); returns False if W is singular or the result is not finite."""
@@ -214,11 +217,33 @@ def _rodas_step(t, y, h, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
+def _frozen(j, mode, prm):
+    """True when state ``j`` has a structurally zero derivative in this mode.
+
+    Its Jacobian column can then be skipped: the stage increments of a frozen
+    state are exactly zero, so the column never multiplies anything.
+    """
+    if (j == L.Y_X or j == L.Y_V) and mode != L.MODE_SLIDE_POS and mode != L.MODE_SLIDE_NEG:
+        return True
+    if (j == L.Y_MB or j == L.Y_TB) and prm[L.P_B_CONST] > 0.0:
+        return True
+    if (j == L.Y_TA or j == L.Y_TB) and prm[L.P_ISOTHERMAL] > 0.0:
+        return True
+    return False
+
+
+@njit(cache=True, error_model="numpy")
 def _jacobian(t, y, f0, mode, seg_t0, seg_u0, seg_slope, model, scale, J, ft,
               ytmp, ftmp, aux, stats):
+    """Forward-difference Jacobian, skipping the columns of frozen states."""
     n = y.shape[0]
+    prm = model[0]
     for j in range(n):
+        if _frozen(j, mode, prm):
+            for i in range(n):
+                J[i, j] = 0.0
+            continue
         yj = y[j]
         d = 1.5e-8 * max(abs(yj), scale[j])
         for i in range(n):
@@ -226,6 +251,7 @@ def _jacobian(t, y, f0, mode, seg_t0, seg_u0, seg_slope, model, scale, J, ft,
         ytmp[j] = yj + d
         d = ytmp[j] - yj
         _feval(t, ytmp, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+        stats[ST_FEVALS] += 1
         for i in range(n):
             J[i, j] = (ftmp[i] - f0[i]) / d
     if seg_slope != 0.0:
@@ -237,11 +263,36 @@ def _jacobian(t, y, f0, mode, seg_t0, seg_u0, seg_slope, model, scale, J, ft,
     else:
         for i in range(n):
             ft[i] = 0.0
-    stats[ST_FEVALS] += n
     stats[ST_JACOBIANS] += 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
+def _rest_forces(y, prm, aux):
+    """Net force and static limits of a resting piston from the state alone (no valve flows).
+
+    Fills ``aux[AUX_FNET]``, ``aux[AUX_FS_E]``, ``aux[AUX_FS_R]`` as the full
+    right-hand side would (Eq. 17 and 20), at a fraction of its cost; used by
+    the event probes when no user effect adds a force.
+    """
+    r = prm[L.P_R]
+    p_atm = prm[L.P_ATM]
+    V_a, V_b = chamber_volumes(y[L.Y_X], prm[L.P_A_A], prm[L.P_A_B], prm[L.P_STROKE],
+                               prm[L.P_V0_A], prm[L.P_V0_B])
+    p_a = chamber_pressure(y[L.Y_MA], y[L.Y_TA], V_a, r)
+    if prm[L.P_B_CONST] > 0.0:
+        p_b = prm[L.P_B_CONST]
+    else:
+        p_b = chamber_pressure(y[L.Y_MB], y[L.Y_TB], V_b, r)
+    aux[L.AUX_FNET] = net_pressure_force(p_a, p_b, p_atm, prm[L.P_A_A], prm[L.P_A_B],
+                                         prm[L.P_A_ROD_A], prm[L.P_A_ROD_B], prm[L.P_LOAD])
+    ratio = prm[L.P_STRIBECK_RATIO]
+    aux[L.AUX_FS_E] = ratio * coulomb_level(prm[L.P_FE_FC0], prm[L.P_FE_FCA], prm[L.P_FE_FCB],
+                                            p_a, p_b, p_atm)
+    aux[L.AUX_FS_R] = ratio * coulomb_level(prm[L.P_FR_FC0], prm[L.P_FR_FCA], prm[L.P_FR_FCB],
+                                            p_a, p_b, p_atm)
+
+
+@njit(cache=True, error_model="numpy")
 def _event_values(mode, y, aux, stroke, out):
     """Event functions of the current mode; an event fires when one becomes > 0."""
     out[0] = -np.inf
@@ -258,12 +309,12 @@ def _event_values(mode, y, aux, stroke, out):
         out[1] = -y[L.Y_X]                                   # end stop at x = 0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _needs_aux(mode):
     return mode == L.MODE_STICK or mode == L.MODE_STOP_LOW or mode == L.MODE_STOP_HIGH
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _record(ev_t, ev_kind, ev_mode, n_ev, t, kind, mode):
     if n_ev < ev_t.shape[0]:
         ev_t[n_ev] = t
@@ -272,7 +323,7 @@ def _record(ev_t, ev_kind, ev_mode, n_ev, t, kind, mode):
     return n_ev + 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _settle(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux, ev_t, ev_kind, ev_mode, n_ev):
     """Leave a resting mode at once if the net force already exceeds the static limit."""
     if _needs_aux(mode):
@@ -287,7 +338,7 @@ def _settle(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux, ev_t, ev_ki
     return mode, n_ev
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _transition(t, y, mode, k, stroke, seg_t0, seg_u0, seg_slope, model, ftmp, aux,
                 ev_t, ev_kind, ev_mode, n_ev):
     """Apply the mode change of event ``k`` fired in ``mode``; returns (new mode, n_ev)."""
@@ -318,17 +369,20 @@ def _transition(t, y, mode, k, stroke, seg_t0, seg_u0, seg_slope, model, ftmp, a
     return L.MODE_STICK, _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_STICK, L.MODE_STICK)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _event_at(theta, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u0, seg_slope,
               model, ytmp, ftmp, aux, ev):
     _hermite(theta, h, y0, f0, y1, f1, ytmp)
     if _needs_aux(mode):
-        _feval(t0 + theta * h, ytmp, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+        if model[1][L.IY_HOOK] > 0:
+            _feval(t0 + theta * h, ytmp, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+        else:
+            _rest_forces(ytmp, model[0], aux)
     _event_values(mode, ytmp, aux, stroke, ev)
     return ev[k]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
               h_max, h_init, max_steps, y_out, aux_out, mode_out, u_out,
               ev_t, ev_kind, ev_mode, stats):
@@ -600,7 +654,7 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
             if seg_u0 != u_left:
                 n_ev = _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_COMMAND, mode)
                 stats[ST_EVENTS] += 1
-                h = min(h, 1e-5)
+                h = min(h, 1e-4)
             fresh = True
             mode, n_ev = _settle(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux,
                                  ev_t, ev_kind, ev_mode, n_ev)

@@ -28,7 +28,7 @@ def rod_area(rod):
     return math.pi / 4.0 * rod * rod
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def chamber_volumes(x, A_a, A_b, stroke, V0_a, V0_b):
     """Chamber volumes, paper Eq. 23-24.
 
@@ -48,7 +48,7 @@ def chamber_volumes(x, A_a, A_b, stroke, V0_a, V0_b):
     return A_a * x + V0_a, A_b * (stroke - x) + V0_b
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def wall_area(V, A, bore, rod):
     """Heat-exchange area of a chamber: lateral area of the gas column plus both end faces.
 
@@ -71,7 +71,7 @@ def wall_area(V, A, bore, rod):
     return math.pi * (bore + rod) * L + 2.0 * A
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def net_pressure_force(p_a, p_b, p_atm, A_a, A_b, A_rod_a, A_rod_b, load):
     """Net force on the piston towards +x from pressures and load (paper Eq. 17).
 

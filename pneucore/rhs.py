@@ -24,7 +24,7 @@ from .jack import chamber_volumes, net_pressure_force, wall_area
 from .valve import table_interp
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def no_terms(t, y, sig, prm_user, terms, dy):
     """Default user hook: adds nothing. A user effect's hook has this signature.
 
@@ -45,7 +45,7 @@ def no_terms(t, y, sig, prm_user, terms, dy):
 user_terms = no_terms
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def edge_flow(law, p1, T1, p2, T2, C, b, m, r_lam, r, gamma):
     """Mass flow from node 1 to node 2 through one valve edge [kg/s], by flow-law code."""
     if law == 1:
@@ -53,7 +53,7 @@ def edge_flow(law, p1, T1, p2, T2, C, b, m, r_lam, r, gamma):
     return iso6358_mass_flow(p1, T1, p2, T2, C, b, m, r_lam, r, gamma)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _edge(k, u, p1, T1, p2, T2, prm, tx, tC, tb, tm, toff):
     s, e = toff[k], toff[k + 1]
     C = table_interp(u, tx, tC, s, e)
@@ -68,7 +68,7 @@ def _edge(k, u, p1, T1, p2, T2, prm, tx, tC, tb, tm, toff):
     return q
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, dy, aux):
     """State derivatives ``dy`` and algebraic outputs ``aux`` of the actuator.
 

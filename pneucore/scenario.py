@@ -58,7 +58,7 @@ class Solver:
     max_events : int  Event budget (stick/slip/stop/command)
     """
     rtol: float = 1e-5
-    max_step: float = 0.02
+    max_step: float = 0.05
     max_steps: int = 5_000_000
     max_events: int = 200_000
 
@@ -143,7 +143,7 @@ class Scenario:
         known_keys(sol, ("rtol", "max_step", "max_steps", "max_events"), "scenario.solver")
         s.solver = Solver(
             rtol=number(sol.get("rtol", 1e-5), "scenario.solver.rtol", low=1e-13, high=1e-2),
-            max_step=number(sol.get("max_step", 0.02), "scenario.solver.max_step", positive=True,
+            max_step=number(sol.get("max_step", 0.05), "scenario.solver.max_step", positive=True,
                             high=1.0),
             max_steps=integer(sol.get("max_steps", 5_000_000), "scenario.solver.max_steps",
                               low=10, high=1e8),

@@ -27,7 +27,8 @@ def number(value, path, *, positive=False, nonnegative=False, low=None, high=Non
         if allow_none:
             return None
         raise FieldError(path, "is required (got null)")
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    kind = type(value)
+    if kind is not float and (kind is bool or not isinstance(value, (int, float))):
         try:
             import numpy as np
             if isinstance(value, np.generic) and np.issubdtype(type(value), np.number):
@@ -40,7 +41,7 @@ def number(value, path, *, positive=False, nonnegative=False, low=None, high=Non
         value = float(value)
     except OverflowError:
         raise FieldError(path, f"must be a finite number, got an integer with {len(str(value))} digits") from None
-    if not math.isfinite(value):
+    if value - value != 0.0:
         raise FieldError(path, f"must be a finite number, got {value}")
     if positive and value <= 0.0:
         raise FieldError(path, f"must be > 0, got {value:g}")

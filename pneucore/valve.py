@@ -11,7 +11,7 @@ from numba import njit
 from .layout import PORT_NAMES
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def table_interp(u, xs, ys, start, end):
     """Linear interpolation of ``ys`` over increasing ``xs[start:end]``, ends held.
 
