@@ -248,14 +248,18 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True):
         r1 = obj.weighted(rps1)
         J = _fd_jacobian(obj, theta, r1, sc, lo, hi)
         scale = _rms_scale(obj, rps1)
-        Js = J / scale[:, None]
+        # covariance in scaled units (parameters of very different sizes, e.g. a
+        # conductance of 1e-10 next to h = 25, would make J^T J numerically singular)
+        Jz = (J * sc[None, :]) / scale[:, None]
         try:
-            cov = np.linalg.pinv(Js.T @ Js)
+            cov_z = np.linalg.pinv(Jz.T @ Jz)
         except np.linalg.LinAlgError:
-            cov = np.full((len(vs), len(vs)), np.nan)
-        se = np.sqrt(np.clip(np.diag(cov), 0, None))
-        d = np.where(se > 0, se, np.nan)
-        cm = cov / np.outer(d, d)
+            cov_z = np.full((len(vs), len(vs)), np.nan)
+        cov_z = 0.5 * (cov_z + cov_z.T)
+        se = np.sqrt(np.clip(np.diag(cov_z), 0, None)) * sc
+        dz = np.sqrt(np.clip(np.diag(cov_z), 0, None))
+        dz = np.where(dz > 0, dz, np.nan)
+        cm = np.clip(cov_z / np.outer(dz, dz), -1.0, 1.0)
         for i, s in enumerate(vs):
             values[s.path] = {"value": float(theta[i]), "stderr": float(se[i]), "initial": s.value,
                               "min": s.min, "max": s.max, "unit": s.unit,

@@ -206,7 +206,9 @@ def compare(model, experiments, heat_models=None, n_windows=5, datasets=None):
         for name in names:
             m = model.copy()
             m.heat.model = name
-            m.effects.pop("heat_exchange", None)
+            hx = m.effects.pop("heat_exchange", None)
+            if hx is not None and name == "convective":
+                m.heat.coefficient = hx["h"]   # the coefficient the model actually uses
             c = summarise([replay(m, e) for e in exps], n_windows=0)
             comp.heat_models[name] = {"errors": c.errors, "overall": c.overall, "phases": c.phases}
     return comp

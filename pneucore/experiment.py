@@ -110,20 +110,28 @@ class Experiment:
             m.supply.pressure = self.supply_pressure
         return m
 
-    def _first(self, name, n_avg=5):
-        """Initial value of a signal: mean of its first ``n_avg`` finite samples taken before
-        the command first changes (averaging reduces the noise of a single sample)."""
+    def _first(self, name, max_window=200):
+        """Initial value of a signal, estimated from the samples before the command first changes.
+
+        A straight line is fitted to (at most ``max_window`` of) those samples
+        and evaluated at the first sample time: it averages the noise over the
+        whole quiet window without being biased by a slow drift (a leak).
+        """
         if name not in self.measurement.signals:
             return None
         v = self.measurement.signals[name]
+        t = self.measurement.t
         u = self.measurement.signals["u"]
         changes = np.flatnonzero(np.diff(u) != 0)
-        end = changes[0] + 1 if changes.size else len(u)
+        end = min(changes[0] + 1 if changes.size else len(u), max_window)
         ok = np.flatnonzero(np.isfinite(v[:end]))
         if ok.size == 0:
             ok = np.flatnonzero(np.isfinite(v))
             return float(v[ok[0]]) if ok.size else None
-        return float(np.mean(v[ok[:n_avg]]))
+        if ok.size < 3:
+            return float(np.mean(v[ok]))
+        slope, icpt = np.polyfit(t[ok] - t[0], v[ok], 1)
+        return float(icpt)
 
     def scenario_for(self, model):
         """The :class:`Scenario` that replays this experiment on ``model`` (validated)."""

@@ -553,7 +553,7 @@ class Measurement:
                 if bad.size:
                     i = int(bad[0])
                     raise self._err(
-                        f"valve command {arr[i]!r} is outside [-1, 1] (for a command in "
+                        f"valve command {float(arr[i]):g} is outside [-1, 1] (for a command in "
                         "percent, label the column 'u[%]')", sig, i)
             elif sig in _PRESSURES or sig in _TEMPERATURES:
                 bad = np.flatnonzero(finite & (arr <= 0.0))

@@ -1,0 +1,1 @@
+"""Web service of pneucore: FastAPI app, pydantic schemas, SQLite store, jobs."""

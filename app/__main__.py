@@ -1,0 +1,4 @@
+"""``python -m app``: start the web service."""
+from .main import main
+
+main()

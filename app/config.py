@@ -1,0 +1,37 @@
+"""Service settings, read from environment variables.
+
+``PNEUCORE_DB``: SQLite file (default ``./pneucore.sqlite3`` in the working directory).
+``PNEUCORE_MAX_UPLOAD``: largest accepted upload [bytes] (default 20 MB).
+"""
+import os
+from dataclasses import dataclass, field
+
+
+@dataclass
+class Limits:
+    """Documented size and time limits of the REST API (refused up front when exceeded)."""
+    max_upload_bytes: int = 20 * 1024 * 1024
+    max_duration: float = 120.0          # simulated time per request [s]
+    max_samples: int = 200_001           # output samples per simulation
+    max_command_points: int = 100_000
+    max_experiments: int = 8
+    max_analysis_samples: int = 200_000  # measured samples over all experiments of one analysis
+    max_steps: int = 2_000_000           # solver step budget (about 10 s of compute)
+    job_time_limit: float = 300.0        # wall time of one job [s]
+    request_time_limit: float = 60.0     # wall time of a synchronous analysis [s]
+    max_jobs: int = 16                   # queued or running jobs
+
+    def to_dict(self):
+        return dict(self.__dict__)
+
+
+@dataclass
+class Settings:
+    db_path: str = field(default_factory=lambda: os.environ.get("PNEUCORE_DB", "pneucore.sqlite3"))
+    limits: Limits = field(default_factory=Limits)
+    seed_samples: bool = True
+
+    def __post_init__(self):
+        up = os.environ.get("PNEUCORE_MAX_UPLOAD")
+        if up:
+            self.limits.max_upload_bytes = int(up)

@@ -1,0 +1,114 @@
+"""Shared services for the routers (``Annotated[..., Depends()]``) and input helpers."""
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import Depends, HTTPException, Request
+
+from pneucore.experiment import as_experiments
+from pneucore.measurement import Measurement
+from pneucore.model import Model
+from pneucore.scenario import Scenario
+from pneucore.validation import FieldError
+
+from .config import Limits
+from .jobs import JobManager
+from .store import Store
+
+
+def get_store(request: Request) -> Store:
+    return request.app.state.store
+
+
+def get_jobs(request: Request) -> JobManager:
+    return request.app.state.jobs
+
+
+def get_limits(request: Request) -> Limits:
+    return request.app.state.settings.limits
+
+
+StoreDep = Annotated[Store, Depends(get_store)]
+JobsDep = Annotated[JobManager, Depends(get_jobs)]
+LimitsDep = Annotated[Limits, Depends(get_limits)]
+
+
+class PrefixedFieldError(FieldError):
+    """A pneucore FieldError whose path is placed under a request field (e.g. ``model.``)."""
+
+
+def prefixed(exc: FieldError, prefix: str) -> FieldError:
+    path = f"{prefix}.{exc.path}" if prefix and not exc.path.startswith(prefix + ".") and \
+        exc.path != prefix else exc.path
+    return PrefixedFieldError(path, exc.detail)
+
+
+def parse_model(model_in, prefix="model") -> Model:
+    """Pydantic model -> validated pneucore Model (FieldError paths prefixed)."""
+    d = model_in.model_dump(exclude_none=True) if hasattr(model_in, "model_dump") else model_in
+    try:
+        return Model.from_dict(d)
+    except FieldError as exc:
+        raise prefixed(exc, prefix) from None
+
+
+def parse_scenario(scen_in, model, limits: Limits, prefix="scenario") -> Scenario:
+    """Pydantic scenario -> validated Scenario within the API limits."""
+    d = scen_in.plain() if hasattr(scen_in, "plain") else dict(scen_in)
+    try:
+        scen = Scenario.from_dict(d, model)
+    except FieldError as exc:
+        raise prefixed(exc, prefix.rsplit(".", 1)[0] if prefix != "scenario" else "") from None
+    check_scenario_limits(scen, limits, prefix)
+    return scen
+
+
+def check_scenario_limits(scen, limits: Limits, prefix="scenario"):
+    if scen.duration > limits.max_duration:
+        raise FieldError(f"{prefix}.duration", f"{scen.duration:g} s exceeds the API limit of "
+                                              f"{limits.max_duration:g} s")
+    n = scen.duration / scen.sample_period + 1
+    if n > limits.max_samples:
+        raise FieldError(f"{prefix}.sample_period", f"{n:.0f} samples exceed the API limit of "
+                                                   f"{limits.max_samples}")
+    if len(scen.command) > limits.max_command_points:
+        raise FieldError(f"{prefix}.command", f"{len(scen.command)} breakpoints exceed the API limit "
+                                             f"of {limits.max_command_points}")
+    scen.solver.max_steps = min(scen.solver.max_steps, limits.max_steps)
+
+
+def parse_experiments(exps_in, model: Model, store: Store, limits: Limits):
+    """Pydantic experiments -> pneucore Experiments (datasets resolved), within limits."""
+    if len(exps_in) == 0:
+        raise FieldError("experiments", "at least one experiment is required")
+    if len(exps_in) > limits.max_experiments:
+        raise FieldError("experiments", f"{len(exps_in)} experiments exceed the API limit of "
+                                        f"{limits.max_experiments}")
+    raw = []
+    for i, e in enumerate(exps_in):
+        d = e.model_dump(exclude_none=True) if hasattr(e, "model_dump") else dict(e)
+        if "measurement" in d:
+            d["measurement"] = {k: v for k, v in d["measurement"].items()}
+        if d.get("dataset_id") is not None and d.get("scenario") is None:
+            info = store.dataset_info(d["dataset_id"])
+            if info is not None:
+                d["scenario"] = info["scenario"]
+            if info is not None and not d.get("name"):
+                d["name"] = info["name"]
+        raw.append(d)
+    exps = as_experiments(raw, model.ambient.pressure, datasets=store.measurement)
+    total = sum(e.measurement.n for e in exps)
+    if total > limits.max_analysis_samples:
+        raise FieldError("experiments", f"{total} measured samples exceed the API limit of "
+                                        f"{limits.max_analysis_samples}")
+    for i, e in enumerate(exps):
+        try:
+            scen = e.scenario_for(e.model_for(model))
+        except FieldError as exc:
+            raise prefixed(exc, f"experiments[{i}]") from None
+        check_scenario_limits(scen, limits, f"experiments[{i}].scenario")
+    return exps
+
+
+def not_found(what, key):
+    return HTTPException(status_code=404, detail=f"{what} {key!r} not found")

@@ -1,0 +1,91 @@
+"""Background jobs for long work (diagnosis, calibration): id, progress, result, time limit."""
+from __future__ import annotations
+
+import threading
+import time
+import traceback
+import uuid
+from concurrent.futures import ThreadPoolExecutor
+
+
+class JobTimeout(RuntimeError):
+    """The job ran past its wall-time limit."""
+
+
+class Job:
+    def __init__(self, kind, time_limit):
+        self.id = uuid.uuid4().hex[:12]
+        self.kind = kind
+        self.status = "queued"
+        self.progress = 0.0
+        self.step = "queued"
+        self.result = None
+        self.error = None
+        self.created = time.time()
+        self.started = None
+        self.finished = None
+        self.time_limit = time_limit
+
+    def report(self, fraction, step):
+        """Progress callback handed to pneucore; also enforces the time limit."""
+        self.progress = float(max(self.progress, min(fraction, 1.0)))
+        self.step = step
+        if self.started and time.time() - self.started > self.time_limit:
+            raise JobTimeout(f"the {self.kind} job exceeded its time limit of {self.time_limit:g} s "
+                             f"(at step: {step})")
+
+    def to_dict(self, with_result=True):
+        d = {"id": self.id, "kind": self.kind, "status": self.status, "progress": self.progress,
+             "step": self.step, "error": self.error, "created": self.created,
+             "started": self.started, "finished": self.finished}
+        if with_result:
+            d["result"] = self.result
+        return d
+
+
+class JobManager:
+    """Runs jobs on a small thread pool (the compiled core releases the GIL)."""
+
+    def __init__(self, workers=1, max_jobs=16, time_limit=300.0):
+        self.pool = ThreadPoolExecutor(workers, thread_name_prefix="pneucore-job")
+        self.jobs = {}
+        self.max_jobs = max_jobs
+        self.time_limit = time_limit
+        self._lock = threading.Lock()
+
+    def active(self):
+        return sum(1 for j in self.jobs.values() if j.status in ("queued", "running"))
+
+    def submit(self, kind, fn):
+        """Queue ``fn(job)``; returns the job. Raises RuntimeError when the queue is full."""
+        with self._lock:
+            if self.active() >= self.max_jobs:
+                raise RuntimeError(f"too many jobs queued or running (limit {self.max_jobs})")
+            job = Job(kind, self.time_limit)
+            self.jobs[job.id] = job
+
+        def run():
+            job.status = "running"
+            job.started = time.time()
+            job.step = "started"
+            try:
+                job.result = fn(job)
+                job.status = "done"
+                job.progress = 1.0
+                job.step = "done"
+            except Exception as exc:  # the job reports its error; the server keeps going
+                job.status = "error"
+                job.error = str(exc) if not isinstance(exc, (KeyError,)) else repr(exc)
+                job.step = "failed"
+                job.trace = traceback.format_exc(limit=3)
+            finally:
+                job.finished = time.time()
+
+        self.pool.submit(run)
+        return job
+
+    def get(self, jid):
+        return self.jobs.get(jid)
+
+    def shutdown(self):
+        self.pool.shutdown(wait=False, cancel_futures=True)

@@ -1,0 +1,144 @@
+"""Build the FastAPI app: routers, error handlers, the page and its local plotly.js.
+
+Run with ``python -m app`` (or ``uvicorn app.main:app``); the SQLite file is
+``$PNEUCORE_DB`` (default ``./pneucore.sqlite3``).
+"""
+from __future__ import annotations
+
+import os
+import re
+from contextlib import asynccontextmanager
+from pathlib import Path
+
+import plotly
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import FileResponse, JSONResponse, RedirectResponse
+from fastapi.staticfiles import StaticFiles
+
+from pneucore.measurement import MeasurementError
+from pneucore.simulate import SimulationError
+from pneucore.validation import FieldError
+
+from .config import Settings
+from .jobs import JobManager, JobTimeout
+from .routers import analysis, datasets, effects, jobs, presets, sessions, simulate
+from .store import Store
+
+STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
+PLOTLY_JS = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
+
+
+def _loc(path: str):
+    out = ["body"]
+    for part in path.split("."):
+        m = re.fullmatch(r"([^\[\]]*)((?:\[\d+\])*)", part)
+        if not m:
+            out.append(part)
+            continue
+        if m.group(1):
+            out.append(m.group(1))
+        out += [int(i) for i in re.findall(r"\[(\d+)\]", m.group(2))]
+    return out
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    settings = settings or Settings()
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI):
+        store = Store(settings.db_path)
+        if settings.seed_samples:
+            store.seed_samples()
+        app.state.store = store
+        app.state.jobs = JobManager(workers=1, max_jobs=settings.limits.max_jobs,
+                                    time_limit=settings.limits.job_time_limit)
+        yield
+        app.state.jobs.shutdown()
+        store.close()
+
+    app = FastAPI(title="pneucore", version="0.1.0", lifespan=lifespan,
+                  description="Design and validation tool for pneumatic actuators (Maré, Geider & "
+                              "Colin model): simulate, compare with measurements, diagnose the "
+                              "missing physics, calibrate. SI units, absolute pressures.")
+    app.state.settings = settings
+
+    @app.exception_handler(FieldError)
+    async def field_error(request: Request, exc: FieldError):
+        return JSONResponse(status_code=422, content={"detail": [
+            {"loc": _loc(exc.path), "msg": exc.detail, "type": "value_error", "field": exc.path}]})
+
+    @app.exception_handler(MeasurementError)
+    async def measurement_error(request: Request, exc: MeasurementError):
+        loc = ["body", "measurement"] + ([exc.column] if exc.column else []) + \
+              ([exc.row] if exc.row is not None else [])
+        return JSONResponse(status_code=422, content={"detail": [
+            {"loc": loc, "msg": str(exc), "type": "measurement_error", "column": exc.column,
+             "row": exc.row}]})
+
+    @app.exception_handler(SimulationError)
+    async def simulation_error(request: Request, exc: SimulationError):
+        return JSONResponse(status_code=422, content={"detail": [
+            {"loc": ["body", "scenario", "solver"], "msg": str(exc), "type": "simulation_error"}]})
+
+    @app.exception_handler(JobTimeout)
+    async def timeout_error(request: Request, exc: JobTimeout):
+        return JSONResponse(status_code=504, content={"detail": str(exc)})
+
+    @app.exception_handler(RequestValidationError)
+    async def validation_error(request: Request, exc: RequestValidationError):
+        errs = []
+        for e in exc.errors():
+            e = {k: v for k, v in e.items() if k in ("loc", "msg", "type")}
+            e["field"] = ".".join(str(p) for p in e["loc"][1:])
+            errs.append(e)
+        return JSONResponse(status_code=422, content={"detail": errs})
+
+    @app.exception_handler(ValueError)
+    async def value_error(request: Request, exc: ValueError):
+        return JSONResponse(status_code=422, content={"detail": [
+            {"loc": ["body"], "msg": str(exc), "type": "value_error"}]})
+
+    @app.exception_handler(Exception)
+    async def unexpected(request: Request, exc: Exception):
+        return JSONResponse(status_code=500, content={"detail": f"internal error: {type(exc).__name__}: {exc}"})
+
+    for r in (presets, effects, simulate, analysis, datasets, sessions, jobs):
+        app.include_router(r.router)
+
+    @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits")
+    def limits():
+        return settings.limits.to_dict()
+
+    @app.get("/api/samples", tags=["meta"], summary="Sample datasets shipped with the tool")
+    def samples():
+        from pneucore.samples import list_samples
+        return list_samples()
+
+    @app.get("/", include_in_schema=False)
+    def index():
+        return FileResponse(STATIC_DIR / "index.html")
+
+    @app.get("/static/plotly.min.js", include_in_schema=False)
+    def plotly_js():
+        return FileResponse(PLOTLY_JS, media_type="application/javascript")
+
+    if STATIC_DIR.exists():
+        app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
+    return app
+
+
+app = create_app()
+
+
+def main():
+    """Start the service: ``python -m app [--host H] [--port P]``."""
+    import argparse
+
+    import uvicorn
+    p = argparse.ArgumentParser(description="pneucore web service")
+    p.add_argument("--host", default=os.environ.get("PNEUCORE_HOST", "127.0.0.1"))
+    p.add_argument("--port", type=int, default=int(os.environ.get("PNEUCORE_PORT", "8000")))
+    a = p.parse_args()
+    print(f"pneucore: open http://{a.host}:{a.port}/  (database {Settings().db_path})")
+    uvicorn.run("app.main:app", host=a.host, port=a.port, workers=1)

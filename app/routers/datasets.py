@@ -1,0 +1,118 @@
+"""Datasets: POST (CSV upload, multipart or text/csv, or JSON), GET list, GET one, DELETE."""
+import json
+
+from fastapi import APIRouter, HTTPException, Request
+from ..responses import JSON
+from pydantic import ValidationError
+
+from pneucore.measurement import Measurement, MeasurementError, read_csv
+from pneucore.validation import FieldError
+
+from ..deps import LimitsDep, StoreDep, not_found
+from ..schemas import DatasetJsonIn
+
+router = APIRouter(prefix="/api/datasets", tags=["datasets"])
+
+_UPLOAD_DOC = {
+    "requestBody": {"content": {
+        "multipart/form-data": {"schema": {"type": "object", "properties": {
+            "file": {"type": "string", "format": "binary",
+                     "description": "CSV: t[s], u[-], p_a[bar|kPa|Pa|barg...], p_b, x[mm|m], v, T_a[degC|K], T_b"},
+            "name": {"type": "string"}, "description": {"type": "string"},
+            "locked": {"type": "boolean", "description": "Piston locked during the test [-]"},
+            "x0": {"type": "number", "description": "Initial position [m]"},
+            "scenario": {"type": "string", "description": "Scenario context as JSON text"}}}},
+        "text/csv": {"schema": {"type": "string"}},
+        "application/json": {"schema": DatasetJsonIn.model_json_schema()}}}}
+
+
+async def _read_limited(request: Request, limit: int) -> bytes:
+    declared = request.headers.get("content-length")
+    if declared is not None and declared.isdigit() and int(declared) > limit:
+        raise HTTPException(413, f"upload of {int(declared)} bytes exceeds the limit of {limit} bytes")
+    body = bytearray()
+    async for chunk in request.stream():
+        body += chunk
+        if len(body) > limit:
+            raise HTTPException(413, f"upload exceeds the limit of {limit} bytes")
+    return bytes(body)
+
+
+def _context(fields):
+    scen = {}
+    if fields.get("scenario"):
+        try:
+            scen = json.loads(fields["scenario"])
+        except json.JSONDecodeError as exc:
+            raise FieldError("scenario", f"is not valid JSON ({exc})") from None
+        if not isinstance(scen, dict):
+            raise FieldError("scenario", "must be a JSON object")
+    if fields.get("locked") not in (None, ""):
+        scen["locked"] = str(fields["locked"]).lower() in ("1", "true", "yes", "on")
+    if fields.get("x0") not in (None, ""):
+        try:
+            scen["x0"] = float(fields["x0"])
+        except ValueError:
+            raise FieldError("x0", f"must be a number, got {fields['x0']!r}") from None
+    return scen
+
+
+@router.post("", status_code=201, summary="Store a measurement (CSV upload or JSON)",
+             openapi_extra=_UPLOAD_DOC)
+async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
+    ctype = request.headers.get("content-type", "")
+    body = await _read_limited(request, limits.max_upload_bytes)
+    if ctype.startswith("multipart/form-data"):
+        from starlette.datastructures import UploadFile
+        from starlette.formparsers import MultiPartParser
+
+        async def stream():
+            yield body
+        parser = MultiPartParser(request.headers, stream(), max_part_size=limits.max_upload_bytes)
+        form = await parser.parse()
+        upload = form.get("file")
+        if not isinstance(upload, UploadFile):
+            raise FieldError("file", "a CSV file field named 'file' is required")
+        text = (await upload.read()).decode("utf-8-sig", errors="replace")
+        fields = {k: v for k, v in form.items() if not isinstance(v, UploadFile)}
+        name = fields.get("name") or (upload.filename or "upload").rsplit(".", 1)[0]
+        meas = read_csv(text if "\n" in text else text + "\n", name=name)
+        info = store.add_dataset(meas, _context(fields), name=name,
+                                 description=fields.get("description", ""))
+    elif ctype.startswith("text/csv") or ctype.startswith("text/plain"):
+        text = body.decode("utf-8-sig", errors="replace")
+        meas = read_csv(text if "\n" in text else text + "\n", name=request.query_params.get("name"))
+        info = store.add_dataset(meas, _context(dict(request.query_params)),
+                                 name=request.query_params.get("name"))
+    else:
+        try:
+            payload = DatasetJsonIn.model_validate_json(body)
+        except ValidationError as exc:
+            from fastapi.exceptions import RequestValidationError
+            raise RequestValidationError([{**e, "loc": ("body",) + tuple(e["loc"])} for e in exc.errors()])
+        try:
+            meas = Measurement.from_dict(payload.measurement.model_dump())
+        except MeasurementError as exc:
+            raise FieldError("measurement", str(exc)) from None
+        info = store.add_dataset(meas, payload.scenario, name=payload.name or meas.name,
+                                 description=payload.description)
+    return info
+
+
+@router.get("", summary="List stored datasets (metadata only)")
+def list_datasets(store: StoreDep):
+    return store.list_datasets()
+
+
+@router.get("/{dataset_id}", summary="One dataset with its samples", response_class=JSON)
+def get_dataset(dataset_id: str, store: StoreDep):
+    info = store.dataset_info(dataset_id)
+    if info is None:
+        raise not_found("dataset", dataset_id)
+    return JSON({**info, "measurement": store.dataset_data(dataset_id)})
+
+
+@router.delete("/{dataset_id}", status_code=204, summary="Delete a dataset")
+def delete_dataset(dataset_id: str, store: StoreDep):
+    if not store.delete_dataset(dataset_id):
+        raise not_found("dataset", dataset_id)

@@ -1,0 +1,11 @@
+"""GET /api/effects: the effect catalog with parameters, units, bounds and descriptions."""
+from fastapi import APIRouter
+
+from pneucore.effects import EFFECTS
+
+router = APIRouter(prefix="/api/effects", tags=["effects"])
+
+
+@router.get("", summary="The catalog of switchable physical effects")
+def list_effects():
+    return [e.to_dict() for e in EFFECTS.values()]

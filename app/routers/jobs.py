@@ -1,0 +1,53 @@
+"""Long work as jobs: POST /api/jobs/{diagnose|calibrate|compare} -> id; GET /api/jobs/{id}."""
+from fastapi import APIRouter, HTTPException
+from ..responses import JSON
+
+from ..deps import JobsDep, LimitsDep, StoreDep, not_found, parse_experiments, parse_model
+from ..schemas import CalibrateRequest, CompareRequest, DiagnoseRequest, JobResponse
+from .analysis import run_calibrate, run_compare, run_diagnose
+
+router = APIRouter(prefix="/api/jobs", tags=["jobs"])
+
+
+def _submit(jobs, kind, fn):
+    try:
+        job = jobs.submit(kind, fn)
+    except RuntimeError as exc:
+        raise HTTPException(429, str(exc)) from None
+    return job.to_dict(with_result=False)
+
+
+@router.post("/diagnose", status_code=202, response_model=JobResponse, summary="Diagnose as a job")
+def diagnose_job(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep):
+    # validate up front so bad input is a 422 now, not a failed job later
+    parse_experiments(req.experiments, parse_model(req.model), store, limits)
+    return _submit(jobs, "diagnose", lambda job: run_diagnose(req, store, limits, progress=job.report))
+
+
+@router.post("/calibrate", status_code=202, response_model=JobResponse, summary="Calibrate as a job")
+def calibrate_job(req: CalibrateRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep):
+    parse_experiments(req.experiments, parse_model(req.model), store, limits)
+
+    def run(job):
+        job.report(0.05, "calibrating")
+        return run_calibrate(req, store, limits)
+    return _submit(jobs, "calibrate", run)
+
+
+@router.post("/compare", status_code=202, response_model=JobResponse, summary="Compare as a job")
+def compare_job(req: CompareRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep):
+    parse_experiments(req.experiments, parse_model(req.model), store, limits)
+
+    def run(job):
+        job.report(0.05, "simulating experiments")
+        return run_compare(req, store, limits)
+    return _submit(jobs, "compare", run)
+
+
+@router.get("/{job_id}", response_model=JobResponse, summary="Job progress and result",
+            response_class=JSON)
+def get_job(job_id: str, jobs: JobsDep):
+    job = jobs.get(job_id)
+    if job is None:
+        raise not_found("job", job_id)
+    return JSON(job.to_dict())

@@ -1,0 +1,24 @@
+"""GET /api/presets, /api/presets/{name}: model and scenario presets as plain JSON."""
+from fastapi import APIRouter
+
+from pneucore.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
+
+from ..deps import not_found
+
+router = APIRouter(prefix="/api/presets", tags=["presets"])
+
+
+@router.get("", summary="List the model and scenario presets")
+def list_presets():
+    return {"models": [{"name": k, "description": v.get("description", "")} for k, v in MODEL_PRESETS.items()],
+            "scenarios": [{"name": k, "description": v.get("description", "")}
+                          for k, v in SCENARIO_PRESETS.items()]}
+
+
+@router.get("/{name}", summary="A preset's JSON (model or scenario)")
+def get_preset(name: str):
+    if name in MODEL_PRESETS:
+        return model_preset(name)
+    if name in SCENARIO_PRESETS:
+        return scenario_preset(name)
+    raise not_found("preset", name)

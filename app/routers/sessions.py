@@ -1,0 +1,62 @@
+"""Refinement sessions: model versions with their errors, so work can be resumed."""
+from fastapi import APIRouter
+
+from pneucore.compare import compare
+
+from ..deps import LimitsDep, StoreDep, not_found, parse_experiments, parse_model
+from ..schemas import SessionCreate, VersionCreate
+
+router = APIRouter(prefix="/api/sessions", tags=["sessions"])
+
+
+def _errors(model, experiments, store, limits):
+    if not experiments:
+        return {}, None
+    exps = parse_experiments(experiments, model, store, limits)
+    c = compare(model, exps)
+    return c.errors, c.overall
+
+
+@router.post("", status_code=201, summary="Start a refinement session (version 0 = the given model)")
+def create_session(req: SessionCreate, store: StoreDep, limits: LimitsDep):
+    model = parse_model(req.model)
+    errors, overall = _errors(model, req.experiments, store, limits)
+    exps = [e.model_dump(exclude_none=True) for e in req.experiments]
+    sid = store.create_session(req.name, exps)
+    store.add_version(sid, "base", model.to_dict(), errors, overall)
+    return store.session(sid)
+
+
+@router.get("", summary="List sessions")
+def list_sessions(store: StoreDep):
+    return store.list_sessions()
+
+
+@router.get("/{session_id}", summary="A session with all its versions")
+def get_session(session_id: str, store: StoreDep):
+    s = store.session(session_id)
+    if s is None:
+        raise not_found("session", session_id)
+    return s
+
+
+@router.post("/{session_id}/versions", status_code=201,
+             summary="Add a model version (errors recomputed on the session's experiments)")
+def add_version(session_id: str, req: VersionCreate, store: StoreDep, limits: LimitsDep):
+    s = store.session(session_id)
+    if s is None:
+        raise not_found("session", session_id)
+    model = parse_model(req.model)
+    from ..schemas import ExperimentIn
+    exps = [ExperimentIn(**e) for e in s["experiments"]]
+    errors, overall = _errors(model, exps, store, limits)
+    label = f"+ {req.added}" if req.added else f"version {len(s['versions'])}"
+    store.add_version(session_id, label, model.to_dict(), errors, overall, req.added, req.params,
+                      req.note)
+    return store.session(session_id)
+
+
+@router.delete("/{session_id}", status_code=204, summary="Delete a session")
+def delete_session(session_id: str, store: StoreDep):
+    if not store.delete_session(session_id):
+        raise not_found("session", session_id)

@@ -1,0 +1,53 @@
+"""POST /api/simulate and /api/simulate/heat-models."""
+from fastapi import APIRouter
+from ..responses import JSON
+
+from pneucore.simulate import simulate
+from pneucore.validation import FieldError
+
+from ..deps import LimitsDep, parse_model, parse_scenario
+from ..schemas import HeatModelsRequest, SimulateRequest, SimulateResponse
+
+router = APIRouter(prefix="/api/simulate", tags=["simulate"])
+
+#: Series returned by default (everything the page plots)
+DEFAULT_SERIES = ("t", "u", "p_a", "p_b", "T_a", "T_b", "m_a", "m_b", "x", "v", "a", "q_a", "q_b",
+                  "friction", "mode", "u_eff", "p_supply", "q_supply", "net_force")
+
+
+def _result(res, series):
+    names = [s for s in (series or DEFAULT_SERIES) if s in res.series]
+    if series:
+        unknown = [s for s in series if s not in res.series]
+        if unknown:
+            raise FieldError("series", f"unknown series {unknown}; available: {sorted(res.series)}")
+    d = res.to_dict(series=names)
+    d.pop("model", None)
+    d.pop("scenario", None)
+    return d
+
+
+@router.post("", response_model=SimulateResponse, summary="Simulate a model on a scenario",
+             response_class=JSON)
+def simulate_endpoint(req: SimulateRequest, limits: LimitsDep):
+    model = parse_model(req.model)
+    scen = parse_scenario(req.scenario, model, limits)
+    res = simulate(model, scen)
+    return JSON(_result(res, req.series))
+
+
+@router.post("/heat-models", summary="One scenario under several heat models (paper Fig. 8, 11)",
+             response_class=JSON)
+def heat_models_endpoint(req: HeatModelsRequest, limits: LimitsDep):
+    from pneucore.heat import HEAT_MODELS
+    model = parse_model(req.model)
+    scen = parse_scenario(req.scenario, model, limits)
+    out = {}
+    for i, name in enumerate(req.heat_models):
+        if name not in HEAT_MODELS:
+            raise FieldError(f"heat_models[{i}]", f"unknown heat model; expected one of {sorted(HEAT_MODELS)}")
+        m = model.copy()
+        m.heat.model = name
+        m.effects.pop("heat_exchange", None)
+        out[name] = _result(simulate(m, scen), req.series)
+    return JSON({"runs": out})
