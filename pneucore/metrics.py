@@ -154,7 +154,7 @@ def describe_window(signal, t0, t1, cmd_phase, piston, p_trend=None, x_trend=Non
             parts.append(f"chamber {ch} expanding")
         else:
             parts.append(f"chamber {ch} steady")
-    if signal in ("x", "v") and x_trend is not None and piston == "piston moving":
+    if x_trend is not None and piston == "piston moving":
         piston = "piston extending" if x_trend > 0 else "piston retracting"
     parts.append(piston)
     return ", ".join(parts)
