@@ -24,24 +24,30 @@ def diagnose_job(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep, jobs:
     return _submit(jobs, "diagnose", lambda job: run_diagnose(req, store, limits, progress=job.report))
 
 
+def _simple(kind, step, runner):
+    """A job that validates its request up front, then runs ``runner`` in one step."""
+    def endpoint(req, store, limits, jobs):
+        parse_experiments(req.experiments, parse_model(req.model), store, limits)
+
+        def run(job):
+            job.report(0.05, step)
+            return runner(req, store, limits)
+        return _submit(jobs, kind, run)
+    return endpoint
+
+
+_calibrate = _simple("calibrate", "calibrating", run_calibrate)
+_compare = _simple("compare", "simulating experiments", run_compare)
+
+
 @router.post("/calibrate", status_code=202, response_model=JobResponse, summary="Calibrate as a job")
 def calibrate_job(req: CalibrateRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep):
-    parse_experiments(req.experiments, parse_model(req.model), store, limits)
-
-    def run(job):
-        job.report(0.05, "calibrating")
-        return run_calibrate(req, store, limits)
-    return _submit(jobs, "calibrate", run)
+    return _calibrate(req, store, limits, jobs)
 
 
 @router.post("/compare", status_code=202, response_model=JobResponse, summary="Compare as a job")
 def compare_job(req: CompareRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep):
-    parse_experiments(req.experiments, parse_model(req.model), store, limits)
-
-    def run(job):
-        job.report(0.05, "simulating experiments")
-        return run_compare(req, store, limits)
-    return _submit(jobs, "compare", run)
+    return _compare(req, store, limits, jobs)
 
 
 @router.get("/{job_id}", response_model=JobResponse, summary="Job progress and result",
