@@ -74,7 +74,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
               ([exc.row] if exc.row is not None else [])
         return JSONResponse(status_code=422, content={"detail": [
             {"loc": loc, "msg": str(exc), "type": "measurement_error", "column": exc.column,
-             "row": exc.row}]})
+             "row": exc.row, "field": "measurement" + (f".{exc.column}" if exc.column else "")}]})
 
     @app.exception_handler(SimulationError)
     async def simulation_error(request: Request, exc: SimulationError):
@@ -90,7 +90,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         errs = []
         for e in exc.errors():
             e = {k: v for k, v in e.items() if k in ("loc", "msg", "type")}
-            e["field"] = ".".join(str(p) for p in e["loc"][1:])
+            field = ""
+            for p in e["loc"][1:]:
+                field += f"[{p}]" if isinstance(p, int) else (f".{p}" if field else str(p))
+            e["field"] = field   # same notation as pneucore's paths: experiments[0].scenario.x0
             errs.append(e)
         return JSONResponse(status_code=422, content={"detail": errs})
 

@@ -130,6 +130,7 @@ class Comparison:
             for e in d["experiments"]:
                 e.pop("residuals", None)
                 e.pop("simulated", None)
+                e.pop("measured", None)
         if self.heat_models:
             d["heat_models"] = self.heat_models
         return _plain(d)
@@ -162,12 +163,14 @@ def summarise(replays, n_windows=5):
                             n_windows=n_windows, experiment=rp.experiment.name)
         windows += win
         exps.append({
-            "name": rp.experiment.name, "errors": errs, "overall": _overall(errs),
+            "name": rp.experiment.name, "dataset_id": rp.experiment.dataset_id,
+            "errors": errs, "overall": _overall(errs),
             "status": rp.result.message,
             "phases": {s: phase_errors(rp.measured[s], rp.simulated[s], rp.cmd_labels)
                        for s in rp.measured},
             "t": rp.t, "residuals": {s: rp.simulated[s] - rp.measured[s] for s in rp.measured},
             "simulated": {s: rp.simulated[s] for s in rp.measured},
+            "measured": {s: rp.measured[s] for s in rp.measured},
             "mode": rp.result.mode.tolist(),
             "events": rp.result.events,
         })

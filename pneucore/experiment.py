@@ -48,6 +48,7 @@ class Experiment:
     name: str = ""
     load_force: Optional[float] = None
     supply_pressure: Optional[float] = None
+    dataset_id: Optional[str] = None
 
     @classmethod
     def from_dict(cls, d, path="experiment", ambient_pressure=101300.0, datasets=None):
@@ -76,7 +77,8 @@ class Experiment:
         scen = dict(mapping(d.get("scenario") or {}, f"{path}.scenario"))
         load = number(d.get("load_force"), f"{path}.load_force", allow_none=True)
         sup = number(d.get("supply_pressure"), f"{path}.supply_pressure", positive=True, allow_none=True)
-        return cls(meas, scen, str(d.get("name") or meas.name or ""), load, sup)
+        return cls(meas, scen, str(d.get("name") or meas.name or ""), load, sup,
+                   d.get("dataset_id") if d.get("measurement") is None else None)
 
     def to_dict(self):
         return {"name": self.name, "scenario": copy.deepcopy(self.scenario),

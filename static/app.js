@@ -1,0 +1,1184 @@
+/* pneucore page: vanilla JS, no build step. Talks to the REST API of app/ (SI units, absolute pressures).
+ *
+ * State lives in `S`: the current model and scenario as the API's JSON (every field the page
+ * does not show is kept untouched), the effect catalog, the datasets, the last results and the
+ * refinement session. Inputs carry `data-field` (the API's dotted path, e.g. model.jack.rod_a)
+ * and `data-scale` (SI value = displayed value x scale), so 422 errors land next to their field.
+ */
+'use strict';
+
+const $ = (sel, root = document) => root.querySelector(sel);
+const $$ = (sel, root = document) => Array.from(root.querySelectorAll(sel));
+const SESSION_KEY = 'pneucore.session';
+const P_ATM_DEFAULT = 101300;
+const BAR = 1e5;
+const C_UNITS = {
+  dm3: { label: 'dm³/(s bar)', scale: 1e-8 },   // 1 dm^3/(s bar) = 1e-3 m^3 / (s 1e5 Pa)
+  si: { label: 'm³/(s Pa)', scale: 1 },
+};
+const EDGE_COLORS = { 'P-A': '#1f77b4', 'A-R': '#ff7f0e', 'P-B': '#2ca02c', 'B-R': '#d62728' };
+const HEAT_COLORS = { isothermal: '#1f77b4', adiabatic: '#d62728', convective: '#2ca02c' };
+const SIGNAL_LABELS = {
+  p_a: 'p_a', p_b: 'p_b', x: 'x', v: 'v', T_a: 'T_a', T_b: 'T_b', overall: 'overall',
+};
+const FRICTION_COEFFS = [
+  ['fc0', 'Coulomb force fc0', 'N'],
+  ['fc_a', 'Coulomb per gauge p_a, fc_a', 'N/Pa'],
+  ['fc_b', 'Coulomb per gauge p_b, fc_b', 'N/Pa'],
+  ['kv0', 'Viscous coefficient kv0', 'N s/m'],
+  ['kv_a', 'Viscous per gauge p_a, kv_a', 'N s/(m Pa)'],
+  ['kv_b', 'Viscous per gauge p_b, kv_b', 'N s/(m Pa)'],
+];
+const PLOT_CONFIG = { responsive: true, displaylogo: false, modeBarButtonsToRemove: ['lasso2d', 'select2d'] };
+
+const S = {
+  presets: { models: [], scenarios: [] },
+  model: null,
+  scenario: null,
+  effects: [],
+  datasets: [],
+  experiments: [],        // [{dataset_id}] currently selected
+  sim: null,
+  heatRuns: null,
+  compare: null,
+  measured: {},           // dataset id -> measurement {t, u, p_a, ...} (SI)
+  session: null,
+  diag: null,
+  cUnit: 'dm3',
+  runs: 0,                // simulations plotted (exposed as #panel-plots[data-runs])
+};
+
+/* ------------------------------------------------------------------ helpers */
+function clone(x) { return x == null ? x : JSON.parse(JSON.stringify(x)); }
+function esc(s) {
+  return String(s).replace(/[&<>"']/g, (c) => ({ '&': '&amp;', '<': '&lt;', '>': '&gt;', '"': '&quot;', "'": '&#39;' }[c]));
+}
+function num(x, digits = 4) {
+  if (x === null || x === undefined || Number.isNaN(x)) return '–';
+  if (typeof x !== 'number') return String(x);
+  if (x === 0) return '0';
+  const a = Math.abs(x);
+  if (a >= 1e5 || a < 1e-3) return x.toExponential(Math.max(digits - 1, 1)).replace('e+', 'e');
+  return String(+x.toPrecision(digits));
+}
+function pct(x, digits = 2) {
+  if (x === null || x === undefined || Number.isNaN(x)) return '–';
+  return (x * 100).toFixed(digits);
+}
+function pval(p) {
+  if (p === null || p === undefined) return '–';
+  if (p === 0) return '< 1e-16';
+  return p < 1e-3 ? p.toExponential(1) : p.toFixed(3);
+}
+function displayValue(si, scale) {
+  if (si === null || si === undefined || si === '') return '';
+  if (typeof si !== 'number') return String(si);
+  return String(+(si / scale).toPrecision(8));
+}
+function parsePath(path) {
+  // "model.valve.ports.P-A.C[2]" -> ["model","valve","ports","P-A","C",2]
+  const out = [];
+  for (const part of String(path).split('.')) {
+    const m = part.match(/^([^\[\]]*)((?:\[\d+\])*)$/);
+    if (!m) { out.push(part); continue; }
+    if (m[1]) out.push(m[1]);
+    for (const i of m[2].matchAll(/\[(\d+)\]/g)) out.push(Number(i[1]));
+  }
+  return out;
+}
+function normField(path) { return parsePath(path).join('.'); }
+function getPath(root, parts) {
+  let o = root;
+  for (const p of parts) { if (o == null) return undefined; o = o[p]; }
+  return o;
+}
+function setPath(root, parts, value) {
+  let o = root;
+  for (let i = 0; i < parts.length - 1; i++) {
+    if (o[parts[i]] == null || typeof o[parts[i]] !== 'object') o[parts[i]] = typeof parts[i + 1] === 'number' ? [] : {};
+    o = o[parts[i]];
+  }
+  o[parts[parts.length - 1]] = value;
+}
+function pAtm() { return (S.model && S.model.ambient && S.model.ambient.pressure) || P_ATM_DEFAULT; }
+
+/* ------------------------------------------------------------------ status and errors */
+function setStatus(msg, kind = 'info') {
+  const box = $('#status');
+  box.className = `status ${kind}`;
+  $('#status-msg').textContent = msg;
+}
+function clearErrors() {
+  $$('.field-error').forEach((e) => { e.textContent = ''; e.removeAttribute('data-error-for'); });
+  $$('.invalid').forEach((e) => { e.classList.remove('invalid'); e.removeAttribute('aria-invalid'); });
+  $('#status-errors').innerHTML = '';
+}
+function fieldElement(field) {
+  const map = new Map();
+  for (const el of $$('[data-field]')) {
+    const k = normField(el.dataset.field);
+    if (!map.has(k)) map.set(k, el);
+  }
+  const parts = parsePath(field).map(String);
+  while (parts.length) {
+    const el = map.get(parts.join('.'));
+    if (el) return el;
+    parts.pop();
+  }
+  return null;
+}
+function errorSlot(el) {
+  const holder = el.closest('.field');
+  let slot = holder ? $(':scope > .field-error', holder) : null;
+  if (!slot) {
+    slot = el.nextElementSibling && el.nextElementSibling.classList.contains('field-error') ? el.nextElementSibling : null;
+  }
+  if (!slot) {
+    slot = document.createElement('span');
+    slot.className = 'field-error';
+    slot.setAttribute('role', 'alert');
+    el.insertAdjacentElement('afterend', slot);
+  }
+  return slot;
+}
+/** Show one error next to the field whose data-field matches `field` (or its closest parent path). */
+function fieldError(field, msg) {
+  const el = fieldElement(field);
+  if (el) {
+    const slot = errorSlot(el);
+    slot.textContent = slot.textContent ? `${slot.textContent}; ${msg}` : msg;
+    if (!slot.dataset.errorFor) slot.dataset.errorFor = field;
+    if (/^(INPUT|SELECT|TEXTAREA)$/.test(el.tagName)) { el.classList.add('invalid'); el.setAttribute('aria-invalid', 'true'); }
+    if (el.closest('details')) el.closest('details').open = true;
+  }
+  const li = document.createElement('li');
+  li.innerHTML = `<code>${esc(field || 'request')}</code>: ${esc(msg)}`;
+  if (el) { li.classList.add('link'); li.addEventListener('click', () => { el.scrollIntoView({ block: 'center' }); if (el.focus) el.focus(); }); }
+  $('#status-errors').appendChild(li);
+  return el;
+}
+/** Turn an API error (422 detail list, or a detail string) into field errors + status. */
+function showApiError(err, what, fieldMap) {
+  if (!(err instanceof ApiError)) {
+    setStatus(`${what} failed: ${err.message || err}`, 'error');
+    return;
+  }
+  const detail = err.detail;
+  if (Array.isArray(detail)) {
+    for (const e of detail) {
+      let field = e.field;
+      if (field == null) {
+        const loc = Array.isArray(e.loc) ? e.loc.slice(e.loc[0] === 'body' ? 1 : 0) : [];
+        field = loc.map((p) => (typeof p === 'number' ? `[${p}]` : p)).join('.').replace(/\.\[/g, '[');
+      }
+      if (fieldMap) field = fieldMap(field, e);
+      let msg = e.msg || JSON.stringify(e);
+      if (e.type === 'measurement_error' && e.row != null) msg += ` (row ${e.row})`;
+      const bp = /^scenario\.command\[(\d+)\]/.exec(field);
+      if (bp) msg += ` (breakpoint ${Number(bp[1]) + 1})`;
+      fieldError(field, msg);
+    }
+    const n = detail.length;
+    setStatus(`${what} refused (HTTP ${err.status}): ${n} error${n === 1 ? '' : 's'}: ` +
+      detail.map((e) => e.msg).join('; '), 'error');
+  } else {
+    setStatus(`${what} failed (HTTP ${err.status}): ${typeof detail === 'string' ? detail : JSON.stringify(detail)}`, 'error');
+  }
+}
+
+/* ------------------------------------------------------------------ API */
+class ApiError extends Error {
+  constructor(status, detail) {
+    super(typeof detail === 'string' ? detail : `HTTP ${status}`);
+    this.status = status;
+    this.detail = detail;
+  }
+}
+async function api(method, path, body) {
+  const opts = { method, headers: {} };
+  if (body instanceof FormData) opts.body = body;
+  else if (body !== undefined) { opts.headers['content-type'] = 'application/json'; opts.body = JSON.stringify(body); }
+  let r;
+  try { r = await fetch(path, opts); } catch (e) { throw new Error(`network error: ${e.message}`); }
+  const text = await r.text();
+  let data = null;
+  try { data = text ? JSON.parse(text) : null; } catch (e) { data = text; }
+  if (!r.ok) throw new ApiError(r.status, data && data.detail !== undefined ? data.detail : (data || r.statusText));
+  return data;
+}
+async function busy(btn, fn) {
+  const buttons = btn ? [btn] : [];
+  buttons.forEach((b) => { b.disabled = true; b.classList.add('busy'); });
+  try { return await fn(); } finally {
+    buttons.forEach((b) => { b.disabled = b.dataset.keepDisabled === 'true'; b.classList.remove('busy'); });
+  }
+}
+
+/* ------------------------------------------------------------------ plots */
+function baseLayout(extra = {}) {
+  return Object.assign({
+    margin: { l: 64, r: 64, t: 34, b: 46 },
+    height: 270,
+    font: { family: 'system-ui, -apple-system, Segoe UI, Roboto, sans-serif', size: 12 },
+    legend: { orientation: 'h', x: 0, y: 1.02, yanchor: 'bottom', font: { size: 11 }, bgcolor: 'rgba(255,255,255,0)' },
+    hovermode: 'x',
+    paper_bgcolor: '#fff',
+    plot_bgcolor: '#fff',
+    modebar: { bgcolor: 'rgba(255,255,255,0)', color: '#9aa5b1', activecolor: '#1f6fb2' },
+  }, extra);
+}
+function axis(title, extra = {}) {
+  return Object.assign({ title: { text: title, standoff: 6 }, zeroline: false, gridcolor: '#e8ecf1', linecolor: '#9aa5b1', mirror: true, ticks: 'outside' }, extra);
+}
+function plot(id, traces, layout) {
+  const el = document.getElementById(id);
+  if (!window.Plotly) { el.textContent = 'Plotly failed to load (/static/plotly.min.js).'; return; }
+  Plotly.react(el, traces, layout, PLOT_CONFIG);
+}
+function emptyNote(text) {
+  return [{ text, xref: 'paper', yref: 'paper', x: 0.5, y: 0.5, showarrow: false, font: { color: '#8a94a0', size: 13 } }];
+}
+function eventShapes(events, yref = 'paper') {
+  const colors = { command: '#8a94a0', slip: '#2ca02c', stick: '#9467bd', stop: '#d62728', reverse: '#ff7f0e' };
+  return (events || []).map((e) => ({
+    type: 'line', xref: 'x', yref, x0: e.t, x1: e.t, y0: 0, y1: 1,
+    line: { color: colors[e.kind] || '#999', width: 1, dash: e.kind === 'command' ? 'dot' : 'dash' }, opacity: 0.6,
+  }));
+}
+function eventMarkers(events, yFn) {
+  if (!events || !events.length) return [];
+  return [{
+    x: events.map((e) => e.t), y: events.map(yFn), mode: 'markers', type: 'scatter', name: 'events',
+    marker: { symbol: 'triangle-down', size: 8, color: '#555' },
+    text: events.map((e) => `${e.kind} → ${e.mode}`), hovertemplate: 't = %{x:.4f} s<br>%{text}<extra>event</extra>',
+  }];
+}
+
+/* ------------------------------------------------------------------ model panel */
+function fieldInputs(prefix) { return $$(`[data-field^="${prefix}"]`).filter((e) => /^(INPUT|SELECT|TEXTAREA)$/.test(e.tagName)); }
+
+function renderModel() {
+  const m = S.model;
+  if (!m) return;
+  $('#model-name').textContent = m.name ? `${m.name}${m.description ? ' — ' + m.description : ''}` : '';
+  for (const el of fieldInputs('model.')) {
+    if (el.closest('#valve-tables') || el.closest('#effects-list') || el.closest('#friction-rows')) continue;
+    writeInput(el, getPath({ model: m }, parsePath(el.dataset.field)));
+  }
+  $('#valve-kind').textContent = (m.valve && m.valve.kind) || '?';
+  renderValveTables();
+  renderFriction();
+  renderEffects();
+  plotValve();
+  plotFriction();
+}
+function writeInput(el, v) {
+  if (el.type === 'checkbox') el.checked = !!v;
+  else if (el.tagName === 'SELECT') el.value = v == null ? '' : String(v);
+  else el.value = displayValue(v, Number(el.dataset.scale || 1));
+}
+function readInput(el) {
+  if (el.type === 'checkbox') return el.checked;
+  if (el.tagName === 'SELECT') return el.value;
+  const raw = el.value.trim();
+  if (raw === '') return null;
+  const v = Number(raw);
+  if (!Number.isFinite(v)) return raw;  // let the API name the problem next to the field
+  const scale = Number(el.dataset.scale || 1);
+  return scale === 1 ? v : +(v * scale).toPrecision(12);
+}
+function onModelInput(ev) {
+  const el = ev.target;
+  if (!el.dataset || !el.dataset.field || !el.dataset.field.startsWith('model.')) return;
+  const parts = parsePath(el.dataset.field).slice(1);
+  setPath(S.model, parts, readInput(el));
+  clearFieldError(el);
+  plotValve();
+  plotFriction();
+}
+function clearFieldError(el) {
+  el.classList.remove('invalid');
+  el.removeAttribute('aria-invalid');
+  const holder = el.closest('.field');
+  const slot = holder && $(':scope > .field-error', holder);
+  if (slot && !$$('.invalid', holder).length) { slot.textContent = ''; slot.removeAttribute('data-error-for'); }
+}
+
+function renderValveTables() {
+  const box = $('#valve-tables');
+  const ports = (S.model.valve && S.model.valve.ports) || {};
+  const cu = C_UNITS[S.cUnit];
+  box.innerHTML = '';
+  for (const [edge, t] of Object.entries(ports)) {
+    const div = document.createElement('div');
+    div.className = 'edge field';
+    div.dataset.field = `model.valve.ports.${edge}`;
+    div.id = `edge-${edge}`;
+    const rows = (t.opening || []).map((_, i) => {
+      const cell = (col, scale, unit) => {
+        const id = `edge-${edge}-${col}-${i}`;
+        const v = t[col] ? t[col][i] : null;
+        return `<td><label class="sr-only" for="${id}">${edge} ${col} row ${i + 1} [${unit}]</label>` +
+          `<input id="${id}" type="number" step="any" data-field="model.valve.ports.${edge}.${col}[${i}]" data-scale="${scale}" value="${esc(displayValue(v, scale))}"></td>`;
+      };
+      return `<tr>${cell('opening', 1, '-')}${cell('C', cu.scale, cu.label)}${cell('b', 1, '-')}` +
+        `<td><button type="button" class="icon del-row" data-edge="${edge}" data-row="${i}" title="Remove row ${i + 1}" aria-label="Remove row ${i + 1} of ${edge}">×</button></td></tr>`;
+    }).join('');
+    div.innerHTML = `<div class="edge-head"><span class="swatch" style="background:${EDGE_COLORS[edge] || '#555'}"></span><b>${esc(edge)}</b>` +
+      `<button type="button" class="icon add-row" data-edge="${edge}" title="Add a row" aria-label="Add a row to ${edge}">+ row</button></div>` +
+      `<table class="edge-table"><thead><tr><th>opening [-]</th><th>C [${cu.label}]</th><th>b [-]</th><th></th></tr></thead><tbody>${rows}</tbody></table>` +
+      '<span class="field-error" role="alert"></span>';
+    box.appendChild(div);
+  }
+}
+function editValveRows(ev) {
+  const btn = ev.target.closest('button');
+  if (!btn) return;
+  const t = S.model.valve.ports[btn.dataset.edge];
+  if (!t) return;
+  const cols = ['opening', 'C', 'b', 'm'].filter((c) => Array.isArray(t[c]));
+  if (btn.classList.contains('add-row')) {
+    const n = t.opening.length;
+    const last = n ? t.opening[n - 1] : 0;
+    for (const c of cols) t[c].push(n ? t[c][n - 1] : (c === 'b' ? 0.3 : c === 'm' ? 0.5 : 0));
+    t.opening[n] = n ? +Math.min(last + 0.05, last < 0 ? 0 : 1.5).toFixed(4) : 0;
+  } else if (btn.classList.contains('del-row')) {
+    const i = Number(btn.dataset.row);
+    for (const c of cols) t[c].splice(i, 1);
+  } else return;
+  renderValveTables();
+  plotValve();
+}
+function plotValve() {
+  const ports = (S.model && S.model.valve && S.model.valve.ports) || {};
+  const cu = C_UNITS[S.cUnit];
+  const traces = [];
+  for (const [edge, t] of Object.entries(ports)) {
+    const color = EDGE_COLORS[edge] || '#555';
+    const op = (t.opening || []).map(Number);
+    traces.push({ x: op, y: (t.C || []).map((c) => Number(c) / cu.scale), name: `C ${edge}`, mode: 'lines+markers', line: { color }, marker: { size: 5 } });
+    traces.push({ x: op, y: (t.b || []).map(Number), name: `b ${edge}`, yaxis: 'y2', mode: 'lines+markers', line: { color, dash: 'dot' }, marker: { size: 4, symbol: 'square' } });
+  }
+  plot('valve-plot', traces, baseLayout({
+    height: 260, title: { text: 'Edge conductance C and critical ratio b vs opening', font: { size: 12 }, x: 0.01, y: 0.98 },
+    margin: { l: 64, r: 56, t: 58, b: 44 }, legend: { orientation: 'h', y: 1.03, yanchor: 'bottom', x: 0, font: { size: 10 }, bgcolor: 'rgba(255,255,255,0)' },
+    xaxis: axis('spool opening u [-]'), yaxis: axis(`C [${cu.label}]`, { rangemode: 'tozero' }),
+    yaxis2: axis('b [-]', { overlaying: 'y', side: 'right', range: [0, 1], tickmode: 'linear', dtick: 0.2, showgrid: false, mirror: false }),
+    hovermode: 'closest',
+  }));
+}
+
+function renderFriction() {
+  const f = S.model.friction || (S.model.friction = {});
+  f.extend = f.extend || {};
+  const same = f.retract == null;
+  $('#fric-retract-same').checked = same;
+  const body = $('#friction-rows');
+  body.innerHTML = FRICTION_COEFFS.map(([k, label, unit]) => {
+    const cell = (set) => {
+      const id = `fric-${set}-${k}`;
+      const src = set === 'retract' && same ? f.extend : f[set];
+      const v = src ? src[k] : null;
+      return `<td><div class="field"><label class="sr-only" for="${id}">${set} ${k} [${unit}]</label>` +
+        `<input id="${id}" type="number" step="any" data-field="model.friction.${set}.${k}" value="${esc(displayValue(v, 1))}"` +
+        `${set === 'retract' && same ? ' disabled' : ''}><span class="field-error" role="alert"></span></div></td>`;
+    };
+    return `<tr><th scope="row">${esc(label)} [${esc(unit)}]</th>${cell('extend')}${cell('retract')}</tr>`;
+  }).join('');
+}
+function parseFrictionPressures() {
+  const raw = $('#friction-pressures').value;
+  const out = [];
+  for (const tok of raw.split(/[,;]+/).map((s) => s.trim()).filter(Boolean)) {
+    const [a, b] = tok.split('/').map((s) => Number(s.trim()));
+    if (!Number.isFinite(a) || (tok.includes('/') && !Number.isFinite(b))) return { error: `"${tok}" is not a pressure in bar` };
+    out.push([a, tok.includes('/') ? b : a]);
+  }
+  return { pairs: out.length ? out : [[1.013, 1.013]] };
+}
+function frictionForce(set, v, pa, pb) {
+  const g = (k) => Number(set[k] || 0);
+  const dpa = pa - pAtm();
+  const dpb = pb - pAtm();
+  const fc = Math.max(0, g('fc0') + g('fc_a') * dpa + g('fc_b') * dpb);
+  const kv = Math.max(0, g('kv0') + g('kv_a') * dpa + g('kv_b') * dpb);
+  return kv * v + Math.sign(v) * fc;
+}
+function plotFriction() {
+  if (!S.model) return;
+  const f = S.model.friction || {};
+  const ext = f.extend || {};
+  const ret = f.retract || ext;
+  const parsed = parseFrictionPressures();
+  const slot = $('#friction-pressures').closest('.field').querySelector('.field-error');
+  slot.textContent = parsed.error || '';
+  if (parsed.error) return;
+  const vs = [];
+  for (let i = -60; i <= 60; i++) vs.push(i / 100);
+  const palette = ['#1f77b4', '#ff7f0e', '#2ca02c', '#d62728', '#9467bd', '#8c564b', '#e377c2'];
+  const traces = parsed.pairs.map(([a, b], k) => {
+    const x = []; const y = [];
+    for (const v of vs) {
+      if (v === 0) { x.push(-1e-9, null, 1e-9); y.push(frictionForce(ret, -1e-9, a * BAR, b * BAR), null, frictionForce(ext, 1e-9, a * BAR, b * BAR)); continue; }
+      x.push(v); y.push(frictionForce(v > 0 ? ext : ret, v, a * BAR, b * BAR));
+    }
+    return { x, y, mode: 'lines', name: a === b ? `p = ${a} bar` : `p_a ${a} / p_b ${b} bar`, line: { color: palette[k % palette.length] }, connectgaps: false };
+  });
+  plot('friction-plot', traces, baseLayout({
+    height: 260, title: { text: 'Friction force map (paper Fig. 4)', font: { size: 12 }, x: 0.01, y: 0.98 },
+    margin: { l: 64, r: 20, t: 58, b: 44 }, legend: { orientation: 'h', y: 1.03, yanchor: 'bottom', x: 0, font: { size: 10 }, bgcolor: 'rgba(255,255,255,0)' },
+    xaxis: axis('piston velocity v [m/s]', { zeroline: true, zerolinecolor: '#bbb' }), yaxis: axis('friction force F [N]', { zeroline: true, zerolinecolor: '#bbb' }),
+    hovermode: 'closest',
+  }));
+}
+function onRetractSame() {
+  const f = S.model.friction || (S.model.friction = {});
+  if ($('#fric-retract-same').checked) f.retract = null;
+  else f.retract = clone(f.extend || {});
+  renderFriction();
+  plotFriction();
+}
+
+function catalog(name) { return S.effects.find((e) => e.name === name); }
+function renderEffects() {
+  const list = $('#effects-list');
+  const effs = S.model.effects || (S.model.effects = {});
+  const names = Object.keys(effs);
+  list.innerHTML = names.length ? '' : '<p class="muted small">No extra effect: the paper\'s sixth-order model.</p>';
+  for (const name of names) {
+    const cat = catalog(name);
+    const div = document.createElement('div');
+    div.className = 'effect field';
+    div.dataset.field = `model.effects.${name}`;
+    div.id = `effect-${name}`;
+    const params = Object.keys(effs[name]);
+    const inputs = params.map((p) => {
+      const meta = cat ? cat.parameters.find((q) => q.name === p) : null;
+      const unit = meta ? meta.unit : '?';
+      const id = `eff-${name}-${p}`;
+      return `<div class="field"><label for="${id}" title="${esc(meta ? meta.description : '')}">${esc(p)} [${esc(unit)}]</label>` +
+        `<input id="${id}" type="number" step="any" data-field="model.effects.${name}.${p}" value="${esc(displayValue(effs[name][p], 1))}">` +
+        '<span class="field-error" role="alert"></span></div>';
+    }).join('');
+    div.innerHTML = `<div class="effect-head"><b>${esc(name)}</b> <span class="muted small">${esc(cat ? cat.description : 'not in the catalog')}</span>` +
+      `<button type="button" class="icon remove-effect" id="remove-${name}" data-effect="${name}" aria-label="Remove ${name}">Remove</button></div>` +
+      `<div class="grid">${inputs}</div><span class="field-error" role="alert"></span>`;
+    list.appendChild(div);
+  }
+  const sel = $('#effect-add-select');
+  const keep = sel.value;
+  sel.innerHTML = S.effects.filter((e) => !(e.name in effs))
+    .map((e) => `<option value="${esc(e.name)}">${esc(e.name)}${e.observable_in && !e.observable_in.includes('locked') ? ' (free piston only)' : ''}</option>`).join('');
+  if ([...sel.options].some((o) => o.value === keep)) sel.value = keep;
+  describeEffect();
+}
+function describeEffect() {
+  const e = catalog($('#effect-add-select').value);
+  $('#effect-desc').textContent = e ? `${e.description}. Signature: ${e.signature}. Parameters: ` +
+    e.parameters.map((p) => `${p.name} [${p.unit}] (default ${num(p.default)})`).join(', ') : '';
+}
+function addEffect() {
+  const e = catalog($('#effect-add-select').value);
+  if (!e) return;
+  const params = {};
+  for (const p of e.parameters) params[p.name] = p.default;
+  S.model.effects = S.model.effects || {};
+  S.model.effects[e.name] = params;
+  renderEffects();
+  setStatus(`Effect ${e.name} added with its default parameters; simulate or compare to see it.`, 'ok');
+}
+function removeEffect(ev) {
+  const btn = ev.target.closest('.remove-effect');
+  if (!btn) return;
+  delete S.model.effects[btn.dataset.effect];
+  renderEffects();
+  setStatus(`Effect ${btn.dataset.effect} removed.`, 'info');
+}
+
+async function loadModelPreset(name) {
+  const m = await api('GET', `/api/presets/${encodeURIComponent(name)}`);
+  S.model = m;
+  $('#model-preset').value = name;
+  clearErrors();
+  renderModel();
+  return m;
+}
+
+/* ------------------------------------------------------------------ scenario panel */
+function renderScenario() {
+  const s = S.scenario;
+  if (!s) return;
+  for (const el of fieldInputs('scenario.')) {
+    if (el.id === 'scn-command') continue;
+    writeInput(el, getPath({ scenario: s }, parsePath(el.dataset.field)));
+  }
+  $('#scn-command').value = (s.command || []).map(([t, u]) => `${num(t, 8)}, ${num(u, 8)}`).join('\n');
+  $('#scenario-desc').textContent = s.description || s.name || '';
+}
+function parseCommand(text) {
+  const out = [];
+  const lines = text.split(/\r?\n/);
+  for (let i = 0; i < lines.length; i++) {
+    const line = lines[i].replace(/#.*/, '').trim();
+    if (!line) continue;
+    const parts = line.split(/[\s,;]+/).filter(Boolean);
+    const t = Number(parts[0]); const u = Number(parts[1]);
+    if (parts.length !== 2 || !Number.isFinite(t) || !Number.isFinite(u)) {
+      return { error: `line ${i + 1} ("${line}"): expected "t, u" with two numbers` };
+    }
+    out.push([t, u]);
+  }
+  return { command: out };
+}
+function onScenarioInput(ev) {
+  const el = ev.target;
+  if (!el.dataset || !el.dataset.field || !el.dataset.field.startsWith('scenario.')) return;
+  clearFieldError(el);
+  if (el.id === 'scn-command') return;  // parsed on use
+  setPath(S.scenario, parsePath(el.dataset.field).slice(1), readInput(el));
+}
+/** The scenario to send, or null (with the error shown) when the command text does not parse. */
+function scenarioForRequest() {
+  const p = parseCommand($('#scn-command').value);
+  if (p.error) { fieldError('scenario.command', p.error); setStatus(`Scenario: ${p.error}`, 'error'); return null; }
+  S.scenario.command = p.command.length ? p.command : null;
+  const s = clone(S.scenario);
+  for (const k of ['duration', 'sample_period', 'x0']) if (s[k] === null) delete s[k];
+  if (s.command == null) delete s.command;
+  return s;
+}
+function addStep() {
+  const t = Number($('#step-time').value);
+  const u = Number($('#step-opening').value);
+  if (!Number.isFinite(t) || !Number.isFinite(u)) { setStatus('Step builder: time and opening must be numbers.', 'error'); return; }
+  const p = parseCommand($('#scn-command').value);
+  if (p.error) { clearErrors(); fieldError('scenario.command', p.error); return; }
+  const cmd = p.command.filter(([tt]) => Math.abs(tt - t) > 1e-12);
+  if (!cmd.length || cmd[0][0] > 0) { if (t > 0 && !cmd.some(([tt]) => tt === 0)) cmd.push([0, 0]); }
+  cmd.push([t, u]);
+  cmd.sort((a, b) => a[0] - b[0]);
+  S.scenario.command = cmd;
+  $('#scn-command').value = cmd.map(([a, b]) => `${num(a, 8)}, ${num(b, 8)}`).join('\n');
+  const next = +(t + 0.1).toFixed(6);
+  $('#step-time').value = next;
+}
+function clearCommand() {
+  S.scenario.command = [[0, 0]];
+  $('#scn-command').value = '0, 0';
+}
+async function loadScenarioPreset(name, btn) {
+  clearErrors();
+  let note = '';
+  await busy(btn, async () => {
+    const s = await api('GET', `/api/presets/${encodeURIComponent(name)}`);
+    // Fig. 9 is the single-effect (3/2 valve) test; the others use the 4/2 spool valve.
+    const wantKind = name === 'paper-fig9-switching' ? '3/2' : '4/2';
+    if (S.model && S.model.valve && S.model.valve.kind !== wantKind) {
+      const preset = wantKind === '3/2' ? 'paper-3way' : 'paper-4way';
+      await loadModelPreset(preset);
+      note = `The ${wantKind} valve is needed: model switched to the ${preset} preset. `;
+    }
+    S.scenario = s;
+    renderScenario();
+    setStatus(`Scenario ${name} loaded. ${note}`, 'info');
+  });
+  await simulate(btn, `${name}: ${note}`);
+}
+
+/* ------------------------------------------------------------------ simulation */
+async function simulate(btn, note = '') {
+  clearErrors();
+  const scenario = scenarioForRequest();
+  if (!scenario) return;
+  setStatus('Simulating…', 'busy');
+  await busy(btn || $('#btn-simulate'), async () => {
+    try {
+      const t0 = performance.now();
+      const res = await api('POST', '/api/simulate', { model: S.model, scenario });
+      S.sim = res;
+      S.heatRuns = null;
+      plotSimulation();
+      $('#panel-plots').dataset.runs = String(++S.runs);
+      const st = res.stats || {};
+      const msg = `${res.series.t.length} samples, ${st.steps ?? '?'} steps, ${(res.events || []).length} events, ` +
+        `${((performance.now() - t0) / 1000).toFixed(2)} s round trip (${st.method || ''})`;
+      $('#sim-summary').textContent = msg;
+      setStatus(`${note}Simulation done: ${msg}.${res.status ? ' Solver: ' + res.message : ''}`, res.status ? 'error' : 'ok');
+    } catch (e) { showApiError(e, 'Simulation'); }
+  });
+}
+function plotSimulation() {
+  const r = S.sim;
+  if (!r) { plotEmptySimulation(); return; }
+  const s = r.series;
+  const t = s.t;
+  const ev = r.events || [];
+  const shapes = eventShapes(ev);
+  const bar = (a) => a.map((v) => (v == null ? null : v / BAR));
+  const pTraces = [];
+  if (S.heatRuns) {
+    for (const [hm, run] of Object.entries(S.heatRuns)) {
+      pTraces.push({ x: run.series.t, y: bar(run.series.p_a), name: `p_a (${hm})`, line: { color: HEAT_COLORS[hm], width: 1.6 } });
+      pTraces.push({ x: run.series.t, y: bar(run.series.p_b), name: `p_b (${hm})`, line: { color: HEAT_COLORS[hm], width: 1.6, dash: 'dash' } });
+    }
+  } else {
+    pTraces.push({ x: t, y: bar(s.p_a), name: 'p_a', line: { color: '#1f77b4', width: 1.8 } });
+    pTraces.push({ x: t, y: bar(s.p_b), name: 'p_b', line: { color: '#d62728', width: 1.8 } });
+  }
+  pTraces.push({ x: t, y: s.u, name: 'command u', yaxis: 'y2', line: { color: '#8a94a0', width: 1, shape: 'hv' } });
+  const pmax = Math.max(...bar(s.p_a).concat(bar(s.p_b)).filter((v) => v != null));
+  pTraces.push(...eventMarkers(ev, () => pmax * 1.04));
+  plot('plot-pressure', pTraces, baseLayout({
+    title: { text: S.heatRuns ? 'Chamber pressures under three heat models' : 'Chamber pressures', font: { size: 12 }, x: 0.5, xanchor: 'center', y: 0.995 },
+    xaxis: axis('time t [s]'), yaxis: axis('pressure [bar abs]'),
+    yaxis2: axis('command u [-]', { overlaying: 'y', side: 'right', showgrid: false, mirror: false, range: [-1.1, 1.1], tickmode: 'array', tickvals: [-1, -0.5, 0, 0.5, 1] }),
+    shapes, margin: { l: 64, r: 64, t: 48, b: 46 },
+  }));
+  plot('plot-position', [
+    { x: t, y: s.x.map((v) => v * 1e3), name: 'x', line: { color: '#2ca02c', width: 1.8 } },
+  ], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('position x [mm]'), shapes, showlegend: true }));
+  plot('plot-velocity', [
+    { x: t, y: s.v, name: 'v', line: { color: '#9467bd', width: 1.8 } },
+  ], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('velocity v [m/s]'), shapes, showlegend: true }));
+  const C = (a) => a.map((v) => (v == null ? null : v - 273.15));
+  const tTraces = [];
+  if (S.heatRuns) {
+    for (const [hm, run] of Object.entries(S.heatRuns)) {
+      tTraces.push({ x: run.series.t, y: C(run.series.T_a), name: `T_a (${hm})`, line: { color: HEAT_COLORS[hm], width: 1.6 } });
+      tTraces.push({ x: run.series.t, y: C(run.series.T_b), name: `T_b (${hm})`, line: { color: HEAT_COLORS[hm], width: 1.6, dash: 'dash' } });
+    }
+  } else {
+    tTraces.push({ x: t, y: C(s.T_a), name: 'T_a', line: { color: '#1f77b4', width: 1.8 } });
+    tTraces.push({ x: t, y: C(s.T_b), name: 'T_b', line: { color: '#d62728', width: 1.8 } });
+  }
+  plot('plot-temperature', tTraces, baseLayout({
+    title: { text: 'Gas temperatures (paper Fig. 11)', font: { size: 12 }, x: 0.5, xanchor: 'center', y: 0.995 },
+    xaxis: axis('time t [s]'), yaxis: axis('temperature [°C]'), shapes, margin: { l: 64, r: 64, t: 48, b: 46 },
+  }));
+  plot('plot-flow', [
+    { x: t, y: s.q_a.map((v) => v * 1e3), name: 'q_a (into A)', line: { color: '#1f77b4', width: 1.6 } },
+    { x: t, y: s.q_b.map((v) => v * 1e3), name: 'q_b (into B)', line: { color: '#d62728', width: 1.6 } },
+  ], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('valve mass flow [g/s]'), shapes }));
+}
+function plotEmptySimulation() {
+  const specs = [
+    ['plot-pressure', 'pressure [bar abs]'], ['plot-position', 'position x [mm]'], ['plot-velocity', 'velocity v [m/s]'],
+    ['plot-temperature', 'temperature [°C]'], ['plot-flow', 'valve mass flow [g/s]'],
+  ];
+  for (const [id, y] of specs) {
+    plot(id, [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(y), annotations: emptyNote('Run a simulation (Simulate or a paper scenario)') }));
+  }
+}
+function plotEmptyCompare() {
+  plot('compare-plot', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('pressure [bar abs]'),
+    yaxis2: axis('position x [mm]', { overlaying: 'y', side: 'right', showgrid: false, mirror: false }), annotations: emptyNote('Pick a dataset, then Compare') }));
+  plot('residual-plot', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('pressure residual [bar]'),
+    yaxis2: axis('position residual [mm]', { overlaying: 'y', side: 'right', showgrid: false, mirror: false }), annotations: emptyNote('Residuals appear after a comparison') }));
+}
+async function overlayHeatModels() {
+  clearErrors();
+  const scenario = scenarioForRequest();
+  if (!scenario) return;
+  setStatus('Simulating under the isothermal, adiabatic and convective heat models…', 'busy');
+  await busy($('#btn-heat-overlay'), async () => {
+    try {
+      const res = await api('POST', '/api/simulate/heat-models', { model: S.model, scenario });
+      S.heatRuns = res.runs;
+      if (!S.sim) S.sim = res.runs.convective || Object.values(res.runs)[0];
+      S.sim = res.runs[S.model.heat && S.model.heat.model] || S.sim;
+      plotSimulation();
+      $('#panel-plots').dataset.runs = String(++S.runs);
+      const peaks = Object.entries(res.runs).map(([k, r]) => `${k}: T_a ${num(Math.max(...r.series.T_a) - 273.15, 3)} °C max`).join(', ');
+      setStatus(`Heat models overlaid on the pressure and temperature plots (${peaks}).`, 'ok');
+    } catch (e) { showApiError(e, 'Heat-model overlay'); }
+  });
+}
+
+/* ------------------------------------------------------------------ measurement */
+async function loadDatasets(selectValue) {
+  S.datasets = await api('GET', '/api/datasets');
+  const sel = $('#dataset-select');
+  const groups = new Map();
+  for (const d of S.datasets) {
+    const g = d.sample || '';
+    if (!groups.has(g)) groups.set(g, []);
+    groups.get(g).push(d);
+  }
+  let html = '';
+  for (const [g, list] of groups) {
+    if (g) {
+      html += `<optgroup label="sample: ${esc(g)} — ${esc(list[0].description || '')}">`;
+      html += `<option value="sample:${esc(g)}">${esc(g)}: use the whole sample (${list.length} experiments)</option>`;
+    } else html += '<optgroup label="uploaded">';
+    for (const d of list) {
+      html += `<option value="ds:${esc(d.id)}">${esc(d.name)} (${esc(d.signals.join(', '))}; ${d.scenario && d.scenario.locked ? 'locked' : 'free'})</option>`;
+    }
+    html += '</optgroup>';
+  }
+  sel.innerHTML = html;
+  if (selectValue && [...sel.options].some((o) => o.value === selectValue)) sel.value = selectValue;
+  onDatasetSelect();
+}
+function onDatasetSelect() {
+  const v = $('#dataset-select').value || '';
+  let list = [];
+  if (v.startsWith('sample:')) list = S.datasets.filter((d) => d.sample === v.slice(7));
+  else if (v.startsWith('ds:')) list = S.datasets.filter((d) => d.id === v.slice(3));
+  else if (v === 'session' && S.session) list = S.session.experiments.map((e) => S.datasets.find((d) => d.id === e.dataset_id)).filter(Boolean);
+  S.experiments = list.map((d) => ({ dataset_id: d.id }));
+  $('#dataset-info').innerHTML = list.map((d) => {
+    const sc = d.scenario || {};
+    return `<div><b>${esc(d.name)}</b>: ${d.n_samples} samples, signals ${esc(d.signals.join(', '))}, ` +
+      `${sc.locked ? 'piston locked' : 'piston free'}${sc.x0 != null ? `, x0 = ${num(sc.x0)} m` : ''}</div>`;
+  }).join('') || 'No dataset selected.';
+  clearFieldError($('#dataset-select'));
+}
+function selectExperiments(exps) {
+  // choose the option of the dataset picker that matches a list of experiments
+  const ids = exps.map((e) => e.dataset_id);
+  const sel = $('#dataset-select');
+  const bySample = new Map();
+  for (const d of S.datasets) if (d.sample) { if (!bySample.has(d.sample)) bySample.set(d.sample, []); bySample.get(d.sample).push(d.id); }
+  for (const [g, list] of bySample) if (JSON.stringify(list) === JSON.stringify(ids)) { sel.value = `sample:${g}`; onDatasetSelect(); return; }
+  if (ids.length === 1 && S.datasets.some((d) => d.id === ids[0])) { sel.value = `ds:${ids[0]}`; onDatasetSelect(); return; }
+  if (ids.length) {
+    const opt = document.createElement('option');
+    opt.value = 'session';
+    opt.textContent = `session experiments (${ids.join(', ')})`;
+    sel.prepend(opt);
+    sel.value = 'session';
+    onDatasetSelect();
+  }
+}
+async function uploadDataset() {
+  clearErrors();
+  const file = $('#upload-file').files[0];
+  if (!file) { fieldError('upload.file', 'choose a CSV file first'); setStatus('Upload: choose a CSV file first.', 'error'); return; }
+  const fd = new FormData();
+  fd.append('file', file);
+  if ($('#upload-name').value.trim()) fd.append('name', $('#upload-name').value.trim());
+  fd.append('locked', $('#upload-locked').checked ? 'true' : 'false');
+  if ($('#upload-x0').value.trim() !== '') fd.append('x0', $('#upload-x0').value.trim());
+  setStatus(`Uploading ${file.name}…`, 'busy');
+  await busy($('#btn-upload'), async () => {
+    try {
+      const info = await api('POST', '/api/datasets', fd);
+      await loadDatasets(`ds:${info.id}`);
+      setStatus(`Dataset ${info.name} stored (${info.n_samples} samples, signals ${info.signals.join(', ')}).`, 'ok');
+    } catch (e) {
+      showApiError(e, 'Upload', (field, err) => {
+        if (err.type === 'measurement_error' || field.startsWith('measurement') || field === 'file' || field === '') return 'upload.file';
+        return `upload.${field}`;
+      });
+    }
+  });
+}
+async function measured(id) {
+  if (!S.measured[id]) S.measured[id] = (await api('GET', `/api/datasets/${encodeURIComponent(id)}`)).measurement;
+  return S.measured[id];
+}
+function sameExperiments(a, b) {
+  return JSON.stringify((a || []).map((e) => e.dataset_id)) === JSON.stringify((b || []).map((e) => e.dataset_id));
+}
+async function runCompare(opts = {}) {
+  if (!opts.keepErrors) clearErrors();
+  if (!S.experiments.length) { fieldError('experiments', 'select a dataset or a sample first'); setStatus('Compare: no dataset selected.', 'error'); return null; }
+  setStatus('Comparing the model with the measurement…', 'busy');
+  return busy($('#btn-compare'), async () => {
+    try {
+      const exps = clone(S.experiments);
+      const res = await api('POST', '/api/compare', { model: S.model, experiments: exps, heat_models: false });
+      S.compare = { result: res, experiments: exps };
+      await Promise.all(exps.map((e) => measured(e.dataset_id)));
+      renderCompare();
+      setStatus(`Comparison done: overall error ${pct(res.overall)} % (noise floor about ${pct(meanOf(res.noise_floor))} %).`, 'ok');
+      if (!opts.noSession) await ensureSession();
+      return res;
+    } catch (e) { showApiError(e, 'Comparison', (f) => (f.startsWith('experiments') ? 'experiments' : f)); return null; }
+  });
+}
+function meanOf(o) { const v = Object.values(o || {}).filter((x) => typeof x === 'number'); return v.length ? v.reduce((a, b) => a + b, 0) / v.length : null; }
+function renderCompare() {
+  const { result: c, experiments: exps } = S.compare;
+  const signals = Object.keys(c.errors);
+  // error per signal: all experiments, then each experiment, then the noise floor
+  let h = '<table id="error-table-data" class="data"><thead><tr><th scope="col">signal</th><th scope="col">all experiments</th>';
+  h += c.experiments.map((e) => `<th scope="col">${esc(e.name)}</th>`).join('') + '<th scope="col">noise floor</th></tr></thead><tbody>';
+  for (const s of signals) {
+    h += `<tr><th scope="row">${esc(s)}</th><td class="num" data-signal="${esc(s)}">${pct(c.errors[s])}</td>`;
+    h += c.experiments.map((e) => `<td class="num">${e.errors && e.errors[s] != null ? pct(e.errors[s]) : '–'}</td>`).join('');
+    h += `<td class="num muted">${pct(c.noise_floor && c.noise_floor[s])}</td></tr>`;
+  }
+  h += `<tr class="total"><th scope="row">overall</th><td class="num" data-signal="overall">${pct(c.overall)}</td>`;
+  h += c.experiments.map((e) => `<td class="num">${pct(e.overall)}</td>`).join('') + `<td class="num muted">${pct(meanOf(c.noise_floor))}</td></tr></tbody></table>`;
+  $('#error-table').innerHTML = h;
+  // per phase (Table 2 layout: phases as rows, signals as columns)
+  const phaseRows = [...Object.entries(c.phases || {}), ...Object.entries(c.piston_phases || {})];
+  let p = '<table id="phase-table-data" class="data"><thead><tr><th scope="col">phase</th>' +
+    signals.map((s) => `<th scope="col">${esc(s)}</th>`).join('') + '<th scope="col">overall</th></tr></thead><tbody>';
+  for (const [name, row] of phaseRows) {
+    p += `<tr><th scope="row">${esc(name)}</th>` + signals.map((s) => `<td class="num">${pct(row[s])}</td>`).join('') +
+      `<td class="num"><b>${pct(row.overall)}</b></td></tr>`;
+  }
+  $('#phase-table').innerHTML = p + '</tbody></table>';
+  $('#compare-summary').innerHTML = `Overall error <b id="compare-overall">${pct(c.overall)} %</b> over ${c.experiments.length} experiment(s); ` +
+    `model <i>${esc(S.model.name || 'custom')}</i>${Object.keys(S.model.effects || {}).length ? ' + ' + esc(Object.keys(S.model.effects).join(' + ')) : ''}.`;
+  // worst windows
+  $('#failure-windows').innerHTML = (c.failure_windows || []).map((w, i) =>
+    `<li><span class="win-tag">#${i + 1}</span> ${esc(w.description || `${w.experiment}: ${w.signal} ${w.t_start}-${w.t_end} s`)}` +
+    `${w.share != null ? ` <span class="muted">(${pct(w.share, 0)} % of the residual energy)</span>` : ''}</li>`).join('') ||
+    '<li class="muted">No window stands out.</li>';
+  plotCompare(c, exps);
+  plotResiduals(c);
+}
+/** A stacked layout with one row per experiment, each with a left and an overlaying right axis. */
+function stackedLayout(n, left, right, titles, extra = {}) {
+  const layout = baseLayout(Object.assign({ height: Math.max(300, 250 * n + 40), hovermode: 'x', margin: { l: 64, r: 64, t: 50, b: 46 } }, extra));
+  const gap = 0.12;
+  const h = (1 - gap * (n - 1)) / n;
+  const rows = [];
+  layout.annotations = [];
+  for (let i = 0; i < n; i++) {
+    const top = 1 - i * (h + gap);
+    const dom = [Math.max(0, top - h), top];
+    const xi = i === 0 ? '' : String(i + 1);
+    const yi = i === 0 ? '' : String(2 * i + 1);
+    const y2i = String(2 * i + 2);
+    layout[`xaxis${xi}`] = axis('time t [s]', { anchor: `y${yi}`, domain: [0, 1], matches: i ? 'x' : undefined });
+    layout[`yaxis${yi}`] = axis(left, { domain: dom, anchor: `x${xi}` });
+    layout[`yaxis${y2i}`] = axis(right, { overlaying: `y${yi}`, side: 'right', anchor: `x${xi}`, showgrid: false, mirror: false, tickmode: 'auto', nticks: 6 });
+    layout.annotations.push({ text: `<b>${esc(titles[i])}</b>`, xref: 'paper', yref: 'paper', x: 0, y: top, yanchor: 'bottom', xanchor: 'left', showarrow: false, font: { size: 11 }, yshift: 2 });
+    rows.push({ x: `x${xi}`, y: `y${yi}`, y2: `y${y2i}`, domain: dom });
+  }
+  return { layout, rows };
+}
+const SIG_COLORS = { p_a: '#1f77b4', p_b: '#d62728', x: '#2ca02c', v: '#9467bd', T_a: '#17becf', T_b: '#e377c2' };
+function toDisplay(sig, arr) {
+  if (sig.startsWith('p')) return arr.map((v) => (v == null ? null : v / BAR));
+  if (sig === 'x') return arr.map((v) => (v == null ? null : v * 1e3));
+  if (sig.startsWith('T')) return arr.map((v) => (v == null ? null : v - 273.15));
+  return arr;
+}
+function plotCompare(c, exps) {
+  const n = c.experiments.length;
+  const { layout, rows } = stackedLayout(n, 'pressure [bar abs]', 'position x [mm]', c.experiments.map((e) => e.name),
+    { legend: { orientation: 'h', x: 0, y: 1.0, yanchor: 'bottom', yref: 'container' } });
+  layout.legend = { orientation: 'h', x: 0.5, xanchor: 'center', y: 1, yanchor: 'top', yref: 'container', font: { size: 11 } };
+  layout.margin.t = 56;
+  const traces = [];
+  const seen = new Set();
+  const first = (g) => (seen.has(g) ? false : (seen.add(g), true));
+  c.experiments.forEach((e, i) => {
+    const meas = S.measured[exps[i] && exps[i].dataset_id] || {};
+    for (const sig of Object.keys(e.simulated || {})) {
+      const axisRef = sig.startsWith('p') ? rows[i].y : rows[i].y2;
+      const color = SIG_COLORS[sig] || '#555';
+      if (meas[sig]) {
+        traces.push({ x: meas.t, y: toDisplay(sig, meas[sig]), xaxis: rows[i].x, yaxis: axisRef, mode: 'markers', name: `${sig} measured`,
+          legendgroup: `${sig}m`, showlegend: first(`${sig}m`), marker: { size: 3.5, color, opacity: 0.35 } });
+      }
+      traces.push({ x: e.t, y: toDisplay(sig, e.simulated[sig]), xaxis: rows[i].x, yaxis: axisRef, mode: 'lines', name: `${sig} simulated`,
+        legendgroup: `${sig}s`, showlegend: first(`${sig}s`), line: { color, width: 1.4 } });
+    }
+  });
+  plot('compare-plot', traces, layout);
+}
+function plotResiduals(c, windows) {
+  windows = windows || c.failure_windows || [];
+  const n = c.experiments.length;
+  const { layout, rows } = stackedLayout(n, 'pressure residual [bar]', 'position residual [mm]', c.experiments.map((e) => e.name));
+  layout.legend = { orientation: 'h', x: 0.5, xanchor: 'center', y: 1, yanchor: 'top', yref: 'container', font: { size: 11 } };
+  layout.margin.t = 56;
+  const traces = [];
+  const seen = new Set();
+  layout.shapes = [];
+  c.experiments.forEach((e, i) => {
+    for (const [sig, arr] of Object.entries(e.residuals || {})) {
+      traces.push({ x: e.t, y: toDisplay(sig, arr), xaxis: rows[i].x, yaxis: sig.startsWith('p') ? rows[i].y : rows[i].y2, mode: 'lines',
+        name: `${sig} residual`, legendgroup: sig, showlegend: !seen.has(sig) && !!seen.add(sig), line: { color: SIG_COLORS[sig] || '#555', width: 1.2 } });
+    }
+    windows.forEach((w, k) => {
+      if (w.experiment && w.experiment !== e.name) return;
+      layout.shapes.push({ type: 'rect', xref: rows[i].x, yref: 'paper', x0: w.t_start, x1: w.t_end, y0: rows[i].domain[0], y1: rows[i].domain[1],
+        fillcolor: '#ff9f1c', opacity: 0.22, line: { width: 0 }, layer: 'below' });
+      layout.annotations.push({ text: `#${k + 1} ${esc(w.signal)}`, xref: rows[i].x, yref: 'paper', x: (w.t_start + w.t_end) / 2, y: rows[i].domain[1],
+        yanchor: 'top', yshift: -12 * (k % 2), showarrow: false, font: { size: 10, color: '#a35a00' }, bgcolor: 'rgba(255,255,255,0.7)' });
+    });
+  });
+  plot('residual-plot', traces, layout);
+}
+
+/* ------------------------------------------------------------------ sessions and history */
+async function ensureSession() {
+  if (S.session && sameExperiments(S.session.experiments, S.experiments)) return S.session;
+  const name = $('#dataset-select').selectedOptions[0] ? $('#dataset-select').selectedOptions[0].textContent.split(':')[0] : 'session';
+  const s = await api('POST', '/api/sessions', { name, model: S.model, experiments: clone(S.experiments) });
+  setSession(s);
+  return s;
+}
+function setSession(s) {
+  S.session = s;
+  if (s) localStorage.setItem(SESSION_KEY, s.id); else localStorage.removeItem(SESSION_KEY);
+  renderHistory();
+}
+async function recordVersion(added, params) {
+  await ensureSession();
+  const s = await api('POST', `/api/sessions/${S.session.id}/versions`, { model: S.model, added: added || null, params: params || {} });
+  setSession(s);
+  return s;
+}
+function renderHistory() {
+  const s = S.session;
+  if (!s) {
+    $('#session-info').textContent = 'No session yet: the first comparison or diagnosis starts one.';
+    plot('history-plot', [], baseLayout({ xaxis: axis('model version [-]'), yaxis: axis('overall error [%]'), annotations: emptyNote('No model version yet') }));
+    $('#history-table').innerHTML = '';
+    return;
+  }
+  $('#session-info').innerHTML = `Session <code id="session-id">${esc(s.id)}</code> “${esc(s.name)}”, ${s.versions.length} version(s), ` +
+    `experiments: ${esc(s.experiments.map((e) => e.dataset_id || e.name || 'inline').join(', '))}`;
+  const v = s.versions;
+  plot('history-plot', [{
+    x: v.map((q) => q.version), y: v.map((q) => (q.overall == null ? null : q.overall * 100)), mode: 'lines+markers+text', name: 'overall error',
+    text: v.map((q) => (q.overall == null ? '' : `${pct(q.overall)} %`)), textposition: 'top right', line: { color: '#1f77b4', width: 2 }, marker: { size: 9 },
+    customdata: v.map((q) => q.label), hovertemplate: '%{customdata}: %{y:.3f} %<extra></extra>',
+  }], baseLayout({
+    title: { text: 'Overall error per model version', font: { size: 12 }, x: 0.5, xanchor: 'center', y: 0.995 },
+    xaxis: axis('model version [-]', { tickvals: v.map((q) => q.version), ticktext: v.map((q) => q.label), range: [-0.4, Math.max(v.length - 1, 1) + 0.6] }),
+    yaxis: axis('overall error [%]', { range: [0, 1.22 * Math.max(1e-9, ...v.map((q) => (q.overall || 0) * 100))] }),
+    showlegend: false, hovermode: 'closest', margin: { l: 64, r: 30, t: 40, b: 56 },
+  }));
+  const sigs = [...new Set(v.flatMap((q) => Object.keys(q.errors || {})))];
+  $('#history-table').innerHTML = '<table class="data"><thead><tr><th scope="col">version</th><th scope="col">change</th>' +
+    sigs.map((q) => `<th scope="col">${esc(q)} [%]</th>`).join('') + '<th scope="col">overall [%]</th></tr></thead><tbody>' +
+    v.map((q) => `<tr><td class="num">${q.version}</td><td>${esc(q.label)}${q.params && Object.keys(q.params).length ? ` <span class="muted small">(${esc(Object.entries(q.params).map(([k, x]) => `${k} = ${num(typeof x === 'object' && x ? x.value : x)}`).join(', '))})</span>` : ''}</td>` +
+      sigs.map((g) => `<td class="num">${pct(q.errors && q.errors[g])}</td>`).join('') + `<td class="num"><b>${pct(q.overall)}</b></td></tr>`).join('') +
+    '</tbody></table>';
+}
+async function resumeSession() {
+  const id = localStorage.getItem(SESSION_KEY);
+  if (!id) { renderHistory(); return false; }
+  try {
+    const s = await api('GET', `/api/sessions/${encodeURIComponent(id)}`);
+    S.session = s;
+    const last = s.versions[s.versions.length - 1];
+    if (last && last.model) { S.model = last.model; renderModel(); }
+    selectExperiments(s.experiments);
+    renderHistory();
+    setStatus(`Resumed session ${s.id} (${s.versions.length} version(s), last: ${last ? last.label : '?'}).`, 'ok');
+    return true;
+  } catch (e) {
+    localStorage.removeItem(SESSION_KEY);
+    renderHistory();
+    return false;
+  }
+}
+async function newSession() {
+  clearErrors();
+  if (!S.experiments.length) { fieldError('experiments', 'select a dataset or a sample first'); setStatus('New session: no dataset selected.', 'error'); return; }
+  await busy($('#btn-new-session'), async () => {
+    try {
+      S.session = null;
+      await ensureSession();
+      setStatus(`New session ${S.session.id} started with the current model as version 0.`, 'ok');
+    } catch (e) { showApiError(e, 'New session', (f) => (f.startsWith('experiments') ? 'experiments' : f)); }
+  });
+}
+async function recordCurrent() {
+  clearErrors();
+  if (!S.experiments.length) { fieldError('experiments', 'select a dataset or a sample first'); return; }
+  await busy($('#btn-record-version'), async () => {
+    try {
+      const s = await recordVersion(null, {});
+      const last = s.versions[s.versions.length - 1];
+      setStatus(`Recorded ${last.label}: overall error ${pct(last.overall)} %.`, 'ok');
+    } catch (e) { showApiError(e, 'Recording the version'); }
+  });
+}
+
+/* ------------------------------------------------------------------ diagnosis */
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+async function runDiagnosis() {
+  clearErrors();
+  if (!S.experiments.length) { fieldError('experiments', 'select a dataset or a sample first'); setStatus('Diagnosis: no dataset selected.', 'error'); return; }
+  const prog = $('#diag-progress');
+  await busy($('#btn-diagnose'), async () => {
+    try {
+      prog.value = 0;
+      prog.removeAttribute('data-done');
+      $('#diag-step').textContent = 'submitting';
+      setStatus('Diagnosis running…', 'busy');
+      // the residual plot and the error tables show what the diagnosis starts from
+      if (!S.compare || !sameExperiments(S.compare.experiments, S.experiments)) {
+        if (!(await runCompare({ keepErrors: true }))) return;
+      }
+      await ensureSession();
+      setStatus('Diagnosis running…', 'busy');
+      $('#diag-step').textContent = 'submitting';
+      const exps = clone(S.experiments);
+      const job = await api('POST', '/api/jobs/diagnose', { model: S.model, experiments: exps });
+      let j = job;
+      while (j.status === 'queued' || j.status === 'running') {
+        prog.value = j.progress || 0;
+        $('#diag-step').textContent = `${j.step} (${Math.round((j.progress || 0) * 100)} %)`;
+        await sleep(300);
+        j = await api('GET', `/api/jobs/${j.id}`);
+      }
+      if (j.status !== 'done') {
+        $('#diag-step').textContent = `failed: ${j.error || j.status}`;
+        setStatus(`Diagnosis failed: ${j.error || j.status}`, 'error');
+        return;
+      }
+      prog.value = 1;
+      prog.dataset.done = 'true';
+      $('#diag-step').textContent = 'done (100 %)';
+      S.diag = { result: j.result, experiments: exps };
+      renderDiagnosis();
+      setStatus(`Diagnosis done: ${j.result.message}`, 'ok');
+    } catch (e) {
+      $('#diag-step').textContent = 'refused';
+      showApiError(e, 'Diagnosis', (f) => (f.startsWith('experiments') ? 'experiments' : f));
+    }
+  });
+}
+function renderDiagnosis() {
+  const d = S.diag.result;
+  const before = d.error_before ? d.error_before.overall : null;
+  $('#diag-verdict').innerHTML = `<div class="verdict-name">Verdict: <b id="diag-verdict-name">${esc(d.verdict)}</b></div><div>${esc(d.message)}</div>` +
+    `<div class="muted small">Error before: ${pct(before)} % · noise floor about ${pct(meanOf(d.noise_floor))} %</div>`;
+  $('#diag-residual-summary').textContent = d.residual_tests && d.residual_tests.summary ? `Residual tests: ${d.residual_tests.summary}` : '';
+  const score = d.score_pass || [];
+  $('#diag-score').innerHTML = score.length ? '<h3>Score test of every candidate (before refitting)</h3>' +
+    '<table class="data"><thead><tr><th scope="col">rank</th><th scope="col">effect</th><th scope="col">LM statistic [-]</th>' +
+    '<th scope="col">dof [-]</th><th scope="col">p-value [-]</th></tr></thead><tbody>' +
+    score.map((q) => `<tr><td class="num">${q.rank ?? ''}</td><td>${esc(q.effect)}</td>` + (q.skipped
+      ? `<td colspan="3" class="muted small">skipped: ${esc(q.skipped)}</td></tr>`
+      : `<td class="num">${num(q.lm)}</td><td class="num">${q.dof ?? ''}</td><td class="num">${pval(q.p_value)}</td></tr>`)).join('') +
+    '</tbody></table>' : '';
+  const cards = $('#diag-cards');
+  cards.innerHTML = '';
+  (d.ranking || []).forEach((r, i) => {
+    const card = document.createElement('article');
+    card.className = `card${r.effect === d.verdict ? ' top' : ''}`;
+    card.id = `card-${r.effect}`;
+    card.dataset.effect = r.effect;
+    const badges = ['significant', 'strong', 'material'].filter((k) => r[k]).map((k) => `<span class="badge">${k}</span>`).join(' ');
+    const params = Object.entries(r.params || {}).map(([k, p]) =>
+      `<tr><th scope="row">${esc(k)}</th><td class="num">${num(p.value)} ± ${num(p.stderr, 2)} ${esc(p.unit || '')}</td>` +
+      `<td class="num">${p.ci95 ? `[${num(p.ci95[0])}, ${num(p.ci95[1])}]` : '–'}</td>${p.at_bound ? '<td class="warn">at bound</td>' : '<td></td>'}</tr>`).join('');
+    card.innerHTML = `<header><span class="rank">#${i + 1}</span> <b>${esc(r.effect)}</b> ${badges}</header>` +
+      `<p class="small muted">${esc(r.description || '')}</p>` +
+      '<dl class="evidence">' +
+      `<dt>Overall error</dt><dd><span class="err-before">${pct(r.error_before != null ? r.error_before : before)} %</span> → <b class="err-after">${pct(r.error_after_overall)} %</b></dd>` +
+      `<dt>ΔBIC</dt><dd>${num(r.delta_bic, 4)}</dd><dt>p-value (LR test)</dt><dd>${pval(r.p_value)}</dd></dl>` +
+      (params ? `<table class="data params"><thead><tr><th scope="col">parameter</th><th scope="col">value ± std. error</th><th scope="col">95 % CI</th><th></th></tr></thead><tbody>${params}</tbody></table>` : '') +
+      `<p class="explanation">${esc(r.explanation || '')}</p>` +
+      `<button type="button" class="${r.effect === d.verdict ? 'primary ' : ''}add-effect-btn" id="add-${esc(r.effect)}" data-effect="${esc(r.effect)}"` +
+      `${r.model ? '' : ' disabled'} title="Take the refitted model (current model + ${esc(r.effect)}) as the new current model">Add ${esc(r.effect)} to the model</button>`;
+    cards.appendChild(card);
+  });
+}
+async function adoptEffect(ev) {
+  const btn = ev.target.closest('.add-effect-btn');
+  if (!btn || !S.diag) return;
+  const r = (S.diag.result.ranking || []).find((q) => q.effect === btn.dataset.effect);
+  if (!r || !r.model) return;
+  clearErrors();
+  await busy(btn, async () => {
+    try {
+      S.model = clone(r.model);
+      renderModel();
+      const params = {};
+      for (const [k, p] of Object.entries(r.params || {})) params[k] = p.value;
+      setStatus(`Adding ${r.effect} and recording a new model version…`, 'busy');
+      const s = await recordVersion(r.effect, params);
+      await runCompare({ keepErrors: true, noSession: true });
+      const v = s.versions;
+      const last = v[v.length - 1];
+      const prev = v[v.length - 2];
+      setStatus(`${r.effect} added (version ${last.version}): overall error ${pct(prev && prev.overall)} % → ${pct(last.overall)} %.`, 'ok');
+      // the other cards were refitted on the previous model: adding one now would drop this effect
+      S.diag.stale = true;
+      $$('.add-effect-btn').forEach((b) => { b.disabled = true; b.dataset.keepDisabled = 'true'; });
+      btn.textContent = `${r.effect} added`;
+      const note = document.createElement('div');
+      note.className = 'stale-note';
+      note.textContent = `The model changed (+ ${r.effect}): run Diagnose again to rank the remaining effects on the new model.`;
+      $('#diag-verdict').appendChild(note);
+    } catch (e) { showApiError(e, `Adding ${r.effect}`); }
+  });
+}
+
+/* ------------------------------------------------------------------ wiring */
+function wire() {
+  const mp = $('#panel-model');
+  mp.addEventListener('change', (ev) => {
+    if (ev.target.id === 'fric-retract-same') { onRetractSame(); return; }
+    if (ev.target.id === 'friction-pressures') { plotFriction(); return; }
+    if (ev.target.id === 'effect-add-select') { describeEffect(); return; }
+    if (ev.target.id === 'valve-c-unit') { S.cUnit = ev.target.value; renderValveTables(); plotValve(); return; }
+    if (ev.target.id === 'model-preset') return;
+    onModelInput(ev);
+  });
+  mp.addEventListener('input', (ev) => {
+    if (ev.target.id === 'friction-pressures') { plotFriction(); return; }
+    if (ev.target.type === 'number') onModelInput(ev);
+  });
+  $('#valve-tables').addEventListener('click', editValveRows);
+  $('#effects-list').addEventListener('click', removeEffect);
+  $('#btn-add-effect').addEventListener('click', addEffect);
+  $('#btn-load-preset').addEventListener('click', async (ev) => {
+    await busy(ev.target, async () => {
+      try { await loadModelPreset($('#model-preset').value); setStatus(`Model preset ${$('#model-preset').value} loaded.`, 'ok'); } catch (e) { showApiError(e, 'Loading the preset'); }
+    });
+  });
+  const sp = $('#panel-scenario');
+  sp.addEventListener('change', onScenarioInput);
+  sp.addEventListener('input', onScenarioInput);
+  for (const b of $$('[data-preset]', sp)) {
+    b.addEventListener('click', async () => {
+      try { await loadScenarioPreset(b.dataset.preset, b); } catch (e) { showApiError(e, 'Loading the scenario'); }
+    });
+  }
+  $('#btn-add-step').addEventListener('click', addStep);
+  $('#btn-clear-command').addEventListener('click', clearCommand);
+  $('#btn-simulate').addEventListener('click', () => simulate($('#btn-simulate')));
+  $('#btn-heat-overlay').addEventListener('click', overlayHeatModels);
+  $('#dataset-select').addEventListener('change', onDatasetSelect);
+  $('#btn-upload').addEventListener('click', uploadDataset);
+  $('#btn-compare').addEventListener('click', () => runCompare());
+  $('#btn-diagnose').addEventListener('click', runDiagnosis);
+  $('#diag-cards').addEventListener('click', adoptEffect);
+  $('#btn-new-session').addEventListener('click', newSession);
+  $('#btn-record-version').addEventListener('click', recordCurrent);
+  $('#panel-measure').addEventListener('input', (ev) => { if (ev.target.dataset && ev.target.dataset.field) clearFieldError(ev.target); });
+}
+
+async function init() {
+  wire();
+  plotEmptySimulation();
+  plotEmptyCompare();
+  try {
+    const [presets, effects] = await Promise.all([api('GET', '/api/presets'), api('GET', '/api/effects')]);
+    S.presets = presets;
+    S.effects = effects;
+    $('#model-preset').innerHTML = presets.models.map((m) => `<option value="${esc(m.name)}" title="${esc(m.description)}">${esc(m.name)}</option>`).join('');
+    await Promise.all([
+      loadModelPreset(presets.models.some((m) => m.name === 'paper-4way') ? 'paper-4way' : presets.models[0].name),
+      api('GET', '/api/presets/paper-fig10-pulses').then((s) => { S.scenario = s; renderScenario(); }),
+      loadDatasets(),
+    ]);
+    const resumed = await resumeSession();
+    if (!resumed) setStatus('Ready. Pick a paper scenario or edit the model, then Simulate.', 'info');
+    document.body.dataset.ready = 'true';
+  } catch (e) {
+    showApiError(e, 'Loading the page data');
+    document.body.dataset.ready = 'error';
+  }
+}
+
+// a bug in this page should show up where the user looks, not only in the console
+window.addEventListener('error', (ev) => setStatus(`Page error: ${ev.message}`, 'error'));
+window.addEventListener('unhandledrejection', (ev) => setStatus(`Page error: ${ev.reason && ev.reason.message ? ev.reason.message : ev.reason}`, 'error'));
+
+if (document.readyState === 'loading') document.addEventListener('DOMContentLoaded', init); else init();
