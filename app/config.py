@@ -7,10 +7,15 @@ import os
 from dataclasses import dataclass, field
 
 
+def _env_int(name, default):
+    v = os.environ.get(name)
+    return int(v) if v else default
+
+
 @dataclass
 class Limits:
     """Documented size and time limits of the REST API (refused up front when exceeded)."""
-    max_upload_bytes: int = 20 * 1024 * 1024
+    max_upload_bytes: int = field(default_factory=lambda: _env_int("PNEUCORE_MAX_UPLOAD", 20 * 1024 * 1024))
     max_duration: float = 120.0          # simulated time per request [s]
     max_samples: int = 200_001           # output samples per simulation
     max_command_points: int = 100_000
@@ -30,8 +35,3 @@ class Settings:
     db_path: str = field(default_factory=lambda: os.environ.get("PNEUCORE_DB", "pneucore.sqlite3"))
     limits: Limits = field(default_factory=Limits)
     seed_samples: bool = True
-
-    def __post_init__(self):
-        up = os.environ.get("PNEUCORE_MAX_UPLOAD")
-        if up:
-            self.limits.max_upload_bytes = int(up)

@@ -97,6 +97,7 @@ def parse_experiments(exps_in, model: Model, store: Store, limits: Limits):
                 d["name"] = info["name"]
         raw.append(d)
     exps = as_experiments(raw, model.ambient.pressure, datasets=store.measurement)
+    from pneucore.measurement import MeasurementError
     total = sum(e.measurement.n for e in exps)
     if total > limits.max_analysis_samples:
         raise FieldError("experiments", f"{total} measured samples exceed the API limit of "
@@ -106,6 +107,9 @@ def parse_experiments(exps_in, model: Model, store: Store, limits: Limits):
             scen = e.scenario_for(e.model_for(model))
         except FieldError as exc:
             raise prefixed(exc, f"experiments[{i}]") from None
+        except MeasurementError as exc:
+            exc.where = f"experiments[{i}].measurement"   # the handler places it in the request
+            raise
         check_scenario_limits(scen, limits, f"experiments[{i}].scenario")
     return exps
 

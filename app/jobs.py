@@ -8,7 +8,10 @@ import uuid
 from concurrent.futures import ThreadPoolExecutor
 
 
-class JobTimeout(RuntimeError):
+from pneucore.progress import Cancelled
+
+
+class JobTimeout(Cancelled):
     """The job ran past its wall-time limit."""
 
 
@@ -68,18 +71,20 @@ class JobManager:
             job.status = "running"
             job.started = time.time()
             job.step = "started"
+            # the status is written last, so a poll never sees "done" without its result
             try:
-                job.result = fn(job)
-                job.status = "done"
+                result = fn(job)
+                job.result = result
                 job.progress = 1.0
                 job.step = "done"
-            except Exception as exc:  # the job reports its error; the server keeps going
-                job.status = "error"
-                job.error = str(exc) if not isinstance(exc, (KeyError,)) else repr(exc)
-                job.step = "failed"
-                job.trace = traceback.format_exc(limit=3)
-            finally:
                 job.finished = time.time()
+                job.status = "done"
+            except Exception as exc:  # the job reports its error; the server keeps going
+                job.error = str(exc) if not isinstance(exc, (KeyError,)) else repr(exc)
+                job.trace = traceback.format_exc(limit=3)
+                job.step = "failed"
+                job.finished = time.time()
+                job.status = "error"
 
         self.pool.submit(run)
         return job

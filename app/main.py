@@ -70,11 +70,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @app.exception_handler(MeasurementError)
     async def measurement_error(request: Request, exc: MeasurementError):
-        loc = ["body", "measurement"] + ([exc.column] if exc.column else []) + \
-              ([exc.row] if exc.row is not None else [])
+        where = getattr(exc, "where", "measurement")
+        loc = _loc(where) + ([exc.column] if exc.column else []) + \
+            ([exc.row] if exc.row is not None else [])
         return JSONResponse(status_code=422, content={"detail": [
             {"loc": loc, "msg": str(exc), "type": "measurement_error", "column": exc.column,
-             "row": exc.row, "field": "measurement" + (f".{exc.column}" if exc.column else "")}]})
+             "row": exc.row, "field": where + (f".{exc.column}" if exc.column else "")}]})
 
     @app.exception_handler(SimulationError)
     async def simulation_error(request: Request, exc: SimulationError):

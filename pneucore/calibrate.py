@@ -29,6 +29,7 @@ from .experiment import as_experiments
 from .metrics import noise_sigma
 from .model import Model
 from .paths import parse_parameters, set_values
+from .progress import Cancelled
 
 #: Worker threads for the finite-difference Jacobian (the machine has 2 cores)
 THREADS = 2
@@ -37,9 +38,14 @@ FAILED_RESIDUAL = 1e3
 
 
 class Objective:
-    """Weighted residuals of a set of experiments as a function of parameter values."""
+    """Weighted residuals of a set of experiments as a function of parameter values.
 
-    def __init__(self, model, experiments, specs):
+    ``check()`` (if given) is called before every set of simulations; it may raise
+    :class:`pneucore.progress.Cancelled` to stop the fit.
+    """
+
+    def __init__(self, model, experiments, specs, check=None):
+        self.check = check
         self.model = model
         self.experiments = experiments
         self.specs = [s for s in specs if s.vary]
@@ -62,6 +68,8 @@ class Objective:
         return set_values(self.model, self.values(theta))
 
     def replays(self, theta):
+        if self.check is not None:
+            self.check()
         m = self.model_at(theta)
         return [replay(m, e) for e in self.experiments]
 
@@ -192,9 +200,19 @@ class Calibration:
         })
 
 
-def fit(model, experiments, specs, max_nfev=40, compute_before=True):
-    """Fit ``specs`` on prepared experiments (shared by :func:`calibrate` and the diagnosis)."""
-    obj = Objective(model, experiments, specs)
+def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=None,
+        span=(0.0, 1.0), step="fitting"):
+    """Fit ``specs`` on prepared experiments (shared by :func:`calibrate` and the diagnosis).
+
+    ``progress(fraction, step)`` is reported within ``span`` as the optimiser's
+    evaluations are used up; it may raise :class:`Cancelled` to stop.
+    """
+    def check():
+        if progress is not None:
+            frac = min(obj.n_eval / max(max_nfev, 1), 1.0)
+            progress(span[0] + (span[1] - span[0]) * frac, step)
+
+    obj = Objective(model, experiments, specs, check)
     vs = obj.specs
     theta0 = np.array([s.value for s in vs], float)
     lo = np.array([s.min for s in vs], float)
@@ -229,6 +247,8 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True):
             theta = np.clip(sol.x * sc, lo, hi)
             success = sol.status > 0
             message = sol.message if success else f"did not converge: {sol.message}"
+        except Cancelled:
+            raise
         except Exception as exc:  # keep the best point found, never NaN
             success = False
             message = f"fit failed ({exc}); returning the best point found"
@@ -286,7 +306,7 @@ def _rms_scale(obj, replays):
     return np.concatenate(parts)
 
 
-def calibrate(model, experiments, parameters, max_nfev=40, datasets=None):
+def calibrate(model, experiments, parameters, max_nfev=40, datasets=None, progress=None):
     """Fit model parameters to measurements.
 
     Parameters
@@ -295,6 +315,7 @@ def calibrate(model, experiments, parameters, max_nfev=40, datasets=None):
     experiments : list  Experiments (objects or JSON), fitted jointly
     parameters : dict or list  ``{path: {"min", "max", "value"?, "vary"?}}`` (see :mod:`pneucore.paths`)
     max_nfev : int  Budget of residual evaluations of the optimiser
+    progress : callable or None  ``progress(fraction, step)``; may raise ``Cancelled``
 
     Returns
     -------
@@ -306,4 +327,4 @@ def calibrate(model, experiments, parameters, max_nfev=40, datasets=None):
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     exps = as_experiments(experiments, model.ambient.pressure, datasets)
     specs = parse_parameters(model, parameters)
-    return fit(model, exps, specs, max_nfev=max_nfev)
+    return fit(model, exps, specs, max_nfev=max_nfev, progress=progress, step="calibrating")

@@ -185,7 +185,23 @@ def summarise(replays, n_windows=5):
 PAPER_HEAT_MODELS = ("convective", "adiabatic", "isothermal")
 
 
-def compare(model, experiments, heat_models=None, n_windows=5, datasets=None):
+def check_heat_models(heat_models):
+    """Validate the ``heat_models`` argument of :func:`compare`; returns the names."""
+    from .heat import HEAT_MODELS
+    from .validation import FieldError
+    if not heat_models:
+        return ()
+    if heat_models is True:
+        return PAPER_HEAT_MODELS
+    names = tuple(heat_models)
+    for i, n in enumerate(names):
+        if not isinstance(n, str) or n not in HEAT_MODELS:
+            raise FieldError(f"heat_models[{i}]", f"unknown heat model {n!r}; expected one of "
+                                                  f"{sorted(HEAT_MODELS)}")
+    return names
+
+
+def compare(model, experiments, heat_models=None, n_windows=5, datasets=None, progress=None):
     """Compare the model with measurements.
 
     Parameters
@@ -195,6 +211,7 @@ def compare(model, experiments, heat_models=None, n_windows=5, datasets=None):
     heat_models : list of str or True or None  Also compare under these heat models
         (True = isothermal, adiabatic and convective), side by side
     n_windows : int  Number of worst windows to describe
+    progress : callable or None  ``progress(fraction, step)``; may raise ``Cancelled``
 
     Returns
     -------
@@ -202,11 +219,18 @@ def compare(model, experiments, heat_models=None, n_windows=5, datasets=None):
         residual series, estimated noise floor, and ``heat_models`` when asked
     """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
+    names = check_heat_models(heat_models)
     exps = as_experiments(experiments, model.ambient.pressure, datasets)
-    comp = summarise([replay(model, e) for e in exps], n_windows)
-    if heat_models:
-        names = PAPER_HEAT_MODELS if heat_models is True else tuple(heat_models)
-        for name in names:
+    report = progress or (lambda f, s: None)
+    total = len(exps) * (1 + len(names))
+    rps = []
+    for i, e in enumerate(exps):
+        report(i / total, f"simulating {e.name}")
+        rps.append(replay(model, e))
+    comp = summarise(rps, n_windows)
+    if names:
+        for k, name in enumerate(names):
+            report((len(exps) * (1 + k)) / total, f"heat model {name}")
             m = model.copy()
             m.heat.model = name
             hx = m.effects.pop("heat_exchange", None)

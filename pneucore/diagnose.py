@@ -194,6 +194,26 @@ def _explain(eff, cand, floor_overall):
     return txt
 
 
+def check_request(model, candidates=None, uncertain=()):
+    """Validate ``candidates`` and ``uncertain`` before any work; returns the candidate names."""
+    from .validation import FieldError
+    if candidates is None:
+        names = [n for n in EFFECTS if n not in model.effects]
+    else:
+        names = list(candidates)
+        for i, n in enumerate(names):
+            if not isinstance(n, str) or n not in EFFECTS:
+                raise FieldError(f"candidates[{i}]", f"unknown effect {n!r}; the catalog has "
+                                                     f"{sorted(EFFECTS)}")
+    paths = list(uncertain) if isinstance(uncertain, (list, tuple)) else list(dict(uncertain))
+    for i, p in enumerate(paths):
+        try:
+            parse_parameters(model, [p])
+        except FieldError as exc:
+            raise FieldError(f"uncertain[{i}]", f"{p!r}: {exc.detail}") from None
+    return names
+
+
 def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT, alpha=ALPHA,
              datasets=None, progress=None, max_nfev=30, refit_existing=True):
     """Rank the catalog effects the model lacks by how well each explains the residual.
@@ -222,14 +242,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     report = progress or (lambda f, s: None)
 
     # -- candidates --------------------------------------------------------------
-    if candidates is None:
-        names = [n for n in EFFECTS if n not in model.effects]
-    else:
-        names = list(candidates)
-        for i, n in enumerate(names):
-            if n not in EFFECTS:
-                from .validation import FieldError
-                raise FieldError(f"candidates[{i}]", f"unknown effect; the catalog has {sorted(EFFECTS)}")
+    names = check_request(model, candidates, uncertain)
     cands = []
     skipped = []
     for n in names:
@@ -251,7 +264,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                 unc.setdefault(f"effects.{name}.{p}", {})
     u_specs = parse_parameters(model, unc) if unc else []
     if u_specs:
-        null_fit = fit(model, exps, u_specs, max_nfev=max_nfev)
+        null_fit = fit(model, exps, u_specs, max_nfev=max_nfev, progress=report, span=(0.02, 0.05),
+                       step="fitting the base model")
         base = null_fit.model
         u_specs = [ParameterSpec(s.path, null_fit.values[s.path]["value"], s.min, s.max, s.vary, s.unit)
                    for s in u_specs]
@@ -325,7 +339,9 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         specs = [ParameterSpec(f"effects.{name}.{p}", start[p], eff.param(p).min, eff.param(p).max,
                                True, eff.param(p).unit) for p in eff.diagnosis_params]
         specs += u_specs
-        cal = fit(m, exps, specs, max_nfev=max_nfev, compute_before=False)
+        # the refit checks the time limit at each evaluation (progress stays at its level)
+        cal = fit(m, exps, specs, max_nfev=max_nfev, compute_before=False,
+                  progress=lambda f, s: report(0.4, f"refit: {name}"))
         return name, cal
 
     done = 0

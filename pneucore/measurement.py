@@ -527,8 +527,8 @@ class Measurement:
         if bad.size:
             i = int(bad[0]) + 1
             raise self._err(
-                f"time is not strictly increasing: t = {t[i]!r} s at row {i + 1} is not "
-                f"greater than t = {t[i - 1]!r} s at row {i}", "t", i)
+                f"time is not strictly increasing: t = {float(t[i]):g} s at row {i + 1} is not "
+                f"greater than t = {float(t[i - 1]):g} s at row {i}", "t", i)
 
         for sig in SIGNALS:
             if sig not in self.signals:

@@ -100,14 +100,23 @@ class SimulationResult:
         """Times [s] of the events of one kind (``command``, ``slip``, ``stick``, ``stop``, ``reverse``)."""
         return [e["t"] for e in self.events if e["kind"] == kind]
 
-    def to_dict(self, series=None):
-        """Plain JSON: series as lists (NaN -> None), events, stats, units, model and scenario."""
+    def to_dict(self, series=None, arrays=False):
+        """Plain JSON: series as lists (NaN -> None), events, stats, units, model and scenario.
+
+        ``arrays=True`` keeps the series as numpy arrays (for a serialiser such as
+        orjson that writes arrays directly and NaN as null).
+        """
         names = series or list(self.series)
         out = {}
         for k in names:
             v = self.series[k]
-            if v.dtype.kind == "f":
-                out[k] = [None if not np.isfinite(x) else float(x) for x in v]
+            if arrays and v.dtype.kind in "fi":
+                out[k] = np.ascontiguousarray(v)
+            elif v.dtype.kind == "f":
+                lst = v.tolist()
+                if not np.all(np.isfinite(v)):
+                    lst = [x if np.isfinite(x) else None for x in lst]
+                out[k] = lst
             else:
                 out[k] = v.tolist()
         return {"series": out, "units": {k: SERIES_UNITS.get(k, _state_unit(k)) for k in names},

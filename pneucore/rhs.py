@@ -57,10 +57,12 @@ def edge_flow(law, p1, T1, p2, T2, C, b, m, r_lam, r, gamma):
 def _edge(k, u, p1, T1, p2, T2, prm, tx, tC, tb, tm, toff):
     s, e = toff[k], toff[k + 1]
     C = table_interp(u, tx, tC, s, e)
-    b = table_interp(u, tx, tb, s, e)
-    m = table_interp(u, tx, tm, s, e)
     law = int(prm[L.P_FLOW_LAW])
-    q = edge_flow(law, p1, T1, p2, T2, C, b, m, prm[L.P_R_LAM], prm[L.P_R], prm[L.P_GAMMA])
+    q = 0.0
+    if C > 0.0:   # a closed edge (spool overlap) needs no b(u), m(u)
+        b = table_interp(u, tx, tb, s, e)
+        m = table_interp(u, tx, tm, s, e)
+        q = edge_flow(law, p1, T1, p2, T2, C, b, m, prm[L.P_R_LAM], prm[L.P_R], prm[L.P_GAMMA])
     frac = prm[L.P_NULL_LEAK]
     if frac > 0.0:
         q += edge_flow(law, p1, T1, p2, T2, frac * prm[L.P_CMAX_PA + k], prm[L.P_BMAX_PA + k],

@@ -91,7 +91,7 @@ async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
             from fastapi.exceptions import RequestValidationError
             raise RequestValidationError([{**e, "loc": ("body",) + tuple(e["loc"])} for e in exc.errors()])
         try:
-            meas = Measurement.from_dict(payload.measurement.model_dump())
+            meas = Measurement.from_dict(payload.measurement.model_dump(exclude_none=True))
         except MeasurementError as exc:
             raise FieldError("measurement", str(exc)) from None
         info = store.add_dataset(meas, payload.scenario, name=payload.name or meas.name,

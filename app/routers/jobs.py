@@ -2,9 +2,10 @@
 from fastapi import APIRouter, HTTPException
 from ..responses import JSON
 
-from ..deps import JobsDep, LimitsDep, StoreDep, not_found, parse_experiments, parse_model
+from ..deps import JobsDep, LimitsDep, StoreDep, not_found
 from ..schemas import CalibrateRequest, CompareRequest, DiagnoseRequest, JobResponse
-from .analysis import run_calibrate, run_compare, run_diagnose
+from .analysis import (check_calibrate, check_compare, check_diagnose, run_calibrate, run_compare,
+                       run_diagnose)
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
@@ -20,24 +21,20 @@ def _submit(jobs, kind, fn):
 @router.post("/diagnose", status_code=202, response_model=JobResponse, summary="Diagnose as a job")
 def diagnose_job(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep):
     # validate up front so bad input is a 422 now, not a failed job later
-    parse_experiments(req.experiments, parse_model(req.model), store, limits)
+    check_diagnose(req, store, limits)
     return _submit(jobs, "diagnose", lambda job: run_diagnose(req, store, limits, progress=job.report))
 
 
-def _simple(kind, step, runner):
-    """A job that validates its request up front, then runs ``runner`` in one step."""
+def _simple(kind, check, runner):
+    """A job that validates its request up front, then runs ``runner`` reporting progress."""
     def endpoint(req, store, limits, jobs):
-        parse_experiments(req.experiments, parse_model(req.model), store, limits)
-
-        def run(job):
-            job.report(0.05, step)
-            return runner(req, store, limits)
-        return _submit(jobs, kind, run)
+        check(req, store, limits)
+        return _submit(jobs, kind, lambda job: runner(req, store, limits, progress=job.report))
     return endpoint
 
 
-_calibrate = _simple("calibrate", "calibrating", run_calibrate)
-_compare = _simple("compare", "simulating experiments", run_compare)
+_calibrate = _simple("calibrate", check_calibrate, run_calibrate)
+_compare = _simple("compare", check_compare, run_compare)
 
 
 @router.post("/calibrate", status_code=202, response_model=JobResponse, summary="Calibrate as a job")

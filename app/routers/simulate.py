@@ -17,11 +17,13 @@ DEFAULT_SERIES = ("t", "u", "p_a", "p_b", "T_a", "T_b", "m_a", "m_b", "x", "v", 
 
 def _result(res, series):
     names = [s for s in (series or DEFAULT_SERIES) if s in res.series]
+    if series is not None and len(series) == 0:
+        raise FieldError("series", "give at least one series name, or omit the field for the default set")
     if series:
         unknown = [s for s in series if s not in res.series]
         if unknown:
             raise FieldError("series", f"unknown series {unknown}; available: {sorted(res.series)}")
-    d = res.to_dict(series=names)
+    d = res.to_dict(series=names, arrays=True)
     d.pop("model", None)
     d.pop("scenario", None)
     return d

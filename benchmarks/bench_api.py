@@ -1,0 +1,276 @@
+"""Latency benchmark of the REST API's simulate endpoint over real HTTP.
+
+Run from the repository root::
+
+    python benchmarks/bench_api.py [--json PATH] [--requests N] [--clients C] [--per-client K]
+
+Set-up: ``uvicorn app.main:app`` (one worker, as ``python -m app`` runs it) is
+started in a subprocess on a free localhost port, with ``PNEUCORE_DB`` pointing
+to a temporary SQLite file. After a warm-up (the first call may load or
+compile the numba core), ``POST /api/simulate`` with the ``paper-4way`` model
+and the ``paper-fig10-pulses`` scenario (1 s, 1 kHz, all default series, about
+0.25 MB of JSON) is measured:
+
+* **sequential**: ``--requests`` (200) requests one after the other on one
+  keep-alive connection: median, p95, min, max latency;
+* **concurrent**: ``--clients`` (20) clients, each on its own connection,
+  sending ``--per-client`` (10) requests back to back: median and p95
+  latency over all requests, and the throughput;
+* for reference, the in-process cost of what the endpoint does (parse and
+  validate, :func:`pneucore.simulate`, the result's ``to_dict``, orjson), stage by
+  stage, without HTTP.
+
+Every response is checked after its timing (status 200, same bytes as the first one).
+Target: sequential median <= 30 ms.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+sys.path.insert(0, ROOT)
+
+MODEL, SCENARIO = "paper-4way", "paper-fig10-pulses"
+TARGET_MEDIAN_MS = 30.0
+
+
+def machine_info():
+    import fastapi
+    import httpx
+    import numba
+    import numpy
+    import uvicorn
+    cpu = platform.processor() or "unknown"
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.lower().startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    try:
+        usable = len(os.sched_getaffinity(0))
+    except AttributeError:
+        usable = os.cpu_count()
+    return {"cpu": cpu, "cores": os.cpu_count(), "usable_cores": usable,
+            "python": platform.python_version(), "numpy": numpy.__version__,
+            "numba": numba.__version__, "fastapi": fastapi.__version__,
+            "uvicorn": uvicorn.__version__, "httpx": httpx.__version__,
+            "platform": platform.platform()}
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def percentile(values, q):
+    """Nearest-rank percentile (q in [0, 100])."""
+    v = sorted(values)
+    k = max(0, min(len(v) - 1, int(round(q / 100.0 * len(v) + 0.5)) - 1))
+    return v[k]
+
+
+def summary(lat_s):
+    ms = [x * 1e3 for x in lat_s]
+    return {"n": len(ms), "median_ms": statistics.median(ms), "p95_ms": percentile(ms, 95),
+            "mean_ms": statistics.fmean(ms), "min_ms": min(ms), "max_ms": max(ms)}
+
+
+class Server:
+    """``uvicorn app.main:app`` in a subprocess on a temporary database."""
+
+    def __init__(self, port, db_path, log_path):
+        env = dict(os.environ, PNEUCORE_DB=db_path, PYTHONUNBUFFERED="1")
+        env["PYTHONPATH"] = ROOT + os.pathsep + env.get("PYTHONPATH", "")
+        self.log = open(log_path, "w")
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "uvicorn", "app.main:app", "--host", "127.0.0.1",
+             "--port", str(port), "--workers", "1", "--log-level", "warning", "--no-access-log"],
+            cwd=ROOT, env=env, stdout=self.log, stderr=subprocess.STDOUT)
+        self.url = f"http://127.0.0.1:{port}"
+
+    def wait_ready(self, client, timeout=120.0):
+        t0 = time.perf_counter()
+        while time.perf_counter() - t0 < timeout:
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"uvicorn exited with code {self.proc.returncode}")
+            try:
+                if client.get(self.url + "/api/limits").status_code == 200:
+                    return time.perf_counter() - t0
+            except Exception:
+                pass
+            time.sleep(0.05)
+        raise RuntimeError(f"uvicorn not ready after {timeout} s")
+
+    def stop(self):
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self.log.close()
+
+
+def check(resp, ref):
+    """Status 200 and the same bytes as the first response (orjson output is deterministic)."""
+    if resp.status_code != 200:
+        raise RuntimeError(f"HTTP {resp.status_code}: {resp.text[:300]}")
+    if ref is not None and resp.content != ref:
+        raise RuntimeError("a response differs from the first one")
+
+
+def in_process(body, runs=50):
+    """Median wall times in this process (no HTTP): parse + simulate + to_dict + orjson, and
+    each stage alone, to show where the endpoint's time goes."""
+    import orjson
+    from app.routers.simulate import DEFAULT_SERIES
+    from pneucore import simulate
+    from pneucore.model import Model
+    from pneucore.scenario import Scenario
+    stages = {"parse": [], "simulate": [], "to_dict": [], "orjson": [], "total": []}
+    for i in range(runs + 3):
+        t0 = time.perf_counter()
+        m = Model.from_dict(body["model"])
+        s = Scenario.from_dict(body["scenario"], m)
+        t1 = time.perf_counter()
+        res = simulate(m, s)
+        t2 = time.perf_counter()
+        d = res.to_dict(series=list(DEFAULT_SERIES))  # as the router does
+        t3 = time.perf_counter()
+        orjson.dumps(d, option=orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS)
+        t4 = time.perf_counter()
+        if i >= 3:
+            for k, v in zip(stages, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t4 - t0)):
+                stages[k].append(v)
+    return {k: statistics.median(v) * 1e3 for k, v in stages.items()}
+
+
+def run(args):
+    import httpx
+    from pneucore import model_preset, scenario_preset
+    body = {"model": model_preset(MODEL), "scenario": scenario_preset(SCENARIO)}
+    out = {"case": {"model": MODEL, "scenario": SCENARIO, "endpoint": "POST /api/simulate",
+                    "series": "default (all)"},
+           "machine": machine_info(), "target": {"sequential_median_ms": TARGET_MEDIAN_MS}}
+    tmp = tempfile.mkdtemp(prefix="pneucore-bench-api-")
+    db, log = os.path.join(tmp, "bench.sqlite3"), os.path.join(tmp, "uvicorn.log")
+    server = Server(free_port(), db, log)
+    try:
+        limits = httpx.Limits(max_connections=args.clients + 4, max_keepalive_connections=args.clients + 4)
+        with httpx.Client(timeout=120.0, limits=limits) as c:
+            out["startup_s"] = server.wait_ready(c)
+            t0 = time.perf_counter()
+            first = c.post(server.url + "/api/simulate", json=body)
+            out["first_request_s"] = time.perf_counter() - t0
+            check(first, None)
+            ref = first.content
+            out["response_bytes"] = len(first.content)
+            for _ in range(args.warmup):
+                check(c.post(server.url + "/api/simulate", json=body), ref)
+
+            lat = []
+            for _ in range(args.requests):
+                t0 = time.perf_counter()
+                r = c.post(server.url + "/api/simulate", json=body)
+                lat.append(time.perf_counter() - t0)
+                check(r, ref)
+            out["sequential"] = summary(lat)
+
+        results, errors = [], []
+        barrier = threading.Barrier(args.clients + 1)
+
+        def client_loop():
+            mine = []
+            with httpx.Client(timeout=120.0) as cc:
+                cc.get(server.url + "/api/limits")  # open the connection before the clock starts
+                barrier.wait()
+                for _ in range(args.per_client):
+                    t0 = time.perf_counter()
+                    r = cc.post(server.url + "/api/simulate", json=body)
+                    mine.append(time.perf_counter() - t0)
+                    try:
+                        check(r, ref)
+                    except Exception as exc:  # reported after the run
+                        errors.append(str(exc))
+            results.extend(mine)
+
+        threads = [threading.Thread(target=client_loop) for _ in range(args.clients)]
+        for t in threads:
+            t.start()
+        barrier.wait()
+        t0 = time.perf_counter()
+        for t in threads:
+            t.join()
+        wall = time.perf_counter() - t0
+        if errors:
+            raise RuntimeError(f"{len(errors)} concurrent requests failed, e.g. {errors[0]}")
+        conc = summary(results)
+        conc.update({"clients": args.clients, "per_client": args.per_client, "wall_s": wall,
+                     "throughput_rps": len(results) / wall})
+        out["concurrent"] = conc
+    finally:
+        server.stop()
+    out["in_process_ms"] = in_process(body)
+    out["pass"] = out["sequential"]["median_ms"] <= TARGET_MEDIAN_MS
+    return out
+
+
+def report(out):
+    m = out["machine"]
+    print("pneucore REST API benchmark: POST /api/simulate, "
+          f"{out['case']['model']} + {out['case']['scenario']} (all default series)")
+    print(f"machine: {m['cpu']}, {m['cores']} cores ({m['usable_cores']} usable), {m['platform']}")
+    print(f"         python {m['python']}, numpy {m['numpy']}, numba {m['numba']}, "
+          f"fastapi {m['fastapi']}, uvicorn {m['uvicorn']} (1 worker), httpx {m['httpx']}")
+    print(f"server ready in {out['startup_s']:.2f} s; first request {out['first_request_s'] * 1e3:.0f} ms; "
+          f"response {out['response_bytes'] / 1e3:.0f} kB")
+    s = out["sequential"]
+    print(f"sequential  {s['n']:4d} requests: median {s['median_ms']:6.1f} ms  p95 {s['p95_ms']:6.1f} ms  "
+          f"(min {s['min_ms']:.1f}, max {s['max_ms']:.1f})")
+    c = out["concurrent"]
+    print(f"concurrent  {c['clients']} clients x {c['per_client']}: median {c['median_ms']:6.1f} ms  "
+          f"p95 {c['p95_ms']:6.1f} ms  (max {c['max_ms']:.1f}); "
+          f"{c['throughput_rps']:.0f} requests/s over {c['wall_s']:.2f} s")
+    p = out["in_process_ms"]
+    print(f"in-process  (no HTTP) median {p['total']:.1f} ms = parse {p['parse']:.1f} + simulate "
+          f"{p['simulate']:.1f} + result.to_dict {p['to_dict']:.1f} + orjson {p['orjson']:.1f} ms")
+    verdict = "PASS" if out["pass"] else "FAIL"
+    print(f"target: sequential median <= {TARGET_MEDIAN_MS:g} ms -> {verdict} "
+          f"({s['median_ms']:.1f} ms)")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--json", metavar="PATH", help="write the figures to this JSON file")
+    ap.add_argument("--requests", type=int, default=200, help="sequential requests (200)")
+    ap.add_argument("--clients", type=int, default=20, help="concurrent clients (20)")
+    ap.add_argument("--per-client", type=int, default=10, help="requests per concurrent client (10)")
+    ap.add_argument("--warmup", type=int, default=10, help="warm-up requests (10)")
+    args = ap.parse_args(argv)
+    out = run(args)
+    report(out)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(out, f, indent=1)
+        print(f"figures written to {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

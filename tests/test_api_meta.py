@@ -1,0 +1,57 @@
+"""GET /api/limits, /api/samples, the page, its plotly.js, the OpenAPI document."""
+from api_conftest import api, client, db_path  # noqa: F401
+from app.config import Limits
+from pneucore.samples import list_samples
+
+
+def test_limits_are_the_settings_limits(client):
+    r = client.get("/api/limits")
+    assert r.status_code == 200
+    assert r.json() == Limits().to_dict()
+    for key in ("max_duration", "max_samples", "max_upload_bytes", "max_experiments",
+                "max_analysis_samples", "job_time_limit"):
+        assert r.json()[key] > 0
+
+
+def test_limits_follow_custom_settings(db_path):
+    with api(db_path, max_duration=2.5, max_samples=1234, job_time_limit=0.5) as c:
+        d = c.get("/api/limits").json()
+    assert (d["max_duration"], d["max_samples"], d["job_time_limit"]) == (2.5, 1234, 0.5)
+
+
+def test_samples_manifest(client):
+    r = client.get("/api/samples")
+    assert r.status_code == 200
+    assert r.json() == list_samples()
+    assert {"clean", "piston-leak"} <= {s["id"] for s in r.json()}
+
+
+def test_page_is_served(client):
+    r = client.get("/")
+    assert r.status_code == 200, r.text[:300]
+    assert r.headers["content-type"].startswith("text/html")
+
+
+def test_local_plotly_js_is_served(client):
+    r = client.get("/static/plotly.min.js")
+    assert r.status_code == 200
+    assert "javascript" in r.headers["content-type"]
+    assert len(r.content) > 100_000  # the real minified bundle, not a stub
+
+
+def test_openapi_documents_every_route_and_units(client):
+    r = client.get("/openapi.json")
+    assert r.status_code == 200
+    doc = r.json()
+    for path in ("/api/presets", "/api/presets/{name}", "/api/effects", "/api/simulate",
+                 "/api/simulate/heat-models", "/api/compare", "/api/calibrate", "/api/diagnose",
+                 "/api/datasets", "/api/datasets/{dataset_id}", "/api/sessions",
+                 "/api/sessions/{session_id}", "/api/sessions/{session_id}/versions",
+                 "/api/jobs/diagnose", "/api/jobs/calibrate", "/api/jobs/compare",
+                 "/api/jobs/{job_id}", "/api/limits", "/api/samples"):
+        assert path in doc["paths"], path
+    schemas = doc["components"]["schemas"]
+    # every physical input field says its unit in brackets
+    for name in ("JackIn", "SourceIn", "HeatIn", "FrictionSetIn", "GasIn", "SolverIn", "InitialIn"):
+        for field, spec in schemas[name]["properties"].items():
+            assert "[" in spec.get("description", ""), (name, field)
