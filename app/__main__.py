@@ -1,4 +1,5 @@
 """``python -m app``: start the web service."""
 from .main import main
 
-main()
+if __name__ == "__main__":   # guarded: study worker processes (spawn) re-import the main module
+    main()

@@ -25,6 +25,9 @@ class Limits:
     job_time_limit: float = 300.0        # wall time of one job [s]
     request_time_limit: float = 60.0     # wall time of a synchronous analysis [s]
     max_jobs: int = 16                   # queued or running jobs
+    max_study_runs: int = 100_000        # runs of one robustness study
+    study_time_limit: float = 3600.0     # wall time of one study job [s]
+    scheduler_timeout: float = 3.0       # time to reach a Dask scheduler [s]
 
     def to_dict(self):
         return dict(self.__dict__)
@@ -35,3 +38,4 @@ class Settings:
     db_path: str = field(default_factory=lambda: os.environ.get("PNEUCORE_DB", "pneucore.sqlite3"))
     limits: Limits = field(default_factory=Limits)
     seed_samples: bool = True
+    resume_studies: bool = True

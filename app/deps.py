@@ -6,7 +6,6 @@ from typing import Annotated
 from fastapi import Depends, HTTPException, Request
 
 from pneucore.experiment import as_experiments
-from pneucore.measurement import Measurement
 from pneucore.model import Model
 from pneucore.scenario import Scenario
 from pneucore.validation import FieldError

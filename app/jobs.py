@@ -59,12 +59,12 @@ class JobManager:
     def active(self):
         return sum(1 for j in self.jobs.values() if j.status in ("queued", "running"))
 
-    def submit(self, kind, fn):
+    def submit(self, kind, fn, time_limit=None):
         """Queue ``fn(job)``; returns the job. Raises RuntimeError when the queue is full."""
         with self._lock:
             if self.active() >= self.max_jobs:
                 raise RuntimeError(f"too many jobs queued or running (limit {self.max_jobs})")
-            job = Job(kind, self.time_limit)
+            job = Job(kind, time_limit or self.time_limit)
             self.jobs[job.id] = job
 
         def run():
@@ -91,6 +91,11 @@ class JobManager:
 
     def get(self, jid):
         return self.jobs.get(jid)
+
+    def latest_for_study(self, study_id):
+        """The most recent job of a robustness study, if any."""
+        js = [j for j in self.jobs.values() if getattr(j, "study_id", None) == study_id]
+        return max(js, key=lambda j: j.created) if js else None
 
     def shutdown(self):
         self.pool.shutdown(wait=False, cancel_futures=True)

@@ -13,7 +13,7 @@ from pathlib import Path
 import plotly
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import FileResponse, JSONResponse, RedirectResponse
+from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 
 from pneucore.measurement import MeasurementError
@@ -22,7 +22,7 @@ from pneucore.validation import FieldError
 
 from .config import Settings
 from .jobs import JobManager, JobTimeout
-from .routers import analysis, datasets, effects, jobs, presets, sessions, simulate
+from .routers import analysis, datasets, effects, jobs, presets, sessions, simulate, studies
 from .store import Store
 
 STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
@@ -51,8 +51,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         if settings.seed_samples:
             store.seed_samples()
         app.state.store = store
-        app.state.jobs = JobManager(workers=1, max_jobs=settings.limits.max_jobs,
+        app.state.jobs = JobManager(workers=2, max_jobs=settings.limits.max_jobs,
                                     time_limit=settings.limits.job_time_limit)
+        if settings.resume_studies:
+            # studies left "running" by a stopped server resume where they were
+            from pneucore.study import list_studies
+            for s in list_studies(settings.db_path):
+                if s.get("status") == "running":
+                    studies.start_study(app.state.jobs, settings.db_path, s["id"],
+                                        time_limit=settings.limits.study_time_limit)
         yield
         app.state.jobs.shutdown()
         store.close()
@@ -107,7 +114,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def unexpected(request: Request, exc: Exception):
         return JSONResponse(status_code=500, content={"detail": f"internal error: {type(exc).__name__}: {exc}"})
 
-    for r in (presets, effects, simulate, analysis, datasets, sessions, jobs):
+    for r in (presets, effects, simulate, analysis, datasets, sessions, jobs, studies):
         app.include_router(r.router)
 
     @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits")

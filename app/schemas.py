@@ -200,6 +200,17 @@ class VersionCreate(_Strict):
     note: str = Field("", description="Free text")
 
 
+class StudyRequest(_Strict):
+    model: ModelIn = Field(..., description="Actuator model")
+    scenario: ScenarioIn = Field(..., description="Scenario run for every parameter set")
+    parameters: dict[str, dict[str, Any]] = Field(..., description="Parameter path -> {grid: [...]} or {distribution: uniform|normal|lognormal, min, max, mean, std, median, sigma} (unit of the parameter)")
+    samples: Optional[int] = Field(None, description="Number of random samples (distributions) [-]")
+    seed: int = Field(0, description="Random seed [-]")
+    metrics: Optional[list[str]] = Field(None, description="Metrics to compute; null = all (see pneucore.study METRICS) [-]")
+    scheduler: Optional[str] = Field(None, description="Dask scheduler address, e.g. tcp://10.0.0.5:8786; null = the local process pool")
+    workers: Optional[int] = Field(None, description="Local pool size; null = one per CPU [-]")
+
+
 # ---------------------------------------------------------------------------- responses
 class SimulateResponse(BaseModel):
     series: dict[str, list[Any]] = Field(..., description="Sampled series by name (SI units, see units)")

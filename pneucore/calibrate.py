@@ -220,7 +220,6 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     sc = _scales(vs)
     before = None
     rps0 = obj.replays(theta0)
-    r0 = obj.weighted(rps0)
     if compute_before:
         before = summarise(rps0)
     rss0 = obj.rss(rps0)

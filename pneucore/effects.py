@@ -19,7 +19,6 @@ mass, enthalpy and heat flows to the chambers and a force on the piston.
 """
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass, field
 from typing import Callable, Optional
 
@@ -196,7 +195,7 @@ def effective_model(model):
     """
     if not any(EFFECTS[name].transform is not None for name in model.effects):
         return model
-    m = copy.deepcopy(model)
+    m = model.copy()
     for name, params in model.effects.items():
         eff = EFFECTS[name]
         if eff.transform is not None:

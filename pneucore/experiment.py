@@ -22,7 +22,6 @@ from typing import Optional
 import numpy as np
 
 from .measurement import Measurement, MeasurementError
-from .model import Model
 from .scenario import Scenario
 from .simulate import simulate
 from .validation import FieldError, known_keys, mapping, number

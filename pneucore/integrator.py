@@ -421,7 +421,6 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
     err = np.empty(n)
     f0 = np.empty(n)
     f1 = np.empty(n)
-    fh = np.empty(n)
     ftmp = np.empty(n)
     ytmp = np.empty(n)
     ysave = np.empty(n)

@@ -399,8 +399,20 @@ class Model:
         return d
 
     def copy(self):
-        """Deep copy."""
-        return copy.deepcopy(self)
+        """Deep copy (written out: ``copy.deepcopy`` costs more than a simulation here)."""
+        v = self.valve
+        ports = {k: PortTable(list(p.opening), list(p.C), list(p.b), None if p.m is None else list(p.m))
+                 for k, p in v.ports.items()}
+        f = self.friction
+        return Model(
+            jack=Jack(**self.jack.__dict__),
+            valve=Valve(v.kind, ports, v.b_chamber_pressure, v.flow_law, v.laminar_ratio),
+            supply=Source(**self.supply.__dict__), ambient=Source(**self.ambient.__dict__),
+            heat=Heat(**self.heat.__dict__),
+            friction=Friction(FrictionSet(**f.extend.__dict__), FrictionSet(**f.retract.__dict__), f.law),
+            effects={k: dict(p) for k, p in self.effects.items()},
+            gas=Gas(**self.gas.__dict__), name=self.name, description=self.description,
+            notes=self.notes)
 
     @property
     def b_chamber_pressure(self):

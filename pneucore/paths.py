@@ -42,6 +42,11 @@ class ParameterSpec:
                 "vary": self.vary, "unit": self.unit}
 
 
+def unit_of(path):
+    """Unit of the parameter at ``path`` (``""`` when unknown)."""
+    return _unit(path)
+
+
 def _unit(path):
     units = {"bore": "m", "rod_a": "m", "rod_b": "m", "stroke": "m", "dead_volume_a": "m^3",
              "dead_volume_b": "m^3", "moving_mass": "kg", "load_force": "N", "wall_area_a": "m^2",
@@ -95,9 +100,12 @@ def _check_valve_path(model, path):
         raise FieldError(f"parameters.{path}", f"unknown edge; this valve has {sorted(model.valve.ports)}")
 
 
-def set_values(model, values):
-    """A copy of ``model`` with ``{path: value}`` applied (valve entries scale the tables)."""
-    m = model.copy()
+def set_values(model, values, copy=True):
+    """``model`` with ``{path: value}`` applied (valve entries scale the tables).
+
+    ``copy=False`` edits ``model`` in place (for callers that own a fresh copy).
+    """
+    m = model.copy() if copy else model
     for path, v in values.items():
         parts = path.split(".")
         if parts[0] == "valve":

@@ -1,5 +1,4 @@
 """Checks that turn bad input into one clear ``ValueError`` naming the field path."""
-import math
 
 
 class FieldError(ValueError):

@@ -1,0 +1,263 @@
+"""Results of a robustness study: per-metric distributions, a sensitivity ranking, raw arrays.
+
+Sensitivity methods
+-------------------
+* **Rank correlation** (every design; the ranking for Monte Carlo and mixed
+  designs): Spearman's rank correlation (``scipy.stats.spearmanr``) and the
+  partial rank correlation coefficient, PRCC (Marino, Hogue, Ray &
+  Kirschner 2008, J. Theor. Biol. 254:178-196): inputs and output are
+  rank-transformed (average ranks for ties); for input ``i`` the ranks of
+  ``X_i`` and of ``Y`` are each regressed linearly on the ranks of the
+  other inputs, and PRCC is the Pearson correlation of the two residuals.
+  Its p-value uses ``t = r sqrt((n - 2 - p) / (1 - r^2))``, Student's t
+  with ``n - 2 - p`` degrees of freedom, ``p`` = number of other inputs.
+  Ranked by ``|PRCC|``. Measures monotonic influence, not a share of variance.
+* **Variance-based** only where the design supports it: a complete full
+  factorial (grid-only study, every run stored and the metric defined in
+  all of them). There the first-order index ``S_i = Var(E[Y | X_i]) /
+  Var(Y)`` and the total index ``S_Ti = E[Var(Y | X_~i)] / Var(Y)`` are
+  exact over the grid, every grid point weighted equally; ranked by
+  ``S_Ti``. Random designs here are plain Monte Carlo, which does not
+  support Sobol estimators, so they use rank correlation.
+"""
+from __future__ import annotations
+
+import json
+import math
+from collections import Counter
+
+import numpy as np
+from scipy import stats
+
+from . import study_store as store
+from .paths import unit_of
+from .study_def import Study
+from .study_metrics import METRICS
+
+#: Percentiles reported per metric [%]
+PERCENTILES = (5, 25, 50, 75, 95)
+
+METHOD_PRCC = "prcc"
+METHOD_ANOVA = "factorial_variance"
+METHOD_TEXT = {
+    METHOD_PRCC: ("Partial rank correlation coefficient (PRCC, Marino et al. 2008) with its t-test "
+                  "p-value (n - 2 - p degrees of freedom), and Spearman's rank correlation with its "
+                  "p-value; ranked by |PRCC|. Measures monotonic influence, not a share of variance."),
+    METHOD_ANOVA: ("Variance decomposition of the complete full factorial: first-order index "
+                   "S_i = Var(E[Y|X_i]) / Var(Y) and total index S_Ti = E[Var(Y|X_~i)] / Var(Y), "
+                   "exact over the grid with equal weights; ranked by S_Ti. PRCC and Spearman given "
+                   "alongside."),
+}
+
+
+def _f(v):
+    if v is None:
+        return None
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def study_results(store_path, study_id, include_runs=True):
+    """Summary, sensitivity ranking and raw arrays of a stored study (plain JSON).
+
+    Parameters
+    ----------
+    store_path : str  SQLite store
+    study_id : str  Study id
+    include_runs : bool  Include the raw per-run arrays (``runs``); False for a light summary
+
+    Returns
+    -------
+    results : dict
+        ``id``, ``name``, ``status``, ``created``, ``definition``, ``design``, ``n_runs``,
+        ``stored``, ``failed``, ``missing``; ``parameters`` (path, unit, spec);
+        ``metrics``: name -> ``{unit, definition, count, failed, undefined, mean, std,
+        min, max, percentiles: {"5", "25", "50", "75", "95"}}`` (``std`` with ddof = 1;
+        ``failed`` = runs whose simulation failed, ``undefined`` = runs where the metric
+        does not apply, e.g. ``t95`` without travel); ``sensitivity``: ``{methods,
+        ranking: {metric: {method, entries: [{parameter, rank, prcc, prcc_p, spearman,
+        spearman_p[, first_order, total]}]}}}``; ``errors``: distinct failure messages
+        with counts; ``runs``: ``{index, params: {path: [...]}, metrics: {name: [...]},
+        error: [...]}`` for histograms and scatter plots. NaN is null.
+
+    Raises
+    ------
+    KeyError  Unknown study id
+    """
+    db = store.connect(store_path)
+    try:
+        return results_from_db(db, study_id, include_runs)
+    finally:
+        db.close()
+
+
+def study_status(store_path, study_id):
+    """``{id, status, n_runs, stored, failed, fraction}`` (cheap: for progress displays)."""
+    db = store.connect(store_path)
+    try:
+        info = store.get_study(db, study_id)
+        if info is None:
+            raise KeyError(f"no study {study_id!r} in {store_path!r}")
+        n = Study.from_json(info["definition"]).n_runs
+        stored, failed = store.count_runs(db, study_id)
+        return {"id": study_id, "status": info["status"], "n_runs": n, "stored": stored,
+                "failed": failed, "fraction": stored / n}
+    finally:
+        db.close()
+
+
+def results_from_db(db, study_id, include_runs=True):
+    """:func:`study_results` on an open store connection."""
+    info = store.get_study(db, study_id)
+    if info is None:
+        raise KeyError(f"no study {study_id!r} in the store")
+    study = Study.from_json(info["definition"])
+    runs = store.load_runs(db, study_id)
+    paths, names = study.paths, study.metric_names
+    idx = np.array([r[0] for r in runs], dtype=np.int64)
+    X = np.array([[r[1].get(p, np.nan) for p in paths] for r in runs], float).reshape(len(runs), len(paths))
+    ok = np.array([r[3] is None for r in runs], bool)
+    Y = {m: np.array([np.nan if r[2] is None or r[2].get(m) is None else r[2][m] for r in runs], float)
+         for m in names}
+    n_failed = int((~ok).sum())
+
+    metrics = {}
+    for m in names:
+        y = Y[m]
+        good = np.isfinite(y)
+        v = y[good]
+        d = {"unit": METRICS[m][0], "definition": METRICS[m][1], "count": int(good.sum()),
+             "failed": n_failed, "undefined": int((ok & ~good).sum())}
+        if v.size:
+            same = v.min() == v.max()  # exact zero spread, not rounding noise
+            d.update(mean=_f(v[0] if same else v.mean()),
+                     std=(0.0 if same else _f(v.std(ddof=1))) if v.size > 1 else None,
+                     min=_f(v.min()), max=_f(v.max()),
+                     percentiles={str(q): _f(x) for q, x in zip(PERCENTILES, np.percentile(v, PERCENTILES))})
+        else:
+            d.update(mean=None, std=None, min=None, max=None,
+                     percentiles={str(q): None for q in PERCENTILES})
+        metrics[m] = d
+
+    ranking = {}
+    complete_factorial = study.design == "factorial" and len(runs) == study.n_runs and n_failed == 0
+    for m in names:
+        ranking[m] = _rank(study, X, Y[m], idx, complete_factorial)
+
+    errors = Counter(r[3] for r in runs if r[3] is not None)
+    first = {}
+    for r in runs:
+        if r[3] is not None:
+            first.setdefault(r[3], []).append(r[0])
+    out = {
+        "id": study_id, "name": study.name, "status": info["status"], "created": info["created"],
+        "definition": json.loads(info["definition"]), "design": study.design,
+        "n_runs": study.n_runs, "stored": len(runs), "failed": n_failed,
+        "missing": study.n_runs - len(runs),
+        "parameters": [{"path": p.path, "unit": unit_of(p.path), "spec": p.to_dict()}
+                       for p in study.parameters],
+        "metrics": metrics,
+        "sensitivity": {"methods": dict(METHOD_TEXT), "ranking": ranking},
+        "errors": [{"message": msg, "count": c, "runs": first[msg][:20]}
+                   for msg, c in errors.most_common()],
+        "runs": {"index": idx.tolist(),
+                 "params": {p: [_f(x) for x in X[:, j]] for j, p in enumerate(paths)},
+                 "metrics": {m: [_f(x) for x in Y[m]] for m in names},
+                 "error": [r[3] for r in runs]},
+    }
+    if not include_runs:
+        del out["runs"]
+    return out
+
+
+def _rank(study, X, y, idx, complete_factorial):
+    good = np.isfinite(y) & np.all(np.isfinite(X), axis=1)
+    Xg, yg = X[good], y[good]
+    corr = rank_correlations(Xg, yg)
+    entries = [{"parameter": p, **c} for p, c in zip(study.paths, corr)]
+    method = METHOD_PRCC
+    if complete_factorial and good.all():
+        idx_order = np.argsort(idx)
+        S1, ST = factorial_indices(y[idx_order], study.grid_shape)
+        for e, s1, st in zip(entries, S1, ST):
+            e["first_order"], e["total"] = _f(s1), _f(st)
+        method = METHOD_ANOVA
+        key = lambda e: (-(e["total"] if e["total"] is not None else -1.0),  # noqa: E731
+                         -abs(e["prcc"] or 0.0))
+    else:
+        key = lambda e: (e["prcc"] is None, -abs(e["prcc"] or 0.0),  # noqa: E731
+                         -abs(e["spearman"] or 0.0))
+    entries.sort(key=key)
+    for k, e in enumerate(entries):
+        e["rank"] = k + 1
+    return {"method": method, "n": int(good.sum()), "entries": entries}
+
+
+def rank_correlations(X, y):
+    """Spearman and PRCC of each column of ``X`` against ``y``, with p-values.
+
+    Parameters
+    ----------
+    X : ndarray (n, k)  Inputs of the usable runs
+    y : ndarray (n,)  Output
+
+    Returns
+    -------
+    out : list of dict  Per column: ``spearman``, ``spearman_p``, ``prcc``, ``prcc_p``
+        (None where undefined: constant column or output, too few runs)
+    """
+    n, k = X.shape
+    out = [{"spearman": None, "spearman_p": None, "prcc": None, "prcc_p": None} for _ in range(k)]
+    if n < 3:
+        return out
+    R = np.column_stack([stats.rankdata(X[:, j]) for j in range(k)]) if k else np.empty((n, 0))
+    ry = stats.rankdata(y)
+    varying = [j for j in range(k) if np.ptp(R[:, j]) > 0]
+    if np.ptp(ry) == 0:
+        return out
+    for j in varying:
+        rho, p = stats.spearmanr(X[:, j], y)
+        out[j]["spearman"], out[j]["spearman_p"] = _f(rho), _f(p)
+    for j in varying:
+        others = [i for i in varying if i != j]
+        A = np.column_stack([np.ones(n)] + [R[:, i] for i in others])
+        dof = n - 2 - len(others)
+        if dof < 1:
+            continue
+        rx = R[:, j] - A @ np.linalg.lstsq(A, R[:, j], rcond=None)[0]
+        rr = ry - A @ np.linalg.lstsq(A, ry, rcond=None)[0]
+        sx, sy = np.sqrt(rx @ rx), np.sqrt(rr @ rr)
+        if sx <= 1e-12 * n or sy <= 1e-12 * n:  # an input fully explained by the others
+            continue
+        r = float(np.clip((rx @ rr) / (sx * sy), -1.0, 1.0))
+        if abs(r) >= 1.0:
+            pval = 0.0
+        else:
+            t = r * math.sqrt(dof / (1.0 - r * r))
+            pval = float(2.0 * stats.t.sf(abs(t), dof))
+        out[j]["prcc"], out[j]["prcc_p"] = r, pval
+    return out
+
+
+def factorial_indices(y, shape):
+    """First-order and total variance indices of a complete full factorial.
+
+    Parameters
+    ----------
+    y : ndarray  Output of every grid point, in run order (C order over ``shape``)
+    shape : tuple  Number of levels of each grid parameter
+
+    Returns
+    -------
+    S1, ST : list of float or None  Per parameter (None if Var(Y) = 0)
+    """
+    Y = np.asarray(y, float).reshape(shape)
+    var = Y.var()
+    if not var > 0:
+        return [None] * len(shape), [None] * len(shape)
+    S1, ST = [], []
+    for i in range(len(shape)):
+        others = tuple(a for a in range(len(shape)) if a != i)
+        S1.append(float(Y.mean(axis=others).var() / var) if others else 1.0)
+        ST.append(float(Y.var(axis=i).mean() / var))
+    return S1, ST
