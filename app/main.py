@@ -53,13 +53,17 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.store = store
         app.state.jobs = JobManager(workers=2, max_jobs=settings.limits.max_jobs,
                                     time_limit=settings.limits.job_time_limit)
+        app.state.cancelled_studies = set()
         if settings.resume_studies:
-            # studies left "running" by a stopped server resume where they were
+            # studies left queued or running by a stopped server resume where they were
             from pneucore.study import list_studies
             for s in list_studies(settings.db_path):
-                if s.get("status") == "running":
-                    studies.start_study(app.state.jobs, settings.db_path, s["id"],
-                                        time_limit=settings.limits.study_time_limit)
+                if s.get("status") in ("queued", "running"):
+                    try:
+                        studies.start_study(app.state, settings.db_path, s["id"],
+                                            time_limit=settings.limits.study_time_limit)
+                    except Exception as exc:  # a full queue must not stop the service
+                        print(f"pneucore: study {s['id']} not resumed at start-up: {exc}")
         yield
         app.state.jobs.shutdown()
         store.close()

@@ -42,7 +42,7 @@ import time
 
 from .study_def import DISTRIBUTIONS, MAX_RUNS, MIN_MASS, Study, StudyParameter
 from .study_exec import (ENV_SCHEDULER, SCHEDULER_TIMEOUT, SchedulerError, StudyInterrupted,
-                         connect_scheduler, run_batch, run_study)
+                         check_run_options, connect_scheduler, queue_study, run_batch, run_study)
 from .study_metrics import METRICS, run_metrics
 from .study_results import factorial_indices, rank_correlations, study_results, study_status
 from .study_store import delete_study, list_studies
@@ -50,7 +50,7 @@ from .validation import FieldError
 
 __all__ = [
     "Study", "StudyParameter", "DISTRIBUTIONS", "MAX_RUNS", "MIN_MASS", "METRICS", "run_metrics",
-    "run_study", "run_batch", "connect_scheduler", "SchedulerError", "StudyInterrupted",
+    "run_study", "run_batch", "connect_scheduler", "queue_study", "check_run_options", "SchedulerError", "StudyInterrupted",
     "ENV_SCHEDULER", "SCHEDULER_TIMEOUT", "study_results", "study_status", "list_studies",
     "delete_study", "rank_correlations", "factorial_indices", "main",
 ]

@@ -309,6 +309,31 @@ def _open_store(path):
         raise FieldError("store_path", f"cannot open the SQLite store {path!r}: {exc}") from None
 
 
+def check_run_options(workers=None, batch_size=None, study_id=None, scheduler=None):
+    """Check :func:`run_study`'s options without running anything (raises FieldError)."""
+    _check_options(workers, batch_size, study_id, scheduler)
+
+
+def queue_study(study, store_path, study_id=None):
+    """Validate ``study`` and store it with status ``queued``; run it later with
+    ``run_study(study_id=...)``. Returns the study id.
+
+    Lets a service hand out an id that exists in the store at once, before the
+    (possibly queued) work starts.
+    """
+    study = Study.from_dict(study)
+    _check_options(None, None, study_id, None)
+    sid = study_id or uuid.uuid4().hex[:12]
+    db = _open_store(store_path)
+    try:
+        if store.get_study(db, sid) is not None:
+            raise FieldError("study_id", f"study {sid!r} already exists in the store")
+        store.create_study(db, sid, study.to_json(), status="queued")
+    finally:
+        db.close()
+    return sid
+
+
 # -- the driver ------------------------------------------------------------------------------
 def run_study(study=None, store_path=None, scheduler=None, workers=None, batch_size=None,
               progress=None, study_id=None, scheduler_timeout=SCHEDULER_TIMEOUT):

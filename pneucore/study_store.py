@@ -20,9 +20,9 @@ import math
 import sqlite3
 import time
 
-#: Study states: running (or killed while running), interrupted (stopped by an error
-#: or a callback), done (every run stored, failed runs included)
-STATUSES = ("running", "interrupted", "done")
+#: Study states: queued (accepted, not started), running (or killed while running),
+#: interrupted (stopped by an error or a callback), done (every run stored, failed runs included)
+STATUSES = ("queued", "running", "interrupted", "done")
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS studies (

@@ -3,12 +3,11 @@
 Runs stream into the service's SQLite file; an interrupted study (server
 restarted, worker killed) resumes without recomputing finished runs.
 """
-import uuid
+from fastapi import APIRouter, HTTPException, Request
 
-from fastapi import APIRouter, Request
-
-from pneucore.study import Study, connect_scheduler, list_studies, study_results, study_status
-from pneucore.study import delete_study, run_study
+from pneucore.progress import Cancelled
+from pneucore.study import (Study, check_run_options, connect_scheduler, delete_study, list_studies,
+                            queue_study, run_study, study_results, study_status)
 from pneucore.validation import FieldError
 
 from ..deps import JobsDep, LimitsDep, not_found, parse_model, parse_scenario
@@ -26,19 +25,35 @@ def _exists(request, sid):
     return any(s["id"] == sid for s in list_studies(_db(request)))
 
 
-def start_study(jobs, db_path, sid, study=None, scheduler=None, workers=None, time_limit=None):
-    """Queue ``run_study`` as a job (used by POST, resume and the start-up recovery)."""
+def start_study(app_state, db_path, sid, scheduler=None, workers=None, time_limit=None):
+    """Queue ``run_study`` for a stored study as a job (POST, resume, start-up recovery).
+
+    A study deleted while it runs is stopped at its next batch and its runs removed.
+    """
+    cancelled = app_state.cancelled_studies
+
     def run(job):
-        return run_study(study, store_path=db_path, scheduler=scheduler, workers=workers,
-                         progress=job.report, study_id=sid)
-    job = jobs.submit("study", run, time_limit=time_limit)
+        def progress(fraction, step):
+            if sid in cancelled:
+                raise Cancelled(f"study {sid} was deleted")
+            job.report(fraction, step)
+        try:
+            return run_study(None, store_path=db_path, scheduler=scheduler, workers=workers,
+                             progress=progress, study_id=sid)
+        finally:
+            if sid in cancelled:
+                delete_study(db_path, sid)
+    try:
+        job = app_state.jobs.submit("study", run, time_limit=time_limit)
+    except RuntimeError as exc:
+        raise HTTPException(429, str(exc)) from None
     job.study_id = sid
     return job
 
 
 @router.post("", status_code=202, summary="Start a robustness study (a job); returns its id",
              response_class=JSON)
-def create_study(req: StudyRequest, request: Request, jobs: JobsDep, limits: LimitsDep):
+def create_study(req: StudyRequest, request: Request, limits: LimitsDep):
     model = parse_model(req.model)
     parse_scenario(req.scenario, model, limits)
     d = {"model": model.to_dict(), "scenario": req.scenario.plain(), "parameters": req.parameters,
@@ -46,14 +61,18 @@ def create_study(req: StudyRequest, request: Request, jobs: JobsDep, limits: Lim
     study = Study.from_dict(d)
     if study.n_runs > limits.max_study_runs:
         raise FieldError("samples", f"{study.n_runs} runs exceed the API limit of {limits.max_study_runs}")
+    check_run_options(workers=req.workers, scheduler=req.scheduler)
     if req.scheduler:
         client, owned, _ = connect_scheduler(req.scheduler, timeout=limits.scheduler_timeout)
         if owned:
             client.close()
-    sid = uuid.uuid4().hex[:12]
-    job = start_study(jobs, _db(request), sid, study, req.scheduler, req.workers,
-                      limits.study_time_limit)
-    return JSON({"id": sid, "job_id": job.id, "n_runs": study.n_runs, "status": "queued"})
+    state = request.app.state
+    if state.jobs.active() >= state.jobs.max_jobs:
+        raise HTTPException(429, f"too many jobs queued or running (limit {state.jobs.max_jobs})")
+    sid = queue_study(study, _db(request))   # the id exists in the store from now on
+    job = start_study(state, _db(request), sid, req.scheduler, req.workers, limits.study_time_limit)
+    return JSON({"id": sid, "job_id": job.id, "n_runs": study.n_runs, "status": "queued"},
+                status_code=202)
 
 
 @router.get("", summary="List stored studies")
@@ -87,11 +106,18 @@ def get_results(study_id: str, request: Request, runs: bool = True):
 def resume_study(study_id: str, request: Request, jobs: JobsDep, limits: LimitsDep):
     if not _exists(request, study_id):
         raise not_found("study", study_id)
-    job = start_study(jobs, _db(request), study_id, time_limit=limits.study_time_limit)
-    return JSON({"id": study_id, "job_id": job.id, "status": "queued"})
+    job = jobs.latest_for_study(study_id)
+    if job is not None and job.status in ("queued", "running"):
+        raise HTTPException(409, f"study {study_id} is already {job.status} (job {job.id})")
+    job = start_study(request.app.state, _db(request), study_id, time_limit=limits.study_time_limit)
+    return JSON({"id": study_id, "job_id": job.id, "status": "queued"}, status_code=202)
 
 
-@router.delete("/{study_id}", status_code=204, summary="Delete a study and its runs")
-def remove_study(study_id: str, request: Request):
-    if not delete_study(_db(request), study_id):
+@router.delete("/{study_id}", status_code=204, summary="Delete a study and its runs (stops it if running)")
+def remove_study(study_id: str, request: Request, jobs: JobsDep):
+    if not _exists(request, study_id):
         raise not_found("study", study_id)
+    job = jobs.latest_for_study(study_id)
+    if job is not None and job.status in ("queued", "running"):
+        request.app.state.cancelled_studies.add(study_id)
+    delete_study(_db(request), study_id)
