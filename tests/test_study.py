@@ -133,12 +133,10 @@ def test_bad_definition_fails_fast_naming_the_field(tmp_path, mutate, path, no_w
     d = short_study()
     mutate(d)
     db = str(tmp_path / "s.sqlite3")
-    t0 = time.perf_counter()
     with pytest.raises(FieldError) as err:
         run_study(d, db, workers=2)
-    # validation takes milliseconds; 1 s leaves room for a loaded machine (a pool alone
-    # takes more than 1 s to start on this 2-core machine)
-    assert time.perf_counter() - t0 < 1.0
+    # "before any work" is checked by the no_work fixture (engines and simulate forbidden),
+    # not by timing, which depends on the machine's load
     assert str(err.value).startswith(path + ":") and err.value.path == path, str(err.value)
     assert n_studies(db) == 0
 
@@ -150,10 +148,9 @@ def test_bad_definition_fails_fast_naming_the_field(tmp_path, mutate, path, no_w
 ])
 def test_bad_options_fail_fast(tmp_path, kwargs, path, no_work):
     db = str(tmp_path / "s.sqlite3")
-    t0 = time.perf_counter()
     with pytest.raises(FieldError) as err:
         run_study(short_study(), db, **kwargs)
-    assert time.perf_counter() - t0 < 1.0  # checks only (a refused connection returns at once)
+    # no work started: the no_work fixture forbids the engines and simulate
     assert err.value.path == path, str(err.value)
     assert n_studies(db) == 0
 
@@ -175,8 +172,9 @@ def test_unreachable_scheduler_fails_fast(tmp_path, monkeypatch, no_work):
         t0 = time.perf_counter()
         with pytest.raises(SchedulerError) as err:
             run_study(short_study(), db, scheduler_timeout=2.0, **kwargs)
-        # a refused connection is reported at once; 2.5 s = the 2 s timeout + margin
-        assert time.perf_counter() - t0 < 2.5
+        # it does not hang: the 2 s connection timeout bounds it; 15 s is the timeout plus
+        # a cold import of dask.distributed on a loaded CI machine
+        assert time.perf_counter() - t0 < 15.0
         assert err.value.path == "scheduler" and addr in str(err.value)
     assert n_studies(db) == 0
 
