@@ -15,6 +15,10 @@ class JobTimeout(Cancelled):
     """The job ran past its wall-time limit."""
 
 
+class ServerStopping(Cancelled):
+    """The service is shutting down; running jobs stop at their next progress report."""
+
+
 class Job:
     def __init__(self, kind, time_limit):
         self.id = uuid.uuid4().hex[:12]
@@ -28,11 +32,14 @@ class Job:
         self.started = None
         self.finished = None
         self.time_limit = time_limit
+        self.manager = None
 
     def report(self, fraction, step):
-        """Progress callback handed to pneucore; also enforces the time limit."""
+        """Progress callback handed to pneucore; also enforces the time limit and shutdown."""
         self.progress = float(max(self.progress, min(fraction, 1.0)))
         self.step = step
+        if self.manager is not None and self.manager.stopping:
+            raise ServerStopping(f"the service is stopping (the {self.kind} job was at: {step})")
         if self.started and time.time() - self.started > self.time_limit:
             raise JobTimeout(f"the {self.kind} job exceeded its time limit of {self.time_limit:g} s "
                              f"(at step: {step})")
@@ -54,6 +61,7 @@ class JobManager:
         self.jobs = {}
         self.max_jobs = max_jobs
         self.time_limit = time_limit
+        self.stopping = False
         self._lock = threading.Lock()
 
     def active(self):
@@ -65,6 +73,7 @@ class JobManager:
             if self.active() >= self.max_jobs:
                 raise RuntimeError(f"too many jobs queued or running (limit {self.max_jobs})")
             job = Job(kind, time_limit or self.time_limit)
+            job.manager = self
             self.jobs[job.id] = job
 
         def run():
@@ -98,4 +107,6 @@ class JobManager:
         return max(js, key=lambda j: j.created) if js else None
 
     def shutdown(self):
-        self.pool.shutdown(wait=False, cancel_futures=True)
+        """Stop: queued jobs are dropped, running ones stop at their next progress report."""
+        self.stopping = True
+        self.pool.shutdown(wait=True, cancel_futures=True)

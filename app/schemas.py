@@ -209,6 +209,7 @@ class StudyRequest(_Strict):
     metrics: Optional[list[str]] = Field(None, description="Metrics to compute; null = all (see pneucore.study METRICS) [-]")
     scheduler: Optional[str] = Field(None, description="Dask scheduler address, e.g. tcp://10.0.0.5:8786; null = the local process pool")
     workers: Optional[int] = Field(None, description="Local pool size; null = one per CPU [-]")
+    name: str = Field("", description="Label of the study")
 
 
 # ---------------------------------------------------------------------------- responses

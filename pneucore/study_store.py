@@ -73,6 +73,17 @@ def set_status(db, study_id, status):
     db.execute("UPDATE studies SET status=? WHERE id=?", (status, study_id))
 
 
+def set_study_status(path, study_id, status):
+    """Set a stored study's status (one of :data:`STATUSES`) in the store at ``path``."""
+    if status not in STATUSES:
+        raise ValueError(f"status must be one of {STATUSES}, got {status!r}")
+    db = connect(path)
+    try:
+        set_status(db, study_id, status)
+    finally:
+        db.close()
+
+
 def stored_indices(db, study_id):
     """Run indices already stored for the study (a set)."""
     return {r[0] for r in db.execute("SELECT run_index FROM study_runs WHERE study_id=?", (study_id,))}

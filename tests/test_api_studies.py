@@ -436,3 +436,33 @@ def test_scheduler_with_workers_is_refused_up_front(client, cluster):
         job, _ = wait_job(client, r.json()["job_id"])
     assert_field_error(r, "workers")
     assert client.get("/api/studies").json() == []
+
+
+def test_service_shutdown_requeues_a_running_study_and_the_next_start_finishes_it(db_path):
+    """Server restarted mid-study: the next start resumes it, nothing recomputed or lost."""
+    body = study_body(samples=120, workers=0, name="restart")
+    with api(db_path) as c:
+        p = post_study(c, body)
+        sid = p["id"]
+        t0 = time.monotonic()
+        # wait until some runs are stored (bounded wait, not a speed claim), then stop the service
+        while c.get(f"/api/studies/{sid}").json()["stored"] == 0:
+            assert time.monotonic() - t0 < JOB_WAIT_S
+            time.sleep(0.01)
+    # leaving the context ran the shutdown: the job stopped at its next batch, the study is
+    # queued again with its finished batches kept
+    with sqlite3.connect(db_path) as db:
+        status = db.execute("SELECT status FROM studies WHERE id=?", (sid,)).fetchone()[0]
+        stored = db.execute("SELECT COUNT(*) FROM study_runs WHERE study_id=?", (sid,)).fetchone()[0]
+    assert status == "queued" and 0 < stored < 120, (status, stored)
+    with studies_api(db_path) as c:
+        job = c.app.state.jobs.latest_for_study(sid)
+        assert job is not None  # resumed by the start-up recovery
+        job_d, _ = wait_job(c, job.id)
+        assert job_d["status"] == "done", job_d["error"]
+        assert job_d["result"]["computed"] == 120 - stored       # only the missing runs
+        st = c.get(f"/api/studies/{sid}").json()
+        assert st["stored"] == 120 and st["status"] == "done"
+        resumed = raw_runs(c, sid)
+        ref = run_study(definition(body), workers=0)["results"]["runs"]  # uninterrupted, same seed
+        assert resumed == ref

@@ -8,6 +8,7 @@ from fastapi import APIRouter, HTTPException, Request
 from pneucore.progress import Cancelled
 from pneucore.study import (Study, check_run_options, connect_scheduler, delete_study, list_studies,
                             queue_study, run_study, study_results, study_status)
+from pneucore.study_store import set_study_status
 from pneucore.validation import FieldError
 
 from ..deps import JobsDep, LimitsDep, not_found, parse_model, parse_scenario
@@ -43,6 +44,9 @@ def start_study(app_state, db_path, sid, scheduler=None, workers=None, time_limi
         finally:
             if sid in cancelled:
                 delete_study(db_path, sid)
+            elif app_state.jobs.stopping:
+                # stopped by a shutdown: queued again, so the next start resumes it
+                set_study_status(db_path, sid, "queued")
     try:
         job = app_state.jobs.submit("study", run, time_limit=time_limit)
     except RuntimeError as exc:
@@ -57,7 +61,7 @@ def create_study(req: StudyRequest, request: Request, limits: LimitsDep):
     model = parse_model(req.model)
     parse_scenario(req.scenario, model, limits)
     d = {"model": model.to_dict(), "scenario": req.scenario.plain(), "parameters": req.parameters,
-         "samples": req.samples, "seed": req.seed, "metrics": req.metrics}
+         "samples": req.samples, "seed": req.seed, "metrics": req.metrics, "name": req.name}
     study = Study.from_dict(d)
     if study.n_runs > limits.max_study_runs:
         raise FieldError("samples", f"{study.n_runs} runs exceed the API limit of {limits.max_study_runs}")
