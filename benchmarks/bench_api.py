@@ -28,7 +28,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import socket
 import statistics
 import subprocess
@@ -40,35 +39,15 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, ROOT)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from machine import machine_info as _machine_info  # noqa: E402
 
 MODEL, SCENARIO = "paper-4way", "paper-fig10-pulses"
 TARGET_MEDIAN_MS = 30.0
 
 
 def machine_info():
-    import fastapi
-    import httpx
-    import numba
-    import numpy
-    import uvicorn
-    cpu = platform.processor() or "unknown"
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.lower().startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    try:
-        usable = len(os.sched_getaffinity(0))
-    except AttributeError:
-        usable = os.cpu_count()
-    return {"cpu": cpu, "cores": os.cpu_count(), "usable_cores": usable,
-            "python": platform.python_version(), "numpy": numpy.__version__,
-            "numba": numba.__version__, "fastapi": fastapi.__version__,
-            "uvicorn": uvicorn.__version__, "httpx": httpx.__version__,
-            "platform": platform.platform()}
+    return _machine_info("fastapi", "uvicorn", "httpx")
 
 
 def free_port():

@@ -31,7 +31,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import shutil
 import statistics
 import subprocess
@@ -39,11 +38,12 @@ import sys
 import tempfile
 import time
 
-import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, ROOT)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from machine import machine_info as _machine_info  # noqa: E402
 sys.path.insert(0, HERE)
 
 MODEL, SCENARIO = "paper-4way", "paper-fig10-pulses"
@@ -69,25 +69,7 @@ print(json.dumps({{"import_s": t1 - t0, "first_call_s": t2 - t1, "second_call_s"
 
 
 def machine_info():
-    import numba
-    import scipy
-    cpu = platform.processor() or "unknown"
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.lower().startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    try:
-        usable = len(os.sched_getaffinity(0))
-    except AttributeError:
-        usable = os.cpu_count()
-    return {"cpu": cpu, "cores": os.cpu_count(), "usable_cores": usable,
-            "python": platform.python_version(), "numpy": np.__version__,
-            "scipy": scipy.__version__, "numba": numba.__version__,
-            "platform": platform.platform()}
+    return _machine_info("scipy")
 
 
 def compile_times():

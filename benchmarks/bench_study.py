@@ -32,7 +32,6 @@ import argparse
 import json
 import logging
 import os
-import platform
 import sys
 import tempfile
 import time
@@ -40,6 +39,8 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, ROOT)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from machine import machine_info as _machine_info  # noqa: E402
 
 TARGET_S = 60.0
 SERIAL_SAMPLE = 500
@@ -57,32 +58,7 @@ def study_definition(runs):
 
 
 def machine_info():
-    import numba
-    import numpy
-    cpu = platform.processor()
-    try:
-        with open("/proc/cpuinfo") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    info = {"platform": platform.platform(), "cpu": cpu, "cpus": os.cpu_count(),
-            "cpus_available": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
-            "python": platform.python_version(), "numpy": numpy.__version__, "numba": numba.__version__}
-    try:
-        import dask
-        import distributed
-        info.update(dask=dask.__version__, distributed=distributed.__version__)
-    except ImportError:
-        pass
-    try:
-        with open("/proc/meminfo") as fh:
-            info["memory_gb"] = round(int(fh.readline().split()[1]) / 2 ** 20, 1)
-    except OSError:
-        pass
-    return info
+    return _machine_info("dask", "distributed")
 
 
 def load():
@@ -105,8 +81,8 @@ def main(argv=None):
     out = {"case": "paper-4way + paper-fig10-pulses (1 s), fc0 ~ U(4, 16) N, supply ~ N(6, 0.4) bar "
                    "truncated to [4.5, 7.5] bar", "runs": args.runs, "machine": machine_info(),
            "load_average_start": load(), "target_local_pool_s": TARGET_S}
-    print(f"machine: {out['machine']['cpu']}, {out['machine']['cpus']} CPUs, "
-          f"{out['machine'].get('memory_gb')} GB, Python {out['machine']['python']}, "
+    print(f"machine: {out['machine']['cpu']}, {out['machine']['cores']} cores, "
+          f"Python {out['machine']['python']}, "
           f"numba {out['machine']['numba']}, dask {out['machine'].get('distributed', '-')}")
     print(f"load average at start: {out['load_average_start']}")
     definition = study_definition(args.runs)

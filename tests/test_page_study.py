@@ -18,16 +18,14 @@ No skipping: if Playwright or Chromium is missing the tests fail loudly.
 from __future__ import annotations
 
 import json
-import os
-import signal
-import subprocess
 import sys
 import time
 import urllib.request
 
 import pytest
+from service import running_service
 
-from test_page import (ARTIFACTS, ROOT, _free_port, _open, browser, click_and_wait_for_plot,  # noqa: F401
+from test_page import (ARTIFACTS, ROOT, _open, browser, click_and_wait_for_plot,  # noqa: F401
                        context, no_script_errors, page, page_errors, plot_data)
 
 if str(ROOT) not in sys.path:  # pneucore seeds the database from this process
@@ -70,44 +68,8 @@ def server(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("study-page")
     db = tmp / "page.sqlite3"
     _seed_interrupted_study(db)
-    env = dict(os.environ, PNEUCORE_DB=str(db))
-    env.pop("PNEUCORE_DASK_SCHEDULER", None)
-    env["PYTHONPATH"] = str(ROOT) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
-    port = _free_port()
-    log = open(tmp / "server.log", "w+")
-    proc = subprocess.Popen([sys.executable, "-m", "uvicorn", "app.main:app", "--host", "127.0.0.1",
-                             "--port", str(port), "--log-level", "warning"],
-                            cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT,
-                            start_new_session=True)   # its own process group: see the teardown
-    url = f"http://127.0.0.1:{port}"
-    deadline = time.time() + 60
-    try:
-        while True:
-            if proc.poll() is not None:
-                log.seek(0)
-                pytest.fail(f"the service exited with code {proc.returncode}:\n{log.read()}")
-            try:
-                with urllib.request.urlopen(url + "/api/presets", timeout=2) as r:
-                    if r.status == 200:
-                        break
-            except OSError:
-                pass
-            if time.time() > deadline:
-                log.seek(0)
-                pytest.fail(f"the service did not answer /api/presets within 60 s:\n{log.read()}")
-            time.sleep(0.2)
+    with running_service(tmp, db) as url:
         yield url
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-        try:  # pool workers of a study still running when a test failed outlive the service
-            os.killpg(proc.pid, signal.SIGKILL)
-        except (ProcessLookupError, PermissionError):
-            pass
-        log.close()
 
 
 @pytest.fixture(scope="module")
