@@ -86,8 +86,6 @@ def parse_experiments(exps_in, model: Model, store: Store, limits: Limits):
     raw = []
     for i, e in enumerate(exps_in):
         d = e.model_dump(exclude_none=True) if hasattr(e, "model_dump") else dict(e)
-        if "measurement" in d:
-            d["measurement"] = {k: v for k, v in d["measurement"].items()}
         if d.get("dataset_id") is not None and d.get("scenario") is None:
             info = store.dataset_info(d["dataset_id"])
             if info is not None:

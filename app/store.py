@@ -38,7 +38,7 @@ class Store:
 
     def __init__(self, path):
         self.path = path
-        self._lock = threading.Lock()
+        self._lock = threading.RLock()   # reads too: one connection shared by threads
         self._db = sqlite3.connect(path, check_same_thread=False, isolation_level=None)
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.executescript(_SCHEMA)
@@ -87,21 +87,24 @@ class Store:
         return self.dataset_info(did)
 
     def dataset_info(self, did):
-        row = self._db.execute("SELECT id, name, created, n_samples, signals, scenario, description, "
-                               "sample FROM datasets WHERE id=?", (did,)).fetchone()
-        if row is None:
-            return None
-        return {"id": row[0], "name": row[1], "created": row[2], "n_samples": row[3],
-                "signals": json.loads(row[4]), "scenario": json.loads(row[5]),
-                "description": row[6], "sample": row[7]}
+        with self._lock:
+            row = self._db.execute("SELECT id, name, created, n_samples, signals, scenario, description, "
+                                   "sample FROM datasets WHERE id=?", (did,)).fetchone()
+            if row is None:
+                return None
+            return {"id": row[0], "name": row[1], "created": row[2], "n_samples": row[3],
+                    "signals": json.loads(row[4]), "scenario": json.loads(row[5]),
+                    "description": row[6], "sample": row[7]}
 
     def list_datasets(self):
-        rows = self._db.execute("SELECT id FROM datasets ORDER BY sample IS NULL, created, id").fetchall()
-        return [self.dataset_info(r[0]) for r in rows]
+        with self._lock:
+            rows = self._db.execute("SELECT id FROM datasets ORDER BY sample IS NULL, created, id").fetchall()
+            return [self.dataset_info(r[0]) for r in rows]
 
     def dataset_data(self, did):
-        row = self._db.execute("SELECT data FROM datasets WHERE id=?", (did,)).fetchone()
-        return None if row is None else orjson.loads(row[0])
+        with self._lock:
+            row = self._db.execute("SELECT data FROM datasets WHERE id=?", (did,)).fetchone()
+            return None if row is None else orjson.loads(row[0])
 
     def measurement(self, did):
         d = self.dataset_data(did)
@@ -129,22 +132,24 @@ class Store:
         return self._tx(tx)
 
     def session(self, sid):
-        row = self._db.execute("SELECT id, name, created, experiments FROM sessions WHERE id=?",
-                               (sid,)).fetchone()
-        if row is None:
-            return None
-        vers = self._db.execute("SELECT version, label, created, model, errors, overall, added, params, "
-                                "note FROM versions WHERE session=? ORDER BY version", (sid,)).fetchall()
-        return {"id": row[0], "name": row[1], "created": row[2], "experiments": json.loads(row[3]),
-                "versions": [{"version": v[0], "label": v[1], "created": v[2], "model": json.loads(v[3]),
-                              "errors": json.loads(v[4]), "overall": v[5], "added": v[6],
-                              "params": json.loads(v[7]), "note": v[8]} for v in vers]}
+        with self._lock:
+            row = self._db.execute("SELECT id, name, created, experiments FROM sessions WHERE id=?",
+                                   (sid,)).fetchone()
+            if row is None:
+                return None
+            vers = self._db.execute("SELECT version, label, created, model, errors, overall, added, params, "
+                                    "note FROM versions WHERE session=? ORDER BY version", (sid,)).fetchall()
+            return {"id": row[0], "name": row[1], "created": row[2], "experiments": json.loads(row[3]),
+                    "versions": [{"version": v[0], "label": v[1], "created": v[2], "model": json.loads(v[3]),
+                                  "errors": json.loads(v[4]), "overall": v[5], "added": v[6],
+                                  "params": json.loads(v[7]), "note": v[8]} for v in vers]}
 
     def list_sessions(self):
-        rows = self._db.execute("SELECT s.id, s.name, s.created, COUNT(v.version) FROM sessions s "
-                                "LEFT JOIN versions v ON v.session = s.id GROUP BY s.id "
-                                "ORDER BY s.created").fetchall()
-        return [{"id": r[0], "name": r[1], "created": r[2], "n_versions": r[3]} for r in rows]
+        with self._lock:
+            rows = self._db.execute("SELECT s.id, s.name, s.created, COUNT(v.version) FROM sessions s "
+                                    "LEFT JOIN versions v ON v.session = s.id GROUP BY s.id "
+                                    "ORDER BY s.created").fetchall()
+            return [{"id": r[0], "name": r[1], "created": r[2], "n_versions": r[3]} for r in rows]
 
     def delete_session(self, sid):
         def tx(db):

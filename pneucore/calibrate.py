@@ -33,6 +33,9 @@ from .progress import Cancelled
 
 #: Worker threads for the finite-difference Jacobian (the machine has 2 cores)
 THREADS = 2
+#: Smallest noise level assumed per signal (SI): a signal recorded exactly constant (a locked
+#: position, noise-free synthetic data) must not get an infinite weight
+SIGMA_FLOOR = {"p_a": 1.0, "p_b": 1.0, "x": 1e-7, "v": 1e-6, "T_a": 1e-3, "T_b": 1e-3}
 #: Residual given to samples a failed simulation never reached (keeps the cost finite)
 FAILED_RESIDUAL = 1e3
 
@@ -53,7 +56,8 @@ class Objective:
         self.sigma = []
         for e in experiments:
             self.sigma.append({s: max(noise_sigma(e.measurement.signals[s]),
-                                      1e-6 * np.nanmax(np.abs(e.measurement.signals[s])))
+                                      1e-6 * np.nanmax(np.abs(e.measurement.signals[s])),
+                                      SIGMA_FLOOR.get(s, 1e-12))
                                for s in e.signals})
         self.n_eval = 0
         self.best = (np.inf, None)

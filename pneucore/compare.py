@@ -185,6 +185,20 @@ def summarise(replays, n_windows=5):
 PAPER_HEAT_MODELS = ("convective", "adiabatic", "isothermal")
 
 
+def with_heat_model(model, name):
+    """A copy of ``model`` under heat model ``name``.
+
+    A ``heat_exchange`` effect is removed; under ``convective`` its coefficient is
+    kept, since it is the one the model actually uses.
+    """
+    m = model.copy()
+    m.heat.model = name
+    hx = m.effects.pop("heat_exchange", None)
+    if hx is not None and name == "convective":
+        m.heat.coefficient = hx["h"]
+    return m
+
+
 def check_heat_models(heat_models):
     """Validate the ``heat_models`` argument of :func:`compare`; returns the names."""
     from .heat import HEAT_MODELS
@@ -231,11 +245,7 @@ def compare(model, experiments, heat_models=None, n_windows=5, datasets=None, pr
     if names:
         for k, name in enumerate(names):
             report((len(exps) * (1 + k)) / total, f"heat model {name}")
-            m = model.copy()
-            m.heat.model = name
-            hx = m.effects.pop("heat_exchange", None)
-            if hx is not None and name == "convective":
-                m.heat.coefficient = hx["h"]   # the coefficient the model actually uses
+            m = with_heat_model(model, name)
             c = summarise([replay(m, e) for e in exps], n_windows=0)
             comp.heat_models[name] = {"errors": c.errors, "overall": c.overall, "phases": c.phases}
     return comp

@@ -690,14 +690,14 @@ def specialize(hook):
     rhs_globals = dict(rhs_module.__dict__)
     rhs_globals["user_terms"] = hook
     py = rhs_module.rhs.py_func
-    rhs_globals["rhs"] = njit(types.FunctionType(py.__code__, rhs_globals, py.__name__,
+    rhs_globals["rhs"] = njit(error_model="numpy")(types.FunctionType(py.__code__, rhs_globals, py.__name__,
                                                  py.__defaults__, py.__closure__))
     glb = dict(globals())
     glb["rhs"] = rhs_globals["rhs"]
     for name in ("_feval", "_rodas_step", "_jacobian", "_settle", "_transition", "_event_at",
                  "integrate"):
         f = globals()[name].py_func
-        glb[name] = njit(nogil=True)(types.FunctionType(f.__code__, glb, f.__name__, f.__defaults__,
+        glb[name] = njit(nogil=True, error_model="numpy")(types.FunctionType(f.__code__, glb, f.__name__, f.__defaults__,
                                             f.__closure__))
     _SPECIALIZED[hook] = glb["integrate"]
     return glb["integrate"]

@@ -15,7 +15,7 @@ from .flow import FLOW_LAWS, R_LAMINAR
 from .friction import FRICTION_LAWS
 from .gas import GAMMA_AIR, P_ATM, R_AIR, T_REF
 from .heat import HEAT_MODELS
-from .jack import annulus_area, rod_area
+from .jack import annulus_area, chamber_volumes, rod_area
 from .validation import FieldError, choice, known_keys, mapping, number, number_list, optional_mapping
 
 #: Edges of each valve kind and the opening range of their tables
@@ -75,8 +75,8 @@ class Jack:
 
     def volumes(self, x):
         """Chamber volumes ``(V_a, V_b)`` at position ``x`` [m] (Eq. 23-24) [m^3]."""
-        return (self.area_a * x + self.dead_volume_a,
-                self.area_b * (self.stroke - x) + self.dead_volume_b)
+        return chamber_volumes(x, self.area_a, self.area_b, self.stroke, self.dead_volume_a,
+                               self.dead_volume_b)
 
     @classmethod
     def from_dict(cls, d, path="jack"):

@@ -158,6 +158,11 @@ def parse_parameters(model, parameters):
     return specs
 
 
+#: Fields the model validation requires to be > 0 (default calibration bounds keep them so)
+_STRICTLY_POSITIVE = {"bore", "stroke", "dead_volume_a", "dead_volume_b", "moving_mass", "wall_area_a",
+                      "wall_area_b", "pressure", "temperature", "r"}
+
+
 def _default_bounds(model, path, value):
     parts = path.split(".")
     if parts[0] == "effects":
@@ -165,8 +170,12 @@ def _default_bounds(model, path, value):
         return p.min, p.max
     if parts[0] == "valve":
         return (0.1, 10.0) if parts[3] == "C" else (0.5, 1.5)
+    if parts[-1] == "gamma":
+        return 1.01, 2.0
+    if value > 0 and parts[-1] in _STRICTLY_POSITIVE:
+        return value / 10.0, value * 10.0   # the model rejects zero for these
     if value > 0:
-        return 0.0 if parts[-1] not in ("gamma", "r") else value / 2, value * 10.0
+        return 0.0, value * 10.0
     if value == 0:
         return -1.0, 1.0
     return value * 10.0, -value * 10.0

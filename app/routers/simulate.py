@@ -2,6 +2,7 @@
 from fastapi import APIRouter
 from ..responses import JSON
 
+from pneucore.compare import check_heat_models, with_heat_model
 from pneucore.simulate import simulate
 from pneucore.validation import FieldError
 
@@ -41,15 +42,8 @@ def simulate_endpoint(req: SimulateRequest, limits: LimitsDep):
 @router.post("/heat-models", summary="One scenario under several heat models (paper Fig. 8, 11)",
              response_class=JSON)
 def heat_models_endpoint(req: HeatModelsRequest, limits: LimitsDep):
-    from pneucore.heat import HEAT_MODELS
     model = parse_model(req.model)
     scen = parse_scenario(req.scenario, model, limits)
-    out = {}
-    for i, name in enumerate(req.heat_models):
-        if name not in HEAT_MODELS:
-            raise FieldError(f"heat_models[{i}]", f"unknown heat model; expected one of {sorted(HEAT_MODELS)}")
-        m = model.copy()
-        m.heat.model = name
-        m.effects.pop("heat_exchange", None)
-        out[name] = _result(simulate(m, scen), req.series)
+    out = {name: _result(simulate(with_heat_model(model, name), scen), req.series)
+           for name in check_heat_models(req.heat_models)}
     return JSON({"runs": out})
