@@ -125,8 +125,6 @@ class CoreBuild:
         self.model = model
         self.y_base = y_base
         self.states = []
-        self.user_params = []
-        self.hooks = []
 
     def add_state(self, name, y0, atol):
         """Append a state; returns its index in the full state vector."""

@@ -18,7 +18,8 @@ from numba import njit
 
 from . import layout as L
 from .chamber import chamber_pressure, chamber_rates, enthalpy_flow
-from .flow import iso6358_mass_flow, saint_venant_mass_flow
+from .flow import iso6358_mass_flow, laminar_mass_flow, saint_venant_mass_flow
+from .heat import convective_heat_flow
 from .friction import coulomb_level, sliding_friction, viscous_coefficient
 from .jack import chamber_volumes, net_pressure_force, wall_area
 from .valve import table_interp
@@ -153,19 +154,19 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, dy, aux):
     # --- laminar leaks: across the piston, and to ambient ------------------------
     g_ab = prm[L.P_G_AB]
     if g_ab > 0.0:
-        q_ab = g_ab * (p_a - p_b)
+        q_ab = laminar_mass_flow(p_a, T_a, p_b, T_b, g_ab)
         q_a -= q_ab
         q_b += q_ab
         H_a += enthalpy_flow(-q_ab, T_b, T_a, cp)
         H_b += enthalpy_flow(q_ab, T_a, T_b, cp)
     g_a = prm[L.P_G_A]
     if g_a > 0.0:
-        q_l = g_a * (p_atm - p_a)
+        q_l = laminar_mass_flow(p_atm, T_atm, p_a, T_a, g_a)
         q_a += q_l
         H_a += enthalpy_flow(q_l, T_atm, T_a, cp)
     g_b = prm[L.P_G_B]
     if g_b > 0.0:
-        q_l = g_b * (p_atm - p_b)
+        q_l = laminar_mass_flow(p_atm, T_atm, p_b, T_b, g_b)
         q_b += q_l
         H_b += enthalpy_flow(q_l, T_atm, T_b, cp)
 
@@ -203,8 +204,8 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, dy, aux):
     S_b = prm[L.P_WALL_B]
     if S_b <= 0.0:
         S_b = wall_area(V_b, A_b, prm[L.P_BORE], prm[L.P_ROD_B])
-    Q_a = h * S_a * (T_atm - T_a) + t_qa_heat
-    Q_b = h * S_b * (T_atm - T_b) + t_qb_heat
+    Q_a = convective_heat_flow(h, S_a, T_atm, T_a) + t_qa_heat
+    Q_b = convective_heat_flow(h, S_b, T_atm, T_b) + t_qb_heat
     isothermal = prm[L.P_ISOTHERMAL] > 0.0
 
     # --- chambers (Eq. 14-15) ---------------------------------------------------------
