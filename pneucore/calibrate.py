@@ -231,7 +231,10 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     theta = theta0
     if vs:
         z0 = theta0 / sc
-        cache = {}
+        # the starting point is already simulated: hand it to the optimiser's first call
+        r0 = obj.weighted(rps0)
+        cache = {tuple(np.round(z0, 15)): r0}
+        obj.best = (float(r0 @ r0), theta0.copy())
 
         def fun(z):
             key = tuple(np.round(z, 15))
@@ -256,10 +259,12 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
             success = False
             message = f"fit failed ({exc}); returning the best point found"
             theta = obj.best[1] if obj.best[1] is not None else theta0
-        r_end = obj.residuals(theta)
+    rps1 = obj.replays(theta)
+    if vs:
+        r_end = obj.weighted(rps1)
         if obj.best[1] is not None and obj.best[0] < float(r_end @ r_end):
             theta = obj.best[1]
-    rps1 = obj.replays(theta)
+            rps1 = obj.replays(theta)
     after = summarise(rps1)
     rss1 = obj.rss(rps1)
     m2ll, aic, bic, n_all = information_criteria(rss1, len(vs))
