@@ -67,9 +67,18 @@ class JobManager:
     def active(self):
         return sum(1 for j in self.jobs.values() if j.status in ("queued", "running"))
 
+    #: Finished jobs kept for polling (the oldest are forgotten beyond this)
+    KEEP_FINISHED = 200
+
+    def _prune(self):
+        done = [j for j in self.jobs.values() if j.status in ("done", "error")]
+        for j in sorted(done, key=lambda j: j.finished or 0)[:max(0, len(done) - self.KEEP_FINISHED)]:
+            del self.jobs[j.id]
+
     def submit(self, kind, fn, time_limit=None):
         """Queue ``fn(job)``; returns the job. Raises RuntimeError when the queue is full."""
         with self._lock:
+            self._prune()
             if self.active() >= self.max_jobs:
                 raise RuntimeError(f"too many jobs queued or running (limit {self.max_jobs})")
             job = Job(kind, time_limit or self.time_limit)

@@ -89,6 +89,12 @@ def _phase_table(replays, which):
     return out
 
 
+def errors(model, experiments):
+    """Eq. 25 errors per signal and overall only: ``(errors, overall)`` (cheaper than :func:`compare`)."""
+    errs = _pooled([replay(model, e) for e in experiments])
+    return errs, _overall(errs)
+
+
 def noise_floor(replays):
     """Eq. 25 error that white measurement noise alone would give, per signal [-].
 

@@ -409,7 +409,7 @@ def test_lifespan_resumes_a_study_left_running(db_path):
 # ------------------------------------------------------------------------------ Dask
 @pytest.fixture(scope="module")
 def cluster():
-    distributed = pytest.importorskip("distributed")
+    import distributed  # a core dependency: a missing one must fail, not skip
     c = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                                  dashboard_address=None, silence_logs=logging.CRITICAL)
     yield c

@@ -196,7 +196,7 @@ def test_result_to_dict_subset(fig10_result):
 
 
 def test_result_to_pandas(fig10_result):
-    pd = pytest.importorskip("pandas")
+    import pandas as pd  # in the test dependencies: a missing one must fail, not skip
     df = fig10_result.to_pandas()
     assert isinstance(df, pd.DataFrame)
     assert len(df) == len(fig10_result.t)

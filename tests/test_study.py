@@ -509,7 +509,7 @@ def test_cli_run_and_results(tmp_path, capsys):
 # -- Dask ------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def cluster():
-    distributed = pytest.importorskip("distributed")
+    import distributed  # a core dependency: a missing one must fail, not skip
     import logging
     c = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                  dashboard_address=None, silence_logs=logging.CRITICAL)

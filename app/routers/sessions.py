@@ -1,7 +1,7 @@
 """Refinement sessions: model versions with their errors, so work can be resumed."""
 from fastapi import APIRouter
 
-from pneucore.compare import compare
+from pneucore.compare import errors as model_errors
 
 from ..deps import LimitsDep, StoreDep, not_found, parse_experiments, parse_model
 from ..schemas import SessionCreate, VersionCreate
@@ -12,9 +12,7 @@ router = APIRouter(prefix="/api/sessions", tags=["sessions"])
 def _errors(model, experiments, store, limits):
     if not experiments:
         return {}, None
-    exps = parse_experiments(experiments, model, store, limits)
-    c = compare(model, exps)
-    return c.errors, c.overall
+    return model_errors(model, parse_experiments(experiments, model, store, limits))
 
 
 @router.post("", status_code=201, summary="Start a refinement session (version 0 = the given model)")
