@@ -82,6 +82,8 @@ N_SIG = len(SIG_NAMES)
 #: flow [W] into each chamber, and a force on the piston towards +x [N]
 TERM_NAMES = ("q_a", "H_a", "Q_a", "q_b", "H_b", "Q_b", "force")
 N_TERMS = len(TERM_NAMES)
+#: Length of the right-hand side's work vector (signals, then terms)
+N_SCRATCH = N_SIG + N_TERMS
 
 # --- piston modes ----------------------------------------------------------------
 MODE_STICK, MODE_SLIDE_POS, MODE_SLIDE_NEG, MODE_STOP_LOW, MODE_STOP_HIGH, MODE_LOCKED = range(6)

@@ -161,7 +161,8 @@ def build_core(model, scenario):
     y0 = np.array(y_base + [s[1] for s in build.states])
     atol = np.array(atol_base + [max(s[2], 1e-30) for s in build.states])
     names = list(L.BASE_STATE_NAMES) + [s[0] for s in build.states]
-    core_model = (prm, iy, tx, tC, tb, tm, toff, np.array(user_params, float))
+    core_model = (prm, iy, tx, tC, tb, tm, toff, np.array(user_params, float),
+                  np.zeros(L.N_SCRATCH))
     return {"y0": y0, "atol": atol, "mode0": _initial_mode(eff, scenario), "model": core_model,
             "hook": hook, "state_names": names, "effective_model": eff}
 

@@ -1,4 +1,5 @@
 """Checks that turn bad input into one clear ``ValueError`` naming the field path."""
+import math
 
 
 class FieldError(ValueError):
@@ -60,7 +61,39 @@ def number_list(values, path, *, min_len=1, **bounds):
     values = list(values.tolist() if hasattr(values, "tolist") else values)
     if len(values) < min_len:
         raise FieldError(path, f"must have at least {min_len} value(s), got {len(values)}")
+    fast = _plain_within(values, **bounds)
+    if fast is not None:
+        return fast
     return [number(v, f"{path}[{i}]", **bounds) for i, v in enumerate(values)]
+
+
+def _plain_within(values, *, positive=False, nonnegative=False, low=None, high=None,
+                  low_open=False, high_open=False, allow_none=False):
+    """Fast acceptance of a list of plain finite numbers within the bounds of :func:`number`.
+
+    Returns the floats, or None when any element needs the per-element check
+    (which then names the offending index). Valve tables are validated on
+    every simulation, and a per-element call with its path string cost about
+    70 us per simulation of the paper's 4/2 valve.
+    """
+    for v in values:
+        kind = type(v)
+        if kind is not float and kind is not int:
+            return None
+    try:
+        out = [float(v) for v in values]
+    except OverflowError:
+        return None
+    lo, hi = min(out), max(out)
+    if not math.isfinite(sum(out)) or not math.isfinite(lo) or not math.isfinite(hi):
+        return None
+    if (positive and lo <= 0.0) or (nonnegative and lo < 0.0):
+        return None
+    if low is not None and (lo < low or (low_open and lo == low)):
+        return None
+    if high is not None and (hi > high or (high_open and hi == high)):
+        return None
+    return out
 
 
 def integer(value, path, low=None, high=None):

@@ -11,7 +11,37 @@ from numba import njit
 from .layout import PORT_NAMES
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=False)
+def table_segment(u, xs, start, end):
+    """Interval of ``u`` in the increasing openings ``xs[start:end]``, ends held.
+
+    Returns ``(lo, hi, w)`` such that a value table ``ys`` on the same
+    openings interpolates to ``ys[lo] + w (ys[hi] - ys[lo])``; outside the
+    table ``lo = hi`` is the end point. One search serves the C, b and m
+    tables of an edge, which share their openings.
+
+    Parameters
+    ----------
+    u : float  Spool opening [-]
+    xs : ndarray  Concatenated openings of all tables [-]
+    start, end : int  Slice of this table in the concatenated arrays
+    """
+    if u <= xs[start]:
+        return start, start, 0.0
+    if u >= xs[end - 1]:
+        return end - 1, end - 1, 0.0
+    lo = start
+    hi = end - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if xs[mid] <= u:
+            lo = mid
+        else:
+            hi = mid
+    return lo, hi, (u - xs[lo]) / (xs[hi] - xs[lo])
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
 def table_interp(u, xs, ys, start, end):
     """Linear interpolation of ``ys`` over increasing ``xs[start:end]``, ends held.
 
@@ -22,19 +52,7 @@ def table_interp(u, xs, ys, start, end):
     ys : ndarray  Concatenated values (C [m^3/(s Pa)], b [-] or m [-])
     start, end : int  Slice of this table in the concatenated arrays
     """
-    if u <= xs[start]:
-        return ys[start]
-    if u >= xs[end - 1]:
-        return ys[end - 1]
-    lo = start
-    hi = end - 1
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if xs[mid] <= u:
-            lo = mid
-        else:
-            hi = mid
-    w = (u - xs[lo]) / (xs[hi] - xs[lo])
+    lo, hi, w = table_segment(u, xs, start, end)
     return ys[lo] + w * (ys[hi] - ys[lo])
 
 
