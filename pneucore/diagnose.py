@@ -269,10 +269,13 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         base = null_fit.model
         u_specs = [ParameterSpec(s.path, null_fit.values[s.path]["value"], s.min, s.max, s.vary, s.unit)
                    for s in u_specs]
+        # the fit's end point is already simulated: its comparison is the null's
+        comp0 = null_fit.error_after
+        rps0 = comp0.replays
     else:
         base = model
-    rps0 = [replay(base, e) for e in exps]
-    comp0 = summarise(rps0)
+        rps0 = [replay(base, e) for e in exps]
+        comp0 = summarise(rps0)
     from .calibrate import Objective
     obj0 = Objective(base, exps, [])
     rss0 = obj0.rss(rps0)

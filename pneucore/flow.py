@@ -142,7 +142,8 @@ def _sv_phi(ratio, gamma):
     omega = saint_venant_critical_ratio(gamma)
     if ratio <= omega:
         return 1.0
-    sub = 2.0 * gamma / (gamma - 1.0) * (ratio ** (2.0 / gamma) - ratio ** ((gamma + 1.0) / gamma))
+    a = ratio ** (1.0 / gamma)   # r^(2/g) = a^2 and r^((g+1)/g) = r a: one power instead of two
+    sub = 2.0 * gamma / (gamma - 1.0) * (a * a - ratio * a)
     if sub <= 0.0:
         return 0.0
     son = gamma * (2.0 / (gamma + 1.0)) ** ((gamma + 1.0) / (gamma - 1.0))
@@ -178,11 +179,11 @@ def saint_venant_mass_flow(p1, T1, p2, T2, C, b, m, r_lam, r, gamma):
     """
     if C <= 0.0 or p1 == p2:
         return 0.0
-    s = saint_venant_area(C, r, gamma)
-    son = gamma * (2.0 / (gamma + 1.0)) ** ((gamma + 1.0) / (gamma - 1.0))
+    # s p_u sqrt(gamma (2/(gamma+1))^((gamma+1)/(gamma-1)) / (r T_u)) with the area s of
+    # saint_venant_area reduces exactly to C rho_0 p_u sqrt(T_0 / T_u): the choked flows match
     if p1 > p2:
-        return s * p1 * math.sqrt(son / (r * T1)) * _sv_phi_linearised(p2 / p1, gamma, r_lam)
-    return -s * p2 * math.sqrt(son / (r * T2)) * _sv_phi_linearised(p1 / p2, gamma, r_lam)
+        return C * RHO_REF * p1 * math.sqrt(T_REF / T1) * _sv_phi_linearised(p2 / p1, gamma, r_lam)
+    return -C * RHO_REF * p2 * math.sqrt(T_REF / T2) * _sv_phi_linearised(p1 / p2, gamma, r_lam)
 
 
 @njit(cache=True, error_model="numpy")

@@ -318,6 +318,19 @@ def _rest_forces(y, prm, aux):
                                             p_a, p_b, p_atm)
 
 
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _resting_aux(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux):
+    """Net force and static limits of a resting piston into ``aux``.
+
+    From the state alone (:func:`_rest_forces`) unless a user effect adds
+    terms, whose force only the full right-hand side knows.
+    """
+    if model[1][L.IY_HOOK] > 0:
+        _feval(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+    else:
+        _rest_forces(y, model[0], aux)
+
+
 @njit(cache=True, error_model="numpy", _nrt=False, inline="always")
 def _event_values(mode, y, aux, stroke, out):
     """Event functions of the current mode; an event fires when one becomes > 0."""
@@ -353,7 +366,7 @@ def _record(ev_t, ev_kind, ev_mode, n_ev, t, kind, mode):
 def _settle(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux, ev_t, ev_kind, ev_mode, n_ev):
     """Leave a resting mode at once if the net force already exceeds the static limit."""
     if _needs_aux(mode):
-        _feval(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+        _resting_aux(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
         F = aux[L.AUX_FNET]
         if (mode == L.MODE_STICK or mode == L.MODE_STOP_LOW) and F > aux[L.AUX_FS_E]:
             y[L.Y_V] = 0.0
@@ -386,7 +399,7 @@ def _transition(t, y, mode, k, stroke, seg_t0, seg_u0, seg_slope, model, ftmp, a
                        ev_t, ev_kind, ev_mode, n_ev)
     # velocity reached zero: stick if the net force is within the static limit
     y[L.Y_V] = 0.0
-    _feval(t, y, L.MODE_STICK, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+    _resting_aux(t, y, L.MODE_STICK, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
     F = aux[L.AUX_FNET]
     if mode == L.MODE_SLIDE_POS and -F > aux[L.AUX_FS_R]:
         return L.MODE_SLIDE_NEG, _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_REVERSE, L.MODE_SLIDE_NEG)
@@ -400,10 +413,7 @@ def _event_at(theta, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u0, seg
               model, ytmp, ftmp, aux, ev):
     _hermite(theta, h, y0, f0, y1, f1, ytmp)
     if _needs_aux(mode):
-        if model[1][L.IY_HOOK] > 0:
-            _feval(t0 + theta * h, ytmp, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
-        else:
-            _rest_forces(ytmp, model[0], aux)
+        _resting_aux(t0 + theta * h, ytmp, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
     _event_values(mode, ytmp, aux, stroke, ev)
     return ev[k]
 
@@ -636,7 +646,7 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
                 stuck_count = 0
             # confirm on the exact state (interpolant and exact step may differ slightly)
             if _needs_aux(mode):
-                _feval(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+                _resting_aux(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
             _event_values(mode, y, aux, stroke, ev)
             n_before = n_ev
             if ev[k_ev] > -1e-9 * (1.0 + abs(aux[L.AUX_FNET])) or mode == L.MODE_SLIDE_POS \
@@ -731,8 +741,8 @@ def specialize(hook):
     rhs_globals["rhs"] = _clone(rhs_module.rhs, rhs_globals)
     glb = dict(globals())
     glb["rhs"] = rhs_globals["rhs"]
-    for name in ("_feval", "_rodas_step", "_jacobian", "_settle", "_transition", "_event_at",
-                 "integrate"):
+    for name in ("_feval", "_rodas_step", "_jacobian", "_resting_aux", "_settle", "_transition",
+                 "_event_at", "integrate"):
         glb[name] = _clone(globals()[name], glb)
     _SPECIALIZED[hook] = glb["integrate"]
     return glb["integrate"]
