@@ -6,6 +6,7 @@ flag saying whether the model pins the gas temperature (isothermal). The
 simulator picks one by name through :data:`HEAT_MODELS`
 (``model.heat.model = "convective"``), as pvlib picks a temperature model.
 """
+import numpy as np
 from numba import njit
 
 
@@ -56,6 +57,12 @@ class HeatModel:
         self.isothermal = isothermal
         self.uses_coefficient = uses_coefficient
         self.description = description
+
+    def __call__(self, h, S, T_wall, T):
+        """Heat flow into the gas [W] for coefficient ``h`` [W/(m^2 K)], wall area ``S`` [m^2],
+        wall temperature ``T_wall`` [K] and gas temperature ``T`` [K] (scalars or arrays)."""
+        out = np.vectorize(self.func, otypes=[float])(h, S, T_wall, T)
+        return float(out) if np.ndim(out) == 0 else out
 
     def core_coefficient(self, h):
         """Coefficient [W/(m^2 K)] written into the compiled core's parameter vector."""

@@ -9,6 +9,7 @@ from numba import njit
 from . import layout as L
 from .effects import EFFECTS, CoreBuild, effective_model
 from .flow import FLOW_LAWS
+from .gas import density
 from .heat import HEAT_MODELS
 from .integrator import ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES, integrate, specialize
 from .model import Model
@@ -128,7 +129,7 @@ def build_core(model, scenario):
         T_b = T_amb
     else:
         p_b = ini.p_b if ini.p_b is not None else eff.ambient.pressure
-    y_base = [p_a * V_a / (g.r * T_a), T_a, p_b * V_b / (g.r * T_b), T_b, x0, 0.0]
+    y_base = [density(p_a, T_a, g.r) * V_a, T_a, density(p_b, T_b, g.r) * V_b, T_b, x0, 0.0]
 
     iy = -np.ones(L.N_IY, np.int64)
     iy[L.IY_NUSER] = 0
