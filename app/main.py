@@ -25,7 +25,11 @@ from .jobs import JobManager, JobTimeout
 from .routers import analysis, datasets, effects, jobs, presets, sessions, simulate, studies
 from .store import Store
 
-STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
+# the repository's static/ (a checkout or an editable install), else the copy a wheel
+# installs as app/static (see pyproject.toml)
+_REPO_STATIC = Path(__file__).resolve().parent.parent / "static"
+STATIC_DIR = _REPO_STATIC if (_REPO_STATIC / "index.html").is_file() \
+    else Path(__file__).resolve().parent / "static"
 PLOTLY_JS = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
 
 
