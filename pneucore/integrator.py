@@ -738,6 +738,7 @@ def specialize(hook):
         return _SPECIALIZED[hook]
     rhs_globals = dict(rhs_module.__dict__)
     rhs_globals["user_terms"] = hook
+    rhs_globals["call_user_terms"] = _clone(rhs_module.call_user_terms, rhs_globals)
     rhs_globals["rhs"] = _clone(rhs_module.rhs, rhs_globals)
     glb = dict(globals())
     glb["rhs"] = rhs_globals["rhs"]

@@ -52,6 +52,18 @@ def no_terms(t, y, sig, prm_user, terms, dy):
 user_terms = no_terms
 
 
+@njit(cache=True, error_model="numpy", _nrt=True)
+def call_user_terms(t, y, sig, prm_user, terms, dy):
+    """Call the user hook with numba's runtime switched back on.
+
+    A function compiled from a caller inherits the caller's runtime setting
+    unless it sets its own; the right-hand side runs without the runtime, so
+    a user's terms function that allocates (``np.empty``) would not compile.
+    This explicit ``_nrt=True`` layer gives the user's code the runtime.
+    """
+    user_terms(t, y, sig, prm_user, terms, dy)
+
+
 @njit(cache=True, error_model="numpy", _nrt=False)
 def edge_flow(law, p1, T1, p2, T2, C, b, m, r_lam, r, gamma):
     """Mass flow from node 1 to node 2 through one valve edge [kg/s], by flow-law code."""
@@ -197,7 +209,7 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
         terms = scratch[L.N_SIG:L.N_SIG + L.N_TERMS]
         for i in range(L.N_TERMS):
             terms[i] = 0.0
-        user_terms(t, y, sig, prm_user, terms, dy)
+        call_user_terms(t, y, sig, prm_user, terms, dy)
         t_qa, t_ha, t_qa_heat, t_qb, t_hb, t_qb_heat, t_force = (
             terms[0], terms[1], terms[2], terms[3], terms[4], terms[5], terms[6])
     q_a += t_qa
