@@ -5,6 +5,10 @@ actuators": ISO 6358 valve edges, chambers from mass and energy
 conservation with convective exchange, Coulomb + viscous friction depending
 on pressure and quadrant with exact stick/slip. No web framework here.
 """
+from . import _cache
+
+_cache.check()      # numba's cache must not outlive an edit of any core module
+
 from .effects import EFFECTS, Effect, Parameter, register_effect, unregister_effect
 from .flow import FLOW_LAWS, iso6358_mass_flow, saint_venant_mass_flow
 from .heat import HEAT_MODELS
