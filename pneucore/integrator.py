@@ -33,7 +33,7 @@ Compile options, chosen by measurement (``benchmarks/bench_simulator.py``):
   and these calls cost more than the work they do. Inlining the right-hand
   side itself, or ``_feval``, was slower and compiled longer.
 
-Together these took the pulse benchmark from 1.22 to 0.55 ms per simulated
+Together these took the pulse benchmark from 1.22 to 0.54 ms per simulated
 second (the integration core alone from 1.00 to 0.35 ms).
 """
 import math
