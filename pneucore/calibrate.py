@@ -13,7 +13,16 @@ experiment and signal, concentrated out: ``-2 ln L = sum N_s ln(RSS_s / N_s)``
 (+ const). Standard errors and correlations come from the Jacobian at the
 optimum (``cov = (J^T J)^-1`` with residuals scaled by their fitted RMS, as
 lmfit does); AIC = -2 ln L + 2k, BIC = -2 ln L + k ln N. Residuals of a
-dynamic model are rarely white, so the standard errors are a lower bound.
+dynamic model are rarely white: each series is also scaled by the square
+root of its integrated autocorrelation time ``tau``
+(:mod:`pneucore.autocorrelation`), so that ``n`` correlated samples count as
+``n / tau`` independent ones in the covariance (a quasi-likelihood
+correction; exact for AR(1) noise when the sensitivities vary slowly). With
+white residuals ``tau = 1`` and the usual standard errors result. Not
+included: the error of initial pressures estimated from the measurement's
+first samples (:class:`pneucore.experiment.Experiment`), which correlated
+noise does not average out; give them in the experiment's scenario when the
+noise is strongly correlated.
 """
 from __future__ import annotations
 
@@ -24,6 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
+from .autocorrelation import residual_times, times_report
 from .compare import _plain, replay, summarise
 from .experiment import as_experiments
 from .metrics import noise_sigma
@@ -184,6 +194,7 @@ class Calibration:
     success: bool
     message: str
     nfev: int
+    autocorrelation_time: dict = field(default_factory=dict)
     rss_after: list = field(default_factory=list, repr=False)
     rss_before: list = field(default_factory=list, repr=False)
     aic_before: float = float("nan")
@@ -199,7 +210,7 @@ class Calibration:
             "aic": self.aic, "bic": self.bic, "aic_before": self.aic_before,
             "bic_before": self.bic_before, "neg2_loglik": self.neg2_loglik, "n_data": self.n_data,
             "n_params": self.n_params, "success": self.success, "message": self.message,
-            "nfev": self.nfev,
+            "nfev": self.nfev, "autocorrelation_time": self.autocorrelation_time,
             "failure_windows_after": self.error_after.windows,
         })
 
@@ -272,10 +283,11 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     # covariance from the Jacobian with residuals scaled by their fitted RMS per (experiment, signal)
     values = {}
     corr = {}
+    taus = residual_times(rps1)
     if vs:
         r1 = obj.weighted(rps1)
         J = _fd_jacobian(obj, theta, r1, sc, lo, hi)
-        scale = _rms_scale(obj, rps1)
+        scale = _rms_scale(obj, rps1, taus)
         # covariance in scaled units (parameters of very different sizes, e.g. a
         # conductance of 1e-10 next to h = 25, would make J^T J numerically singular)
         Jz = (J * sc[None, :]) / scale[:, None]
@@ -298,18 +310,28 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     for p, v in obj.fixed.items():
         values[p] = {"value": v, "stderr": 0.0, "vary": False}
     return Calibration(obj.model_at(theta), values, corr, before, after, aic, bic, m2ll, n_all,
-                       len(vs), success, message, obj.n_eval, rss1, rss0, aic0, bic0)
+                       len(vs), success, message, obj.n_eval,
+                       times_report(taus), rss1, rss0, aic0, bic0)
 
 
-def _rms_scale(obj, replays):
-    """Per-residual factor turning noise-weighted residuals into unit-variance ones."""
+def _rms_scale(obj, replays, taus=None):
+    """Per-residual factor turning noise-weighted residuals into unit-variance ones.
+
+    With ``taus`` (:func:`pneucore.autocorrelation.residual_times` of the same
+    replays) the factor of a series is also multiplied by ``sqrt(tau)``: its n
+    samples then weigh as n / tau independent ones.
+    """
     parts = []
+    k = 0
     for rp, sig in zip(replays, obj.sigma):
         for s in rp.measured:
             m, g = rp.measured[s], rp.simulated[s]
             ok = np.isfinite(rp.experiment.measurement.signals[s])
             okn = np.isfinite(m) & np.isfinite(g)
             rms = math.sqrt(np.mean(((g[okn] - m[okn]) / sig[s]) ** 2)) if okn.any() else 1.0
+            if taus is not None:
+                rms *= math.sqrt(taus[k][1])
+            k += 1
             parts.append(np.full(int(ok.sum()), max(rms, 1e-12)))
     return np.concatenate(parts)
 

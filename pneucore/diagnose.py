@@ -18,6 +18,13 @@
    ``LR = -2 ln L0 + 2 ln L1`` with its chi-square p-value, the change of
    BIC, its parameters with 95 % confidence intervals, where the
    improvement lands, and an explanation tied to the effect's signature.
+   LR and BIC count each residual series (experiment, signal) by its
+   effective sample size ``n / tau``, ``tau`` being the integrated
+   autocorrelation time of the candidate's residual
+   (:mod:`pneucore.autocorrelation`): a rig's noise is rarely white, and
+   counted as white, slowly drifting noise makes any flexible effect look
+   overwhelmingly significant. With white noise ``tau = 1`` and nothing
+   changes; the white-noise LR is reported as ``lr_statistic_white``.
 4. **Verdict.** The best refit (lowest BIC) is named only if it is
    significant (LR p-value below ``alpha`` divided by the number of refits,
    a Bonferroni guard) *and* strongly preferred (delta BIC < -10, Kass &
@@ -35,6 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
+from .autocorrelation import effective_lr, residual_times, times_report
 from .calibrate import _plain, fit, information_criteria
 from .compare import replay, summarise
 from .effects import EFFECTS
@@ -358,9 +366,14 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     for name, cal in refits.items():
         eff = EFFECTS[name]
         k_eff = len(eff.diagnosis_params)
-        lr = max(m2ll0 - cal.neg2_loglik, 0.0)
+        # each residual series counts by its effective sample size n / tau, tau measured on
+        # the alternative's residual (white if the effect is real and the noise is white)
+        taus = residual_times(cal.error_after.replays)
+        lr_eff, n_eff = effective_lr(rss0, cal.rss_after, taus)
+        lr = max(lr_eff, 0.0)
         p = float(stats.chi2.sf(lr, k_eff))
-        d_bic = cal.bic - bic0
+        d_bic = -lr_eff + k_eff * math.log(max(n_eff, 1.0))
+        d_aic = -lr_eff + 2 * k_eff
         params = {p_: v for p_, v in cal.values.items() if p_.startswith(f"effects.{name}.")}
         params = {k.split(".")[-1]: {**v, "ci95": [v["value"] - 1.96 * v["stderr"],
                                                  v["value"] + 1.96 * v["stderr"]]}
@@ -370,7 +383,10 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                 "error_after_phases": cal.error_after.phases,
                 "relative_drop": (comp0.overall - cal.error_after.overall) / comp0.overall
                 if comp0.overall else 0.0,
-                "lr_statistic": lr, "p_value": p, "delta_bic": d_bic, "delta_aic": cal.aic - aic0,
+                "lr_statistic": lr, "p_value": p, "delta_bic": d_bic, "delta_aic": d_aic,
+                "lr_statistic_white": max(m2ll0 - cal.neg2_loglik, 0.0),
+                "effective_samples": n_eff, "n_samples": n_all,
+                "autocorrelation_time": times_report(taus),
                 "params": params,
                 "uncertain_params": {k: v for k, v in cal.values.items() if not k.startswith("effects.")},
                 "improvement": _improvement(comp0, cal.error_after),

@@ -8,6 +8,7 @@ Gaussian noise.
 from __future__ import annotations
 
 import copy
+import math
 
 import numpy as np
 
@@ -46,8 +47,32 @@ def lsb(signal, bits=12):
     return (hi - lo) / (2 ** bits - 1)
 
 
+def colored_noise(rng, sigma, n, dt, corr_time):
+    """Gaussian AR(1) noise with standard deviation ``sigma`` and correlation time ``corr_time``.
+
+    ``e_k = phi e_{k-1} + sigma sqrt(1 - phi^2) w_k`` with ``phi = exp(-dt / corr_time)``,
+    started in its stationary distribution: the sampled form of a first-order
+    low-pass filtered white noise (a transducer's filter, slow drift).
+
+    Parameters
+    ----------
+    rng : numpy Generator
+    sigma : float  Standard deviation (signal units)
+    n : int  Number of samples
+    dt : float  Sample period [s]
+    corr_time : float  Correlation time [s]; 0 gives white noise
+    """
+    w = rng.normal(0.0, 1.0, n)
+    if corr_time <= 0.0 or n == 0:
+        return sigma * w
+    from scipy.signal import lfilter
+    phi = math.exp(-dt / corr_time)
+    w[1:] *= math.sqrt(1.0 - phi * phi)
+    return sigma * lfilter([1.0], [1.0, -phi], w)
+
+
 def synthesize(model, scenario, signals=("p_a", "p_b", "x"), noise=None, bits=12, seed=0,
-               name="synthetic"):
+               name="synthetic", noise_corr_time=0.0):
     """Simulate ``model`` and return what the rig's sensors would record.
 
     Parameters
@@ -59,6 +84,8 @@ def synthesize(model, scenario, signals=("p_a", "p_b", "x"), noise=None, bits=12
     bits : int or None  Converter resolution; None = no quantisation
     seed : int  Random seed
     name : str  Measurement name
+    noise_corr_time : float  Correlation time of the noise [s] (0 = white; see
+        :func:`colored_noise`)
 
     Returns
     -------
@@ -71,7 +98,8 @@ def synthesize(model, scenario, signals=("p_a", "p_b", "x"), noise=None, bits=12
     sig = {"u": res.u.copy()}
     for s in signals:
         y = np.asarray(res.observed(s), float).copy()
-        y = y + rng.normal(0.0, noise.get(s, 0.0), y.shape)
+        dt = float(res.t[1] - res.t[0]) if res.t.shape[0] > 1 else 0.0
+        y = y + colored_noise(rng, noise.get(s, 0.0), y.shape[0], dt, noise_corr_time)
         if bits:
             lo, hi = SENSOR_RANGES[s]
             y = quantise(y, lo, hi, bits)
@@ -118,7 +146,7 @@ def diagnostic_scenarios(model):
 
 
 def synthetic_experiments(true_model, signals=("p_a", "p_b", "x"), noise=None, bits=12, seed=0,
-                          which=None):
+                          which=None, noise_corr_time=0.0):
     """Synthetic experiments (JSON-ready dicts) of the diagnostic scenarios on ``true_model``.
 
     Returns
@@ -131,7 +159,7 @@ def synthetic_experiments(true_model, signals=("p_a", "p_b", "x"), noise=None, b
         if which is not None and name not in which:
             continue
         sigs = tuple(s for s in signals if not (scen["locked"] and s in ("x", "v")))
-        meas = synthesize(true_model, scen, sigs, noise, bits, seed + k, name)
+        meas = synthesize(true_model, scen, sigs, noise, bits, seed + k, name, noise_corr_time)
         out.append({"name": name, "scenario": {"locked": scen["locked"], "x0": scen["x0"]},
                     "measurement": meas})
     return out

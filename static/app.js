@@ -1081,7 +1081,9 @@ function renderDiagnosis() {
       `<p class="small muted">${esc(r.description || '')}</p>` +
       '<dl class="evidence">' +
       `<dt>Overall error</dt><dd><span class="err-before">${pct(r.error_before != null ? r.error_before : before)} %</span> → <b class="err-after">${pct(r.error_after_overall)} %</b></dd>` +
-      `<dt>ΔBIC</dt><dd>${num(r.delta_bic, 4)}</dd><dt>p-value (LR test)</dt><dd>${pval(r.p_value)}</dd></dl>` +
+      `<dt>ΔBIC</dt><dd>${num(r.delta_bic, 4)}</dd><dt>p-value (LR test)</dt><dd>${pval(r.p_value)}</dd>` +
+      (r.effective_samples != null && r.n_samples ? `<dt title="Samples counted by the LR test and BIC: each residual series weighs n / tau, tau its integrated autocorrelation time (coloured noise carries less information than white)">effective samples</dt>` +
+        `<dd class="eff-samples">${Math.round(r.effective_samples)} of ${r.n_samples}</dd>` : '') + '</dl>' +
       (params ? `<table class="data params"><thead><tr><th scope="col">parameter</th><th scope="col">value ± std. error</th><th scope="col">95 % CI</th><th></th></tr></thead><tbody>${params}</tbody></table>` : '') +
       `<p class="explanation">${esc(r.explanation || '')}</p>` +
       `<button type="button" class="${r.effect === d.verdict ? 'primary ' : ''}add-effect-btn" id="add-${esc(r.effect)}" data-effect="${esc(r.effect)}"` +

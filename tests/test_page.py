@@ -230,6 +230,9 @@ def test_diagnosis_finds_the_leak_and_adding_it_lowers_the_error(page):
     assert top.get_attribute("data-effect") == "piston_leakage"
     card = page.inner_text("#card-piston_leakage")
     assert "ΔBIC" in card and "kg/(s Pa)" in card and "→" in card
+    # the LR test's sample count is shown: "<effective> of <n>", effective <= n
+    eff, _, n = page.inner_text("#card-piston_leakage .eff-samples").partition(" of ")
+    assert 0 < int(eff) <= int(n)
     before = float(page.inner_text("#error-table-data td[data-signal='overall']"))
 
     page.click("#add-piston_leakage")
