@@ -25,7 +25,9 @@ Compile options, chosen by measurement (``benchmarks/bench_simulator.py``):
 * every function below :func:`integrate` is compiled without numba's
   reference-counting runtime (``_nrt=False``): none allocates, and with the
   runtime each array argument of each call costs an atomic increment and
-  decrement; only :func:`integrate` allocates its work arrays;
+  decrement; only :func:`integrate` allocates its work arrays, and the
+  user-effect layer :func:`pneucore.rhs.call_user_terms` keeps the runtime
+  (a user's terms may allocate; callees inherit the caller's setting);
 * small functions called with several arrays from hot loops (the LU
   factorisation and solve, the Hermite interpolant, the event functions and
   the valve edge in :mod:`pneucore.rhs`) are inlined at numba IR level
