@@ -287,7 +287,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     from .calibrate import Objective
     obj0 = Objective(base, exps, [])
     rss0 = obj0.rss(rps0)
-    m2ll0, aic0, bic0, n_all = information_criteria(rss0, len(u_specs))
+    m2ll0, _, _, n_all = information_criteria(rss0, len(u_specs))
     r0, keys = _unit_residuals(rps0)
     y0 = _stack(rps0, keys)
 

@@ -19,7 +19,6 @@ they never allocate, so the user hook's signal and term vectors are views of
 a ``scratch`` vector allocated once per simulation. Together with the
 inlined valve edge this took one evaluation from about 0.21 to 0.07 us.
 """
-import numpy as np
 from numba import njit
 
 from . import layout as L

@@ -8,8 +8,6 @@ must not name one, although the white-noise LR of its best candidate exceeds
 the significance threshold; an effect that is there is still named.
 """
 import math
-import sys
-import os
 
 import numpy as np
 import pytest
@@ -22,8 +20,7 @@ from pneucore.autocorrelation import (autocorrelation, effective_lr, integrated_
 from pneucore.diagnose import ALPHA, diagnose
 from pneucore.synthetic import colored_noise, synthetic_experiments
 
-sys.path.insert(0, os.path.dirname(__file__))
-from test_diagnosis import HIDDEN, base_model, describe, truth_model  # noqa: E402
+from test_diagnosis import base_model, describe, truth_model
 
 #: Correlation time of the coloured rig noise [s]: a ~3 Hz first-order transducer filter
 CORR_TIME = 0.05
