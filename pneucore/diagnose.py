@@ -31,7 +31,8 @@
    Raftery's "very strong" grade) *and* material (it removes at least 5 % of
    the error). Otherwise the verdict is ``None``: "no catalog effect explains
    the remaining residual", with Ljung-Box whiteness and command
-   cross-correlation tests saying whether structure remains.
+   cross-correlation tests saying whether structure remains and whether
+   the residual depends on the command.
 """
 from __future__ import annotations
 
@@ -154,9 +155,19 @@ class Diagnosis:
 
 
 def residual_tests(replays, lags=20):
-    """Whiteness (Ljung-Box) and command cross-correlation tests of each residual."""
+    """Whiteness (Ljung-Box) and command cross-correlation tests of each residual.
+
+    ``structure_remains``: some residual is not white noise (either test
+    rejects at p < 0.001). ``command_dependent``: some residual depends on
+    the command (the cross-correlation test, which allows for coloured noise,
+    rejects): the physics the command drives is incomplete. An autocorrelated
+    residual without a significant dependence on the command is ambiguous:
+    coloured measurement noise, or missing physics that acts slowly (a leak
+    during a hold, heat exchange); the summary says so.
+    """
     out = []
-    structured = False
+    dependent = False
+    coloured = False
     for rp in replays:
         u = rp.experiment.measurement.signals["u"][:len(rp.t)]
         for s in rp.measured:
@@ -165,12 +176,22 @@ def residual_tests(replays, lags=20):
             c, pc = cross_correlation_test(d, u, lags)
             out.append({"experiment": rp.experiment.name, "signal": s, "ljung_box_q": q,
                         "ljung_box_p": p, "cross_corr_s": c, "cross_corr_p": pc})
-            if (p == p and p < 1e-3) or (pc == pc and pc < 1e-3):
-                structured = True
-    text = ("structure remains in the residual (whiteness or command cross-correlation rejected "
-            "at p < 0.001): some physics is still missing or mis-set" if structured else
-            "the residual is consistent with white measurement noise")
-    return {"tests": out, "structure_remains": structured, "summary": text}
+            if pc == pc and pc < 1e-3:
+                dependent = True
+            if p == p and p < 1e-3:
+                coloured = True
+    if dependent:
+        text = ("the residual depends on the command (cross-correlation test rejected at "
+                "p < 0.001): some physics is still missing or mis-set")
+    elif coloured:
+        text = ("the residual is autocorrelated (Ljung-Box rejected at p < 0.001) without a "
+                "significant dependence on the command: coloured measurement noise, or missing "
+                "physics that acts slowly (a leak, heat exchange); a recording of the sensors at "
+                "rest tells them apart")
+    else:
+        text = "the residual is consistent with white measurement noise"
+    return {"tests": out, "structure_remains": dependent or coloured,
+            "command_dependent": dependent, "summary": text}
 
 
 def _improvement(before, after):

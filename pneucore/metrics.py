@@ -6,6 +6,8 @@ import math
 import numpy as np
 from scipy import stats
 
+from .autocorrelation import autocorrelation, integrated_time
+
 #: Human names of the chambers for window descriptions
 _CHAMBER = {"p_a": "A", "p_b": "B", "T_a": "A", "T_b": "B"}
 
@@ -274,11 +276,24 @@ def ljung_box(residual, lags=20):
 
 
 def cross_correlation_test(residual, inp, lags=20):
-    """Test that the residual is uncorrelated with an input (e.g. the command).
+    """Test that the residual is independent of an input (e.g. the command).
 
-    ``S = N sum_{k=0..h} rho_{r,u}(k)^2``, approximately chi-square with ``h + 1``
-    degrees of freedom when residual and input are independent (Ljung,
-    System Identification, 2nd ed., Sect. 16.6).
+    With ``r_k`` the sample cross-correlation of residual ``e`` (lagging) and
+    input ``u`` at lags ``k = 0..h``, the statistic is
+
+    .. math:: S = N r^T P^{-1} r, \\qquad
+              P_{jk} = \\sum_\\tau \\rho_e(\\tau) \\rho_u(\\tau + j - k)
+
+    (Ljung, *System Identification*, 2nd ed., 1999, Sect. 16.6): ``P`` is the
+    covariance of ``sqrt(N) r`` when ``e`` and ``u`` are independent, and ``S``
+    is chi-square with ``h + 1`` degrees of freedom. With a white residual and
+    a white input ``P = I``. A step command is far from white, and so is
+    coloured measurement noise: without ``P``, ``N sum r_k^2`` grows with both
+    autocorrelations and independence would be rejected on noise alone. The
+    sum over ``tau`` is truncated at five autocorrelation times of the
+    residual with Bartlett weights (which keeps ``P`` positive semidefinite);
+    directions of ``P`` with eigenvalues below 1e-3 of the largest carry no
+    information and are dropped, with their degrees of freedom.
 
     Returns
     -------
@@ -297,9 +312,16 @@ def cross_correlation_test(residual, inp, lags=20):
     if den == 0:
         return 0.0, 1.0
     h = min(lags, n // 5)
-    s = 0.0
-    for k in range(0, h + 1):
-        rho = np.sum(r[k:] * u[:n - k]) / den
-        s += rho * rho
-    s *= n
-    return float(s), float(stats.chi2.sf(s, h + 1))
+    rk = np.array([np.sum(r[k:] * u[:n - k]) / den for k in range(h + 1)])
+    rho_e = autocorrelation(r)
+    rho_u = autocorrelation(u)
+    m = int(min(n - h - 1, max(h, math.ceil(5.0 * integrated_time(r)))))
+    tau = np.arange(-m, m + 1)
+    w = (1.0 - np.abs(tau) / (m + 1.0)) * rho_e[np.abs(tau)]
+    p = np.array([np.sum(w * rho_u[np.abs(tau + d)]) for d in range(h + 1)])
+    P = p[np.abs(np.subtract.outer(np.arange(h + 1), np.arange(h + 1)))]
+    lam, vec = np.linalg.eigh(P)
+    keep = lam > 1e-3 * lam.max()
+    z = vec[:, keep].T @ rk
+    s = float(n * np.sum(z * z / lam[keep]))
+    return s, float(stats.chi2.sf(s, int(keep.sum())))
