@@ -194,11 +194,16 @@ class Calibration:
     success: bool
     message: str
     nfev: int
-    autocorrelation_time: dict = field(default_factory=dict)
+    residual_times: list = field(default_factory=list, repr=False)
     rss_after: list = field(default_factory=list, repr=False)
     rss_before: list = field(default_factory=list, repr=False)
     aic_before: float = float("nan")
     bic_before: float = float("nan")
+
+    @property
+    def autocorrelation_time(self):
+        """``{"experiment/signal": tau}`` of the fitted residuals [samples]."""
+        return times_report(self.residual_times)
 
     def summary(self):
         def errs(c):
@@ -311,7 +316,7 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         values[p] = {"value": v, "stderr": 0.0, "vary": False}
     return Calibration(obj.model_at(theta), values, corr, before, after, aic, bic, m2ll, n_all,
                        len(vs), success, message, obj.n_eval,
-                       times_report(taus), rss1, rss0, aic0, bic0)
+                       taus, rss1, rss0, aic0, bic0)
 
 
 def _rms_scale(obj, replays, taus=None):

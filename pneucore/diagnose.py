@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from .autocorrelation import effective_lr, residual_times, times_report
+from .autocorrelation import effective_lr, times_report
 from .calibrate import _plain, fit, information_criteria
 from .compare import replay, summarise
 from .effects import EFFECTS
@@ -389,7 +389,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         k_eff = len(eff.diagnosis_params)
         # each residual series counts by its effective sample size n / tau, tau measured on
         # the alternative's residual (white if the effect is real and the noise is white)
-        taus = residual_times(cal.error_after.replays)
+        taus = cal.residual_times
         lr_eff, n_eff = effective_lr(rss0, cal.rss_after, taus)
         lr = max(lr_eff, 0.0)
         p = float(stats.chi2.sf(lr, k_eff))
