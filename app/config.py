@@ -1,7 +1,11 @@
 """Service settings, read from environment variables.
 
 ``PNEUCORE_DB``: SQLite file (default ``./pneucore.sqlite3`` in the working directory).
-``PNEUCORE_MAX_UPLOAD``: largest accepted upload [bytes] (default 20 MB).
+``PNEUCORE_MAX_UPLOAD``: largest accepted request body, upload or JSON [bytes] (default 20 MB).
+``PNEUCORE_ALLOWED_HOSTS``: comma-separated host names the server answers to (default
+``localhost,127.0.0.1,::1``; ``*`` = any, only behind a proxy that checks the host).
+``PNEUCORE_TOKEN``: when set, every request needs it (``Authorization: Bearer <token>``, or the
+cookie the page gets from ``/?token=<token>``); see :mod:`app.security`.
 """
 import os
 from dataclasses import dataclass, field
@@ -15,6 +19,7 @@ def _env_int(name, default):
 @dataclass
 class Limits:
     """Documented size and time limits of the REST API (refused up front when exceeded)."""
+    #: largest request body of any endpoint, CSV upload or JSON, refused with 413 while reading [bytes]
     max_upload_bytes: int = field(default_factory=lambda: _env_int("PNEUCORE_MAX_UPLOAD", 20 * 1024 * 1024))
     max_duration: float = 120.0          # simulated time per request [s]
     max_samples: int = 200_001           # output samples per simulation
@@ -24,7 +29,8 @@ class Limits:
     max_steps: int = 2_000_000           # solver step budget (about 10 s of compute)
     job_time_limit: float = 300.0        # wall time of one job [s]
     request_time_limit: float = 60.0     # wall time of a synchronous analysis [s]
-    max_jobs: int = 16                   # queued or running jobs
+    max_jobs: int = 16                   # queued or running jobs (analysis and studies together)
+    analysis_workers: int = 2            # threads running analysis jobs (studies have their own)
     max_study_runs: int = 100_000        # runs of one robustness study
     study_time_limit: float = 3600.0     # wall time of one study job [s]
     scheduler_timeout: float = 3.0       # time to reach a Dask scheduler [s]
@@ -33,9 +39,20 @@ class Limits:
         return dict(self.__dict__)
 
 
+#: Host names a local server answers to (DNS-rebinding guard)
+LOCAL_HOSTS = ("localhost", "127.0.0.1", "::1")
+
+
+def _env_list(name, default):
+    v = os.environ.get(name)
+    return tuple(h.strip() for h in v.split(",") if h.strip()) if v else tuple(default)
+
+
 @dataclass
 class Settings:
     db_path: str = field(default_factory=lambda: os.environ.get("PNEUCORE_DB", "pneucore.sqlite3"))
+    allowed_hosts: tuple = field(default_factory=lambda: _env_list("PNEUCORE_ALLOWED_HOSTS", LOCAL_HOSTS))
+    token: str = field(default_factory=lambda: os.environ.get("PNEUCORE_TOKEN") or None)
     limits: Limits = field(default_factory=Limits)
     seed_samples: bool = True
     resume_studies: bool = True

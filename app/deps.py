@@ -66,9 +66,10 @@ def check_scenario_limits(scen, limits: Limits, prefix="scenario"):
     if scen.duration > limits.max_duration:
         raise FieldError(f"{prefix}.duration", f"{scen.duration:g} s exceeds the API limit of "
                                               f"{limits.max_duration:g} s")
-    n = scen.duration / scen.sample_period + 1
+    from pneucore.simulate import output_samples
+    n = output_samples(scen.duration, scen.sample_period)   # what the run would produce
     if n > limits.max_samples:
-        raise FieldError(f"{prefix}.sample_period", f"{n:.0f} samples exceed the API limit of "
+        raise FieldError(f"{prefix}.sample_period", f"{n} samples exceed the API limit of "
                                                    f"{limits.max_samples}")
     if len(scen.command) > limits.max_command_points:
         raise FieldError(f"{prefix}.command", f"{len(scen.command)} breakpoints exceed the API limit "

@@ -1,4 +1,13 @@
-"""Background jobs for long work (diagnosis, calibration): id, progress, result, time limit."""
+"""Background jobs for long work (diagnosis, calibration, studies): id, progress, result, time limit.
+
+Analysis jobs and robustness studies run on separate thread pools
+(:data:`POOLS`), so a diagnosis never waits behind studies. Every job is also a
+record in the SQLite store (:class:`app.store.Store`, table ``jobs``): written
+when queued, started and finished, and its progress at most every
+:data:`PROGRESS_WRITE_S` seconds. A job that was queued or running when the
+server died reads ``"interrupted"`` at the next start, with the progress and
+step it had reached, instead of 404.
+"""
 from __future__ import annotations
 
 import threading
@@ -7,8 +16,17 @@ import traceback
 import uuid
 from concurrent.futures import ThreadPoolExecutor
 
-
 from pneucore.progress import Cancelled
+
+#: Seconds between two writes of a running job's progress to the store
+PROGRESS_WRITE_S = 0.5
+
+#: Job kinds with a pool of their own, and that pool's thread count (other kinds run on the
+#: analysis pool). A study runs its own process pool; its thread only feeds and stores it.
+POOLS = {"study": 2}
+
+#: Job states; ``interrupted`` = the server stopped while the job was queued or running
+STATUSES = ("queued", "running", "done", "error", "interrupted")
 
 
 class JobTimeout(Cancelled):
@@ -33,12 +51,17 @@ class Job:
         self.finished = None
         self.time_limit = time_limit
         self.manager = None
+        self._written = 0.0
 
     def report(self, fraction, step):
         """Progress callback handed to pneucore; also enforces the time limit and shutdown."""
         self.progress = float(max(self.progress, min(fraction, 1.0)))
-        self.step = step
-        if self.manager is not None and self.manager.stopping:
+        self.step = str(step)
+        m = self.manager
+        if m is not None and time.monotonic() - self._written > PROGRESS_WRITE_S:
+            self._written = time.monotonic()
+            m.record(self)
+        if m is not None and m.stopping:
             raise ServerStopping(f"the service is stopping (the {self.kind} job was at: {step})")
         if self.started and time.time() - self.started > self.time_limit:
             raise JobTimeout(f"the {self.kind} job exceeded its time limit of {self.time_limit:g} s "
@@ -53,27 +76,66 @@ class Job:
         return d
 
 
-class JobManager:
-    """Runs jobs on a small thread pool (the compiled core releases the GIL)."""
+class JobRecord:
+    """A job read back from the store (finished long ago, or interrupted by a server stop)."""
 
-    def __init__(self, workers=1, max_jobs=16, time_limit=300.0):
+    def __init__(self, d):
+        self.__dict__.update(d)
+
+    def to_dict(self, with_result=True):
+        d = dict(self.__dict__)
+        if not with_result:
+            d.pop("result", None)
+        return d
+
+
+class JobManager:
+    """Runs jobs on thread pools (the compiled core releases the GIL), one per kind in POOLS.
+
+    Parameters
+    ----------
+    workers : int
+        Threads of the analysis pool [-]
+    max_jobs : int
+        Queued or running jobs, all kinds together [-]
+    time_limit : float
+        Default wall-time limit of a job [s]
+    store : app.store.Store or None
+        Where job records are kept (None = memory only)
+    """
+
+    def __init__(self, workers=1, max_jobs=16, time_limit=300.0, store=None):
         self.pool = ThreadPoolExecutor(workers, thread_name_prefix="pneucore-job")
+        self.pools = {kind: ThreadPoolExecutor(n, thread_name_prefix=f"pneucore-{kind}")
+                      for kind, n in POOLS.items()}
         self.jobs = {}
         self.max_jobs = max_jobs
         self.time_limit = time_limit
+        self.store = store
         self.stopping = False
         self._lock = threading.Lock()
+        if store is not None:
+            store.interrupt_jobs()   # what a previous server left queued or running
 
     def active(self):
         return sum(1 for j in self.jobs.values() if j.status in ("queued", "running"))
 
-    #: Finished jobs kept for polling (the oldest are forgotten beyond this)
+    #: Finished jobs kept in memory for polling (older ones are read from the store)
     KEEP_FINISHED = 200
 
     def _prune(self):
         done = [j for j in self.jobs.values() if j.status in ("done", "error")]
         for j in sorted(done, key=lambda j: j.finished or 0)[:max(0, len(done) - self.KEEP_FINISHED)]:
             del self.jobs[j.id]
+
+    def record(self, job, result=False):
+        """Write the job's state (and its result when ``result``) to the store."""
+        if self.store is None:
+            return
+        try:
+            self.store.save_job(job.to_dict(with_result=result))
+        except Exception as exc:  # a record that cannot be written must not fail the job
+            print(f"pneucore: job {job.id} record not written: {type(exc).__name__}: {exc}")
 
     def submit(self, kind, fn, time_limit=None):
         """Queue ``fn(job)``; returns the job. Raises RuntimeError when the queue is full."""
@@ -84,11 +146,13 @@ class JobManager:
             job = Job(kind, time_limit or self.time_limit)
             job.manager = self
             self.jobs[job.id] = job
+        self.record(job)
 
         def run():
             job.status = "running"
             job.started = time.time()
             job.step = "started"
+            self.record(job)
             # the status is written last, so a poll never sees "done" without its result
             try:
                 result = fn(job)
@@ -97,18 +161,28 @@ class JobManager:
                 job.step = "done"
                 job.finished = time.time()
                 job.status = "done"
+            except ServerStopping as exc:
+                job.error = str(exc)
+                job.finished = time.time()
+                job.status = "interrupted"
             except Exception as exc:  # the job reports its error; the server keeps going
                 job.error = str(exc) if not isinstance(exc, (KeyError,)) else repr(exc)
                 job.trace = traceback.format_exc(limit=3)
                 job.step = "failed"
                 job.finished = time.time()
                 job.status = "error"
+            self.record(job, result=True)
 
-        self.pool.submit(run)
+        self.pools.get(kind, self.pool).submit(run)
         return job
 
     def get(self, jid):
-        return self.jobs.get(jid)
+        """The job (in memory), else its stored record as a dict, else None."""
+        job = self.jobs.get(jid)
+        if job is not None or self.store is None:
+            return job
+        rec = self.store.job(jid)
+        return None if rec is None else JobRecord(rec)
 
     def latest_for_study(self, study_id):
         """The most recent job of a robustness study, if any."""
@@ -118,4 +192,9 @@ class JobManager:
     def shutdown(self):
         """Stop: queued jobs are dropped, running ones stop at their next progress report."""
         self.stopping = True
-        self.pool.shutdown(wait=True, cancel_futures=True)
+        for pool in (self.pool, *self.pools.values()):
+            pool.shutdown(wait=False, cancel_futures=True)
+        for pool in (self.pool, *self.pools.values()):
+            pool.shutdown(wait=True)
+        if self.store is not None:
+            self.store.interrupt_jobs()

@@ -15,14 +15,18 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from pneucore.measurement import MeasurementError
 from pneucore.simulate import SimulationError
 from pneucore.validation import FieldError
 
+from .bodies import BodyLimit
 from .config import Settings
 from .jobs import JobManager, JobTimeout
+from .responses import JSON, document_errors
 from .routers import analysis, datasets, effects, jobs, presets, sessions, simulate, studies
+from .security import Guard
 from .store import Store
 
 # the repository's static/ (a checkout or an editable install), else the copy a wheel
@@ -55,8 +59,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         if settings.seed_samples:
             store.seed_samples()
         app.state.store = store
-        app.state.jobs = JobManager(workers=2, max_jobs=settings.limits.max_jobs,
-                                    time_limit=settings.limits.job_time_limit)
+        app.state.jobs = JobManager(workers=settings.limits.analysis_workers,
+                                    max_jobs=settings.limits.max_jobs,
+                                    time_limit=settings.limits.job_time_limit, store=store)
         app.state.cancelled_studies = set()
         if settings.resume_studies:
             # studies left queued or running by a stopped server resume where they were
@@ -72,11 +77,24 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.jobs.shutdown()
         store.close()
 
-    app = FastAPI(title="pneucore", version="0.1.0", lifespan=lifespan,
+    app = FastAPI(title="pneucore", version="0.1.0", lifespan=lifespan, default_response_class=JSON,
                   description="Design and validation tool for pneumatic actuators (Maré, Geider & "
                               "Colin model): simulate, compare with measurements, diagnose the "
                               "missing physics, calibrate. SI units, absolute pressures.")
     app.state.settings = settings
+
+    # outermost first: the guard answers bad hosts, origins and tokens before a body is read
+    app.add_middleware(BodyLimit, limit=settings.limits.max_upload_bytes)
+    app.add_middleware(Guard, allowed_hosts=settings.allowed_hosts, token=settings.token)
+
+    @app.exception_handler(StarletteHTTPException)
+    async def http_error(request: Request, exc: StarletteHTTPException):
+        headers = dict(exc.headers or {})
+        if exc.status_code == 405:
+            # every method of every route at this path, not only the first route's
+            headers["Allow"] = ", ".join(_allowed_methods(request.app, request.scope))
+        return JSONResponse(status_code=exc.status_code, content={"detail": exc.detail},
+                            headers=headers or None)
 
     @app.exception_handler(FieldError)
     async def field_error(request: Request, exc: FieldError):
@@ -144,20 +162,20 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     if STATIC_DIR.exists():
         app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
+    document_errors(app, settings)
     return app
 
 
-app = create_app()
+#: Methods probed for the 405 ``Allow`` header
+_METHODS = ("GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS")
 
 
-def main():
-    """Start the service: ``python -m app [--host H] [--port P]``."""
-    import argparse
-
-    import uvicorn
-    p = argparse.ArgumentParser(description="pneucore web service")
-    p.add_argument("--host", default=os.environ.get("PNEUCORE_HOST", "127.0.0.1"))
-    p.add_argument("--port", type=int, default=int(os.environ.get("PNEUCORE_PORT", "8000")))
-    a = p.parse_args()
-    print(f"pneucore: open http://{a.host}:{a.port}/  (database {Settings().db_path})")
-    uvicorn.run("app.main:app", host=a.host, port=a.port, workers=1)
+def _allowed_methods(app, scope):
+    """The methods some route accepts at this path (for the 405 ``Allow`` header)."""
+    from starlette.routing import Match
+    allowed = []
+    for method in _METHODS:
+        probe = {**scope, "method": method}
+        if any(route.matches(probe)[0] == Match.FULL for route in app.router.routes):
+            allowed.append(method)
+    return allowed

@@ -225,7 +225,7 @@ class SimulateResponse(BaseModel):
 class JobResponse(BaseModel):
     id: str = Field(..., description="Job id")
     kind: str = Field(..., description="Job kind")
-    status: str = Field(..., description="queued, running, done or error")
+    status: str = Field(..., description="queued, running, done, error, or interrupted (the server stopped while it was queued or running; submit it again)")
     progress: float = Field(..., description="Fraction done [-]")
     step: str = Field(..., description="Current step")
     error: Optional[str] = Field(None, description="Error message when status is error")

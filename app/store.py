@@ -1,12 +1,16 @@
-"""SQLite store: datasets (measurements with their context) and refinement sessions.
+"""SQLite store: datasets (measurements with their context), refinement sessions, job records.
 
-Each write is one transaction, so a failed request never leaves a
-half-written dataset; the file survives restarts. On first start the sample
-datasets shipped with pneucore are loaded.
+The routers validate every field before calling a write here, and each write
+is one transaction, so a failed request never leaves a half-written record;
+the file survives restarts. Reads decode row by row: a row that cannot be
+decoded (written by an older version, or damaged) is reported as such and
+never makes a whole listing fail. The sample datasets shipped with pneucore
+are read-only and any missing one is restored at every start.
 """
 from __future__ import annotations
 
 import json
+import math
 import sqlite3
 import threading
 import time
@@ -17,6 +21,11 @@ import orjson
 from pneucore.measurement import Measurement
 from pneucore.samples import DATA_DIR, list_samples
 from pneucore.measurement import read_csv
+
+
+def _dumps(value):
+    """JSON text of a validated value; a stray NaN is written as null, never as a bare token."""
+    return orjson.dumps(value, option=orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS).decode()
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS datasets (
@@ -30,7 +39,23 @@ CREATE TABLE IF NOT EXISTS versions (
     model TEXT NOT NULL, errors TEXT NOT NULL, overall REAL, added TEXT, params TEXT NOT NULL,
     note TEXT NOT NULL DEFAULT '', PRIMARY KEY (session, version));
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT);
+CREATE TABLE IF NOT EXISTS jobs (
+    id TEXT PRIMARY KEY, kind TEXT NOT NULL, status TEXT NOT NULL, progress REAL NOT NULL,
+    step TEXT NOT NULL, error TEXT, created REAL NOT NULL, started REAL, finished REAL,
+    result BLOB);
 """
+
+
+class ReadOnly(Exception):
+    """A write to a record that may not be changed (a shipped sample dataset)."""
+
+
+def _loads(text, default):
+    """Decode a stored JSON column; ``default`` when the row cannot be decoded."""
+    try:
+        return json.loads(text)
+    except (TypeError, ValueError, RecursionError):
+        return default
 
 
 class Store:
@@ -60,19 +85,23 @@ class Store:
 
     # -- samples ------------------------------------------------------------------
     def seed_samples(self):
-        """Load the shipped sample datasets once (remembered in the meta table)."""
-        row = self._db.execute("SELECT value FROM meta WHERE key='samples_seeded'").fetchone()
-        if row:
-            return 0
+        """Store any shipped sample dataset that is missing; returns how many were restored.
+
+        Samples are read-only (:meth:`delete_dataset` refuses them), so a missing one was
+        removed by an older version or by hand: it comes back at the next start.
+        """
+        with self._lock:
+            have = {r[0] for r in self._db.execute("SELECT id FROM datasets WHERE sample IS NOT NULL")}
         n = 0
         for s in list_samples():
             for e in s["experiments"]:
+                did = f"sample-{s['id']}-{e['name']}"
+                if did in have:
+                    continue
                 meas = read_csv(DATA_DIR / e["file"], name=f"{s['id']} / {e['name']}")
                 self.add_dataset(meas, e["scenario"], name=f"{s['id']} / {e['name']}",
-                                 description=s["description"], sample=s["id"],
-                                 dataset_id=f"sample-{s['id']}-{e['name']}")
+                                 description=s["description"], sample=s["id"], dataset_id=did)
                 n += 1
-        self._tx(lambda db: db.execute("INSERT OR REPLACE INTO meta VALUES ('samples_seeded', '1')"))
         return n
 
     # -- datasets -------------------------------------------------------------------
@@ -81,30 +110,41 @@ class Store:
         did = dataset_id or uuid.uuid4().hex[:12]
         data = orjson.dumps(meas.to_dict(), option=orjson.OPT_SERIALIZE_NUMPY)
         rec = (did, name or meas.name or did, time.time(), int(meas.n),
-               json.dumps(list(meas.measured_signals)), json.dumps(scenario or {}), description,
+               json.dumps(list(meas.measured_signals)), _dumps(scenario or {}), description,
                sample, data)
         self._tx(lambda db: db.execute("INSERT OR REPLACE INTO datasets VALUES (?,?,?,?,?,?,?,?,?)", rec))
         return self.dataset_info(did)
+
+    @staticmethod
+    def _dataset_row(row):
+        info = {"id": row[0], "name": row[1], "created": row[2], "n_samples": row[3],
+                "signals": _loads(row[4], []), "scenario": _loads(row[5], {}),
+                "description": row[6], "sample": row[7]}
+        if not isinstance(info["signals"], list) or not isinstance(info["scenario"], dict):
+            info["signals"], info["scenario"] = [], {}
+        return info
 
     def dataset_info(self, did):
         with self._lock:
             row = self._db.execute("SELECT id, name, created, n_samples, signals, scenario, description, "
                                    "sample FROM datasets WHERE id=?", (did,)).fetchone()
-            if row is None:
-                return None
-            return {"id": row[0], "name": row[1], "created": row[2], "n_samples": row[3],
-                    "signals": json.loads(row[4]), "scenario": json.loads(row[5]),
-                    "description": row[6], "sample": row[7]}
+            return None if row is None else self._dataset_row(row)
 
     def list_datasets(self):
         with self._lock:
-            rows = self._db.execute("SELECT id FROM datasets ORDER BY sample IS NULL, created, id").fetchall()
-            return [self.dataset_info(r[0]) for r in rows]
+            rows = self._db.execute("SELECT id, name, created, n_samples, signals, scenario, description, "
+                                    "sample FROM datasets ORDER BY sample IS NULL, created, id").fetchall()
+        return [self._dataset_row(r) for r in rows]
 
     def dataset_data(self, did):
         with self._lock:
             row = self._db.execute("SELECT data FROM datasets WHERE id=?", (did,)).fetchone()
-            return None if row is None else orjson.loads(row[0])
+        if row is None:
+            return None
+        try:
+            return orjson.loads(row[0])
+        except orjson.JSONDecodeError:
+            return {}   # a damaged row: Measurement.from_dict names what is missing
 
     def measurement(self, did):
         d = self.dataset_data(did)
@@ -113,23 +153,40 @@ class Store:
         return Measurement.from_dict(d)
 
     def delete_dataset(self, did):
-        return self._tx(lambda db: db.execute("DELETE FROM datasets WHERE id=?", (did,)).rowcount) > 0
+        """Delete a dataset; False when there is none. Raises :class:`ReadOnly` for a sample."""
+        def tx(db):
+            row = db.execute("SELECT sample FROM datasets WHERE id=?", (did,)).fetchone()
+            if row is not None and row[0] is not None:
+                raise ReadOnly(f"dataset {did!r} is a shipped sample and is read-only")
+            return db.execute("DELETE FROM datasets WHERE id=?", (did,)).rowcount
+        return self._tx(tx) > 0
 
     # -- refinement sessions ---------------------------------------------------------------
-    def create_session(self, name, experiments):
+    def create_session(self, name, experiments, base=None):
+        """A new session; ``base`` (the keyword arguments of :meth:`add_version`) is its
+        version 0, written in the same transaction."""
         sid = uuid.uuid4().hex[:12]
-        self._tx(lambda db: db.execute("INSERT INTO sessions VALUES (?,?,?,?)",
-                                       (sid, name, time.time(), json.dumps(experiments))))
+
+        def tx(db):
+            db.execute("INSERT INTO sessions VALUES (?,?,?,?)",
+                       (sid, name, time.time(), _dumps(experiments)))
+            if base is not None:
+                self._insert_version(db, sid, **base)
+        self._tx(tx)
         return sid
 
+    @staticmethod
+    def _insert_version(db, sid, label, model, errors, overall, added=None, params=None, note=""):
+        n = db.execute("SELECT COUNT(*) FROM versions WHERE session=?", (sid,)).fetchone()[0]
+        db.execute("INSERT INTO versions VALUES (?,?,?,?,?,?,?,?,?,?)",
+                   (sid, n, label, time.time(), _dumps(model), _dumps(errors),
+                    overall if overall is None or math.isfinite(overall) else None,
+                    added, _dumps(params or {}), note))
+        return n
+
     def add_version(self, sid, label, model, errors, overall, added=None, params=None, note=""):
-        def tx(db):
-            n = db.execute("SELECT COUNT(*) FROM versions WHERE session=?", (sid,)).fetchone()[0]
-            db.execute("INSERT INTO versions VALUES (?,?,?,?,?,?,?,?,?,?)",
-                       (sid, n, label, time.time(), json.dumps(model), json.dumps(errors), overall,
-                        added, json.dumps(params or {}), note))
-            return n
-        return self._tx(tx)
+        return self._tx(lambda db: self._insert_version(db, sid, label, model, errors, overall,
+                                                        added, params, note))
 
     def session(self, sid):
         with self._lock:
@@ -139,10 +196,10 @@ class Store:
                 return None
             vers = self._db.execute("SELECT version, label, created, model, errors, overall, added, params, "
                                     "note FROM versions WHERE session=? ORDER BY version", (sid,)).fetchall()
-            return {"id": row[0], "name": row[1], "created": row[2], "experiments": json.loads(row[3]),
-                    "versions": [{"version": v[0], "label": v[1], "created": v[2], "model": json.loads(v[3]),
-                                  "errors": json.loads(v[4]), "overall": v[5], "added": v[6],
-                                  "params": json.loads(v[7]), "note": v[8]} for v in vers]}
+        return {"id": row[0], "name": row[1], "created": row[2], "experiments": _loads(row[3], []),
+                "versions": [{"version": v[0], "label": v[1], "created": v[2], "model": _loads(v[3], None),
+                              "errors": _loads(v[4], {}), "overall": v[5], "added": v[6],
+                              "params": _loads(v[7], {}), "note": v[8]} for v in vers]}
 
     def list_sessions(self):
         with self._lock:
@@ -156,3 +213,41 @@ class Store:
             db.execute("DELETE FROM versions WHERE session=?", (sid,))
             return db.execute("DELETE FROM sessions WHERE id=?", (sid,)).rowcount
         return self._tx(tx) > 0
+
+    # -- job records -------------------------------------------------------------------
+    _JOB_FIELDS = ("id", "kind", "status", "progress", "step", "error", "created", "started",
+                   "finished")
+
+    def save_job(self, job):
+        """Insert or update a job record (``job``: its ``to_dict``; ``result`` only when finished)."""
+        row = tuple(job.get(k) for k in self._JOB_FIELDS)
+        if "result" in job:
+            blob = orjson.dumps(job["result"], option=orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS)
+            self._tx(lambda db: db.execute("INSERT OR REPLACE INTO jobs VALUES (?,?,?,?,?,?,?,?,?,?)",
+                                           row + (blob,)))
+        else:
+            self._tx(lambda db: db.execute(
+                "INSERT INTO jobs VALUES (?,?,?,?,?,?,?,?,?,NULL) ON CONFLICT(id) DO UPDATE SET "
+                "status=excluded.status, progress=excluded.progress, step=excluded.step, "
+                "error=excluded.error, started=excluded.started, finished=excluded.finished", row))
+
+    def job(self, jid):
+        """A stored job record as a dict (with its result), or None."""
+        with self._lock:
+            row = self._db.execute(f"SELECT {', '.join(self._JOB_FIELDS)}, result FROM jobs WHERE id=?",
+                                   (jid,)).fetchone()
+        if row is None:
+            return None
+        d = dict(zip(self._JOB_FIELDS, row[:-1]))
+        try:
+            d["result"] = None if row[-1] is None else orjson.loads(row[-1])
+        except orjson.JSONDecodeError:
+            d["result"] = None
+        return d
+
+    def interrupt_jobs(self):
+        """Mark the jobs left queued or running (by a server that stopped) as interrupted."""
+        return self._tx(lambda db: db.execute(
+            "UPDATE jobs SET status='interrupted', error='the server stopped while the job was ' "
+            "|| status || ' (at: ' || step || '); submit it again', finished=COALESCE(finished, ?) "
+            "WHERE status IN ('queued', 'running')", (time.time(),)).rowcount)

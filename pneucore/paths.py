@@ -80,15 +80,22 @@ def get_value(model, path):
             raise FieldError(f"parameters.{path}", f"unknown parameter of {parts[1]}; expected one of "
                                                    f"{[q.name for q in eff.parameters]}") from None
         return float(model.effects.get(parts[1], {}).get(parts[2], p.default))
-    obj = model
     if parts[0] not in _SECTIONS:
-        raise FieldError(f"parameters.{path}", "unknown parameter path")
-    for k in parts:
-        if not hasattr(obj, k):
-            raise FieldError(f"parameters.{path}", "unknown parameter path")
+        raise FieldError(f"parameters.{path}", f"unknown parameter path; paths start with one of "
+                                               f"{sorted(_SECTIONS | {'effects', 'valve'})}")
+    obj = model
+    for i, k in enumerate(parts):
+        # only declared dataclass fields: properties (jack.area_a) and attributes of a
+        # number (supply.pressure.real) are not parameters and cannot be set
+        fields = getattr(obj, "__dataclass_fields__", None)
+        if fields is None or k not in fields:
+            where = ".".join(parts[:i]) or "model"
+            hint = f"; {where} has {sorted(fields)}" if fields else f"; {where} is a number"
+            raise FieldError(f"parameters.{path}", f"unknown parameter path{hint}")
         obj = getattr(obj, k)
     if obj is None or isinstance(obj, bool) or not isinstance(obj, (int, float)):
-        raise FieldError(f"parameters.{path}", "is not a numeric parameter")
+        raise FieldError(f"parameters.{path}", "is not a numeric parameter"
+                         + (" (it is null: give a value in the model first)" if obj is None else ""))
     return float(obj)
 
 

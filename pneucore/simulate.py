@@ -27,6 +27,22 @@ class SimulationError(RuntimeError):
         self.result = result
 
 
+def output_samples(duration, sample_period):
+    """Number of output samples of a run: ``t = 0, T_s, 2 T_s, ...`` up to ``duration``.
+
+    The quotient is floored with an allowance of 1e-9 sample for its binary rounding
+    (1.0 / 0.001 is 999.9999999999999 in floating point, and means 1001 samples).
+
+    Parameters
+    ----------
+    duration : float
+        Simulated time [s]
+    sample_period : float
+        Output sample period [s]
+    """
+    return int(math.floor(duration / sample_period + 1e-9)) + 1
+
+
 def _initial_mode(model, scenario):
     if scenario.locked:
         return L.MODE_LOCKED
@@ -204,7 +220,7 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
     scenario = Scenario.from_dict(scenario, model)
     core = build_core(model, scenario)
     if t_out is None:
-        n_out = int(math.floor(scenario.duration / scenario.sample_period + 1e-9)) + 1
+        n_out = output_samples(scenario.duration, scenario.sample_period)
         t_out = np.arange(n_out) * scenario.sample_period
         t_out[-1] = min(t_out[-1], scenario.duration)
     else:

@@ -130,3 +130,35 @@ def choice(value, options, path):
     if not isinstance(value, str) or value not in options:
         raise FieldError(path, f"unknown value {value!r}; expected one of {sorted(options)}")
     return value
+
+
+#: Deepest nesting accepted in free-form JSON fields [-]
+MAX_JSON_DEPTH = 32
+
+
+def finite_json(value, path, depth=0):
+    """Check free-form JSON (objects, lists, strings, booleans, null, finite numbers).
+
+    Rejects NaN and infinities (which have no JSON text) and nesting deeper than
+    :data:`MAX_JSON_DEPTH`, naming the offending entry (``params.conductance``,
+    ``experiments[0].scenario.x0``). Returns ``value``.
+    """
+    if depth > MAX_JSON_DEPTH:
+        raise FieldError(path, f"is nested deeper than {MAX_JSON_DEPTH} levels")
+    if value is None or isinstance(value, (str, bool)):
+        return value
+    if isinstance(value, (int, float)):
+        number(value, path)
+        return value
+    if isinstance(value, dict):
+        for k, v in value.items():
+            if not isinstance(k, str):
+                raise FieldError(path, f"keys must be strings, got {k!r}")
+            finite_json(v, f"{path}.{k}" if path else k, depth + 1)
+        return value
+    if isinstance(value, (list, tuple)):
+        for i, v in enumerate(value):
+            finite_json(v, f"{path}[{i}]", depth + 1)
+        return value
+    raise FieldError(path, f"must be JSON (object, list, string, number, boolean or null), "
+                           f"got {type(value).__name__}")

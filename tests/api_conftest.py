@@ -49,7 +49,7 @@ def make_settings(db_path, **limits) -> Settings:
 def api(db_path, **limits):
     """A started app (lifespan run) on ``db_path``; server errors come back as 500s."""
     app = create_app(make_settings(db_path, **limits))
-    with TestClient(app, raise_server_exceptions=False) as c:
+    with TestClient(app, base_url="http://127.0.0.1", raise_server_exceptions=False) as c:
         yield c
 
 

@@ -227,7 +227,7 @@ def test_default_upload_limit_from_env(db_path, monkeypatch):
     from app.config import Settings
     from app.main import create_app
     from fastapi.testclient import TestClient
-    with TestClient(create_app(Settings(db_path=str(db_path)))) as c:
+    with TestClient(create_app(Settings(db_path=str(db_path))), base_url="http://127.0.0.1") as c:
         assert c.get("/api/limits").json()["max_upload_bytes"] == 1500
         assert _upload(c, small_csv(200)).status_code == 413
 
@@ -272,15 +272,15 @@ def test_data_survive_restart_and_samples_not_duplicated(db_path):
         before = c.get(f"/api/datasets/{info['id']}").json()
         gone = _upload(c, small_csv(), name="deleted").json()["id"]
         assert c.delete(f"/api/datasets/{gone}").status_code == 204
-        assert c.delete(f"/api/datasets/{CLEAN_IDS[0]}").status_code == 204  # a sample, too
+        r = c.delete(f"/api/datasets/{CLEAN_IDS[0]}")   # samples are read-only
+        assert r.status_code == 403 and "read-only" in r.json()["detail"]
     with api(db_path) as c:
         ids = [d["id"] for d in c.get("/api/datasets").json()]
-        assert len(ids) == len(set(ids)) == len(SAMPLE_IDS)  # -1 sample, +1 upload
-        assert info["id"] in ids and gone not in ids
-        assert CLEAN_IDS[0] not in ids  # a deleted sample is not re-seeded
+        assert len(ids) == len(set(ids)) == len(SAMPLE_IDS) + 1
+        assert info["id"] in ids and gone not in ids and CLEAN_IDS[0] in ids
         assert c.get(f"/api/datasets/{info['id']}").json() == before
     with api(db_path) as c:
-        assert len(c.get("/api/datasets").json()) == len(SAMPLE_IDS)
+        assert len(c.get("/api/datasets").json()) == len(SAMPLE_IDS) + 1
 
 
 def test_fresh_databases_are_independent(tmp_path):

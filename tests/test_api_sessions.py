@@ -2,7 +2,7 @@
 import pytest
 
 from api_conftest import (LEAK_IDS, api, assert_field_error, client, db_path,  # noqa: F401
-                          inline_experiment, model)
+                          inline_experiment, model, sample_csv_text)
 
 LEAK = [{"dataset_id": i} for i in LEAK_IDS]
 
@@ -124,8 +124,10 @@ def test_invalid_version_changes_nothing(client):
 
 
 def test_version_after_its_dataset_was_deleted(client):
-    s = _create(client)
-    assert client.delete(f"/api/datasets/{LEAK_IDS[1]}").status_code == 204
+    mine = client.post("/api/datasets", files={"file": ("leak.csv", sample_csv_text("piston-leak", "free-pulses"),
+                                                        "text/csv")}).json()["id"]
+    s = _create(client, experiments=[{"dataset_id": LEAK_IDS[0]}, {"dataset_id": mine}])
+    assert client.delete(f"/api/datasets/{mine}").status_code == 204
     r = client.post(f"/api/sessions/{s['id']}/versions", json={"model": _with_leak()})
     assert_field_error(r, "experiments[1].dataset_id")
     assert client.get(f"/api/sessions/{s['id']}").status_code == 200

@@ -7,10 +7,11 @@ from pneucore.compare import check_heat_models, compare
 from pneucore.diagnose import check_request, diagnose
 from pneucore.paths import parse_parameters
 
+from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, StoreDep, parse_experiments, parse_model
 from ..schemas import CalibrateRequest, CompareRequest, DiagnoseRequest
 
-router = APIRouter(prefix="/api", tags=["analysis"])
+router = APIRouter(prefix="/api", tags=["analysis"], route_class=OffLoopRoute)
 
 
 def check_compare(req: CompareRequest, store, limits):

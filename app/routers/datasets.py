@@ -1,17 +1,33 @@
-"""Datasets: POST (CSV upload, multipart or text/csv, or JSON), GET list, GET one, DELETE."""
+"""Datasets: POST (CSV upload, multipart or text/csv, or JSON), GET list, GET one, DELETE.
+
+Every stored field is validated before the one transaction that stores it;
+parsing and validation run in a worker thread, off the event loop. The shipped
+sample datasets are read-only (DELETE answers 403).
+"""
 import json
 
 from fastapi import APIRouter, HTTPException, Request
-from ..responses import JSON
 from pydantic import ValidationError
+from starlette.concurrency import run_in_threadpool
 
 from pneucore.measurement import Measurement, MeasurementError, read_csv
-from pneucore.validation import FieldError
+from pneucore.scenario import Scenario
+from pneucore.validation import FieldError, mapping, number
 
+from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, StoreDep, not_found
+from ..responses import JSON
 from ..schemas import DatasetJsonIn
+from ..store import ReadOnly
 
-router = APIRouter(prefix="/api/datasets", tags=["datasets"])
+router = APIRouter(prefix="/api/datasets", tags=["datasets"], route_class=OffLoopRoute)
+
+def _json_body_schema():
+    """DatasetJsonIn's schema referring to the document's components (where MeasurementIn is)."""
+    schema = DatasetJsonIn.model_json_schema(ref_template="#/components/schemas/{model}")
+    schema.pop("$defs", None)
+    return schema
+
 
 _UPLOAD_DOC = {
     "requestBody": {"content": {
@@ -23,27 +39,17 @@ _UPLOAD_DOC = {
             "x0": {"type": "number", "description": "Initial position [m]"},
             "scenario": {"type": "string", "description": "Scenario context as JSON text"}}}},
         "text/csv": {"schema": {"type": "string"}},
-        "application/json": {"schema": DatasetJsonIn.model_json_schema()}}}}
+        # components, not $defs: the document must resolve every reference it makes
+        "application/json": {"schema": _json_body_schema()}}}}
 
 
-async def _read_limited(request: Request, limit: int) -> bytes:
-    declared = request.headers.get("content-length")
-    if declared is not None and declared.isdigit() and int(declared) > limit:
-        raise HTTPException(413, f"upload of {int(declared)} bytes exceeds the limit of {limit} bytes")
-    body = bytearray()
-    async for chunk in request.stream():
-        body += chunk
-        if len(body) > limit:
-            raise HTTPException(413, f"upload exceeds the limit of {limit} bytes")
-    return bytes(body)
-
-
-def _context(fields):
+def _context(fields, meas):
+    """The scenario context of an upload (``scenario`` JSON text, ``locked``, ``x0``), validated."""
     scen = {}
     if fields.get("scenario"):
         try:
             scen = json.loads(fields["scenario"])
-        except json.JSONDecodeError as exc:
+        except (json.JSONDecodeError, RecursionError) as exc:
             raise FieldError("scenario", f"is not valid JSON ({exc})") from None
         if not isinstance(scen, dict):
             raise FieldError("scenario", "must be a JSON object")
@@ -51,52 +57,89 @@ def _context(fields):
         scen["locked"] = str(fields["locked"]).lower() in ("1", "true", "yes", "on")
     if fields.get("x0") not in (None, ""):
         try:
-            scen["x0"] = float(fields["x0"])
-        except ValueError:
+            scen["x0"] = number(float(fields["x0"]), "x0", nonnegative=True)
+        except ValueError as exc:
+            if isinstance(exc, FieldError):
+                raise
             raise FieldError("x0", f"must be a number, got {fields['x0']!r}") from None
+    return check_context(scen, meas)
+
+
+def check_context(scen, meas):
+    """Validate a stored scenario context before anything is committed.
+
+    Every field is checked as a scenario field (types, finiteness, bounds; the
+    command and duration default to the measurement's), so a stored dataset can
+    always be read back and analysed; checks that need a model (``x0`` within the
+    stroke, the command within the valve's range) come when it is used.
+    """
+    mapping(scen, "scenario")
+    d = dict(scen)
+    d.setdefault("duration", max(float(meas.t[-1] - meas.t[0]), 1e-9))
+    if len(meas.t) > 1:
+        d.setdefault("sample_period", d["duration"] / (len(meas.t) - 1))
+    d.setdefault("command", [[0.0, float(meas.signals["u"][0])]])
+    Scenario.from_dict(d, None)
     return scen
+
+
+async def _multipart(request: Request, body: bytes, limits):
+    """The form of a multipart body; a malformed one is a 400 that says what is wrong."""
+    from starlette.formparsers import MultiPartException, MultiPartParser
+
+    async def stream():
+        yield body
+    try:
+        return await MultiPartParser(request.headers, stream(),
+                                     max_part_size=limits.max_upload_bytes).parse()
+    except MultiPartException as exc:
+        raise HTTPException(400, f"malformed multipart/form-data body: {exc.message}") from None
+
+
+def _store_upload(store, text, fields, name, description=""):
+    """Parse, validate and store a CSV upload (in a worker thread: it is the slow part)."""
+    meas = read_csv(text if "\n" in text else text + "\n", name=name)
+    scen = _context(fields, meas)
+    return store.add_dataset(meas, scen, name=name, description=description)
+
+
+def _store_json(store, payload: DatasetJsonIn):
+    try:
+        meas = Measurement.from_dict(payload.measurement.model_dump(exclude_none=True))
+    except MeasurementError as exc:
+        raise FieldError("measurement", str(exc)) from None
+    scen = check_context(payload.scenario, meas)
+    return store.add_dataset(meas, scen, name=payload.name or meas.name,
+                             description=payload.description)
 
 
 @router.post("", status_code=201, summary="Store a measurement (CSV upload or JSON)",
              openapi_extra=_UPLOAD_DOC)
 async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
+    # the body is limited by app.bodies.BodyLimit while it is read (413 beyond the limit)
     ctype = request.headers.get("content-type", "")
-    body = await _read_limited(request, limits.max_upload_bytes)
+    body = await request.body()
     if ctype.startswith("multipart/form-data"):
         from starlette.datastructures import UploadFile
-        from starlette.formparsers import MultiPartParser
-
-        async def stream():
-            yield body
-        parser = MultiPartParser(request.headers, stream(), max_part_size=limits.max_upload_bytes)
-        form = await parser.parse()
+        form = await _multipart(request, body, limits)
         upload = form.get("file")
         if not isinstance(upload, UploadFile):
             raise FieldError("file", "a CSV file field named 'file' is required")
         text = (await upload.read()).decode("utf-8-sig", errors="replace")
         fields = {k: v for k, v in form.items() if not isinstance(v, UploadFile)}
         name = fields.get("name") or (upload.filename or "upload").rsplit(".", 1)[0]
-        meas = read_csv(text if "\n" in text else text + "\n", name=name)
-        info = store.add_dataset(meas, _context(fields), name=name,
-                                 description=fields.get("description", ""))
-    elif ctype.startswith("text/csv") or ctype.startswith("text/plain"):
+        return await run_in_threadpool(_store_upload, store, text, fields, name,
+                                       fields.get("description", ""))
+    if ctype.startswith("text/csv") or ctype.startswith("text/plain"):
         text = body.decode("utf-8-sig", errors="replace")
-        meas = read_csv(text if "\n" in text else text + "\n", name=request.query_params.get("name"))
-        info = store.add_dataset(meas, _context(dict(request.query_params)),
-                                 name=request.query_params.get("name"))
-    else:
-        try:
-            payload = DatasetJsonIn.model_validate_json(body)
-        except ValidationError as exc:
-            from fastapi.exceptions import RequestValidationError
-            raise RequestValidationError([{**e, "loc": ("body",) + tuple(e["loc"])} for e in exc.errors()])
-        try:
-            meas = Measurement.from_dict(payload.measurement.model_dump(exclude_none=True))
-        except MeasurementError as exc:
-            raise FieldError("measurement", str(exc)) from None
-        info = store.add_dataset(meas, payload.scenario, name=payload.name or meas.name,
-                                 description=payload.description)
-    return info
+        return await run_in_threadpool(_store_upload, store, text, dict(request.query_params),
+                                       request.query_params.get("name"))
+    try:
+        payload = await run_in_threadpool(DatasetJsonIn.model_validate_json, body)
+    except ValidationError as exc:
+        from fastapi.exceptions import RequestValidationError
+        raise RequestValidationError([{**e, "loc": ("body",) + tuple(e["loc"])} for e in exc.errors()])
+    return await run_in_threadpool(_store_json, store, payload)
 
 
 @router.get("", summary="List stored datasets (metadata only)")
@@ -114,5 +157,9 @@ def get_dataset(dataset_id: str, store: StoreDep):
 
 @router.delete("/{dataset_id}", status_code=204, summary="Delete a dataset")
 def delete_dataset(dataset_id: str, store: StoreDep):
-    if not store.delete_dataset(dataset_id):
+    try:
+        deleted = store.delete_dataset(dataset_id)
+    except ReadOnly as exc:
+        raise HTTPException(403, str(exc)) from None
+    if not deleted:
         raise not_found("dataset", dataset_id)

@@ -2,12 +2,13 @@
 from fastapi import APIRouter, HTTPException
 from ..responses import JSON
 
+from ..bodies import OffLoopRoute
 from ..deps import JobsDep, LimitsDep, StoreDep, not_found
 from ..schemas import CalibrateRequest, CompareRequest, DiagnoseRequest, JobResponse
 from .analysis import (check_calibrate, check_compare, check_diagnose, run_calibrate, run_compare,
                        run_diagnose)
 
-router = APIRouter(prefix="/api/jobs", tags=["jobs"])
+router = APIRouter(prefix="/api/jobs", tags=["jobs"], route_class=OffLoopRoute)
 
 
 def _submit(jobs, kind, fn):

@@ -1,12 +1,18 @@
-"""Refinement sessions: model versions with their errors, so work can be resumed."""
+"""Refinement sessions: model versions with their errors, so work can be resumed.
+
+Every stored field is validated before the one transaction that stores it.
+"""
 from fastapi import APIRouter
 
 from pneucore.compare import errors as model_errors
+from pneucore.effects import EFFECTS
+from pneucore.validation import FieldError, choice, finite_json
 
+from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, StoreDep, not_found, parse_experiments, parse_model
 from ..schemas import SessionCreate, VersionCreate
 
-router = APIRouter(prefix="/api/sessions", tags=["sessions"])
+router = APIRouter(prefix="/api/sessions", tags=["sessions"], route_class=OffLoopRoute)
 
 
 def _errors(model, experiments, store, limits):
@@ -19,9 +25,9 @@ def _errors(model, experiments, store, limits):
 def create_session(req: SessionCreate, store: StoreDep, limits: LimitsDep):
     model = parse_model(req.model)
     errors, overall = _errors(model, req.experiments, store, limits)
-    exps = [e.model_dump(exclude_none=True) for e in req.experiments]
-    sid = store.create_session(req.name, exps)
-    store.add_version(sid, "base", model.to_dict(), errors, overall)
+    exps = finite_json([e.model_dump(exclude_none=True) for e in req.experiments], "experiments")
+    sid = store.create_session(req.name, exps, base={"label": "base", "model": model.to_dict(),
+                                                     "errors": errors, "overall": overall})
     return store.session(sid)
 
 
@@ -45,11 +51,18 @@ def add_version(session_id: str, req: VersionCreate, store: StoreDep, limits: Li
     if s is None:
         raise not_found("session", session_id)
     model = parse_model(req.model)
+    if req.added is not None:
+        choice(req.added, EFFECTS, "added")
+    params = finite_json(req.params, "params")
     from ..schemas import ExperimentIn
-    exps = [ExperimentIn(**e) for e in s["experiments"]]
+    try:
+        exps = [ExperimentIn(**e) for e in s["experiments"]]
+    except (TypeError, ValueError):
+        raise FieldError("session", f"session {session_id!r} has unreadable experiments; "
+                                    f"start a new session") from None
     errors, overall = _errors(model, exps, store, limits)
     label = f"+ {req.added}" if req.added else f"version {len(s['versions'])}"
-    store.add_version(session_id, label, model.to_dict(), errors, overall, req.added, req.params,
+    store.add_version(session_id, label, model.to_dict(), errors, overall, req.added, params,
                       req.note)
     return store.session(session_id)
 

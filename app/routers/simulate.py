@@ -6,10 +6,11 @@ from pneucore.compare import check_heat_models, with_heat_model
 from pneucore.simulate import simulate
 from pneucore.validation import FieldError
 
+from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, parse_model, parse_scenario
 from ..schemas import HeatModelsRequest, SimulateRequest, SimulateResponse
 
-router = APIRouter(prefix="/api/simulate", tags=["simulate"])
+router = APIRouter(prefix="/api/simulate", tags=["simulate"], route_class=OffLoopRoute)
 
 #: Series returned by default (everything the page plots)
 DEFAULT_SERIES = ("t", "u", "p_a", "p_b", "T_a", "T_b", "m_a", "m_b", "x", "v", "a", "q_a", "q_b",

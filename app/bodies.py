@@ -1,0 +1,115 @@
+"""Request bodies: one documented size limit, enforced while reading; JSON parsed off the event loop.
+
+:class:`BodyLimit` (ASGI middleware) refuses a body larger than
+``Limits.max_upload_bytes`` with 413: up front when ``Content-Length`` says so,
+otherwise as soon as the bytes received pass the limit (a chunked body is never
+buffered beyond it). :class:`OffLoopRoute` (the routers' ``route_class``) parses
+a JSON body in a worker thread, so a large request never blocks the event loop
+that serves every other client; pydantic's validation of the parsed object is
+C code and costs milliseconds even at the size limit.
+"""
+from __future__ import annotations
+
+import json
+
+import orjson
+from fastapi.routing import APIRoute
+from starlette.concurrency import run_in_threadpool
+from starlette.exceptions import HTTPException
+from starlette.requests import Request
+
+
+class BodyTooLarge(HTTPException):
+    """413: the request body passed the size limit."""
+
+    def __init__(self, limit, declared=None):
+        what = f"request body of {declared} bytes" if declared is not None else "request body"
+        super().__init__(413, f"{what} exceeds the limit of {limit} bytes (GET /api/limits: "
+                              f"max_upload_bytes)")
+
+
+def _json_413(limit, declared=None):
+    return orjson.dumps({"detail": BodyTooLarge(limit, declared).detail})
+
+
+class BodyLimit:
+    """ASGI middleware: every request body is at most ``limit`` bytes, counted as it arrives."""
+
+    def __init__(self, app, limit: int):
+        self.app = app
+        self.limit = int(limit)
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        limit = self.limit
+        for k, v in scope.get("headers", ()):
+            if k == b"content-length":
+                v = v.decode("latin-1").strip()
+                if v.isdigit() and int(v) > limit:
+                    return await self._refuse(send, _json_413(limit, int(v)))
+        received = 0
+
+        async def limited_receive():
+            nonlocal received
+            message = await receive()
+            if message["type"] == "http.request":
+                received += len(message.get("body", b""))
+                if received > limit:
+                    raise BodyTooLarge(limit)
+            return message
+
+        started = False
+
+        async def tracking_send(message):
+            nonlocal started
+            if message["type"] == "http.response.start":
+                started = True
+            await send(message)
+
+        try:
+            await self.app(scope, limited_receive, tracking_send)
+        except BodyTooLarge:
+            if started:
+                raise
+            await self._refuse(send, _json_413(limit))
+
+    @staticmethod
+    async def _refuse(send, body):
+        await send({"type": "http.response.start", "status": 413,
+                    "headers": [(b"content-type", b"application/json"),
+                                (b"content-length", str(len(body)).encode()),
+                                (b"connection", b"close")]})
+        await send({"type": "http.response.body", "body": body})
+
+
+def parse_json(body: bytes):
+    """JSON text -> Python objects (orjson; the standard parser for NaN/Infinity tokens,
+    which then fail validation with the field's path rather than as a syntax error)."""
+    try:
+        return orjson.loads(body)
+    except orjson.JSONDecodeError:
+        return json.loads(body)   # raises json.JSONDecodeError: FastAPI's 422 json_invalid
+
+
+class OffLoopRoute(APIRoute):
+    """An APIRoute whose JSON body is read and parsed in a worker thread.
+
+    FastAPI reads ``await request.json()``; Starlette caches the parsed body on the
+    request, so parsing it first in a thread leaves FastAPI nothing to do on the loop.
+    """
+
+    def get_route_handler(self):
+        handler = super().get_route_handler()
+
+        async def off_loop_handler(request: Request):
+            ctype = request.headers.get("content-type", "")
+            if "json" in ctype.split(";", 1)[0]:
+                body = await request.body()
+                if body:
+                    try:
+                        request._json = await run_in_threadpool(parse_json, body)
+                    except (ValueError, RecursionError):
+                        pass   # FastAPI parses it again and reports the syntax error (422)
+            return await handler(request)
+        return off_loop_handler
