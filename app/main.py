@@ -22,7 +22,7 @@ from pneucore.simulate import SimulationError
 from pneucore.validation import FieldError
 
 from .bodies import BodyLimit
-from .config import Settings
+from .config import LOCAL_HOSTS, Settings
 from .jobs import JobManager, JobTimeout
 from .responses import JSON, document_errors
 from .routers import analysis, datasets, effects, jobs, presets, sessions, simulate, studies
@@ -179,3 +179,23 @@ def _allowed_methods(app, scope):
         if any(route.matches(probe)[0] == Match.FULL for route in app.router.routes):
             allowed.append(method)
     return allowed
+
+
+app = create_app()
+
+
+def main():
+    """Start the service: ``python -m app [--host H] [--port P]``."""
+    import argparse
+
+    import uvicorn
+    p = argparse.ArgumentParser(description="pneucore web service")
+    p.add_argument("--host", default=os.environ.get("PNEUCORE_HOST", "127.0.0.1"))
+    p.add_argument("--port", type=int, default=int(os.environ.get("PNEUCORE_PORT", "8000")))
+    a = p.parse_args()
+    settings = Settings()
+    print(f"pneucore: open http://{a.host}:{a.port}/  (database {settings.db_path})")
+    if a.host not in LOCAL_HOSTS and "PNEUCORE_ALLOWED_HOSTS" not in os.environ:
+        print("pneucore: only the host names localhost, 127.0.0.1 and ::1 are answered; on a shared "
+              "server set PNEUCORE_ALLOWED_HOSTS and PNEUCORE_TOKEN (README: Running on a shared server)")
+    uvicorn.run("app.main:app", host=a.host, port=a.port, workers=1)

@@ -33,7 +33,7 @@ class JackIn(_Strict):
 
 
 class PortTableIn(_Strict):
-    opening: list[Number] = Field(..., description="Strictly increasing spool openings [-]")
+    opening: list[Number] = Field(..., description="Strictly increasing spool openings, at least two (one point would never close the valve) [-]")
     C: list[Number] = Field(..., description="Sonic conductance at each opening [m^3/(s Pa)]")
     b: list[Number] = Field(..., description="Critical pressure ratio at each opening, in [0, 1) [-]")
     m: Optional[list[Number]] = Field(None, description="Subsonic index at each opening [-]; null = 0.5 (paper Eq. 4)")

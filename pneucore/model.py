@@ -110,7 +110,7 @@ class PortTable:
 
     Parameters
     ----------
-    opening : list of float  Strictly increasing spool openings [-]
+    opening : list of float  Strictly increasing spool openings, at least two [-]
     C : list of float  Sonic conductance at each opening [m^3/(s Pa)]
     b : list of float  Critical pressure ratio at each opening, in [0, 1) [-]
     m : list of float or None  Subsonic index at each opening [-]; None = 0.5 (Eq. 4)
@@ -128,7 +128,9 @@ class PortTable:
             if key not in d:
                 raise FieldError(f"{path}.{key}", "is required")
         lo, hi = u_range
-        opening = number_list(d["opening"], f"{path}.opening", low=lo, high=hi)
+        # two points at least: one point would hold its conductance at every opening (linear
+        # interpolation with the ends held), a valve that never closes
+        opening = number_list(d["opening"], f"{path}.opening", min_len=2, low=lo, high=hi)
         for i in range(1, len(opening)):
             if opening[i] <= opening[i - 1]:
                 raise FieldError(f"{path}.opening[{i}]",
@@ -422,3 +424,76 @@ class Model:
         if self.valve.b_chamber_pressure is not None:
             return self.valve.b_chamber_pressure
         return 0.5 * self.supply.pressure
+
+
+
+def _mechanical_coefficients(model):
+    """``(Kv_max [N s/m], k_max [N/m])``: the largest viscous coefficient and gas stiffness."""
+    j, f = model.jack, model.friction
+    dp = model.supply.pressure - model.ambient.pressure
+    kv = max(max(s.kv0 + max(s.kv_a, 0.0) * dp + max(s.kv_b, 0.0) * dp, 0.0)
+             for s in (f.extend, f.retract))
+    k = max(model.gas.gamma * model.supply.pressure * area ** 2 / v0
+            for area, v0 in ((j.area_a, j.dead_volume_a), (j.area_b, j.dead_volume_b)))
+    return kv, k
+
+
+def mechanical_time_constant(model):
+    """Shortest time constant of the piston's motion, from the model's own numbers [s].
+
+    Two time scales bound how fast the velocity can change (Eq. 17-19):
+
+    * viscous: ``m / Kv_max``, with ``Kv_max`` the largest viscous coefficient of
+      Eq. 19 (either quadrant, both chambers at the supply pressure);
+    * pneumatic: ``sqrt(m / k_max)``, with ``k_max = gamma p_s A^2 / V_0`` the stiffest
+      gas spring (a chamber at the supply pressure compressed to its dead volume,
+      adiabatic index gamma).
+
+    Parameters
+    ----------
+    model : Model
+        A validated model
+
+    Returns
+    -------
+    tau : float
+        The smaller of the two [s]
+    """
+    import math
+    kv, k = _mechanical_coefficients(model)
+    m = model.jack.moving_mass
+    return min(m / kv, math.sqrt(m / k)) if kv > 0.0 else math.sqrt(m / k)
+
+
+def check_resolvable(model, rtol, path="jack.moving_mass"):
+    """Refuse a moving mass too small for the integrator to resolve at tolerance ``rtol``.
+
+    Stick/slip and end-stop events are located to ``EVENT_TOL`` seconds
+    (:mod:`pneucore.integrator`). After an event the velocity relaxes with the
+    mechanical time constant ``tau`` (:func:`mechanical_time_constant`), so an
+    event-time error of ``EVENT_TOL`` makes a velocity error of order
+    ``EVENT_TOL / tau`` relative. Keeping it within the requested relative
+    tolerance needs ``tau >= EVENT_TOL / rtol``: 1e-4 s at the default rtol
+    1e-5, i.e. ``m >= max(Kv_max tau, k_max tau^2)``, 9 g for the paper's jack.
+    Below it the solver returned "ok" with velocities off by orders of
+    magnitude (1e-9 kg: 145 m/s where a tight solve gives 2.03 m/s).
+
+    Parameters
+    ----------
+    model : Model
+        A validated model
+    rtol : float
+        Relative tolerance of the run [-]
+    path : str
+        Field named in the error
+    """
+    from .integrator import EVENT_TOL
+    tau = mechanical_time_constant(model)
+    need = EVENT_TOL / rtol
+    if tau < need:
+        kv, k = _mechanical_coefficients(model)
+        m_min = max(kv * need, k * need ** 2)
+        raise FieldError(path, f"moving mass {model.jack.moving_mass:g} kg gives a mechanical time "
+                               f"constant of {tau:.3g} s, below the {need:.3g} s the solver resolves at "
+                               f"rtol {rtol:g} (events are located to {EVENT_TOL:g} s); use at least "
+                               f"{m_min:.3g} kg, or a tighter scenario.solver.rtol")

@@ -12,7 +12,7 @@ from .flow import FLOW_LAWS
 from .gas import density
 from .heat import HEAT_MODELS
 from .integrator import ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES, integrate, specialize
-from .model import Model
+from .model import Model, check_resolvable
 from .result import SimulationResult
 from .rhs import no_terms
 from .scenario import Scenario
@@ -218,6 +218,7 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
     """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     scenario = Scenario.from_dict(scenario, model)
+    check_resolvable(model, scenario.solver.rtol)
     core = build_core(model, scenario)
     if t_out is None:
         n_out = output_samples(scenario.duration, scenario.sample_period)

@@ -63,8 +63,9 @@ function esc(s) {
   return String(s).replace(/[&<>"']/g, (c) => ({ '&': '&amp;', '<': '&lt;', '>': '&gt;', '"': '&quot;', "'": '&#39;' }[c]));
 }
 function num(x, digits = 4) {
+  // always digits or '–', never the given text: the result goes into HTML unescaped
+  if (typeof x !== 'number') x = (typeof x === 'string' && x.trim() !== '') ? Number(x) : NaN;
   if (x === null || x === undefined || Number.isNaN(x)) return '–';
-  if (typeof x !== 'number') return String(x);
   if (x === 0) return '0';
   const a = Math.abs(x);
   if (a >= 1e5 || a < 1e-3) return x.toExponential(Math.max(digits - 1, 1)).replace('e+', 'e');
@@ -324,18 +325,19 @@ function renderValveTables() {
     div.className = 'edge field';
     div.dataset.field = `model.valve.ports.${edge}`;
     div.id = `edge-${edge}`;
+    const e = esc(edge);   // a port name comes from the user's model JSON
     const rows = (t.opening || []).map((_, i) => {
       const cell = (col, scale, unit) => {
-        const id = `edge-${edge}-${col}-${i}`;
+        const id = `edge-${e}-${col}-${i}`;
         const v = t[col] ? t[col][i] : null;
-        return `<td><label class="sr-only" for="${id}">${edge} ${col} row ${i + 1} [${unit}]</label>` +
-          `<input id="${id}" type="number" step="any" data-field="model.valve.ports.${edge}.${col}[${i}]" data-scale="${scale}" value="${esc(displayValue(v, scale))}"></td>`;
+        return `<td><label class="sr-only" for="${id}">${e} ${col} row ${i + 1} [${unit}]</label>` +
+          `<input id="${id}" type="number" step="any" data-field="model.valve.ports.${e}.${col}[${i}]" data-scale="${scale}" value="${esc(displayValue(v, scale))}"></td>`;
       };
       return `<tr>${cell('opening', 1, '-')}${cell('C', cu.scale, cu.label)}${cell('b', 1, '-')}` +
-        `<td><button type="button" class="icon del-row" data-edge="${edge}" data-row="${i}" title="Remove row ${i + 1}" aria-label="Remove row ${i + 1} of ${edge}">×</button></td></tr>`;
+        `<td><button type="button" class="icon del-row" data-edge="${e}" data-row="${i}" title="Remove row ${i + 1}" aria-label="Remove row ${i + 1} of ${e}">×</button></td></tr>`;
     }).join('');
     div.innerHTML = `<div class="edge-head"><span class="swatch" style="background:${EDGE_COLORS[edge] || '#555'}"></span><b>${esc(edge)}</b>` +
-      `<button type="button" class="icon add-row" data-edge="${edge}" title="Add a row" aria-label="Add a row to ${edge}">+ row</button></div>` +
+      `<button type="button" class="icon add-row" data-edge="${e}" title="Add a row" aria-label="Add a row to ${e}">+ row</button></div>` +
       `<table class="edge-table"><thead><tr><th>opening [-]</th><th>C [${cu.label}]</th><th>b [-]</th><th></th></tr></thead><tbody>${rows}</tbody></table>` +
       '<span class="field-error" role="alert"></span>';
     box.appendChild(div);
@@ -465,13 +467,13 @@ function renderEffects() {
     const inputs = params.map((p) => {
       const meta = cat ? cat.parameters.find((q) => q.name === p) : null;
       const unit = meta ? meta.unit : '?';
-      const id = `eff-${name}-${p}`;
+      const id = esc(`eff-${name}-${p}`);
       return `<div class="field"><label for="${id}" title="${esc(meta ? meta.description : '')}">${esc(p)} [${esc(unit)}]</label>` +
-        `<input id="${id}" type="number" step="any" data-field="model.effects.${name}.${p}" value="${esc(displayValue(effs[name][p], 1))}">` +
+        `<input id="${id}" type="number" step="any" data-field="model.effects.${esc(name)}.${esc(p)}" value="${esc(displayValue(effs[name][p], 1))}">` +
         '<span class="field-error" role="alert"></span></div>';
     }).join('');
     div.innerHTML = `<div class="effect-head"><b>${esc(name)}</b> <span class="muted small">${esc(cat ? cat.description : 'not in the catalog')}</span>` +
-      `<button type="button" class="icon remove-effect" id="remove-${name}" data-effect="${name}" aria-label="Remove ${name}">Remove</button></div>` +
+      `<button type="button" class="icon remove-effect" id="remove-${esc(name)}" data-effect="${esc(name)}" aria-label="Remove ${esc(name)}">Remove</button></div>` +
       `<div class="grid">${inputs}</div><span class="field-error" role="alert"></span>`;
     list.appendChild(div);
   }
