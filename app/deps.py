@@ -59,7 +59,7 @@ def parse_scenario(scen_in, model, limits: Limits, prefix="scenario") -> Scenari
     except FieldError as exc:
         raise prefixed(exc, prefix.rsplit(".", 1)[0] if prefix != "scenario" else "") from None
     check_scenario_limits(scen, limits, prefix)
-    check_resolvable(model, scen.solver.rtol, "model.jack.moving_mass")
+    check_resolvable(model, scen.solver.rtol, scen.solver.max_step, "model.jack.moving_mass")
     return scen
 
 
@@ -110,7 +110,7 @@ def parse_experiments(exps_in, model: Model, store: Store, limits: Limits):
             exc.where = f"experiments[{i}].measurement"   # the handler places it in the request
             raise
         check_scenario_limits(scen, limits, f"experiments[{i}].scenario")
-        check_resolvable(model, scen.solver.rtol, "model.jack.moving_mass")
+        check_resolvable(model, scen.solver.rtol, scen.solver.max_step, "model.jack.moving_mass")
     return exps
 
 

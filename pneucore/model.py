@@ -465,18 +465,22 @@ def mechanical_time_constant(model):
     return min(m / kv, math.sqrt(m / k)) if kv > 0.0 else math.sqrt(m / k)
 
 
-def check_resolvable(model, rtol, path="jack.moving_mass"):
-    """Refuse a moving mass too small for the integrator to resolve at tolerance ``rtol``.
 
-    Stick/slip and end-stop events are located to ``EVENT_TOL`` seconds
-    (:mod:`pneucore.integrator`). After an event the velocity relaxes with the
-    mechanical time constant ``tau`` (:func:`mechanical_time_constant`), so an
-    event-time error of ``EVENT_TOL`` makes a velocity error of order
-    ``EVENT_TOL / tau`` relative. Keeping it within the requested relative
-    tolerance needs ``tau >= EVENT_TOL / rtol``: 1e-4 s at the default rtol
-    1e-5, i.e. ``m >= max(Kv_max tau, k_max tau^2)``, 9 g for the paper's jack.
-    Below it the solver returned "ok" with velocities off by orders of
-    magnitude (1e-9 kg: 145 m/s where a tight solve gives 2.03 m/s).
+def check_resolvable(model, rtol, max_step, path="jack.moving_mass"):
+    """Refuse a moving mass too light for the integrator to resolve at tolerance ``rtol``.
+
+    The velocity follows the net force with the mechanical time constant
+    ``tau`` (:func:`mechanical_time_constant`). The integrator's error control
+    sees that fast mode only while its transient spans at least the fraction
+    ``rtol`` of the longest step ``max_step``; a shorter one is stepped over by
+    steps sized for the chambers, with a Jacobian the fast mode makes
+    inaccurate, and the run ends "ok" with a wrong velocity (1e-9 kg: 145 m/s
+    where a tight solve gives 2.03 m/s). Hence the bound
+    ``tau >= rtol * max_step``, i.e. ``m >= max(Kv_max tau, k_max tau^2)``:
+    5e-7 s and 0.05 g for the paper's jack at the defaults (rtol 1e-5,
+    max_step 0.05 s). Measured on the Fig. 10 pulses (error of x and peak |v|
+    against rtol 1e-9, in units of rtol): at ``tau`` = 0.7 x the bound 1.2
+    (rtol 1e-5), 3.1 (1e-4), 2.4 (1e-3); at 0.02 x the bound 98, 100, 32.
 
     Parameters
     ----------
@@ -484,16 +488,17 @@ def check_resolvable(model, rtol, path="jack.moving_mass"):
         A validated model
     rtol : float
         Relative tolerance of the run [-]
+    max_step : float
+        Longest integration step of the run [s]
     path : str
         Field named in the error
     """
-    from .integrator import EVENT_TOL
     tau = mechanical_time_constant(model)
-    need = EVENT_TOL / rtol
+    need = rtol * max_step
     if tau < need:
         kv, k = _mechanical_coefficients(model)
         m_min = max(kv * need, k * need ** 2)
         raise FieldError(path, f"moving mass {model.jack.moving_mass:g} kg gives a mechanical time "
-                               f"constant of {tau:.3g} s, below the {need:.3g} s the solver resolves at "
-                               f"rtol {rtol:g} (events are located to {EVENT_TOL:g} s); use at least "
-                               f"{m_min:.3g} kg, or a tighter scenario.solver.rtol")
+                               f"constant of {tau:.3g} s, below the {need:.3g} s the solver resolves "
+                               f"(rtol x max_step = {rtol:g} x {max_step:g} s); use at least "
+                               f"{m_min:.3g} kg, or a smaller scenario.solver.rtol or max_step")

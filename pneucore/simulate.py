@@ -218,7 +218,7 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
     """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     scenario = Scenario.from_dict(scenario, model)
-    check_resolvable(model, scenario.solver.rtol)
+    check_resolvable(model, scenario.solver.rtol, scenario.solver.max_step)
     core = build_core(model, scenario)
     if t_out is None:
         n_out = output_samples(scenario.duration, scenario.sample_period)
