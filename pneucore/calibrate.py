@@ -221,11 +221,20 @@ class Calibration:
 
 
 def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=None,
-        span=(0.0, 1.0), step="fitting"):
+        span=(0.0, 1.0), step="fitting", reweight=False):
     """Fit ``specs`` on prepared experiments (shared by :func:`calibrate` and the diagnosis).
 
     ``progress(fraction, step)`` is reported within ``span`` as the optimiser's
     evaluations are used up; it may raise :class:`Cancelled` to stop.
+
+    ``reweight``: after the first solution, each series (experiment, signal)
+    is reweighted by the RMS of its own residual (never below its noise
+    estimate) and the fit is continued: the optimum of the concentrated
+    likelihood with one unknown variance per series, which the diagnosis's
+    likelihood-ratio tests use. Without it the weights are the noise levels
+    estimated from second differences, which coloured noise (a transducer
+    filter) underestimates by different factors per signal: the fit then
+    trades a large error on one signal for a small gain on another.
     """
     def check():
         if progress is not None:
@@ -266,6 +275,13 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         try:
             sol = least_squares(fun, z0, jac=jac, bounds=(lo / sc, hi / sc), method="trf",
                                 x_scale=1.0, max_nfev=max_nfev, ftol=1e-8, xtol=1e-8, gtol=1e-10)
+            if reweight and _reweight(obj, obj.replays(sol.x * sc)):
+                cache.clear()
+                obj.best = (np.inf, None)
+                sol = least_squares(fun, np.clip(sol.x, lo / sc, hi / sc), jac=jac,
+                                    bounds=(lo / sc, hi / sc), method="trf", x_scale=1.0,
+                                    max_nfev=max(max_nfev // 2, 5), ftol=1e-8, xtol=1e-8,
+                                    gtol=1e-10)
             theta = np.clip(sol.x * sc, lo, hi)
             success = sol.status > 0
             message = sol.message if success else f"did not converge: {sol.message}"
@@ -317,6 +333,25 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     return Calibration(obj.model_at(theta), values, corr, before, after, aic, bic, m2ll, n_all,
                        len(vs), success, message, obj.n_eval,
                        taus, rss1, rss0, aic0, bic0)
+
+
+def _reweight(obj, replays):
+    """Scale each series' noise level by the RMS of its weighted residual (floored at 1).
+
+    Returns True when some weight changed by more than 10 % (a second pass is worth it).
+    """
+    changed = False
+    for rp, sig in zip(replays, obj.sigma):
+        for s in rp.measured:
+            m, g = rp.measured[s], rp.simulated[s]
+            ok = np.isfinite(m) & np.isfinite(g)
+            if not ok.any():
+                continue
+            rms = math.sqrt(np.mean(((g[ok] - m[ok]) / sig[s]) ** 2))
+            if rms > 1.1:
+                sig[s] *= rms
+                changed = True
+    return changed
 
 
 def _rms_scale(obj, replays, taus=None):

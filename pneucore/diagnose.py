@@ -43,14 +43,15 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from .autocorrelation import effective_lr, times_report
+from .autocorrelation import effective_lr, residual_times, times_report
 from .calibrate import _plain, fit, information_criteria
 from .compare import replay, summarise
 from .effects import EFFECTS
 from .experiment import as_experiments
 from .metrics import cross_correlation_test, ljung_box
 from .model import Model
-from .paths import ParameterSpec, parse_parameters
+from . import hypotheses as H
+from .paths import ParameterSpec, get_value, parse_parameters, set_values
 
 #: Significance level of the likelihood-ratio test, before the Bonferroni split
 ALPHA = 1e-3
@@ -60,6 +61,24 @@ DELTA_BIC = -10.0
 MATERIAL = 0.05
 #: Number of candidates refitted after the score pass
 N_REFIT = 4
+#: Share of the misfit in excess of the noise floor an effect must remove to be material
+EXCESS_MATERIAL = 0.2
+#: Relative difference of an effect parameter fitted on two experiments beyond which they
+#: disagree: 50 %; a physical effect, refitted with 1-2 parameters on ~2000 samples per
+#: experiment, comes back within a few percent (tests/test_diagnosis.py: within 20 % of the truth)
+CONSISTENT_RTOL = 0.5
+#: Share of that excess the named effect must remove, alone or with the next candidate (two
+#: missing effects of similar size): a stand-in for something outside the catalog removes less
+EXCESS_MAJOR = 0.5
+#: Relative change below which a refitted base parameter is not reported as mis-set
+RECAL_MIN = 0.02
+#: An error within this factor of the noise floor is at the floor
+AT_FLOOR = 1.2
+#: Misfit above this factor of the floor, with a command-dependent residual, lies outside
+OUTSIDE_FACTOR = 1.5
+#: Share of the remaining residual a physical signal must explain for the remainder to count as
+#: structure (:func:`pneucore.hypotheses.residual_signature`)
+SIGNATURE_R2 = 0.5
 
 NO_EFFECT = "no catalog effect explains the remaining residual"
 
@@ -136,6 +155,14 @@ class Diagnosis:
     base_model: Model
     uncertain: list
     refits: dict = field(default_factory=dict, repr=False)
+    recalibrate: list = field(default_factory=list)
+    refitted: list = field(default_factory=list)
+    model: object = None
+    alternatives: list = field(default_factory=list)
+    remaining: dict = field(default_factory=dict)
+    identifiability: list = field(default_factory=list)
+    error_start: object = None
+    dropped: list = field(default_factory=list)
 
     def best(self):
         return self.ranking[0] if self.ranking else None
@@ -151,6 +178,12 @@ class Diagnosis:
             "failure_windows": self.failure_windows, "residual_tests": self.residual_tests,
             "noise_floor": self.noise_floor, "base_model": self.base_model.to_dict(),
             "uncertain": self.uncertain,
+            "recalibrate": self.recalibrate, "refitted": self.refitted,
+            "model": self.model.to_dict() if self.model is not None else None,
+            "alternatives": self.alternatives, "remaining": self.remaining,
+            "identifiability": self.identifiability, "dropped": self.dropped,
+            "error_start": ({"errors": self.error_start.errors, "overall": self.error_start.overall}
+                            if self.error_start is not None else None),
         })
 
 
@@ -244,8 +277,8 @@ def check_request(model, candidates=None, uncertain=()):
 
 
 def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT, alpha=ALPHA,
-             datasets=None, progress=None, max_nfev=30, refit_existing=True):
-    """Rank the catalog effects the model lacks by how well each explains the residual.
+             datasets=None, progress=None, max_nfev=30, refit_existing=True, base_hypotheses=True):
+    """Which base parameters are mis-set, which catalog effect is missing, what remains.
 
     Parameters
     ----------
@@ -253,18 +286,23 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     experiments : list  Experiments (objects or JSON)
     candidates : list of str or None  Effects to consider (None = every applicable catalog effect)
     uncertain : list of str or dict  Base parameter paths refitted under the null and with
-        every candidate (e.g. ``["heat.coefficient"]``)
+        every candidate (e.g. ``["heat.coefficient"]``); given, it overrides the automatic
+        choice of ``base_hypotheses``
     n_refit : int  Number of leading candidates refitted
     alpha : float  Significance level (split over the refits)
     progress : callable or None  ``progress(fraction, step)`` for long runs
     refit_existing : bool  Also treat the parameters of catalog effects already in the model
         as uncertain: they were fitted on a model that lacked what is sought now, so they are
         refitted jointly (otherwise their bias makes a spurious extra effect look useful)
+    base_hypotheses : bool  With no ``uncertain`` given, choose the base parameters to
+        recalibrate from what the experiments identify (:mod:`pneucore.hypotheses`)
 
     Returns
     -------
-    diagnosis : Diagnosis  ``verdict`` (effect name or None), ``ranking`` of refitted
-        candidates, ``score_pass`` of all candidates, errors, windows and residual tests
+    diagnosis : Diagnosis  ``verdict`` (effect name or None), ``recalibrate`` (mis-set base
+        parameters), ``model`` (the next model version), ``alternatives``, ``remaining``,
+        ``ranking`` of refitted candidates, ``score_pass`` of all candidates, errors, windows
+        and residual tests
     """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     exps = as_experiments(experiments, model.ambient.pressure, datasets)
@@ -284,17 +322,35 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
             continue
         cands.append(n)
 
+    # -- the model as given ----------------------------------------------------------
+    from .calibrate import Objective
+    report(0.01, "simulating the model as given")
+    rps_start = [replay(model, e) for e in exps]
+    comp_start = summarise(rps_start)
+
+    # -- which base parameters can the experiments identify? -------------------------
+    unc = {p: {} for p in uncertain} if isinstance(uncertain, (list, tuple)) else dict(uncertain)
+    identifiability = []
+    auto = not unc and base_hypotheses
+    if auto:
+        obj_s = Objective(model, exps, [])
+        chosen, identifiability, _ = H.identifiable(
+            model, exps, obj_s, obj_s.weighted(rps_start), H.offered(model, cands), replay)
+        auto_specs = [H.spec_for(model, h) for h in chosen]
+    else:
+        auto_specs = []
     # -- null model: uncertain base parameters refitted ----------------------------
     report(0.02, "fitting the base model")
-    unc = {p: {} for p in uncertain} if isinstance(uncertain, (list, tuple)) else dict(uncertain)
     if refit_existing:
         for name in model.effects:
             for p in EFFECTS[name].diagnosis_params:
                 unc.setdefault(f"effects.{name}.{p}", {})
-    u_specs = parse_parameters(model, unc) if unc else []
+    u_specs = auto_specs + (parse_parameters(model, unc) if unc else [])
+    base_paths = [s.path for s in u_specs if not s.path.startswith("effects.")]
+    u_specs_start = list(u_specs)
     if u_specs:
         null_fit = fit(model, exps, u_specs, max_nfev=max_nfev, progress=report, span=(0.02, 0.05),
-                       step="fitting the base model")
+                       step="fitting the base model", reweight=True)
         base = null_fit.model
         u_specs = [ParameterSpec(s.path, null_fit.values[s.path]["value"], s.min, s.max, s.vary, s.unit)
                    for s in u_specs]
@@ -302,9 +358,10 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         comp0 = null_fit.error_after
         rps0 = comp0.replays
     else:
+        null_fit = None
         base = model
-        rps0 = [replay(base, e) for e in exps]
-        comp0 = summarise(rps0)
+        rps0 = rps_start
+        comp0 = comp_start
     from .calibrate import Objective
     obj0 = Objective(base, exps, [])
     rss0 = obj0.rss(rps0)
@@ -318,7 +375,6 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         cols = []
         for s in u_specs:
             h = 1e-3 * (abs(s.value) or (s.max - s.min) / 100)
-            from .paths import set_values
             mp = set_values(base, {s.path: s.value + h})
             cols.append((_stack([replay(mp, e) for e in exps], keys) - y0) / h)
         Ju = np.column_stack(cols)
@@ -367,13 +423,14 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     def refit(name):
         eff = EFFECTS[name]
         start = eff.probe_values()
-        m = _with_effect(base, name, start)
+        # from the model as given: the null's values are biased by what is missing
+        m = _with_effect(model, name, start)
         specs = [ParameterSpec(f"effects.{name}.{p}", start[p], eff.param(p).min, eff.param(p).max,
                                True, eff.param(p).unit) for p in eff.diagnosis_params]
-        specs += u_specs
+        specs += u_specs_start
         # the refit checks the time limit at each evaluation (progress stays at its level)
         cal = fit(m, exps, specs, max_nfev=max_nfev, compute_before=False,
-                  progress=lambda f, s: report(0.4, f"refit: {name}"))
+                  progress=lambda f, s: report(0.4, f"refit: {name}"), reweight=True)
         return name, cal
 
     done = 0
@@ -383,13 +440,18 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
             done += 1
             report(0.4 + 0.55 * done / max(len(lead), 1), f"refit: {name}")
 
+    # one common effective sample size for every comparison: the autocorrelation times of the
+    # residual of the most complete model fitted (the best refit, else the null); counted per
+    # candidate, a worse fit would get a longer tau, fewer samples, and a milder penalty
+    if refits:
+        ref = min(refits.values(), key=lambda c: sum(r for _, _, r, _ in c.rss_after))
+        taus = ref.residual_times
+    else:
+        taus = null_fit.residual_times if null_fit is not None else residual_times(rps0)
     ranking = []
     for name, cal in refits.items():
         eff = EFFECTS[name]
         k_eff = len(eff.diagnosis_params)
-        # each residual series counts by its effective sample size n / tau, tau measured on
-        # the alternative's residual (white if the effect is real and the noise is white)
-        taus = cal.residual_times
         lr_eff, n_eff = effective_lr(rss0, cal.rss_after, taus)
         lr = max(lr_eff, 0.0)
         p = float(stats.chi2.sf(lr, k_eff))
@@ -399,11 +461,12 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         params = {k.split(".")[-1]: {**v, "ci95": [v["value"] - 1.96 * v["stderr"],
                                                  v["value"] + 1.96 * v["stderr"]]}
                   for k, v in params.items()}
-        cand = {"effect": name, "error_before": comp0.overall, "error_after": cal.error_after.errors,
-                "error_after_overall": cal.error_after.overall,
+        e0, e1 = comp0.overall, cal.error_after.overall
+        cand = {"effect": name, "error_before": e0, "error_after": cal.error_after.errors,
+                "error_after_overall": e1,
                 "error_after_phases": cal.error_after.phases,
-                "relative_drop": (comp0.overall - cal.error_after.overall) / comp0.overall
-                if comp0.overall else 0.0,
+                "relative_drop": (e0 - e1) / e0 if e0 else 0.0,
+                "excess_drop": _excess_drop(e0, e1, floor_overall),
                 "lr_statistic": lr, "p_value": p, "delta_bic": d_bic, "delta_aic": d_aic,
                 "lr_statistic_white": max(m2ll0 - cal.neg2_loglik, 0.0),
                 "effective_samples": n_eff, "n_samples": n_all,
@@ -417,42 +480,284 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         cand["explanation"] = _explain(eff, cand, floor_overall)
         cand["model"] = cal.model.to_dict()
         ranking.append(cand)
+    # same null, same effective samples: delta BIC is monotone in the evidence shown
     ranking.sort(key=lambda c: c["delta_bic"])
 
     verdict = None
     message = NO_EFFECT
     n_tests = max(len(ranking), 1)
+    for c in ranking:
+        c["significant"] = c["p_value"] < alpha / n_tests
+        c["strong"] = c["delta_bic"] < DELTA_BIC
+        c["material"] = c["relative_drop"] >= MATERIAL and c["excess_drop"] >= EXCESS_MATERIAL
+        c["consistent"] = None
     if ranking:
         b = ranking[0]
-        significant = b["p_value"] < alpha / n_tests
-        strong = b["delta_bic"] < DELTA_BIC
-        material = b["relative_drop"] >= MATERIAL
-        b["significant"], b["strong"], b["material"] = significant, strong, material
-        if significant and strong and material:
+        if b["significant"] and b["strong"] and b["material"] and b["excess_drop"] < EXCESS_MAJOR:
+            # a minor share: name it only if with the next candidate it explains most of the excess
+            # (two missing effects of similar size), otherwise it is a stand-in for something else
+            b["with_next"] = _pair(model, exps, ranking, refits, u_specs_start, comp0.overall,
+                                   floor_overall, max_nfev, report)
+            b["material"] = bool(b["with_next"] and b["with_next"]["excess_drop"] >= EXCESS_MAJOR)
+        if b["significant"] and b["strong"] and b["material"]:
+            report(0.96, f"consistency across experiments: {b['effect']}")
+            b["consistency"] = consistency(refits[b["effect"]], exps, b["effect"], max_nfev)
+            b["consistent"] = b["consistency"]["consistent"]
+        if b["significant"] and b["strong"] and b["material"] and b["consistent"]:
             verdict = b["effect"]
             message = (f"{b['effect']}: {b['description']}. Error {100 * b['error_before']:.2f} % -> "
                        f"{100 * b['error_after_overall']:.2f} %.")
         else:
             why = []
-            if not significant:
+            if not b["significant"]:
                 why.append(f"best candidate {b['effect']} not significant (p = {b['p_value']:.2g})")
-            if not strong:
+            if not b["strong"]:
                 why.append(f"delta BIC {b['delta_bic']:.1f} not below {DELTA_BIC:g}")
-            if not material:
-                why.append(f"removes only {100 * b['relative_drop']:.1f} % of the error")
+            if b["material"] and b["significant"] and b["strong"] and not b["consistent"]:
+                why.append(f"best candidate {b['effect']} fitted separately on each experiment "
+                           f"gives parameters that disagree ({b['consistency']['summary']}): "
+                           f"a stand-in, not a physical effect")
+            if not b["material"]:
+                why.append(f"best candidate {b['effect']} removes only {100 * b['relative_drop']:.1f} % of the error and "
+                           f"{100 * b['excess_drop']:.0f} % of its excess over the noise floor")
             message = NO_EFFECT + " (" + "; ".join(why) + ")"
-        for c in ranking[1:]:
-            c["significant"] = c["p_value"] < alpha / n_tests
-            c["strong"] = c["delta_bic"] < DELTA_BIC
-            c["material"] = c["relative_drop"] >= MATERIAL
     tests = residual_tests(rps0)
     if verdict is not None:
-        best_rps = refits[verdict].error_after.replays
+        chosen = refits[verdict]
+        best_rps = chosen.error_after.replays
         tests["after_verdict"] = residual_tests(best_rps)
+    else:
+        chosen = null_fit
+        best_rps = rps0
+    final_tests = tests.get("after_verdict", tests)
+
+    # -- mis-set base parameters, the next model, alternatives, what remains --------------
+    recal, refitted = _recalibration(model, chosen, base_paths)
+    next_model = chosen.model.copy() if chosen is not None else model.copy()
+    dropped = _redundant(model, chosen, verdict)
+    for name in dropped:
+        next_model.effects.pop(name, None)
+    alternatives = _alternatives(ranking, verdict)
+    for h in identifiability:
+        if h["status"] == "not separable":
+            alternatives.append({"path": h["path"], "label": h["label"], "kind": "base",
+                                 "with": h.get("with", []),
+                                 "note": f"{h['label']} cannot be told apart from "
+                                         f"{', '.join(H.label_of(w) for w in h.get('with', []))} "
+                                         f"by these experiments: only their combination is fitted"})
+    err_final = chosen.error_after.overall if chosen is not None else comp0.overall
+    remaining = _remaining(err_final, floor_overall, final_tests, best_rps, verdict)
+    message = _message(message, recal, remaining, verdict)
+    if not any(h["status"] == "identifiable" for h in identifiability) and auto and not ranking:
+        remaining["identifies_nothing"] = True
     report(1.0, "done")
     return Diagnosis(verdict, message, ranking, score + [{"effect": s["effect"], "skipped": s["reason"]}
                                                           for s in skipped],
-                     comp0, comp0.windows, tests, floor, base, [s.path for s in u_specs], refits)
+                     comp0, comp0.windows, tests, floor, base, [s.path for s in u_specs], refits,
+                     recalibrate=recal, refitted=refitted, model=next_model,
+                     alternatives=alternatives, remaining=remaining,
+                     identifiability=identifiability, error_start=comp_start, dropped=dropped)
+
+
+def _pair(model, exps, ranking, refits, u_specs, e0, floor, max_nfev, report):
+    """The leading candidate refitted together with the next significant one.
+
+    Returns ``{"effect", "error_after_overall", "excess_drop"}`` or None when there is no
+    second significant, material candidate.
+    """
+    nxt = [c for c in ranking[1:] if c["significant"] and c["material"]]
+    if not nxt:
+        return None
+    a, b = ranking[0]["effect"], nxt[0]["effect"]
+    report(0.95, f"refit: {a} with {b}")
+    m = model.copy()
+    specs = []
+    for name in (a, b):
+        eff = EFFECTS[name]
+        vals = refits[name].model.effects[name]
+        m.effects[name] = dict(vals)
+        specs += [ParameterSpec(f"effects.{name}.{p}", vals[p], eff.param(p).min, eff.param(p).max,
+                                True, eff.param(p).unit) for p in eff.diagnosis_params]
+    cal = fit(m, exps, specs + list(u_specs), max_nfev=max_nfev, compute_before=False,
+              reweight=True)
+    e1 = cal.error_after.overall
+    return {"effect": b, "error_after_overall": e1, "excess_drop": _excess_drop(e0, e1, floor)}
+
+
+def consistency(cal, exps, name, max_nfev=30):
+    """Do the experiments agree on the effect's parameters? (a physical effect: yes)
+
+    The effect's parameters are refitted on each experiment alone, the base
+    parameters held at the joint fit. A physical effect has the same
+    parameters in every experiment; a stand-in for a mis-set parameter or for
+    something outside the catalog takes whatever value helps each experiment.
+    Two estimates agree when they differ by less than :data:`CONSISTENT_RTOL`
+    of the larger, or by less than three standard errors of the difference
+    (each inflated by the square root of its residual's autocorrelation time).
+    Experiments in which the effect does not act (``observable_in``) or whose
+    estimate has a relative standard error above 1 are not compared.
+
+    Returns
+    -------
+    report : dict  ``consistent`` (True, or False when two estimates disagree), ``per_experiment``
+        ``{experiment: {param: {value, stderr}}}``, ``summary``
+    """
+    eff = EFFECTS[name]
+    per = {}
+    for e in exps:
+        kind = "locked" if e.scenario.get("locked") else "free"
+        if kind not in eff.observable_in:
+            continue
+        specs = [ParameterSpec(f"effects.{name}.{p}", cal.model.effects[name][p], eff.param(p).min,
+                               eff.param(p).max, True, eff.param(p).unit)
+                 for p in eff.score_params]
+        if not specs:
+            continue
+        c1 = fit(cal.model, [e], specs, max_nfev=max(max_nfev // 2, 8), compute_before=False)
+        est = {}
+        for sp in specs:
+            v = c1.values[sp.path]
+            if abs(v["value"]) > 0 and v["stderr"] < abs(v["value"]):
+                est[sp.path.split(".")[-1]] = {"value": v["value"], "stderr": v["stderr"]}
+        per[e.name] = est
+    bad = []
+    names = list(per)
+    for i in range(len(names)):
+        for j in range(i + 1, len(names)):
+            a, b = per[names[i]], per[names[j]]
+            for p in set(a) & set(b):
+                va, vb = a[p]["value"], b[p]["value"]
+                se = math.sqrt(a[p]["stderr"] ** 2 + b[p]["stderr"] ** 2)
+                if abs(va - vb) > CONSISTENT_RTOL * max(abs(va), abs(vb)) and abs(va - vb) > 3 * se:
+                    bad.append(f"{p} = {va:.3g} on {names[i]}, {vb:.3g} on {names[j]}")
+    return {"consistent": not bad, "per_experiment": per,
+            "summary": "; ".join(bad) if bad else "the experiments agree"}
+
+
+def _excess_drop(e0, e1, floor):
+    """Share of the misfit in excess of the noise floor that a change removes [-].
+
+    ``(e0^2 - e1^2) / (e0^2 - floor^2)`` on squared Eq. 25 errors (energies add); 0 when the
+    error before is already at the floor.
+    """
+    if not (floor == floor) or e0 <= floor:
+        return 0.0
+    return float((e0 * e0 - e1 * e1) / (e0 * e0 - floor * floor))
+
+
+def _recalibration(model, cal, paths):
+    """``(recalibrate, refitted)``: base parameters moved materially by ``cal``, and all refitted.
+
+    A parameter is mis-set when its fitted value differs from the model's by more than
+    three standard errors *and* by more than :data:`RECAL_MIN` of its value: standard
+    errors under a misspecified model are optimistic, so a statistically clear but
+    practically nil change is not reported.
+    """
+    if cal is None:
+        return [], []
+    recal, refitted = [], []
+    for p in paths:
+        v = cal.values.get(p)
+        if v is None:
+            continue
+        before = get_value(model, p)
+        after = v["value"]
+        se = v.get("stderr", 0.0)
+        entry = {"path": p, "label": H.label_of(p), "before": before, "after": after,
+                 "stderr": se, "unit": v.get("unit", "") or ("-" if p.startswith("valve.") else ""),
+                 "at_bound": v.get("at_bound", False)}
+        refitted.append(entry)
+        d = abs(after - before)
+        if d > 3.0 * se and d > RECAL_MIN * max(abs(before), 1e-300):
+            recal.append(entry)
+    return recal, refitted
+
+
+def _redundant(model, cal, verdict):
+    """Effects already in the model whose refitted strength is indistinguishable from off."""
+    if cal is None:
+        return []
+    out = []
+    for name in model.effects:
+        if name == verdict:
+            continue
+        eff = EFFECTS[name]
+        sp = eff.score_params
+        if not sp:
+            continue
+        gone = True
+        for p in sp:
+            v = cal.values.get(f"effects.{name}.{p}")
+            if v is None:
+                gone = False
+                break
+            off = eff.param(p).off
+            if abs(v["value"] - off) > max(2.0 * v.get("stderr", 0.0), 1e-300):
+                gone = False
+        if gone:
+            out.append(name)
+    return out
+
+
+def _alternatives(ranking, verdict):
+    """Candidates the data cannot tell apart from the verdict (delta BIC within 10 of it)."""
+    if verdict is None or not ranking:
+        return []
+    best = ranking[0]
+    out = []
+    for c in ranking[1:]:
+        if c["significant"] and c["material"] and c["delta_bic"] - best["delta_bic"] < -DELTA_BIC:
+            eff_b, eff_c = EFFECTS[best["effect"]], EFFECTS[c["effect"]]
+            sep = None
+            for kind in ("locked", "free"):
+                if (kind in eff_b.observable_in) != (kind in eff_c.observable_in):
+                    sep = f"a {kind} test (only one of them acts there)"
+            out.append({"effect": c["effect"], "kind": "effect", "delta_bic": c["delta_bic"],
+                        "error_after_overall": c["error_after_overall"],
+                        "note": f"{c['effect']} explains the data about as well as {best['effect']} "
+                                f"(delta BIC {c['delta_bic']:.1f} against {best['delta_bic']:.1f})"
+                                + (f"; {sep} would separate them" if sep else "")})
+    return out
+
+
+def _remaining(err, floor, tests, replays, verdict):
+    """What neither recalibration nor a catalog effect explains."""
+    at_floor = bool(floor == floor and err <= AT_FLOOR * floor)
+    sig = H.residual_signature(replays) if not at_floor else {}
+    # misfit well above the floor that either depends on the command or follows a physical
+    # signal closely: structure, not coloured noise (which neither test would show)
+    outside = bool(not at_floor and floor == floor and err > OUTSIDE_FACTOR * floor
+                   and (tests.get("command_dependent") or sig.get("r2", 0.0) >= SIGNATURE_R2))
+    out = {"error": err, "noise_floor": floor, "ratio": err / floor if floor else None,
+           "at_floor": at_floor, "outside_catalog": outside, "residual": tests.get("summary", "")}
+    if not at_floor:
+        out["signature"] = sig
+        if outside:
+            out["description"] = ("misfit remains that neither recalibration nor a catalog effect "
+                                  f"explains (error {100 * err:.2f} %, noise floor "
+                                  f"{100 * floor:.2f} %): " + sig.get("description", ""))
+        else:
+            out["description"] = sig.get("description", "")
+    else:
+        out["description"] = f"the error ({100 * err:.2f} %) is at the noise floor ({100 * floor:.2f} %)"
+    return out
+
+
+def _fmt(v):
+    return f"{v:.3g}"
+
+
+def _message(message, recal, remaining, verdict):
+    parts = []
+    if recal:
+        parts.append("mis-set: " + "; ".join(
+            f"{r['label']} {_fmt(r['before'])} -> {_fmt(r['after'])} {r['unit']}".rstrip()
+            for r in recal))
+    if remaining.get("outside_catalog"):
+        parts.append("outside the catalog: " + remaining.get("description", ""))
+    elif remaining.get("at_floor"):
+        parts.append(remaining["description"])
+    return message + (" " + ". ".join(parts) + "." if parts else "")
 
 
 def apply_diagnosis(model, diagnosis, effect=None):

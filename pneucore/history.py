@@ -41,6 +41,7 @@ class ModelVersion:
     params: dict = field(default_factory=dict)
     note: str = ""
     created: str = ""
+    recalibrated: list = field(default_factory=list)
 
     def to_dict(self):
         return copy.deepcopy(self.__dict__)
@@ -52,12 +53,23 @@ class RefinementHistory:
     def __init__(self, versions=None):
         self.versions = list(versions or [])
 
-    def add(self, model, comparison, added=None, params=None, note=""):
-        """Record a model version with its comparison; returns the :class:`ModelVersion`."""
+    def add(self, model, comparison, added=None, params=None, note="", recalibrated=None):
+        """Record a model version with its comparison; returns the :class:`ModelVersion`.
+
+        ``recalibrated``: the mis-set base parameters corrected at this step
+        (``[{path, label, before, after, stderr, unit}]``).
+        """
         model = model if isinstance(model, Model) else Model.from_dict(model)
-        v = ModelVersion(len(self.versions), "base" if not self.versions else f"+ {added}",
+        if not self.versions:
+            label = "base"
+        elif added:
+            label = f"+ {added}"
+        else:
+            label = "recalibrated: " + ", ".join(r.get("label", r["path"]) for r in recalibrated or [])
+        v = ModelVersion(len(self.versions), label,
                          model.to_dict(), dict(comparison.errors), comparison.overall, added,
-                         params or {}, note, _dt.datetime.now(_dt.timezone.utc).isoformat())
+                         params or {}, note, _dt.datetime.now(_dt.timezone.utc).isoformat(),
+                         list(recalibrated or []))
         self.versions.append(v)
         return v
 
@@ -78,22 +90,32 @@ class RefinementHistory:
 
 
 def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progress=None):
-    """Compare, diagnose, add the verdict, repeat until no effect is named.
+    """Stepwise to the noise floor: diagnose, apply the findings, repeat.
+
+    Each round recalibrates the base parameters the experiments identify and
+    adds the best catalog effect when one explains what recalibration does
+    not (both refitted jointly; an effect added earlier whose strength has
+    become indistinguishable from zero is dropped, see
+    :func:`pneucore.diagnose.diagnose`). The loop stops when the error is at
+    the noise floor, when nothing material remains to name, or after
+    ``max_rounds`` effects.
 
     Parameters
     ----------
     model : Model or dict  Starting model
     experiments : list  Experiments
     max_rounds : int  Most effects to add
-    uncertain : list  Base parameter paths refitted along (see :func:`pneucore.diagnose.diagnose`)
+    uncertain : list  Base parameter paths refitted along; given, they replace the automatic
+        choice (see :func:`pneucore.diagnose.diagnose`)
     history : RefinementHistory or None  Continue an existing history
 
     Returns
     -------
     model : Model  The refined model
-    history : RefinementHistory  One version per step, with errors
+    history : RefinementHistory  One version per step, with errors; a step that only
+        recalibrates is labelled ``recalibrated: ...``
     diagnoses : list  The diagnosis of each round (the last one has verdict None unless
-        ``max_rounds`` was reached)
+        ``max_rounds`` was reached or the floor was reached)
     """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     exps = as_experiments(experiments, model.ambient.pressure)
@@ -104,9 +126,11 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
     for _ in range(max_rounds):
         d = diagnose(model, exps, uncertain=uncertain, progress=progress)
         diagnoses.append(d)
-        if d.verdict is None:
+        if d.verdict is None and not d.recalibrate:
             break
-        model = apply_diagnosis(model, d)
-        best = d.ranking[0]
-        history.add(model, compare(model, exps), d.verdict, best["params"], d.message)
+        model = d.model.copy()
+        params = d.ranking[0]["params"] if d.verdict else {}
+        history.add(model, compare(model, exps), d.verdict, params, d.message, d.recalibrate)
+        if d.verdict is None or d.remaining.get("at_floor"):
+            break
     return model, history, diagnoses

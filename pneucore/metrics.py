@@ -95,19 +95,23 @@ def command_phases(t, u):
     labels : ndarray of str
     """
     u = np.asarray(u, float)
-    labels = np.full(u.shape[0], "initial", dtype=object)
-    current = "initial"
-    for i in range(1, u.shape[0]):
-        if u[i] != u[i - 1]:
-            a, b = abs(u[i - 1]), abs(u[i])
-            if b > a + 1e-12:
-                current = "valve opens"
-            elif b < a - 1e-12:
-                current = "valve closes"
-            else:
-                current = "valve reverses"
-        labels[i] = current
-    return labels.astype(str)
+    n = u.shape[0]
+    if n == 0:
+        return np.array([], dtype=str)
+    # vectorised: classify each change, then carry the last class forward (zero-order hold)
+    idx = np.flatnonzero(u[1:] != u[:-1]) + 1
+    a, b = np.abs(u[idx - 1]), np.abs(u[idx])
+    kind = np.where(b > a + 1e-12, 1, np.where(b < a - 1e-12, 2, 3))
+    code = np.zeros(n, dtype=np.int64)
+    code[idx] = kind
+    pos = np.zeros(n, dtype=np.int64)
+    pos[idx] = idx
+    np.maximum.accumulate(pos, out=pos)
+    return _COMMAND_LABELS[code[pos]]
+
+
+#: Labels of :func:`command_phases`, indexed by change class (0 = before the first change)
+_COMMAND_LABELS = np.array(["initial", "valve opens", "valve closes", "valve reverses"])
 
 
 _PISTON = {"slide": "piston moving", "stick": "piston stuck", "stop": "piston at a stop",
@@ -116,7 +120,11 @@ _PISTON = {"slide": "piston moving", "stick": "piston stuck", "stop": "piston at
 
 def piston_phases(mode):
     """Piston state labels (``piston moving``, ``piston stuck``, ...) from simulated modes."""
-    return np.array([_PISTON.get(m, m) for m in mode], dtype=str)
+    mode = np.asarray(mode)
+    if mode.size == 0:
+        return np.array([], dtype=str)
+    keys, inv = np.unique(mode.astype(str), return_inverse=True)
+    return np.array([_PISTON.get(k, k) for k in keys.tolist()])[inv.reshape(-1)]
 
 
 def phase_errors(measured, simulated, labels):

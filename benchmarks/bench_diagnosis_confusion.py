@@ -1,0 +1,126 @@
+"""Confusion table of the diagnosis on rigs as users meet them (nothing declared).
+
+Run from the repository root::
+
+    python benchmarks/bench_diagnosis_confusion.py [--json PATH] [--cases PATTERN]
+    python benchmarks/bench_diagnosis_confusion.py --before OLD_DIAGNOSE_PY   # an older diagnose.py
+
+Each case of :data:`pneucore.synthetic.RIG_CASES` starts from the catalogue
+model with every base parameter somewhat off (friction levels, viscous
+coefficients, moving mass, heat coefficient, valve conductance, supply
+pressure), hides 0, 1 or 2 catalog effects or a truth outside the catalog (a
+transducer gain or offset error), and runs the refinement loop with nothing
+declared: :func:`pneucore.history.refine`. A case is right when
+
+* ``base``: no effect is named (the mis-set parameters are recalibrated);
+* ``effect``: exactly the hidden effects are named;
+* ``outside``: the hidden catalog effects (if any) and nothing else are named, and the
+  remainder is said to lie outside the catalog.
+
+``--before PATH`` loads an older ``diagnose.py`` (e.g. ``git show REV:pneucore/diagnose.py``)
+as a submodule of this package and runs its loop (diagnose, add the verdict, repeat), to
+print the table before a change.
+"""
+from __future__ import annotations
+
+import argparse
+import fnmatch
+import importlib.util
+import json
+import os
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))
+
+from pneucore.experiment import as_experiments  # noqa: E402
+from pneucore.model import Model  # noqa: E402
+from pneucore.synthetic import RIG_CASES, rig_case  # noqa: E402
+
+
+def _load_old(path):
+    spec = importlib.util.spec_from_file_location("pneucore._diagnose_before", path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def run_before(mod, case, rounds=4):
+    model = Model.from_dict(case.start)
+    exps = as_experiments(case.experiments)
+    named = []
+    for _ in range(rounds):
+        d = mod.diagnose(model, exps)
+        if d.verdict is None:
+            break
+        named.append(d.verdict)
+        model = mod.apply_diagnosis(model, d)
+    from pneucore.compare import compare
+    c = compare(model, exps)
+    return {"named": named, "outside": False, "recalibrated": [], "error_after": c.overall,
+            "noise_floor": None}
+
+
+def run_after(case, rounds=4):
+    from pneucore.history import refine
+    model, hist, diags = refine(case.start, case.experiments, max_rounds=rounds)
+    last = diags[-1]
+    named = [v.added for v in hist.versions[1:] if v.added and not v.added.startswith("recalib")]
+    named = [n for n in model.effects]
+    rec = sorted({r["path"] for d in diags for r in d.recalibrate})
+    return {"named": named, "outside": bool(last.remaining.get("outside_catalog")),
+            "recalibrated": rec, "error_after": hist.versions[-1].overall,
+            "noise_floor": last.remaining.get("noise_floor"),
+            "outside_text": last.remaining.get("description", "")}
+
+
+def judge(case, res):
+    named = set(res["named"])
+    if case.category == "base":
+        return not named
+    if case.category == "effect":
+        return named == set(case.effects)
+    return named == set(case.effects) and res["outside"]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--json", metavar="PATH")
+    ap.add_argument("--cases", default="*", help="glob on case names")
+    ap.add_argument("--before", metavar="DIAGNOSE_PY", help="run an older diagnose.py instead")
+    a = ap.parse_args(argv)
+    old = _load_old(a.before) if a.before else None
+    rows = []
+    t_all = time.perf_counter()
+    for name, kw in RIG_CASES:
+        if not fnmatch.fnmatch(name, a.cases):
+            continue
+        case = rig_case(name, **kw)
+        t0 = time.perf_counter()
+        res = run_before(old, case) if old else run_after(case)
+        res["seconds"] = time.perf_counter() - t0
+        ok = judge(case, res)
+        rows.append({"case": name, "category": case.category, "expected": list(case.effects),
+                     "expected_outside": case.outside, "ok": ok, **res})
+        print(f"{'OK ' if ok else 'BAD'} {name:34s} expected {sorted(case.effects) or '-'}"
+              f"{' + outside' if case.outside else ''}; named {res['named'] or '-'}"
+              f"{' + outside' if res['outside'] else ''}; recalibrated {len(res['recalibrated'])}"
+              f"; error {100 * res['error_after']:.3f} %; {res['seconds']:.1f} s", flush=True)
+    print("\ncategory   right / cases")
+    for cat in ("base", "effect", "outside"):
+        rs = [r for r in rows if r["category"] == cat]
+        if rs:
+            print(f"{cat:10s} {sum(r['ok'] for r in rs):2d} / {len(rs)}")
+    print(f"all        {sum(r['ok'] for r in rows):2d} / {len(rows)}   "
+          f"({time.perf_counter() - t_all:.0f} s, cpu {os.cpu_count()}, "
+          f"load {os.getloadavg()[0]:.1f})")
+    if a.json:
+        with open(a.json, "w") as fh:
+            json.dump(rows, fh, indent=1, default=str)
+    return rows
+
+
+if __name__ == "__main__":
+    main()
