@@ -41,7 +41,7 @@ second (the integration core alone from 1.00 to 0.35 ms).
 import math
 
 import numpy as np
-from numba import jit, njit
+from numba import jit, njit, types
 
 from . import layout as L
 from .chamber import chamber_pressure
@@ -91,6 +91,16 @@ _C[5, 4] = -6.058818238834054
 _M = np.array([1.221224509226641, 6.019134481288629, 12.53708332932087,
                -0.6878860361058950, 1.0, 1.0])
 
+#: Decorator of the functions below :func:`integrate`: cached, no reference-counting
+#: runtime, and no CPython or C-callable wrapper (they are only called from compiled
+#: code; each wrapper is one more function to generate and compile, about 1.3 s of
+#: the first call over all of them)
+_internal = njit(cache=True, error_model="numpy", _nrt=False, no_cpython_wrapper=True,
+                 no_cfunc_wrapper=True)
+#: The same, inlined at numba IR level into each caller
+_inline = njit(cache=True, error_model="numpy", _nrt=False, no_cpython_wrapper=True,
+               no_cfunc_wrapper=True, inline="always")
+
 # status codes returned by :func:`integrate`
 OK, ERR_MAX_STEPS, ERR_STEP_UNDERFLOW, ERR_EVENTS_OVERFLOW, ERR_NONPHYSICAL, ERR_CHATTER = range(6)
 STATUS_MESSAGES = (
@@ -106,7 +116,7 @@ ST_STEPS, ST_REJECTED, ST_FEVALS, ST_JACOBIANS, ST_EVENTS, ST_BACKSTEPS = range(
 N_STATS = 6
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@_internal
 def command_segment(t, cmd_t, cmd_u, linear):
     """Command segment containing ``t``: (start time, value at start, slope, end time).
 
@@ -128,7 +138,7 @@ def command_segment(t, cmd_t, cmd_u, linear):
     return cmd_t[k], cmd_u[k], slope, cmd_t[k + 1]
 
 
-@njit(cache=True, error_model="numpy", _nrt=False, inline="always")
+@_inline
 def _lu_factor(A, piv, dinv, n):
     """In-place LU factorisation with partial pivoting; ``dinv`` gets the inverse pivots.
 
@@ -162,7 +172,7 @@ def _lu_factor(A, piv, dinv, n):
     return True
 
 
-@njit(cache=True, error_model="numpy", _nrt=False, inline="always")
+@_inline
 def _lu_solve(A, piv, dinv, b, n):
     """Solve ``A x = b`` in place with the factors of :func:`_lu_factor`."""
     for k in range(n):
@@ -183,14 +193,14 @@ def _lu_solve(A, piv, dinv, b, n):
         b[i] = s * dinv[i]
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@_internal
 def _feval(t, y, mode, seg_t0, seg_u0, seg_slope, model, dy, aux):
     prm, iy, tx, tC, tb, tm, toff, prm_user, scratch = model
     u = seg_u0 + seg_slope * (t - seg_t0)
     rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False, inline="always")
+@_inline
 def _hermite(theta, h, y0, f0, y1, f1, out):
     t2 = theta * theta
     t3 = t2 * theta
@@ -202,7 +212,7 @@ def _hermite(theta, h, y0, f0, y1, f1, out):
         out[i] = y0[i] + h01 * (y1[i] - y0[i]) + h10 * h * f0[i] + h11 * h * f1[i]
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@_internal
 def _rodas_step(t, y, h, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
                 ynew, err, K, W, piv, dinv, ytmp, ftmp, aux, stats):
     """One RODAS4 step of size h from (t, y); returns False if W is singular or the result is not finite."""
@@ -244,7 +254,7 @@ def _rodas_step(t, y, h, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
     return True
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@_internal
 def _frozen(j, mode, prm):
     """True when state ``j`` has a structurally zero derivative in this mode.
 
@@ -260,7 +270,7 @@ def _frozen(j, mode, prm):
     return False
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@_internal
 def _jacobian(t, y, f0, mode, seg_t0, seg_u0, seg_slope, model, scale, J, ft,
               ytmp, ftmp, aux, stats):
     """Forward-difference Jacobian, skipping the columns of frozen states."""
@@ -294,7 +304,7 @@ def _jacobian(t, y, f0, mode, seg_t0, seg_u0, seg_slope, model, scale, J, ft,
     stats[ST_JACOBIANS] += 1
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@_internal
 def _rest_forces(y, prm, aux):
     """Net force and static limits of a resting piston from the state alone (no valve flows).
 
@@ -320,7 +330,7 @@ def _rest_forces(y, prm, aux):
                                             p_a, p_b, p_atm)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@_internal
 def _resting_aux(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux):
     """Net force and static limits of a resting piston into ``aux``.
 
@@ -333,7 +343,7 @@ def _resting_aux(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux):
         _rest_forces(y, model[0], aux)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False, inline="always")
+@_inline
 def _event_values(mode, y, aux, stroke, out):
     """Event functions of the current mode; an event fires when one becomes > 0."""
     out[0] = -np.inf
@@ -350,12 +360,12 @@ def _event_values(mode, y, aux, stroke, out):
         out[1] = -y[L.Y_X]                                   # end stop at x = 0
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@_internal
 def _needs_aux(mode):
     return mode == L.MODE_STICK or mode == L.MODE_STOP_LOW or mode == L.MODE_STOP_HIGH
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@_internal
 def _record(ev_t, ev_kind, ev_mode, n_ev, t, kind, mode):
     if n_ev < ev_t.shape[0]:
         ev_t[n_ev] = t
@@ -364,7 +374,7 @@ def _record(ev_t, ev_kind, ev_mode, n_ev, t, kind, mode):
     return n_ev + 1
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@_internal
 def _settle(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux, ev_t, ev_kind, ev_mode, n_ev):
     """Leave a resting mode at once if the net force already exceeds the static limit."""
     if _needs_aux(mode):
@@ -379,7 +389,7 @@ def _settle(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux, ev_t, ev_ki
     return mode, n_ev
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@_internal
 def _transition(t, y, mode, k, stroke, seg_t0, seg_u0, seg_slope, model, ftmp, aux,
                 ev_t, ev_kind, ev_mode, n_ev):
     """Apply the mode change of event ``k`` fired in ``mode``; returns (new mode, n_ev)."""
@@ -410,7 +420,7 @@ def _transition(t, y, mode, k, stroke, seg_t0, seg_u0, seg_slope, model, ftmp, a
     return L.MODE_STICK, _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_STICK, L.MODE_STICK)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@_internal
 def _event_at(theta, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u0, seg_slope,
               model, ytmp, ftmp, aux, ev):
     _hermite(theta, h, y0, f0, y1, f1, ytmp)
@@ -420,7 +430,14 @@ def _event_at(theta, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u0, seg
     return ev[k]
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+# Counters and indices typed as plain int64: a variable first assigned a constant
+# (``n_ev = 0``, ``k_ev = -1``) would otherwise be typed as a literal and have every
+# callee it reaches compiled once more for that literal (four extra compiles, ~2 s of
+# the first call).
+_INT_LOCALS = {"n_ev": types.int64, "k_ev": types.int64, "k0": types.int64}
+
+
+@njit(cache=True, nogil=True, error_model="numpy", locals=_INT_LOCALS)
 def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
               h_max, h_init, max_steps, y_out, aux_out, mode_out, u_out,
               ev_t, ev_kind, ev_mode, stats):
@@ -561,14 +578,15 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
 
         # --- state events within (t, t1] -----------------------------------------
         k_ev = -1
+        k0 = 0
         th_best = 2.0
         if mode != L.MODE_LOCKED:
-            _event_at(0.0, 0, mode, hh, y, f0, y1, f1, t, stroke, seg_t0, seg_u0, seg_slope,
+            _event_at(0.0, k0, mode, hh, y, f0, y1, f1, t, stroke, seg_t0, seg_u0, seg_slope,
                       model, ytmp, ftmp, aux, ev0)
             # probe the end and two interior points so a brief excursion is not missed
             for probe in range(3):
                 theta_p = (probe + 1) / 3.0
-                _event_at(theta_p, 0, mode, hh, y, f0, y1, f1, t, stroke, seg_t0, seg_u0,
+                _event_at(theta_p, k0, mode, hh, y, f0, y1, f1, t, stroke, seg_t0, seg_u0,
                           seg_slope, model, ytmp, ftmp, aux, ev1)
                 for k in range(2):
                     if ev1[k] > 0.0 and ev0[k] <= 0.0 and k_ev < 0:

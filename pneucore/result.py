@@ -15,6 +15,10 @@ SERIES_UNITS = {
     "heat_a": "W", "heat_b": "W", "V_a": "m^3", "V_b": "m^3",
 }
 
+#: Text of each piston mode code (``layout.MODE_*``), then "" for code -1 (sample not
+#: reached): a lookup table indexed by the codes, built once
+_MODE_TEXT = np.array(L.MODE_NAMES + ("",))
+
 
 class SimulationResult:
     """Sampled series, events and solver statistics of one simulation.
@@ -67,8 +71,7 @@ class SimulationResult:
         s["q_a"] = aux_out[:, L.AUX_QA]
         s["q_b"] = aux_out[:, L.AUX_QB]
         s["friction"] = aux_out[:, L.AUX_FRICTION]
-        names = np.array(L.MODE_NAMES + ("",))
-        s["mode"] = names[np.where(mode_out >= 0, mode_out, len(L.MODE_NAMES))]
+        s["mode"] = _MODE_TEXT[mode_out]      # code -1 (sample not reached) -> ""
         s["u_eff"] = aux_out[:, L.AUX_UEFF]
         s["p_supply"] = aux_out[:, L.AUX_PSUP]
         s["q_supply"] = aux_out[:, L.AUX_QSUP]
@@ -100,11 +103,12 @@ class SimulationResult:
         """Times [s] of the events of one kind (``command``, ``slip``, ``stick``, ``stop``, ``reverse``)."""
         return [e["t"] for e in self.events if e["kind"] == kind]
 
-    def to_dict(self, series=None, arrays=False):
+    def to_dict(self, series=None, arrays=False, inputs=True):
         """Plain JSON: series as lists (NaN -> None), events, stats, units, model and scenario.
 
         ``arrays=True`` keeps the series as numpy arrays (for a serialiser such as
-        orjson that writes arrays directly and NaN as null).
+        orjson that writes arrays directly and NaN as null); ``inputs=False`` leaves
+        out ``model`` and ``scenario`` (the REST answer does not repeat them).
         """
         names = series or list(self.series)
         out = {}
@@ -119,10 +123,13 @@ class SimulationResult:
                 out[k] = lst
             else:
                 out[k] = v.tolist()
-        return {"series": out, "units": {k: SERIES_UNITS.get(k, _state_unit(k)) for k in names},
-                "events": list(self.events), "stats": dict(self.stats), "status": self.status,
-                "message": self.message, "model": self.model.to_dict(),
-                "scenario": self.scenario.to_dict()}
+        d = {"series": out, "units": {k: SERIES_UNITS.get(k, _state_unit(k)) for k in names},
+             "events": list(self.events), "stats": dict(self.stats), "status": self.status,
+             "message": self.message}
+        if inputs:
+            d["model"] = self.model.to_dict()
+            d["scenario"] = self.scenario.to_dict()
+        return d
 
     def to_pandas(self):
         """A ``pandas.DataFrame`` indexed by time (needs pandas)."""

@@ -94,7 +94,12 @@ class Scenario:
 
     @classmethod
     def from_dict(cls, d, model=None):
-        """Build and validate; with ``model``, also check ``x0`` and the command range."""
+        """Build and validate; with ``model``, also check ``x0`` and the command range.
+
+        :func:`pneucore.simulate` trusts a Scenario built here and repeats only
+        :meth:`check_against`; a Scenario whose fields were edited afterwards
+        should be rebuilt: ``Scenario.from_dict(s.to_dict())``.
+        """
         if isinstance(d, Scenario):
             d = d.to_dict()
         mapping(d, "scenario")
@@ -162,10 +167,13 @@ class Scenario:
             raise FieldError("scenario.x0", f"initial position {self.x0:g} m is outside the stroke "
                                             f"[0, {model.jack.stroke:g}] m")
         lo, hi = model.valve.opening_range
-        for i, (t, u) in enumerate(self.command):
-            if u < lo or u > hi:
-                raise FieldError(f"scenario.command[{i}][1]",
-                                 f"command {u:g} is outside the {model.valve.kind} valve's range [{lo:g}, {hi:g}]")
+        us = [p[1] for p in self.command]
+        if us and (min(us) < lo or max(us) > hi):     # the loop only to name the first culprit
+            for i, u in enumerate(us):
+                if u < lo or u > hi:
+                    raise FieldError(f"scenario.command[{i}][1]",
+                                     f"command {u:g} is outside the {model.valve.kind} valve's range "
+                                     f"[{lo:g}, {hi:g}]")
         if model.valve.kind == "3/2" and self.initial.p_b is not None:
             raise FieldError("scenario.initial.p_b", "chamber B is held at valve.b_chamber_pressure "
                                                      "with a 3/2 valve; leave initial.p_b null")

@@ -198,7 +198,10 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
     Parameters
     ----------
     model : Model or dict  The actuator (validated; see :class:`pneucore.model.Model`)
-    scenario : Scenario or dict  Command, duration, sampling, initial state
+    scenario : Scenario or dict  Command, duration, sampling, initial state; a dict is
+        validated, a :class:`~pneucore.scenario.Scenario` is trusted as
+        :meth:`~pneucore.scenario.Scenario.from_dict` built it and only checked against
+        ``model`` (after editing a Scenario's fields, rebuild it with ``from_dict``)
     raise_on_error : bool  Raise :class:`SimulationError` if the solver cannot proceed
         (the partial result is attached); else return the partial result with
         ``result.status`` set
@@ -217,7 +220,12 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
     (1001,)
     """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
-    scenario = Scenario.from_dict(scenario, model)
+    if isinstance(scenario, Scenario):
+        # built, hence validated, by Scenario.from_dict: only the checks that need this
+        # model (validating the whole scenario again cost 5 ms for 800 breakpoints)
+        scenario.check_against(model)
+    else:
+        scenario = Scenario.from_dict(scenario, model)
     check_resolvable(model, scenario.solver.rtol, scenario.solver.max_step)
     core = build_core(model, scenario)
     if t_out is None:

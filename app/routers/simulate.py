@@ -1,5 +1,6 @@
 """POST /api/simulate and /api/simulate/heat-models."""
-from fastapi import APIRouter
+from fastapi import APIRouter, Request
+
 from ..responses import JSON
 
 from pneucore.compare import check_heat_models, with_heat_model
@@ -25,17 +26,16 @@ def _result(res, series):
         unknown = [s for s in series if s not in res.series]
         if unknown:
             raise FieldError("series", f"unknown series {unknown}; available: {sorted(res.series)}")
-    d = res.to_dict(series=names, arrays=True)
-    d.pop("model", None)
-    d.pop("scenario", None)
-    return d
+    return res.to_dict(series=names, arrays=True, inputs=False)
 
 
 @router.post("", response_model=SimulateResponse, summary="Simulate a model on a scenario",
              response_class=JSON)
-def simulate_endpoint(req: SimulateRequest, limits: LimitsDep):
+def simulate_endpoint(req: SimulateRequest, request: Request):
+    # the limits are read here rather than through ``LimitsDep``: a plain (sync)
+    # dependency costs a hop through the thread pool on every request
     model = parse_model(req.model)
-    scen = parse_scenario(req.scenario, model, limits)
+    scen = parse_scenario(req.scenario, model, request.app.state.settings.limits)
     res = simulate(model, scen)
     return JSON(_result(res, req.series))
 
