@@ -242,7 +242,7 @@ class Heat:
     Every parameter of :data:`pneucore.heat.HEAT_PARAMETERS` is an attribute
     (its default when not given), so calibration paths ``heat.<parameter>``
     reach it; :meth:`to_dict` writes the model's own parameters (and
-    ``coefficient``, kept for every model as before).
+    ``coefficient``, kept for every model as before; the others when not at their default).
 
     Parameters
     ----------
@@ -274,16 +274,21 @@ class Heat:
         mapping(d, path)
         model = choice(d.get("model", "convective"), HEAT_MODELS, f"{path}.model")
         # "coefficient" stays accepted whatever the model (the JSON of earlier versions)
-        known_keys(d, ("model", "coefficient") + HEAT_MODELS[model].parameters, path)
+        known_keys(d, tuple(dict.fromkeys(("model", "coefficient") + HEAT_MODELS[model].parameters)),
+                   path)
         vals = {}
         for name, p in HEAT_PARAMETERS.items():
             vals[name] = number(d.get(name, p.default), f"{path}.{name}", low=p.min, high=p.max)
         return cls(model, **vals)
 
     def to_dict(self):
+        """``model``, ``coefficient`` and the model's other parameters that differ from their
+        defaults (so that the JSON of earlier versions round-trips unchanged)."""
         d = {"model": self.model, "coefficient": self.coefficient}
         for name in HEAT_MODELS[self.model].parameters:
-            d[name] = getattr(self, name)
+            v = getattr(self, name)
+            if name != "coefficient" and v != HEAT_PARAMETERS[name].default:
+                d[name] = v
         return d
 
     def copy(self):
