@@ -219,12 +219,16 @@ def _heat_applies(m):
 
 
 def _exchanging(m, term):
-    """``(ok, why)``: a heat-model term can be added unless the gas is isothermal or has it."""
-    if m.heat.model == "isothermal":
-        return False, "the gas is isothermal (add heat_exchange first)"
+    """``(ok, why)``: a heat-model term can be added unless the model's heat model has it."""
     if getattr(m.heat.spec, term):
         return False, f"the model's heat model ({m.heat.model}) already has it"
     return True, ""
+
+
+def _free_gas_transform(m, p):
+    # on an isothermal model the term becomes the exchange (as heat_exchange does)
+    if m.heat.model == "isothermal":
+        m.heat.model = "adiabatic"
 
 
 def _pack_natural(p, build):
@@ -237,8 +241,8 @@ def _pack_jet(p, build):
 
 
 def _wall_applies(m):
-    if m.heat.model in ("isothermal", "adiabatic"):
-        return False, f"the gas exchanges no heat with its walls ({m.heat.model})"
+    if m.heat.model == "isothermal":
+        return False, "the gas is held at the wall temperature (isothermal): no wall state to add"
     if m.heat.wall_mass > 0.0:
         return False, "the model's walls already have a thermal capacity (heat.wall_mass)"
     return True, ""
@@ -351,13 +355,13 @@ for _e in [
     Effect("natural_convection",
            "natural convection between gas and wall added to the model's fixed coefficient: "
            "Churchill-Chu correlation for a horizontal cylinder of the bore's diameter, air's "
-           "properties at the chamber's pressure and temperature (h grows with p^(1/3) and dT)",
+           "properties at the chamber's pressure and temperature (h grows as p^(2/3) dT^(1/3) at large Ra)",
            "temperature relaxes faster when the gas is dense and far from the wall, slower near "
            "equilibrium; one fixed coefficient fits either the transient or the hold, not both",
            "Churchill & Chu, Int. J. Heat Mass Transfer 18 (1975) 1049",
            [Parameter("multiplier", "-", 1.0, 0.0, HEAT_PARAMETERS["natural_multiplier"].max, 0.0,
                       "factor on the correlation's Nusselt number")],
-           strength="multiplier", pack=_pack_natural,
+           strength="multiplier", pack=_pack_natural, transform=_free_gas_transform,
            applies=lambda m: _exchanging(m, "natural"), probe={"multiplier": 1.0}),
     Effect("inflow_jet_convection",
            "forced convection of the jet entering a chamber (Nu = 0.56 Re_d^0.67 on the inlet "
@@ -370,7 +374,8 @@ for _e in [
             Parameter("inlet_diameter", "m", HEAT_PARAMETERS["inlet_diameter"].default,
                       HEAT_PARAMETERS["inlet_diameter"].min, HEAT_PARAMETERS["inlet_diameter"].max,
                       None, "inlet (jet) diameter")],
-           strength="multiplier", pack=_pack_jet, fit_params=("multiplier",),
+           strength="multiplier", pack=_pack_jet, transform=_free_gas_transform,
+           fit_params=("multiplier",),
            applies=lambda m: _exchanging(m, "jet"), probe={"multiplier": 1.0}),
     Effect("wall_heat_capacity",
            "walls with a thermal capacity (a wall temperature per chamber, exchanging with the "
