@@ -139,7 +139,9 @@ def compare_heat_models(model, experiments, names=None, sensor=False, max_nfev=6
                      "parameters": values, "errors": errors,
                      "temperature_rms": _temperature_rms(rps[0]),
                      "model": m_fit.to_dict(), "message": message,
-                     "t": rps[0].t, "simulated": rps[0].simulated})
+                     "t": np.ascontiguousarray(rps[0].t, float),
+                     "simulated": {s: np.ascontiguousarray(v, float)
+                                   for s, v in rps[0].simulated.items()}})
     report(1.0, "done")
     return rows
 

@@ -1,4 +1,5 @@
 """GET /api/heat-models, POST /api/heat-models/simulate and /api/heat-models/compare."""
+import numpy as np
 from fastapi import APIRouter
 
 from pneucore.heat import HEAT_MODELS
@@ -44,6 +45,6 @@ def compare_endpoint(req: HeatModelsCompareRequest, store: StoreDep, limits: Lim
                                max_nfev=min(max(req.max_nfev, 1), 200),
                                progress=_deadline(limits, "heat-model comparison", "compare"))
     meas = exps[0].measurement
-    measured = {"t": (meas.t - meas.t[0]),
-                **{s: meas.signals[s] for s in exps[0].signals}}
+    measured = {"t": np.ascontiguousarray(meas.t - meas.t[0], float),
+                **{s: np.ascontiguousarray(meas.signals[s], float) for s in exps[0].signals}}
     return JSON({"models": rows, "measured": measured, "experiment": exps[0].name})
