@@ -25,7 +25,7 @@ from .bodies import BodyLimit
 from .config import LOCAL_HOSTS, Settings
 from .jobs import JobManager, JobTimeout
 from .responses import JSON, document_errors
-from .routers import analysis, datasets, effects, jobs, presets, sessions, simulate, studies
+from .routers import analysis, datasets, effects, heat, jobs, presets, sessions, simulate, studies
 from .security import Guard
 from .store import Store
 
@@ -140,7 +140,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def unexpected(request: Request, exc: Exception):
         return JSONResponse(status_code=500, content={"detail": f"internal error: {type(exc).__name__}: {exc}"})
 
-    for r in (presets, effects, simulate, analysis, datasets, sessions, jobs, studies):
+    for r in (presets, effects, heat, simulate, analysis, datasets, sessions, jobs, studies):
         app.include_router(r.router)
 
     @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits")

@@ -10,6 +10,9 @@ from __future__ import annotations
 from typing import Any, Literal, Optional, Union
 
 from pydantic import BaseModel, ConfigDict, Field
+from pydantic.fields import FieldInfo
+
+from pneucore.heat import HEAT_PARAMETERS
 
 Number = float
 
@@ -53,8 +56,16 @@ class SourceIn(_Strict):
 
 
 class HeatIn(_Strict):
-    model: str = Field("convective", description="Heat model: isothermal, adiabatic or convective (Eq. 9) [-]")
+    model: str = Field("convective", description="Heat model by name (GET /api/heat-models): isothermal, adiabatic, convective (Eq. 9), natural_convection, natural_and_jet [-]")
     coefficient: Number = Field(25.0, description="Convection coefficient h of Eq. 9 [W/(m^2 K)]")
+
+
+# the other heat-model parameters, from their registry (unit, description): null = the default
+for _name, _p in HEAT_PARAMETERS.items():
+    if _name not in HeatIn.model_fields:
+        HeatIn.model_fields[_name] = FieldInfo.from_annotated_attribute(
+            Optional[Number], Field(None, description=f"{_p.description} [{_p.unit}]"))
+HeatIn.model_rebuild(force=True)
 
 
 class FrictionSetIn(_Strict):
@@ -134,6 +145,10 @@ class SimulateRequest(_Strict):
 
 class HeatModelsRequest(SimulateRequest):
     heat_models: list[str] = Field(["isothermal", "adiabatic", "convective"], description="Heat models to run [-]")
+
+
+class HeatModelsSimulateRequest(SimulateRequest):
+    heat_models: Optional[list[str]] = Field(None, description="Heat models to run (default: every model of GET /api/heat-models) [-]")
 
 
 class MeasurementIn(BaseModel):
@@ -230,3 +245,11 @@ class JobResponse(BaseModel):
     step: str = Field(..., description="Current step")
     error: Optional[str] = Field(None, description="Error message when status is error")
     result: Optional[Any] = Field(None, description="Result when done")
+
+
+class HeatModelsCompareRequest(_Strict):
+    model: ModelIn = Field(..., description="Model; its heat section is each calibration's start")
+    experiments: list[ExperimentIn] = Field(..., description="Experiments fitted jointly")
+    heat_models: Optional[list[str]] = Field(None, description="Heat models to compare (default: all) [-]")
+    sensor: bool = Field(False, description="Also fit the gas-temperature sensor's time constant heat.sensor_time_constant [s] for each model [-]")
+    max_nfev: int = Field(60, description="Residual evaluations per calibration (at most 200) [-]")

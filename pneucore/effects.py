@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 from . import layout as L
+from .heat import HEAT_PARAMETERS, add_wall
 from .validation import FieldError, mapping, number, optional_mapping
 
 
@@ -212,9 +213,44 @@ def _heat_transform(m, p):
 
 
 def _heat_applies(m):
-    if m.heat.model == "convective":
-        return False, "the model already has convective exchange"
+    if m.heat.model not in ("isothermal", "adiabatic"):
+        return False, f"the model already exchanges heat with its walls ({m.heat.model})"
     return True, ""
+
+
+def _exchanging(m, term):
+    """``(ok, why)``: a heat-model term can be added unless the model's heat model has it."""
+    if getattr(m.heat.spec, term):
+        return False, f"the model's heat model ({m.heat.model}) already has it"
+    return True, ""
+
+
+def _free_gas_transform(m, p):
+    # on an isothermal model the term becomes the exchange (as heat_exchange does)
+    if m.heat.model == "isothermal":
+        m.heat.model = "adiabatic"
+
+
+def _pack_natural(p, build):
+    build.prm[L.P_HEAT_NAT] = p["multiplier"]
+
+
+def _pack_jet(p, build):
+    build.prm[L.P_HEAT_JET] = p["multiplier"]
+    build.prm[L.P_HEAT_D_IN] = p["inlet_diameter"]
+
+
+def _wall_applies(m):
+    if m.heat.model == "isothermal":
+        return False, "the gas is held at the wall temperature (isothermal): no wall state to add"
+    if m.heat.wall_mass > 0.0:
+        return False, "the model's walls already have a thermal capacity (heat.wall_mass)"
+    return True, ""
+
+
+def _pack_wall(p, build):
+    if p["mass"] > 0.0:
+        add_wall(build, p["mass"], p["specific_heat"], p["outer_coefficient"])
 
 
 def _pack_slot(slot, key):
@@ -316,6 +352,48 @@ for _e in [
            "Maré, Geider & Colin, Eq. 9 and Table 2",
            [Parameter("h", "W/(m^2 K)", 25.0, 0.0, 2000.0, 0.0, "convection coefficient")],
            strength="h", transform=_heat_transform, applies=_heat_applies, probe={"h": 25.0}),
+    Effect("natural_convection",
+           "natural convection between gas and wall added to the model's fixed coefficient: "
+           "Churchill-Chu correlation for a horizontal cylinder of the bore's diameter, air's "
+           "properties at the chamber's pressure and temperature (h grows as p^(2/3) dT^(1/3) at large Ra)",
+           "temperature relaxes faster when the gas is dense and far from the wall, slower near "
+           "equilibrium; one fixed coefficient fits either the transient or the hold, not both",
+           "Churchill & Chu, Int. J. Heat Mass Transfer 18 (1975) 1049",
+           [Parameter("multiplier", "-", 1.0, 0.0, HEAT_PARAMETERS["natural_multiplier"].max, 0.0,
+                      "factor on the correlation's Nusselt number")],
+           strength="multiplier", pack=_pack_natural, transform=_free_gas_transform,
+           applies=lambda m: _exchanging(m, "natural"), probe={"multiplier": 1.0}),
+    Effect("inflow_jet_convection",
+           "forced convection of the jet entering a chamber (Nu = 0.56 Re_d^0.67 on the inlet "
+           "diameter), added to the model's exchange while gas flows in",
+           "gas heats less than the model while a chamber fills, then relaxes as the model says; "
+           "a fixed coefficient fitted to the filling is too strong afterwards",
+           "Woodfield, Monde & Mitsutake, J. Thermal Sci. Tech. 2 (2007) 180",
+           [Parameter("multiplier", "-", 1.0, 0.0, HEAT_PARAMETERS["jet_multiplier"].max, 0.0,
+                      "factor on the correlation's Nusselt number"),
+            Parameter("inlet_diameter", "m", HEAT_PARAMETERS["inlet_diameter"].default,
+                      HEAT_PARAMETERS["inlet_diameter"].min, HEAT_PARAMETERS["inlet_diameter"].max,
+                      None, "inlet (jet) diameter")],
+           strength="multiplier", pack=_pack_jet, transform=_free_gas_transform,
+           fit_params=("multiplier",),
+           applies=lambda m: _exchanging(m, "jet"), probe={"multiplier": 1.0}),
+    Effect("wall_heat_capacity",
+           "walls with a thermal capacity (a wall temperature per chamber, exchanging with the "
+           "gas and, through an outer coefficient, with the ambient) instead of walls at ambient",
+           "after repeated fills the gas settles above (or below) ambient; the exchange weakens "
+           "as the wall follows the gas",
+           "HydDown (Andreasen 2021), lumped wall heat balance; paper Eq. 9 with T_w a state",
+           [Parameter("mass", "kg", 0.05, 0.0, HEAT_PARAMETERS["wall_mass"].max, 0.0,
+                      "wall mass of each chamber"),
+            Parameter("specific_heat", "J/(kg K)", HEAT_PARAMETERS["wall_specific_heat"].default,
+                      HEAT_PARAMETERS["wall_specific_heat"].min,
+                      HEAT_PARAMETERS["wall_specific_heat"].max, None, "wall specific heat"),
+            Parameter("outer_coefficient", "W/(m^2 K)", HEAT_PARAMETERS["outer_coefficient"].default,
+                      HEAT_PARAMETERS["outer_coefficient"].min,
+                      HEAT_PARAMETERS["outer_coefficient"].max, None,
+                      "outer coefficient, wall to ambient")],
+           strength="mass", pack=_pack_wall, applies=_wall_applies, fit_params=("mass",),
+           probe={"mass": 0.05}),
     Effect("piston_leakage",
            "laminar leak across the piston seal, A <-> B, carrying enthalpy",
            "pressures of a locked jack converge towards each other while the valve is closed; "

@@ -23,7 +23,11 @@ IY_SENSOR_B = 4     # pressure seen by the transducer of chamber B [Pa]
 IY_USER0 = 5        # first state of user-registered effects
 IY_NUSER = 6        # number of user states
 IY_HOOK = 7         # 1 when user effect terms are present
-N_IY = 8
+IY_WALL_A = 8       # wall temperature of chamber A [K] (heat model with a wall capacity)
+IY_WALL_B = 9       # wall temperature of chamber B [K]
+IY_TSENSOR_A = 10   # gas temperature seen by the sensor of chamber A [K]
+IY_TSENSOR_B = 11   # gas temperature seen by the sensor of chamber B [K]
+N_IY = 12
 
 # --- parameter slots in ``prm`` ------------------------------------------------
 _names = [
@@ -36,6 +40,10 @@ _names = [
     "BORE", "ROD_A", "ROD_B", "WALL_A", "WALL_B",
     # heat exchange: coefficient, isothermal flag
     "H", "ISOTHERMAL",
+    # heat models (pneucore.heat): natural and jet multipliers, inlet diameter [m];
+    # wall mass [kg], specific heat [J/(kg K)], outer coefficient [W/(m^2 K)];
+    # gas-temperature sensor time constant [s]
+    "HEAT_NAT", "HEAT_JET", "HEAT_D_IN", "WALL_MASS", "WALL_CP", "WALL_H_OUT", "TSENSOR_TAU",
     # friction, extend set then retract set
     "FE_FC0", "FE_FCA", "FE_FCB", "FE_KV0", "FE_KVA", "FE_KVB",
     "FR_FC0", "FR_FCA", "FR_FCB", "FR_KV0", "FR_KVA", "FR_KVB",

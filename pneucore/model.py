@@ -13,8 +13,8 @@ from typing import Optional
 
 from .flow import FLOW_LAWS, R_LAMINAR
 from .friction import FRICTION_LAWS
-from .gas import GAMMA_AIR, P_ATM, R_AIR, T_REF
-from .heat import HEAT_MODELS
+from .gas import GAMMA_AIR, P_ATM, P_CONTINUUM_MIN, R_AIR, T_REF
+from .heat import HEAT_MODELS, HEAT_PARAMETERS
 from .jack import annulus_area, chamber_volumes, rod_area
 from .validation import FieldError, choice, known_keys, mapping, number, number_list, optional_mapping
 
@@ -238,28 +238,69 @@ class Source:
         return {"pressure": self.pressure, "temperature": self.temperature}
 
 
-@dataclass
 class Heat:
-    """Heat exchange model.
+    """Heat exchange model: a name in :data:`pneucore.heat.HEAT_MODELS` and its parameters.
+
+    Every parameter of :data:`pneucore.heat.HEAT_PARAMETERS` is an attribute
+    (its default when not given), so calibration paths ``heat.<parameter>``
+    reach it; :meth:`to_dict` writes the model's own parameters (and
+    ``coefficient``, kept for every model as before; the others when not at their default).
 
     Parameters
     ----------
-    model : str  Name in :data:`pneucore.heat.HEAT_MODELS` (isothermal, adiabatic, convective)
-    coefficient : float  Convection coefficient h of Eq. 9 [W/(m^2 K)]
+    model : str
+        Name in :data:`pneucore.heat.HEAT_MODELS` (isothermal, adiabatic, convective,
+        natural_convection, natural_and_jet)
+    coefficient : float
+        Convection coefficient h of Eq. 9 [W/(m^2 K)]
+    **params : float
+        Other parameters of the model, in the units of :data:`pneucore.heat.HEAT_PARAMETERS`
     """
-    model: str = "convective"
-    coefficient: float = 25.0
+
+    def __init__(self, model="convective", coefficient=HEAT_PARAMETERS["coefficient"].default,
+                 **params):
+        self.model = model
+        for name, p in HEAT_PARAMETERS.items():
+            setattr(self, name, float(params.pop(name, p.default)))
+        self.coefficient = coefficient
+        if params:
+            raise TypeError(f"unknown heat parameters {sorted(params)}")
+
+    @property
+    def spec(self):
+        """The registered :class:`pneucore.heat.HeatModel`."""
+        return HEAT_MODELS[self.model]
 
     @classmethod
     def from_dict(cls, d, path="heat"):
         mapping(d, path)
-        known_keys(d, ("model", "coefficient"), path)
         model = choice(d.get("model", "convective"), HEAT_MODELS, f"{path}.model")
-        h = number(d.get("coefficient", 25.0), f"{path}.coefficient", nonnegative=True, high=1e6)
-        return cls(model, h)
+        # "coefficient" stays accepted whatever the model (the JSON of earlier versions)
+        known_keys(d, tuple(dict.fromkeys(("model", "coefficient") + HEAT_MODELS[model].parameters)),
+                   path)
+        vals = {}
+        for name, p in HEAT_PARAMETERS.items():
+            vals[name] = number(d.get(name, p.default), f"{path}.{name}", low=p.min, high=p.max)
+        return cls(model, **vals)
 
     def to_dict(self):
-        return {"model": self.model, "coefficient": self.coefficient}
+        """``model``, ``coefficient`` and the model's other parameters that differ from their
+        defaults (so that the JSON of earlier versions round-trips unchanged)."""
+        d = {"model": self.model, "coefficient": self.coefficient}
+        for name in HEAT_MODELS[self.model].parameters:
+            v = getattr(self, name)
+            if name != "coefficient" and v != HEAT_PARAMETERS[name].default:
+                d[name] = v
+        return d
+
+    def copy(self):
+        return Heat(**self.__dict__)
+
+    def __eq__(self, other):
+        return isinstance(other, Heat) and self.__dict__ == other.__dict__
+
+    def __repr__(self):
+        return f"Heat({self.to_dict()!r})"
 
 
 @dataclass
@@ -380,9 +421,21 @@ class Model:
             description=str(d.get("description", "")),
             notes=str(d.get("notes", "")),
         )
-        if m.supply.pressure <= m.ambient.pressure:
-            raise FieldError("supply.pressure", f"supply pressure {m.supply.pressure:g} Pa must exceed "
-                                                f"the ambient pressure {m.ambient.pressure:g} Pa")
+        # A supply at or below the ambient pressure (a vessel filled from the atmosphere, a
+        # vacuum line) is physics the flow laws hold for, in either direction; what they do not
+        # hold for is rarefied gas (gas.P_CONTINUUM_MIN), and a 3/2 valve's chamber B at half a
+        # supply that is no longer the high pressure
+        for key, src in (("supply", m.supply), ("ambient", m.ambient)):
+            if src.pressure < P_CONTINUUM_MIN:
+                raise FieldError(f"{key}.pressure",
+                                 f"{src.pressure:g} Pa is below {P_CONTINUUM_MIN:g} Pa, where air "
+                                 f"through a valve is no longer a continuum (Knudsen number > 0.01)")
+        if m.valve.kind == "3/2" and m.valve.b_chamber_pressure is None \
+                and m.supply.pressure <= m.ambient.pressure:
+            raise FieldError("valve.b_chamber_pressure",
+                             f"with a supply ({m.supply.pressure:g} Pa) at or below the ambient "
+                             f"pressure ({m.ambient.pressure:g} Pa) the default chamber-B pressure "
+                             f"of a 3/2 valve (half the supply) has no meaning: give it")
         if m.valve.b_chamber_pressure is not None and m.valve.kind != "3/2":
             raise FieldError("valve.b_chamber_pressure", "only applies to a 3/2 valve")
         from .effects import validate_effects
@@ -410,7 +463,7 @@ class Model:
             jack=Jack(**self.jack.__dict__),
             valve=Valve(v.kind, ports, v.b_chamber_pressure, v.flow_law, v.laminar_ratio),
             supply=Source(**self.supply.__dict__), ambient=Source(**self.ambient.__dict__),
-            heat=Heat(**self.heat.__dict__),
+            heat=self.heat.copy(),
             friction=Friction(FrictionSet(**f.extend.__dict__), FrictionSet(**f.retract.__dict__), f.law),
             effects={k: dict(p) for k, p in self.effects.items()},
             gas=Gas(**self.gas.__dict__), name=self.name, description=self.description,

@@ -2,7 +2,8 @@
 
 Paths name numeric fields of :class:`pneucore.model.Model`:
 
-* ``jack.<field>``, ``supply.pressure``, ``ambient.temperature``, ``heat.coefficient``,
+* ``jack.<field>``, ``supply.pressure``, ``ambient.temperature``, ``heat.coefficient`` and the
+  other parameters of the model's heat model (``heat.natural_multiplier``, ... :mod:`pneucore.heat`),
   ``friction.extend.fc0`` ... ``friction.retract.kv_b``, ``gas.r``, ``gas.gamma``;
 * ``effects.<name>.<parameter>`` for a catalog effect (added with its defaults if absent);
 * ``valve.ports.<edge>.C`` and ``valve.ports.<edge>.b``: a *scale factor* on the
@@ -13,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .effects import EFFECTS
+from .heat import HEAT_PARAMETERS
 from .validation import FieldError, number
 
 _SECTIONS = {"jack", "supply", "ambient", "heat", "friction", "gas"}
@@ -61,6 +63,8 @@ def _unit(path):
             return ""
     if parts[0] == "valve":
         return "-"
+    if parts[0] == "heat" and len(parts) == 2 and parts[1] in HEAT_PARAMETERS:
+        return HEAT_PARAMETERS[parts[1]].unit
     return units.get(parts[-1], "")
 
 
@@ -80,6 +84,11 @@ def get_value(model, path):
             raise FieldError(f"parameters.{path}", f"unknown parameter of {parts[1]}; expected one of "
                                                    f"{[q.name for q in eff.parameters]}") from None
         return float(model.effects.get(parts[1], {}).get(parts[2], p.default))
+    if parts[0] == "heat" and len(parts) == 2 and parts[1] in HEAT_PARAMETERS \
+            and parts[1] != "coefficient" and parts[1] not in model.heat.spec.parameters:
+        raise FieldError(f"parameters.{path}",
+                         f"not a parameter of heat model {model.heat.model!r}; it has "
+                         f"{list(model.heat.spec.parameters)}")
     if parts[0] not in _SECTIONS:
         raise FieldError(f"parameters.{path}", f"unknown parameter path; paths start with one of "
                                                f"{sorted(_SECTIONS | {'effects', 'valve'})}")
@@ -88,6 +97,8 @@ def get_value(model, path):
         # only declared dataclass fields: properties (jack.area_a) and attributes of a
         # number (supply.pressure.real) are not parameters and cannot be set
         fields = getattr(obj, "__dataclass_fields__", None)
+        if i == 1 and parts[0] == "heat":
+            fields = HEAT_PARAMETERS   # the heat registry declares the heat parameters
         if fields is None or k not in fields:
             where = ".".join(parts[:i]) or "model"
             hint = f"; {where} has {sorted(fields)}" if fields else f"; {where} is a number"
@@ -177,6 +188,9 @@ def _default_bounds(model, path, value):
         return p.min, p.max
     if parts[0] == "valve":
         return (0.1, 10.0) if parts[3] == "C" else (0.5, 1.5)
+    if parts[0] == "heat" and parts[-1] in HEAT_PARAMETERS and parts[-1] != "coefficient":
+        # heat-model parameters carry their bounds (heat.coefficient keeps the factor-10 rule)
+        return HEAT_PARAMETERS[parts[-1]].min, HEAT_PARAMETERS[parts[-1]].max
     if parts[-1] == "gamma":
         return 1.01, 2.0
     if value > 0 and parts[-1] in _STRICTLY_POSITIVE:

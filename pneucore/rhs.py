@@ -24,7 +24,7 @@ from numba import njit
 from . import layout as L
 from .chamber import chamber_pressure, chamber_rates, enthalpy_flow
 from .flow import iso6358_mass_flow, laminar_mass_flow, saint_venant_mass_flow
-from .heat import convective_heat_flow
+from .heat import convective_heat_flow, exchange_coefficient, wall_rate
 from .friction import coulomb_level, sliding_friction, viscous_coefficient
 from .jack import chamber_volumes, net_pressure_force, wall_area
 from .valve import table_segment
@@ -216,17 +216,43 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
     q_b += t_qb
     H_b += t_hb
 
-    # --- heat exchange with the walls (Eq. 9) ------------------------------------------
-    h = prm[L.P_H]
+    # --- heat exchange with the walls (Eq. 9; heat models of pneucore.heat) -------------
+    h_a = prm[L.P_H]
+    h_b = h_a
     S_a = prm[L.P_WALL_A]
     if S_a <= 0.0:
         S_a = wall_area(V_a, A_a, prm[L.P_BORE], prm[L.P_ROD_A])
     S_b = prm[L.P_WALL_B]
     if S_b <= 0.0:
         S_b = wall_area(V_b, A_b, prm[L.P_BORE], prm[L.P_ROD_B])
-    Q_a = convective_heat_flow(h, S_a, T_atm, T_a) + t_qa_heat
-    Q_b = convective_heat_flow(h, S_b, T_atm, T_b) + t_qb_heat
+    Tw_a = T_atm
+    Tw_b = T_atm
+    i_wa = iy[L.IY_WALL_A]
+    if i_wa >= 0:
+        Tw_a = y[i_wa]
+        Tw_b = y[iy[L.IY_WALL_B]]
+    if prm[L.P_HEAT_NAT] > 0.0 or prm[L.P_HEAT_JET] > 0.0:
+        # inflow jet: what enters through the valve edges
+        h_a = exchange_coefficient(prm, p_a, T_a, Tw_a, max(q_pa, 0.0) + max(-q_ar, 0.0))
+        h_b = exchange_coefficient(prm, p_b, T_b, Tw_b, max(q_pb, 0.0) + max(-q_br, 0.0))
+    Qw_a = convective_heat_flow(h_a, S_a, Tw_a, T_a)
+    Qw_b = convective_heat_flow(h_b, S_b, Tw_b, T_b)
+    Q_a = Qw_a + t_qa_heat
+    Q_b = Qw_b + t_qb_heat
     isothermal = prm[L.P_ISOTHERMAL] > 0.0
+    if i_wa >= 0:
+        m_w = prm[L.P_WALL_MASS]
+        c_w = prm[L.P_WALL_CP]
+        h_o = prm[L.P_WALL_H_OUT]
+        dy[i_wa] = wall_rate(Qw_a, S_a, Tw_a, T_atm, m_w, c_w, h_o)
+        if not b_const:
+            dy[iy[L.IY_WALL_B]] = wall_rate(Qw_b, S_b, Tw_b, T_atm, m_w, c_w, h_o)
+    i_ts = iy[L.IY_TSENSOR_A]
+    if i_ts >= 0:
+        tau_T = prm[L.P_TSENSOR_TAU]
+        dy[i_ts] = (T_a - y[i_ts]) / tau_T
+        i_tsb = iy[L.IY_TSENSOR_B]
+        dy[i_tsb] = (T_b - y[i_tsb]) / tau_T
 
     # --- chambers (Eq. 14-15) ---------------------------------------------------------
     dm, dT = chamber_rates(m_a, T_a, p_a, A_a * v, q_a, H_a, Q_a, cv, isothermal)

@@ -113,8 +113,7 @@ def build_core(model, scenario):
     prm[P["WALL_A"]] = j.wall_area_a or 0.0
     prm[P["WALL_B"]] = j.wall_area_b or 0.0
     heat = HEAT_MODELS[eff.heat.model]
-    prm[P["H"]] = heat.core_coefficient(eff.heat.coefficient)
-    prm[P["ISOTHERMAL"]] = 1.0 if heat.isothermal else 0.0
+    heat.pack(eff.heat, prm)
     for side, fs in (("FE", eff.friction.extend), ("FR", eff.friction.retract)):
         for key in ("fc0", "fc_a", "fc_b", "kv0", "kv_a", "kv_b"):
             prm[P[f"{side}_{key.upper().replace('_', '')}"]] = getattr(fs, key)
@@ -151,6 +150,7 @@ def build_core(model, scenario):
     iy[L.IY_NUSER] = 0
     u0 = _command_at_zero(scenario)
     build = CoreBuild(prm, iy, eff, {"u0": u0, "p_a": p_a, "p_b": p_b})
+    heat.add_states(eff.heat, build, T_a, T_b)
     user_params, hooks = [], []
     for name, params in model.effects.items():
         e = EFFECTS[name]

@@ -1,0 +1,50 @@
+"""GET /api/heat-models, POST /api/heat-models/simulate and /api/heat-models/compare."""
+import numpy as np
+from fastapi import APIRouter
+
+from pneucore.heat import HEAT_MODELS
+from pneucore.heat_compare import check_names, compare_heat_models, simulate_heat_models
+
+from ..deps import LimitsDep, StoreDep, parse_experiments, parse_model, parse_scenario
+from ..responses import JSON
+from ..schemas import HeatModelsCompareRequest, HeatModelsSimulateRequest
+from .analysis import _deadline
+from .simulate import _result
+
+router = APIRouter(prefix="/api/heat-models", tags=["heat"])
+
+#: Series returned per run when the request names none (what the page overlays)
+HEAT_SERIES = ("t", "u", "p_a", "p_b", "T_a", "T_b", "heat_a", "heat_b", "x")
+
+
+@router.get("", summary="The heat models with their parameters (name, unit, default, min, max)")
+def list_heat_models():
+    return [m.to_dict() for m in HEAT_MODELS.values()]
+
+
+@router.post("/simulate", summary="One scenario under every heat model (pressures, temperatures)",
+             response_class=JSON)
+def simulate_endpoint(req: HeatModelsSimulateRequest, limits: LimitsDep):
+    model = parse_model(req.model)
+    scen = parse_scenario(req.scenario, model, limits)
+    check_names(req.heat_models)
+    runs = simulate_heat_models(model, scen, req.heat_models)
+    series = req.series if req.series is not None else [
+        s for s in HEAT_SERIES if all(s in r.series for r in runs.values())]
+    return JSON({"runs": {name: _result(res, series) for name, res in runs.items()}})
+
+
+@router.post("/compare", summary="One measurement against every heat model, each calibrated on "
+                                 "its own parameters: pressure and temperature errors per model",
+             response_class=JSON)
+def compare_endpoint(req: HeatModelsCompareRequest, store: StoreDep, limits: LimitsDep):
+    model = parse_model(req.model)
+    check_names(req.heat_models)
+    exps = parse_experiments(req.experiments, model, store, limits)
+    rows = compare_heat_models(model, exps, req.heat_models, sensor=req.sensor,
+                               max_nfev=min(max(req.max_nfev, 1), 200),
+                               progress=_deadline(limits, "heat-model comparison", "compare"))
+    meas = exps[0].measurement
+    measured = {"t": np.ascontiguousarray(meas.t - meas.t[0], float),
+                **{s: np.ascontiguousarray(meas.signals[s], float) for s in exps[0].signals}}
+    return JSON({"models": rows, "measured": measured, "experiment": exps[0].name})

@@ -1,0 +1,182 @@
+/* pneucore page: heat models (loaded after app.js; uses its S, api, busy, plot, esc, ... helpers).
+ *
+ * - the model panel's heat select lists every model of GET /api/heat-models, with an input per
+ *   parameter of the chosen model (unit, bounds and default from the registry);
+ * - the "Heat models side by side" panel runs one scenario under every heat model (pressures and
+ *   temperatures overlaid), and one measurement against every heat model, each calibrated on its
+ *   own parameters (a table of pressure and temperature errors per model).
+ * All text from the server or the user goes through textContent or esc().
+ */
+'use strict';
+
+const HEAT = { models: [], byName: {}, colors: ['#1f77b4', '#d62728', '#2ca02c', '#9467bd', '#ff7f0e', '#8c564b', '#e377c2'] };
+
+function heatSpec(name) { return HEAT.byName[name]; }
+
+/** Keep only the fields the chosen model accepts (the API refuses the others by name). */
+function heatSection(heat, name) {
+  const spec = heatSpec(name);
+  const out = { model: name, coefficient: heat && heat.coefficient != null ? heat.coefficient : 25.0 };
+  if (!spec) return out;
+  for (const p of spec.parameters) {
+    if (heat && heat[p.name] != null) out[p.name] = heat[p.name];
+  }
+  return out;
+}
+
+function renderHeatParams() {
+  const box = document.getElementById('heat-params');
+  if (!box || !S.model) return;
+  const heat = S.model.heat || {};
+  const spec = heatSpec(heat.model || 'convective');
+  box.textContent = '';
+  if (!spec) return;
+  const desc = document.getElementById('heat-model-desc');
+  if (desc) desc.textContent = spec.description;
+  for (const p of spec.parameters) {
+    if (p.name === 'coefficient') continue;   // the page's own coefficient field
+    const id = `heat-${p.name}`;
+    const div = document.createElement('div');
+    div.className = 'field';
+    const label = document.createElement('label');
+    label.htmlFor = id;
+    label.textContent = `${p.name.replace(/_/g, ' ')} [${p.unit}]`;
+    label.title = `${p.description} (${p.min} to ${p.max}, default ${p.default})`;
+    const input = document.createElement('input');
+    input.id = id;
+    input.type = 'number';
+    input.step = 'any';
+    input.dataset.field = `model.heat.${p.name}`;
+    input.value = String(heat[p.name] != null ? heat[p.name] : p.default);
+    const err = document.createElement('span');
+    err.className = 'field-error';
+    err.setAttribute('role', 'alert');
+    div.append(label, input, err);
+    box.append(div);
+  }
+  const coef = document.getElementById('heat-coefficient');
+  if (coef) coef.closest('.field').style.display = spec.parameters.some((p) => p.name === 'coefficient') ? '' : 'none';
+}
+
+function onHeatModelChange(ev) {
+  if (!S.model) return;
+  S.model.heat = heatSection(S.model.heat, ev.target.value);
+  renderHeatParams();
+}
+
+/* ------------------------------------------------------------ side by side: one scenario */
+function heatTraces(runs, signal, yscale, dash) {
+  return Object.entries(runs).map(([name, run], i) => ({
+    x: run.series.t, y: (run.series[signal] || []).map((v) => (v == null ? null : v * yscale)),
+    name: `${name} ${signal}`, mode: 'lines', line: { color: HEAT.colors[i % HEAT.colors.length], width: 1.5, dash },
+  }));
+}
+
+async function heatSimulateAll() {
+  clearErrors();
+  const scenario = scenarioForRequest();
+  if (!scenario) return;
+  setStatus('Simulating the scenario under every heat model…', 'busy');
+  await busy(document.getElementById('btn-heat-all'), async () => {
+    try {
+      const res = await api('POST', '/api/heat-models/simulate', { model: S.model, scenario });
+      const runs = res.runs;
+      const b = S.model.valve && S.model.valve.kind === '4/2';
+      plot('heat-plot-pressure', [...heatTraces(runs, 'p_a', 1e-5, 'solid'), ...(b ? heatTraces(runs, 'p_b', 1e-5, 'dot') : [])],
+        baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('pressure [bar abs]') }));
+      plot('heat-plot-temperature', [...heatTraces(runs, 'T_a', 1, 'solid'), ...(b ? heatTraces(runs, 'T_b', 1, 'dot') : [])],
+        baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('gas temperature [K]') }));
+      document.getElementById('panel-heat').dataset.simulated = String(Object.keys(runs).length);
+      setStatus(`Scenario run under ${Object.keys(runs).length} heat models: ${Object.keys(runs).join(', ')}.`, 'ok');
+    } catch (e) { showApiError(e, 'Heat models side by side'); }
+  });
+}
+
+/* ------------------------------------------------------------ side by side: one measurement */
+function heatTable(rows) {
+  const table = document.createElement('table');
+  table.className = 'data';
+  const head = table.createTHead().insertRow();
+  const signals = [...new Set(rows.flatMap((r) => Object.keys(r.errors)))];
+  const cols = ['heat model', 'fitted parameters', ...signals.map((s) => `${s} Eq. 25 [%]`), 'T rms [K]'];
+  for (const c of cols) { const th = document.createElement('th'); th.textContent = c; head.append(th); }
+  const best = {};
+  for (const s of signals) best[s] = Math.min(...rows.map((r) => (r.errors[s] == null ? Infinity : r.errors[s])));
+  const body = table.createTBody();
+  for (const r of rows) {
+    const tr = body.insertRow();
+    tr.dataset.model = r.name;
+    tr.insertCell().textContent = r.name;
+    tr.insertCell().textContent = Object.entries(r.parameters).map(([k, v]) => `${k.replace(/^heat\./, '')} = ${num(v.value, 4)}`).join(', ') || '—';
+    for (const s of signals) {
+      const td = tr.insertCell();
+      td.textContent = r.errors[s] == null ? '—' : pct(r.errors[s]);
+      if (r.errors[s] === best[s]) td.style.fontWeight = 'bold';   // the best of the column
+    }
+    const rms = Object.entries(r.temperature_rms || {}).map(([k, v]) => `${k} ${v == null ? '—' : num(v, 3)}`).join(', ');
+    tr.insertCell().textContent = rms || '—';
+  }
+  return table;
+}
+
+async function heatCompareAll() {
+  clearErrors();
+  if (!S.experiments || !S.experiments.length) {
+    fieldError('experiments', 'select a dataset or a sample first');
+    setStatus('Heat models against the measurement: pick a dataset in panel 4 first.', 'error');
+    return;
+  }
+  setStatus('Calibrating every heat model on the measurement…', 'busy');
+  await busy(document.getElementById('btn-heat-compare'), async () => {
+    try {
+      const sensor = document.getElementById('heat-fit-sensor').checked;
+      const res = await api('POST', '/api/heat-models/compare', { model: S.model, experiments: clone(S.experiments.slice(0, 1)), sensor });
+      const wrap = document.getElementById('heat-table');
+      wrap.textContent = '';
+      wrap.append(heatTable(res.models));
+      const m = res.measured;
+      const meas = (sig, scale) => ({ x: m.t, y: m[sig].map((v) => (v == null ? null : v * scale)), name: `measured ${sig}`, mode: 'markers', marker: { color: '#000', size: 5 } });
+      const sim = (sig, scale) => res.models.map((r, i) => ({
+        x: r.t, y: (r.simulated[sig] || []).map((v) => (v == null ? null : v * scale)), name: `${r.name} ${sig}`, mode: 'lines',
+        line: { color: HEAT.colors[i % HEAT.colors.length], width: 1.5 } }));
+      const pSig = ['p_a', 'p_b'].filter((s) => s in m);
+      const tSig = ['T_a', 'T_b'].filter((s) => s in m);
+      plot('heat-plot-pressure', pSig.flatMap((s) => [meas(s, 1e-5), ...sim(s, 1e-5)]),
+        baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('pressure [bar abs]'), annotations: pSig.length ? [] : emptyNote('no pressure measured') }));
+      plot('heat-plot-temperature', tSig.flatMap((s) => [meas(s, 1), ...sim(s, 1)]),
+        baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('gas temperature [K]'), annotations: tSig.length ? [] : emptyNote('no gas temperature measured') }));
+      document.getElementById('panel-heat').dataset.compared = String(res.models.length);
+      setStatus(`Every heat model calibrated on ${res.experiment || 'the measurement'}; errors in the table.`, 'ok');
+    } catch (e) { showApiError(e, 'Heat models against the measurement', (f) => (f.startsWith('experiments') ? 'experiments' : f)); }
+  });
+}
+
+async function initHeat() {
+  try {
+    HEAT.models = await api('GET', '/api/heat-models');
+  } catch (e) { showApiError(e, 'Loading the heat models'); return; }
+  HEAT.byName = Object.fromEntries(HEAT.models.map((m) => [m.name, m]));
+  const sel = document.getElementById('heat-model');
+  const current = sel.value;
+  sel.textContent = '';
+  for (const m of HEAT.models) {
+    const o = document.createElement('option');
+    o.value = m.name;
+    o.textContent = m.name === 'convective' ? 'convective (Eq. 9)' : m.name.replace(/_/g, ' ');
+    o.title = m.description;
+    sel.append(o);
+  }
+  sel.value = (S.model && S.model.heat && S.model.heat.model) || current;
+  sel.addEventListener('change', onHeatModelChange);
+  // the model panel re-renders on every preset/session load: the heat inputs follow
+  const render = window.renderModel;
+  window.renderModel = function renderModelWithHeat() { render(); renderHeatParams(); };
+  renderHeatParams();
+  document.getElementById('btn-heat-all').addEventListener('click', heatSimulateAll);
+  document.getElementById('btn-heat-compare').addEventListener('click', heatCompareAll);
+  plot('heat-plot-pressure', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('pressure [bar abs]'), annotations: emptyNote('Run every heat model') }));
+  plot('heat-plot-temperature', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('gas temperature [K]'), annotations: emptyNote('Run every heat model') }));
+  document.getElementById('panel-heat').dataset.ready = 'true';
+}
+
+if (document.readyState === 'loading') document.addEventListener('DOMContentLoaded', initHeat); else initHeat();
