@@ -643,12 +643,12 @@ def _drive(db, sid, study, text, engine_factory, batch_size, progress, path, t0,
         while pending:
             finished = engine.wait_first(pending, HEARTBEAT)
             if not finished:   # nothing finished within a heartbeat: limits still hold
+                report(n_done / n, f"{n_done}/{n} runs stored")
                 if deadline is not None and time.monotonic() > deadline:
                     raise StudyInterrupted(f"the study exceeded its time limit of {time_limit:g} s; "
                                            f"{n_done}/{n} runs are stored, resume with "
                                            f"study_id={sid!r}")
                 engine.check()
-                report(n_done / n, f"{n_done}/{n} runs stored")
                 continue
             for f in finished:
                 k = pending.pop(f)
