@@ -6,14 +6,29 @@
 ``localhost,127.0.0.1,::1``; ``*`` = any, only behind a proxy that checks the host).
 ``PNEUCORE_TOKEN``: when set, every request needs it (``Authorization: Bearer <token>``, or the
 cookie the page gets from ``/?token=<token>``); see :mod:`app.security`.
+``PNEUCORE_DASK_SCHEDULER``: address of the Dask scheduler that studies may use
+(e.g. ``tcp://10.0.0.5:8786``; also ``python -m app --scheduler``). A request
+never gives an address: it may only name this cluster (``"dask"``) or the
+local process pool (``"local"``), see :data:`STUDY_CLUSTERS`.
 """
 import os
 from dataclasses import dataclass, field
+from typing import Optional
 
 
 def _env_int(name, default):
     v = os.environ.get(name)
     return int(v) if v else default
+
+
+def _machine_workers():
+    from pneucore.study_exec import max_workers
+    return max_workers()
+
+
+#: Names a study request may give in ``scheduler``: the local process pool, and the Dask
+#: cluster at ``Settings.dask_scheduler`` (only when one is configured)
+STUDY_CLUSTERS = ("local", "dask")
 
 
 @dataclass
@@ -34,6 +49,7 @@ class Limits:
     max_study_runs: int = 100_000        # runs of one robustness study
     study_time_limit: float = 3600.0     # wall time of one study job [s]
     scheduler_timeout: float = 3.0       # time to reach a Dask scheduler [s]
+    max_workers: int = field(default_factory=_machine_workers)  # local pool processes of one study: the CPUs available [-]
 
     def to_dict(self):
         return dict(self.__dict__)
@@ -56,3 +72,6 @@ class Settings:
     limits: Limits = field(default_factory=Limits)
     seed_samples: bool = True
     resume_studies: bool = True
+    #: Dask scheduler address for studies (the cluster named "dask"); None = none configured
+    dask_scheduler: Optional[str] = field(
+        default_factory=lambda: os.environ.get("PNEUCORE_DASK_SCHEDULER", "").strip() or None)

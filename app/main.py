@@ -192,7 +192,11 @@ def main():
     p = argparse.ArgumentParser(description="pneucore web service")
     p.add_argument("--host", default=os.environ.get("PNEUCORE_HOST", "127.0.0.1"))
     p.add_argument("--port", type=int, default=int(os.environ.get("PNEUCORE_PORT", "8000")))
+    p.add_argument("--scheduler", default=None, help="Dask scheduler address for studies, the cluster "
+                   "requests name 'dask' (default $PNEUCORE_DASK_SCHEDULER; none = the local pool only)")
     a = p.parse_args()
+    if a.scheduler:   # read by Settings when uvicorn imports app.main
+        os.environ["PNEUCORE_DASK_SCHEDULER"] = a.scheduler
     settings = Settings()
     print(f"pneucore: open http://{a.host}:{a.port}/  (database {settings.db_path})")
     if a.host not in LOCAL_HOSTS and "PNEUCORE_ALLOWED_HOSTS" not in os.environ:

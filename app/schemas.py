@@ -222,8 +222,8 @@ class StudyRequest(_Strict):
     samples: Optional[int] = Field(None, description="Number of random samples (distributions) [-]")
     seed: int = Field(0, description="Random seed [-]")
     metrics: Optional[list[str]] = Field(None, description="Metrics to compute; null = all (see pneucore.study METRICS) [-]")
-    scheduler: Optional[str] = Field(None, description="Dask scheduler address, e.g. tcp://10.0.0.5:8786; null = the local process pool")
-    workers: Optional[int] = Field(None, description="Local pool size; null = one per CPU [-]")
+    scheduler: Optional[str] = Field(None, max_length=64, description="Where to run, by name (never an address): 'local' = this machine's process pool, 'dask' = the Dask cluster configured on the server ($PNEUCORE_DASK_SCHEDULER or --scheduler; see GET /api/studies/clusters); null = 'dask' when configured, else 'local' [-]")
+    workers: Optional[int] = Field(None, description="Local pool size, at most max_workers of GET /api/limits (the CPUs available); 0 = in the service's process; null = one per CPU [-]")
     name: str = Field("", description="Label of the study")
 
 

@@ -112,13 +112,11 @@ def results_from_db(db, study_id, include_runs=True):
     if info is None:
         raise KeyError(f"no study {study_id!r} in the store")
     study = Study.from_json(info["definition"])
-    runs = store.load_runs(db, study_id)
     paths, names = study.paths, study.metric_names
-    idx = np.array([r[0] for r in runs], dtype=np.int64)
-    X = np.array([[r[1].get(p, np.nan) for p in paths] for r in runs], float).reshape(len(runs), len(paths))
-    ok = np.array([r[3] is None for r in runs], bool)
-    Y = {m: np.array([np.nan if r[2] is None or r[2].get(m) is None else r[2][m] for r in runs], float)
-         for m in names}
+    block = store.load_arrays(db, study_id, paths, names)
+    idx, X, errs = block.indices, block.params, block.errors
+    ok = np.array([e is None for e in errs], bool)
+    Y = {m: block.metrics[:, j] for j, m in enumerate(names)}
     n_failed = int((~ok).sum())
 
     metrics = {}
@@ -140,33 +138,43 @@ def results_from_db(db, study_id, include_runs=True):
         metrics[m] = d
 
     ranking = {}
-    complete_factorial = study.design == "factorial" and len(runs) == study.n_runs and n_failed == 0
+    complete_factorial = study.design == "factorial" and len(idx) == study.n_runs and n_failed == 0
     for m in names:
         ranking[m] = _rank(study, X, Y[m], idx, complete_factorial)
 
-    errors = Counter(r[3] for r in runs if r[3] is not None)
+    errors = Counter(e for e in errs if e is not None)
     first = {}
-    for r in runs:
-        if r[3] is not None:
-            first.setdefault(r[3], []).append(r[0])
+    if errors:
+        for i, e in zip(idx.tolist(), errs):
+            if e is not None:
+                first.setdefault(e, []).append(i)
     out = {
         "id": study_id, "name": study.name, "status": info["status"], "created": info["created"],
         "definition": json.loads(info["definition"]), "design": study.design,
-        "n_runs": study.n_runs, "stored": len(runs), "failed": n_failed,
-        "missing": study.n_runs - len(runs),
+        "n_runs": study.n_runs, "stored": len(idx), "failed": n_failed,
+        "missing": study.n_runs - len(idx),
         "parameters": [{"path": p.path, "unit": unit_of(p.path), "spec": p.to_dict()}
                        for p in study.parameters],
         "metrics": metrics,
         "sensitivity": {"methods": dict(METHOD_TEXT), "ranking": ranking},
         "errors": [{"message": msg, "count": c, "runs": first[msg][:20]}
                    for msg, c in errors.most_common()],
-        "runs": {"index": idx.tolist(),
-                 "params": {p: [_f(x) for x in X[:, j]] for j, p in enumerate(paths)},
-                 "metrics": {m: [_f(x) for x in Y[m]] for m in names},
-                 "error": [r[3] for r in runs]},
     }
-    if not include_runs:
-        del out["runs"]
+    if include_runs:
+        out["runs"] = {"index": idx.tolist(),
+                       "params": {p: _list(X[:, j]) for j, p in enumerate(paths)},
+                       "metrics": {m: _list(Y[m]) for m in names},
+                       "error": list(errs)}
+    return out
+
+
+def _list(a):
+    """Floats for JSON: NaN and inf become None."""
+    a = np.asarray(a, float)
+    out = a.tolist()
+    bad = np.flatnonzero(~np.isfinite(a))
+    for j in bad.tolist():
+        out[j] = None
     return out
 
 
@@ -261,3 +269,62 @@ def factorial_indices(y, shape):
         S1.append(float(Y.mean(axis=others).var() / var) if others else 1.0)
         ST.append(float(Y.var(axis=i).mean() / var))
     return S1, ST
+
+
+def runs_csv(store_path, study_id, chunk_rows=5000):
+    """The stored runs of a study as CSV text, in chunks (for a download).
+
+    Columns: ``run_index``, every parameter ``PATH [unit]`` (``Study.paths`` order),
+    every metric ``NAME [unit]`` (units of :data:`~pneucore.study_metrics.METRICS`),
+    ``error``. Values in SI units with 17 significant digits (exact round trip);
+    an undefined metric, and every metric of a failed run, is an empty cell.
+
+    Parameters
+    ----------
+    store_path : str
+        SQLite store
+    study_id : str
+        Study id
+    chunk_rows : int
+        Rows per yielded chunk [-]
+
+    Returns
+    -------
+    chunks : iterator of str
+        The header line first, then the rows ordered by run index
+
+    Raises
+    ------
+    KeyError
+        Unknown study id (raised at the call, before any chunk)
+    """
+    import csv
+    import io
+    db = store.connect(store_path)
+    try:
+        info = store.get_study(db, study_id)
+        if info is None:
+            raise KeyError(f"no study {study_id!r} in the store")
+        study = Study.from_json(info["definition"])
+        paths, names = study.paths, study.metric_names
+        block = store.load_arrays(db, study_id, paths, names)
+    finally:
+        db.close()
+    header = (["run_index"] + [f"{p} [{unit_of(p)}]" for p in paths]
+              + [f"{m} [{METRICS[m][0]}]" for m in names] + ["error"])
+
+    def cells(a):
+        return ["" if not math.isfinite(v) else repr(v) for v in a.tolist()]
+
+    def chunks():
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(header)
+        for j, i in enumerate(block.indices.tolist()):
+            w.writerow([i] + cells(block.params[j]) + cells(block.metrics[j]) + [block.errors[j] or ""])
+            if (j + 1) % chunk_rows == 0:
+                yield buf.getvalue()
+                buf.seek(0)
+                buf.truncate()
+        yield buf.getvalue()
+    return chunks()

@@ -1402,9 +1402,9 @@ async function runStudy() {
     try {
       delete $('#study-progress').dataset.done;
       setStudyProgress(0, 0, 'submitting');
-      setStatus(body.scheduler ? `Contacting the Dask scheduler at ${body.scheduler}…` : 'Starting the study…', 'busy');
+      setStatus('Starting the study…', 'busy');
       const r = await api('POST', '/api/studies', body);
-      setStatus(`Study ${r.id}: ${r.n_runs} runs on ${body.scheduler ? `the Dask cluster at ${body.scheduler}` : 'the local process pool'}…`, 'busy');
+      setStatus(`Study ${r.id}: ${r.n_runs} runs on ${body.scheduler ? `cluster “${body.scheduler}”` : 'the default cluster'}…`, 'busy');
       loadStudies();
       await followStudy(r.id, r.job_id, r.n_runs);
     } catch (e) {
@@ -1592,7 +1592,8 @@ function renderStudyResults() {
   $('#study-summary').innerHTML = `${esc(DESIGN_NAMES[res.design] || res.design)}: <b>${res.stored}/${res.n_runs}</b> runs stored, ` +
     `<b>${res.failed}</b> failed, status ${esc(res.status)}${res.missing ? ` (${res.missing} missing: resume it)` : ''}. ` +
     `Model <i>${esc(m.name || 'custom')}</i>, scenario <i>${esc(sc.name || 'custom')}</i> (${num(sc.duration)} s), seed ${esc(def.seed ?? 0)}. ` +
-    'Parameters: ' + res.parameters.map((p) => `<code>${esc(p.path)}</code> ${esc(specText(p.spec, p.unit))}`).join('; ') + '.';
+    'Parameters: ' + res.parameters.map((p) => `<code>${esc(p.path)}</code> ${esc(specText(p.spec, p.unit))}`).join('; ') + '.' +
+    ` <a id="study-csv" href="${esc(`/api/studies/${encodeURIComponent(res.id)}/runs.csv`)}" download>Download the runs (CSV, units in the headers)</a>`;
   $('#study-metric').innerHTML = Object.entries(res.metrics).map(([k, d]) =>
     `<option value="${esc(k)}"${k === S.study.metric ? ' selected' : ''}>${esc(k)} [${esc(metricDisplay(d.unit).label)}]</option>`).join('');
   $('#study-xparam').innerHTML = res.parameters.map((p) =>

@@ -16,7 +16,7 @@ import pytest
 from scipy import stats
 
 from pneucore import FieldError, model_preset, scenario_preset, simulate
-from pneucore.study import (MAX_RUNS, METRICS, SchedulerError, Study, factorial_indices, main,
+from pneucore.study import (MAX_RUNS, METRICS, SchedulerError, Study, StudyInterrupted, factorial_indices, main,
                             rank_correlations, run_metrics, run_study, study_results, study_status)
 from pneucore.study_metrics import air_consumption
 
@@ -557,3 +557,65 @@ def test_dask_killed_worker_loses_no_run(tmp_path, cluster):
           for m in ("t95", "overshoot")}
     assert rk["t95"]["supply.pressure"]["prcc"] < -0.5 and rk["t95"]["supply.pressure"]["prcc_p"] < 1e-6
     assert rk["overshoot"]["friction.extend.fc0"]["prcc"] < -0.5
+
+
+def test_time_limit_holds_while_no_batch_finishes(tmp_path):
+    """One long batch and a time limit far below it: the driver stops at the limit (it does
+    not wait for a batch to finish), stores "interrupted", and kills the busy worker."""
+    db = str(tmp_path / "s.sqlite3")
+    before = {p.pid for p in multiprocessing.active_children()}
+    calls = []
+    t0 = time.monotonic()
+    with pytest.raises(StudyInterrupted, match="time limit of 1 s"):
+        # 5,000 one-second runs in one batch: several seconds of work on any machine
+        run_study(paper_study(5000), db, workers=1, batch_size=5000, time_limit=1.0,
+                  progress=lambda f, s: calls.append(f), study_id="tl")
+    elapsed = time.monotonic() - t0
+    assert elapsed < 30.0, elapsed  # a bound on a hang (pool start-up included), not a speed claim
+    assert len(calls) >= 2 and set(calls) == {0.0}  # heartbeats: the caller's checks ran too
+    st = study_status(db, "tl")
+    assert st["status"] == "interrupted" and st["stored"] == 0
+    time.sleep(0.5)
+    assert [p for p in multiprocessing.active_children() if p.pid not in before] == []
+
+
+@pytest.fixture
+def lone_cluster():
+    """A LocalCluster of one worker process that a test may scale down or close."""
+    import distributed
+    import logging
+    c = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                 dashboard_address=None, silence_logs=logging.CRITICAL)
+    yield c
+    c.close()
+
+
+@pytest.mark.parametrize("failure", ["every worker gone", "scheduler dead"])
+def test_dask_failure_ends_interrupted_and_resumes(tmp_path, lone_cluster, reference, monkeypatch,
+                                                   failure):
+    """Issue 9 item 9: with every Dask worker gone (scheduler alive), or the scheduler itself
+    dead, the study does not stay "running" for ever: it stops with StudyInterrupted, stores
+    "interrupted", and resumes elsewhere to the uninterrupted numbers."""
+    from pneucore import study_exec
+    monkeypatch.setattr(study_exec, "CLUSTER_GRACE", 1.0)   # instead of 10 s: a faster test
+    monkeypatch.setattr(study_exec, "PROBE_INTERVAL", 0.2)
+    db = str(tmp_path / "s.sqlite3")
+    done = []
+
+    def progress(fraction, step):
+        if fraction > 0 and not done:   # after the first stored batch
+            done.append(fraction)
+            if failure == "every worker gone":
+                lone_cluster.scale(0)
+            else:
+                lone_cluster.close()
+    t0 = time.monotonic()
+    with pytest.raises(StudyInterrupted):
+        run_study(short_study(), db, scheduler=lone_cluster.scheduler_address, batch_size=1,
+                  progress=progress, study_id="d1", scheduler_timeout=1.0)
+    assert time.monotonic() - t0 < 60.0  # a bound on a hang (it used to wait for ever)
+    st = study_status(db, "d1")
+    assert st["status"] == "interrupted" and 0 < st["stored"] < 40, st
+    out = run_study(None, db, workers=0, study_id="d1")
+    assert out["status"] == "done" and out["computed"] == 40 - st["stored"]
+    assert runs_of(db, "d1") == reference
