@@ -53,7 +53,6 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures as cf
 import math
-import multiprocessing
 import os
 import re
 import threading

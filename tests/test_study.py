@@ -102,8 +102,8 @@ BAD = [
     (lambda d: d.update(samples=0), "samples"),
     (lambda d: d.update(samples=None), "samples"),
     (lambda d: d.update(samples=2.5), "samples"),
-    (lambda d: d.update(parameters={"jack.bore": {"grid": list(np.linspace(0.02, 0.04, 400))},
-                                    "jack.moving_mass": {"grid": list(np.linspace(1, 3, 400))}}),
+    (lambda d: d.update(parameters={"jack.bore": {"grid": list(np.linspace(0.02, 0.04, 1001))},
+                                    "jack.moving_mass": {"grid": list(np.linspace(1, 3, 1001))}}),
      "parameters"),
     (lambda d: d.update(parameters={"jack.bore": {"grid": [0.03, 0.032]}}, samples=5), "samples"),
     (lambda d: d.update(parameters={}), "parameters"),
@@ -125,7 +125,7 @@ def no_work(monkeypatch):
 
     def forbidden(*a, **k):
         raise AssertionError("work started before the input was checked")
-    for name in ("_LocalEngine", "_DaskEngine", "_InlineEngine", "run_batch", "simulate"):
+    for name in ("_LocalEngine", "_DaskEngine", "_InlineEngine", "run_batch", "run_block", "simulate"):
         monkeypatch.setattr(ex, name, forbidden)
 
 
