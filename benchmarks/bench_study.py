@@ -1,8 +1,11 @@
-"""Benchmark of robustness studies: a local process pool against a Dask LocalCluster.
+"""Benchmark of robustness studies: runs/s per worker count on the local pool and a Dask
+LocalCluster, worker start-up, and the extrapolation to a 1,000,000-run study.
 
-Run from the repository root::
+Run from the repository root (on any machine: the worker counts default to 1, 2, 4, ...
+up to the CPUs available)::
 
-    python benchmarks/bench_study.py [--runs N] [--json PATH] [--batch-size B] [--skip-dask]
+    python benchmarks/bench_study.py [--runs N] [--workers 1,2,4] [--skip-dask]
+                                     [--skip-startup] [--batch-size B] [--json PATH]
 
 Case: ``--runs`` (default 10,000) simulations of model ``paper-4way`` with
 scenario ``paper-fig10-pulses`` (1 s, four valve pulses, 1 kHz output),
@@ -13,18 +16,26 @@ temporary SQLite file.
 
 Figures printed (and written to ``--json PATH``):
 
-* **serial in-process** cost per run (``workers=0`` on a sample of runs:
-  parameter set, validation, simulation, metrics), for reference;
-* **local pool** (``run_study`` default: a spawned process pool, one worker
-  per available CPU): wall time of the whole call, pool start-up included;
-* **Dask LocalCluster** with 1 and 2 worker processes (1 thread each): wall
-  time of ``run_study`` (connection, worker imports and all); the cluster's
-  own start-up is reported apart;
-* whether all engines stored bit-identical numbers, and machine information
-  (including the load average, since other processes may share the machine).
-
-Target (printed next to the figure): the 10,000 runs on the local pool in
-<= 60 s on a 2-core machine.
+* **serial in-process** cost per run (``workers=0``: parameter set,
+  validation, simulation, metrics): the per-worker compute rate ``r``;
+* **runs/s per worker count** on the local pool (``run_study(workers=W)``,
+  wall time of the whole call, pool start-up included) and on a Dask
+  LocalCluster of ``W`` single-threaded worker processes (connection
+  included, the cluster's own start-up reported apart), with the parallel
+  efficiency ``runs/s / (W r)``;
+* **worker start-up**: for a pool of the largest worker count, the time at
+  which each worker has finished its first run, for the warm forkserver
+  (pneucore preloaded; cold = the forkserver's first start in the process,
+  warm = a later pool) and, for comparison, for ``spawn`` (what the pool
+  used before): the first worker and the largest delay of the others after it
+  (target <= 0.5 s);
+* **1,000,000-run extrapolation**: the model ``T = N / min(W r e, S)`` with the
+  measured per-worker rate ``r``, the efficiency ``e`` measured at the largest
+  worker count (pool start-up included, so conservative) and the store rate
+  ``S`` (``bench_study_store.py``), printed for this machine's worker count and
+  for 16 workers; plus the measured summary time;
+* bit-identical results across engines, machine information and the load
+  average (other processes may share the machine).
 """
 from __future__ import annotations
 
@@ -39,11 +50,12 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, ROOT)
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, HERE)
 from machine import machine_info as _machine_info  # noqa: E402
 
-TARGET_S = 60.0
 SERIAL_SAMPLE = 500
+STARTUP_TARGET_S = 0.5
+BIG = 1_000_000
 
 
 def study_definition(runs):
@@ -57,10 +69,6 @@ def study_definition(runs):
             "samples": runs, "seed": 1}
 
 
-def machine_info():
-    return _machine_info("dask", "distributed")
-
-
 def load():
     try:
         return [round(x, 2) for x in os.getloadavg()]
@@ -68,23 +76,60 @@ def load():
         return None
 
 
+def first_run(text):
+    """Pool task of the start-up figure: one real run, then a pause so every worker gets one."""
+    from pneucore.study_exec import run_block
+    run_block(text, [0])
+    t = time.time()
+    time.sleep(0.3)
+    return os.getpid(), t
+
+
+def startup(kind, n, text):
+    """Times [s, from the pool's creation] at which each of ``n`` workers finished its first run."""
+    import concurrent.futures as cf
+    import multiprocessing
+
+    from pneucore import _study_worker
+    t0 = time.time()
+    if kind == "spawn":
+        pool = cf.ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("spawn"))
+    else:
+        pool = cf.ProcessPoolExecutor(n, mp_context=_study_worker.context(),
+                                      initializer=_study_worker.init_worker, initargs=(os.getpid(),))
+    try:
+        done = [f.result() for f in [pool.submit(first_run, text) for _ in range(n)]]
+    finally:
+        pool.shutdown(wait=True)
+    first = {}
+    for pid, t in done:
+        first[pid] = min(first.get(pid, t), t)
+    return sorted(t - t0 for t in first.values())
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=10_000, help="runs per engine (default 10000)")
+    parser.add_argument("--workers", default=None,
+                        help="worker counts, comma-separated (default 1, 2, 4, ... up to the CPUs)")
     parser.add_argument("--batch-size", type=int, default=None, help="runs per task (default: automatic)")
     parser.add_argument("--json", help="write the figures to this JSON file")
     parser.add_argument("--skip-dask", action="store_true", help="local pool only")
+    parser.add_argument("--skip-startup", action="store_true", help="no start-up figure")
     args = parser.parse_args(argv)
 
-    from pneucore.study import run_study, study_results
+    from pneucore.study import Study, run_study, study_results
+    from pneucore.study_exec import max_workers
 
+    cpus = max_workers()
+    counts = ([int(x) for x in args.workers.split(",")] if args.workers
+              else sorted({min(cpus, 2 ** k) for k in range(0, 10) if 2 ** k <= cpus} | {cpus}))
     out = {"case": "paper-4way + paper-fig10-pulses (1 s), fc0 ~ U(4, 16) N, supply ~ N(6, 0.4) bar "
-                   "truncated to [4.5, 7.5] bar", "runs": args.runs, "machine": machine_info(),
-           "load_average_start": load(), "target_local_pool_s": TARGET_S}
-    print(f"machine: {out['machine']['cpu']}, {out['machine']['cores']} cores, "
-          f"Python {out['machine']['python']}, "
-          f"numba {out['machine']['numba']}, dask {out['machine'].get('distributed', '-')}")
-    print(f"load average at start: {out['load_average_start']}")
+                   "truncated to [4.5, 7.5] bar", "runs": args.runs, "workers": counts,
+           "machine": _machine_info("dask", "distributed"), "load_average_start": load()}
+    m = out["machine"]
+    print(f"machine: {m['cpu']}, {m['cores']} cores ({m['usable_cores']} usable), Python {m['python']}, "
+          f"numba {m['numba']}, dask {m.get('distributed', '-')}; load average {out['load_average_start']}")
     definition = study_definition(args.runs)
     tmp = tempfile.mkdtemp(prefix="bench_study_")
     db = os.path.join(tmp, "bench.sqlite3")
@@ -95,62 +140,80 @@ def main(argv=None):
     t0 = time.perf_counter()
     run_study(study_definition(n_serial), workers=0)
     serial = (time.perf_counter() - t0) / n_serial
+    rate1 = 1.0 / serial
     out["serial_ms_per_run"] = serial * 1e3
-    out["serial_estimate_s"] = serial * args.runs
-    print(f"serial in-process: {serial * 1e3:.3f} ms per run ({n_serial} runs) -> "
-          f"{serial * args.runs:.1f} s estimated for {args.runs} runs")
+    print(f"serial in-process: {serial * 1e3:.3f} ms per run = {rate1:,.0f} runs/s per worker "
+          f"({n_serial} runs)")
 
-    runs = {}
-    engines = []
+    # -- worker start-up -----------------------------------------------------------------------
+    text = Study.from_dict(study_definition(10)).to_json()
+    if not args.skip_startup:
+        n = max(counts)
+        for label, kind in (("forkserver, cold (first pool of the process)", "forkserver"),
+                            ("forkserver, warm (a later pool)", "forkserver"), ("spawn (before)", "spawn")):
+            ts = startup(kind, n, text)
+            after = max(ts) - ts[0] if len(ts) > 1 else 0.0
+            out.setdefault("startup", []).append({"pool": label, "first_s": ts[0], "others_after_first_s": after,
+                                                  "workers_seen": len(ts)})
+            print(f"start-up, {label:46s} first worker {ts[0]:6.2f} s, the other {len(ts) - 1} within "
+                  f"{after:5.2f} s after it (target <= {STARTUP_TARGET_S} s)")
 
-    def record(label, key, summary, wall, extra=None):
-        row = {"engine": label, "wall_s": wall, "runs": summary["computed"],
-               "runs_per_s": summary["computed"] / wall, "batch_size": summary["batch_size"],
-               "batches": summary["batches"], "failed": summary["failed"],
+    rows, runs = [], {}
+
+    def record(engine, w, summary, wall, extra=None):
+        rate = summary["computed"] / wall
+        row = {"engine": engine, "workers": w, "wall_s": wall, "runs": summary["computed"],
+               "runs_per_s": rate, "efficiency": rate / (w * rate1), "batch_size": summary["batch_size"],
                "detail": summary["engine"], **(extra or {})}
-        engines.append(row)
-        runs[key] = study_results(db, summary["id"])["runs"]
-        print(f"{label:28s} {wall:7.2f} s  {row['runs_per_s']:8.1f} runs/s  "
-              f"(batches of {row['batch_size']}, {summary['failed']} failed)"
+        rows.append(row)
+        runs[f"{engine}{w}"] = study_results(db, summary["id"])["runs"]
+        print(f"{engine:6s} {w:3d} worker{'s' if w > 1 else ' '} {wall:8.2f} s {rate:10,.0f} runs/s  "
+              f"efficiency {row['efficiency']:5.2f}  (batches of {row['batch_size']})"
               + (f"  [cluster start {extra['cluster_start_s']:.2f} s]" if extra else ""))
 
-    # -- local pool ------------------------------------------------------------------------------
-    t0 = time.perf_counter()
-    s = run_study(definition, db, batch_size=args.batch_size, study_id="local")
-    wall = time.perf_counter() - t0
-    record(f"local pool ({s['engine'].split('(')[1].rstrip(')')})", "local", s, wall)
-    out["local_pool_s"] = wall
-    out["local_pool_target_met"] = wall <= TARGET_S or args.runs < 10_000
-
-    # -- Dask LocalCluster, 1 and 2 workers ---------------------------------------------------
+    print(f"{args.runs} runs per engine:")
+    for w in counts:
+        t0 = time.perf_counter()
+        s = run_study(definition, db, workers=w, batch_size=args.batch_size, study_id=f"local{w}")
+        record("local", w, s, time.perf_counter() - t0)
     if not args.skip_dask:
         from distributed import LocalCluster
-        for n in (1, 2):
+        for w in counts:
             t0 = time.perf_counter()
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+            cluster = LocalCluster(n_workers=w, threads_per_worker=1, processes=True,
                                    dashboard_address=None, silence_logs=logging.ERROR)
             start = time.perf_counter() - t0
             try:
                 t0 = time.perf_counter()
                 s = run_study(definition, db, scheduler=cluster.scheduler_address,
-                              batch_size=args.batch_size, study_id=f"dask{n}")
+                              batch_size=args.batch_size, study_id=f"dask{w}")
                 wall = time.perf_counter() - t0
             finally:
                 cluster.close()
-            record(f"Dask LocalCluster, {n} worker{'s' if n > 1 else ''}", f"dask{n}", s, wall,
-                   {"cluster_start_s": start})
-            out[f"dask_{n}_workers_s"] = wall
-        out["dask_speedup_2_over_1"] = out["dask_1_workers_s"] / out["dask_2_workers_s"]
-        print(f"Dask scaling 1 -> 2 workers: x{out['dask_speedup_2_over_1']:.2f}")
-
-    out["engines"] = engines
-    ref = runs["local"]
+            record("dask", w, s, wall, {"cluster_start_s": start})
+    out["engines"] = rows
+    ref = runs[f"local{counts[0]}"]
     out["identical_results"] = all(r == ref for r in runs.values())
+    print(f"identical numbers across engines and worker counts: {out['identical_results']}")
+
+    # -- summary of this study, and the 1,000,000-run extrapolation ------------------------------
+    t0 = time.perf_counter()
+    study_results(db, f"local{counts[-1]}", include_runs=False)
+    out["summary_s"] = time.perf_counter() - t0
+    best = max((r for r in rows if r["engine"] == "local"), key=lambda r: r["workers"])
+    eff = best["efficiency"]
+    store_rate = 80_000.0   # runs/s, bench_study_store.py on this machine (loaded); see README
+    out["model"] = {"per_worker_runs_per_s": rate1, "efficiency": eff, "store_runs_per_s": store_rate}
+    print(f"summary of this {args.runs}-run study: {out['summary_s']:.2f} s")
+    for w in sorted({best["workers"], 16}):
+        rate = min(w * rate1 * eff, store_rate)
+        t = BIG / rate
+        out["model"][f"T_1M_{w}_workers_s"] = t
+        print(f"1,000,000 runs on {w:2d} workers (model: {w} x {rate1:,.0f} runs/s x efficiency "
+              f"{eff:.2f}, store cap {store_rate:,.0f} runs/s): {t:7.0f} s = {t / 60:5.1f} min "
+              f"(+ start-up; measured here at {args.runs:,} runs: {best['wall_s']:.1f} s "
+              f"on {best['workers']} workers)")
     out["load_average_end"] = load()
-    print(f"identical numbers across engines: {out['identical_results']}")
-    if args.runs >= 10_000:
-        print(f"target: local pool <= {TARGET_S:.0f} s for 10,000 runs: "
-              f"{'met' if out['local_pool_target_met'] else 'NOT met'} ({out['local_pool_s']:.1f} s)")
     print(f"load average at end: {out['load_average_end']}")
     if args.json:
         with open(args.json, "w") as fh:

@@ -59,7 +59,7 @@ from .scenario import Scenario
 from .validation import FieldError, integer, known_keys, mapping, number
 
 #: Most runs accepted in one study (grid points x samples)
-MAX_RUNS = 100_000
+MAX_RUNS = 1_000_000
 #: Most values in one grid
 MAX_GRID_VALUES = 10_000
 #: Smallest probability mass that a truncated distribution's bounds may keep [-]

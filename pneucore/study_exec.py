@@ -53,7 +53,6 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures as cf
 import math
-import multiprocessing
 import os
 import re
 import threading
@@ -276,7 +275,18 @@ class _DaskEngine:
     def __init__(self, client, owned, address, timeout):
         self.client, self.owned, self.address, self.timeout = client, owned, address, timeout
         self._done = None  # distributed.as_completed over every submitted future
-        info = probe_scheduler(address, timeout)
+        self.probing = True
+        try:
+            info = probe_scheduler(address, timeout)
+        except SchedulerError:
+            if owned:
+                raise
+            # a Client handed over by the caller (e.g. an in-process cluster, whose inproc://
+            # address only its own event loop reaches): ask through it; no independent probes
+            self.probing = False
+            sched = client.scheduler_info()
+            ws = sched.get("workers", {})
+            info = {"n_workers": len(ws), "total_threads": sum(int(w.get("nthreads", 1)) for w in ws.values())}
         self.n_slots = max(1, int(info.get("total_threads") or 1))
         nw, nt = int(info.get("n_workers") or 0), self.n_slots
         self.name = (f"dask.distributed at {address} ({nw} worker{'s' if nw != 1 else ''}, "
@@ -314,7 +324,7 @@ class _DaskEngine:
     def check(self):
         """Raise StudyInterrupted after CLUSTER_GRACE s without a worker or an answering scheduler."""
         now = time.monotonic()
-        if now - self._probed < PROBE_INTERVAL:
+        if not self.probing or now - self._probed < PROBE_INTERVAL:
             return
         self._probed = now
         try:

@@ -139,8 +139,10 @@ def results_from_db(db, study_id, include_runs=True):
 
     ranking = {}
     complete_factorial = study.design == "factorial" and len(idx) == study.n_runs and n_failed == 0
+    x_ok = np.all(np.isfinite(X), axis=1)
+    cache = {}   # the parameters' ranks per set of usable runs (most metrics share one)
     for m in names:
-        ranking[m] = _rank(study, X, Y[m], idx, complete_factorial)
+        ranking[m] = _rank(study, X, Y[m], idx, complete_factorial, x_ok, cache)
 
     errors = Counter(e for e in errs if e is not None)
     first = {}
@@ -178,10 +180,14 @@ def _list(a):
     return out
 
 
-def _rank(study, X, y, idx, complete_factorial):
-    good = np.isfinite(y) & np.all(np.isfinite(X), axis=1)
+def _rank(study, X, y, idx, complete_factorial, x_ok, cache):
+    good = np.isfinite(y) & x_ok
     Xg, yg = X[good], y[good]
-    corr = rank_correlations(Xg, yg)
+    key = good.tobytes()
+    if key not in cache:
+        cache.clear()
+        cache[key] = _rank_columns(Xg)
+    corr = rank_correlations(Xg, yg, ranks=cache[key])
     entries = [{"parameter": p, **c} for p, c in zip(study.paths, corr)]
     method = METHOD_PRCC
     if complete_factorial and good.all():
@@ -201,13 +207,56 @@ def _rank(study, X, y, idx, complete_factorial):
     return {"method": method, "n": int(good.sum()), "entries": entries}
 
 
-def rank_correlations(X, y):
+def rankdata(a):
+    """Ranks from 1 with ties given their average rank (``scipy.stats.rankdata``'s default).
+
+    An unstable sort suffices (tied values get the same average whatever their order), which
+    makes it several times faster than scipy's on 100,000 values.
+
+    Parameters
+    ----------
+    a : ndarray (n,)
+        Values
+
+    Returns
+    -------
+    r : ndarray (n,)
+        Average ranks [-]
+    """
+    a = np.asarray(a, float)
+    n = a.size
+    if n == 0:
+        return np.empty(0)
+    order = np.argsort(a)
+    s = a[order]
+    new = np.empty(n, bool)
+    new[0] = True
+    np.not_equal(s[1:], s[:-1], out=new[1:])
+    starts = np.flatnonzero(new)
+    ends = np.append(starts[1:], n)
+    r = np.empty(n)
+    r[order] = ((starts + ends + 1) / 2.0)[np.cumsum(new) - 1]
+    return r
+
+
+def _rank_columns(X):
+    n, k = X.shape
+    return np.column_stack([rankdata(X[:, j]) for j in range(k)]) if k else np.empty((n, 0))
+
+
+def rank_correlations(X, y, ranks=None):
     """Spearman and PRCC of each column of ``X`` against ``y``, with p-values.
+
+    Spearman's rho is Pearson's correlation of the average ranks, with the two-sided
+    p-value of ``t = rho sqrt((n - 2) / (1 - rho^2))`` on Student's t with ``n - 2``
+    degrees of freedom (what ``scipy.stats.spearmanr`` computes).
 
     Parameters
     ----------
     X : ndarray (n, k)  Inputs of the usable runs
     y : ndarray (n,)  Output
+    ranks : ndarray (n, k) or None  Average ranks of the columns of ``X`` when already
+        computed (several outputs over the same runs)
 
     Returns
     -------
@@ -218,33 +267,58 @@ def rank_correlations(X, y):
     out = [{"spearman": None, "spearman_p": None, "prcc": None, "prcc_p": None} for _ in range(k)]
     if n < 3:
         return out
-    R = np.column_stack([stats.rankdata(X[:, j]) for j in range(k)]) if k else np.empty((n, 0))
-    ry = stats.rankdata(y)
-    varying = [j for j in range(k) if np.ptp(R[:, j]) > 0]
-    if np.ptp(ry) == 0:
+    R = _rank_columns(X) if ranks is None else ranks
+    ry = rankdata(y)
+    varying = [j for j in range(k) if R[:, j].min() < R[:, j].max()]
+    if ry.min() == ry.max():
         return out
-    for j in varying:
-        rho, p = stats.spearmanr(X[:, j], y)
-        out[j]["spearman"], out[j]["spearman_p"] = _f(rho), _f(p)
-    for j in varying:
-        others = [i for i in varying if i != j]
-        A = np.column_stack([np.ones(n)] + [R[:, i] for i in others])
-        dof = n - 2 - len(others)
-        if dof < 1:
-            continue
-        rx = R[:, j] - A @ np.linalg.lstsq(A, R[:, j], rcond=None)[0]
-        rr = ry - A @ np.linalg.lstsq(A, ry, rcond=None)[0]
-        sx, sy = np.sqrt(rx @ rx), np.sqrt(rr @ rr)
-        if sx <= 1e-12 * n or sy <= 1e-12 * n:  # an input fully explained by the others
-            continue
-        r = float(np.clip((rx @ rr) / (sx * sy), -1.0, 1.0))
-        if abs(r) >= 1.0:
-            pval = 0.0
-        else:
-            t = r * math.sqrt(dof / (1.0 - r * r))
-            pval = float(2.0 * stats.t.sf(abs(t), dof))
-        out[j]["prcc"], out[j]["prcc_p"] = r, pval
+    # Spearman's rho from the rank correlation matrix C; PRCC from its inverse P:
+    # PRCC_j = -P[j, y] / sqrt(P[j, j] P[y, y]), the same partial correlation as the
+    # residual regression below, in one O(n k^2) pass over the runs
+    C = np.corrcoef(np.vstack([R[:, varying].T, ry[None, :]]))
+    C = np.atleast_2d(C)
+    q = len(varying)
+    for a, j in enumerate(varying):
+        rho = float(np.clip(C[a, q], -1.0, 1.0))
+        out[j]["spearman"], out[j]["spearman_p"] = rho, _t_pvalue(rho, n - 2)
+    dof = n - 2 - (q - 1)
+    if dof < 1:
+        return out
+    try:
+        well_posed = np.linalg.cond(C) < 1e10
+        P = np.linalg.inv(C) if well_posed else None
+    except np.linalg.LinAlgError:
+        P = None
+    for a, j in enumerate(varying):
+        if P is not None:
+            r = float(np.clip(-P[a, q] / math.sqrt(P[a, a] * P[q, q]), -1.0, 1.0))
+        else:   # near-collinear inputs: residual regression, skipping inputs the others explain
+            r = _prcc_residual(R, ry, j, [i for i in varying if i != j], n)
+            if r is None:
+                continue
+        out[j]["prcc"], out[j]["prcc_p"] = r, _t_pvalue(r, dof)
     return out
+
+
+def _prcc_residual(R, ry, j, others, n):
+    """PRCC of column ``j`` by regressing both ranks on the ``others`` (None if undefined)."""
+    A = np.column_stack([np.ones(n)] + [R[:, i] for i in others])
+    rx = R[:, j] - A @ np.linalg.lstsq(A, R[:, j], rcond=None)[0]
+    rr = ry - A @ np.linalg.lstsq(A, ry, rcond=None)[0]
+    sx, sy = np.sqrt(rx @ rx), np.sqrt(rr @ rr)
+    if sx <= 1e-12 * n or sy <= 1e-12 * n:  # an input fully explained by the others
+        return None
+    return float(np.clip((rx @ rr) / (sx * sy), -1.0, 1.0))
+
+
+def _t_pvalue(r, dof):
+    """Two-sided p-value of a correlation ``r`` with ``dof`` degrees of freedom (Student's t)."""
+    if r is None:
+        return None
+    if abs(r) >= 1.0:
+        return 0.0
+    t = r * math.sqrt(dof / (1.0 - r * r))
+    return float(2.0 * stats.t.sf(abs(t), dof))
 
 
 def factorial_indices(y, shape):

@@ -169,6 +169,18 @@ def _vector(value, names):
     return np.array([np.nan if d.get(k) is None else d[k] for k in names], float)
 
 
+def _packed(values, n, k):
+    """``n`` packed rows of ``k`` float64 as an (n, k) array in one copy, or None if any row is
+    not packed (JSON of an earlier version)."""
+    try:
+        buf = b"".join(values)
+    except TypeError:
+        return None
+    if len(buf) != 8 * n * k:
+        return None
+    return np.frombuffer(buf, dtype="<f8").reshape(n, k).astype(float)
+
+
 def load_arrays(db, study_id, paths, names):
     """Every stored run of a study as arrays, ordered by run index.
 
@@ -191,15 +203,12 @@ def load_arrays(db, study_id, paths, names):
     errors = [r[3] for r in rows]
     pv = [r[1] for r in rows]
     mv = [r[2] for r in rows]
-    if all(isinstance(v, bytes) and len(v) == 8 * k for v in pv):   # the packed format: one copy
-        P = np.frombuffer(b"".join(pv), dtype="<f8").reshape(n, k).astype(float)
-    else:
+    P = _packed(pv, n, k)
+    if P is None:   # rows of an earlier version (JSON)
         P = np.array([_vector(v, paths) for v in pv], float).reshape(n, k)
     nan_row = np.full(m, np.nan).tobytes()
-    if all(v is None or (isinstance(v, bytes) and len(v) == 8 * m) for v in mv):
-        M = np.frombuffer(b"".join(nan_row if v is None else v for v in mv), dtype="<f8") \
-            .reshape(n, m).astype(float)
-    else:
+    M = _packed([nan_row if v is None else v for v in mv], n, m)
+    if M is None:
         M = np.array([np.full(m, np.nan) if v is None else _vector(v, names) for v in mv],
                      float).reshape(n, m)
     return RunBlock(idx, P, M, errors)

@@ -621,7 +621,7 @@ def test_kill_9_of_the_server_leaves_no_worker_and_the_study_resumes(tmp_path):
 
     import json as _json
     db = tmp_path / "kill.sqlite3"
-    n = 4000
+    n = 6000   # several seconds of work: the kill lands mid-study even on a fast machine
     body = _json.dumps(study_body(samples=n, seed=2, scheduler="local", workers=2)).encode()
 
     def start():

@@ -1,5 +1,6 @@
 """Robustness studies: definition checks, metrics, sampling, local pool, Dask LocalCluster,
 killed workers, interrupted and resumed studies, results and sensitivity."""
+import contextlib
 import json
 import math
 import multiprocessing
@@ -101,8 +102,8 @@ BAD = [
     (lambda d: d.update(samples=0), "samples"),
     (lambda d: d.update(samples=None), "samples"),
     (lambda d: d.update(samples=2.5), "samples"),
-    (lambda d: d.update(parameters={"jack.bore": {"grid": list(np.linspace(0.02, 0.04, 400))},
-                                    "jack.moving_mass": {"grid": list(np.linspace(1, 3, 400))}}),
+    (lambda d: d.update(parameters={"jack.bore": {"grid": list(np.linspace(0.02, 0.04, 1001))},
+                                    "jack.moving_mass": {"grid": list(np.linspace(1, 3, 1001))}}),
      "parameters"),
     (lambda d: d.update(parameters={"jack.bore": {"grid": [0.03, 0.032]}}, samples=5), "samples"),
     (lambda d: d.update(parameters={}), "parameters"),
@@ -124,7 +125,7 @@ def no_work(monkeypatch):
 
     def forbidden(*a, **k):
         raise AssertionError("work started before the input was checked")
-    for name in ("_LocalEngine", "_DaskEngine", "_InlineEngine", "run_batch", "simulate"):
+    for name in ("_LocalEngine", "_DaskEngine", "_InlineEngine", "run_batch", "run_block", "simulate"):
         monkeypatch.setattr(ex, name, forbidden)
 
 
@@ -619,3 +620,20 @@ def test_dask_failure_ends_interrupted_and_resumes(tmp_path, lone_cluster, refer
     out = run_study(None, db, workers=0, study_id="d1")
     assert out["status"] == "done" and out["computed"] == 40 - st["stored"]
     assert runs_of(db, "d1") == reference
+
+
+def test_store_still_reads_runs_written_as_json_by_earlier_versions(tmp_path):
+    """Runs are stored as packed float64 vectors now; a store whose rows hold the JSON objects
+    of earlier versions reads to the same numbers (JSON floats round-trip exactly)."""
+    db = str(tmp_path / "s.sqlite3")
+    run_study(short_study(samples=4), db, workers=0, study_id="old")
+    ref = study_results(db, "old")
+    with contextlib.closing(sqlite3.connect(db)) as c, c:
+        for i in (1, 3):
+            params = {p: ref["runs"]["params"][p][i] for p in ref["runs"]["params"]}
+            metrics = {m: ref["runs"]["metrics"][m][i] for m in ref["runs"]["metrics"]}
+            c.execute("UPDATE study_runs SET params=?, metrics=? WHERE study_id='old' AND run_index=?",
+                      (json.dumps(params), json.dumps(metrics), i))
+        assert c.execute("SELECT typeof(params) FROM study_runs WHERE run_index=1").fetchone()[0] == "text"
+    again = study_results(db, "old")
+    assert again["runs"] == ref["runs"] and again["metrics"] == ref["metrics"]
