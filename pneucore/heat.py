@@ -171,7 +171,7 @@ def natural_convection_coefficient(p, T, T_wall, D, r, cp):
     the textbook order of magnitude for free convection in gases:
 
     >>> round(natural_convection_coefficient(1e5, 315.0, 295.0, 0.2, 287.05, 1004.7), 2)
-    3.65
+    4.11
     """
     T_f = 0.5 * (T + T_wall)
     rho = p / (r * T_f)
@@ -221,7 +221,7 @@ def jet_convection_coefficient(q_in, d_in, T, D):
     h of several tens of W/(m^2 K), ten times the natural convection:
 
     >>> round(jet_convection_coefficient(1e-3, 2.71e-3, 295.0, 0.2), 1)
-    63.6
+    65.3
     """
     if q_in <= 0.0:
         return 0.0

@@ -216,3 +216,13 @@ def test_orifice_conductance_matches_the_nozzle_choked_flow():
     iso = orifice_conductance(d, Cd) * RHO_REF * p * math.sqrt(T_REF / T)
     nozzle = Cd * math.pi * d * d / 4 * p * math.sqrt(g / (r * T)) * (2 / (g + 1)) ** ((g + 1) / (2 * (g - 1)))
     assert iso == pytest.approx(nozzle, rel=1e-12)
+
+
+@pytest.mark.parametrize("module", ["pneucore.heat", "pneucore.gas", "pneucore.vessel"])
+def test_worked_examples_in_the_docstrings(module):
+    """The docstrings' examples (Churchill-Chu, Sutherland against the tables, Eq. 9, the
+    orifice's conductance) run as doctests."""
+    import doctest
+    import importlib
+    res = doctest.testmod(importlib.import_module(module))
+    assert res.attempted > 0 and res.failed == 0
