@@ -366,10 +366,13 @@ class HeatModel:
         One line
     fixed, natural, jet : bool
         Which terms of the core's law (module docstring) the model switches on
+    fit_parameters : tuple of str
+        The exchange parameters a calibration of this model fits
+        (:func:`pneucore.heat_compare.compare_heat_models`)
     """
 
     def __init__(self, name, func, isothermal, parameters, description, fixed=False,
-                 natural=False, jet=False):
+                 natural=False, jet=False, fit_parameters=()):
         self.name = name
         self.func = func
         self.isothermal = isothermal
@@ -378,6 +381,7 @@ class HeatModel:
         self.fixed = fixed
         self.natural = natural
         self.jet = jet
+        self.fit_parameters = tuple(fit_parameters)
 
     @property
     def uses_coefficient(self):
@@ -478,15 +482,16 @@ HEAT_MODELS = {m.name: m for m in (
     HeatModel("adiabatic", adiabatic_heat_flow, False, _SENSOR,
               "no heat exchange with the walls"),
     HeatModel("convective", convective_heat_flow, False, ("coefficient",) + _WALL + _SENSOR,
-              "fixed-coefficient convection to the walls, paper Eq. 9", fixed=True),
+              "fixed-coefficient convection to the walls, paper Eq. 9", fixed=True,
+              fit_parameters=("coefficient",)),
     HeatModel("natural_convection", natural_convection_coefficient, False,
               ("natural_multiplier",) + _WALL + _SENSOR,
               "natural convection in a horizontal cylinder of the bore's diameter (Churchill & Chu "
               "1975), air's properties at the chamber's pressure and film temperature",
-              natural=True),
+              natural=True, fit_parameters=("natural_multiplier",)),
     HeatModel("natural_and_jet", jet_convection_coefficient, False,
               ("natural_multiplier", "jet_multiplier", "inlet_diameter") + _WALL + _SENSOR,
               "natural convection plus the forced convection of the inflow jet while gas enters "
               "(Woodfield, Monde & Mitsutake 2007: Nu = 0.56 Re^0.67 + Nu_natural)",
-              natural=True, jet=True),
+              natural=True, jet=True, fit_parameters=("natural_multiplier", "jet_multiplier")),
 )}
