@@ -1,6 +1,5 @@
 """GET /api/heat-models, POST /api/heat-models/simulate and /api/heat-models/compare."""
 import numpy as np
-import pytest
 
 from api_conftest import assert_field_error, client, db_path, model, scenario, wait_job  # noqa: F401
 from pneucore import simulate

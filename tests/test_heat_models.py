@@ -7,7 +7,6 @@ correlation (h ~ Ra^(1/3) ~ p^(2/3)), equalities between two routes to the same
 physics (a heat model and the catalog effect that adds the same term), and the
 end state of a chamber emptied into a vacuum line (its pressure).
 """
-import copy
 import math
 
 import numpy as np
