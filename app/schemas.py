@@ -12,7 +12,7 @@ from typing import Any, Literal, Optional, Union
 from pydantic import BaseModel, ConfigDict, Field
 from pydantic.fields import FieldInfo
 
-from pneucore.heat import HEAT_PARAMETERS
+from pneucore.heat import HEAT_MODELS, HEAT_PARAMETERS
 
 Number = float
 
@@ -56,7 +56,7 @@ class SourceIn(_Strict):
 
 
 class HeatIn(_Strict):
-    model: str = Field("convective", description="Heat model by name (GET /api/heat-models): isothermal, adiabatic, convective (Eq. 9), natural_convection, natural_and_jet [-]")
+    model: str = Field("convective", description=f"Heat model by name (GET /api/heat-models): {', '.join(HEAT_MODELS)} [-]")
     coefficient: Number = Field(25.0, description="Convection coefficient h of Eq. 9 [W/(m^2 K)]")
 
 

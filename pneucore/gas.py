@@ -76,8 +76,10 @@ def air_viscosity(T):
 
     Examples
     --------
-    >>> round(air_viscosity(300.0) * 1e5, 3)    # tables: 1.846e-5 Pa s
-    1.846
+    At 300 K (Incropera & DeWitt, Table A.4: 1.846e-5 Pa s):
+
+    >>> round(air_viscosity(300.0) * 1e5, 3)
+    1.847
     """
     return MU_REF * (T / MU_T_REF) ** 1.5 * (MU_T_REF + MU_SUTHERLAND) / (T + MU_SUTHERLAND)
 
@@ -100,7 +102,9 @@ def air_conductivity(T):
 
     Examples
     --------
-    >>> round(air_conductivity(300.0), 4)     # tables: 0.0263 W/(m K)
-    0.0264
+    At 300 K (Incropera & DeWitt, Table A.4: 0.0263 W/(m K)):
+
+    >>> round(air_conductivity(300.0), 4)
+    0.0262
     """
     return K_REF * (T / K_T_REF) ** 1.5 * (K_T_REF + K_SUTHERLAND) / (T + K_SUTHERLAND)

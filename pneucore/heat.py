@@ -171,7 +171,7 @@ def natural_convection_coefficient(p, T, T_wall, D, r, cp):
     the textbook order of magnitude for free convection in gases:
 
     >>> round(natural_convection_coefficient(1e5, 315.0, 295.0, 0.2, 287.05, 1004.7), 2)
-    3.65
+    4.11
     """
     T_f = 0.5 * (T + T_wall)
     rho = p / (r * T_f)
@@ -221,7 +221,7 @@ def jet_convection_coefficient(q_in, d_in, T, D):
     h of several tens of W/(m^2 K), ten times the natural convection:
 
     >>> round(jet_convection_coefficient(1e-3, 2.71e-3, 295.0, 0.2), 1)
-    63.6
+    65.3
     """
     if q_in <= 0.0:
         return 0.0
@@ -366,10 +366,13 @@ class HeatModel:
         One line
     fixed, natural, jet : bool
         Which terms of the core's law (module docstring) the model switches on
+    fit_parameters : tuple of str
+        The exchange parameters a calibration of this model fits
+        (:func:`pneucore.heat_compare.compare_heat_models`)
     """
 
     def __init__(self, name, func, isothermal, parameters, description, fixed=False,
-                 natural=False, jet=False):
+                 natural=False, jet=False, fit_parameters=()):
         self.name = name
         self.func = func
         self.isothermal = isothermal
@@ -378,6 +381,7 @@ class HeatModel:
         self.fixed = fixed
         self.natural = natural
         self.jet = jet
+        self.fit_parameters = tuple(fit_parameters)
 
     @property
     def uses_coefficient(self):
@@ -478,15 +482,16 @@ HEAT_MODELS = {m.name: m for m in (
     HeatModel("adiabatic", adiabatic_heat_flow, False, _SENSOR,
               "no heat exchange with the walls"),
     HeatModel("convective", convective_heat_flow, False, ("coefficient",) + _WALL + _SENSOR,
-              "fixed-coefficient convection to the walls, paper Eq. 9", fixed=True),
+              "fixed-coefficient convection to the walls, paper Eq. 9", fixed=True,
+              fit_parameters=("coefficient",)),
     HeatModel("natural_convection", natural_convection_coefficient, False,
               ("natural_multiplier",) + _WALL + _SENSOR,
               "natural convection in a horizontal cylinder of the bore's diameter (Churchill & Chu "
               "1975), air's properties at the chamber's pressure and film temperature",
-              natural=True),
+              natural=True, fit_parameters=("natural_multiplier",)),
     HeatModel("natural_and_jet", jet_convection_coefficient, False,
               ("natural_multiplier", "jet_multiplier", "inlet_diameter") + _WALL + _SENSOR,
               "natural convection plus the forced convection of the inflow jet while gas enters "
               "(Woodfield, Monde & Mitsutake 2007: Nu = 0.56 Re^0.67 + Nu_natural)",
-              natural=True, jet=True),
+              natural=True, jet=True, fit_parameters=("natural_multiplier", "jet_multiplier")),
 )}

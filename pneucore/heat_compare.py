@@ -3,7 +3,7 @@
 :func:`simulate_heat_models` runs a scenario under each heat model of
 :data:`pneucore.heat.HEAT_MODELS` (the model's other heat parameters kept).
 :func:`compare_heat_models` calibrates each heat model on its own parameters
-(:attr:`HeatModel.fit_parameters <pneucore.heat.HeatModel>`, optionally with
+(``HEAT_MODELS[name].fit_parameters``, optionally with
 the gas-temperature sensor's time constant) against the same measurements
 and tabulates pressure errors (paper Eq. 25) and gas-temperature errors (rms
 [K] and Eq. 25) per model.
@@ -22,16 +22,6 @@ from .metrics import eq25_error
 from .model import Model
 from .simulate import simulate
 from .validation import FieldError
-
-#: Parameters each heat model is calibrated on (its exchange parameters)
-FIT_PARAMETERS = {
-    "isothermal": (),
-    "adiabatic": (),
-    "convective": ("coefficient",),
-    "natural_convection": ("natural_multiplier",),
-    "natural_and_jet": ("natural_multiplier", "jet_multiplier"),
-}
-
 
 def check_names(names, path="heat_models"):
     """Validate a list of heat-model names (None = all, in registry order); returns a tuple."""
@@ -114,7 +104,7 @@ def compare_heat_models(model, experiments, names=None, sensor=False, max_nfev=6
     for k, name in enumerate(names):
         report(k / len(names), f"heat model {name}")
         m = with_heat_model(model, name)
-        fit = list(FIT_PARAMETERS.get(name, ()))
+        fit = list(HEAT_MODELS[name].fit_parameters)
         if sensor and "sensor_time_constant" in HEAT_MODELS[name].parameters:
             fit.append("sensor_time_constant")
         params = {}

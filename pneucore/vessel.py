@@ -32,6 +32,12 @@ from .gas import GAMMA_AIR, R_AIR, RHO_REF, T_REF
 #: Density of steel [kg/m^3] and its specific heat [J/(kg K)] (values of the data's README)
 STEEL_DENSITY, STEEL_SPECIFIC_HEAT = 7800.0, 500.0
 
+#: The published test (shared/data/vessel-filling/README.md): inner diameter, length and wall
+#: thickness [m], orifice diameter [m] and discharge coefficient [-], initial pressure [Pa],
+#: atmosphere [Pa] and temperature [K] (the vessel starts at it)
+FILLING_TEST = {"diameter": 0.20, "length": 0.515, "wall": 8.18e-3, "orifice": 2.71e-3, "Cd": 0.84,
+                "p0": 3.7e3, "p_atm": 1.00e5, "T_atm": 295.0}
+
 
 def orifice_conductance(d, Cd, r=R_AIR, gamma=GAMMA_AIR):
     """Sonic conductance of a sharp orifice with the choked flow of the ideal nozzle.
@@ -162,10 +168,11 @@ def filling_test(data_dir, heat=None):
     experiment : dict
         Experiment JSON (measurement inline, locked scenario, initial state)
     """
-    D, L, e = 0.20, 0.515, 8.18e-3
+    g = FILLING_TEST
+    D, L = g["diameter"], g["length"]
     volume = math.pi * D * D / 4.0 * L
     area = math.pi * D * L + 2.0 * math.pi * D * D / 4.0
-    model = vessel_model(volume, D, area, 2.71e-3, 0.84, 1.00e5, 295.0, heat,
+    model = vessel_model(volume, D, area, g["orifice"], g["Cd"], g["p_atm"], g["T_atm"], heat,
                          name="vessel-filling (Thorncroft et al. 2007)")
     _, p = _read_csv(os.path.join(data_dir, "pressure.csv"))
     _, T = _read_csv(os.path.join(data_dir, "gas_temperature.csv"))
@@ -178,11 +185,12 @@ def filling_test(data_dir, heat=None):
             "p_a": [None if math.isnan(v) else v for v in p_col],
             "T_a": [None if math.isnan(v) else v for v in T_col]}
     exp = {"name": "vessel-filling", "measurement": meas,
-           "scenario": {"locked": True, "x0": 0.0, "initial": {"p_a": 3.7e3, "T_a": 295.0},
+           "scenario": {"locked": True, "x0": 0.0, "initial": {"p_a": g["p0"], "T_a": g["T_atm"]},
                         "solver": {"max_step": 0.5}}}
     return model, exp
 
 
 #: Wall of the published vessel: steel mass from its geometry, steel's specific heat
-VESSEL_WALL = {"wall_mass": cylinder_wall_mass(0.20, 0.515, 8.18e-3),
+VESSEL_WALL = {"wall_mass": cylinder_wall_mass(FILLING_TEST["diameter"], FILLING_TEST["length"],
+                                               FILLING_TEST["wall"]),
                "wall_specific_heat": STEEL_SPECIFIC_HEAT}

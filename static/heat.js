@@ -130,7 +130,7 @@ async function heatCompareAll() {
   await busy(document.getElementById('btn-heat-compare'), async () => {
     try {
       const sensor = document.getElementById('heat-fit-sensor').checked;
-      const res = await api('POST', '/api/heat-models/compare', { model: S.model, experiments: clone(S.experiments.slice(0, 1)), sensor });
+      const res = await api('POST', '/api/heat-models/compare', { model: S.model, experiments: clone(S.experiments), sensor });
       const wrap = document.getElementById('heat-table');
       wrap.textContent = '';
       wrap.append(heatTable(res.models));

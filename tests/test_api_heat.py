@@ -1,8 +1,7 @@
 """GET /api/heat-models, POST /api/heat-models/simulate and /api/heat-models/compare."""
 import numpy as np
-import pytest
 
-from api_conftest import assert_field_error, client, db_path, model, scenario  # noqa: F401
+from api_conftest import assert_field_error, client, db_path, model, scenario, wait_job  # noqa: F401
 from pneucore import simulate
 from pneucore.heat import HEAT_MODELS, HEAT_PARAMETERS
 from pneucore.vessel import vessel_model
@@ -98,3 +97,15 @@ def test_measurement_against_every_heat_model(client):
     assert best["errors"]["p_a"] < 1e-4 and best["temperature_rms"]["T_a"] < 0.05
     assert rows["convective"]["temperature_rms"]["T_a"] > 10 * best["temperature_rms"]["T_a"]
     assert len(d["measured"]["t"]) == len(best["simulated"]["p_a"]) == len(res.t)
+
+    # the same as a job: bad input refused up front, then the same table
+    bad = {"model": start, "experiments": [exp], "heat_models": ["radiative"]}
+    assert_field_error(client.post("/api/heat-models/compare/job", json=bad), "heat_models[0]")
+    r = client.post("/api/heat-models/compare/job", json={
+        "model": start, "experiments": [exp], "heat_models": ["convective", "natural_and_jet"],
+        "max_nfev": 40})
+    assert r.status_code == 202, r.text[:400]
+    job, _ = wait_job(client, r.json()["id"])
+    assert job["status"] == "done", job.get("error")
+    got = {row["name"]: row["errors"]["p_a"] for row in job["result"]["models"]}
+    assert got == {name: row["errors"]["p_a"] for name, row in rows.items()}   # deterministic

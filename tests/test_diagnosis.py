@@ -71,6 +71,13 @@ HIDDEN = {
     "supply_pressure_drop": {"C": 3e-8, "b": 0.3, "volume": 1e-4},
     # 4 ms transducer lag (probe 2 ms)
     "sensor_lag": {"time_constant": 0.004},
+    # Churchill-Chu natural convection at 3x the correlation on top of h = 25 (probe 1x)
+    "natural_convection": {"multiplier": 3.0},
+    # the inflow jet at 0.4x Woodfield's correlation through a 4 mm port (probe 1x)
+    "inflow_jet_convection": {"multiplier": 0.4, "inlet_diameter": 4e-3},
+    # 5 g of wall per chamber (a thin liner, the part of the wall the gas warms within a second;
+    # probe 50 g), steel, 10 W/(m^2 K) outside: heavier walls act over minutes, not in this 1 s test
+    "wall_heat_capacity": {"mass": 0.005, "specific_heat": 500.0, "outer_coefficient": 10.0},
 }
 
 BUILTIN = sorted(n for n, e in EFFECTS.items() if not e.user)

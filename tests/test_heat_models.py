@@ -7,7 +7,6 @@ correlation (h ~ Ra^(1/3) ~ p^(2/3)), equalities between two routes to the same
 physics (a heat model and the catalog effect that adds the same term), and the
 end state of a chamber emptied into a vacuum line (its pressure).
 """
-import copy
 import math
 
 import numpy as np
@@ -216,3 +215,13 @@ def test_orifice_conductance_matches_the_nozzle_choked_flow():
     iso = orifice_conductance(d, Cd) * RHO_REF * p * math.sqrt(T_REF / T)
     nozzle = Cd * math.pi * d * d / 4 * p * math.sqrt(g / (r * T)) * (2 / (g + 1)) ** ((g + 1) / (2 * (g - 1)))
     assert iso == pytest.approx(nozzle, rel=1e-12)
+
+
+@pytest.mark.parametrize("module", ["pneucore.heat", "pneucore.gas", "pneucore.vessel"])
+def test_worked_examples_in_the_docstrings(module):
+    """The docstrings' examples (Churchill-Chu, Sutherland against the tables, Eq. 9, the
+    orifice's conductance) run as doctests."""
+    import doctest
+    import importlib
+    res = doctest.testmod(importlib.import_module(module))
+    assert res.attempted > 0 and res.failed == 0

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from pneucore.heat_compare import compare_heat_models, table
-from pneucore.vessel import VESSEL_WALL, filling_test
+from pneucore.vessel import FILLING_TEST, VESSEL_WALL, filling_test
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT.parent / "shared" / "data" / "vessel-filling"
@@ -24,7 +24,8 @@ pytestmark = pytest.mark.skipif(not (DATA / "pressure.csv").exists(),
                                        f"(shared/ beside the checkout)")
 
 #: The vessel's heat section: the wall (steel, 26 kg) and the inlet of the jet (the orifice)
-HEAT = {"model": "natural_and_jet", "coefficient": 10.0, "inlet_diameter": 2.71e-3, **VESSEL_WALL}
+HEAT = {"model": "natural_and_jet", "coefficient": 10.0, "inlet_diameter": FILLING_TEST["orifice"],
+        **VESSEL_WALL}
 
 
 @pytest.fixture(scope="module")

@@ -1,14 +1,16 @@
-"""GET /api/heat-models, POST /api/heat-models/simulate and /api/heat-models/compare."""
+"""GET /api/heat-models; POST /api/heat-models/simulate, /compare and /compare/job."""
+import time
+
 import numpy as np
-from fastapi import APIRouter
+from fastapi import APIRouter, HTTPException
 
 from pneucore.heat import HEAT_MODELS
 from pneucore.heat_compare import check_names, compare_heat_models, simulate_heat_models
 
-from ..deps import LimitsDep, StoreDep, parse_experiments, parse_model, parse_scenario
+from ..deps import JobsDep, LimitsDep, StoreDep, parse_experiments, parse_model, parse_scenario
+from ..jobs import JobTimeout
 from ..responses import JSON
-from ..schemas import HeatModelsCompareRequest, HeatModelsSimulateRequest
-from .analysis import _deadline
+from ..schemas import HeatModelsCompareRequest, HeatModelsSimulateRequest, JobResponse
 from .simulate import _result
 
 router = APIRouter(prefix="/api/heat-models", tags=["heat"])
@@ -34,17 +36,48 @@ def simulate_endpoint(req: HeatModelsSimulateRequest, limits: LimitsDep):
     return JSON({"runs": {name: _result(res, series) for name, res in runs.items()}})
 
 
+def check_compare(req: HeatModelsCompareRequest, store, limits):
+    """Everything the request can get wrong, checked before any work (422 with the field)."""
+    model = parse_model(req.model)
+    check_names(req.heat_models)
+    return model, parse_experiments(req.experiments, model, store, limits)
+
+
+def run_compare(req: HeatModelsCompareRequest, store, limits, progress=None):
+    model, exps = check_compare(req, store, limits)
+    rows = compare_heat_models(model, exps, req.heat_models, sensor=req.sensor,
+                               max_nfev=min(max(req.max_nfev, 1), 200), progress=progress)
+    meas = exps[0].measurement
+    measured = {"t": np.ascontiguousarray(meas.t - meas.t[0], float),
+                **{s: np.ascontiguousarray(meas.signals[s], float) for s in exps[0].signals}}
+    return {"models": rows, "measured": measured, "experiment": exps[0].name}
+
+
+def _deadline(limits):
+    t0 = time.time()
+
+    def check(fraction, step):
+        if time.time() - t0 > limits.request_time_limit:
+            raise JobTimeout(f"the heat-model comparison exceeded the request time limit of "
+                             f"{limits.request_time_limit:g} s (at step: {step}); use POST "
+                             f"/api/heat-models/compare/job")
+    return check
+
+
 @router.post("/compare", summary="One measurement against every heat model, each calibrated on "
                                  "its own parameters: pressure and temperature errors per model",
              response_class=JSON)
 def compare_endpoint(req: HeatModelsCompareRequest, store: StoreDep, limits: LimitsDep):
-    model = parse_model(req.model)
-    check_names(req.heat_models)
-    exps = parse_experiments(req.experiments, model, store, limits)
-    rows = compare_heat_models(model, exps, req.heat_models, sensor=req.sensor,
-                               max_nfev=min(max(req.max_nfev, 1), 200),
-                               progress=_deadline(limits, "heat-model comparison", "compare"))
-    meas = exps[0].measurement
-    measured = {"t": np.ascontiguousarray(meas.t - meas.t[0], float),
-                **{s: np.ascontiguousarray(meas.signals[s], float) for s in exps[0].signals}}
-    return JSON({"models": rows, "measured": measured, "experiment": exps[0].name})
+    return JSON(run_compare(req, store, limits, progress=_deadline(limits)))
+
+
+@router.post("/compare/job", status_code=202, response_model=JobResponse,
+             summary="The same as a job (progress and result at GET /api/jobs/{id})")
+def compare_job(req: HeatModelsCompareRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep):
+    check_compare(req, store, limits)
+    try:
+        job = jobs.submit("heat-models", lambda job: run_compare(req, store, limits,
+                                                                 progress=job.report))
+    except RuntimeError as exc:
+        raise HTTPException(429, str(exc)) from None
+    return job.to_dict(with_result=False)
