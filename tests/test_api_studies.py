@@ -60,7 +60,7 @@ def studies_api(db, dask_scheduler=None, **limits):
     the database after the test (the app's shutdown does not wait for running jobs).
     ``dask_scheduler``: the server's configured Dask cluster (what $PNEUCORE_DASK_SCHEDULER sets)."""
     app = create_app(Settings(db_path=str(db), limits=Limits(**limits), dask_scheduler=dask_scheduler))
-    with TestClient(app, raise_server_exceptions=False) as c:
+    with TestClient(app, base_url="http://127.0.0.1", raise_server_exceptions=False) as c:
         try:
             yield c
         finally:
