@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 from numba import njit
@@ -261,3 +262,23 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
         raise SimulationError(f"simulation stopped at t = {t_reached:.6g} s: {STATUS_MESSAGES[status]}",
                               res)
     return res
+
+
+def warm_up():
+    """Compile the core, or load it from numba's on-disk cache, with one short simulation.
+
+    Meant for a background thread at a service's start (``app.main``): the
+    first compile takes seconds, and a user's first request then finds it done
+    or in progress. numba serialises compilation, so a :func:`simulate` called
+    meanwhile waits for this one instead of compiling again.
+
+    Returns
+    -------
+    seconds : float  Wall time taken [s]
+    """
+    from .presets import model_preset, scenario_preset
+    t0 = time.perf_counter()
+    scenario = scenario_preset("paper-fig10-pulses")
+    scenario.update(duration=0.01, sample_period=0.001)
+    simulate(model_preset("paper-4way"), scenario)
+    return time.perf_counter() - t0
