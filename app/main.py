@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import os
 import re
-import threading
 from contextlib import asynccontextmanager
 from pathlib import Path
 
@@ -18,7 +17,7 @@ from fastapi.responses import FileResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 
 from pneucore.measurement import MeasurementError
-from pneucore.simulate import SimulationError, warm_up
+from pneucore.simulate import SimulationError, start_warm_up
 from pneucore.validation import FieldError
 
 from .config import Settings
@@ -53,7 +52,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI):
         # compile (or load) the simulator in the background while the service starts
-        threading.Thread(target=warm_up, name="pneucore-warm-up", daemon=True).start()
+        start_warm_up()
         store = Store(settings.db_path)
         if settings.seed_samples:
             store.seed_samples()

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import threading
 import time
 
 import numpy as np
@@ -282,3 +283,17 @@ def warm_up():
     scenario.update(duration=0.01, sample_period=0.001)
     simulate(model_preset("paper-4way"), scenario)
     return time.perf_counter() - t0
+
+
+def start_warm_up():
+    """Run :func:`warm_up` in a daemon thread, unless the core is already compiled here.
+
+    Returns
+    -------
+    thread : threading.Thread or None  The started thread (None when nothing to do)
+    """
+    if integrate.overloads:
+        return None
+    thread = threading.Thread(target=warm_up, name="pneucore-warm-up", daemon=True)
+    thread.start()
+    return thread
