@@ -82,13 +82,14 @@ def summary(lat_s):
 class Server:
     """``uvicorn app.main:app`` in a subprocess on a temporary database."""
 
-    def __init__(self, port, db_path, log_path):
+    def __init__(self, port, db_path, log_path, http="auto", loop="auto"):
         env = dict(os.environ, PNEUCORE_DB=db_path, PYTHONUNBUFFERED="1")
         env["PYTHONPATH"] = ROOT + os.pathsep + env.get("PYTHONPATH", "")
         self.log = open(log_path, "w")
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "uvicorn", "app.main:app", "--host", "127.0.0.1",
-             "--port", str(port), "--workers", "1", "--log-level", "warning", "--no-access-log"],
+             "--port", str(port), "--workers", "1", "--log-level", "warning", "--no-access-log",
+             "--http", http, "--loop", loop],
             cwd=ROOT, env=env, stdout=self.log, stderr=subprocess.STDOUT)
         self.url = f"http://127.0.0.1:{port}"
 
@@ -167,7 +168,8 @@ def run(args):
     out["load"] = [_load()]
     tmp = tempfile.mkdtemp(prefix="pneucore-bench-api-")
     db, log = os.path.join(tmp, "bench.sqlite3"), os.path.join(tmp, "uvicorn.log")
-    server = Server(free_port(), db, log)
+    server = Server(free_port(), db, log, args.http, args.loop)
+    out["uvicorn"] = {"http": args.http, "loop": args.loop}
     try:
         limits = httpx.Limits(max_connections=args.clients + 4, max_keepalive_connections=args.clients + 4)
         with httpx.Client(timeout=120.0, limits=limits) as c:
@@ -240,7 +242,8 @@ def report(out):
           f"{out['case']['model']} + {out['case']['scenario']} (all default series)")
     print(f"machine: {m['cpu']}, {m['cores']} cores ({m['usable_cores']} usable), {m['platform']}")
     print(f"         python {m['python']}, numpy {m['numpy']}, numba {m['numba']}, "
-          f"fastapi {m['fastapi']}, uvicorn {m['uvicorn']} (1 worker), httpx {m['httpx']}")
+          f"fastapi {m['fastapi']}, uvicorn {m['uvicorn']} (1 worker, http {out['uvicorn']['http']}, "
+          f"loop {out['uvicorn']['loop']}), httpx {m['httpx']}")
     print(f"server ready in {out['startup_s']:.2f} s; first request {out['first_request_s'] * 1e3:.0f} ms; "
           f"response {out['response_bytes'] / 1e3:.0f} kB")
     s = out["sequential"]
@@ -271,6 +274,9 @@ def main(argv=None):
     ap.add_argument("--clients", type=int, default=20, help="concurrent clients (20)")
     ap.add_argument("--per-client", type=int, default=10, help="requests per concurrent client (10)")
     ap.add_argument("--warmup", type=int, default=10, help="warm-up requests (10)")
+    ap.add_argument("--http", default="auto", help="uvicorn's HTTP protocol: auto (httptools when "
+                    "installed, as python -m app), httptools or h11")
+    ap.add_argument("--loop", default="auto", help="uvicorn's event loop: auto, uvloop or asyncio")
     args = ap.parse_args(argv)
     out = run(args)
     report(out)

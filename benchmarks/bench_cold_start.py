@@ -11,7 +11,8 @@ since on a shared machine the compile time scales with the load):
 * **first simulation, empty cache**: ``import pneucore`` then the first
   :func:`pneucore.simulate` of ``paper-4way`` + ``paper-fig10-pulses`` with
   ``NUMBA_CACHE_DIR`` pointing at an empty temporary directory (compile + run),
-  ``--repeat`` times; then the same with the cache just written (load + run);
+  ``--repeat`` times, wall and CPU time (the CPU time depends less on the
+  load: compare builds by it); then the same with the cache just written;
 * **import app.main** (the web app, cache warm);
 * **first API answer**: ``python -m app`` launched with an empty cache, then
   ``POST /api/simulate`` as soon as it answers ``/api/limits``: seconds from the
@@ -52,10 +53,12 @@ t0 = time.perf_counter()
 import pneucore
 from pneucore import simulate, model_preset, scenario_preset
 t1 = time.perf_counter()
+c1 = time.process_time()
 res = simulate(model_preset({model!r}), scenario_preset({scenario!r}))
 t2 = time.perf_counter()
-print(json.dumps({{"import_s": t1 - t0, "first_call_s": t2 - t1, "steps": res.stats["steps"],
-                  "file": pneucore.__file__}}))
+c2 = time.process_time()
+print(json.dumps({{"import_s": t1 - t0, "first_call_s": t2 - t1, "first_call_cpu_s": c2 - c1,
+                  "steps": res.stats["steps"], "file": pneucore.__file__}}))
 """
 
 _IMPORT_APP = r"""
@@ -211,8 +214,8 @@ def main(argv=None):
     out["first_simulation"] = sims
     cold = sorted(d["first_call_s"] for d in sims["cold"])
     for d in sims["cold"]:
-        print(f"first simulation, empty cache: {d['first_call_s']:6.2f} s (import {d['import_s']:.2f} s)"
-              f"   load {d['load']:.1f}")
+        print(f"first simulation, empty cache: {d['first_call_s']:6.2f} s (import {d['import_s']:.2f} s; "
+              f"CPU time {d['first_call_cpu_s']:.2f} s)   load {d['load']:.1f}")
     for d in sims["cached"]:
         print(f"first simulation, cached:      {d['first_call_s']:6.2f} s (import {d['import_s']:.2f} s)"
               f"   load {d['load']:.1f}")
