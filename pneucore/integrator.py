@@ -49,8 +49,9 @@ different code (results are bit-for-bit those of the wrapped build):
 * integer counters first assigned a constant are typed ``int64`` up front
   (``locals``), so no callee is compiled a second time for a literal type.
 
-Together: 50 instead of 54 compilations, none with wrappers below ``integrate``;
-about 25 % less compile CPU time (``benchmarks/bench_cold_start.py``).
+Together about 20 % less CPU time for the first compile (12.5 to 9.9 s on
+average over three pairs on the shared 2-core machine, load 7-11;
+``benchmarks/bench_cold_start.py``).
 """
 import math
 
@@ -813,15 +814,17 @@ def specialize(hook):
     -------
     integrate : numba dispatcher  Same signature as :func:`integrate`
     """
+    from . import rhs as rhs_module
+
     if hook in _SPECIALIZED:
         return _SPECIALIZED[hook]
-    # the names of the core's right-hand side (its callees without wrappers, see
-    # _without_wrappers), with the hook rebound
-    base = rhs.py_func.__globals__
-    rhs_globals = dict(base)
+    # the rhs module's own names: the component laws as published, each cached on disk
+    # (a process that loaded the default core from the cache has not compiled the
+    # wrapper-less copies, and these would be compiled afresh in every process)
+    rhs_globals = dict(rhs_module.__dict__)
     rhs_globals["user_terms"] = hook
-    rhs_globals["call_user_terms"] = _clone(base["call_user_terms"], rhs_globals)
-    rhs_globals["rhs"] = _clone(base["rhs"], rhs_globals)
+    rhs_globals["call_user_terms"] = _clone(rhs_module.call_user_terms, rhs_globals)
+    rhs_globals["rhs"] = _clone(rhs_module.rhs, rhs_globals)
     glb = dict(globals())
     glb["rhs"] = rhs_globals["rhs"]
     for name in ("_feval", "_rodas_step", "_jacobian", "_resting_aux", "_settle", "_transition",
