@@ -18,7 +18,7 @@ from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from pneucore.measurement import MeasurementError
-from pneucore.simulate import SimulationError
+from pneucore.simulate import SimulationError, start_warm_up
 from pneucore.validation import FieldError
 
 from .bodies import BodyLimit
@@ -55,6 +55,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
+        # compile (or load) the simulator in the background while the service starts
+        start_warm_up()
         store = Store(settings.db_path)
         if settings.seed_samples:
             store.seed_samples()

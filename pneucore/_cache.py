@@ -7,7 +7,7 @@ after an edit of ``flow.py`` alone numba would load a stale ``integrate``
 from its cache and the edit would have no effect. At import,
 :func:`check` compares a hash of every module of the package with a stamp
 kept in the cache directory; on a mismatch it removes pneucore's cache
-entries, and the next call compiles afresh (about 11 s).
+entries, and the next call compiles afresh (about 10 s of CPU time).
 """
 import hashlib
 import os

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import math
+import threading
+import time
 
 import numpy as np
 from numba import njit
@@ -278,3 +280,37 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
         raise SimulationError(f"simulation stopped at t = {t_reached:.6g} s: {STATUS_MESSAGES[status]}",
                               res)
     return res
+
+
+def warm_up():
+    """Compile the core, or load it from numba's on-disk cache, with one short simulation.
+
+    Meant for a background thread at a service's start (``app.main``): the
+    first compile takes seconds, and a user's first request then finds it done
+    or in progress. numba serialises compilation, so a :func:`simulate` called
+    meanwhile waits for this one instead of compiling again.
+
+    Returns
+    -------
+    seconds : float  Wall time taken [s]
+    """
+    from .presets import model_preset, scenario_preset
+    t0 = time.perf_counter()
+    scenario = scenario_preset("paper-fig10-pulses")
+    scenario.update(duration=0.01, sample_period=0.001)
+    simulate(model_preset("paper-4way"), scenario)
+    return time.perf_counter() - t0
+
+
+def start_warm_up():
+    """Run :func:`warm_up` in a daemon thread, unless the core is already compiled here.
+
+    Returns
+    -------
+    thread : threading.Thread or None  The started thread (None when nothing to do)
+    """
+    if integrate.overloads:
+        return None
+    thread = threading.Thread(target=warm_up, name="pneucore-warm-up", daemon=True)
+    thread.start()
+    return thread
