@@ -145,7 +145,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits")
     def limits():
-        return settings.limits.to_dict()
+        # the limits, and the deployment settings a client needs to know (README: shared server)
+        return {**settings.limits.to_dict(), "allowed_hosts": list(settings.allowed_hosts),
+                "token_required": settings.token is not None}
 
     @app.get("/api/samples", tags=["meta"], summary="Sample datasets shipped with the tool")
     def samples():
