@@ -83,7 +83,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                               "missing physics, calibrate. SI units, absolute pressures.")
     app.state.settings = settings
 
-    # outermost first: the guard answers bad hosts, origins and tokens before a body is read
+    # the last added is outermost: the guard answers bad hosts, origins and tokens before a body is read
     app.add_middleware(BodyLimit, limit=settings.limits.max_upload_bytes)
     app.add_middleware(Guard, allowed_hosts=settings.allowed_hosts, token=settings.token)
 

@@ -102,17 +102,26 @@ def _leaves(obj, path=()):
 
 
 def _mutate(doc, rng):
+    """One hostile change: a value replaced, a key deleted, renamed or added.
+
+    Shallow fields (request options, parameter paths, effect names) are picked
+    more often than the leaves of the model, which are many but alike.
+    """
     doc = copy.deepcopy(doc)
     paths = [p for p, _ in _leaves(doc) if p]
-    p = rng.choice(paths)
+    shallow = [p for p in paths if len(p) <= 2]
+    p = rng.choice(shallow if rng.random() < 0.4 else paths)
     parent = doc
     for k in p[:-1]:
         parent = parent[k]
     roll = rng.random()
+    names = [h for h in HOSTILE if isinstance(h, str)]
     if roll < 0.1 and isinstance(parent, dict):
         del parent[p[-1]]
-    elif roll < 0.2 and isinstance(parent, dict):
-        parent[rng.choice(["jack.area_a", "extra", "__proto__"])] = rng.choice(HOSTILE)
+    elif roll < 0.25 and isinstance(parent, dict):   # a key renamed: parameter paths, effects
+        parent[rng.choice(names)] = parent.pop(p[-1])
+    elif roll < 0.35 and isinstance(parent, dict):
+        parent[rng.choice(names)] = rng.choice(HOSTILE)
     else:
         parent[p[-1]] = rng.choice(HOSTILE)
     return doc
@@ -152,6 +161,23 @@ def run_mutations(base_url, n, report, seed=0, excluded=EXCLUDED_PATHS):
         tmpl.append(("POST", f"/api/sessions/{sid}/versions",
                      {"model": tmpl[0][2]["model"], "added": "piston_leakage",
                       "params": {"conductance": 8e-11}, "note": ""}))
+        # every hostile name in every field that names something (parameter paths, effects)
+        names = [h for h in HOSTILE if isinstance(h, str)]
+        sweep = []
+        for method, path, body in tmpl:
+            for name in names:
+                if "parameters" in body:
+                    sweep.append((method, path, {**body, "parameters": {name: {}}}))
+                if "uncertain" in body:
+                    sweep.append((method, path, {**body, "uncertain": [name]}))
+                if "candidates" in body:
+                    sweep.append((method, path, {**body, "candidates": [name]}))
+        for method, path, doc in sweep:
+            r = c.request(method, path, json=doc)
+            report.add(r.status_code)
+            if r.status_code >= 500:
+                report.failures.append(("names", method, path, f"{r.status_code} {r.text[:300]} <- "
+                                                               f"{json.dumps(doc)[-200:]}"))
         for i in range(n):
             method, path, body = tmpl[i % len(tmpl)]
             doc = _mutate(body, rng)
