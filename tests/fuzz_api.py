@@ -152,6 +152,20 @@ def templates(short=True):
     ]
 
 
+@dataclass
+class _Dropped:
+    """A request the server dropped (connection reset, timeout): counted as 599."""
+    text: str
+    status_code: int = 599
+
+
+def _send(c, method, path, text):
+    try:
+        return c.request(method, path, content=text, headers={"content-type": "application/json"})
+    except httpx.TransportError as exc:
+        return _Dropped(f"transport error: {exc!r}")
+
+
 def run_mutations(base_url, n, report, seed=0, excluded=EXCLUDED_PATHS):
     """``n`` requests, each a valid template with one field replaced by hostile JSON."""
     rng = random.Random(seed)
@@ -173,7 +187,7 @@ def run_mutations(base_url, n, report, seed=0, excluded=EXCLUDED_PATHS):
                 if "candidates" in body:
                     sweep.append((method, path, {**body, "candidates": [name]}))
         for method, path, doc in sweep:
-            r = c.request(method, path, json=doc)
+            r = _send(c, method, path, json.dumps(doc))
             report.add(r.status_code)
             if r.status_code >= 500:
                 report.failures.append(("names", method, path, f"{r.status_code} {r.text[:300]} <- "
@@ -182,7 +196,7 @@ def run_mutations(base_url, n, report, seed=0, excluded=EXCLUDED_PATHS):
             method, path, body = tmpl[i % len(tmpl)]
             doc = _mutate(body, rng)
             text = json.dumps(doc)   # NaN/Infinity tokens: what a careless client sends
-            r = c.request(method, path, content=text, headers={"content-type": "application/json"})
+            r = _send(c, method, path, text)
             report.add(r.status_code)
             if r.status_code >= 500:
                 report.failures.append(("mutation", method, path, f"{r.status_code} {r.text[:300]} "
