@@ -103,14 +103,15 @@ def parse_experiments(exps_in, model: Model, store: Store, limits: Limits):
                                         f"{limits.max_analysis_samples}")
     for i, e in enumerate(exps):
         try:
-            scen = e.scenario_for(e.model_for(model))
+            m = e.model_for(model)   # with this experiment's load and supply pressure
+            scen = e.scenario_for(m)
         except FieldError as exc:
             raise prefixed(exc, f"experiments[{i}]") from None
         except MeasurementError as exc:
             exc.where = f"experiments[{i}].measurement"   # the handler places it in the request
             raise
         check_scenario_limits(scen, limits, f"experiments[{i}].scenario")
-        check_resolvable(model, scen.solver.rtol, scen.solver.max_step, "model.jack.moving_mass")
+        check_resolvable(m, scen.solver.rtol, scen.solver.max_step, "model.jack.moving_mass")
     return exps
 
 

@@ -85,7 +85,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                               "missing physics, calibrate. SI units, absolute pressures.")
     app.state.settings = settings
 
-    # outermost first: the guard answers bad hosts, origins and tokens before a body is read
+    # the last added is outermost: the guard answers bad hosts, origins and tokens before a body is read
     app.add_middleware(BodyLimit, limit=settings.limits.max_upload_bytes)
     app.add_middleware(Guard, allowed_hosts=settings.allowed_hosts, token=settings.token)
 
@@ -147,7 +147,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits")
     def limits():
-        return settings.limits.to_dict()
+        # the limits, and the deployment settings a client needs to know (README: shared server)
+        return {**settings.limits.to_dict(), "allowed_hosts": list(settings.allowed_hosts),
+                "token_required": settings.token is not None}
 
     @app.get("/api/samples", tags=["meta"], summary="Sample datasets shipped with the tool")
     def samples():

@@ -2,11 +2,11 @@
 from typing import Any
 
 import orjson
-from fastapi.responses import Response
+from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
 
-class JSON(Response):
+class JSON(JSONResponse):
     """``application/json`` rendered by orjson (numpy arrays serialised, NaN -> null)."""
     media_type = "application/json"
 

@@ -12,7 +12,6 @@ import urllib.request
 from pathlib import Path
 
 import httpx
-import pytest
 
 from api_conftest import LEAK_IDS, model
 from app.jobs import JobManager

@@ -43,7 +43,7 @@ _UPLOAD_DOC = {
         "application/json": {"schema": _json_body_schema()}}}}
 
 
-def _context(fields, meas):
+def _context(fields):
     """The scenario context of an upload (``scenario`` JSON text, ``locked``, ``x0``), validated."""
     scen = {}
     if fields.get("scenario"):
@@ -62,24 +62,20 @@ def _context(fields, meas):
             if isinstance(exc, FieldError):
                 raise
             raise FieldError("x0", f"must be a number, got {fields['x0']!r}") from None
-    return check_context(scen, meas)
+    return check_context(scen)
 
 
-def check_context(scen, meas):
+def check_context(scen):
     """Validate a stored scenario context before anything is committed.
 
-    Every field is checked as a scenario field (types, finiteness, bounds; the
-    command and duration default to the measurement's), so a stored dataset can
-    always be read back and analysed; checks that need a model (``x0`` within the
-    stroke, the command within the valve's range) come when it is used.
+    Every given field is checked as a scenario field (types, finiteness, bounds,
+    no unknown keys), so a stored dataset can always be read back and analysed;
+    fields left out take their defaults when used (the command and duration the
+    measurement's). Checks that need a model (``x0`` within the stroke, the
+    command within the valve's range) come when the dataset is used.
     """
     mapping(scen, "scenario")
-    d = dict(scen)
-    d.setdefault("duration", max(float(meas.t[-1] - meas.t[0]), 1e-9))
-    if len(meas.t) > 1:
-        d.setdefault("sample_period", d["duration"] / (len(meas.t) - 1))
-    d.setdefault("command", [[0.0, float(meas.signals["u"][0])]])
-    Scenario.from_dict(d, None)
+    Scenario.from_dict(dict(scen), None)
     return scen
 
 
@@ -99,7 +95,7 @@ async def _multipart(request: Request, body: bytes, limits):
 def _store_upload(store, text, fields, name, description=""):
     """Parse, validate and store a CSV upload (in a worker thread: it is the slow part)."""
     meas = read_csv(text if "\n" in text else text + "\n", name=name)
-    scen = _context(fields, meas)
+    scen = _context(fields)
     return store.add_dataset(meas, scen, name=name, description=description)
 
 
@@ -108,7 +104,7 @@ def _store_json(store, payload: DatasetJsonIn):
         meas = Measurement.from_dict(payload.measurement.model_dump(exclude_none=True))
     except MeasurementError as exc:
         raise FieldError("measurement", str(exc)) from None
-    scen = check_context(payload.scenario, meas)
+    scen = check_context(payload.scenario)
     return store.add_dataset(meas, scen, name=payload.name or meas.name,
                              description=payload.description)
 
