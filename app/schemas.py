@@ -150,6 +150,7 @@ class ExperimentIn(_Strict):
     dataset_id: Optional[str] = Field(None, description="Stored dataset to use instead of an inline measurement")
     load_force: Optional[Number] = Field(None, description="Load during this experiment [N]")
     supply_pressure: Optional[Number] = Field(None, description="Supply pressure during this experiment [Pa abs]")
+    time_offset: Optional[Number] = Field(None, description="Measurement time at which the model starts (model t = measurement t - offset); null = the measurement's own t = 0, where an initial state given in the scenario applies; at most the first sample's time [s]")
 
 
 class CompareRequest(_Strict):
@@ -185,6 +186,7 @@ class DatasetJsonIn(_Strict):
     description: str = Field("", description="Free text")
     scenario: dict[str, Any] = Field(default_factory=dict, description="Context: locked [-], x0 [m], ...")
     measurement: MeasurementIn = Field(..., description="Measurement (SI units; null = missing)")
+    ambient_pressure: Optional[Number] = Field(None, description="The rig's ambient pressure for gauge columns such as \"p_a[bar(g)]\"; null = the model's default ambient [Pa]")
 
 
 class SessionCreate(_Strict):
@@ -230,3 +232,64 @@ class JobResponse(BaseModel):
     step: str = Field(..., description="Current step")
     error: Optional[str] = Field(None, description="Error message when status is error")
     result: Optional[Any] = Field(None, description="Result when done")
+
+
+# ---------------------------------------------------------------------------- file import
+class ImportConversion(BaseModel):
+    column: str = Field(..., description="Column as written in the file")
+    signal: str = Field(..., description="Signal it was read as (t, u, p_a, p_b, x, v, T_a, T_b)")
+    from_: str = Field(..., alias="from", description="Unit in the file (canonical spelling: barg for bar(g))")
+    to: str = Field(..., description="SI unit stored")
+    ambient_pressure: Optional[Number] = Field(None, description="Ambient pressure added for a gauge unit [Pa]; null = absolute")
+    how: str = Field(..., description="name, alias (Zeit, Time, p_A...) or mapping (the request's columns)")
+
+
+class MissingCells(BaseModel):
+    column: str = Field(..., description="Column as written in the file")
+    count: int = Field(..., description="Number of blank or missing-marker cells (NaN, NA, -...) [-]")
+    rows: list[tuple[int, int]] = Field(..., description="Runs of data rows [first, last], 1-based after the header [-]")
+
+
+class ImportReport(BaseModel):
+    format: str = Field(..., description="csv, tdms, mat or json")
+    encoding: Optional[str] = Field(None, description="Detected text encoding (CSV)")
+    delimiter: Optional[str] = Field(None, description="Detected delimiter (CSV)")
+    decimal: Optional[str] = Field(None, description="Detected decimal mark (CSV): '.' or ','")
+    units_row: Optional[bool] = Field(None, description="A units row was found under the header (CSV)")
+    ambient_pressure: Number = Field(..., description="Ambient pressure used for gauge units [Pa]")
+    conversions: list[ImportConversion] = Field(..., description="Every column read, with its unit conversion")
+    ignored_columns: list[str] = Field(..., description="Columns not read (mapped to null, or simulator-only columns of an export)")
+    missing_cells: list[MissingCells] = Field(..., description="Every blank or missing-marker cell, by column")
+    warnings: list[str] = Field(..., description="Implausible values, e.g. an absolute pressure at rest far below ambient (gauge values?)")
+
+
+class DatasetInfo(BaseModel):
+    id: str = Field(..., description="Dataset id")
+    name: str = Field(..., description="Label")
+    created: float = Field(..., description="Creation time, Unix epoch [s]")
+    n_samples: int = Field(..., description="Number of samples [-]")
+    signals: list[str] = Field(..., description="Measured signals besides u [-]")
+    scenario: dict[str, Any] = Field(..., description="Context: locked [-], x0 [m], ...")
+    description: str = Field("", description="Free text")
+    sample: Optional[str] = Field(None, description="Sample id for the shipped samples, else null")
+
+
+class DatasetCreated(DatasetInfo):
+    import_: Optional[ImportReport] = Field(None, alias="import", description="How the file was read (not stored)")
+
+
+class PreviewColumn(BaseModel):
+    name: str = Field(..., description="Column as written in the file")
+    unit: str = Field(..., description="Unit found in the header, the units row or the file's metadata; empty = none")
+    signal: Optional[str] = Field(None, description="Proposed signal; null = no alias matches")
+
+
+class FilePreview(BaseModel):
+    format: str = Field(..., description="csv, tdms or mat")
+    encoding: Optional[str] = Field(None, description="Detected text encoding (CSV)")
+    delimiter: Optional[str] = Field(None, description="Detected delimiter (CSV)")
+    decimal: Optional[str] = Field(None, description="Detected decimal mark (CSV)")
+    units_row: Optional[bool] = Field(None, description="A units row was found (CSV)")
+    columns: list[PreviewColumn] = Field(..., description="Columns in file order")
+    mapping: dict[str, Optional[str]] = Field(..., description="Proposed mapping, column -> signal or null; send it back as the upload's columns field")
+    rows: list[list[str]] = Field(..., description="The first data rows as text")

@@ -5,7 +5,8 @@ from fastapi import APIRouter, HTTPException, Request
 from ..responses import JSON
 from pydantic import ValidationError
 
-from pneucore.measurement import Measurement, MeasurementError, read_csv
+from pneucore.fileformats import read_measurement
+from pneucore.measurement import DEFAULT_AMBIENT_PRESSURE, Measurement, MeasurementError
 from pneucore.validation import FieldError
 
 from ..deps import LimitsDep, StoreDep, not_found
@@ -13,16 +14,30 @@ from ..schemas import DatasetJsonIn
 
 router = APIRouter(prefix="/api/datasets", tags=["datasets"])
 
+_AMBIENT_DOC = (f"The rig's ambient pressure, added to gauge pressures (bar(g), kPag...) [Pa]; "
+                f"default {DEFAULT_AMBIENT_PRESSURE:g} Pa, the model's default ambient. Form field "
+                "or query parameter")
+_COLUMNS_DOC = ('Column mapping as a JSON object, e.g. {"Zeit": "t", "pA": "p_a[bar(g)]", '
+                '"Kraft": null}: file column -> signal (a unit in brackets overrides the file\'s; '
+                "null ignores the column). Form field or query parameter")
+
 _UPLOAD_DOC = {
     "requestBody": {"content": {
         "multipart/form-data": {"schema": {"type": "object", "properties": {
             "file": {"type": "string", "format": "binary",
-                     "description": "CSV: t[s], u[-], p_a[bar|kPa|Pa|barg...], p_b, x[mm|m], v, T_a[degC|K], T_b"},
+                     "description": "CSV (any delimiter, decimal comma, UTF-8/16 or latin-1, optional "
+                                    "units row), NI TDMS or MATLAB .mat: t[s|ms], u[-|%], "
+                                    "p_a[Pa|kPa|bar|bar(g)|psi(g)...], p_b, x[m|mm|in], v, "
+                                    "T_a[K|degC], T_b, or aliases (Zeit, Time, p_A...)"},
+            "ambient_pressure": {"type": "number", "description": _AMBIENT_DOC},
+            "columns": {"type": "string", "description": _COLUMNS_DOC},
             "name": {"type": "string"}, "description": {"type": "string"},
             "locked": {"type": "boolean", "description": "Piston locked during the test [-]"},
             "x0": {"type": "number", "description": "Initial position [m]"},
             "scenario": {"type": "string", "description": "Scenario context as JSON text"}}}},
         "text/csv": {"schema": {"type": "string"}},
+        "application/octet-stream": {"schema": {"type": "string", "format": "binary",
+                                                "description": "A TDMS, .mat or CSV file"}},
         "application/json": {"schema": DatasetJsonIn.model_json_schema()}}}}
 
 
@@ -36,6 +51,38 @@ async def _read_limited(request: Request, limit: int) -> bytes:
         if len(body) > limit:
             raise HTTPException(413, f"upload exceeds the limit of {limit} bytes")
     return bytes(body)
+
+
+def _ambient(fields) -> float:
+    raw = fields.get("ambient_pressure")
+    if raw in (None, ""):
+        return DEFAULT_AMBIENT_PRESSURE
+    try:
+        p = float(raw)
+    except (TypeError, ValueError):
+        raise FieldError("ambient_pressure", f"must be a number in Pa, got {raw!r}") from None
+    if not (p > 0 and p < float("inf")):
+        raise FieldError("ambient_pressure", f"must be a positive absolute pressure in Pa, got {raw!r}")
+    return p
+
+
+def _columns(fields):
+    raw = fields.get("columns")
+    if raw in (None, ""):
+        return None
+    try:
+        mapping = json.loads(raw)
+    except json.JSONDecodeError as exc:
+        raise FieldError("columns", f"is not valid JSON ({exc})") from None
+    if not isinstance(mapping, dict):
+        raise FieldError("columns", 'must be a JSON object such as {"Zeit": "t"}')
+    return mapping
+
+
+def _read(data, filename, fields, name):
+    meas = read_measurement(data, filename, ambient_pressure=_ambient(fields), name=name,
+                            columns=_columns(fields))
+    return meas
 
 
 def _context(fields):
@@ -73,17 +120,16 @@ async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
         upload = form.get("file")
         if not isinstance(upload, UploadFile):
             raise FieldError("file", "a CSV file field named 'file' is required")
-        text = (await upload.read()).decode("utf-8-sig", errors="replace")
-        fields = {k: v for k, v in form.items() if not isinstance(v, UploadFile)}
+        data = await upload.read()
+        fields = {**request.query_params, **{k: v for k, v in form.items() if not isinstance(v, UploadFile)}}
         name = fields.get("name") or (upload.filename or "upload").rsplit(".", 1)[0]
-        meas = read_csv(text if "\n" in text else text + "\n", name=name)
+        meas = _read(data, upload.filename, fields, name)
         info = store.add_dataset(meas, _context(fields), name=name,
                                  description=fields.get("description", ""))
-    elif ctype.startswith("text/csv") or ctype.startswith("text/plain"):
-        text = body.decode("utf-8-sig", errors="replace")
-        meas = read_csv(text if "\n" in text else text + "\n", name=request.query_params.get("name"))
-        info = store.add_dataset(meas, _context(dict(request.query_params)),
-                                 name=request.query_params.get("name"))
+    elif ctype.startswith(("text/csv", "text/plain", "application/octet-stream")):
+        fields = dict(request.query_params)
+        meas = _read(body, fields.get("filename"), fields, fields.get("name"))
+        info = store.add_dataset(meas, _context(fields), name=fields.get("name"))
     else:
         try:
             payload = DatasetJsonIn.model_validate_json(body)
@@ -91,12 +137,13 @@ async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
             from fastapi.exceptions import RequestValidationError
             raise RequestValidationError([{**e, "loc": ("body",) + tuple(e["loc"])} for e in exc.errors()])
         try:
-            meas = Measurement.from_dict(payload.measurement.model_dump(exclude_none=True))
+            meas = Measurement.from_dict(payload.measurement.model_dump(exclude_none=True),
+                                         ambient_pressure=payload.ambient_pressure or DEFAULT_AMBIENT_PRESSURE)
         except MeasurementError as exc:
             raise FieldError("measurement", str(exc)) from None
         info = store.add_dataset(meas, payload.scenario, name=payload.name or meas.name,
                                  description=payload.description)
-    return info
+    return {**info, "import": meas.meta.get("import")}
 
 
 @router.get("", summary="List stored datasets (metadata only)")
