@@ -55,6 +55,7 @@ __all__ = [
     "propose_mapping",
     "check_mapping",
     "ALIASES",
+    "EXPORT_MARKER",
     "SIGNALS",
     "SIGNAL_UNITS",
     "UNITS",
@@ -452,12 +453,11 @@ temperatures, which is why a plain lower-case alias ``t`` means time."""
 
 _ALIAS_LOOKUP: dict[str, str] = {a: sig for sig, names in ALIASES.items() for a in names}
 
-#: Columns written by :mod:`pneucore.export` that are not measured signals: simulated
-#: states and flows, the model's columns and residuals of a comparison. They are
-#: skipped on upload (and listed as ignored), so an exported file reads back unchanged.
-EXPORT_ONLY_SUFFIXES = ("_model", "_residual")
-EXPORT_ONLY_COLUMNS = ("experiment", "m_a", "m_b", "a", "q_a", "q_b", "friction", "mode",
-                       "u_eff", "p_supply", "q_supply", "net_force")
+#: First comment line of the files :mod:`pneucore.export` writes (and the CLI's ``--csv``). In a
+#: file that carries it, columns that are no signal (simulated masses and flows, a comparison's
+#: ``*_model`` and ``*_residual`` columns) are skipped and listed as ignored, so an export reads
+#: back unchanged; in any other file an unknown column is an error naming it.
+EXPORT_MARKER = "# pneucore"
 
 
 def _split_loose(label: str) -> tuple[str, str | None]:
@@ -552,7 +552,7 @@ def check_mapping(mapping: Any) -> dict[str, str | None]:
 
 
 def _resolve(label: str, unit_row: str | None, mapping: Mapping[str, Any],
-             ambient_pressure: float) -> Conversion | None:
+             ambient_pressure: float, export: bool = False) -> Conversion | None:
     """Conversion for one source column; None when the column is to be ignored.
 
     The unit is, by priority: the one in the mapping's target (``p_a[bar]``),
@@ -581,7 +581,7 @@ def _resolve(label: str, unit_row: str | None, mapping: Mapping[str, Any],
     sig = _ALIAS_LOOKUP.get(name.lower())
     if sig is not None:
         return _unit_of(sig, unit, label, ambient_pressure, "alias")
-    if name in EXPORT_ONLY_COLUMNS or name.endswith(EXPORT_ONLY_SUFFIXES):
+    if export:   # a pneucore export: a simulated or comparison-only column
         return None
     _header_conversion(label, ambient_pressure)   # raises: unknown name, did you mean ...
     raise MeasurementError("cannot read this column name", column=label)  # pragma: no cover
@@ -667,7 +667,8 @@ def _from_columns(columns: list[tuple[str, list]], ambient_pressure: float,
     for j, (label, values) in enumerate(columns):
         unit_row = units[j] if units is not None and j < len(units) else None
         try:
-            conv = _resolve(label, unit_row, mapping, ambient_pressure)
+            conv = _resolve(label, unit_row, mapping, ambient_pressure,
+                            export=bool((report or {}).get("pneucore_export")))
         except MeasurementError as exc:
             if exc.detail.startswith("unknown column name"):
                 exc = MeasurementError(
@@ -1240,6 +1241,7 @@ def read_table(text: str, max_rows: int | None = None) -> CsvTable:
     lines = _LINE_BREAK.split(text)
     kept = [(i + 1, ln) for i, ln in enumerate(lines)
             if ln.strip() and not ln.lstrip().startswith("#")]
+    export = bool(lines) and lines[0].startswith(EXPORT_MARKER)
     if not kept:
         raise MeasurementError("no header line found (the CSV is empty or all comments)")
     header_line, header_text = kept[0]
@@ -1314,6 +1316,8 @@ def read_table(text: str, max_rows: int | None = None) -> CsvTable:
         cols = [[c.replace(",", ".") for c in col] for col in cols]
     dialect = {"delimiter": delimiter, "decimal": "," if decimal_comma else ".",
                "units_row": units is not None}
+    if export:
+        dialect["pneucore_export"] = True
     return CsvTable(header, units, cols, row_lines, dialect)
 
 

@@ -1,6 +1,6 @@
 """POST /api/compare, /api/calibrate, /api/diagnose (synchronous; see /api/jobs for long work)."""
-from fastapi import APIRouter
-from ..responses import JSON
+from fastapi import APIRouter, Request
+from ..responses import JSON, CSV_RESPONSES, csv_response, wants_csv
 
 from pneucore.calibrate import calibrate
 from pneucore.compare import check_heat_models, compare
@@ -52,9 +52,15 @@ def run_diagnose(req: DiagnoseRequest, store, limits, progress=None):
 
 
 @router.post("/compare", summary="Model versus measurements: Eq. 25 errors, phases, worst windows",
-             response_class=JSON)
-def compare_endpoint(req: CompareRequest, store: StoreDep, limits: LimitsDep):
-    return JSON(run_compare(req, store, limits, progress=_deadline(limits, "comparison", "compare")))
+             response_class=JSON, responses=CSV_RESPONSES)
+def compare_endpoint(req: CompareRequest, store: StoreDep, limits: LimitsDep, request: Request):
+    progress = _deadline(limits, "comparison", "compare")
+    if wants_csv(request):
+        from pneucore.export import comparison_csv
+        model, exps = check_compare(req, store, limits)
+        c = compare(model, exps, progress=progress)
+        return csv_response(comparison_csv(c), "comparison.csv")
+    return JSON(run_compare(req, store, limits, progress=progress))
 
 
 @router.post("/calibrate", summary="Fit model parameters (least squares, with standard errors)",

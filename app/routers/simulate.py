@@ -1,6 +1,6 @@
 """POST /api/simulate and /api/simulate/heat-models."""
-from fastapi import APIRouter
-from ..responses import JSON
+from fastapi import APIRouter, Request
+from ..responses import JSON, CSV_RESPONSES, csv_response, wants_csv
 
 from pneucore.compare import check_heat_models, with_heat_model
 from pneucore.simulate import simulate
@@ -31,12 +31,16 @@ def _result(res, series):
 
 
 @router.post("", response_model=SimulateResponse, summary="Simulate a model on a scenario",
-             response_class=JSON)
-def simulate_endpoint(req: SimulateRequest, limits: LimitsDep):
+             response_class=JSON, responses=CSV_RESPONSES)
+def simulate_endpoint(req: SimulateRequest, limits: LimitsDep, request: Request):
     model = parse_model(req.model)
     scen = parse_scenario(req.scenario, model, limits)
     res = simulate(model, scen)
-    return JSON(_result(res, req.series))
+    out = _result(res, req.series)
+    if wants_csv(request):
+        from pneucore.export import simulation_csv
+        return csv_response(simulation_csv(out), "simulation.csv")
+    return JSON(out)
 
 
 @router.post("/heat-models", summary="One scenario under several heat models (paper Fig. 8, 11)",
