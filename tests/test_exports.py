@@ -67,3 +67,33 @@ def test_cli_unknown_model_lists_presets(capsys):
     assert main(["run", "--model", "nosuch"]) == 2
     err = capsys.readouterr().err
     assert "nosuch" in err and "paper-4way" in err and "Errno" not in err
+
+
+def test_comparison_report_is_self_contained(client):
+    body = {"model": model_preset("paper-4way"), "experiments": [{"dataset_id": "sample-clean-free-pulses"}]}
+    r = client.post("/api/reports/compare", json=body)
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/html")
+    page = r.text
+    assert page.count("<svg") >= 6                   # measured/model and residual per signal
+    assert "sample-clean-free-pulses" in page and "Data provenance" in page
+    # offline: no script, no external asset of any kind
+    assert "<script" not in page and "http://" not in page.replace('xmlns="http://www.w3.org/2000/svg"', "")
+    assert "https://" not in page
+
+
+def test_report_escapes_request_text(client):
+    exp = {"name": "<img src=x onerror=alert(1)>", "dataset_id": "sample-clean-locked-hold"}
+    body = {"model": {**model_preset("paper-4way"), "name": "<script>alert(2)</script>"}, "experiments": [exp]}
+    page = client.post("/api/reports/compare", json=body).text
+    assert "<img src=x" not in page and "<script>alert" not in page
+    assert "&lt;img src=x onerror=alert(1)&gt;" in page
+
+
+def test_diagnosis_report_names_the_verdict(client):
+    exps = [{"dataset_id": "sample-leak-and-lag-locked-hold"}, {"dataset_id": "sample-leak-and-lag-free-pulses"}]
+    r = client.post("/api/reports/diagnose", json={"model": model_preset("paper-4way"), "experiments": exps})
+    assert r.status_code == 200, r.text[:500]
+    page = r.text
+    d = client.post("/api/diagnose", json={"model": model_preset("paper-4way"), "experiments": exps}).json()
+    assert f"Verdict: {d['verdict']}" in page and "null" not in page.split("<h2>Model</h2>")[0]
+    assert f"With {d['verdict']} added" in page
