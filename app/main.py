@@ -5,6 +5,7 @@ Run with ``python -m app`` (or ``uvicorn app.main:app``); the SQLite file is
 """
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 from contextlib import asynccontextmanager
@@ -32,6 +33,8 @@ _REPO_STATIC = Path(__file__).resolve().parent.parent / "static"
 STATIC_DIR = _REPO_STATIC if (_REPO_STATIC / "index.html").is_file() \
     else Path(__file__).resolve().parent / "static"
 PLOTLY_JS = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
+#: Swagger UI and ReDoc bundles shipped by the fastapi-offline package (served at /docs-assets)
+DOCS_ASSETS = Path(importlib.util.find_spec("fastapi_offline").origin).parent / "static"
 
 
 def _loc(path: str):
@@ -73,10 +76,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.jobs.shutdown()
         store.close()
 
-    app = FastAPI(title="pneucore", version="0.1.0", lifespan=lifespan,
+    app = FastAPI(title="pneucore", version="0.1.0", lifespan=lifespan, docs_url=None, redoc_url=None,
                   description="Design and validation tool for pneumatic actuators (Maré, Geider & "
                               "Colin model): simulate, compare with measurements, diagnose the "
-                              "missing physics, calibrate. SI units, absolute pressures.")
+                              "missing physics, calibrate. SI units, absolute pressures. Errors "
+                              "(Eq. 25) are fractions, not percent: 0.05 means 5 %.")
     app.state.settings = settings
 
     @app.exception_handler(FieldError)
@@ -138,6 +142,28 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @app.get("/", include_in_schema=False)
     def index():
         return FileResponse(STATIC_DIR / "index.html")
+
+    # /docs and /redoc offline: their assets come from the installed fastapi-offline package
+    @app.get("/docs", include_in_schema=False)
+    def swagger_docs():
+        from fastapi.openapi.docs import get_swagger_ui_html
+        return get_swagger_ui_html(openapi_url=app.openapi_url, title="pneucore API",
+                                   swagger_js_url="/docs-assets/swagger-ui-bundle.js",
+                                   swagger_css_url="/docs-assets/swagger-ui.css",
+                                   swagger_favicon_url="/favicon.ico")
+
+    @app.get("/redoc", include_in_schema=False)
+    def redoc_docs():
+        from fastapi.openapi.docs import get_redoc_html
+        return get_redoc_html(openapi_url=app.openapi_url, title="pneucore API",
+                              redoc_js_url="/docs-assets/redoc.standalone.js",
+                              redoc_favicon_url="/favicon.ico", with_google_fonts=False)
+
+    @app.get("/favicon.ico", include_in_schema=False)
+    def favicon():
+        return FileResponse(STATIC_DIR / "favicon.svg", media_type="image/svg+xml")
+
+    app.mount("/docs-assets", StaticFiles(directory=DOCS_ASSETS), name="docs-assets")
 
     @app.get("/static/plotly.min.js", include_in_schema=False)
     def plotly_js():

@@ -1,10 +1,12 @@
 """Fast JSON responses: numpy arrays and NaN (as null) handled by orjson."""
 import orjson
-from fastapi.responses import Response
+from fastapi.responses import JSONResponse, Response
 
 
-class JSON(Response):
-    """``application/json`` rendered by orjson (numpy arrays serialised, NaN -> null)."""
+class JSON(JSONResponse):
+    """``application/json`` rendered by orjson (numpy arrays serialised, NaN -> null).
+
+    A JSONResponse subclass so that the OpenAPI documents the route's response model."""
     media_type = "application/json"
 
     def render(self, content) -> bytes:

@@ -1027,7 +1027,8 @@ class Measurement:
                 if len(values) != n:
                     raise MeasurementError(
                         f"has {len(values)} values but {t_label!r} has {n}", column=label)
-        return _from_columns(columns, ambient_pressure, name, dict(meta), None)
+        return _from_columns(columns, ambient_pressure, name, dict(meta), None,
+                             report={"format": "json"})
 
     # ----------------------------------------------------------- derived
     def command_breakpoints(self) -> list[list[float]]:

@@ -8,7 +8,8 @@ from pneucore.diagnose import check_request, diagnose
 from pneucore.paths import parse_parameters
 
 from ..deps import LimitsDep, StoreDep, parse_experiments, parse_model
-from ..schemas import CalibrateRequest, CompareRequest, DiagnoseRequest
+from ..schemas import (CalibrateRequest, CalibrateResponse, CompareRequest, CompareResponse,
+                       DiagnoseRequest, DiagnoseResponse)
 
 router = APIRouter(prefix="/api", tags=["analysis"])
 
@@ -52,7 +53,7 @@ def run_diagnose(req: DiagnoseRequest, store, limits, progress=None):
 
 
 @router.post("/compare", summary="Model versus measurements: Eq. 25 errors, phases, worst windows",
-             response_class=JSON, responses=CSV_RESPONSES)
+             response_class=JSON, responses=CSV_RESPONSES, response_model=CompareResponse)
 def compare_endpoint(req: CompareRequest, store: StoreDep, limits: LimitsDep, request: Request):
     progress = _deadline(limits, "comparison", "compare")
     if wants_csv(request):
@@ -64,14 +65,14 @@ def compare_endpoint(req: CompareRequest, store: StoreDep, limits: LimitsDep, re
 
 
 @router.post("/calibrate", summary="Fit model parameters (least squares, with standard errors)",
-             response_class=JSON)
+             response_class=JSON, response_model=CalibrateResponse)
 def calibrate_endpoint(req: CalibrateRequest, store: StoreDep, limits: LimitsDep):
     return JSON(run_calibrate(req, store, limits,
                               progress=_deadline(limits, "calibration", "calibrate")))
 
 
 @router.post("/diagnose", summary="Rank the missing physical effects and name the verdict",
-             response_class=JSON)
+             response_class=JSON, response_model=DiagnoseResponse)
 def diagnose_endpoint(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep):
     return JSON(run_diagnose(req, store, limits, progress=_deadline(limits, "diagnosis", "diagnose")))
 

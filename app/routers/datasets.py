@@ -10,7 +10,7 @@ from pneucore.measurement import DEFAULT_AMBIENT_PRESSURE, Measurement, Measurem
 from pneucore.validation import FieldError
 
 from ..deps import LimitsDep, StoreDep, not_found
-from ..schemas import DatasetJsonIn
+from ..schemas import DatasetCreated, DatasetInfo, DatasetJsonIn, DatasetWithData
 
 router = APIRouter(prefix="/api/datasets", tags=["datasets"])
 
@@ -104,8 +104,8 @@ def _context(fields):
     return scen
 
 
-@router.post("", status_code=201, summary="Store a measurement (CSV upload or JSON)",
-             openapi_extra=_UPLOAD_DOC)
+@router.post("", status_code=201, summary="Store a measurement (CSV, TDMS or .mat upload, or JSON)",
+             openapi_extra=_UPLOAD_DOC, response_model=DatasetCreated, response_model_by_alias=True)
 async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
     ctype = request.headers.get("content-type", "")
     body = await _read_limited(request, limits.max_upload_bytes)
@@ -146,12 +146,13 @@ async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
     return {**info, "import": meas.meta.get("import")}
 
 
-@router.get("", summary="List stored datasets (metadata only)")
+@router.get("", summary="List stored datasets (metadata only)", response_model=list[DatasetInfo])
 def list_datasets(store: StoreDep):
     return store.list_datasets()
 
 
-@router.get("/{dataset_id}", summary="One dataset with its samples", response_class=JSON)
+@router.get("/{dataset_id}", summary="One dataset with its samples", response_class=JSON,
+            response_model=DatasetWithData)
 def get_dataset(dataset_id: str, store: StoreDep):
     info = store.dataset_info(dataset_id)
     if info is None:

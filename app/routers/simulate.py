@@ -7,7 +7,7 @@ from pneucore.simulate import simulate
 from pneucore.validation import FieldError
 
 from ..deps import LimitsDep, parse_model, parse_scenario
-from ..schemas import HeatModelsRequest, SimulateRequest, SimulateResponse
+from ..schemas import HeatModelsRequest, HeatModelsResponse, SimulateRequest, SimulateResponse
 
 router = APIRouter(prefix="/api/simulate", tags=["simulate"])
 
@@ -44,7 +44,7 @@ def simulate_endpoint(req: SimulateRequest, limits: LimitsDep, request: Request)
 
 
 @router.post("/heat-models", summary="One scenario under several heat models (paper Fig. 8, 11)",
-             response_class=JSON)
+             response_class=JSON, response_model=HeatModelsResponse)
 def heat_models_endpoint(req: HeatModelsRequest, limits: LimitsDep):
     model = parse_model(req.model)
     scen = parse_scenario(req.scenario, model, limits)
