@@ -294,6 +294,7 @@ class FilePreview(BaseModel):
     columns: list[PreviewColumn] = Field(..., description="Columns in file order")
     mapping: dict[str, Optional[str]] = Field(..., description="Proposed mapping, column -> signal or null; send it back as the upload's columns field")
     rows: list[list[str]] = Field(..., description="The first data rows as text")
+    signals: dict[str, dict[str, Any]] = Field(..., description="Every signal a column can map to, with its SI unit and the units accepted")
 
 
 # ---------------------------------------------------------------------------- analysis responses
@@ -382,6 +383,15 @@ class DiagnoseResponse(BaseModel):
     noise_floor: dict[str, Optional[float]] = Field(..., description="Noise floor per signal: " + FRACTION)
     base_model: dict[str, Any] = Field(..., description="The null model (uncertain parameters refitted)")
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along [-]")
+
+
+class CalibrationOption(BaseModel):
+    path: str = Field(..., description="Parameter path, as in CalibrateRequest.parameters")
+    label: str = Field(..., description="What it is")
+    value: float = Field(..., description="Current value (unit of the parameter; a scale factor for valve paths)")
+    min: float = Field(..., description="Default lower bound used when the request gives none (unit of the parameter)")
+    max: float = Field(..., description="Default upper bound used when the request gives none (unit of the parameter)")
+    unit: str = Field(..., description="Unit of the parameter")
 
 
 class HeatModelsResponse(BaseModel):

@@ -235,8 +235,9 @@ def inspect_file(data: bytes, filename: str | None = None, rows: int = 5) -> dic
     preview : dict
         ``format``, ``encoding``/``delimiter``/``decimal``/``units_row`` for
         CSV, ``columns`` (name as written, unit, proposed signal), ``mapping``
-        (the proposed ``{column: signal or null}``) and ``rows`` (the first
-        cells as text) [-]
+        (the proposed ``{column: signal or null}``), ``rows`` (the first
+        cells as text) and ``signals`` (every signal with its SI unit and the
+        units accepted) [-]
     """
     data = bytes(data)
     fmt = detect_format(data, filename)
@@ -258,5 +259,8 @@ def inspect_file(data: bytes, filename: str | None = None, rows: int = 5) -> dic
         out_cols.append({"name": lab, "unit": unit or "", "signal": mapping.get(name)})
     preview = [[str(v) if isinstance(v, str) else f"{float(v):.6g}" for v in r]
                for r in zip(*[list(v[:rows]) for _, v in cols])]
+    from .measurement import SIGNAL_UNITS, UNITS
+    signals = {"t": "s", **SIGNAL_UNITS}
     return {**report, "columns": out_cols,
-            "mapping": {c["name"]: c["signal"] for c in out_cols}, "rows": preview}
+            "mapping": {c["name"]: c["signal"] for c in out_cols}, "rows": preview,
+            "signals": {k: {"unit": u, "accepted_units": list(UNITS[k])} for k, u in signals.items()}}

@@ -1286,8 +1286,9 @@ def read_table(text: str, max_rows: int | None = None) -> CsvTable:
     if body:
         lineno, first = body[0]
         cells = [c.strip() for c in split(lineno, 1, first)]
-        if any(cells) and not any(_looks_numeric(c, decimal_comma) for c in cells if c) \
-                and not any(c.lower() in _MISSING_TOKENS - {""} for c in cells):
+        # a units row: no number in it, and something besides missing-value markers
+        if not any(_looks_numeric(c, decimal_comma) for c in cells if c) \
+                and any(c.lower() not in _MISSING_TOKENS for c in cells):
             units = (cells + [""] * ncol)[:ncol]
             body = body[1:]
     cols: list[list[str]] = [[] for _ in range(ncol)]

@@ -770,14 +770,20 @@ async function uploadDataset() {
   if ($('#upload-name').value.trim()) fd.append('name', $('#upload-name').value.trim());
   fd.append('locked', $('#upload-locked').checked ? 'true' : 'false');
   if ($('#upload-x0').value.trim() !== '') fd.append('x0', $('#upload-x0').value.trim());
+  fd.append('ambient_pressure', String(pAtm()));   // the rig's ambient for gauge units (static/importer.js)
+  const mapping = typeof importMapping === 'function' ? importMapping() : null;
+  if (mapping) fd.append('columns', JSON.stringify(mapping));
   setStatus(`Uploading ${file.name}…`, 'busy');
   await busy($('#btn-upload'), async () => {
     try {
       const info = await api('POST', '/api/datasets', fd);
       await loadDatasets(`ds:${info.id}`);
-      setStatus(`Dataset ${info.name} stored (${info.n_samples} samples, signals ${info.signals.join(', ')}).`, 'ok');
+      if (typeof showImportReport === 'function') showImportReport(info.import);
+      const warn = info.import && info.import.warnings && info.import.warnings.length ? ` ${info.import.warnings.length} warning(s): see the import report.` : '';
+      setStatus(`Dataset ${info.name} stored (${info.n_samples} samples, signals ${info.signals.join(', ')}).${warn}`, warn ? 'error' : 'ok');
     } catch (e) {
       showApiError(e, 'Upload', (field, err) => {
+        if (field.startsWith('measurement.columns') || field === 'columns') return 'upload.columns';
         if (err.type === 'measurement_error' || field.startsWith('measurement') || field === 'file' || field === '') return 'upload.file';
         return `upload.${field}`;
       });
