@@ -24,7 +24,7 @@ from pneucore.validation import FieldError
 from .config import Settings
 from .jobs import JobManager, JobTimeout
 from .routers import (analysis, calibration, datasets, effects, jobs, presets, reports, sessions, simulate,
-                      studies, uploads)
+                      studies, units, uploads)
 from .store import Store
 
 # the repository's static/ (a checkout or an editable install), else the copy a wheel
@@ -127,7 +127,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def unexpected(request: Request, exc: Exception):
         return JSONResponse(status_code=500, content={"detail": f"internal error: {type(exc).__name__}: {exc}"})
 
-    for r in (presets, effects, simulate, calibration, analysis, reports, uploads, datasets, sessions, jobs, studies):
+    for r in (presets, effects, simulate, calibration, analysis, reports, uploads, datasets, sessions, jobs, studies, units):
         app.include_router(r.router)
 
     @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits")

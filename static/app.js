@@ -285,7 +285,7 @@ function renderModel() {
 function writeInput(el, v) {
   if (el.type === 'checkbox') el.checked = !!v;
   else if (el.tagName === 'SELECT') el.value = v == null ? '' : String(v);
-  else el.value = displayValue(v, Number(el.dataset.scale || 1));
+  else el.value = displayValue(typeof v === 'number' ? v - Number(el.dataset.offset || 0) : v, Number(el.dataset.scale || 1));
 }
 function readInput(el) {
   if (el.type === 'checkbox') return el.checked;
@@ -295,7 +295,8 @@ function readInput(el) {
   const v = Number(raw);
   if (!Number.isFinite(v)) return raw;  // let the API name the problem next to the field
   const scale = Number(el.dataset.scale || 1);
-  return scale === 1 ? v : +(v * scale).toPrecision(12);
+  const offset = Number(el.dataset.offset || 0);   // gauge display (static/units.js)
+  return (scale === 1 ? v : +(v * scale).toPrecision(12)) + offset;
 }
 function onModelInput(ev) {
   const el = ev.target;
@@ -769,7 +770,7 @@ async function uploadDataset() {
   fd.append('file', file);
   if ($('#upload-name').value.trim()) fd.append('name', $('#upload-name').value.trim());
   fd.append('locked', $('#upload-locked').checked ? 'true' : 'false');
-  if ($('#upload-x0').value.trim() !== '') fd.append('x0', $('#upload-x0').value.trim());
+  if ($('#upload-x0').value.trim() !== '') fd.append('x0', String(readInput($('#upload-x0'))));
   fd.append('ambient_pressure', String(pAtm()));   // the rig's ambient for gauge units (static/importer.js)
   const mapping = typeof importMapping === 'function' ? importMapping() : null;
   if (mapping) fd.append('columns', JSON.stringify(mapping));
@@ -850,7 +851,9 @@ function renderCompare() {
 }
 /** A stacked layout with one row per experiment, each with a left and an overlaying right axis. */
 function stackedLayout(n, left, right, titles, extra = {}) {
-  const layout = baseLayout(Object.assign({ height: Math.max(300, 250 * n + 40), hovermode: 'x', margin: { l: 64, r: 64, t: 50, b: 46 } }, extra));
+  const layout = baseLayout(Object.assign({ height: Math.max(300, 250 * n + 70), hovermode: 'x', margin: { l: 64, r: 64, t: 50, b: 86 } }, extra));
+  // the legend goes under the plot: above it, it covered the first subplot's title
+  layout.legend = Object.assign({}, layout.legend, { y: 0, yref: 'container', yanchor: 'bottom', x: 0, xanchor: 'left' });
   const gap = 0.12;
   const h = (1 - gap * (n - 1)) / n;
   const rows = [];
@@ -1061,7 +1064,8 @@ async function runDiagnosis() {
 function renderDiagnosis() {
   const d = S.diag.result;
   const before = d.error_before ? d.error_before.overall : null;
-  $('#diag-verdict').innerHTML = `<div class="verdict-name">Verdict: <b id="diag-verdict-name">${esc(d.verdict)}</b></div><div>${esc(d.message)}</div>` +
+  const verdict = d.verdict ? esc(d.verdict) : 'none (no catalog effect explains the residual)';
+  $('#diag-verdict').innerHTML = `<div class="verdict-name">Verdict: <b id="diag-verdict-name">${verdict}</b></div><div>${esc(d.message)}</div>` +
     `<div class="muted small">Error before: ${pct(before)} % · noise floor about ${pct(meanOf(d.noise_floor))} %</div>`;
   $('#diag-residual-summary').textContent = d.residual_tests && d.residual_tests.summary ? `Residual tests: ${d.residual_tests.summary}` : '';
   const score = d.score_pass || [];

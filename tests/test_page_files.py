@@ -137,3 +137,23 @@ def test_html_report_opens_offline(page, browser, tmp_path):  # noqa: F811
         assert [u for u in requests if not u.startswith("file:")] == []
     finally:
         ctx.close()
+
+
+def test_unit_switch_from_the_service(page):
+    """SI, engineering (bar abs) and gauge: one switch converts every input and label; what is
+    sent stays SI absolute. The systems come from GET /api/units."""
+    page.select_option("#unit-system", "si")
+    assert page.inner_text("label[for=jack-bore]").endswith("[m]")
+    assert float(page.input_value("#jack-bore")) == pytest.approx(0.032)
+    assert float(page.input_value("#scn-x0")) == pytest.approx(page.evaluate("S.scenario.x0"))
+    page.select_option("#unit-system", "engineering-gauge")
+    amb = page.evaluate("S.model.ambient.pressure")
+    sup = page.evaluate("S.model.supply.pressure")
+    assert page.inner_text("label[for=supply-pressure]").endswith("[bar g]")
+    assert float(page.input_value("#supply-pressure")) == pytest.approx((sup - amb) / 1e5)
+    assert page.inner_text("label[for=ambient-pressure]").endswith("[bar abs]")   # never gauge
+    page.fill("#supply-pressure", "6")
+    assert page.evaluate("S.model.supply.pressure") == pytest.approx(6e5 + amb)
+    page.select_option("#unit-system", "engineering")
+    assert float(page.input_value("#supply-pressure")) == pytest.approx((6e5 + amb) / 1e5)
+    assert page.inner_text("label[for=scn-x0]").endswith("[mm]")
