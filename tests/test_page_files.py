@@ -157,3 +157,20 @@ def test_unit_switch_from_the_service(page):
     page.select_option("#unit-system", "engineering")
     assert float(page.input_value("#supply-pressure")) == pytest.approx((6e5 + amb) / 1e5)
     assert page.inner_text("label[for=scn-x0]").endswith("[mm]")
+
+
+def test_stored_data_listed_and_deletable(page):
+    page.click("#stored-box summary")
+    page.wait_for_selector("#stored-lists ul[data-kind=datasets] li[data-id]")
+    row = page.locator("#stored-lists ul[data-kind=datasets] li", has_text="re-uploaded")
+    assert row.count() == 1
+    did = row.get_attribute("data-id")
+    loads = int(page.get_attribute("#stored-lists", "data-loads"))
+    page.once("dialog", lambda d: d.accept())
+    row.locator("button").click()
+    _wait_status(page, f"Deleted dataset {did}")
+    page.wait_for_function("(n) => Number(document.getElementById('stored-lists').dataset.loads) > n", arg=loads)
+    assert page.locator(f"#stored-lists li[data-id='{did}']").count() == 0
+    assert did not in page.evaluate("S.datasets.map(d => d.id)")
+    assert page.locator("#stored-lists ul[data-kind=sessions]").count() == 1
+    assert page.locator("#stored-lists ul[data-kind=studies]").count() == 1
