@@ -1599,7 +1599,7 @@ function renderStudyResults() {
   $('#study-title').innerHTML = `Results of study <code id="study-id">${esc(res.id)}</code>${res.name ? ` “${esc(res.name)}”` : ''}`;
   $('#study-summary').innerHTML = `${esc(DESIGN_NAMES[res.design] || res.design)}: <b>${res.stored}/${res.n_runs}</b> runs stored, ` +
     `<b>${res.failed}</b> failed, status ${esc(res.status)}${res.missing ? ` (${res.missing} missing: resume it)` : ''}. ` +
-    `Model <i>${esc(m.name || 'custom')}</i>, scenario <i>${esc(sc.name || 'custom')}</i> (${num(sc.duration)} s), seed ${esc(def.seed ?? 0)}. ` +
+    `Model <i>${esc(m.name || 'custom')}${Object.keys(m.effects || {}).length ? ` + ${esc(Object.keys(m.effects).join(' + '))}` : ''}</i>, scenario <i>${esc(sc.name || 'custom')}</i> (${num(sc.duration)} s), seed ${esc(def.seed ?? 0)}. ` +
     'Parameters: ' + res.parameters.map((p) => `<code>${esc(p.path)}</code> ${esc(specText(p.spec, p.unit))}`).join('; ') + '.';
   $('#study-metric').innerHTML = Object.entries(res.metrics).map(([k, d]) =>
     `<option value="${esc(k)}"${k === S.study.metric ? ' selected' : ''}>${esc(k)} [${esc(metricDisplay(d.unit).label)}]</option>`).join('');
