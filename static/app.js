@@ -1084,9 +1084,13 @@ function renderDiagnosis() {
     card.id = `card-${r.effect}`;
     card.dataset.effect = r.effect;
     const badges = ['significant', 'strong', 'material'].filter((k) => r[k]).map((k) => `<span class="badge">${k}</span>`).join(' ');
-    const params = Object.entries(r.params || {}).map(([k, p]) =>
-      `<tr><th scope="row">${esc(k)}</th><td class="num">${num(p.value)} ± ${num(p.stderr, 2)} ${esc(p.unit || '')}</td>` +
-      `<td class="num">${p.ci95 ? `[${num(p.ci95[0])}, ${num(p.ci95[1])}]` : '–'}</td>${p.at_bound ? '<td class="warn">at bound</td>' : '<td></td>'}</tr>`).join('');
+    const params = Object.entries(r.params || {}).map(([k, p]) => {
+      // shown in the page's unit system (static/units.js)
+      const u = typeof unitShow === 'function' ? unitShow(p.unit) : { unit: p.unit, scale: 1, offset: 0 };
+      const v = (x) => (typeof x === 'number' ? (x - u.offset) / u.scale : x);
+      return `<tr><th scope="row">${esc(k)}</th><td class="num">${num(v(p.value))} ± ${num(p.stderr / u.scale, 2)} ${esc(prettyUnit(u.unit || ''))}</td>` +
+        `<td class="num">${p.ci95 ? `[${num(v(p.ci95[0]))}, ${num(v(p.ci95[1]))}]` : '–'}</td>${p.at_bound ? '<td class="warn">at bound</td>' : '<td></td>'}</tr>`;
+    }).join('');
     card.innerHTML = `<header><span class="rank">#${i + 1}</span> <b>${esc(r.effect)}</b> ${badges}</header>` +
       `<p class="small muted">${esc(r.description || '')}</p>` +
       '<dl class="evidence">' +

@@ -23,10 +23,12 @@ function srLabel(control, text) {
   return lab;
 }
 
-function calInput(path, key, value) {
+function calInput(path, key, value, u) {
+  // shown in the page's unit system: display = (SI - offset) / scale (static/units.js)
   const inp = document.createElement('input');
   inp.type = 'number'; inp.step = 'any';
-  inp.value = String(value);
+  inp.value = String(+((value - u.offset) / u.scale).toPrecision(8));
+  inp.dataset.scale = String(u.scale); inp.dataset.offset = String(u.offset);
   inp.dataset.field = `parameters.${path}.${key}`;
   inp.dataset.path = path; inp.dataset.key = key;
   return inp;
@@ -47,10 +49,12 @@ function renderCalOptions() {
     cb.addEventListener('change', () => { if (cb.checked) CAL.checked.add(o.path); else CAL.checked.delete(o.path); });
     tr.insertCell().appendChild(srLabel(cb, `Fit ${o.path} [-]`));
     const name = tr.insertCell(); name.textContent = o.path; name.title = o.label;
-    tr.insertCell().textContent = o.unit || '-';
+    const u = typeof unitShow === 'function' ? unitShow(o.unit) : { unit: o.unit, scale: 1, offset: 0 };
+    const unit = prettyUnit(u.unit || '-');
+    tr.insertCell().textContent = unit;
     for (const k of ['value', 'min', 'max']) {
       const td = tr.insertCell();
-      td.appendChild(srLabel(calInput(o.path, k, o[k]), `${k} of ${o.path} [${o.unit || '-'}]`));
+      td.appendChild(srLabel(calInput(o.path, k, o[k], u), `${k} of ${o.path} [${unit}]`));
       const err = document.createElement('span'); err.className = 'field-error'; err.setAttribute('role', 'alert'); td.appendChild(err);
     }
   }
@@ -67,7 +71,7 @@ function calRequest() {
       if (!inp) continue;
       const v = Number(inp.value);
       if (inp.value.trim() === '' || !Number.isFinite(v)) errors.push([`parameters.${path}.${k}`, 'must be a number', inp]);
-      else spec[k] = v;
+      else spec[k] = +(v * Number(inp.dataset.scale)).toPrecision(12) + Number(inp.dataset.offset);
     }
     parameters[path] = spec;
   }
@@ -121,10 +125,13 @@ function renderCalReport() {
   for (const t of ['parameter', 'value', '± stderr', 'relative', 'unit', 'initial', 'bounds']) { const th = document.createElement('th'); th.textContent = t; head.appendChild(th); }
   for (const [path, v] of Object.entries(r.values)) {
     const tr = vt.insertRow(); tr.dataset.path = path;
-    cell(tr, path, 'l'); cell(tr, num(v.value, 6)); cell(tr, num(v.stderr, 3));
+    // shown in the page's unit system (static/units.js); the relative error does not depend on it
+    const u = typeof unitShow === 'function' ? unitShow(v.unit) : { unit: v.unit, scale: 1, offset: 0 };
+    const d = (x) => (x - u.offset) / u.scale;
+    cell(tr, path, 'l'); cell(tr, num(d(v.value), 6)); cell(tr, num(v.stderr / u.scale, 3));
     cell(tr, v.value ? `${num(100 * Math.abs(v.stderr / v.value), 3)} %` : '—');
-    cell(tr, v.unit || '-'); cell(tr, v.initial != null ? num(v.initial, 6) : '—');
-    cell(tr, v.min != null ? `[${num(v.min, 4)}, ${num(v.max, 4)}]${v.at_bound ? ' (at a bound)' : ''}` : 'held');
+    cell(tr, prettyUnit(u.unit || '-')); cell(tr, v.initial != null ? num(d(v.initial), 6) : '—');
+    cell(tr, v.min != null ? `[${num(d(v.min), 4)}, ${num(d(v.max), 4)}]${v.at_bound ? ' (at a bound)' : ''}` : 'held');
   }
   box.appendChild(vt);
   const paths = Object.keys(r.correlations || {});

@@ -22,6 +22,16 @@ function shownUnit(field) {
   return d;
 }
 
+/** How a value in SI unit `si` is shown: {unit, scale, offset}; display = (SI - offset) / scale. */
+function unitShow(si) {
+  const none = { unit: si, scale: 1, offset: 0 };
+  if (!UNITS.api || !si) return none;
+  const sys = UNITS.api.systems[UNITS.system] || UNITS.api.systems.si;
+  const d = sys.units[si];
+  if (!d) return none;
+  return d.offset === 'gauge' ? Object.assign({}, d, { offset: pAtm() }) : d;
+}
+
 function applyUnits() {
   if (!UNITS.api) return;
   for (const el of $$('input[data-field]')) {
@@ -35,6 +45,9 @@ function applyUnits() {
   }
   if (typeof renderModel === 'function') renderModel();
   if (typeof renderScenario === 'function') renderScenario();
+  if (typeof renderDiagnosis === 'function' && S.diag) renderDiagnosis();
+  if (typeof renderCalOptions === 'function' && typeof CAL !== 'undefined' && CAL.options.length) renderCalOptions();
+  if (typeof renderCalReport === 'function' && typeof CAL !== 'undefined' && CAL.result) renderCalReport();
   document.body.dataset.units = UNITS.system;
 }
 
