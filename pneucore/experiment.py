@@ -37,6 +37,10 @@ from .scenario import Scenario
 from .simulate import simulate
 from .validation import FieldError, known_keys, mapping, number
 
+#: A record may start at most this many record lengths after the model's t = 0 (the model
+#: simulates the time before the first sample); beyond, ``time_offset`` is asked for
+LEAD_LIMIT = 10.0
+
 #: Signals that can be compared with the model
 COMPARABLE = ("p_a", "p_b", "x", "v", "T_a", "T_b")
 
@@ -184,6 +188,13 @@ class Experiment:
     def scenario_for(self, model):
         """The :class:`Scenario` that replays this experiment on ``model`` (validated)."""
         meas = self.measurement
+        lead = float(meas.t[0]) - self.t0
+        if lead > LEAD_LIMIT * meas.duration:
+            # a logger's absolute time stamps: simulating the rest before them would be a waste
+            raise FieldError("time_offset", (
+                f"the first sample is at t = {float(meas.t[0]):g} s, more than {LEAD_LIMIT:g} times the "
+                f"record's length ({meas.duration:g} s) after the model's t = 0; give time_offset "
+                f"(e.g. {float(meas.t[0]):g} s) to start the model at the first sample"))
         d = dict(self.scenario)
         if "command" not in d:
             lo, hi = model.valve.opening_range

@@ -90,3 +90,16 @@ def test_initial_estimate_computed_once_per_experiment(monkeypatch):
     for _ in range(3):
         exp.scenario_for(Model.from_dict(model))
     assert sorted(calls) == sorted(set(calls)) and "p_a" in calls
+
+
+def test_logger_time_stamps_ask_for_an_offset():
+    """A record stamped 1000-1001 s: the model would simulate 1000 s of rest first; the service
+    asks for time_offset instead, and with it compares normally."""
+    model, scen, m = _vessel_record(0.0)
+    stamped = Measurement(t=m.t + 1000.0, signals=dict(m.signals)).validate()
+    exp = {"measurement": stamped, "scenario": {"locked": True, "x0": scen["x0"], "initial": scen["initial"]}}
+    with pytest.raises(FieldError, match="time_offset") as exc:
+        compare(model, [exp])
+    assert exc.value.path == "time_offset"
+    # the same record started at its first sample replays the model exactly (tolerance as above)
+    assert compare(model, [{**exp, "time_offset": 1000.0}]).overall < 1e-4
