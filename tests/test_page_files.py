@@ -174,3 +174,27 @@ def test_stored_data_listed_and_deletable(page):
     assert did not in page.evaluate("S.datasets.map(d => d.id)")
     assert page.locator("#stored-lists ul[data-kind=sessions]").count() == 1
     assert page.locator("#stored-lists ul[data-kind=studies]").count() == 1
+
+
+@pytest.mark.parametrize("path,selector", [("/docs", ".swagger-ui .info .title"), ("/redoc", "h1")])
+def test_docs_render_without_the_internet(browser, server, path, selector):  # noqa: F811
+    """Swagger UI and ReDoc render with every request outside the service refused. ReDoc asks
+    the internet for one thing only: its "API docs by Redocly" logo image, which may fail."""
+    ctx = browser.new_context()
+    try:
+        outside = []
+
+        def guard(route):
+            if route.request.url.startswith(server):
+                route.continue_()
+            else:
+                outside.append((route.request.resource_type, route.request.url))
+                route.abort()
+        ctx.route("**/*", guard)
+        p = ctx.new_page()
+        p.goto(server + path)
+        p.wait_for_selector(selector, timeout=TIMEOUT_MS)
+        assert "pneucore" in p.inner_text(selector)
+        assert [u for kind, u in outside if kind != "image"] == []
+    finally:
+        ctx.close()

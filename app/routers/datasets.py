@@ -21,6 +21,14 @@ _COLUMNS_DOC = ('Column mapping as a JSON object, e.g. {"Zeit": "t", "pA": "p_a[
                 '"Kraft": null}: file column -> signal (a unit in brackets overrides the file\'s; '
                 "null ignores the column). Form field or query parameter")
 
+def _json_body_schema():
+    """DatasetJsonIn's schema with its references into the OpenAPI components (MeasurementIn is
+    there through ExperimentIn): a local '#/$defs/...' does not resolve inside an OpenAPI document."""
+    schema = DatasetJsonIn.model_json_schema(ref_template="#/components/schemas/{model}")
+    schema.pop("$defs", None)
+    return schema
+
+
 _UPLOAD_DOC = {
     "requestBody": {"content": {
         "multipart/form-data": {"schema": {"type": "object", "properties": {
@@ -38,7 +46,7 @@ _UPLOAD_DOC = {
         "text/csv": {"schema": {"type": "string"}},
         "application/octet-stream": {"schema": {"type": "string", "format": "binary",
                                                 "description": "A TDMS, .mat or CSV file"}},
-        "application/json": {"schema": DatasetJsonIn.model_json_schema()}}}}
+        "application/json": {"schema": _json_body_schema()}}}}
 
 
 async def _read_limited(request: Request, limit: int) -> bytes:
