@@ -43,6 +43,9 @@ function applyUnits() {
     const label = el.id ? $(`label[for="${CSS.escape(el.id)}"]`) : null;
     if (label) label.textContent = label.textContent.replace(/\[[^\]]*\]\s*$/, `[${prettyUnitText(d.unit)}]`);
   }
+  // the valve tables' conductance unit follows the system (its own selector still overrides)
+  const cSel = $('#valve-c-unit');
+  if (cSel && typeof S !== 'undefined') { S.cUnit = UNITS.system === 'si' ? 'si' : 'dm3'; cSel.value = S.cUnit; }
   if (typeof renderModel === 'function') renderModel();
   if (typeof renderScenario === 'function') renderScenario();
   if (typeof renderDiagnosis === 'function' && S.diag) renderDiagnosis();

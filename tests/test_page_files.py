@@ -144,6 +144,7 @@ def test_unit_switch_from_the_service(page):
     sent stays SI absolute. The systems come from GET /api/units."""
     page.select_option("#unit-system", "si")
     assert page.inner_text("label[for=jack-bore]").endswith("[m]")
+    assert page.input_value("#valve-c-unit") == "si"
     assert float(page.input_value("#jack-bore")) == pytest.approx(0.032)
     assert float(page.input_value("#scn-x0")) == pytest.approx(page.evaluate("S.scenario.x0"))
     page.select_option("#unit-system", "engineering-gauge")
