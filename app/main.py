@@ -5,6 +5,7 @@ Run with ``python -m app`` (or ``uvicorn app.main:app``); the SQLite file is
 """
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 from contextlib import asynccontextmanager
@@ -25,7 +26,8 @@ from .bodies import BodyLimit
 from .config import LOCAL_HOSTS, Settings
 from .jobs import JobManager, JobTimeout
 from .responses import JSON, document_errors
-from .routers import analysis, datasets, effects, heat, jobs, presets, sessions, simulate, studies
+from .routers import (analysis, calibration, datasets, effects, heat, jobs, presets, reports, sessions,
+                      simulate, studies, units, uploads)
 from .security import Guard
 from .store import Store
 
@@ -35,6 +37,8 @@ _REPO_STATIC = Path(__file__).resolve().parent.parent / "static"
 STATIC_DIR = _REPO_STATIC if (_REPO_STATIC / "index.html").is_file() \
     else Path(__file__).resolve().parent / "static"
 PLOTLY_JS = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
+#: Swagger UI and ReDoc bundles shipped by the fastapi-offline package (served at /docs-assets)
+DOCS_ASSETS = Path(importlib.util.find_spec("fastapi_offline").origin).parent / "static"
 
 
 def _loc(path: str):
@@ -80,9 +84,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         store.close()
 
     app = FastAPI(title="pneucore", version="0.1.0", lifespan=lifespan, default_response_class=JSON,
+                  docs_url=None, redoc_url=None,
                   description="Design and validation tool for pneumatic actuators (Maré, Geider & "
                               "Colin model): simulate, compare with measurements, diagnose the "
-                              "missing physics, calibrate. SI units, absolute pressures.")
+                              "missing physics, calibrate. SI units, absolute pressures. Errors "
+                              "(Eq. 25) are fractions, not percent: 0.05 means 5 %.")
     app.state.settings = settings
 
     # the last added is outermost: the guard answers bad hosts, origins and tokens before a body is read
@@ -142,7 +148,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def unexpected(request: Request, exc: Exception):
         return JSONResponse(status_code=500, content={"detail": f"internal error: {type(exc).__name__}: {exc}"})
 
-    for r in (presets, effects, heat, simulate, analysis, datasets, sessions, jobs, studies):
+    for r in (presets, effects, heat, simulate, calibration, analysis, reports, uploads, datasets, sessions,
+              jobs, studies, units):
         app.include_router(r.router)
 
     @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits")
@@ -159,6 +166,28 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @app.get("/", include_in_schema=False)
     def index():
         return FileResponse(STATIC_DIR / "index.html")
+
+    # /docs and /redoc offline: their assets come from the installed fastapi-offline package
+    @app.get("/docs", include_in_schema=False)
+    def swagger_docs():
+        from fastapi.openapi.docs import get_swagger_ui_html
+        return get_swagger_ui_html(openapi_url=app.openapi_url, title="pneucore API",
+                                   swagger_js_url="/docs-assets/swagger-ui-bundle.js",
+                                   swagger_css_url="/docs-assets/swagger-ui.css",
+                                   swagger_favicon_url="/favicon.ico")
+
+    @app.get("/redoc", include_in_schema=False)
+    def redoc_docs():
+        from fastapi.openapi.docs import get_redoc_html
+        return get_redoc_html(openapi_url=app.openapi_url, title="pneucore API",
+                              redoc_js_url="/docs-assets/redoc.standalone.js",
+                              redoc_favicon_url="/favicon.ico", with_google_fonts=False)
+
+    @app.get("/favicon.ico", include_in_schema=False)
+    def favicon():
+        return FileResponse(STATIC_DIR / "favicon.svg", media_type="image/svg+xml")
+
+    app.mount("/docs-assets", StaticFiles(directory=DOCS_ASSETS), name="docs-assets")
 
     @app.get("/static/plotly.min.js", include_in_schema=False)
     def plotly_js():

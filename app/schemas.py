@@ -165,6 +165,7 @@ class ExperimentIn(_Strict):
     dataset_id: Optional[str] = Field(None, description="Stored dataset to use instead of an inline measurement")
     load_force: Optional[Number] = Field(None, description="Load during this experiment [N]")
     supply_pressure: Optional[Number] = Field(None, description="Supply pressure during this experiment [Pa abs]")
+    time_offset: Optional[Number] = Field(None, description="Measurement time at which the model starts (model t = measurement t - offset); null = the measurement's own t = 0, where an initial state given in the scenario applies; at most the first sample's time [s]")
 
 
 class CompareRequest(_Strict):
@@ -200,6 +201,7 @@ class DatasetJsonIn(_Strict):
     description: str = Field("", description="Free text")
     scenario: dict[str, Any] = Field(default_factory=dict, description="Context: locked [-], x0 [m], ...")
     measurement: MeasurementIn = Field(..., description="Measurement (SI units; null = missing)")
+    ambient_pressure: Optional[Number] = Field(None, description="The rig's ambient pressure for gauge columns such as \"p_a[bar(g)]\"; null = the model's default ambient [Pa]")
 
 
 class SessionCreate(_Strict):
@@ -253,3 +255,207 @@ class HeatModelsCompareRequest(_Strict):
     heat_models: Optional[list[str]] = Field(None, description="Heat models to compare (default: all) [-]")
     sensor: bool = Field(False, description="Also fit the gas-temperature sensor's time constant heat.sensor_time_constant [s] for each model [-]")
     max_nfev: int = Field(60, description="Residual evaluations per calibration (at most 200) [-]")
+
+
+# ---------------------------------------------------------------------------- file import
+class ImportConversion(BaseModel):
+    column: str = Field(..., description="Column as written in the file")
+    signal: str = Field(..., description="Signal it was read as (t, u, p_a, p_b, x, v, T_a, T_b)")
+    from_: str = Field(..., alias="from", description="Unit in the file (canonical spelling: barg for bar(g))")
+    to: str = Field(..., description="SI unit stored")
+    ambient_pressure: Optional[Number] = Field(None, description="Ambient pressure added for a gauge unit [Pa]; null = absolute")
+    how: str = Field(..., description="name, alias (Zeit, Time, p_A...) or mapping (the request's columns)")
+
+
+class MissingCells(BaseModel):
+    column: str = Field(..., description="Column as written in the file")
+    count: int = Field(..., description="Number of blank or missing-marker cells (NaN, NA, -...) [-]")
+    rows: list[tuple[int, int]] = Field(..., description="Runs of data rows [first, last], 1-based after the header [-]")
+
+
+class ImportReport(BaseModel):
+    model_config = ConfigDict(extra="allow")
+    format: str = Field(..., description="csv, tdms, mat or json")
+    encoding: Optional[str] = Field(None, description="Detected text encoding (CSV)")
+    delimiter: Optional[str] = Field(None, description="Detected delimiter (CSV)")
+    decimal: Optional[str] = Field(None, description="Detected decimal mark (CSV): '.' or ','")
+    units_row: Optional[bool] = Field(None, description="A units row was found under the header (CSV)")
+    ambient_pressure: Number = Field(..., description="Ambient pressure used for gauge units [Pa]")
+    conversions: list[ImportConversion] = Field(..., description="Every column read, with its unit conversion")
+    ignored_columns: list[str] = Field(..., description="Columns not read (mapped to null, or simulator-only columns of an export)")
+    missing_cells: list[MissingCells] = Field(..., description="Every blank or missing-marker cell, by column")
+    warnings: list[str] = Field(..., description="Implausible values, e.g. an absolute pressure at rest far below ambient (gauge values?)")
+
+
+class DatasetInfo(BaseModel):
+    id: str = Field(..., description="Dataset id")
+    name: str = Field(..., description="Label")
+    created: float = Field(..., description="Creation time, Unix epoch [s]")
+    n_samples: int = Field(..., description="Number of samples [-]")
+    signals: list[str] = Field(..., description="Measured signals besides u [-]")
+    scenario: dict[str, Any] = Field(..., description="Context: locked [-], x0 [m], ...")
+    description: str = Field("", description="Free text")
+    sample: Optional[str] = Field(None, description="Sample id for the shipped samples, else null")
+
+
+class DatasetCreated(DatasetInfo):
+    import_: Optional[ImportReport] = Field(None, alias="import", description="How the file was read (not stored)")
+
+
+class PreviewColumn(BaseModel):
+    name: str = Field(..., description="Column as written in the file")
+    unit: str = Field(..., description="Unit found in the header, the units row or the file's metadata; empty = none")
+    signal: Optional[str] = Field(None, description="Proposed signal; null = no alias matches")
+
+
+class FilePreview(BaseModel):
+    format: str = Field(..., description="csv, tdms or mat")
+    encoding: Optional[str] = Field(None, description="Detected text encoding (CSV)")
+    delimiter: Optional[str] = Field(None, description="Detected delimiter (CSV)")
+    decimal: Optional[str] = Field(None, description="Detected decimal mark (CSV)")
+    units_row: Optional[bool] = Field(None, description="A units row was found (CSV)")
+    columns: list[PreviewColumn] = Field(..., description="Columns in file order")
+    mapping: dict[str, Optional[str]] = Field(..., description="Proposed mapping, column -> signal or null; send it back as the upload's columns field")
+    rows: list[list[str]] = Field(..., description="The first data rows as text")
+    signals: dict[str, dict[str, Any]] = Field(..., description="Every signal a column can map to, with its SI unit and the units accepted")
+
+
+# ---------------------------------------------------------------------------- analysis responses
+#: Said wherever an error appears: the API's errors are fractions, the page and reports show percent
+FRACTION = "Eq. 25 normalised RMS error as a fraction, not percent (0.05 = 5 %) [-]"
+
+
+class ErrorSet(BaseModel):
+    errors: dict[str, Optional[float]] = Field(..., description="Per signal (p_a, p_b, x, ...): " + FRACTION)
+    overall: Optional[float] = Field(..., description="RMS of the per-signal errors: " + FRACTION)
+    phases: dict[str, dict[str, Optional[float]]] = Field(default_factory=dict, description="Per command phase (initial, valve opens, valve closes, valve reverses) and signal: " + FRACTION)
+    piston_phases: Optional[dict[str, dict[str, Optional[float]]]] = Field(None, description="Per piston phase (moving, stuck, at a stop, locked) and signal: " + FRACTION)
+
+
+class FailureWindow(BaseModel):
+    model_config = ConfigDict(extra="allow")
+    description: str = Field(..., description="The window in words: experiment, signal, time span, phase")
+    signal: Optional[str] = Field(None, description="Signal [-]")
+    t0: Optional[float] = Field(None, description="Start of the window [s]")
+    t1: Optional[float] = Field(None, description="End of the window [s]")
+    energy: Optional[float] = Field(None, description="Share of the residual energy in the window [-]")
+
+
+class ExperimentComparison(BaseModel):
+    model_config = ConfigDict(extra="allow")
+    name: str = Field(..., description="Experiment label")
+    dataset_id: Optional[str] = Field(None, description="Stored dataset, if used")
+    errors: dict[str, Optional[float]] = Field(..., description=FRACTION)
+    overall: Optional[float] = Field(..., description=FRACTION)
+    status: str = Field(..., description="Solver status of the replay")
+    t: Optional[list[float]] = Field(None, description="Sample times on the model's axis (the measurement's t = 0) [s]")
+    residuals: Optional[dict[str, list[Optional[float]]]] = Field(None, description="Model minus measured per signal (SI units: Pa, m, m/s, K); with residuals=true")
+    simulated: Optional[dict[str, list[Optional[float]]]] = Field(None, description="Model per signal (SI units)")
+    measured: Optional[dict[str, list[Optional[float]]]] = Field(None, description="Measured per signal (SI units)")
+
+
+class CompareResponse(ErrorSet):
+    model_config = ConfigDict(extra="allow")
+    combined_phases: dict[str, Any] = Field(default_factory=dict, description="Per command x piston phase and signal: " + FRACTION)
+    failure_windows: list[FailureWindow] = Field(..., description="Where the model fails most, in words")
+    noise_floor: dict[str, Optional[float]] = Field(..., description="Estimated measurement-noise floor of the error per signal: " + FRACTION)
+    experiments: list[ExperimentComparison] = Field(..., description="Per experiment")
+    heat_models: Optional[dict[str, Any]] = Field(None, description="The same comparison under each heat model asked for")
+
+
+class CalibrateResponse(BaseModel):
+    model_config = ConfigDict(extra="allow")
+    model: dict[str, Any] = Field(..., description="The fitted model (same JSON as the request's model): download it, or send it to simulate/compare")
+    values: dict[str, dict[str, Any]] = Field(..., description="Per parameter path: value, stderr (unit of the parameter), init, min, max, vary (lmfit style)")
+    correlations: dict[str, Any] = Field(..., description="Correlation of each pair of fitted parameters [-]")
+    error_before: ErrorSet = Field(..., description="Errors of the starting model (fractions)")
+    error_after: ErrorSet = Field(..., description="Errors of the fitted model (fractions)")
+    aic: Optional[float] = Field(None, description="Akaike information criterion of the fit [-]")
+    bic: Optional[float] = Field(None, description="Bayesian information criterion of the fit [-]")
+    aic_before: Optional[float] = Field(None, description="AIC of the starting model [-]")
+    bic_before: Optional[float] = Field(None, description="BIC of the starting model [-]")
+    n_data: int = Field(..., description="Number of residuals [-]")
+    n_params: int = Field(..., description="Number of fitted parameters [-]")
+    success: bool = Field(..., description="The optimiser converged")
+    message: str = Field(..., description="The optimiser's message")
+    nfev: int = Field(..., description="Residual evaluations used [-]")
+
+
+class RankingEntry(BaseModel):
+    model_config = ConfigDict(extra="allow")
+    effect: str = Field(..., description="Catalog effect")
+    error_before: Optional[float] = Field(None, description="Overall error before adding it: " + FRACTION)
+    error_after_overall: Optional[float] = Field(None, description="Overall error with it added and fitted: " + FRACTION)
+    lr_statistic: Optional[float] = Field(None, description="Likelihood-ratio statistic (effective samples) [-]")
+    p_value: Optional[float] = Field(None, description="p-value of the LR test [-]")
+    delta_bic: Optional[float] = Field(None, description="BIC with the effect minus BIC without [-]")
+    params: dict[str, Any] = Field(default_factory=dict, description="Fitted parameters (units in GET /api/effects)")
+    explanation: Optional[str] = Field(None, description="The finding in words")
+    model: Optional[dict[str, Any]] = Field(None, description="The refitted model with the effect added")
+
+
+class DiagnoseResponse(BaseModel):
+    model_config = ConfigDict(extra="allow")
+    verdict: Optional[str] = Field(..., description="The effect found, or null when no catalog effect explains the residual (see message)")
+    message: str = Field(..., description="The verdict in words")
+    ranking: list[RankingEntry] = Field(..., description="Refitted candidates, best first")
+    score_pass: list[dict[str, Any]] = Field(..., description="The score test of every candidate")
+    error_before: ErrorSet = Field(..., description="Errors of the diagnosed model (fractions)")
+    failure_windows: list[FailureWindow] = Field(..., description="Where the model fails most")
+    residual_tests: dict[str, Any] = Field(..., description="Ljung-Box and command cross-correlation tests of the residual")
+    noise_floor: dict[str, Optional[float]] = Field(..., description="Noise floor per signal: " + FRACTION)
+    base_model: dict[str, Any] = Field(..., description="The null model (uncertain parameters refitted)")
+    uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along [-]")
+
+
+class CalibrationOption(BaseModel):
+    path: str = Field(..., description="Parameter path, as in CalibrateRequest.parameters")
+    label: str = Field(..., description="What it is")
+    value: float = Field(..., description="Current value (unit of the parameter; a scale factor for valve paths)")
+    min: float = Field(..., description="Default lower bound used when the request gives none (unit of the parameter)")
+    max: float = Field(..., description="Default upper bound used when the request gives none (unit of the parameter)")
+    unit: str = Field(..., description="Unit of the parameter")
+
+
+class HeatModelsResponse(BaseModel):
+    runs: dict[str, SimulateResponse] = Field(..., description="One simulation per heat model")
+
+
+class DatasetWithData(DatasetInfo):
+    measurement: dict[str, Any] = Field(..., description="t [s], u [-], p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K]; null = missing sample")
+
+
+class StudyResultsResponse(BaseModel):
+    """Results of a robustness study (GET /api/studies/{id}/results)."""
+    model_config = ConfigDict(extra="allow")
+    id: Optional[str] = Field(None, description="Study id")
+    metrics: Optional[dict[str, Any]] = Field(None, description="Per metric: percentiles and moments, in the metric's unit")
+    sensitivity: Optional[Any] = Field(None, description="Sensitivity ranking (PRCC / Spearman, or a variance decomposition for a full factorial) [-]")
+    runs: Optional[list[dict[str, Any]]] = Field(None, description="Raw runs with their parameters and metrics (runs=true)")
+
+
+# ---------------------------------------------------------------------------- request examples
+def _examples():
+    """Request examples built from the presets (one source for the numbers)."""
+    from pneucore.presets import model_preset, scenario_preset
+    m4 = model_preset("paper-4way")
+    exps = [{"dataset_id": "sample-leak-and-lag-locked-hold"},
+            {"dataset_id": "sample-leak-and-lag-free-pulses"}]
+    return {
+        SimulateRequest: {"model": m4, "scenario": scenario_preset("paper-fig10-pulses"),
+                          "series": ["t", "u", "p_a", "p_b", "x"]},
+        CompareRequest: {"model": m4, "experiments": exps, "residuals": False},
+        CalibrateRequest: {"model": m4, "experiments": exps, "parameters": {
+            "jack.moving_mass": {"min": 0.5, "max": 10.0},
+            "friction.extend.fc0": {"min": 0.0, "max": 50.0}}, "max_nfev": 40},
+        DiagnoseRequest: {"model": m4, "experiments": exps, "uncertain": ["friction.extend.fc0"]},
+        StudyRequest: {"model": m4, "scenario": scenario_preset("paper-fig10-pulses"), "parameters": {
+            "friction.extend.fc0": {"distribution": "uniform", "min": 4, "max": 16},
+            "supply.pressure": {"distribution": "normal", "mean": 6e5, "std": 4e4,
+                                "min": 4.5e5, "max": 7.5e5}}, "samples": 200, "seed": 1},
+    }
+
+
+for _cls, _ex in _examples().items():
+    _cls.model_config["json_schema_extra"] = {"examples": [_ex]}
+    _cls.model_rebuild(force=True)

@@ -31,6 +31,7 @@ from __future__ import annotations
 import csv
 import difflib
 import io
+import json
 import math
 import numbers
 import os
@@ -41,11 +42,20 @@ from typing import Any, Callable, Iterable, Iterator, Mapping
 
 import numpy as np
 
+from .gas import P_ATM
+
 __all__ = [
     "MeasurementError",
     "Measurement",
     "read_csv",
+    "read_table",
+    "decode_text",
     "parse_header",
+    "canonical_unit",
+    "propose_mapping",
+    "check_mapping",
+    "ALIASES",
+    "EXPORT_MARKER",
     "SIGNALS",
     "SIGNAL_UNITS",
     "UNITS",
@@ -74,8 +84,8 @@ MIN_SAMPLES: int = 10
 MAX_SAMPLES: int = 2_000_000
 """Maximum number of samples (data rows) of a measurement."""
 
-DEFAULT_AMBIENT_PRESSURE: float = 101300.0
-"""Default ambient pressure used to convert gauge pressures [Pa]."""
+DEFAULT_AMBIENT_PRESSURE: float = P_ATM
+"""Default ambient pressure used to convert gauge pressures: the model's default ambient [Pa]."""
 
 PSI: float = 6894.757293168361
 """One pound-force per square inch [Pa] (0.45359237 kg * 9.80665 m/s^2 / 0.0254^2 m^2)."""
@@ -83,7 +93,8 @@ PSI: float = 6894.757293168361
 _PRESSURES = ("p_a", "p_b")
 _TEMPERATURES = ("T_a", "T_b")
 _COLUMNS = ("t",) + SIGNALS
-_MISSING_TOKENS = frozenset({"", "nan", "na"})
+#: Cells read as a missing sample (compared without case); each one is listed in the import report
+_MISSING_TOKENS = frozenset({"", "nan", "na", "n/a", "#n/a", "null", "none", "-", "--", "---"})
 
 
 class MeasurementError(ValueError):
@@ -174,20 +185,25 @@ def _fahrenheit(values):
 # unit -> (factor spec, is_gauge). Gauge units get ambient pressure added.
 _PRESSURE_UNITS: dict[str, tuple[dict, bool]] = {
     "Pa": ({}, False),
+    "hPa": ({"mul": 1e2}, False),
+    "mbar": ({"mul": 1e2}, False),
     "kPa": ({"mul": 1e3}, False),
     "MPa": ({"mul": 1e6}, False),
     "bar": ({"mul": 1e5}, False),
     "psi": ({"mul": PSI}, False),
     "Pag": ({}, True),
+    "hPag": ({"mul": 1e2}, True),
+    "mbarg": ({"mul": 1e2}, True),
     "kPag": ({"mul": 1e3}, True),
     "MPag": ({"mul": 1e6}, True),
     "barg": ({"mul": 1e5}, True),
     "psig": ({"mul": PSI}, True),
 }
 _LENGTH_UNITS = {"m": {}, "mm": {"div": 1e3}, "cm": {"div": 1e2},
-                 "um": {"div": 1e6}, "\u00b5m": {"div": 1e6}, "\u03bcm": {"div": 1e6}}
-_VELOCITY_UNITS = {"m/s": {}, "mm/s": {"div": 1e3}}
-_TIME_UNITS = {"s": {}, "ms": {"div": 1e3}}
+                 "um": {"div": 1e6}, "\u00b5m": {"div": 1e6}, "\u03bcm": {"div": 1e6},
+                 "in": {"mul": 0.0254}}
+_VELOCITY_UNITS = {"m/s": {}, "mm/s": {"div": 1e3}, "in/s": {"mul": 0.0254}}
+_TIME_UNITS = {"s": {}, "ms": {"div": 1e3}, "us": {"div": 1e6}, "\u00b5s": {"div": 1e6}}
 _COMMAND_UNITS = {"-": {}, "%": {"div": 1e2}}
 _TEMPERATURE_UNITS = {"K": "K", "degC": "C", "C": "C", "\u00b0C": "C",
                       "degF": "F", "\u00b0F": "F"}
@@ -202,9 +218,74 @@ UNITS: dict[str, tuple[str, ...]] = {
     "T_a": tuple(_TEMPERATURE_UNITS),
     "T_b": tuple(_TEMPERATURE_UNITS),
 }
-"""Accepted unit suffixes for each column name (``t`` included)."""
+"""Accepted unit suffixes for each column name (``t`` included), in canonical
+spelling; see :func:`canonical_unit` for the other spellings accepted."""
+
+#: Other spellings of units, mapped to the canonical ones of :data:`UNITS`
+_UNIT_SPELLINGS = {"sec": "s", "msec": "ms", "1": "-", "": "-", "percent": "%",
+                   "inch": "in", "mu": "um", "deg C": "degC", "deg F": "degF",
+                   "kelvin": "K", "millibar": "mbar"}
+_GAUGE_RE = re.compile(r"^(.*?)\s*(?:\(\s*g(?:auge)?\s*\)|\s+g(?:auge)?|g)$", re.IGNORECASE)
+_ABS_RE = re.compile(r"^(.*?)\s*(?:\(\s*a(?:bs)?\s*\)|\s+a(?:bs)?|a)$", re.IGNORECASE)
+
+
+def canonical_unit(unit: str, signal: str) -> str | None:
+    """Canonical spelling of a unit written on a rig export, or None if unknown.
+
+    Pressures accept gauge markers ``bar(g)``, ``barg``, ``bar g``,
+    ``bar gauge``, ``psi(g)``, ``kPa (g)`` (all meaning gauge, i.e. relative to
+    the ambient pressure) and absolute markers ``bar(a)``, ``bara``,
+    ``bar abs``. Units are matched case-sensitively first, then without case
+    when that is unambiguous (``KPA`` is kPa, but ``mpa`` is refused since
+    it could be mPa or MPa).
+
+    Parameters
+    ----------
+    unit : str
+        Unit as written (without the brackets) [-]
+    signal : str
+        Signal (or ``"t"``) the unit is for [-]
+
+    Returns
+    -------
+    unit : str or None
+        A key of ``UNITS[signal]``, or None [-]
+
+    Examples
+    --------
+    >>> canonical_unit("bar(g)", "p_a"), canonical_unit("psi g", "p_b"), canonical_unit("in", "x")
+    ('barg', 'psig', 'in')
+    """
+    accepted = UNITS[signal]
+    u = unit.strip()
+    u = _UNIT_SPELLINGS.get(u, u)
+    if u in accepted:
+        return u
+    if signal in _PRESSURES:
+        for rx, suffix in ((_GAUGE_RE, "g"), (_ABS_RE, "")):
+            m = rx.match(u)
+            if m and m.group(1):
+                base = _lookup_nocase(m.group(1), tuple(k for k in accepted if not
+                                                        _PRESSURE_UNITS[k][1]))
+                if base is not None:
+                    return base + suffix
+    return _lookup_nocase(u, accepted)
+
+
+def _lookup_nocase(u: str, accepted: tuple[str, ...]) -> str | None:
+    if u in accepted:
+        return u
+    hits = [k for k in accepted if k.lower() == u.lower()]
+    return hits[0] if len(hits) == 1 else None
+
+
+def _si_unit(signal: str) -> str:
+    return "s" if signal == "t" else SIGNAL_UNITS[signal]
+
 
 _HEADER_RE = re.compile(r"^\s*([^\[\]\s]+)\s*(?:\[\s*([^\[\]]*?)\s*\])?\s*$")
+# a rig's header: a name with spaces allowed, then a unit in [], () or after a comma / slash
+_LOOSE_HEADER_RE = re.compile(r"^\s*(.*?)\s*(?:\[\s*([^\[\]]*?)\s*\]|\(\s*([^()]*?)\s*\))?\s*$")
 
 
 def _check_ambient(ambient_pressure: float) -> float:
@@ -219,6 +300,74 @@ def _check_ambient(ambient_pressure: float) -> float:
     return p
 
 
+@dataclass(frozen=True)
+class Conversion:
+    """How one source column becomes a signal in SI units.
+
+    Attributes
+    ----------
+    source : str
+        Column as written in the file [-]
+    signal : str
+        Signal name, ``"t"`` for time [-]
+    unit : str
+        Canonical unit of the source (a key of ``UNITS[signal]``) [-]
+    si_unit : str
+        Unit after conversion [-]
+    ambient_pressure : float or None
+        Ambient pressure added for a gauge unit, else None [Pa]
+    how : str
+        ``"name"`` (the column is named for the signal), ``"alias"`` (a known
+        alias such as ``Zeit``) or ``"mapping"`` (the caller's mapping) [-]
+    """
+    source: str
+    signal: str
+    unit: str
+    si_unit: str
+    ambient_pressure: float | None = None
+    how: str = "name"
+
+    def to_dict(self) -> dict:
+        return {"column": self.source, "signal": self.signal, "from": self.unit,
+                "to": self.si_unit, "ambient_pressure": self.ambient_pressure, "how": self.how}
+
+    def converter(self) -> Callable[[Any], np.ndarray]:
+        """Function from values in :attr:`unit` to float64 in :attr:`si_unit`."""
+        signal, unit = self.signal, self.unit
+        if signal in _PRESSURES:
+            spec, gauge = _PRESSURE_UNITS[unit]
+            if gauge:
+                spec = dict(spec, add=self.ambient_pressure)
+            return _scale(**spec)
+        if signal in _TEMPERATURES:
+            kind = _TEMPERATURE_UNITS[unit]
+            if kind == "K":
+                return _scale()
+            if kind == "C":
+                return _scale(add=273.15)
+            return _fahrenheit
+        table = {"t": _TIME_UNITS, "u": _COMMAND_UNITS, "x": _LENGTH_UNITS,
+                 "v": _VELOCITY_UNITS}[signal]
+        return _scale(**table[unit])
+
+
+def _unit_of(signal: str, unit: str | None, column: str, ambient_pressure: float,
+             how: str = "name") -> Conversion:
+    """Resolve the unit of a column for `signal`; raise naming the column if unknown."""
+    if unit is None or unit.strip() == "":
+        canon = UNITS[signal][0]
+    else:
+        canon = canonical_unit(unit, signal)
+        if canon is None:
+            raise MeasurementError(
+                f"unknown unit {unit!r} for {signal!r}; accepted units: "
+                f"{', '.join(UNITS[signal])} (no unit means SI, {_si_unit(signal)})",
+                column=column)
+    gauge = signal in _PRESSURES and _PRESSURE_UNITS[canon][1]
+    return Conversion(column, signal, canon, _si_unit(signal),
+                      _check_ambient(ambient_pressure) if gauge else None, how)
+
+
 def parse_header(name: str, ambient_pressure: float = DEFAULT_AMBIENT_PRESSURE
                  ) -> tuple[str, Callable[[Any], np.ndarray]]:
     """Parse a column name such as ``p_a[bar]`` into a signal and a converter.
@@ -228,11 +377,13 @@ def parse_header(name: str, ambient_pressure: float = DEFAULT_AMBIENT_PRESSURE
     name : str
         Column name: one of ``t``, ``u``, ``p_a``, ``p_b``, ``x``, ``v``,
         ``T_a``, ``T_b``, optionally followed by a unit in brackets
-        (``p_a[kPa]``, ``x[mm]``, ``T_a[degC]``...). Surrounding whitespace
-        is ignored; names are case-sensitive. No unit (or ``[]``) means SI [-]
+        (``p_a[kPa]``, ``p_a[bar(g)]``, ``x[mm]``, ``T_a[degC]``...; see
+        :func:`canonical_unit`). Surrounding whitespace is ignored; names are
+        case-sensitive (aliases such as ``Zeit`` are resolved by
+        :func:`read_csv`, not here). No unit (or ``[]``) means SI [-]
     ambient_pressure : float, optional
-        Ambient pressure added to gauge pressure columns (units ending in
-        ``g``: ``barg``, ``kPag``, ``MPag``, ``psig``, ``Pag``) [Pa]
+        Ambient pressure added to gauge pressure columns (``barg``, ``bar(g)``,
+        ``kPag``, ``psi(g)``...) [Pa]
 
     Returns
     -------
@@ -255,6 +406,11 @@ def parse_header(name: str, ambient_pressure: float = DEFAULT_AMBIENT_PRESSURE
     >>> sig, float(conv(2.0)[()])
     ('p_a', 301300.0)
     """
+    conv = _header_conversion(name, ambient_pressure)
+    return conv.signal, conv.converter()
+
+
+def _header_conversion(name: str, ambient_pressure: float) -> Conversion:
     if not isinstance(name, str):
         raise MeasurementError(f"column name must be a string, got {name!r}",
                                column=repr(name))
@@ -271,30 +427,164 @@ def parse_header(name: str, ambient_pressure: float = DEFAULT_AMBIENT_PRESSURE
         if close:
             msg += f" (did you mean {close[0]!r}?)"
         raise MeasurementError(msg, column=name)
-    accepted = UNITS[signal]
-    if unit is None or unit == "":
-        return signal, _scale()
-    if unit not in accepted:
-        si = "s" if signal == "t" else SIGNAL_UNITS[signal]
-        raise MeasurementError(
-            f"unknown unit {unit!r} for {signal!r}; accepted units: "
-            f"{', '.join(accepted)} (no unit means SI, {si})", column=name)
+    return _unit_of(signal, unit, name, ambient_pressure)
 
-    if signal in _PRESSURES:
-        spec, gauge = _PRESSURE_UNITS[unit]
-        if gauge:
-            spec = dict(spec, add=_check_ambient(ambient_pressure))
-        return signal, _scale(**spec)
-    if signal in _TEMPERATURES:
-        kind = _TEMPERATURE_UNITS[unit]
-        if kind == "K":
-            return signal, _scale()
-        if kind == "C":
-            return signal, _scale(add=273.15)
-        return signal, _fahrenheit
-    table = {"t": _TIME_UNITS, "u": _COMMAND_UNITS, "x": _LENGTH_UNITS,
-             "v": _VELOCITY_UNITS}[signal]
-    return signal, _scale(**table[unit])
+
+# --------------------------------------------------------------------------
+# Column names of rig exports: aliases and the caller's mapping
+# --------------------------------------------------------------------------
+
+ALIASES: dict[str, tuple[str, ...]] = {
+    "t": ("t", "time", "zeit", "temps", "tiempo", "timestamp", "time_s", "zeit_s"),
+    "u": ("u", "command", "cmd", "valve", "valve_command", "spool", "setpoint", "sollwert",
+          "stellsignal", "ventil", "commande", "y"),
+    "p_a": ("p_a", "pa", "p1", "pressure_a", "p_chamber_a", "druck_a", "pression_a",
+            "pressure a", "druck a", "p a"),
+    "p_b": ("p_b", "pb", "p2", "pressure_b", "p_chamber_b", "druck_b", "pression_b",
+            "pressure b", "druck b", "p b"),
+    "x": ("x", "position", "pos", "weg", "stroke", "displacement", "s"),
+    "v": ("v", "velocity", "speed", "geschwindigkeit", "vitesse"),
+    "T_a": ("t_a", "temperature_a", "temp_a", "ta"),
+    "T_b": ("t_b", "temperature_b", "temp_b", "tb"),
+}
+"""Column names of rig exports recognised for each signal (compared without case,
+surrounding whitespace and units). ``"t"`` is time; ``T_a`` / ``T_b`` are
+temperatures, which is why a plain lower-case alias ``t`` means time."""
+
+_ALIAS_LOOKUP: dict[str, str] = {a: sig for sig, names in ALIASES.items() for a in names}
+
+#: First comment line of the files :mod:`pneucore.export` writes (and the CLI's ``--csv``). In a
+#: file that carries it, columns that are no signal (simulated masses and flows, a comparison's
+#: ``*_model`` and ``*_residual`` columns) are skipped and listed as ignored, so an export reads
+#: back unchanged; in any other file an unknown column is an error naming it.
+EXPORT_MARKER = "# pneucore"
+
+
+def _split_loose(label: str) -> tuple[str, str | None]:
+    """``"Zeit [ms]"`` -> ("Zeit", "ms"); ``"p A (bar g)"`` -> ("p A", "bar g")."""
+    m = _LOOSE_HEADER_RE.match(label)
+    if m is None:
+        return label.strip(), None
+    unit = m.group(2) if m.group(2) is not None else m.group(3)
+    return m.group(1), unit
+
+
+def _match_target(label: str, mapping: Mapping[str, Any]) -> tuple[bool, Any]:
+    """The caller's mapping entry for a header (its full text or its name part)."""
+    if label in mapping:
+        return True, mapping[label]
+    name, _ = _split_loose(label)
+    if name in mapping:
+        return True, mapping[name]
+    return False, None
+
+
+def propose_mapping(labels: Iterable[str]) -> dict[str, str | None]:
+    """Propose a column mapping for a rig's header from :data:`ALIASES`.
+
+    Parameters
+    ----------
+    labels : iterable of str
+        Column names as written in the file [-]
+
+    Returns
+    -------
+    mapping : dict[str, str or None]
+        Column name (without unit) -> signal name, or None for columns that
+        match no signal (they would be ignored) [-]
+
+    Examples
+    --------
+    >>> propose_mapping(["Zeit [ms]", "Ventil", "p_A", "Kraft"])
+    {'Zeit': 't', 'Ventil': 'u', 'p_A': 'p_a', 'Kraft': None}
+    """
+    out: dict[str, str | None] = {}
+    taken: set[str] = set()
+    for label in labels:
+        name, _ = _split_loose(str(label))
+        sig = name if name in _COLUMNS else _ALIAS_LOOKUP.get(name.strip().lower())
+        if sig in taken:
+            sig = None
+        if sig is not None:
+            taken.add(sig)
+        out[name] = sig
+    return out
+
+
+def check_mapping(mapping: Any) -> dict[str, str | None]:
+    """Validate a column mapping ``{"Zeit": "t", "pA": "p_a[bar(g)]", "Kraft": null}``.
+
+    Values are a signal name, optionally with a unit in brackets that
+    overrides the file's, or None to ignore the column.
+
+    Raises
+    ------
+    MeasurementError
+        Naming the entry (``column`` = ``columns.<key>``) that is not a
+        string key with a known signal or None.
+    """
+    if mapping is None:
+        return {}
+    if not isinstance(mapping, Mapping):
+        raise MeasurementError(
+            f"the column mapping must be a JSON object such as {{\"Zeit\": \"t\"}}, "
+            f"got {type(mapping).__name__}", column="columns")
+    out: dict[str, str | None] = {}
+    for key, target in mapping.items():
+        if not isinstance(key, str):
+            raise MeasurementError(f"key {key!r} is not a column name", column="columns")
+        if target is None or target == "":
+            out[key] = None
+            continue
+        if not isinstance(target, str):
+            raise MeasurementError(f"target must be a signal name or null, got {target!r}",
+                                   column=f"columns.{key}")
+        m = _HEADER_RE.match(target)
+        if m is None or m.group(1) not in _COLUMNS:
+            raise MeasurementError(
+                f"unknown signal {target!r}; known names: {', '.join(_COLUMNS)} "
+                "(a unit may follow in brackets, e.g. 'p_a[bar(g)]'; null ignores the column)",
+                column=f"columns.{key}")
+        if m.group(2):
+            _unit_of(m.group(1), m.group(2), f"columns.{key}", DEFAULT_AMBIENT_PRESSURE)
+        out[key] = target
+    return out
+
+
+def _resolve(label: str, unit_row: str | None, mapping: Mapping[str, Any],
+             ambient_pressure: float, export: bool = False) -> Conversion | None:
+    """Conversion for one source column; None when the column is to be ignored.
+
+    The unit is, by priority: the one in the mapping's target (``p_a[bar]``),
+    the one in the header's brackets, the units row under the header, SI.
+    """
+    if not isinstance(label, str):
+        raise MeasurementError(f"column name must be a string, got {label!r}",
+                               column=repr(label))
+    strict = _HEADER_RE.match(label)
+    if strict is not None and strict.group(1) in _COLUMNS:
+        name, unit = strict.group(1), strict.group(2)
+    else:
+        name, unit = _split_loose(label)
+    if not unit and unit_row is not None and unit_row.strip():
+        unit = unit_row.strip()
+        if unit[:1] + unit[-1:] in ("[]", "()"):   # a units row written '[bar]' or '(bar)'
+            unit = unit[1:-1]
+    found, target = _match_target(label, mapping)
+    if found:
+        if target is None:
+            return None
+        m = _HEADER_RE.match(target)
+        return _unit_of(m.group(1), m.group(2) or unit, label, ambient_pressure, "mapping")
+    if name in _COLUMNS:
+        return _unit_of(name, unit, label, ambient_pressure, "name")
+    sig = _ALIAS_LOOKUP.get(name.lower())
+    if sig is not None:
+        return _unit_of(sig, unit, label, ambient_pressure, "alias")
+    if export:   # a pneucore export: a simulated or comparison-only column
+        return None
+    _header_conversion(label, ambient_pressure)   # raises: unknown name, did you mean ...
+    raise MeasurementError("cannot read this column name", column=label)  # pragma: no cover
 
 
 # --------------------------------------------------------------------------
@@ -304,6 +594,8 @@ def parse_header(name: str, ambient_pressure: float = DEFAULT_AMBIENT_PRESSURE
 def _parse_values(values: list, column: str, lines: list[int] | None,
                   decimal_comma_hint: bool = False) -> np.ndarray:
     """Convert a list of cells (str, number or None) to float64, NaN = missing."""
+    if isinstance(values, np.ndarray) and values.dtype.kind in "iuf":
+        return values.astype(np.float64)   # a binary format's channel
     if all(isinstance(v, str) for v in values):
         try:  # fast path: every cell is a plain number (or 'nan')
             return np.array(values, dtype=np.float64)
@@ -335,20 +627,64 @@ def _parse_values(values: list, column: str, lines: list[int] | None,
     return out
 
 
+def _ranges(rows: np.ndarray) -> list[list[int]]:
+    """Sorted 1-based row numbers as ``[[first, last], ...]`` runs."""
+    if rows.size == 0:
+        return []
+    breaks = np.flatnonzero(np.diff(rows) != 1)
+    starts = np.concatenate(([rows[0]], rows[breaks + 1]))
+    ends = np.concatenate((rows[breaks], [rows[-1]]))
+    return [[int(a), int(b)] for a, b in zip(starts, ends)]
+
+
+#: Share of the ambient pressure below which an absolute pressure at rest is implausible for
+#: a pneumatic jack (vacuum is not this tool's domain): a sign of gauge values labelled absolute
+_REST_PRESSURE_FRACTION = 0.5
+
+
 def _from_columns(columns: list[tuple[str, list]], ambient_pressure: float,
                   name: str, meta: dict, lines: list[int] | None,
-                  decimal_comma_hint: bool = False) -> "Measurement":
-    """Shared back end of :func:`read_csv` and :meth:`Measurement.from_dict`."""
+                  decimal_comma_hint: bool = False, units: list | None = None,
+                  mapping: Mapping[str, Any] | None = None,
+                  report: dict | None = None) -> "Measurement":
+    """Shared back end of every reader: resolve names and units, convert, validate.
+
+    ``units`` is the units row (one entry per column, or None), ``mapping``
+    the caller's column mapping (see :func:`check_mapping`), ``report`` the
+    reader's own facts (format, encoding...) completed here and stored as
+    ``meta["import"]``.
+    """
     ambient_pressure = _check_ambient(ambient_pressure)
-    parsed: dict[str, tuple[str, Callable, list]] = {}
-    for label, values in columns:
-        signal, convert = parse_header(label, ambient_pressure)
-        if signal in parsed:
-            first = parsed[signal][0]
+    mapping = check_mapping(mapping)
+    labels = [label for label, _ in columns]
+    for key in mapping:
+        if not any(_match_target(str(lab), {key: None})[0] for lab in labels):
             raise MeasurementError(
-                f"duplicate column: {first!r} and {label!r} both give signal {signal!r}",
+                f"the mapping names column {key!r}, which is not in the file (columns: "
+                f"{', '.join(repr(lab) for lab in labels)})", column=f"columns.{key}")
+    parsed: dict[str, tuple[Conversion, list]] = {}
+    ignored: list[str] = []
+    for j, (label, values) in enumerate(columns):
+        unit_row = units[j] if units is not None and j < len(units) else None
+        try:
+            conv = _resolve(label, unit_row, mapping, ambient_pressure,
+                            export=bool((report or {}).get("pneucore_export")))
+        except MeasurementError as exc:
+            if exc.detail.startswith("unknown column name"):
+                exc = MeasurementError(
+                    exc.detail + f"; map it to a signal with columns={{{json.dumps(str(label))}: "
+                    f"\"p_a\"}} or ignore it with columns={{{json.dumps(str(label))}: null}}",
+                    column=exc.column)
+            raise exc from None
+        if conv is None:
+            ignored.append(str(label))
+            continue
+        if conv.signal in parsed:
+            first = parsed[conv.signal][0].source
+            raise MeasurementError(
+                f"duplicate column: {first!r} and {label!r} both give signal {conv.signal!r}",
                 column=label)
-        parsed[signal] = (label, convert, values)
+        parsed[conv.signal] = (conv, values)
     found = ", ".join(repr(label) for label, _ in columns) or "none"
     for required in ("t", "u"):
         if required not in parsed:
@@ -356,12 +692,17 @@ def _from_columns(columns: list[tuple[str, list]], ambient_pressure: float,
                 f"required column {required!r} is missing (columns found: {found})",
                 column=required)
 
-    source_columns = {sig: label for sig, (label, _, _) in parsed.items()}
+    source_columns = {sig: conv.source for sig, (conv, _) in parsed.items()}
     arrays: dict[str, np.ndarray] = {}
-    for sig, (label, convert, values) in parsed.items():
-        raw = _parse_values(values, label, lines, decimal_comma_hint)
+    missing_cells = []
+    for sig, (conv, values) in parsed.items():
+        raw = _parse_values(values, conv.source, lines, decimal_comma_hint)
+        gaps = np.flatnonzero(np.isnan(raw)) + 1
+        if gaps.size:
+            missing_cells.append({"column": conv.source, "count": int(gaps.size),
+                                  "rows": _ranges(gaps)})
         with np.errstate(over="ignore", invalid="ignore"):
-            arrays[sig] = convert(raw)
+            arrays[sig] = conv.converter()(raw)
     t = arrays.pop("t")
     signals = {sig: arrays[sig] for sig in SIGNALS if sig in arrays}
     meta = dict(meta)
@@ -369,7 +710,30 @@ def _from_columns(columns: list[tuple[str, list]], ambient_pressure: float,
     m = Measurement(t=t, signals=signals, name=name, meta=meta)
     m._columns = source_columns
     m._lines = list(lines) if lines is not None else None
-    return m.validate()
+    m.validate()
+
+    warnings = []
+    for sig in _PRESSURES:
+        if sig not in parsed or parsed[sig][0].ambient_pressure is not None:
+            continue
+        arr = m.signals[sig]
+        ok = np.flatnonzero(np.isfinite(arr))
+        rest = float(arr[ok[0]])
+        if rest < _REST_PRESSURE_FRACTION * ambient_pressure:
+            conv = parsed[sig][0]
+            warnings.append(
+                f"column {conv.source!r}: the absolute pressure at rest (first sample) is "
+                f"{rest:g} Pa, {rest / ambient_pressure:.2g} times the ambient "
+                f"{ambient_pressure:g} Pa; if these are gauge pressures, give the unit as "
+                f"'{conv.unit}g' (e.g. '{sig}[{conv.unit}(g)]' or a mapping "
+                f"{{\"{conv.source}\": \"{sig}[{conv.unit}(g)]\"}})")
+    info = dict(report or {})
+    info.update({"ambient_pressure": ambient_pressure,
+                 "conversions": [conv.to_dict() for conv, _ in parsed.values()],
+                 "ignored_columns": ignored, "missing_cells": missing_cells,
+                 "warnings": warnings})
+    m.meta["import"] = info
+    return m
 
 
 # --------------------------------------------------------------------------
@@ -663,7 +1027,8 @@ class Measurement:
                 if len(values) != n:
                     raise MeasurementError(
                         f"has {len(values)} values but {t_label!r} has {n}", column=label)
-        return _from_columns(columns, ambient_pressure, name, dict(meta), None)
+        return _from_columns(columns, ambient_pressure, name, dict(meta), None,
+                             report={"format": "json"})
 
     # ----------------------------------------------------------- derived
     def command_breakpoints(self) -> list[list[float]]:
@@ -730,128 +1095,289 @@ class Measurement:
 # CSV
 # --------------------------------------------------------------------------
 
+_BOMS = ((b"\xef\xbb\xbf", "utf-8-sig"), (b"\xff\xfe\x00\x00", "utf-32"),
+         (b"\x00\x00\xfe\xff", "utf-32"), (b"\xff\xfe", "utf-16"), (b"\xfe\xff", "utf-16"))
+
+
+def decode_text(data: bytes) -> tuple[str, str]:
+    """Decode a rig's text export, detecting its encoding.
+
+    A byte-order mark decides (UTF-8, UTF-16, UTF-32); without one, NUL bytes
+    at every other position mean UTF-16 (little or big endian); then strict
+    UTF-8 is tried, and Windows-1252 (the superset of latin-1 that European
+    Windows lab software writes, ``°C``, ``µm``, ``ä``) is the fallback,
+    latin-1 for its five undefined bytes.
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content [-]
+
+    Returns
+    -------
+    text : str
+        Decoded text, without a byte-order mark [-]
+    encoding : str
+        The encoding used [-]
+
+    Raises
+    ------
+    MeasurementError
+        If a UTF-16/32 file does not decode.
+    """
+    data = bytes(data)
+    for bom, enc in _BOMS:
+        if data.startswith(bom):
+            try:
+                return data.decode(enc).lstrip("\ufeff"), enc.replace("-sig", "")
+            except UnicodeDecodeError as exc:
+                raise MeasurementError(f"the file starts with a {enc} byte-order mark but does "
+                                       f"not decode as {enc} ({exc.reason} at byte {exc.start})") from None
+    head = data[:4096]
+    if head.count(b"\x00") * 4 >= len(head) > 0:   # >= 1 NUL in 4 bytes: UTF-16 without BOM
+        enc = "utf-16-le" if head[1::2].count(b"\x00") > head[0::2].count(b"\x00") else "utf-16-be"
+        try:
+            return data.decode(enc), enc
+        except UnicodeDecodeError as exc:
+            raise MeasurementError(f"the file looks like {enc} (NUL bytes) but does not decode "
+                                   f"({exc.reason} at byte {exc.start})") from None
+    try:
+        return data.decode("utf-8"), "utf-8"
+    except UnicodeDecodeError:
+        pass
+    try:
+        return data.decode("cp1252"), "cp1252"
+    except UnicodeDecodeError:
+        return data.decode("latin-1"), "latin-1"
+
+
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")
+_DELIMITERS = (",", ";", "\t", "|")
+_COMMA_DECIMAL = re.compile(r"^\s*[+-]?\d*,\d+(?:[eE][+-]?\d+)?\s*$")
+_DOT_DECIMAL = re.compile(r"^\s*[+-]?\d*\.\d+(?:[eE][+-]?\d+)?\s*$")
+
+
 def _sniff_delimiter(header_line: str) -> str:
-    """Pick ',' or ';' (or tab) from the header line: the most frequent wins."""
-    counts = {d: header_line.count(d) for d in (",", ";", "\t")}
+    """Pick ',', ';', tab or '|' from the header line: the most frequent wins."""
+    counts = {d: header_line.count(d) for d in _DELIMITERS}
     best = max(counts, key=lambda d: counts[d])
     return best if counts[best] > 0 else ","
 
 
-def _open_text(source) -> tuple[io.TextIOBase, bool, str | None]:
-    """Return (text stream, must_close, path or None)."""
-    if isinstance(source, (bytes, bytearray)):
-        return io.StringIO(bytes(source).decode("utf-8-sig")), True, None
+def _looks_numeric(cell: str, decimal_comma: bool) -> bool:
+    c = cell.strip()
+    if decimal_comma:
+        c = c.replace(",", ".")
+    try:
+        float(c)
+        return True
+    except ValueError:
+        return False
+
+
+def _source_text(source) -> tuple[str, str, str | None]:
+    """Return (text, encoding, path or None) of a CSV source."""
+    if isinstance(source, (bytes, bytearray, memoryview)):
+        text, enc = decode_text(bytes(source))
+        return text, enc, None
     if isinstance(source, str) and ("\n" in source or "\r" in source):
-        return io.StringIO(source.lstrip("\ufeff")), True, None
+        return source.lstrip("\ufeff"), "text", None
     if isinstance(source, (str, os.PathLike)):
         path = Path(source)
-        return open(path, "r", encoding="utf-8-sig", newline=""), True, str(path)
+        text, enc = decode_text(path.read_bytes())
+        return text, enc, str(path)
     if hasattr(source, "read"):
         data = source.read()
         if isinstance(data, (bytes, bytearray)):
-            data = bytes(data).decode("utf-8-sig")
-        return io.StringIO(data.lstrip("\ufeff")), True, None
+            text, enc = decode_text(bytes(data))
+            return text, enc, None
+        return str(data).lstrip("\ufeff"), "text", None
     raise TypeError("source must be a path, a file-like object or CSV text, "
                     f"got {type(source).__name__}")
 
 
-def read_csv(source, ambient_pressure: float = DEFAULT_AMBIENT_PRESSURE,
-             name: str | None = None) -> Measurement:
-    """Read a test-rig measurement from CSV.
+@dataclass
+class CsvTable:
+    """A CSV file split into header, optional units row and columns of cells (see :func:`read_table`)."""
+    header: list
+    units: list | None
+    columns: list
+    row_lines: list
+    dialect: dict
 
-    The first non-comment line is the header. Column names are signal names
-    (``t``, ``u``, ``p_a``, ``p_b``, ``x``, ``v``, ``T_a``, ``T_b``),
-    optionally with a unit in brackets (see :func:`parse_header` and
-    :data:`UNITS`); no unit means SI. The delimiter (comma or semicolon, tab
-    also accepted) is sniffed from the header. Whitespace around names and
-    cells is ignored, lines starting with ``#`` and blank lines are skipped.
-    Empty cells, ``NaN``, ``nan`` and ``NA`` are missing samples.
+
+def read_table(text: str, max_rows: int | None = None) -> CsvTable:
+    """Split CSV text into its header, units row and columns of cells.
+
+    Line endings CR LF, LF and CR alone are accepted. The delimiter (comma,
+    semicolon, tab or '|') is sniffed from the header; with a semicolon, tab
+    or '|' delimiter, cells written with a decimal comma (``2,5``) and none
+    with a decimal point mean a decimal comma. A first row under the header
+    in which no cell is a number is a units row (``ms;%;bar(g);mm``).
+    Lines starting with ``#`` and blank lines are skipped.
 
     Parameters
     ----------
-    source : str, os.PathLike or file-like
-        Path to a CSV file, an object with ``read()`` (text or bytes), or
-        the CSV text itself (a str containing a newline) [-]
+    text : str
+        Decoded CSV text [-]
+    max_rows : int or None, optional
+        Stop after this many data rows (a preview); None reads all, up to
+        MAX_SAMPLES [-]
+
+    Returns
+    -------
+    table : CsvTable
+        ``header``, ``units`` (None without a units row), ``columns`` (lists
+        of cell strings, decimal commas already turned into points),
+        ``row_lines`` (physical line of each data row) and ``dialect``
+        (``delimiter``, ``decimal``, ``units_row``) [-]
+
+    Raises
+    ------
+    MeasurementError
+        Naming the row and line of a malformed line (a cell longer than the
+        CSV reader's limit, a NUL character, a row with more or fewer cells
+        than the header).
+    """
+    lines = _LINE_BREAK.split(text)
+    kept = [(i + 1, ln) for i, ln in enumerate(lines)
+            if ln.strip() and not ln.lstrip().startswith("#")]
+    export = bool(lines) and lines[0].startswith(EXPORT_MARKER)
+    if not kept:
+        raise MeasurementError("no header line found (the CSV is empty or all comments)")
+    header_line, header_text = kept[0]
+    delimiter = _sniff_delimiter(header_text)
+
+    def split(lineno, row, line_text):
+        if "\x00" in line_text:
+            raise MeasurementError("the line holds a NUL character: is this a binary file "
+                                   "(TDMS, .mat) sent as CSV?", row=row, line=lineno)
+        try:
+            return next(csv.reader([line_text], delimiter=delimiter))
+        except csv.Error as exc:
+            why = str(exc)
+            if "field larger than field limit" in why:
+                why = (f"a cell is longer than {csv.field_size_limit()} characters; "
+                       "is the delimiter or a quote character wrong?")
+            raise MeasurementError(f"unreadable CSV line: {why}", row=row, line=lineno) from None
+        except StopIteration:
+            return []
+
+    header = [h.strip() for h in split(header_line, None, header_text)]
+    while header and header[-1] == "":  # trailing delimiter
+        header.pop()
+    for j, h in enumerate(header):
+        if h == "":
+            raise MeasurementError(
+                f"header cell {j + 1} is empty; every column needs a name (line {header_line})")
+    ncol = len(header)
+    body = kept[1:]
+    limit = MAX_SAMPLES if max_rows is None else max_rows
+    # decimal comma: sniffed on the first rows of a file not delimited by commas
+    decimal_comma = False
+    if delimiter != ",":
+        n_comma = n_dot = 0
+        for _, ln in body[:200]:
+            for c in ln.split(delimiter):
+                n_comma += bool(_COMMA_DECIMAL.match(c))
+                n_dot += bool(_DOT_DECIMAL.match(c))
+        decimal_comma = n_comma > 0 and n_dot == 0
+    units = None
+    if body:
+        lineno, first = body[0]
+        cells = [c.strip() for c in split(lineno, 1, first)]
+        # a units row: no number in it, and something besides missing-value markers
+        if not any(_looks_numeric(c, decimal_comma) for c in cells if c) \
+                and any(c.lower() not in _MISSING_TOKENS for c in cells):
+            units = (cells + [""] * ncol)[:ncol]
+            body = body[1:]
+    cols: list[list[str]] = [[] for _ in range(ncol)]
+    row_lines: list[int] = []
+    for row, (lineno, ln) in enumerate(body, start=1):
+        if row > limit:
+            if max_rows is not None:
+                break
+            raise MeasurementError(
+                f"too many samples: more than MAX_SAMPLES = {limit} data rows; "
+                "decimate or split the measurement", row=row, line=lineno)
+        cells = split(lineno, row, ln)
+        if len(cells) < ncol:
+            raise MeasurementError(
+                f"row has {len(cells)} cells but the header has {ncol} columns",
+                column=header[len(cells)], row=row, line=lineno)
+        if len(cells) > ncol:
+            extra = [c for c in cells[ncol:] if c.strip()]
+            if extra:
+                raise MeasurementError(
+                    f"row has {len(cells)} cells but the header has {ncol} columns "
+                    f"(extra value {extra[0].strip()!r})", row=row, line=lineno)
+        for j in range(ncol):
+            cols[j].append(cells[j])
+        row_lines.append(lineno)
+    if decimal_comma:
+        cols = [[c.replace(",", ".") for c in col] for col in cols]
+    dialect = {"delimiter": delimiter, "decimal": "," if decimal_comma else ".",
+               "units_row": units is not None}
+    if export:
+        dialect["pneucore_export"] = True
+    return CsvTable(header, units, cols, row_lines, dialect)
+
+
+def read_csv(source, ambient_pressure: float = DEFAULT_AMBIENT_PRESSURE,
+             name: str | None = None, columns: Mapping[str, Any] | None = None
+             ) -> Measurement:
+    """Read a test-rig measurement from CSV.
+
+    The first non-comment line is the header. Column names are signal names
+    (``t``, ``u``, ``p_a``, ``p_b``, ``x``, ``v``, ``T_a``, ``T_b``) or their
+    aliases (:data:`ALIASES`: ``Time``, ``Zeit``, ``p_A``...), optionally
+    with a unit in brackets (see :func:`parse_header`, :func:`canonical_unit`
+    and :data:`UNITS`); a units row under the header gives the units of
+    columns whose names carry none; no unit means SI. Other names are read
+    through the `columns` mapping. Dialects: see :func:`read_table` (delimiter,
+    decimal comma, line endings) and :func:`decode_text` (encoding).
+    Whitespace around names and cells is ignored. Empty cells and the
+    markers ``NaN``, ``NA``, ``n/a``, ``-``... are missing samples, each one
+    listed in the import report.
+
+    Parameters
+    ----------
+    source : str, os.PathLike, bytes or file-like
+        Path to a CSV file, the file's bytes, an object with ``read()``
+        (text or bytes), or the CSV text itself (a str containing a newline) [-]
     ambient_pressure : float, optional
-        Ambient pressure used for gauge columns (``p_a[barg]`` etc.) [Pa]
+        Ambient pressure of the rig, added to gauge columns (``p_a[bar(g)]``
+        etc.) [Pa]
     name : str or None, optional
         Name of the measurement; default the file stem for paths, else "" [-]
+    columns : mapping or None, optional
+        Column mapping ``{"Zeit": "t", "pA": "p_a[bar(g)]", "Kraft": None}``
+        (see :func:`check_mapping`) [-]
 
     Returns
     -------
     measurement : Measurement
-        Validated, in SI units with absolute pressures [-]
+        Validated, in SI units with absolute pressures. ``meta["import"]``
+        holds the import report: format, encoding, delimiter, decimal mark,
+        units row, every conversion (column, unit from and to, ambient used),
+        ignored columns, missing cells by column and row ranges, warnings [-]
 
     Raises
     ------
     MeasurementError
         For any invalid content; ``row`` counts data rows from 1 after the
-        header (comment and blank lines not counted) and ``line`` gives the
-        physical line in the file.
+        header (comment and blank lines and the units row not counted) and
+        ``line`` gives the physical line in the file.
     """
     ambient_pressure = _check_ambient(ambient_pressure)
-    stream, must_close, path = _open_text(source)
-    try:
-        kept_lines: list[int] = []
-
-        def data_lines() -> Iterator[str]:
-            for lineno, text in enumerate(stream, start=1):
-                stripped = text.strip()
-                if not stripped or stripped.startswith("#"):
-                    continue
-                kept_lines.append(lineno)
-                yield text
-
-        it = data_lines()
-        header_text = next(it, None)
-        if header_text is None:
-            raise MeasurementError("no header line found (the CSV is empty or all comments)")
-        delimiter = _sniff_delimiter(header_text)
-        header = [h.strip() for h in next(csv.reader([header_text], delimiter=delimiter))]
-        while header and header[-1] == "":  # trailing delimiter
-            header.pop()
-        for j, h in enumerate(header):
-            if h == "":
-                raise MeasurementError(
-                    f"header cell {j + 1} is empty; every column needs a name "
-                    f"(line {kept_lines[0]})")
-        ncol = len(header)
-        # Parse the header now, so unknown names fail before reading the data.
-        for h in header:
-            parse_header(h, ambient_pressure)
-
-        cols: list[list[str]] = [[] for _ in range(ncol)]
-        row_lines: list[int] = []
-        reader = csv.reader(it, delimiter=delimiter)
-        max_samples = MAX_SAMPLES
-        for cells in reader:
-            row = len(row_lines) + 1
-            line = kept_lines[-1]
-            if row > max_samples:
-                raise MeasurementError(
-                    f"too many samples: more than MAX_SAMPLES = {max_samples} data rows; "
-                    "decimate or split the measurement", row=row, line=line)
-            if len(cells) < ncol:
-                raise MeasurementError(
-                    f"row has {len(cells)} cells but the header has {ncol} columns",
-                    column=header[len(cells)], row=row, line=line)
-            if len(cells) > ncol:
-                extra = [c for c in cells[ncol:] if c.strip()]
-                if extra:
-                    raise MeasurementError(
-                        f"row has {len(cells)} cells but the header has {ncol} columns "
-                        f"(extra value {extra[0].strip()!r})", row=row, line=line)
-            for j in range(ncol):
-                cols[j].append(cells[j])
-            row_lines.append(line)
-    finally:
-        if must_close:
-            stream.close()
-
+    text, encoding, path = _source_text(source)
+    table = read_table(text)
     if name is None:
         name = Path(path).stem if path is not None else ""
     meta: dict[str, Any] = {}
     if path is not None:
         meta["source"] = path
-    return _from_columns(list(zip(header, cols)), ambient_pressure, name, meta,
-                         row_lines, decimal_comma_hint=(delimiter == ";"))
+    report = {"format": "csv", "encoding": encoding, **table.dialect}
+    return _from_columns(list(zip(table.header, table.columns)), ambient_pressure, name, meta,
+                         table.row_lines, decimal_comma_hint=(table.dialect["delimiter"] != ","),
+                         units=table.units, mapping=columns, report=report)

@@ -286,7 +286,7 @@ function renderModel() {
 function writeInput(el, v) {
   if (el.type === 'checkbox') el.checked = !!v;
   else if (el.tagName === 'SELECT') el.value = v == null ? '' : String(v);
-  else el.value = displayValue(v, Number(el.dataset.scale || 1));
+  else el.value = displayValue(typeof v === 'number' ? v - Number(el.dataset.offset || 0) : v, Number(el.dataset.scale || 1));
 }
 function readInput(el) {
   if (el.type === 'checkbox') return el.checked;
@@ -296,7 +296,8 @@ function readInput(el) {
   const v = Number(raw);
   if (!Number.isFinite(v)) return raw;  // let the API name the problem next to the field
   const scale = Number(el.dataset.scale || 1);
-  return scale === 1 ? v : +(v * scale).toPrecision(12);
+  const offset = Number(el.dataset.offset || 0);   // gauge display (static/units.js)
+  return (scale === 1 ? v : +(v * scale).toPrecision(12)) + offset;
 }
 function onModelInput(ev) {
   const el = ev.target;
@@ -771,15 +772,21 @@ async function uploadDataset() {
   fd.append('file', file);
   if ($('#upload-name').value.trim()) fd.append('name', $('#upload-name').value.trim());
   fd.append('locked', $('#upload-locked').checked ? 'true' : 'false');
-  if ($('#upload-x0').value.trim() !== '') fd.append('x0', $('#upload-x0').value.trim());
+  if ($('#upload-x0').value.trim() !== '') fd.append('x0', String(readInput($('#upload-x0'))));
+  fd.append('ambient_pressure', String(pAtm()));   // the rig's ambient for gauge units (static/importer.js)
+  const mapping = typeof importMapping === 'function' ? importMapping() : null;
+  if (mapping) fd.append('columns', JSON.stringify(mapping));
   setStatus(`Uploading ${file.name}…`, 'busy');
   await busy($('#btn-upload'), async () => {
     try {
       const info = await api('POST', '/api/datasets', fd);
       await loadDatasets(`ds:${info.id}`);
-      setStatus(`Dataset ${info.name} stored (${info.n_samples} samples, signals ${info.signals.join(', ')}).`, 'ok');
+      if (typeof showImportReport === 'function') showImportReport(info.import);
+      const warn = info.import && info.import.warnings && info.import.warnings.length ? ` ${info.import.warnings.length} warning(s): see the import report.` : '';
+      setStatus(`Dataset ${info.name} stored (${info.n_samples} samples, signals ${info.signals.join(', ')}).${warn}`, warn ? 'error' : 'ok');
     } catch (e) {
       showApiError(e, 'Upload', (field, err) => {
+        if (field.startsWith('measurement.columns') || field === 'columns') return 'upload.columns';
         if (err.type === 'measurement_error' || field.startsWith('measurement') || field === 'file' || field === '') return 'upload.file';
         return `upload.${field}`;
       });
@@ -846,7 +853,9 @@ function renderCompare() {
 }
 /** A stacked layout with one row per experiment, each with a left and an overlaying right axis. */
 function stackedLayout(n, left, right, titles, extra = {}) {
-  const layout = baseLayout(Object.assign({ height: Math.max(300, 250 * n + 40), hovermode: 'x', margin: { l: 64, r: 64, t: 50, b: 46 } }, extra));
+  const layout = baseLayout(Object.assign({ height: Math.max(300, 250 * n + 70), hovermode: 'x', margin: { l: 64, r: 64, t: 50, b: 86 } }, extra));
+  // the legend goes under the plot: above it, it covered the first subplot's title
+  layout.legend = Object.assign({}, layout.legend, { y: 0, yref: 'container', yanchor: 'bottom', x: 0, xanchor: 'left' });
   const gap = 0.12;
   const h = (1 - gap * (n - 1)) / n;
   const rows = [];
@@ -1057,7 +1066,8 @@ async function runDiagnosis() {
 function renderDiagnosis() {
   const d = S.diag.result;
   const before = d.error_before ? d.error_before.overall : null;
-  $('#diag-verdict').innerHTML = `<div class="verdict-name">Verdict: <b id="diag-verdict-name">${esc(d.verdict)}</b></div><div>${esc(d.message)}</div>` +
+  const verdict = d.verdict ? esc(d.verdict) : 'none (no catalog effect explains the residual)';
+  $('#diag-verdict').innerHTML = `<div class="verdict-name">Verdict: <b id="diag-verdict-name">${verdict}</b></div><div>${esc(d.message)}</div>` +
     `<div class="muted small">Error before: ${pct(before)} % · noise floor about ${pct(meanOf(d.noise_floor))} %</div>`;
   $('#diag-residual-summary').textContent = d.residual_tests && d.residual_tests.summary ? `Residual tests: ${d.residual_tests.summary}` : '';
   const score = d.score_pass || [];
@@ -1076,9 +1086,13 @@ function renderDiagnosis() {
     card.id = `card-${r.effect}`;
     card.dataset.effect = r.effect;
     const badges = ['significant', 'strong', 'material'].filter((k) => r[k]).map((k) => `<span class="badge">${k}</span>`).join(' ');
-    const params = Object.entries(r.params || {}).map(([k, p]) =>
-      `<tr><th scope="row">${esc(k)}</th><td class="num">${num(p.value)} ± ${num(p.stderr, 2)} ${esc(p.unit || '')}</td>` +
-      `<td class="num">${p.ci95 ? `[${num(p.ci95[0])}, ${num(p.ci95[1])}]` : '–'}</td>${p.at_bound ? '<td class="warn">at bound</td>' : '<td></td>'}</tr>`).join('');
+    const params = Object.entries(r.params || {}).map(([k, p]) => {
+      // shown in the page's unit system (static/units.js)
+      const u = typeof unitShow === 'function' ? unitShow(p.unit) : { unit: p.unit, scale: 1, offset: 0 };
+      const v = (x) => (typeof x === 'number' ? (x - u.offset) / u.scale : x);
+      return `<tr><th scope="row">${esc(k)}</th><td class="num">${num(v(p.value))} ± ${num(p.stderr / u.scale, 2)} ${esc(prettyUnit(u.unit || ''))}</td>` +
+        `<td class="num">${p.ci95 ? `[${num(v(p.ci95[0]))}, ${num(v(p.ci95[1]))}]` : '–'}</td>${p.at_bound ? '<td class="warn">at bound</td>' : '<td></td>'}</tr>`;
+    }).join('');
     card.innerHTML = `<header><span class="rank">#${i + 1}</span> <b>${esc(r.effect)}</b> ${badges}</header>` +
       `<p class="small muted">${esc(r.description || '')}</p>` +
       '<dl class="evidence">' +
@@ -1591,7 +1605,7 @@ function renderStudyResults() {
   $('#study-title').innerHTML = `Results of study <code id="study-id">${esc(res.id)}</code>${res.name ? ` “${esc(res.name)}”` : ''}`;
   $('#study-summary').innerHTML = `${esc(DESIGN_NAMES[res.design] || res.design)}: <b>${res.stored}/${res.n_runs}</b> runs stored, ` +
     `<b>${res.failed}</b> failed, status ${esc(res.status)}${res.missing ? ` (${res.missing} missing: resume it)` : ''}. ` +
-    `Model <i>${esc(m.name || 'custom')}</i>, scenario <i>${esc(sc.name || 'custom')}</i> (${num(sc.duration)} s), seed ${esc(def.seed ?? 0)}. ` +
+    `Model <i>${esc(m.name || 'custom')}${Object.keys(m.effects || {}).length ? ` + ${esc(Object.keys(m.effects).join(' + '))}` : ''}</i>, scenario <i>${esc(sc.name || 'custom')}</i> (${num(sc.duration)} s), seed ${esc(def.seed ?? 0)}. ` +
     'Parameters: ' + res.parameters.map((p) => `<code>${esc(p.path)}</code> ${esc(specText(p.spec, p.unit))}`).join('; ') + '.' +
     ` <a id="study-csv" href="${esc(`/api/studies/${encodeURIComponent(res.id)}/runs.csv`)}" download>Download the runs (CSV, units in the headers)</a>`;
   $('#study-metric').innerHTML = Object.entries(res.metrics).map(([k, d]) =>

@@ -45,6 +45,7 @@ def test_multipart_csv_upload_then_listed_and_retrievable(client):
     r = _upload(client, small_csv(), locked="true", x0=0.01, description="bench rig")
     assert r.status_code == 201, r.text[:500]
     info = r.json()
+    assert info.pop("import")["format"] == "csv"   # the upload's import report (not stored)
     assert info["name"] == "rig" and info["n_samples"] == 20 and info["sample"] is None
     assert info["signals"] == ["p_a", "x"]
     assert info["scenario"] == {"locked": True, "x0": 0.01}

@@ -363,9 +363,9 @@ def test_error_unknown_column():
 
 def test_error_unknown_unit():
     with pytest.raises(MeasurementError) as exc:
-        read_csv(make_csv(basic(**{"x[inch]": 1})))
-    assert_points_at(exc, "x[inch]", None)
-    assert "'inch'" in str(exc.value)
+        read_csv(make_csv(basic(**{"x[furlong]": 1})))
+    assert_points_at(exc, "x[furlong]", None)
+    assert "'furlong'" in str(exc.value)
     for unit in ("m", "mm", "cm", "um"):
         assert unit in str(exc.value)
     with pytest.raises(MeasurementError, match="barg") as exc:
@@ -485,3 +485,69 @@ def test_error_is_value_error_and_picklable():
     back = pickle.loads(pickle.dumps(err))
     assert (back.column, back.row, str(back)) == (err.column, err.row, str(err))
     assert str(MeasurementError("plain")) == "plain"
+
+
+# ------------------------------------------------------- rig dialects (issue 11)
+
+@pytest.mark.parametrize("spelling,signal,canonical", [
+    ("bar(g)", "p_a", "barg"), ("barg", "p_a", "barg"), ("bar g", "p_a", "barg"),
+    ("bar (gauge)", "p_b", "barg"), ("psi(g)", "p_a", "psig"), ("kPa", "p_a", "kPa"),
+    ("KPA", "p_a", "kPa"), ("bar(a)", "p_a", "bar"), ("bar abs", "p_a", "bar"), ("mbar", "p_a", "mbar"),
+    ("mm", "x", "mm"), ("in", "x", "in"), ("inch", "x", "in"), ("ms", "t", "ms"), ("%", "u", "%"),
+    ("furlong", "x", None), ("bar(g)", "x", None)])
+def test_unit_spellings(spelling, signal, canonical):
+    assert meas.canonical_unit(spelling, signal) == canonical
+
+
+def test_gauge_spellings_add_the_given_ambient():
+    text = "t;u;p_a;p_b\ns;%;bar(g);psi g\n" + "".join(f"{i};0;1,5;10\n" for i in range(12))
+    m = read_csv(text, ambient_pressure=95_000.0)
+    assert m.signals["p_a"][0] == pytest.approx(1.5e5 + 95_000.0, rel=1e-15)
+    assert m.signals["p_b"][0] == pytest.approx(10 * meas.PSI + 95_000.0, rel=1e-15)
+
+
+@pytest.mark.parametrize("sep", [";", "\t", "|"])
+def test_decimal_comma_detected_with_other_delimiters(sep):
+    text = sep.join(["t", "u", "p_a[kPa]"]) + "\n" + "".join(
+        sep.join([f"{0.01 * i:.2f}", "0", "250,5"]).replace("0.", "0,") + "\n" for i in range(12))
+    m = read_csv(text)
+    assert m.meta["import"]["decimal"] == "," and m.t[3] == pytest.approx(0.03)
+    assert m.signals["p_a"][0] == pytest.approx(250_500.0)
+
+
+def test_cr_only_lines_and_units_row_keep_row_numbers():
+    text = "\r".join(["Zeit;Ventil;p_A", "ms;%;bar"] + [f"{i};0;{'x' if i == 4 else 2}" for i in range(12)])
+    with pytest.raises(MeasurementError) as exc:
+        read_csv(text)
+    # data row 5 (the units row is not a data row), line 7 (header and units row counted)
+    assert exc.value.row == 5 and exc.value.line == 7 and exc.value.column == "p_A"
+
+
+@pytest.mark.parametrize("enc", ["utf-16", "utf-16-le", "utf-16-be", "utf-32", "cp1252", "utf-8-sig"])
+def test_encodings_give_readable_names(enc):
+    text = "# Prüfstand, 21 °C\nZeit [ms],Ventil [%],Druck A [bar g]\n" + "".join(f"{i},0,1\n" for i in range(12))
+    m = read_csv(text.encode(enc))
+    assert [c["column"] for c in m.meta["import"]["conversions"]] == ["Zeit [ms]", "Ventil [%]", "Druck A [bar g]"]
+
+
+def test_mapping_and_aliases_are_reported():
+    text = "Time,cmd,Kanal 3,Kraft\n" + "".join(f"{i * 0.01},0,{2e5},5\n" for i in range(12))
+    m = read_csv(text, columns={"Kanal 3": "p_a[Pa]", "Kraft": None})
+    how = {c["column"]: (c["signal"], c["how"]) for c in m.meta["import"]["conversions"]}
+    assert how == {"Time": ("t", "alias"), "cmd": ("u", "alias"), "Kanal 3": ("p_a", "mapping")}
+    assert m.meta["import"]["ignored_columns"] == ["Kraft"]
+    with pytest.raises(MeasurementError, match="not in the file") as exc:
+        read_csv(text, columns={"Druck": "p_a"})
+    assert exc.value.column == "columns.Druck"
+
+
+def test_exported_simulation_reads_back():
+    from pneucore import model_preset, scenario_preset
+    from pneucore.export import simulation_csv
+    from pneucore.simulate import simulate
+    res = simulate(model_preset("paper-3way"), scenario_preset("paper-fig9-switching"))
+    m = read_csv(simulation_csv(res))
+    for s in ("p_a", "x", "T_a"):
+        # 10 significant digits written: relative rounding at most 5e-10
+        np.testing.assert_allclose(m.signals[s], res.series[s], rtol=1e-9)
+    assert "m_a[kg]" in m.meta["import"]["ignored_columns"]

@@ -296,12 +296,12 @@ def test_other_errors_land_next_to_their_fields(page):
     assert page.get_attribute("#edge-P-A-b-2", "aria-invalid") == "true"
     page.fill("#edge-P-A-b-2", "0.32")
     # a scenario field
-    page.fill("#scn-x0", "0.5")
+    page.fill("#scn-x0", "500")        # mm, the stroke is 250 mm
     page.click("#btn-simulate")
     err = page.locator(".field-error[data-error-for='scenario.x0']")
     err.wait_for()
     assert "stroke" in err.inner_text()
-    page.fill("#scn-x0", "0.05")
+    page.fill("#scn-x0", "50")
     # a command line that does not parse is caught before the request
     text = page.input_value("#scn-command")
     page.fill("#scn-command", text + "\n0.9 one")
@@ -324,7 +324,7 @@ def test_upload_csv(page):
     page.set_input_files("#upload-file", str(csv))
     page.fill("#upload-name", "my locked test")
     page.check("#upload-locked")
-    page.fill("#upload-x0", "0.125")
+    page.fill("#upload-x0", "125")    # mm
     page.click("#btn-upload")
     page.wait_for_function("() => document.getElementById('dataset-select').value.startsWith('ds:')")
     assert "my locked test" in page.inner_text("#dataset-info")

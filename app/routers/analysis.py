@@ -1,6 +1,6 @@
 """POST /api/compare, /api/calibrate, /api/diagnose (synchronous; see /api/jobs for long work)."""
-from fastapi import APIRouter
-from ..responses import JSON
+from fastapi import APIRouter, Request
+from ..responses import JSON, CSV_RESPONSES, csv_response, wants_csv
 
 from pneucore.calibrate import calibrate
 from pneucore.compare import check_heat_models, compare
@@ -9,7 +9,8 @@ from pneucore.paths import parse_parameters
 
 from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, StoreDep, parse_experiments, parse_model
-from ..schemas import CalibrateRequest, CompareRequest, DiagnoseRequest
+from ..schemas import (CalibrateRequest, CalibrateResponse, CompareRequest, CompareResponse,
+                       DiagnoseRequest, DiagnoseResponse)
 
 router = APIRouter(prefix="/api", tags=["analysis"], route_class=OffLoopRoute)
 
@@ -53,20 +54,26 @@ def run_diagnose(req: DiagnoseRequest, store, limits, progress=None):
 
 
 @router.post("/compare", summary="Model versus measurements: Eq. 25 errors, phases, worst windows",
-             response_class=JSON)
-def compare_endpoint(req: CompareRequest, store: StoreDep, limits: LimitsDep):
-    return JSON(run_compare(req, store, limits, progress=_deadline(limits, "comparison", "compare")))
+             response_class=JSON, responses=CSV_RESPONSES, response_model=CompareResponse)
+def compare_endpoint(req: CompareRequest, store: StoreDep, limits: LimitsDep, request: Request):
+    progress = _deadline(limits, "comparison", "compare")
+    if wants_csv(request):
+        from pneucore.export import comparison_csv
+        model, exps = check_compare(req, store, limits)
+        c = compare(model, exps, progress=progress)
+        return csv_response(comparison_csv(c), "comparison.csv")
+    return JSON(run_compare(req, store, limits, progress=progress))
 
 
 @router.post("/calibrate", summary="Fit model parameters (least squares, with standard errors)",
-             response_class=JSON)
+             response_class=JSON, response_model=CalibrateResponse)
 def calibrate_endpoint(req: CalibrateRequest, store: StoreDep, limits: LimitsDep):
     return JSON(run_calibrate(req, store, limits,
                               progress=_deadline(limits, "calibration", "calibrate")))
 
 
 @router.post("/diagnose", summary="Rank the missing physical effects and name the verdict",
-             response_class=JSON)
+             response_class=JSON, response_model=DiagnoseResponse)
 def diagnose_endpoint(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep):
     return JSON(run_diagnose(req, store, limits, progress=_deadline(limits, "diagnosis", "diagnose")))
 

@@ -10,20 +10,30 @@ from fastapi import APIRouter, HTTPException, Request
 from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 
-from pneucore.measurement import Measurement, MeasurementError, read_csv
+from pneucore.fileformats import read_measurement
+from pneucore.measurement import DEFAULT_AMBIENT_PRESSURE, Measurement, MeasurementError
 from pneucore.scenario import Scenario
 from pneucore.validation import FieldError, mapping, number
 
 from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, StoreDep, not_found
 from ..responses import JSON
-from ..schemas import DatasetJsonIn
+from ..schemas import DatasetCreated, DatasetInfo, DatasetJsonIn, DatasetWithData
 from ..store import ReadOnly
 
 router = APIRouter(prefix="/api/datasets", tags=["datasets"], route_class=OffLoopRoute)
 
+
+_AMBIENT_DOC = (f"The rig's ambient pressure, added to gauge pressures (bar(g), kPag...) [Pa]; "
+                f"default {DEFAULT_AMBIENT_PRESSURE:g} Pa, the model's default ambient. Form field "
+                "or query parameter")
+_COLUMNS_DOC = ('Column mapping as a JSON object, e.g. {"Zeit": "t", "pA": "p_a[bar(g)]", '
+                '"Kraft": null}: file column -> signal (a unit in brackets overrides the file\'s; '
+                "null ignores the column). Form field or query parameter")
+
 def _json_body_schema():
-    """DatasetJsonIn's schema referring to the document's components (where MeasurementIn is)."""
+    """DatasetJsonIn's schema with its references into the OpenAPI components (MeasurementIn is
+    there through ExperimentIn): a local '#/$defs/...' does not resolve inside an OpenAPI document."""
     schema = DatasetJsonIn.model_json_schema(ref_template="#/components/schemas/{model}")
     schema.pop("$defs", None)
     return schema
@@ -33,14 +43,53 @@ _UPLOAD_DOC = {
     "requestBody": {"content": {
         "multipart/form-data": {"schema": {"type": "object", "properties": {
             "file": {"type": "string", "format": "binary",
-                     "description": "CSV: t[s], u[-], p_a[bar|kPa|Pa|barg...], p_b, x[mm|m], v, T_a[degC|K], T_b"},
+                     "description": "CSV (any delimiter, decimal comma, UTF-8/16 or latin-1, optional "
+                                    "units row), NI TDMS or MATLAB .mat: t[s|ms], u[-|%], "
+                                    "p_a[Pa|kPa|bar|bar(g)|psi(g)...], p_b, x[m|mm|in], v, "
+                                    "T_a[K|degC], T_b, or aliases (Zeit, Time, p_A...)"},
+            "ambient_pressure": {"type": "number", "description": _AMBIENT_DOC},
+            "columns": {"type": "string", "description": _COLUMNS_DOC},
             "name": {"type": "string"}, "description": {"type": "string"},
             "locked": {"type": "boolean", "description": "Piston locked during the test [-]"},
             "x0": {"type": "number", "description": "Initial position [m]"},
             "scenario": {"type": "string", "description": "Scenario context as JSON text"}}}},
         "text/csv": {"schema": {"type": "string"}},
+        "application/octet-stream": {"schema": {"type": "string", "format": "binary",
+                                                "description": "A TDMS, .mat or CSV file"}},
         # components, not $defs: the document must resolve every reference it makes
         "application/json": {"schema": _json_body_schema()}}}}
+
+
+def _ambient(fields) -> float:
+    raw = fields.get("ambient_pressure")
+    if raw in (None, ""):
+        return DEFAULT_AMBIENT_PRESSURE
+    try:
+        p = float(raw)
+    except (TypeError, ValueError):
+        raise FieldError("ambient_pressure", f"must be a number in Pa, got {raw!r}") from None
+    if not (p > 0 and p < float("inf")):
+        raise FieldError("ambient_pressure", f"must be a positive absolute pressure in Pa, got {raw!r}")
+    return p
+
+
+def _columns(fields):
+    raw = fields.get("columns")
+    if raw in (None, ""):
+        return None
+    try:
+        mapping = json.loads(raw)
+    except json.JSONDecodeError as exc:
+        raise FieldError("columns", f"is not valid JSON ({exc})") from None
+    if not isinstance(mapping, dict):
+        raise FieldError("columns", 'must be a JSON object such as {"Zeit": "t"}')
+    return mapping
+
+
+def _read(data, filename, fields, name):
+    meas = read_measurement(data, filename, ambient_pressure=_ambient(fields), name=name,
+                            columns=_columns(fields))
+    return meas
 
 
 def _context(fields):
@@ -92,25 +141,29 @@ async def _multipart(request: Request, body: bytes, limits):
         raise HTTPException(400, f"malformed multipart/form-data body: {exc.message}") from None
 
 
-def _store_upload(store, text, fields, name, description=""):
-    """Parse, validate and store a CSV upload (in a worker thread: it is the slow part)."""
-    meas = read_csv(text if "\n" in text else text + "\n", name=name)
+def _store_upload(store, data, filename, fields, name, description=""):
+    """Read (CSV, TDMS or .mat), validate and store an upload (in a worker thread: it is the
+    slow part); the answer carries how the file was read."""
+    meas = _read(data, filename, fields, name)
     scen = _context(fields)
-    return store.add_dataset(meas, scen, name=name, description=description)
+    info = store.add_dataset(meas, scen, name=name, description=description)
+    return {**info, "import": meas.meta.get("import")}
 
 
 def _store_json(store, payload: DatasetJsonIn):
     try:
-        meas = Measurement.from_dict(payload.measurement.model_dump(exclude_none=True))
+        meas = Measurement.from_dict(payload.measurement.model_dump(exclude_none=True),
+                                     ambient_pressure=payload.ambient_pressure or DEFAULT_AMBIENT_PRESSURE)
     except MeasurementError as exc:
         raise FieldError("measurement", str(exc)) from None
     scen = check_context(payload.scenario)
-    return store.add_dataset(meas, scen, name=payload.name or meas.name,
+    info = store.add_dataset(meas, scen, name=payload.name or meas.name,
                              description=payload.description)
+    return {**info, "import": meas.meta.get("import")}
 
 
-@router.post("", status_code=201, summary="Store a measurement (CSV upload or JSON)",
-             openapi_extra=_UPLOAD_DOC)
+@router.post("", status_code=201, summary="Store a measurement (CSV, TDMS or .mat upload, or JSON)",
+             openapi_extra=_UPLOAD_DOC, response_model=DatasetCreated, response_model_by_alias=True)
 async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
     # the body is limited by app.bodies.BodyLimit while it is read (413 beyond the limit)
     ctype = request.headers.get("content-type", "")
@@ -121,15 +174,15 @@ async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
         upload = form.get("file")
         if not isinstance(upload, UploadFile):
             raise FieldError("file", "a CSV file field named 'file' is required")
-        text = (await upload.read()).decode("utf-8-sig", errors="replace")
-        fields = {k: v for k, v in form.items() if not isinstance(v, UploadFile)}
+        data = await upload.read()
+        fields = {**request.query_params, **{k: v for k, v in form.items() if not isinstance(v, UploadFile)}}
         name = fields.get("name") or (upload.filename or "upload").rsplit(".", 1)[0]
-        return await run_in_threadpool(_store_upload, store, text, fields, name,
+        return await run_in_threadpool(_store_upload, store, data, upload.filename, fields, name,
                                        fields.get("description", ""))
-    if ctype.startswith("text/csv") or ctype.startswith("text/plain"):
-        text = body.decode("utf-8-sig", errors="replace")
-        return await run_in_threadpool(_store_upload, store, text, dict(request.query_params),
-                                       request.query_params.get("name"))
+    if ctype.startswith(("text/csv", "text/plain", "application/octet-stream")):
+        fields = dict(request.query_params)
+        return await run_in_threadpool(_store_upload, store, body, fields.get("filename"), fields,
+                                       fields.get("name"))
     try:
         payload = await run_in_threadpool(DatasetJsonIn.model_validate_json, body)
     except ValidationError as exc:
@@ -138,12 +191,13 @@ async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
     return await run_in_threadpool(_store_json, store, payload)
 
 
-@router.get("", summary="List stored datasets (metadata only)")
+@router.get("", summary="List stored datasets (metadata only)", response_model=list[DatasetInfo])
 def list_datasets(store: StoreDep):
     return store.list_datasets()
 
 
-@router.get("/{dataset_id}", summary="One dataset with its samples", response_class=JSON)
+@router.get("/{dataset_id}", summary="One dataset with its samples", response_class=JSON,
+            response_model=DatasetWithData)
 def get_dataset(dataset_id: str, store: StoreDep):
     info = store.dataset_info(dataset_id)
     if info is None:

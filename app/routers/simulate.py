@@ -1,7 +1,7 @@
 """POST /api/simulate and /api/simulate/heat-models."""
 from fastapi import APIRouter, Request
 
-from ..responses import JSON
+from ..responses import JSON, CSV_RESPONSES, csv_response, wants_csv
 
 from pneucore.compare import check_heat_models, with_heat_model
 from pneucore.simulate import simulate
@@ -9,7 +9,7 @@ from pneucore.validation import FieldError
 
 from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, parse_model, parse_scenario
-from ..schemas import HeatModelsRequest, SimulateRequest, SimulateResponse
+from ..schemas import HeatModelsRequest, HeatModelsResponse, SimulateRequest, SimulateResponse
 
 router = APIRouter(prefix="/api/simulate", tags=["simulate"], route_class=OffLoopRoute)
 
@@ -30,18 +30,22 @@ def _result(res, series):
 
 
 @router.post("", response_model=SimulateResponse, summary="Simulate a model on a scenario",
-             response_class=JSON)
+             response_class=JSON, responses=CSV_RESPONSES)
 def simulate_endpoint(req: SimulateRequest, request: Request):
     # the limits are read here rather than through ``LimitsDep``: a plain (sync)
     # dependency costs a hop through the thread pool on every request
     model = parse_model(req.model)
     scen = parse_scenario(req.scenario, model, request.app.state.settings.limits)
     res = simulate(model, scen)
-    return JSON(_result(res, req.series))
+    out = _result(res, req.series)
+    if wants_csv(request):
+        from pneucore.export import simulation_csv
+        return csv_response(simulation_csv(out), "simulation.csv")
+    return JSON(out)
 
 
 @router.post("/heat-models", summary="One scenario under several heat models (paper Fig. 8, 11)",
-             response_class=JSON)
+             response_class=JSON, response_model=HeatModelsResponse)
 def heat_models_endpoint(req: HeatModelsRequest, limits: LimitsDep):
     model = parse_model(req.model)
     scen = parse_scenario(req.scenario, model, limits)

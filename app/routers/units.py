@@ -1,0 +1,44 @@
+"""GET /api/units: the page's display unit systems and the SI unit of every model and scenario field."""
+import re
+
+from fastapi import APIRouter
+from pydantic import BaseModel, Field
+
+from pneucore.units import unit_systems
+
+from .. import schemas
+
+router = APIRouter(prefix="/api", tags=["meta"])
+
+_UNIT_RE = re.compile(r"\[([^\[\]]+)\]\s*$")
+
+
+def _fields(cls, prefix, out):
+    """Walk a request schema: the unit in brackets that ends each field's description."""
+    for name, f in cls.model_fields.items():
+        path = f"{prefix}.{name}"
+        ann = f.annotation
+        sub = next((a for a in getattr(ann, "__args__", (ann,)) if isinstance(a, type)
+                    and issubclass(a, BaseModel)), None)
+        if sub is not None:
+            _fields(sub, path, out)
+            continue
+        m = _UNIT_RE.search(f.description or "")
+        if m:
+            out[path] = m.group(1)
+    return out
+
+
+class UnitsResponse(BaseModel):
+    systems: dict = Field(..., description="Display systems: {name: {label, units: {SI unit: {unit, scale, offset}}}}; display = (SI - offset) / scale, offset 'gauge' = the model's ambient pressure")
+    fields: dict[str, str] = Field(..., description="SI unit of each model and scenario field, from the schemas' descriptions")
+
+
+@router.get("/units", response_model=UnitsResponse, summary="Display unit systems and the SI unit of every field")
+def units():
+    fields = {}
+    _fields(schemas.ModelIn, "model", fields)
+    _fields(schemas.ScenarioIn, "scenario", fields)
+    fields["upload.x0"] = "m"
+    fields["upload.ambient_pressure"] = "Pa"
+    return {"systems": unit_systems(), "fields": fields}
