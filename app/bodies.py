@@ -83,6 +83,29 @@ class BodyLimit:
         await send({"type": "http.response.body", "body": body})
 
 
+async def read_multipart(request: Request, body: bytes, limit: int):
+    """The form of a multipart ``body`` (already read under the size limit); a malformed one is a
+    400 that says what is wrong.
+
+    Parameters
+    ----------
+    request : Request
+        The request (its headers carry the boundary)
+    body : bytes
+        The whole body
+    limit : int
+        Largest part [bytes]
+    """
+    from starlette.formparsers import MultiPartException, MultiPartParser
+
+    async def stream():
+        yield body
+    try:
+        return await MultiPartParser(request.headers, stream(), max_part_size=limit).parse()
+    except MultiPartException as exc:
+        raise HTTPException(400, f"malformed multipart/form-data body: {exc.message}") from None
+
+
 def parse_json(body: bytes):
     """JSON text -> Python objects (orjson; the standard parser for NaN/Infinity tokens,
     which then fail validation with the field's path rather than as a syntax error)."""

@@ -15,7 +15,7 @@ from pneucore.measurement import DEFAULT_AMBIENT_PRESSURE, Measurement, Measurem
 from pneucore.scenario import Scenario
 from pneucore.validation import FieldError, mapping, number
 
-from ..bodies import OffLoopRoute
+from ..bodies import OffLoopRoute, read_multipart
 from ..deps import LimitsDep, StoreDep, not_found
 from ..responses import JSON
 from ..schemas import DatasetCreated, DatasetInfo, DatasetJsonIn, DatasetWithData
@@ -128,19 +128,6 @@ def check_context(scen):
     return scen
 
 
-async def _multipart(request: Request, body: bytes, limits):
-    """The form of a multipart body; a malformed one is a 400 that says what is wrong."""
-    from starlette.formparsers import MultiPartException, MultiPartParser
-
-    async def stream():
-        yield body
-    try:
-        return await MultiPartParser(request.headers, stream(),
-                                     max_part_size=limits.max_upload_bytes).parse()
-    except MultiPartException as exc:
-        raise HTTPException(400, f"malformed multipart/form-data body: {exc.message}") from None
-
-
 def _store_upload(store, data, filename, fields, name, description=""):
     """Read (CSV, TDMS or .mat), validate and store an upload (in a worker thread: it is the
     slow part); the answer carries how the file was read."""
@@ -170,7 +157,7 @@ async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
     body = await request.body()
     if ctype.startswith("multipart/form-data"):
         from starlette.datastructures import UploadFile
-        form = await _multipart(request, body, limits)
+        form = await read_multipart(request, body, limits.max_upload_bytes)
         upload = form.get("file")
         if not isinstance(upload, UploadFile):
             raise FieldError("file", "a CSV file field named 'file' is required")

@@ -1,5 +1,6 @@
 """POST /api/datasets/inspect: preview a rig file before storing it (the page's mapping step)."""
 from fastapi import APIRouter, Request
+from starlette.concurrency import run_in_threadpool
 from starlette.datastructures import UploadFile
 
 from pneucore.fileformats import inspect_file
@@ -7,9 +8,9 @@ from pneucore.validation import FieldError
 
 from ..deps import LimitsDep
 from ..schemas import FilePreview
-from .datasets import _read_limited
+from ..bodies import OffLoopRoute, read_multipart
 
-router = APIRouter(prefix="/api/datasets", tags=["datasets"])
+router = APIRouter(prefix="/api/datasets", tags=["datasets"], route_class=OffLoopRoute)
 
 
 @router.post("/inspect", response_model=FilePreview,
@@ -19,16 +20,15 @@ router = APIRouter(prefix="/api/datasets", tags=["datasets"])
                      "file": {"type": "string", "format": "binary"}}}},
                  "application/octet-stream": {"schema": {"type": "string", "format": "binary"}}}}})
 async def inspect_upload(request: Request, limits: LimitsDep):
+    # the body is limited by app.bodies.BodyLimit while it is read (413 beyond the limit)
     ctype = request.headers.get("content-type", "")
+    body = await request.body()
     if ctype.startswith("multipart/form-data"):
-        form = await request.form(max_part_size=limits.max_upload_bytes)
+        form = await read_multipart(request, body, limits.max_upload_bytes)
         upload = form.get("file")
         if not isinstance(upload, UploadFile):
             raise FieldError("file", "a file field named 'file' is required")
         data, filename = await upload.read(), upload.filename
-        if len(data) > limits.max_upload_bytes:
-            raise FieldError("file", f"exceeds the upload limit of {limits.max_upload_bytes} bytes")
     else:
-        data, filename = await _read_limited(request, limits.max_upload_bytes), \
-            request.query_params.get("filename")
-    return inspect_file(data, filename)
+        data, filename = body, request.query_params.get("filename")
+    return await run_in_threadpool(inspect_file, data, filename)
