@@ -6,6 +6,7 @@ Run with ``python -m app`` (or ``uvicorn app.main:app``); the SQLite file is
 from __future__ import annotations
 
 import importlib.util
+import html
 import os
 import re
 from contextlib import asynccontextmanager
@@ -14,7 +15,7 @@ from pathlib import Path
 import plotly
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import FileResponse, JSONResponse
+from fastapi.responses import FileResponse, HTMLResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
@@ -170,11 +171,17 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     # /docs and /redoc offline: their assets come from the installed fastapi-offline package
     @app.get("/docs", include_in_schema=False)
     def swagger_docs():
-        from fastapi.openapi.docs import get_swagger_ui_html
-        return get_swagger_ui_html(openapi_url=app.openapi_url, title="pneucore API",
-                                   swagger_js_url="/docs-assets/swagger-ui-bundle.js",
-                                   swagger_css_url="/docs-assets/swagger-ui.css",
-                                   swagger_favicon_url="/favicon.ico")
+        # FastAPI's own page starts Swagger UI from an inline script, which the service's
+        # Content-Security-Policy refuses: the same page with the start in static/swagger-init.js
+        url = html.escape(app.openapi_url, quote=True)
+        return HTMLResponse(
+            '<!DOCTYPE html><html><head><meta charset="utf-8">'
+            '<meta name="viewport" content="width=device-width, initial-scale=1.0">'
+            '<link rel="stylesheet" href="/docs-assets/swagger-ui.css">'
+            '<link rel="icon" href="/favicon.ico"><title>pneucore API</title></head>'
+            f'<body><div id="swagger-ui" data-openapi="{url}"></div>'
+            '<script src="/docs-assets/swagger-ui-bundle.js"></script>'
+            '<script src="/static/swagger-init.js"></script></body></html>')
 
     @app.get("/redoc", include_in_schema=False)
     def redoc_docs():
