@@ -10,6 +10,7 @@ from pneucore.paths import parse_parameters
 from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, StoreDep, parse_experiments, parse_model
 from ..schemas import CalibrateRequest, CompareRequest, DiagnoseRequest
+from ..services import deadline_progress
 
 router = APIRouter(prefix="/api", tags=["analysis"], route_class=OffLoopRoute)
 
@@ -71,14 +72,4 @@ def diagnose_endpoint(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep):
     return JSON(run_diagnose(req, store, limits, progress=_deadline(limits, "diagnosis", "diagnose")))
 
 
-def _deadline(limits, what, job):
-    """Progress callback that stops a synchronous analysis past the request time limit."""
-    import time
-    from ..jobs import JobTimeout
-    t0 = time.time()
-
-    def check(fraction, step):
-        if time.time() - t0 > limits.request_time_limit:
-            raise JobTimeout(f"the {what} exceeded the request time limit of "
-                             f"{limits.request_time_limit:g} s (at step: {step}); use POST /api/jobs/{job}")
-    return check
+_deadline = deadline_progress     # the old name (app.services holds it)

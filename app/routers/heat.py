@@ -8,8 +8,7 @@ from pneucore.heat_compare import check_names, compare_heat_models, simulate_hea
 from ..deps import LimitsDep, StoreDep, parse_experiments, parse_model, parse_scenario
 from ..responses import JSON
 from ..schemas import HeatModelsCompareRequest, HeatModelsSimulateRequest
-from .analysis import _deadline
-from .simulate import _result
+from ..services import deadline_progress, result_json
 
 router = APIRouter(prefix="/api/heat-models", tags=["heat"])
 
@@ -31,7 +30,7 @@ def simulate_endpoint(req: HeatModelsSimulateRequest, limits: LimitsDep):
     runs = simulate_heat_models(model, scen, req.heat_models)
     series = req.series if req.series is not None else [
         s for s in HEAT_SERIES if all(s in r.series for r in runs.values())]
-    return JSON({"runs": {name: _result(res, series) for name, res in runs.items()}})
+    return JSON({"runs": {name: result_json(res, series) for name, res in runs.items()}})
 
 
 @router.post("/compare", summary="One measurement against every heat model, each calibrated on "
@@ -43,7 +42,7 @@ def compare_endpoint(req: HeatModelsCompareRequest, store: StoreDep, limits: Lim
     exps = parse_experiments(req.experiments, model, store, limits)
     rows = compare_heat_models(model, exps, req.heat_models, sensor=req.sensor,
                                max_nfev=min(max(req.max_nfev, 1), 200),
-                               progress=_deadline(limits, "heat-model comparison", "compare"))
+                               progress=deadline_progress(limits, "heat-model comparison", "compare"))
     meas = exps[0].measurement
     measured = {"t": np.ascontiguousarray(meas.t - meas.t[0], float),
                 **{s: np.ascontiguousarray(meas.signals[s], float) for s in exps[0].signals}}

@@ -10,23 +10,11 @@ from pneucore.validation import FieldError
 from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, parse_model, parse_scenario
 from ..schemas import HeatModelsRequest, SimulateRequest, SimulateResponse
+from ..services import result_json
 
 router = APIRouter(prefix="/api/simulate", tags=["simulate"], route_class=OffLoopRoute)
 
-#: Series returned by default (everything the page plots)
-DEFAULT_SERIES = ("t", "u", "p_a", "p_b", "T_a", "T_b", "m_a", "m_b", "x", "v", "a", "q_a", "q_b",
-                  "friction", "mode", "u_eff", "p_supply", "q_supply", "net_force")
-
-
-def _result(res, series):
-    names = [s for s in (series or DEFAULT_SERIES) if s in res.series]
-    if series is not None and len(series) == 0:
-        raise FieldError("series", "give at least one series name, or omit the field for the default set")
-    if series:
-        unknown = [s for s in series if s not in res.series]
-        if unknown:
-            raise FieldError("series", f"unknown series {unknown}; available: {sorted(res.series)}")
-    return res.to_dict(series=names, arrays=True, inputs=False)
+_result = result_json     # the old name (app.services holds it)
 
 
 @router.post("", response_model=SimulateResponse, summary="Simulate a model on a scenario",
