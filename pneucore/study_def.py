@@ -188,12 +188,20 @@ class StudyParameter:
 
     Parameters
     ----------
-    path : str  Model path (see :mod:`pneucore.paths`), e.g. ``friction.extend.fc0``
-    kind : str  ``grid``, ``uniform``, ``normal`` or ``lognormal``
-    grid : list of float or None  Grid values (SI, or scale factors for valve paths)
-    min, max : float or None  Bounds (required for uniform; optional truncation otherwise)
-    mean, std : float or None  Normal distribution (std > 0)
-    median, sigma : float or None  Lognormal: median of x and standard deviation of ln x
+    path : str
+        Model path (see :mod:`pneucore.paths`), e.g. ``friction.extend.fc0``
+    kind : str
+        ``grid``, ``uniform``, ``normal`` or ``lognormal``
+    grid : list of float or None
+        Grid values, in the unit of the parameter (scale factors [-] for valve tables)
+    min, max : float or None
+        Bounds, in the unit of the parameter (required for uniform; optional truncation
+        otherwise)
+    mean, std : float or None
+        Normal distribution's mean and standard deviation (std > 0), in the unit of the
+        parameter
+    median, sigma : float or None
+        Lognormal: median of x (unit of the parameter) and standard deviation of ln x [-]
     """
     path: str
     kind: str
@@ -236,14 +244,21 @@ class Study:
 
     Parameters
     ----------
-    model : Model  Nominal model
-    scenario : Scenario  Scenario run for every parameter set
-    parameters : list of StudyParameter  Varied parameters, sorted by path
-    samples : int or None  Draws per grid point (None for a grid-only study)
-    seed : int  Seed of ``numpy.random.default_rng``
-    metrics : list of str or None  Metrics to compute (None = all of
+    model : Model
+        Nominal model
+    scenario : Scenario
+        Scenario run for every parameter set
+    parameters : list of StudyParameter
+        Varied parameters, sorted by path
+    samples : int or None
+        Draws per grid point (None for a grid-only study) [-]
+    seed : int
+        Seed of ``numpy.random.default_rng`` [-]
+    metrics : list of str or None
+        Metrics to compute (None = all of
         :data:`pneucore.study_metrics.METRICS`)
-    name, description : str  Free text
+    name, description : str
+        Free text
     """
     model: Model
     scenario: Scenario
