@@ -114,6 +114,13 @@ def register_distribution(name, distribution):
         Name given as ``{"distribution": name, ...}``
     distribution : Distribution
         Its fields and inverse CDF
+
+    Notes
+    -----
+    Every process regenerates its runs' values from the definition, so the
+    distribution must be registered where the runs execute: this process
+    (``workers=0``) or Dask workers that preload the registering module; the
+    local pool's forkserver workers import pneucore only.
     """
     DISTRIBUTIONS[name] = distribution
     return distribution

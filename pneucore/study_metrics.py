@@ -99,8 +99,10 @@ def register_metric(name, unit, definition, compute):
 
     Notes
     -----
-    Studies on a process pool or a Dask cluster compute metrics in the
-    workers: register the metric in a module the workers import too.
+    The runs compute metrics where they run: a metric registered here is
+    known to ``run_study(..., workers=0)`` (this process) and to Dask workers
+    that preload the registering module (``dask worker --preload mymodule``);
+    the local pool's forkserver workers import pneucore only and do not know it.
     """
     METRICS[name] = Metric(unit, definition, compute)
     return METRICS[name]
