@@ -14,8 +14,9 @@ from pydantic import BaseModel, ConfigDict, Field
 from pydantic.fields import FieldInfo
 
 from pneucore.heat import HEAT_PARAMETERS
-from pneucore.model import FrictionSet, Gas, Jack, Model, Valve
-from pneucore.scenario import Initial, Scenario, Solver
+from pneucore.model import VALVE_KINDS, FrictionSet, Gas, Jack, Model, Valve
+from pneucore.scenario import COMMAND_INTERPOLATIONS, Initial, Scenario, Solver
+from pneucore.study_def import DISTRIBUTIONS
 
 Number = float
 
@@ -39,6 +40,11 @@ def from_lib(obj, name, description, **kw):
 
 _JACK, _VALVE, _FRICTION_SET, _GAS, _MODEL = Jack(), Valve(), FrictionSet(), Gas(), Model()
 _SCENARIO, _SOLVER = Scenario(), Solver()
+#: the choices of the pneucore registries, as pydantic literals
+_VALVE_KIND = Literal[tuple(VALVE_KINDS)]
+_INTERPOLATION = Literal[tuple(COMMAND_INTERPOLATIONS)]
+_DISTRIBUTION_FIELDS = "; ".join(f"{name}: {', '.join(d.required + d.optional)}"
+                                 for name, d in DISTRIBUTIONS.items())
 
 
 # ---------------------------------------------------------------------------- model
@@ -63,7 +69,7 @@ class PortTableIn(_Strict):
 
 
 class ValveIn(_Strict):
-    kind: Literal["4/2", "3/2"] = from_lib(_VALVE, "kind", "Valve kind: 4/2 (edges P-A, A-R, P-B, B-R; opening -1..1) or 3/2 (P-A, A-R; opening 0..1) [-]")
+    kind: _VALVE_KIND = from_lib(_VALVE, "kind", "Valve kind: 4/2 (edges P-A, A-R, P-B, B-R; opening -1..1) or 3/2 (P-A, A-R; opening 0..1) [-]")
     ports: dict[str, PortTableIn] = Field(..., description="Metering edge tables by edge name")
     b_chamber_pressure: Optional[Number] = Field(None, description="3/2 mode: absolute pressure held in chamber B; null = half the supply [Pa]")
     flow_law: str = from_lib(_VALVE, "flow_law", "Flow law name: iso6358 (Eq. 4-5) or saint_venant (Eq. 1-3) [-]")
@@ -143,7 +149,7 @@ class ScenarioIn(_Strict):
     sample_period: Optional[Number] = from_lib(_SCENARIO, "sample_period", "Output sample period [s]")
     command: Optional[list[tuple[Number, Number]]] = from_lib(_SCENARIO, "command", "Valve command breakpoints [[t [s], u [-]], ...]",
                                                        validate_default=True)  # pairs, as a request's
-    command_interpolation: Literal["hold", "linear"] = from_lib(_SCENARIO, "command_interpolation", "Zero-order hold or linear between breakpoints [-]")
+    command_interpolation: _INTERPOLATION = from_lib(_SCENARIO, "command_interpolation", "Zero-order hold or linear between breakpoints [-]")
     locked: bool = from_lib(_SCENARIO, "locked", "Piston locked at x0 (chamber test) [-]")
     x0: Optional[Number] = from_lib(_SCENARIO, "x0", "Initial position from the A end [m]")
     initial: InitialIn = Field(default_factory=InitialIn, description="Initial chamber state")
@@ -239,7 +245,7 @@ class VersionCreate(_Strict):
 class StudyRequest(_Strict):
     model: ModelIn = Field(..., description="Actuator model")
     scenario: ScenarioIn = Field(..., description="Scenario run for every parameter set")
-    parameters: dict[str, dict[str, Any]] = Field(..., description="Parameter path -> {grid: [...]} or {distribution: uniform|normal|lognormal, min, max, mean, std, median, sigma} (unit of the parameter)")
+    parameters: dict[str, dict[str, Any]] = Field(..., description=f"Parameter path -> {{grid: [...]}} or {{distribution: NAME, fields}} with the fields of each distribution ({_DISTRIBUTION_FIELDS}), in the unit of the parameter")
     samples: Optional[int] = Field(None, description="Number of random samples (distributions) [-]")
     seed: int = Field(0, description="Random seed [-]")
     metrics: Optional[list[str]] = Field(None, description="Metrics to compute; null = all (see pneucore.study METRICS) [-]")

@@ -180,3 +180,17 @@ def test_the_same_json_gives_the_same_scenario_through_the_api_and_the_library()
         assert api_d["solver"].pop("max_steps") == min(lib_d["solver"].pop("max_steps"),
                                                        Limits.max_steps)
         assert api_d == lib_d, scen_d
+
+
+def test_the_api_choices_are_the_pneucore_registries():
+    from typing import get_args
+
+    from pneucore.model import VALVE_KINDS
+    from pneucore.scenario import COMMAND_INTERPOLATIONS
+    from pneucore.study_def import DISTRIBUTIONS
+    assert get_args(schemas.ValveIn.model_fields["kind"].annotation) == tuple(VALVE_KINDS)
+    assert get_args(schemas.ScenarioIn.model_fields["command_interpolation"].annotation) \
+        == tuple(COMMAND_INTERPOLATIONS)
+    described = schemas.StudyRequest.model_fields["parameters"].description
+    for name, dist in DISTRIBUTIONS.items():
+        assert f"{name}: {', '.join(dist.required + dist.optional)}" in described
