@@ -22,7 +22,7 @@ def _env_int(name, default):
 
 
 def _machine_workers():
-    from pneucore.study_exec import max_workers
+    from pneucore.study import max_workers
     return max_workers()
 
 

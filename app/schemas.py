@@ -7,12 +7,16 @@ the bore, a command outside the valve's range, ...) and the API turns its
 """
 from __future__ import annotations
 
+import copy
 from typing import Any, Literal, Optional, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 from pydantic.fields import FieldInfo
 
 from pneucore.heat import HEAT_MODELS, HEAT_PARAMETERS
+from pneucore.model import VALVE_KINDS, FrictionSet, Gas, Jack, Model, Valve
+from pneucore.scenario import COMMAND_INTERPOLATIONS, Initial, Scenario, Solver
+from pneucore.study_def import DISTRIBUTIONS
 
 Number = float
 
@@ -21,18 +25,40 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
+def from_lib(obj, name, description, **kw):
+    """A pydantic ``Field`` whose default is ``obj.name``, read from the pneucore object.
+
+    The pneucore dataclasses are the one source of every default; the schemas
+    read them here, and tests/test_one_source.py checks every mirrored field
+    (default and unit). A mutable default (a list) is copied for each request.
+    """
+    value = getattr(obj, name)
+    if isinstance(value, (list, dict)):
+        return Field(default_factory=lambda: copy.deepcopy(value), description=description, **kw)
+    return Field(value, description=description, **kw)
+
+
+_JACK, _VALVE, _FRICTION_SET, _GAS, _MODEL = Jack(), Valve(), FrictionSet(), Gas(), Model()
+_SCENARIO, _SOLVER = Scenario(), Solver()
+#: the choices of the pneucore registries, as pydantic literals
+_VALVE_KIND = Literal[tuple(VALVE_KINDS)]
+_INTERPOLATION = Literal[tuple(COMMAND_INTERPOLATIONS)]
+_DISTRIBUTION_FIELDS = "; ".join(f"{name}: {', '.join(d.required + d.optional)}"
+                                 for name, d in DISTRIBUTIONS.items())
+
+
 # ---------------------------------------------------------------------------- model
 class JackIn(_Strict):
-    bore: Number = Field(0.032, description="Bore (piston) diameter [m]")
-    rod_a: Number = Field(0.012, description="Rod diameter on the chamber-A side, 0 = no rod [m]")
-    rod_b: Number = Field(0.012, description="Rod diameter on the chamber-B side, 0 = no rod [m]")
-    stroke: Number = Field(0.25, description="Stroke [m]")
-    dead_volume_a: Number = Field(5e-6, description="Volume of chamber A at x = 0 [m^3]")
-    dead_volume_b: Number = Field(5e-6, description="Volume of chamber B at x = stroke [m^3]")
-    moving_mass: Number = Field(2.0, description="Moving mass: piston, rod and load [kg]")
-    load_force: Number = Field(0.0, description="Constant external force pushing towards x = 0 [N]")
-    wall_area_a: Optional[Number] = Field(None, description="Heat-exchange area of chamber A; null = follows the piston [m^2]")
-    wall_area_b: Optional[Number] = Field(None, description="Heat-exchange area of chamber B; null = follows the piston [m^2]")
+    bore: Number = from_lib(_JACK, "bore", "Bore (piston) diameter [m]")
+    rod_a: Number = from_lib(_JACK, "rod_a", "Rod diameter on the chamber-A side, 0 = no rod [m]")
+    rod_b: Number = from_lib(_JACK, "rod_b", "Rod diameter on the chamber-B side, 0 = no rod [m]")
+    stroke: Number = from_lib(_JACK, "stroke", "Stroke [m]")
+    dead_volume_a: Number = from_lib(_JACK, "dead_volume_a", "Volume of chamber A at x = 0 [m^3]")
+    dead_volume_b: Number = from_lib(_JACK, "dead_volume_b", "Volume of chamber B at x = stroke [m^3]")
+    moving_mass: Number = from_lib(_JACK, "moving_mass", "Moving mass: piston, rod and load [kg]")
+    load_force: Number = from_lib(_JACK, "load_force", "Constant external force pushing towards x = 0 [N]")
+    wall_area_a: Optional[Number] = from_lib(_JACK, "wall_area_a", "Heat-exchange area of chamber A; null = follows the piston [m^2]")
+    wall_area_b: Optional[Number] = from_lib(_JACK, "wall_area_b", "Heat-exchange area of chamber B; null = follows the piston [m^2]")
 
 
 class PortTableIn(_Strict):
@@ -43,21 +69,21 @@ class PortTableIn(_Strict):
 
 
 class ValveIn(_Strict):
-    kind: Literal["4/2", "3/2"] = Field("4/2", description="Valve kind: 4/2 (edges P-A, A-R, P-B, B-R; opening -1..1) or 3/2 (P-A, A-R; opening 0..1) [-]")
+    kind: _VALVE_KIND = from_lib(_VALVE, "kind", "Valve kind: 4/2 (edges P-A, A-R, P-B, B-R; opening -1..1) or 3/2 (P-A, A-R; opening 0..1) [-]")
     ports: dict[str, PortTableIn] = Field(..., description="Metering edge tables by edge name")
     b_chamber_pressure: Optional[Number] = Field(None, description="3/2 mode: absolute pressure held in chamber B; null = half the supply [Pa]")
-    flow_law: str = Field("iso6358", description="Flow law name: iso6358 (Eq. 4-5) or saint_venant (Eq. 1-3) [-]")
-    laminar_ratio: Number = Field(0.999, description="Pressure ratio above which edge flows are linearised [-]")
+    flow_law: str = from_lib(_VALVE, "flow_law", "Flow law name: iso6358 (Eq. 4-5) or saint_venant (Eq. 1-3) [-]")
+    laminar_ratio: Number = from_lib(_VALVE, "laminar_ratio", "Pressure ratio above which edge flows are linearised [-]")
 
 
 class SourceIn(_Strict):
     pressure: Number = Field(..., description="Absolute pressure [Pa]")
-    temperature: Number = Field(293.15, description="Temperature [K]")
+    temperature: Number = from_lib(_MODEL.ambient, "temperature", "Temperature [K]")
 
 
 class HeatIn(_Strict):
-    model: str = Field("convective", description=f"Heat model by name (GET /api/heat-models): {', '.join(HEAT_MODELS)} [-]")
-    coefficient: Number = Field(25.0, description="Convection coefficient h of Eq. 9 [W/(m^2 K)]")
+    model: str = from_lib(_MODEL.heat, "model", f"Heat model by name (GET /api/heat-models): {', '.join(HEAT_MODELS)} [-]")
+    coefficient: Number = from_lib(_MODEL.heat, "coefficient", "Convection coefficient h of Eq. 9 [W/(m^2 K)]")
 
 
 # the other heat-model parameters, from their registry (unit, description): null = the default
@@ -69,31 +95,31 @@ HeatIn.model_rebuild(force=True)
 
 
 class FrictionSetIn(_Strict):
-    fc0: Number = Field(10.0, description="Constant Coulomb force [N]")
-    fc_a: Number = Field(0.0, description="Coulomb force per gauge pressure in A (Eq. 20) [N/Pa]")
-    fc_b: Number = Field(0.0, description="Coulomb force per gauge pressure in B (Eq. 20) [N/Pa]")
-    kv0: Number = Field(30.0, description="Constant viscous coefficient [N s/m]")
-    kv_a: Number = Field(0.0, description="Viscous coefficient per gauge pressure in A (Eq. 19) [N s/(m Pa)]")
-    kv_b: Number = Field(0.0, description="Viscous coefficient per gauge pressure in B (Eq. 19) [N s/(m Pa)]")
+    fc0: Number = from_lib(_FRICTION_SET, "fc0", "Constant Coulomb force [N]")
+    fc_a: Number = from_lib(_FRICTION_SET, "fc_a", "Coulomb force per gauge pressure in A (Eq. 20) [N/Pa]")
+    fc_b: Number = from_lib(_FRICTION_SET, "fc_b", "Coulomb force per gauge pressure in B (Eq. 20) [N/Pa]")
+    kv0: Number = from_lib(_FRICTION_SET, "kv0", "Constant viscous coefficient [N s/m]")
+    kv_a: Number = from_lib(_FRICTION_SET, "kv_a", "Viscous coefficient per gauge pressure in A (Eq. 19) [N s/(m Pa)]")
+    kv_b: Number = from_lib(_FRICTION_SET, "kv_b", "Viscous coefficient per gauge pressure in B (Eq. 19) [N s/(m Pa)]")
 
 
 class FrictionIn(_Strict):
     extend: FrictionSetIn = Field(default_factory=FrictionSetIn, description="Coefficients while extending (v > 0)")
     retract: Optional[FrictionSetIn] = Field(None, description="Coefficients while retracting (v < 0); null = same as extend")
-    law: str = Field("coulomb_viscous", description="Friction law name [-]")
+    law: str = from_lib(_MODEL.friction, "law", "Friction law name [-]")
 
 
 class GasIn(_Strict):
-    r: Number = Field(287.05, description="Specific gas constant [J/(kg K)]")
-    gamma: Number = Field(1.4, description="Ratio of specific heats [-]")
+    r: Number = from_lib(_GAS, "r", "Specific gas constant [J/(kg K)]")
+    gamma: Number = from_lib(_GAS, "gamma", "Ratio of specific heats [-]")
 
 
 class ModelIn(_Strict):
     """An actuator model (see the pneucore README for the physics)."""
     jack: JackIn = Field(..., description="Cylinder geometry and load")
     valve: ValveIn = Field(..., description="Directional valve")
-    supply: SourceIn = Field(default_factory=lambda: SourceIn(pressure=7e5), description="Supply node (absolute pressure [Pa], temperature [K])")
-    ambient: SourceIn = Field(default_factory=lambda: SourceIn(pressure=1.013e5), description="Ambient/exhaust node (absolute pressure [Pa], temperature [K])")
+    supply: SourceIn = Field(default_factory=lambda: SourceIn(**_MODEL.supply.to_dict()), description="Supply node (absolute pressure [Pa], temperature [K])")
+    ambient: SourceIn = Field(default_factory=lambda: SourceIn(**_MODEL.ambient.to_dict()), description="Ambient/exhaust node (absolute pressure [Pa], temperature [K])")
     heat: HeatIn = Field(default_factory=HeatIn, description="Heat exchange model")
     friction: FrictionIn = Field(default_factory=FrictionIn, description="Piston friction (Eq. 18-20)")
     effects: dict[str, dict[str, Number]] = Field(default_factory=dict, description="Catalog effects by name with their parameters (units in GET /api/effects)")
@@ -112,19 +138,20 @@ class InitialIn(_Strict):
 
 
 class SolverIn(_Strict):
-    rtol: Number = Field(1e-5, description="Relative tolerance of the error control [-]")
-    max_step: Number = Field(0.02, description="Largest integration step [s]")
-    max_steps: int = Field(2_000_000, description="Step budget; the run stops with an error beyond it [-]")
-    max_events: int = Field(200_000, description="Event budget (stick/slip/stop/command) [-]")
+    rtol: Number = from_lib(_SOLVER, "rtol", "Relative tolerance of the error control [-]")
+    max_step: Number = from_lib(_SOLVER, "max_step", "Largest integration step [s]")
+    max_steps: int = from_lib(_SOLVER, "max_steps", "Step budget; the run stops with an error beyond it [-]")
+    max_events: int = from_lib(_SOLVER, "max_events", "Event budget (stick/slip/stop/command) [-]")
 
 
 class ScenarioIn(_Strict):
-    duration: Optional[Number] = Field(1.0, description="Simulated time [s]")
-    sample_period: Optional[Number] = Field(0.001, description="Output sample period [s]")
-    command: Optional[list[tuple[Number, Number]]] = Field(None, description="Valve command breakpoints [[t [s], u [-]], ...]")
-    command_interpolation: Literal["hold", "linear"] = Field("hold", description="Zero-order hold or linear between breakpoints [-]")
-    locked: bool = Field(False, description="Piston locked at x0 (chamber test) [-]")
-    x0: Optional[Number] = Field(None, description="Initial position from the A end [m]")
+    duration: Optional[Number] = from_lib(_SCENARIO, "duration", "Simulated time [s]")
+    sample_period: Optional[Number] = from_lib(_SCENARIO, "sample_period", "Output sample period [s]")
+    command: Optional[list[tuple[Number, Number]]] = from_lib(_SCENARIO, "command", "Valve command breakpoints [[t [s], u [-]], ...]",
+                                                       validate_default=True)  # pairs, as a request's
+    command_interpolation: _INTERPOLATION = from_lib(_SCENARIO, "command_interpolation", "Zero-order hold or linear between breakpoints [-]")
+    locked: bool = from_lib(_SCENARIO, "locked", "Piston locked at x0 (chamber test) [-]")
+    x0: Optional[Number] = from_lib(_SCENARIO, "x0", "Initial position from the A end [m]")
     initial: InitialIn = Field(default_factory=InitialIn, description="Initial chamber state")
     solver: Optional[SolverIn] = Field(None, description="Integrator settings")
     name: str = Field("", description="Label")
@@ -220,7 +247,7 @@ class VersionCreate(_Strict):
 class StudyRequest(_Strict):
     model: ModelIn = Field(..., description="Actuator model")
     scenario: ScenarioIn = Field(..., description="Scenario run for every parameter set")
-    parameters: dict[str, dict[str, Any]] = Field(..., description="Parameter path -> {grid: [...]} or {distribution: uniform|normal|lognormal, min, max, mean, std, median, sigma} (unit of the parameter)")
+    parameters: dict[str, dict[str, Any]] = Field(..., description=f"Parameter path -> {{grid: [...]}} or {{distribution: NAME, fields}} with the fields of each distribution ({_DISTRIBUTION_FIELDS}), in the unit of the parameter")
     samples: Optional[int] = Field(None, description="Number of random samples (distributions) [-]")
     seed: int = Field(0, description="Random seed [-]")
     metrics: Optional[list[str]] = Field(None, description="Metrics to compute; null = all (see pneucore.study METRICS) [-]")

@@ -139,16 +139,34 @@ class Comparison:
                 e.pop("measured", None)
         if self.heat_models:
             d["heat_models"] = self.heat_models
-        return _plain(d)
+        return plain_json(d)
 
 
-def _plain(obj):
+def plain_json(obj):
+    """``obj`` as plain JSON: numpy arrays and scalars as lists and Python numbers, NaN and
+    infinities as None, keys as strings.
+
+    Parameters
+    ----------
+    obj : object
+        Nested dicts, lists, tuples, numpy arrays and scalars
+
+    Returns
+    -------
+    plain : object
+        The same structure with JSON types only
+
+    Examples
+    --------
+    >>> plain_json({"e": np.array([0.5, np.nan]), 1: (np.int64(2), np.bool_(True))})
+    {'e': [0.5, None], '1': [2, True]}
+    """
     if isinstance(obj, dict):
-        return {str(k): _plain(v) for k, v in obj.items()}
+        return {str(k): plain_json(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_plain(v) for v in obj]
+        return [plain_json(v) for v in obj]
     if isinstance(obj, np.ndarray):
-        return [_plain(v) for v in obj.tolist()]
+        return [plain_json(v) for v in obj.tolist()]
     if isinstance(obj, (np.floating, float)):
         f = float(obj)
         return f if math.isfinite(f) else None
@@ -157,6 +175,9 @@ def _plain(obj):
     if isinstance(obj, np.bool_):
         return bool(obj)
     return obj
+
+
+_plain = plain_json     # the old private name (calibrate and diagnose import it)
 
 
 def summarise(replays, n_windows=5):

@@ -34,8 +34,10 @@ class Initial:
 
     Parameters
     ----------
-    p_a, p_b : float or None  Absolute pressures [Pa]
-    T_a, T_b : float or None  Gas temperatures [K]
+    p_a, p_b : float or None
+        Absolute pressures [Pa]
+    T_a, T_b : float or None
+        Gas temperatures [K]
     """
     p_a: Optional[float] = None
     p_b: Optional[float] = None
@@ -52,10 +54,14 @@ class Solver:
 
     Parameters
     ----------
-    rtol : float  Relative tolerance of the error control [-]
-    max_step : float  Largest step [s]
-    max_steps : int  Step budget; the simulation stops with an error beyond it
-    max_events : int  Event budget (stick/slip/stop/command)
+    rtol : float
+        Relative tolerance of the error control [-]
+    max_step : float
+        Largest step [s]
+    max_steps : int
+        Step budget; the simulation stops with an error beyond it [-]
+    max_events : int
+        Event budget (stick/slip/stop/command) [-]
     """
     rtol: float = 1e-5
     max_step: float = 0.05
@@ -72,14 +78,24 @@ class Scenario:
 
     Parameters
     ----------
-    duration : float  Simulated time [s]
-    sample_period : float  Output sample period [s]
-    command : list of [t, u]  Valve command breakpoints [s], [-]
-    command_interpolation : str  ``hold`` or ``linear``
-    locked : bool  Piston locked at ``x0`` (chamber test)
-    x0 : float  Initial position [m]
-    initial : Initial  Initial pressures [Pa] and temperatures [K]
-    solver : Solver  Integrator settings
+    duration : float
+        Simulated time [s]
+    sample_period : float
+        Output sample period [s]
+    command : list of [t, u]
+        Valve command breakpoints: time [s] and opening [-]
+    command_interpolation : str
+        ``hold`` or ``linear`` [-]
+    locked : bool
+        Piston locked at ``x0`` (chamber test) [-]
+    x0 : float
+        Initial position from the A end [m]
+    initial : Initial
+        Initial pressures [Pa] and temperatures [K]
+    solver : Solver
+        Integrator settings
+    name, description : str
+        Label and free text
     """
     duration: float = 1.0
     sample_period: float = 0.001
@@ -103,8 +119,7 @@ class Scenario:
         if isinstance(d, Scenario):
             d = d.to_dict()
         mapping(d, "scenario")
-        known_keys(d, ("duration", "sample_period", "command", "command_interpolation", "locked",
-                       "x0", "initial", "solver", "name", "description"), "scenario")
+        known_keys(d, cls.__dataclass_fields__, "scenario")
         s = cls()
         s.duration = number(d.get("duration", s.duration), "scenario.duration", positive=True,
                             high=MAX_DURATION)
@@ -133,26 +148,27 @@ class Scenario:
             t_prev = t
             out.append([t, u])
         s.command = out
-        s.command_interpolation = choice(d.get("command_interpolation", "hold"),
+        s.command_interpolation = choice(d.get("command_interpolation", s.command_interpolation),
                                          COMMAND_INTERPOLATIONS, "scenario.command_interpolation")
-        locked = d.get("locked", False)
+        locked = d.get("locked", s.locked)
         if not isinstance(locked, bool):
             raise FieldError("scenario.locked", f"must be true or false, got {locked!r}")
         s.locked = locked
         s.x0 = number(d.get("x0", s.x0), "scenario.x0", nonnegative=True)
         ini = optional_mapping(d.get("initial"), "scenario.initial")
-        known_keys(ini, ("p_a", "p_b", "T_a", "T_b"), "scenario.initial")
+        known_keys(ini, Initial.__dataclass_fields__, "scenario.initial")
         s.initial = Initial(*(number(ini.get(k), f"scenario.initial.{k}", positive=True, allow_none=True)
-                              for k in ("p_a", "p_b", "T_a", "T_b")))
+                              for k in Initial.__dataclass_fields__))
         sol = optional_mapping(d.get("solver"), "scenario.solver")
-        known_keys(sol, ("rtol", "max_step", "max_steps", "max_events"), "scenario.solver")
+        known_keys(sol, Solver.__dataclass_fields__, "scenario.solver")
+        d0 = Solver()      # the defaults, stated once on the dataclass
         s.solver = Solver(
-            rtol=number(sol.get("rtol", 1e-5), "scenario.solver.rtol", low=1e-13, high=1e-2),
-            max_step=number(sol.get("max_step", 0.05), "scenario.solver.max_step", positive=True,
+            rtol=number(sol.get("rtol", d0.rtol), "scenario.solver.rtol", low=1e-13, high=1e-2),
+            max_step=number(sol.get("max_step", d0.max_step), "scenario.solver.max_step", positive=True,
                             high=1.0),
-            max_steps=integer(sol.get("max_steps", 5_000_000), "scenario.solver.max_steps",
+            max_steps=integer(sol.get("max_steps", d0.max_steps), "scenario.solver.max_steps",
                               low=10, high=1e8),
-            max_events=integer(sol.get("max_events", 200_000), "scenario.solver.max_events",
+            max_events=integer(sol.get("max_events", d0.max_events), "scenario.solver.max_events",
                                low=10, high=1e7),
         )
         s.name = str(d.get("name", ""))
@@ -201,13 +217,22 @@ def pulse_train(pulses, width, rest=0.0):
 
     Parameters
     ----------
-    pulses : list of (t, u)  Start time [s] and opening [-] of each pulse
-    width : float  Pulse duration [s]
-    rest : float  Opening between pulses [-]
+    pulses : list of (t, u)
+        Start time [s] and opening [-] of each pulse
+    width : float
+        Pulse duration [s]
+    rest : float
+        Opening between pulses [-]
 
     Returns
     -------
-    command : list of [t, u]  Breakpoints for :class:`Scenario` (hold interpolation)
+    command : list of [t, u]
+        Breakpoints for :class:`Scenario` (hold interpolation): time [s], opening [-]
+
+    Examples
+    --------
+    >>> pulse_train([(0.1, 0.7)], 0.05)
+    [[0.0, 0.0], [0.1, 0.7], [0.15000000000000002, 0.0]]
     """
     cmd = [[0.0, rest]]
     for t, u in sorted(pulses):

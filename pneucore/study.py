@@ -3,11 +3,13 @@
 The pieces live in ``study_*`` modules; this one gathers the public API and
 the command line.
 
-* Definition (:mod:`pneucore.study_def`): :class:`Study`, grids and
-  uniform / normal / lognormal distributions with bounds, seed, at most
+* Definition (:mod:`pneucore.study_def`): :class:`Study`, grids and the
+  distributions of the registry :data:`DISTRIBUTIONS` (uniform, normal,
+  lognormal; :func:`register_distribution` adds one) with bounds, seed, at most
   :data:`MAX_RUNS` runs; ``Study.from_dict`` raises
   :class:`~pneucore.validation.FieldError` naming the field.
-* Metrics (:mod:`pneucore.study_metrics`): :data:`METRICS` with units.
+* Metrics (:mod:`pneucore.study_metrics`): the registry :data:`METRICS` with
+  units (:func:`register_metric` adds one).
 * Execution (:mod:`pneucore.study_exec`): :func:`run_study` - local process
   pool, or ``dask.distributed`` when a scheduler address is given (argument,
   ``$PNEUCORE_DASK_SCHEDULER`` or ``--scheduler``); batches stored in SQLite as
@@ -40,20 +42,40 @@ import json
 import sys
 import time
 
-from .study_def import DISTRIBUTIONS, MAX_RUNS, MIN_MASS, Study, StudyParameter
+from .study_def import (DISTRIBUTIONS, MAX_RUNS, MIN_MASS, Distribution, Study, StudyParameter,
+                        register_distribution)
 from .study_exec import (ENV_SCHEDULER, SCHEDULER_TIMEOUT, SchedulerError, StudyInterrupted,
-                         check_run_options, connect_scheduler, queue_study, run_batch, run_study)
-from .study_metrics import METRICS, run_metrics
-from .study_results import factorial_indices, rank_correlations, study_results, study_status
-from .study_store import delete_study, list_studies
+                         check_run_options, connect_scheduler, max_workers, queue_study, run_batch,
+                         run_study)
+from .study_metrics import METRICS, Metric, RunSeries, register_metric, run_metrics
+from .study_results import factorial_indices, rank_correlations, runs_csv, study_results, study_status
+from .study_store import STATUSES, delete_study, list_studies, set_study_status
 from .validation import FieldError
 
 __all__ = [
     "Study", "StudyParameter", "DISTRIBUTIONS", "MAX_RUNS", "MIN_MASS", "METRICS", "run_metrics",
+    "Distribution", "register_distribution", "Metric", "RunSeries", "register_metric",
     "run_study", "run_batch", "connect_scheduler", "queue_study", "check_run_options", "SchedulerError", "StudyInterrupted",
     "ENV_SCHEDULER", "SCHEDULER_TIMEOUT", "study_results", "study_status", "list_studies",
     "delete_study", "rank_correlations", "factorial_indices", "main",
+    "requeue_study", "set_study_status", "STATUSES", "runs_csv", "max_workers",
 ]
+
+
+def requeue_study(store_path, study_id):
+    """Mark a stored study ``queued``, so that the next start resumes it.
+
+    For a study stopped by a shutdown of the service: its stored runs are kept
+    and :func:`run_study` with ``study_id`` computes only the missing ones.
+
+    Parameters
+    ----------
+    store_path : str
+        SQLite file of the study store
+    study_id : str
+        The study's id
+    """
+    set_study_status(store_path, study_id, "queued")
 
 
 def _fmt(v, unit):

@@ -48,7 +48,7 @@ import copy
 import json
 import math
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Callable, Optional
 
 import numpy as np
 from scipy import special
@@ -64,12 +64,129 @@ MAX_RUNS = 1_000_000
 MAX_GRID_VALUES = 10_000
 #: Smallest probability mass that a truncated distribution's bounds may keep [-]
 MIN_MASS = 1e-12
-#: Distribution names and their fields (required, optional)
-DISTRIBUTIONS = {
-    "uniform": (("min", "max"), ()),
-    "normal": (("mean", "std"), ("min", "max")),
-    "lognormal": (("median", "sigma"), ("min", "max")),
-}
+
+
+@dataclass(frozen=True)
+class Distribution:
+    """A distribution a study parameter may follow, by name in :data:`DISTRIBUTIONS`.
+
+    It unpacks as ``(required, optional)``, the pair :data:`DISTRIBUTIONS` held before.
+
+    Parameters
+    ----------
+    required : tuple of str
+        Fields that must be given (:class:`StudyParameter` attributes) [-]
+    optional : tuple of str
+        Fields that may be given [-]
+    inverse_cdf : callable
+        ``inverse_cdf(parameter, u) -> ndarray``: uniforms ``u`` in [0, 1) mapped through
+        the inverse CDF truncated to ``[min, max]`` (unit of the parameter)
+    mass : callable
+        ``mass(parameter) -> float``: probability mass kept by the bounds [-]
+    positive : tuple of str
+        Fields that must be > 0 [-]
+    in_support : callable
+        ``in_support(value) -> bool``: a bound outside the support (a lognormal's
+        ``min <= 0``) truncates nothing and is not checked against the model
+    """
+    required: tuple
+    optional: tuple
+    inverse_cdf: Callable
+    mass: Callable
+    positive: tuple = ()
+    in_support: Callable = lambda v: True
+
+    def __iter__(self):
+        return iter((self.required, self.optional))
+
+
+#: name -> :class:`Distribution`; parsing, validation and sampling all read it, so a
+#: distribution registered here (:func:`register_distribution`) is one a study can use
+DISTRIBUTIONS: dict[str, Distribution] = {}
+
+
+def register_distribution(name, distribution):
+    """Add (or replace) the distribution ``name`` for study parameters.
+
+    Parameters
+    ----------
+    name : str
+        Name given as ``{"distribution": name, ...}``
+    distribution : Distribution
+        Its fields and inverse CDF
+
+    Notes
+    -----
+    Every process regenerates its runs' values from the definition, so the
+    distribution must be registered where the runs execute: this process
+    (``workers=0``) or Dask workers that preload the registering module; the
+    local pool's forkserver workers import pneucore only.
+    """
+    DISTRIBUTIONS[name] = distribution
+    return distribution
+
+
+def _bound(v, missing):
+    return missing if v is None else v
+
+
+def _normal_form(p):
+    """``(loc, scale, lo, hi)``: a normal parameter is its own normal variable."""
+    return p.mean, p.std, _bound(p.min, -math.inf), _bound(p.max, math.inf)
+
+
+def _lognormal_form(p):
+    """``(loc, scale, lo, hi)`` of ``ln x ~ N(ln median, sigma)``."""
+    lo = -math.inf if p.min is None or p.min <= 0 else math.log(p.min)
+    hi = math.inf if p.max is None else (math.log(p.max) if p.max > 0 else -math.inf)
+    return math.log(p.median), p.sigma, lo, hi
+
+
+def _truncation(form, p):
+    """``(loc, scale, za, zb, flip)`` of the standard-normal form of ``p``.
+
+    The truncated range is handled on the lower tail (``flip``: by symmetry) so
+    that far-tail bounds keep their precision.
+    """
+    loc, scale, lo, hi = form(p)
+    za, zb = (lo - loc) / scale, (hi - loc) / scale
+    flip = za > 0.0
+    if flip:
+        za, zb = -zb, -za
+    return loc, scale, za, zb, flip
+
+
+def _normal_family(form, back=None):
+    """``(inverse_cdf, mass)`` of a truncated distribution whose variable ``form`` maps to a
+    normal one (``back`` maps a normal value back to the parameter: ``exp`` for lognormal)."""
+    def mass(p):
+        _, _, za, zb, _ = _truncation(form, p)
+        if not zb > za:
+            return 0.0
+        return float(special.ndtr(zb) - special.ndtr(za))
+
+    def inverse_cdf(p, u):
+        loc, scale, za, zb, flip = _truncation(form, p)
+        fa, fb = special.ndtr(za), special.ndtr(zb)
+        q = np.maximum(fa + u * (fb - fa), np.nextafter(0.0, 1.0))
+        z = np.clip(special.ndtri(q), za, zb)
+        if flip:
+            z = -z
+        x = loc + scale * z
+        if back is not None:
+            x = back(x)
+        return np.clip(x, _bound(p.min, -math.inf), _bound(p.max, math.inf))
+    return inverse_cdf, mass
+
+
+register_distribution("uniform", Distribution(
+    ("min", "max"), (), inverse_cdf=lambda p, u: p.min + u * (p.max - p.min),
+    mass=lambda p: 1.0))
+register_distribution("normal", Distribution(
+    ("mean", "std"), ("min", "max"), *_normal_family(_normal_form), positive=("std",)))
+register_distribution("lognormal", Distribution(
+    ("median", "sigma"), ("min", "max"), *_normal_family(_lognormal_form, np.exp),
+    positive=("median", "sigma"), in_support=lambda v: v > 0))
 
 
 @dataclass
@@ -78,12 +195,20 @@ class StudyParameter:
 
     Parameters
     ----------
-    path : str  Model path (see :mod:`pneucore.paths`), e.g. ``friction.extend.fc0``
-    kind : str  ``grid``, ``uniform``, ``normal`` or ``lognormal``
-    grid : list of float or None  Grid values (SI, or scale factors for valve paths)
-    min, max : float or None  Bounds (required for uniform; optional truncation otherwise)
-    mean, std : float or None  Normal distribution (std > 0)
-    median, sigma : float or None  Lognormal: median of x and standard deviation of ln x
+    path : str
+        Model path (see :mod:`pneucore.paths`), e.g. ``friction.extend.fc0``
+    kind : str
+        ``grid``, ``uniform``, ``normal`` or ``lognormal``
+    grid : list of float or None
+        Grid values, in the unit of the parameter (scale factors [-] for valve tables)
+    min, max : float or None
+        Bounds, in the unit of the parameter (required for uniform; optional truncation
+        otherwise)
+    mean, std : float or None
+        Normal distribution's mean and standard deviation (std > 0), in the unit of the
+        parameter
+    median, sigma : float or None
+        Lognormal: median of x (unit of the parameter) and standard deviation of ln x [-]
     """
     path: str
     kind: str
@@ -99,61 +224,25 @@ class StudyParameter:
         if self.kind == "grid":
             return {"grid": list(self.grid)}
         d = {"distribution": self.kind}
-        req, opt = DISTRIBUTIONS[self.kind]
-        for k in req + opt:
+        dist = DISTRIBUTIONS[self.kind]
+        for k in dist.required + dist.optional:
             v = getattr(self, k)
             if v is not None:
                 d[k] = v
         return d
 
-    # -- inverse CDF ---------------------------------------------------------------
-    def _truncation(self):
-        """``(kind, loc, scale, za, zb, flip)`` of the standard-normal form of the distribution.
-
-        The truncated range is handled on the lower tail (``flip``: by
-        symmetry) so that far-tail bounds keep their precision.
-        """
-        if self.kind == "normal":
-            loc, scale = self.mean, self.std
-            lo = -math.inf if self.min is None else self.min
-            hi = math.inf if self.max is None else self.max
-        else:  # lognormal: ln x ~ N(ln median, sigma)
-            loc, scale = math.log(self.median), self.sigma
-            lo = -math.inf if self.min is None or self.min <= 0 else math.log(self.min)
-            hi = math.inf if self.max is None else (math.log(self.max) if self.max > 0 else -math.inf)
-        za, zb = (lo - loc) / scale, (hi - loc) / scale
-        flip = za > 0.0
-        if flip:
-            za, zb = -zb, -za
-        return loc, scale, za, zb, flip
+    @property
+    def distribution(self):
+        """The registered :class:`Distribution` (None for a grid)."""
+        return None if self.kind == "grid" else DISTRIBUTIONS[self.kind]
 
     def mass(self):
-        """Probability mass kept by the bounds [-] (1 for grids and uniforms)."""
-        if self.kind in ("grid", "uniform"):
-            return 1.0
-        _, _, za, zb, _ = self._truncation()
-        if not zb > za:
-            return 0.0
-        return float(special.ndtr(zb) - special.ndtr(za))
+        """Probability mass kept by the bounds [-] (1 for grids)."""
+        return 1.0 if self.kind == "grid" else self.distribution.mass(self)
 
     def from_uniform(self, u):
         """Map uniforms ``u`` in [0, 1) through the truncated inverse CDF."""
-        u = np.asarray(u, float)
-        if self.kind == "uniform":
-            return self.min + u * (self.max - self.min)
-        loc, scale, za, zb, flip = self._truncation()
-        fa, fb = special.ndtr(za), special.ndtr(zb)
-        p = np.maximum(fa + u * (fb - fa), np.nextafter(0.0, 1.0))
-        z = special.ndtri(p)
-        z = np.clip(z, za, zb)
-        if flip:
-            z = -z
-        x = loc + scale * z
-        if self.kind == "lognormal":
-            x = np.exp(x)
-        lo = -math.inf if self.min is None else self.min
-        hi = math.inf if self.max is None else self.max
-        return np.clip(x, lo, hi)
+        return self.distribution.inverse_cdf(self, np.asarray(u, float))
 
 
 @dataclass
@@ -162,14 +251,21 @@ class Study:
 
     Parameters
     ----------
-    model : Model  Nominal model
-    scenario : Scenario  Scenario run for every parameter set
-    parameters : list of StudyParameter  Varied parameters, sorted by path
-    samples : int or None  Draws per grid point (None for a grid-only study)
-    seed : int  Seed of ``numpy.random.default_rng``
-    metrics : list of str or None  Metrics to compute (None = all of
+    model : Model
+        Nominal model
+    scenario : Scenario
+        Scenario run for every parameter set
+    parameters : list of StudyParameter
+        Varied parameters, sorted by path
+    samples : int or None
+        Draws per grid point (None for a grid-only study) [-]
+    seed : int
+        Seed of ``numpy.random.default_rng`` [-]
+    metrics : list of str or None
+        Metrics to compute (None = all of
         :data:`pneucore.study_metrics.METRICS`)
-    name, description : str  Free text
+    name, description : str
+        Free text
     """
     model: Model
     scenario: Scenario
@@ -375,20 +471,21 @@ def _parse_parameters(model, parameters):
             out.append(StudyParameter(path, "grid", grid=values))
             continue
         if "distribution" not in spec:
-            raise FieldError(where, 'give either {"grid": [...]} or {"distribution": "uniform" | '
-                                    '"normal" | "lognormal", ...}')
+            names = " | ".join(f'"{n}"' for n in DISTRIBUTIONS)
+            raise FieldError(where, f'give either {{"grid": [...]}} or {{"distribution": {names}, ...}}')
         kind = spec["distribution"]
         if not isinstance(kind, str) or kind not in DISTRIBUTIONS:
             raise FieldError(f"{where}.distribution",
                              f"unknown distribution {kind!r}; expected one of {list(DISTRIBUTIONS)}")
-        req, opt = DISTRIBUTIONS[kind]
+        dist = DISTRIBUTIONS[kind]
+        req, opt = dist.required, dist.optional
         known_keys(spec, ("distribution",) + req + opt, where)
         vals = {}
         for k in req:
             if spec.get(k) is None:
                 raise FieldError(f"{where}.{k}", f"is required for a {kind} distribution")
         for k in req + opt:
-            kw = {"positive": True} if k in ("std", "sigma", "median") else {}
+            kw = {"positive": True} if k in dist.positive else {}
             vals[k] = number(spec.get(k), f"{where}.{k}", allow_none=True, **kw)
         p = StudyParameter(path, kind, **vals)
         if p.min is not None and p.max is not None and not p.min < p.max:
@@ -401,7 +498,7 @@ def _parse_parameters(model, parameters):
                                     f"needed) - check the units")
         for k in ("min", "max"):
             v = getattr(p, k)
-            if v is not None and (kind == "uniform" or kind == "normal" or v > 0):
+            if v is not None and dist.in_support(v):
                 _check_model_at(model, path, v, f"{where}.{k}")
         out.append(p)
     return out

@@ -539,31 +539,40 @@ def run_study(study=None, store_path=None, scheduler=None, workers=None, batch_s
 
     Parameters
     ----------
-    study : Study or dict or None  The definition (see :mod:`pneucore.study_def`); may be
-        None when resuming a stored ``study_id``
-    store_path : str or None  SQLite file (created if needed); None = in memory, and the
-        results are returned under ``"results"``
-    scheduler : str, distributed.Client, cluster or None  Dask scheduler address (e.g.
-        ``tcp://10.0.0.5:8786``), an existing Client (left open) or a cluster object; None =
-        ``$PNEUCORE_DASK_SCHEDULER`` if set (and ``workers`` is None), else the local
-        process pool; ``"local"`` forces the local pool
-    workers : int or None  Local pool size (default and largest: the CPUs available,
-        :func:`max_workers`; 0 = run in this process); not allowed with a scheduler
-    batch_size : int or None  Runs per task (default: enough tasks for 4 per worker slot, at
-        most 250 runs each)
-    progress : callable or None  ``progress(fraction, step)`` after each stored batch, once
-        before the first, and at least every :data:`HEARTBEAT` s while waiting; an exception
-        raised there stops the study (status ``interrupted``; already stored batches are
-        kept) and propagates
-    study_id : str or None  Resume this stored study (only missing run indices are
-        computed), or create a new study under this id; None = a new random id
-    scheduler_timeout : float  Time allowed to reach the scheduler [s]
-    time_limit : float or None  Wall time allowed to this call [s]; past it the study stops
+    study : Study or dict or None
+        The definition (see :mod:`pneucore.study_def`); may be None when resuming a
+        stored ``study_id``
+    store_path : str or None
+        SQLite file (created if needed); None = in memory, and the results are returned
+        under ``"results"``
+    scheduler : str, distributed.Client, cluster or None
+        Dask scheduler address (e.g. ``tcp://10.0.0.5:8786``), an existing Client (left
+        open) or a cluster object; None = ``$PNEUCORE_DASK_SCHEDULER`` if set (and
+        ``workers`` is None), else the local process pool; ``"local"`` forces the local pool
+    workers : int or None
+        Local pool size (default and largest: the CPUs available, :func:`max_workers`;
+        0 = run in this process); not allowed with a scheduler [-]
+    batch_size : int or None
+        Runs per task (default: enough tasks for 4 per worker slot, at most 250 runs
+        each) [-]
+    progress : callable or None
+        ``progress(fraction, step)`` (fraction [-], step in words) after each stored
+        batch, once before the first, and at least every :data:`HEARTBEAT` s while
+        waiting; an exception raised there stops the study (status ``interrupted``;
+        already stored batches are kept) and propagates
+    study_id : str or None
+        Resume this stored study (only missing run indices are computed), or create a new
+        study under this id; None = a new random id
+    scheduler_timeout : float
+        Time allowed to reach the scheduler [s]
+    time_limit : float or None
+        Wall time allowed to this call [s]; past it the study stops
         with :class:`StudyInterrupted` (status ``interrupted``), whether or not batches finish
 
     Returns
     -------
-    summary : dict  ``id``, ``status``, ``n_runs``, ``computed`` (runs simulated by this
+    summary : dict
+        ``id``, ``status``, ``n_runs``, ``computed`` (runs simulated by this
         call), ``already_stored``, ``failed`` (stored runs with an error), ``batches``,
         ``batch_size``, ``engine``, ``wall_time`` [s], ``store_path``; plus ``results``
         (:func:`pneucore.study_results.study_results`) when ``store_path`` is None

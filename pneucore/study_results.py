@@ -62,9 +62,12 @@ def study_results(store_path, study_id, include_runs=True):
 
     Parameters
     ----------
-    store_path : str  SQLite store
-    study_id : str  Study id
-    include_runs : bool  Include the raw per-run arrays (``runs``); False for a light summary
+    store_path : str
+        SQLite store
+    study_id : str
+        Study id
+    include_runs : bool
+        Include the raw per-run arrays (``runs``); False for a light summary
 
     Returns
     -------
@@ -253,15 +256,19 @@ def rank_correlations(X, y, ranks=None):
 
     Parameters
     ----------
-    X : ndarray (n, k)  Inputs of the usable runs
-    y : ndarray (n,)  Output
-    ranks : ndarray (n, k) or None  Average ranks of the columns of ``X`` when already
-        computed (several outputs over the same runs)
+    X : ndarray (n, k)
+        Inputs of the usable runs, in the parameters' units
+    y : ndarray (n,)
+        Output, in the metric's unit
+    ranks : ndarray (n, k) or None
+        Average ranks of the columns of ``X`` when already computed (several outputs
+        over the same runs) [-]
 
     Returns
     -------
-    out : list of dict  Per column: ``spearman``, ``spearman_p``, ``prcc``, ``prcc_p``
-        (None where undefined: constant column or output, too few runs)
+    out : list of dict
+        Per column: ``spearman``, ``spearman_p``, ``prcc``, ``prcc_p``, correlations and
+        p-values [-] (None where undefined: constant column or output, too few runs)
     """
     n, k = X.shape
     out = [{"spearman": None, "spearman_p": None, "prcc": None, "prcc_p": None} for _ in range(k)]
@@ -326,12 +333,24 @@ def factorial_indices(y, shape):
 
     Parameters
     ----------
-    y : ndarray  Output of every grid point, in run order (C order over ``shape``)
-    shape : tuple  Number of levels of each grid parameter
+    y : ndarray
+        Output of every grid point, in run order (C order over ``shape``), in the
+        metric's unit
+    shape : tuple
+        Number of levels of each grid parameter [-]
 
     Returns
     -------
-    S1, ST : list of float or None  Per parameter (None if Var(Y) = 0)
+    S1, ST : list of float or None
+        Per parameter, first-order and total shares of Var(y) [-] (None if Var(y) = 0)
+
+    Examples
+    --------
+    ``y = 2 i + j`` on a 2 x 2 grid: the level means of ``i`` vary four times as much
+    as those of ``j``, and nothing interacts:
+
+    >>> factorial_indices(np.array([0.0, 1.0, 2.0, 3.0]), (2, 2))
+    ([0.8, 0.2], [0.8, 0.2])
     """
     Y = np.asarray(y, float).reshape(shape)
     var = Y.var()

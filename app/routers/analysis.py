@@ -2,61 +2,21 @@
 from fastapi import APIRouter, Request
 from ..responses import JSON, CSV_RESPONSES, csv_response, wants_csv
 
-from pneucore.calibrate import calibrate
-from pneucore.compare import check_heat_models, compare
-from pneucore.diagnose import check_request, diagnose
-from pneucore.paths import parse_parameters
+from pneucore.compare import compare
 
 from ..bodies import OffLoopRoute
-from ..deps import LimitsDep, StoreDep, parse_experiments, parse_model
+from ..deps import LimitsDep, StoreDep
 from ..schemas import (CalibrateRequest, CalibrateResponse, CompareRequest, CompareResponse,
                        DiagnoseRequest, DiagnoseResponse)
+from ..services import check_compare, deadline_progress, run_calibrate, run_compare, run_diagnose
 
 router = APIRouter(prefix="/api", tags=["analysis"], route_class=OffLoopRoute)
-
-
-def check_compare(req: CompareRequest, store, limits):
-    """Everything a compare request can get wrong, checked before any work."""
-    model = parse_model(req.model)
-    check_heat_models(req.heat_models)
-    return model, parse_experiments(req.experiments, model, store, limits)
-
-
-def check_calibrate(req: CalibrateRequest, store, limits):
-    model = parse_model(req.model)
-    params = {k: v.model_dump(exclude_none=True) for k, v in req.parameters.items()}
-    parse_parameters(model, params)
-    return model, parse_experiments(req.experiments, model, store, limits), params
-
-
-def check_diagnose(req: DiagnoseRequest, store, limits):
-    model = parse_model(req.model)
-    check_request(model, req.candidates, req.uncertain)
-    return model, parse_experiments(req.experiments, model, store, limits)
-
-
-def run_compare(req: CompareRequest, store, limits, progress=None):
-    model, exps = check_compare(req, store, limits)
-    return compare(model, exps, heat_models=req.heat_models,
-                   progress=progress).to_dict(residuals=req.residuals)
-
-
-def run_calibrate(req: CalibrateRequest, store, limits, progress=None):
-    model, exps, params = check_calibrate(req, store, limits)
-    return calibrate(model, exps, params, max_nfev=min(max(req.max_nfev, 1), 200),
-                     progress=progress).summary()
-
-
-def run_diagnose(req: DiagnoseRequest, store, limits, progress=None):
-    model, exps = check_diagnose(req, store, limits)
-    return diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
-                    progress=progress).to_dict()
 
 
 @router.post("/compare", summary="Model versus measurements: Eq. 25 errors, phases, worst windows",
              response_class=JSON, responses=CSV_RESPONSES, response_model=CompareResponse)
 def compare_endpoint(req: CompareRequest, store: StoreDep, limits: LimitsDep, request: Request):
-    progress = _deadline(limits, "comparison", "compare")
+    progress = deadline_progress(limits, "comparison", "/api/jobs/compare")
     if wants_csv(request):
         from pneucore.export import comparison_csv
         model, exps = check_compare(req, store, limits)
@@ -69,23 +29,10 @@ def compare_endpoint(req: CompareRequest, store: StoreDep, limits: LimitsDep, re
              response_class=JSON, response_model=CalibrateResponse)
 def calibrate_endpoint(req: CalibrateRequest, store: StoreDep, limits: LimitsDep):
     return JSON(run_calibrate(req, store, limits,
-                              progress=_deadline(limits, "calibration", "calibrate")))
+                              progress=deadline_progress(limits, "calibration", "/api/jobs/calibrate")))
 
 
 @router.post("/diagnose", summary="Rank the missing physical effects and name the verdict",
              response_class=JSON, response_model=DiagnoseResponse)
 def diagnose_endpoint(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep):
-    return JSON(run_diagnose(req, store, limits, progress=_deadline(limits, "diagnosis", "diagnose")))
-
-
-def _deadline(limits, what, job):
-    """Progress callback that stops a synchronous analysis past the request time limit."""
-    import time
-    from ..jobs import JobTimeout
-    t0 = time.time()
-
-    def check(fraction, step):
-        if time.time() - t0 > limits.request_time_limit:
-            raise JobTimeout(f"the {what} exceeded the request time limit of "
-                             f"{limits.request_time_limit:g} s (at step: {step}); use POST /api/jobs/{job}")
-    return check
+    return JSON(run_diagnose(req, store, limits, progress=deadline_progress(limits, "diagnosis", "/api/jobs/diagnose")))

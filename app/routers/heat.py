@@ -1,5 +1,4 @@
 """GET /api/heat-models; POST /api/heat-models/simulate, /compare and /compare/job."""
-import time
 
 import numpy as np
 from fastapi import APIRouter, HTTPException
@@ -8,10 +7,9 @@ from pneucore.heat import HEAT_MODELS
 from pneucore.heat_compare import check_names, compare_heat_models, simulate_heat_models
 
 from ..deps import JobsDep, LimitsDep, StoreDep, parse_experiments, parse_model, parse_scenario
-from ..jobs import JobTimeout
 from ..responses import JSON
 from ..schemas import HeatModelsCompareRequest, HeatModelsSimulateRequest, JobResponse
-from .simulate import _result
+from ..services import deadline_progress, result_json
 
 router = APIRouter(prefix="/api/heat-models", tags=["heat"])
 
@@ -33,7 +31,7 @@ def simulate_endpoint(req: HeatModelsSimulateRequest, limits: LimitsDep):
     runs = simulate_heat_models(model, scen, req.heat_models)
     series = req.series if req.series is not None else [
         s for s in HEAT_SERIES if all(s in r.series for r in runs.values())]
-    return JSON({"runs": {name: _result(res, series) for name, res in runs.items()}})
+    return JSON({"runs": {name: result_json(res, series) for name, res in runs.items()}})
 
 
 def check_compare(req: HeatModelsCompareRequest, store, limits):
@@ -53,22 +51,12 @@ def run_compare(req: HeatModelsCompareRequest, store, limits, progress=None):
     return {"models": rows, "measured": measured, "experiment": exps[0].name}
 
 
-def _deadline(limits):
-    t0 = time.time()
-
-    def check(fraction, step):
-        if time.time() - t0 > limits.request_time_limit:
-            raise JobTimeout(f"the heat-model comparison exceeded the request time limit of "
-                             f"{limits.request_time_limit:g} s (at step: {step}); use POST "
-                             f"/api/heat-models/compare/job")
-    return check
-
-
 @router.post("/compare", summary="One measurement against every heat model, each calibrated on "
                                  "its own parameters: pressure and temperature errors per model",
              response_class=JSON)
 def compare_endpoint(req: HeatModelsCompareRequest, store: StoreDep, limits: LimitsDep):
-    return JSON(run_compare(req, store, limits, progress=_deadline(limits)))
+    return JSON(run_compare(req, store, limits, progress=deadline_progress(
+        limits, "heat-model comparison", "/api/heat-models/compare/job")))
 
 
 @router.post("/compare/job", status_code=202, response_model=JobResponse,

@@ -5,7 +5,7 @@ from ..responses import JSON
 from ..bodies import OffLoopRoute
 from ..deps import JobsDep, LimitsDep, StoreDep, not_found
 from ..schemas import CalibrateRequest, CompareRequest, DiagnoseRequest, JobResponse
-from .analysis import (check_calibrate, check_compare, check_diagnose, run_calibrate, run_compare,
+from ..services import (check_calibrate, check_compare, check_diagnose, run_calibrate, run_compare,
                        run_diagnose)
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"], route_class=OffLoopRoute)

@@ -9,7 +9,7 @@ from pneucore.report import comparison_report, diagnosis_report
 
 from ..deps import LimitsDep, StoreDep
 from ..schemas import CompareRequest, DiagnoseRequest
-from .analysis import _deadline, check_compare, check_diagnose
+from ..services import check_compare, check_diagnose, deadline_progress
 
 router = APIRouter(prefix="/api/reports", tags=["reports"])
 
@@ -32,7 +32,7 @@ def _provenance(store, exps):
              summary="HTML report of a comparison (plots, errors, windows, model, provenance)")
 def compare_report(req: CompareRequest, store: StoreDep, limits: LimitsDep):
     model, exps = check_compare(req, store, limits)
-    c = compare(model, exps, progress=_deadline(limits, "comparison", "compare"))
+    c = compare(model, exps, progress=deadline_progress(limits, "comparison", "/api/jobs/compare"))
     return _html(comparison_report(model, c, _provenance(store, exps)), "comparison-report.html")
 
 
@@ -40,7 +40,7 @@ def compare_report(req: CompareRequest, store: StoreDep, limits: LimitsDep):
              summary="HTML report of a diagnosis (verdict, ranking, residual tests, plots, model)")
 def diagnose_report(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep):
     model, exps = check_diagnose(req, store, limits)
-    progress = _deadline(limits, "diagnosis", "diagnose")
+    progress = deadline_progress(limits, "diagnosis", "/api/jobs/diagnose")
     d = diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
                  progress=progress).to_dict()
     c = compare(model, exps)

@@ -8,9 +8,7 @@ from fastapi.responses import StreamingResponse
 
 from pneucore.progress import Cancelled
 from pneucore.study import (Study, check_run_options, delete_study, list_studies, queue_study,
-                            run_study, study_results, study_status)
-from pneucore.study_results import runs_csv
-from pneucore.study_store import set_study_status
+                            requeue_study, run_study, runs_csv, study_results, study_status)
 from pneucore.validation import FieldError
 
 from ..config import STUDY_CLUSTERS
@@ -78,7 +76,7 @@ def start_study(app_state, db_path, sid, scheduler=None, workers=None, time_limi
                 delete_study(db_path, sid)
             elif app_state.jobs.stopping:
                 # stopped by a shutdown: queued again, so the next start resumes it
-                set_study_status(db_path, sid, "queued")
+                requeue_study(db_path, sid)
     try:
         job = app_state.jobs.submit("study", run, time_limit=time_limit)
     except RuntimeError as exc:
@@ -92,7 +90,8 @@ def start_study(app_state, db_path, sid, scheduler=None, workers=None, time_limi
 def create_study(req: StudyRequest, request: Request, limits: LimitsDep):
     model = parse_model(req.model)
     parse_scenario(req.scenario, model, limits)
-    d = {"model": model.to_dict(), "scenario": req.scenario.plain(), "parameters": req.parameters,
+    # the validated Model itself: Study.from_dict takes it as it is (validated once, above)
+    d = {"model": model, "scenario": req.scenario.plain(), "parameters": req.parameters,
          "samples": req.samples, "seed": req.seed, "metrics": req.metrics, "name": req.name}
     study = Study.from_dict(d)
     if study.n_runs > limits.max_study_runs:

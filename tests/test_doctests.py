@@ -1,0 +1,74 @@
+"""Every docstring example of pneucore runs: a broken ``>>>`` example fails the suite.
+
+The modules are found by scanning the package's files for ``>>>``, so a new
+module with examples joins without an edit here. One test per docstring
+(module, class or function), named by its dotted name.
+"""
+from __future__ import annotations
+
+import doctest
+import importlib
+import os
+
+import pytest
+
+import pneucore
+
+PACKAGE_DIR = os.path.dirname(pneucore.__file__)
+OPTIONS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
+
+#: Examples known to be out of date in a module being changed on another branch (not
+#: edited here): the printed value is stale, the function is right. Checked by hand:
+#: natural convection, 1 bar, 315 K gas on a 295 K wall, D = 0.2 m: Ra = 1.36e7,
+#: Pr = 0.71, Churchill-Chu Nu = 30.9, h = Nu k / D = 4.1 W/(m^2 K) (the example says 3.65).
+STALE = {
+    "pneucore.heat.natural_convection_coefficient": "example prints 3.65; the function gives "
+                                                   "4.11, a hand calculation 4.1 W/(m^2 K)",
+    "pneucore.heat.jet_convection_coefficient": "example prints 63.6; the function gives 65.3",
+}
+
+
+def _modules_with_examples():
+    names = []
+    for root, dirs, files in os.walk(PACKAGE_DIR):
+        dirs[:] = [d for d in dirs if not d.startswith((".", "__"))]
+        for f in sorted(files):
+            if not f.endswith(".py") or f == "__main__.py":
+                continue
+            path = os.path.join(root, f)
+            with open(path, encoding="utf-8") as fh:
+                if ">>>" not in fh.read():
+                    continue
+            rel = os.path.relpath(path, os.path.dirname(PACKAGE_DIR))[:-3]
+            name = rel.replace(os.sep, ".")
+            names.append(name[: -len(".__init__")] if name.endswith(".__init__") else name)
+    return sorted(names)
+
+
+def _docstring_tests():
+    finder = doctest.DocTestFinder(exclude_empty=True)
+    out = []
+    for name in _modules_with_examples():
+        module = importlib.import_module(name)
+        for test in finder.find(module, name):
+            if test.examples:
+                marks = [pytest.mark.xfail(reason=STALE[test.name], strict=False)] \
+                    if test.name in STALE else []
+                out.append(pytest.param(test, id=test.name, marks=marks))
+    return out
+
+
+def test_the_scan_finds_the_modules_with_examples():
+    mods = _modules_with_examples()
+    # modules known to carry examples (the scan must see them, not only what is listed here)
+    assert {"pneucore.flow", "pneucore.gas", "pneucore.scenario", "pneucore.study_metrics"} <= set(mods)
+    assert len(_docstring_tests()) >= 15
+
+
+@pytest.mark.parametrize("test", _docstring_tests())
+def test_docstring_examples_run(test, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)          # an example that writes a file writes it here
+    report = []
+    runner = doctest.DocTestRunner(optionflags=OPTIONS)
+    result = runner.run(test, out=report.append)
+    assert result.failed == 0, "".join(report)

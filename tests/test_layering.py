@@ -1,0 +1,68 @@
+"""The layering rules the import graph must keep: no private name imported from another
+module, routers never import one another, pneucore never imports the web layer."""
+import ast
+import os
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+#: Private imports still to be replaced, in modules owned by another branch at the time of
+#: writing (the public name exists: pneucore.compare.plain_json)
+PENDING = {("pneucore/calibrate.py", "_plain"), ("pneucore/diagnose.py", "_plain")}
+#: Router imports still to be replaced: the job router runs the analysis router's check_* and
+#: run_* services (to move to app/services.py when analysis.py is free)
+PENDING_ROUTERS = {("app/routers/jobs.py", "analysis")}
+
+
+def _sources(package):
+    for root, dirs, files in os.walk(os.path.join(ROOT, package)):
+        dirs[:] = [d for d in dirs if not d.startswith((".", "__"))]
+        for f in sorted(files):
+            if f.endswith(".py"):
+                path = os.path.join(root, f)
+                rel = os.path.relpath(path, ROOT).replace(os.sep, "/")
+                with open(path, encoding="utf-8") as fh:
+                    yield rel, ast.parse(fh.read(), rel)
+
+
+def _imports(tree):
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            for alias in node.names:
+                yield node.level, node.module or "", alias.name, node.lineno
+
+
+@pytest.mark.parametrize("package", ["pneucore", "app"])
+def test_no_private_name_is_imported_from_another_module(package):
+    bad = []
+    for rel, tree in _sources(package):
+        for level, module, name, line in _imports(tree):
+            # a private module of the package itself (``from . import _cache``) is its own
+            own_private = module.split(".")[-1].startswith("_") or (level and not module)
+            if name.startswith("_") and not name.startswith("__") and not own_private \
+                    and (rel, name) not in PENDING:
+                bad.append(f"{rel}:{line} imports {name} from {'.' * level}{module}")
+    assert not bad, "\n".join(bad)
+
+
+def test_routers_do_not_import_one_another():
+    routers = {f[:-3] for f in os.listdir(os.path.join(ROOT, "app", "routers")) if f.endswith(".py")}
+    bad = set()
+    for rel, tree in _sources("app/routers"):
+        for level, module, name, line in _imports(tree):
+            target = module if module else name
+            if level == 1 and target in routers and (rel, target) not in PENDING_ROUTERS:
+                bad.add(f"{rel}:{line} imports from the router {target}")
+    assert not bad, "\n".join(sorted(bad))
+
+
+def test_pneucore_does_not_import_the_web_layer():
+    bad = []
+    for rel, tree in _sources("pneucore"):
+        for node in ast.walk(tree):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
+                [node.module or ""] if isinstance(node, ast.ImportFrom) and node.level == 0 else []
+            bad += [f"{rel}:{node.lineno} imports {n}" for n in names
+                    if n.split(".")[0] in ("app", "fastapi", "pydantic", "starlette")]
+    assert not bad, "\n".join(bad)
