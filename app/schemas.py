@@ -435,6 +435,10 @@ class DiagnoseResponse(BaseModel):
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along [-]")
 
 
+class CalibrationParametersRequest(_Strict):
+    model: ModelIn = Field(..., description="The model to fit")
+
+
 class CalibrationOption(BaseModel):
     path: str = Field(..., description="Parameter path, as in CalibrateRequest.parameters")
     label: str = Field(..., description="What it is")

@@ -29,7 +29,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from .measurement import (DEFAULT_AMBIENT_PRESSURE, MAX_SAMPLES, MeasurementError,
-                          Measurement, _from_columns, decode_text, propose_mapping,
+                          Measurement, measurement_from_columns, decode_text, propose_mapping,
                           read_table)
 
 __all__ = ["read_measurement", "inspect_file", "detect_format", "FORMATS"]
@@ -213,9 +213,9 @@ def read_measurement(data: bytes, filename: str | None = None,
     if name is None:
         name = filename.rsplit(".", 1)[0] if filename else ""
     meta = {"source": filename} if filename else {}
-    return _from_columns(cols, ambient_pressure, name, meta, lines,
-                         decimal_comma_hint=report.get("delimiter", ",") != ",",
-                         units=units, mapping=columns, report=report)
+    return measurement_from_columns(cols, ambient_pressure, name, meta, lines,
+                                    decimal_comma_hint=report.get("delimiter", ",") != ",",
+                                    units=units, mapping=columns, report=report)
 
 
 def inspect_file(data: bytes, filename: str | None = None, rows: int = 5) -> dict:
@@ -250,10 +250,10 @@ def inspect_file(data: bytes, filename: str | None = None, rows: int = 5) -> dic
         cols, units, report, _ = _table(data, fmt)
     labels = [str(lab) for lab, _ in cols]
     mapping = propose_mapping(labels)
-    from .measurement import _split_loose
+    from .measurement import split_label
     out_cols = []
     for j, lab in enumerate(labels):
-        name, unit = _split_loose(lab)
+        name, unit = split_label(lab)
         if units is not None and j < len(units) and units[j] and not unit:
             unit = units[j]
         out_cols.append({"name": lab, "unit": unit or "", "signal": mapping.get(name)})

@@ -460,7 +460,7 @@ _ALIAS_LOOKUP: dict[str, str] = {a: sig for sig, names in ALIASES.items() for a 
 EXPORT_MARKER = "# pneucore"
 
 
-def _split_loose(label: str) -> tuple[str, str | None]:
+def split_label(label: str) -> tuple[str, str | None]:
     """``"Zeit [ms]"`` -> ("Zeit", "ms"); ``"p A (bar g)"`` -> ("p A", "bar g")."""
     m = _LOOSE_HEADER_RE.match(label)
     if m is None:
@@ -473,7 +473,7 @@ def _match_target(label: str, mapping: Mapping[str, Any]) -> tuple[bool, Any]:
     """The caller's mapping entry for a header (its full text or its name part)."""
     if label in mapping:
         return True, mapping[label]
-    name, _ = _split_loose(label)
+    name, _ = split_label(label)
     if name in mapping:
         return True, mapping[name]
     return False, None
@@ -501,7 +501,7 @@ def propose_mapping(labels: Iterable[str]) -> dict[str, str | None]:
     out: dict[str, str | None] = {}
     taken: set[str] = set()
     for label in labels:
-        name, _ = _split_loose(str(label))
+        name, _ = split_label(str(label))
         sig = name if name in _COLUMNS else _ALIAS_LOOKUP.get(name.strip().lower())
         if sig in taken:
             sig = None
@@ -565,7 +565,7 @@ def _resolve(label: str, unit_row: str | None, mapping: Mapping[str, Any],
     if strict is not None and strict.group(1) in _COLUMNS:
         name, unit = strict.group(1), strict.group(2)
     else:
-        name, unit = _split_loose(label)
+        name, unit = split_label(label)
     if not unit and unit_row is not None and unit_row.strip():
         unit = unit_row.strip()
         if unit[:1] + unit[-1:] in ("[]", "()"):   # a units row written '[bar]' or '(bar)'
@@ -642,11 +642,11 @@ def _ranges(rows: np.ndarray) -> list[list[int]]:
 _REST_PRESSURE_FRACTION = 0.5
 
 
-def _from_columns(columns: list[tuple[str, list]], ambient_pressure: float,
-                  name: str, meta: dict, lines: list[int] | None,
-                  decimal_comma_hint: bool = False, units: list | None = None,
-                  mapping: Mapping[str, Any] | None = None,
-                  report: dict | None = None) -> "Measurement":
+def measurement_from_columns(columns: list[tuple[str, list]], ambient_pressure: float,
+                             name: str, meta: dict, lines: list[int] | None,
+                             decimal_comma_hint: bool = False, units: list | None = None,
+                             mapping: Mapping[str, Any] | None = None,
+                             report: dict | None = None) -> "Measurement":
     """Shared back end of every reader: resolve names and units, convert, validate.
 
     ``units`` is the units row (one entry per column, or None), ``mapping``
@@ -1027,8 +1027,8 @@ class Measurement:
                 if len(values) != n:
                     raise MeasurementError(
                         f"has {len(values)} values but {t_label!r} has {n}", column=label)
-        return _from_columns(columns, ambient_pressure, name, dict(meta), None,
-                             report={"format": "json"})
+        return measurement_from_columns(columns, ambient_pressure, name, dict(meta), None,
+                                        report={"format": "json"})
 
     # ----------------------------------------------------------- derived
     def command_breakpoints(self) -> list[list[float]]:
@@ -1378,6 +1378,6 @@ def read_csv(source, ambient_pressure: float = DEFAULT_AMBIENT_PRESSURE,
     if path is not None:
         meta["source"] = path
     report = {"format": "csv", "encoding": encoding, **table.dialect}
-    return _from_columns(list(zip(table.header, table.columns)), ambient_pressure, name, meta,
+    return measurement_from_columns(list(zip(table.header, table.columns)), ambient_pressure, name, meta,
                          table.row_lines, decimal_comma_hint=(table.dialect["delimiter"] != ","),
                          units=table.units, mapping=columns, report=report)
