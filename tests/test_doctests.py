@@ -17,10 +17,7 @@ import pneucore
 PACKAGE_DIR = os.path.dirname(pneucore.__file__)
 OPTIONS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 
-#: Examples known to be out of date in a module being changed on another branch (not
-#: edited here): the printed value is stale, the function is right. Checked by hand:
-#: natural convection, 1 bar, 315 K gas on a 295 K wall, D = 0.2 m: Ra = 1.36e7,
-#: Pr = 0.71, Churchill-Chu Nu = 30.9, h = Nu k / D = 4.1 W/(m^2 K) (the example says 3.65).
+#: Examples known to be out of date (xfail, not strict), by doctest name: none at present
 STALE: dict = {}
 
 
