@@ -269,10 +269,20 @@ def check_request(model, candidates=None, uncertain=()):
                                                      f"{sorted(EFFECTS)}")
     paths = list(uncertain) if isinstance(uncertain, (list, tuple)) else list(dict(uncertain))
     for i, p in enumerate(paths):
+        if not isinstance(p, str):
+            raise FieldError(f"uncertain[{i}]", f"{p!r} is not a parameter path")
         try:
-            parse_parameters(model, [p])
+            (spec,) = parse_parameters(model, [p])
+            # the path must also be writable and read back (a property such as jack.area_a,
+            # or an attribute of a number such as supply.pressure.real, is not a parameter)
+            trial = set_values(model, {p: spec.value})
+            if get_value(trial, p) != spec.value:
+                raise ValueError("does not read back what was written")
         except FieldError as exc:
             raise FieldError(f"uncertain[{i}]", f"{p!r}: {exc.detail}") from None
+        except Exception as exc:  # noqa: BLE001 - any failure means: not a model parameter
+            raise FieldError(f"uncertain[{i}]", f"{p!r} is not a fittable model parameter "
+                                                f"({exc})") from None
     return names
 
 
@@ -374,8 +384,10 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     if u_specs:
         cols = []
         for s in u_specs:
-            h = 1e-3 * (abs(s.value) or (s.max - s.min) / 100)
-            mp = set_values(base, {s.path: s.value + h})
+            # around the null model (a valve scale reads 1 there, whatever the fit found)
+            v = get_value(base, s.path)
+            h = 1e-3 * (abs(v) or (s.max - s.min) / 100)
+            mp = set_values(base, {s.path: v + h})
             cols.append((_stack([replay(mp, e) for e in exps], keys) - y0) / h)
         Ju = np.column_stack(cols)
 
