@@ -769,6 +769,7 @@ def _message(message, recal, remaining, verdict):
         parts.append("outside the catalog: " + remaining.get("description", ""))
     elif remaining.get("at_floor"):
         parts.append(remaining["description"])
+    parts = [q[:1].upper() + q[1:] for q in parts]
     return message + (" " + ". ".join(parts) + "." if parts else "")
 
 
