@@ -60,7 +60,7 @@ DELTA_BIC = -10.0
 #: Fraction of the overall Eq. 25 error an effect must remove to be material
 MATERIAL = 0.05
 #: Number of candidates refitted after the score pass
-N_REFIT = 4
+N_REFIT = 3
 #: Share of the misfit in excess of the noise floor an effect must remove to be material
 EXCESS_MATERIAL = 0.2
 #: Relative difference of an effect parameter fitted on two experiments beyond which they
@@ -560,8 +560,13 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     err_final = chosen.error_after.overall if chosen is not None else comp0.overall
     remaining = _remaining(err_final, floor_overall, final_tests, best_rps, verdict)
     message = _message(message, recal, remaining, verdict)
-    if not any(h["status"] == "identifiable" for h in identifiability) and auto and not ranking:
-        remaining["identifies_nothing"] = True
+    if auto and not any(h["status"] == "identifiable" for h in identifiability):
+        remaining["identifies_no_base"] = True
+        remaining["identifies_nothing"] = not lead
+        message += (" These experiments identify none of the base parameters (none of "
+                    f"{', '.join(h['label'] for h in identifiability)} changes the recorded signals "
+                    "measurably): record the chamber pressures during valve moves, and a free test "
+                    "for friction and mass.")
     report(1.0, "done")
     return Diagnosis(verdict, message, ranking, score + [{"effect": s["effect"], "skipped": s["reason"]}
                                                           for s in skipped],

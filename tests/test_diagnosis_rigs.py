@@ -196,3 +196,18 @@ def test_api_refuses_a_property_or_attribute_path_with_422(db_path):  # noqa: F8
             r = c.post("/api/diagnose", json={"model": model(), "uncertain": [path],
                                               "experiments": [{"dataset_id": i} for i in LEAK_IDS]})
             assert_field_error(r, "uncertain[0]", msg_contains=path)
+
+
+def test_an_experiment_that_moves_nothing_is_said_to_identify_no_base_parameter():
+    """Valve closed throughout, piston locked: no base parameter changes a signal."""
+    from pneucore import model_preset
+    from pneucore.synthetic import synthesize
+    m = model_preset("paper-4way")
+    scen = {"duration": 0.3, "sample_period": 0.001, "command": [[0.0, 0.0]], "locked": True,
+            "x0": 0.125, "initial": {"p_a": 3e5, "p_b": 3e5}}
+    meas = synthesize(m, scen, ("p_a", "p_b"), seed=3, name="closed")
+    d = diagnose(m, [{"name": "closed", "scenario": {"locked": True, "x0": 0.125},
+                      "measurement": meas}])
+    assert d.verdict is None and d.recalibrate == []
+    assert d.remaining.get("identifies_no_base") is True, describe(d)
+    assert "identify none of the base parameters" in d.message
