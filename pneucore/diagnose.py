@@ -1,38 +1,41 @@
-"""Which physical effect is the model missing? ``diagnose(model, experiments)``.
+"""What is mis-set, what is missing, what remains? ``diagnose(model, experiments)``.
 
-1. **Null model.** The base model, with any parameters the user marks as
-   ``uncertain`` refitted first (so an effect is never credited with what a
-   base parameter explains).
+0. **Base hypotheses.** With nothing declared, the base parameters the
+   experiments can identify are chosen (:mod:`pneucore.hypotheses`:
+   sensitivities, visibility, collinearity); ``uncertain`` overrides the
+   choice. Parameters of effects already in the model are refitted too.
+1. **Null model.** Those parameters refitted (the best recalibration), the
+   fit reweighted by each series' own residual (concentrated likelihood).
 2. **Score pass (cheap).** For every catalog effect the model lacks, the
    change of the outputs caused by a moderate dose of the effect (one
    simulation per strength parameter) gives a sensitivity matrix ``J``.
-   The uncertain parameters' sensitivities are projected out and the
+   The base parameters' sensitivities are projected out and the
    Lagrange-multiplier statistic ``LM = r^T J (J^T J)^-1 J^T r`` is formed on
    residuals scaled to unit variance; a strength that may only be positive
-   is dropped when the data ask for a negative one (one-sided test). Under
-   the null LM is chi-square with as many degrees of freedom as strength
-   parameters; candidates are ranked by its p-value.
-3. **Refit (real).** The leading candidates are added and fitted
-   (their parameters plus the uncertain ones). Each gets its Eq. 25 error
-   after, per signal and phase, the likelihood-ratio statistic
-   ``LR = -2 ln L0 + 2 ln L1`` with its chi-square p-value, the change of
-   BIC, its parameters with 95 % confidence intervals, where the
-   improvement lands, and an explanation tied to the effect's signature.
-   LR and BIC count each residual series (experiment, signal) by its
-   effective sample size ``n / tau``, ``tau`` being the integrated
-   autocorrelation time of the candidate's residual
-   (:mod:`pneucore.autocorrelation`): a rig's noise is rarely white, and
-   counted as white, slowly drifting noise makes any flexible effect look
-   overwhelmingly significant. With white noise ``tau = 1`` and nothing
-   changes; the white-noise LR is reported as ``lr_statistic_white``.
-4. **Verdict.** The best refit (lowest BIC) is named only if it is
-   significant (LR p-value below ``alpha`` divided by the number of refits,
-   a Bonferroni guard) *and* strongly preferred (delta BIC < -10, Kass &
-   Raftery's "very strong" grade) *and* material (it removes at least 5 % of
-   the error). Otherwise the verdict is ``None``: "no catalog effect explains
-   the remaining residual", with Ljung-Box whiteness and command
-   cross-correlation tests saying whether structure remains and whether
-   the residual depends on the command.
+   is dropped when the data ask for a negative one (one-sided test).
+3. **Joint refit (real).** The leading candidates are added and fitted with
+   the base parameters the null found mis-set, from the model as given (the
+   null's values are biased by what is missing); a base parameter the joint
+   fit puts back at its catalogue value is held there. Each gets its Eq. 25
+   error after, per signal and phase, the likelihood-ratio statistic with
+   its chi-square p-value and the change of BIC, all counted with **one
+   common effective sample size** ``n / tau`` (``tau`` of the best refit's
+   residual, :mod:`pneucore.autocorrelation`), so that the ranking by ΔBIC is
+   monotone in the evidence shown; the white-noise LR is reported as
+   ``lr_statistic_white``.
+4. **Verdict.** The best refit is named only if it is significant (LR
+   p-value below ``alpha`` divided by the number of refits), strongly
+   preferred (ΔBIC < -10), material (at least 5 % of the error, and at least
+   half of the misfit in excess of the noise floor, alone or together with
+   the next candidate), and consistent across experiments (its parameters
+   fitted on each experiment alone agree, :func:`consistency`). Otherwise
+   the verdict is ``None``: "no catalog effect explains the remaining
+   residual".
+5. **Findings.** ``recalibrate`` (mis-set base parameters, before/after),
+   ``model`` (the next version), ``alternatives`` (what the data cannot tell
+   apart from the verdict), ``remaining`` (error, noise floor, whether the
+   remainder lies outside the catalog, and its signature in words), with
+   Ljung-Box whiteness and command cross-correlation tests of the residual.
 """
 from __future__ import annotations
 
