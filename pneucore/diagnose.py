@@ -367,12 +367,6 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         base = null_fit.model
         u_specs = [ParameterSpec(s.path, null_fit.values[s.path]["value"], s.min, s.max, s.vary, s.unit)
                    for s in u_specs]
-        # the candidates are refitted with the base parameters the null found mis-set (and
-        # those the user declared, and the effects already in): a parameter the catalogue has
-        # right stays put, rather than blurring the new effect's parameters
-        auto_paths = {s.path for s in auto_specs}
-        moved = {r["path"] for r in _recalibration(model, null_fit, sorted(auto_paths))[0]}
-        u_specs_start = [s for s in u_specs_start if s.path not in auto_paths or s.path in moved]
         # the fit's end point is already simulated: its comparison is the null's
         comp0 = null_fit.error_after
         rps0 = comp0.replays
@@ -452,11 +446,12 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         # the refit checks the time limit at each evaluation (progress stays at its level)
         cal = fit(m, exps, specs, max_nfev=max_nfev, compute_before=False,
                   progress=lambda f, s: report(0.4, f"refit: {name}"), reweight=True)
-        # base parameters the joint fit puts back at their catalogue values were moved by the
-        # null only to mimic the effect: hold them there and refit the rest from this point
+        # base parameters the joint fit leaves at their catalogue values (within RECAL_MIN) are
+        # not mis-set: hold them there and refit the rest from this point, so that they do not
+        # blur the effect's parameters (kept unless the fit gets materially worse)
         auto_paths = {q.path for q in auto_specs}
-        back = {q["path"] for q in _recalibration(model, cal, sorted(auto_paths))[1]} - \
-            {q["path"] for q in _recalibration(model, cal, sorted(auto_paths))[0]}
+        back = {q["path"] for q in _recalibration(model, cal, sorted(auto_paths))[1]
+                if abs(q["after"] - q["before"]) <= RECAL_MIN * max(abs(q["before"]), 1e-300)}
         if back:
             m2 = _with_effect(model, name, {**start, **cal.model.effects[name]})
             vals = {q.path: cal.values[q.path]["value"] for q in specs
