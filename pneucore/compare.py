@@ -22,14 +22,33 @@ from .model import Model
 
 @dataclass
 class Replay:
-    """One experiment replayed on a model: aligned measured and simulated signals."""
+    """One experiment replayed on a model: aligned measured and simulated signals.
+
+    The phase labels are computed on first use: a fit replays an experiment
+    hundreds of times and needs only the residuals.
+    """
     experiment: object
     result: object
     t: np.ndarray
     measured: dict
     simulated: dict
-    cmd_labels: np.ndarray
-    piston_labels: np.ndarray
+    u: np.ndarray = field(default=None, repr=False)
+    _cmd: np.ndarray = field(default=None, repr=False)
+    _piston: np.ndarray = field(default=None, repr=False)
+
+    @property
+    def cmd_labels(self):
+        """Valve phase of each sample (:func:`pneucore.metrics.command_phases`)."""
+        if self._cmd is None:
+            self._cmd = command_phases(self.t, self.u)
+        return self._cmd
+
+    @property
+    def piston_labels(self):
+        """Piston state of each sample (:func:`pneucore.metrics.piston_phases`)."""
+        if self._piston is None:
+            self._piston = piston_phases(self.result.mode)
+        return self._piston
 
     @property
     def ok(self):
@@ -43,8 +62,7 @@ def replay(model, experiment):
     meas = {s: experiment.measurement.signals[s][:n] for s in experiment.signals}
     sim = {s: np.asarray(res.observed(s), float) for s in experiment.signals}
     u = experiment.measurement.signals["u"][:n]
-    return Replay(experiment, res, res.t, meas, sim, command_phases(res.t, u),
-                  piston_phases(res.mode))
+    return Replay(experiment, res, res.t, meas, sim, u)
 
 
 def _overall(errors):

@@ -1,38 +1,41 @@
-"""Which physical effect is the model missing? ``diagnose(model, experiments)``.
+"""What is mis-set, what is missing, what remains? ``diagnose(model, experiments)``.
 
-1. **Null model.** The base model, with any parameters the user marks as
-   ``uncertain`` refitted first (so an effect is never credited with what a
-   base parameter explains).
+0. **Base hypotheses.** With nothing declared, the base parameters the
+   experiments can identify are chosen (:mod:`pneucore.hypotheses`:
+   sensitivities, visibility, collinearity); ``uncertain`` overrides the
+   choice. Parameters of effects already in the model are refitted too.
+1. **Null model.** Those parameters refitted (the best recalibration), the
+   fit reweighted by each series' own residual (concentrated likelihood).
 2. **Score pass (cheap).** For every catalog effect the model lacks, the
    change of the outputs caused by a moderate dose of the effect (one
    simulation per strength parameter) gives a sensitivity matrix ``J``.
-   The uncertain parameters' sensitivities are projected out and the
+   The base parameters' sensitivities are projected out and the
    Lagrange-multiplier statistic ``LM = r^T J (J^T J)^-1 J^T r`` is formed on
    residuals scaled to unit variance; a strength that may only be positive
-   is dropped when the data ask for a negative one (one-sided test). Under
-   the null LM is chi-square with as many degrees of freedom as strength
-   parameters; candidates are ranked by its p-value.
-3. **Refit (real).** The leading candidates are added and fitted
-   (their parameters plus the uncertain ones). Each gets its Eq. 25 error
-   after, per signal and phase, the likelihood-ratio statistic
-   ``LR = -2 ln L0 + 2 ln L1`` with its chi-square p-value, the change of
-   BIC, its parameters with 95 % confidence intervals, where the
-   improvement lands, and an explanation tied to the effect's signature.
-   LR and BIC count each residual series (experiment, signal) by its
-   effective sample size ``n / tau``, ``tau`` being the integrated
-   autocorrelation time of the candidate's residual
-   (:mod:`pneucore.autocorrelation`): a rig's noise is rarely white, and
-   counted as white, slowly drifting noise makes any flexible effect look
-   overwhelmingly significant. With white noise ``tau = 1`` and nothing
-   changes; the white-noise LR is reported as ``lr_statistic_white``.
-4. **Verdict.** The best refit (lowest BIC) is named only if it is
-   significant (LR p-value below ``alpha`` divided by the number of refits,
-   a Bonferroni guard) *and* strongly preferred (delta BIC < -10, Kass &
-   Raftery's "very strong" grade) *and* material (it removes at least 5 % of
-   the error). Otherwise the verdict is ``None``: "no catalog effect explains
-   the remaining residual", with Ljung-Box whiteness and command
-   cross-correlation tests saying whether structure remains and whether
-   the residual depends on the command.
+   is dropped when the data ask for a negative one (one-sided test).
+3. **Joint refit (real).** The leading candidates are added and fitted with
+   the base parameters the null found mis-set, from the model as given (the
+   null's values are biased by what is missing); a base parameter the joint
+   fit puts back at its catalogue value is held there. Each gets its Eq. 25
+   error after, per signal and phase, the likelihood-ratio statistic with
+   its chi-square p-value and the change of BIC, all counted with **one
+   common effective sample size** ``n / tau`` (``tau`` of the best refit's
+   residual, :mod:`pneucore.autocorrelation`), so that the ranking by ΔBIC is
+   monotone in the evidence shown; the white-noise LR is reported as
+   ``lr_statistic_white``.
+4. **Verdict.** The best refit is named only if it is significant (LR
+   p-value below ``alpha`` divided by the number of refits), strongly
+   preferred (ΔBIC < -10), material (at least 5 % of the error, and at least
+   half of the misfit in excess of the noise floor, alone or together with
+   the next candidate), and consistent across experiments (its parameters
+   fitted on each experiment alone agree, :func:`consistency`). Otherwise
+   the verdict is ``None``: "no catalog effect explains the remaining
+   residual".
+5. **Findings.** ``recalibrate`` (mis-set base parameters, before/after),
+   ``model`` (the next version), ``alternatives`` (what the data cannot tell
+   apart from the verdict), ``remaining`` (error, noise floor, whether the
+   remainder lies outside the catalog, and its signature in words), with
+   Ljung-Box whiteness and command cross-correlation tests of the residual.
 """
 from __future__ import annotations
 
@@ -60,7 +63,7 @@ DELTA_BIC = -10.0
 #: Fraction of the overall Eq. 25 error an effect must remove to be material
 MATERIAL = 0.05
 #: Number of candidates refitted after the score pass
-N_REFIT = 4
+N_REFIT = 3
 #: Share of the misfit in excess of the noise floor an effect must remove to be material
 EXCESS_MATERIAL = 0.2
 #: Relative difference of an effect parameter fitted on two experiments beyond which they
@@ -269,10 +272,20 @@ def check_request(model, candidates=None, uncertain=()):
                                                      f"{sorted(EFFECTS)}")
     paths = list(uncertain) if isinstance(uncertain, (list, tuple)) else list(dict(uncertain))
     for i, p in enumerate(paths):
+        if not isinstance(p, str):
+            raise FieldError(f"uncertain[{i}]", f"{p!r} is not a parameter path")
         try:
-            parse_parameters(model, [p])
+            (spec,) = parse_parameters(model, [p])
+            # the path must also be writable and read back (a property such as jack.area_a,
+            # or an attribute of a number such as supply.pressure.real, is not a parameter)
+            trial = set_values(model, {p: spec.value})
+            if get_value(trial, p) != spec.value:
+                raise ValueError("does not read back what was written")
         except FieldError as exc:
             raise FieldError(f"uncertain[{i}]", f"{p!r}: {exc.detail}") from None
+        except Exception as exc:  # noqa: BLE001 - any failure means: not a model parameter
+            raise FieldError(f"uncertain[{i}]", f"{p!r} is not a fittable model parameter "
+                                                f"({exc})") from None
     return names
 
 
@@ -374,8 +387,10 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     if u_specs:
         cols = []
         for s in u_specs:
-            h = 1e-3 * (abs(s.value) or (s.max - s.min) / 100)
-            mp = set_values(base, {s.path: s.value + h})
+            # around the null model (a valve scale reads 1 there, whatever the fit found)
+            v = get_value(base, s.path)
+            h = 1e-3 * (abs(v) or (s.max - s.min) / 100)
+            mp = set_values(base, {s.path: v + h})
             cols.append((_stack([replay(mp, e) for e in exps], keys) - y0) / h)
         Ju = np.column_stack(cols)
 
@@ -431,6 +446,31 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         # the refit checks the time limit at each evaluation (progress stays at its level)
         cal = fit(m, exps, specs, max_nfev=max_nfev, compute_before=False,
                   progress=lambda f, s: report(0.4, f"refit: {name}"), reweight=True)
+        # base parameters the joint fit leaves at their catalogue values (within RECAL_MIN) are
+        # not mis-set: hold them there and refit the rest from this point, so that they do not
+        # blur the effect's parameters (kept unless the fit gets materially worse)
+        auto_paths = {q.path for q in auto_specs}
+        back = {q["path"] for q in _recalibration(model, cal, sorted(auto_paths))[1]
+                if abs(q["after"] - q["before"]) <= RECAL_MIN * max(abs(q["before"]), 1e-300)}
+        if back:
+            m2 = _with_effect(model, name, {**start, **cal.model.effects[name]})
+            vals = {q.path: cal.values[q.path]["value"] for q in specs
+                    if not q.path.startswith(f"effects.{name}.") and q.path not in back}
+            m2 = set_values(m2, vals)
+            specs2 = []
+            for q in specs:
+                if q.path in back:
+                    continue
+                v = get_value(m2, q.path)
+                if q.path.startswith("valve."):   # a scale factor: bounds relative to m2's table
+                    f = vals[q.path]
+                    specs2.append(ParameterSpec(q.path, 1.0, q.min / f, q.max / f, True, q.unit))
+                else:
+                    specs2.append(ParameterSpec(q.path, v, q.min, q.max, True, q.unit))
+            cal2 = fit(m2, exps, specs2, max_nfev=max_nfev, compute_before=False, reweight=True)
+            # kept unless materially worse (2 % of the residual energy: 1 % of the Eq. 25 error)
+            if sum(r for _, _, r, _ in cal2.rss_after) <= 1.02 * sum(r for _, _, r, _ in cal.rss_after):
+                cal = cal2
         return name, cal
 
     done = 0
@@ -548,8 +588,13 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     err_final = chosen.error_after.overall if chosen is not None else comp0.overall
     remaining = _remaining(err_final, floor_overall, final_tests, best_rps, verdict)
     message = _message(message, recal, remaining, verdict)
-    if not any(h["status"] == "identifiable" for h in identifiability) and auto and not ranking:
-        remaining["identifies_nothing"] = True
+    if auto and not any(h["status"] == "identifiable" for h in identifiability):
+        remaining["identifies_no_base"] = True
+        remaining["identifies_nothing"] = not lead
+        message += (" These experiments identify none of the base parameters (none of "
+                    f"{', '.join(h['label'] for h in identifiability)} changes the recorded signals "
+                    "measurably): record the chamber pressures during valve moves, and a free test "
+                    "for friction and mass.")
     report(1.0, "done")
     return Diagnosis(verdict, message, ranking, score + [{"effect": s["effect"], "skipped": s["reason"]}
                                                           for s in skipped],
@@ -757,6 +802,7 @@ def _message(message, recal, remaining, verdict):
         parts.append("outside the catalog: " + remaining.get("description", ""))
     elif remaining.get("at_floor"):
         parts.append(remaining["description"])
+    parts = [q[:1].upper() + q[1:] for q in parts]
     return message + (" " + ". ".join(parts) + "." if parts else "")
 
 

@@ -1,0 +1,125 @@
+/* The diagnosis's findings, two kinds apart: mis-set base parameters and missing effects.
+ *
+ * Loaded after app.js (same global scope: S, esc, num, pct, api helpers). It wraps
+ * renderDiagnosis() to add a findings box above the ranked cards:
+ *   "mis-set: heat coefficient 25 -> 41 W/(m^2 K)"   [Apply the recalibration]
+ *   "missing: piston_leakage ..."                     [Add piston_leakage (with the recalibration)]
+ *   "remaining: 0.08 % (noise floor 0.08 %)" or "outside the catalog: <signature>"
+ * and wraps renderHistory() to draw the noise floor under the falling error.
+ * Every text from the server goes through esc() or textContent.
+ */
+(function () {
+  'use strict';
+  const origRenderDiagnosis = window.renderDiagnosis;
+  const origRenderHistory = window.renderHistory;
+
+  function line(kind, html) {
+    const li = document.createElement('li');
+    li.className = `finding ${kind}`;
+    li.innerHTML = html;
+    return li;
+  }
+
+  function renderFindings() {
+    const d = S.diag && S.diag.result;
+    const box = document.getElementById('diag-findings') || document.createElement('div');
+    box.id = 'diag-findings';
+    box.className = 'findings';
+    box.innerHTML = '';
+    if (!d) return;
+    const ul = document.createElement('ul');
+    ul.className = 'findings-list';
+    (d.recalibrate || []).forEach((r) => {
+      ul.appendChild(line('misset', `<span class="kind">mis-set:</span> <span class="what">${esc(r.label || r.path)}</span> ` +
+        `${num(r.before, 3)} → <b>${num(r.after, 3)}</b> ${esc(r.unit || '')} <span class="muted small">(± ${num(r.stderr, 2)}; ${esc(r.path)})</span>`));
+    });
+    if (d.verdict) {
+      const top = (d.ranking || []).find((q) => q.effect === d.verdict) || {};
+      ul.appendChild(line('missing', `<span class="kind">missing:</span> <b class="what">${esc(d.verdict)}</b> ` +
+        `<span class="muted small">${esc(top.description || '')}</span>`));
+    }
+    (d.alternatives || []).forEach((a) => {
+      ul.appendChild(line('alternative', `<span class="kind">cannot tell apart:</span> ${esc(a.note || a.effect || a.path)}`));
+    });
+    const rem = d.remaining || {};
+    if (rem.error != null) {
+      const txt = rem.outside_catalog ? `<span class="kind">outside the catalog:</span> ${esc(rem.description || '')}`
+        : `<span class="kind">remaining:</span> error ${pct(rem.error)} % (noise floor ${pct(rem.noise_floor)} %)` +
+          (rem.at_floor ? ' — at the noise floor' : (rem.description ? ` — ${esc(rem.description)}` : ''));
+      ul.appendChild(line(rem.outside_catalog ? 'outside' : 'remaining', txt));
+    }
+    if (!ul.children.length) ul.appendChild(line('none', 'Nothing mis-set and nothing missing that these experiments can show.'));
+    box.appendChild(ul);
+    const actions = document.createElement('div');
+    actions.className = 'row actions';
+    if ((d.recalibrate || []).length && d.base_model) {
+      const b = document.createElement('button');
+      b.type = 'button';
+      b.id = 'btn-apply-recalibration';
+      b.textContent = `Apply the recalibration (${d.recalibrate.length} parameter${d.recalibrate.length > 1 ? 's' : ''})`;
+      b.title = 'Take the base model with the mis-set parameters corrected as the new current model';
+      b.addEventListener('click', () => apply(b, d.base_model, null, {}, 'recalibration'));
+      actions.appendChild(b);
+    }
+    if (d.verdict && d.model) {
+      const b = document.createElement('button');
+      b.type = 'button';
+      b.className = 'primary';
+      b.id = 'btn-apply-findings';
+      b.textContent = `Add ${d.verdict}${(d.recalibrate || []).length ? ' with the recalibration' : ''}`;
+      const top = (d.ranking || []).find((q) => q.effect === d.verdict) || {};
+      const params = {};
+      for (const [k, p] of Object.entries(top.params || {})) params[k] = p.value;
+      b.addEventListener('click', () => apply(b, d.model, d.verdict, params, d.verdict));
+      actions.appendChild(b);
+    }
+    box.appendChild(actions);
+    const verdict = document.getElementById('diag-verdict');
+    verdict.appendChild(box);
+  }
+
+  async function apply(btn, model, added, params, what) {
+    clearErrors();
+    await busy(btn, async () => {
+      try {
+        S.model = clone(model);
+        renderModel();
+        setStatus(`Applying the ${what} and recording a new model version…`, 'busy');
+        const s = await recordVersion(added, params);
+        await runCompare({ keepErrors: true, noSession: true });
+        const v = s.versions;
+        setStatus(`Applied the ${what} (version ${v[v.length - 1].version}): overall error ` +
+          `${pct(v[v.length - 2] && v[v.length - 2].overall)} % → ${pct(v[v.length - 1].overall)} %.`, 'ok');
+        S.diag.stale = true;
+        document.querySelectorAll('#diag-findings button, .add-effect-btn').forEach((b) => { b.disabled = true; b.dataset.keepDisabled = 'true'; });
+        const note = document.createElement('div');
+        note.className = 'stale-note';
+        note.textContent = `The model changed (${what} applied): run Diagnose again for the next round.`;
+        document.getElementById('diag-verdict').appendChild(note);
+      } catch (e) { showApiError(e, `Applying the ${what}`); }
+    });
+  }
+
+  function drawFloor() {
+    const d = S.diag && S.diag.result;
+    const div = document.getElementById('history-plot');
+    const floor = d && d.remaining ? d.remaining.noise_floor : null;
+    if (!div || !div.data) return;
+    const old = div.data.map((t, i) => (t.name === 'noise floor' ? i : -1)).filter((i) => i >= 0);
+    if (old.length) Plotly.deleteTraces(div, old);
+    if (floor == null || !(floor > 0)) return;
+    const n = (div.data[0] && div.data[0].x) ? div.data[0].x.length : 1;
+    Plotly.addTraces(div, [{ x: [-0.4, Math.max(n - 1, 1) + 0.6], y: [floor * 100, floor * 100], mode: 'lines', name: 'noise floor',
+      line: { color: '#2ca02c', dash: 'dash', width: 1.5 }, hovertemplate: 'noise floor: %{y:.3f} %<extra></extra>' }]);
+  }
+
+  window.renderDiagnosis = function () {
+    origRenderDiagnosis();
+    renderFindings();
+    drawFloor();
+  };
+  window.renderHistory = function () {
+    origRenderHistory();
+    drawFloor();
+  };
+}());

@@ -1,0 +1,58 @@
+"""The page shows the diagnosis's two kinds of finding apart, and applies them with one click.
+
+Driven in Chromium like tests/test_page.py (its fixtures are reused): the
+"piston-leak" sample (the paper's jack with a hidden piston leak) is compared
+with a model whose heat coefficient is mis-set (15 instead of the true
+25 W/(m^2 K)). The diagnosis must show "mis-set: heat coefficient 15 -> ~25"
+and "missing: piston_leakage" as separate findings; one click applies both, and
+the history chart draws the error falling towards the dashed noise floor.
+"""
+from test_page import (ARTIFACTS, _open, browser, context, no_script_errors, page_errors,  # noqa: F401
+                       plot_data, server)
+
+import pytest
+
+
+@pytest.fixture(scope="module")
+def page(context, server, page_errors):  # noqa: F811
+    p = _open(context, server, page_errors)
+    yield p
+    p.close()
+
+
+def test_mis_set_and_missing_are_shown_apart_and_applied_in_one_click(page):
+    page.fill("#heat-coefficient", "15")
+    page.dispatch_event("#heat-coefficient", "change")
+    page.select_option("#dataset-select", "sample:piston-leak")
+    page.click("#btn-compare")
+    page.wait_for_function("() => ((document.getElementById('history-plot').data || [])[0] || {}).y?.length === 1")
+    page.click("#btn-diagnose")
+    page.wait_for_function("() => document.getElementById('diag-progress').dataset.done === 'true'")
+    misset = page.locator("#diag-findings .finding.misset")
+    texts = [misset.nth(i).inner_text() for i in range(misset.count())]
+    heat = [t for t in texts if "heat coefficient" in t]
+    assert heat, texts
+    # "mis-set: heat coefficient 15 → 25 W/(m^2 K)": the true value within 5 % (the locked hold
+    # test pins h to a fraction of a percent once the leak is modelled)
+    after = float(heat[0].split("→")[1].split()[0])
+    assert abs(after - 25.0) <= 0.05 * 25.0, heat[0]
+    assert "W/(m^2 K)" in heat[0]
+    missing = page.inner_text("#diag-findings .finding.missing")
+    assert "missing:" in missing and "piston_leakage" in missing
+    assert page.locator("#btn-apply-recalibration").count() == 1
+
+    page.click("#btn-apply-findings")
+    page.wait_for_function("() => ((document.getElementById('history-plot').data || [])[0] || {}).y?.length === 2")
+    traces = plot_data(page, "history-plot")
+    y = traces[0]["y"]
+    assert y[1] < 0.5 * y[0], y
+    floor = [t for t in traces if t["name"] == "noise floor"]
+    assert floor and floor[0]["y"][0] > 0
+    # the new model is at the floor: within 20 % of it (a refit of 2 parameters on ~5000 samples)
+    assert y[1] <= 1.2 * floor[0]["y"][0], (y, floor[0]["y"])
+    assert float(page.input_value("#heat-coefficient")) == pytest.approx(after, rel=0.01)
+    assert page.locator("#effect-piston_leakage").count() == 1
+    page.wait_for_selector("#diag-verdict .stale-note")
+    assert page.locator("#diag-findings button:enabled").count() == 0
+    ARTIFACTS.mkdir(exist_ok=True)
+    page.locator("#panel-diagnose").screenshot(path=str(ARTIFACTS / "findings.png"))
