@@ -29,6 +29,7 @@ from .jobs import JobManager, JobTimeout
 from .responses import JSON, document_errors
 from .routers import (analysis, calibration, datasets, effects, heat, jobs, presets, reports, sessions,
                       simulate, studies, units, uploads)
+from .schemas import LimitsResponse, SampleInfo
 from .security import Guard
 from .store import Store
 
@@ -153,13 +154,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
               jobs, studies, units):
         app.include_router(r.router)
 
-    @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits")
+    @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits",
+             response_model=LimitsResponse)
     def limits():
         # the limits, and the deployment settings a client needs to know (README: shared server)
         return {**settings.limits.to_dict(), "allowed_hosts": list(settings.allowed_hosts),
                 "token_required": settings.token is not None}
 
-    @app.get("/api/samples", tags=["meta"], summary="Sample datasets shipped with the tool")
+    @app.get("/api/samples", tags=["meta"], summary="Sample datasets shipped with the tool",
+             response_model=list[SampleInfo])
     def samples():
         from pneucore.samples import list_samples
         return list_samples()

@@ -465,6 +465,159 @@ class StudyResultsResponse(BaseModel):
     runs: Optional[list[dict[str, Any]]] = Field(None, description="Raw runs with their parameters and metrics (runs=true)")
 
 
+# ---------------------------------------------------------------------------- catalog and records
+# Every response model allows extra keys: a response never fails its own documentation when the
+# library adds a field; the fields below are the documented contract.
+class _Open(BaseModel):
+    model_config = ConfigDict(extra="allow")
+
+
+class PresetInfo(_Open):
+    name: str = Field(..., description="Preset name (GET /api/presets/{name})")
+    description: str = Field("", description="What it is")
+
+
+class PresetList(_Open):
+    models: list[PresetInfo] = Field(..., description="Model presets (a ModelIn each)")
+    scenarios: list[PresetInfo] = Field(..., description="Scenario presets (a ScenarioIn each)")
+
+
+class EffectParameterInfo(_Open):
+    name: str = Field(..., description="Parameter name (path effects.<effect>.<name>)")
+    unit: str = Field(..., description="SI unit of the parameter")
+    default: float = Field(..., description="Value when the effect is added (in its unit)")
+    min: float = Field(..., description="Lower bound of a fit (in its unit)")
+    max: float = Field(..., description="Upper bound of a fit (in its unit)")
+    off: Optional[float] = Field(..., description="Value at which the effect does nothing (in its unit); "
+                                                  "null for a shape parameter (the effect is off through another one)")
+    description: str = Field("", description="What it is")
+
+
+class EffectInfo(_Open):
+    name: str = Field(..., description="Effect name (the model's effects.<name>)")
+    description: str = Field(..., description="The physics it adds")
+    signature: str = Field(..., description="The residual it explains, in words")
+    reference: str = Field("", description="Source of the law")
+    parameters: list[EffectParameterInfo] = Field(..., description="Its parameters")
+    user: bool = Field(False, description="Registered by a user rather than built in [-]")
+
+
+class SampleExperiment(_Open):
+    file: str = Field(..., description="CSV file of the sample")
+    name: str = Field(..., description="Experiment label")
+    scenario: dict[str, Any] = Field(..., description="Context: locked [-], x0 [m]")
+
+
+class SampleInfo(_Open):
+    id: str = Field(..., description="Sample id (dataset ids sample-<id>-<experiment>)")
+    description: str = Field(..., description="What the rig data hide")
+    base_model: str = Field(..., description="Model preset the sample was recorded against")
+    experiments: list[SampleExperiment] = Field(..., description="Its experiments")
+
+
+class SessionVersion(_Open):
+    version: int = Field(..., description="0 = the base model [-]")
+    label: str = Field(..., description="base, + <effect> or version N")
+    created: float = Field(..., description="Creation time, Unix epoch [s]")
+    model: dict[str, Any] = Field(..., description="The model of this version (ModelIn JSON)")
+    errors: dict[str, Optional[float]] = Field(default_factory=dict, description="Per signal: " + FRACTION)
+    overall: Optional[float] = Field(None, description="Overall: " + FRACTION)
+    added: Optional[str] = Field(None, description="Catalog effect added in this version")
+    params: Optional[dict[str, Any]] = Field(None, description="Fitted parameters of the added effect (units in GET /api/effects)")
+    note: Optional[str] = Field(None, description="Free text")
+
+
+class SessionOut(_Open):
+    id: str = Field(..., description="Session id")
+    name: str = Field(..., description="Label")
+    created: float = Field(..., description="Creation time, Unix epoch [s]")
+    experiments: list[dict[str, Any]] = Field(..., description="The experiments every version is compared with (ExperimentIn)")
+    versions: list[SessionVersion] = Field(..., description="Model versions, oldest first")
+
+
+class SessionSummary(_Open):
+    id: str = Field(..., description="Session id")
+    name: str = Field(..., description="Label")
+    created: float = Field(..., description="Creation time, Unix epoch [s]")
+    n_versions: int = Field(..., description="Number of versions [-]")
+
+
+class StudyStarted(_Open):
+    id: str = Field(..., description="Study id")
+    job_id: str = Field(..., description="Its job (GET /api/jobs/{id})")
+    n_runs: Optional[int] = Field(None, description="Runs of the study [-]")
+    status: str = Field(..., description="queued")
+
+
+class StudyStatus(_Open):
+    id: str = Field(..., description="Study id")
+    status: str = Field(..., description="queued, running, done, interrupted, failed")
+    n_runs: Optional[int] = Field(None, description="Runs of the study [-]")
+    stored: Optional[int] = Field(None, description="Runs stored so far [-]")
+    failed: Optional[int] = Field(None, description="Runs whose simulation failed [-]")
+    job: Optional[dict[str, Any]] = Field(None, description="The latest job running it, when this server started one")
+
+
+class ClusterInfo(_Open):
+    name: str = Field(..., description="Name a study request may give in scheduler")
+    kind: str = Field(..., description="What it is")
+    default: bool = Field(..., description="Used when the request gives none [-]")
+    max_workers: Optional[int] = Field(None, description="Largest worker count of the local pool [-]")
+
+
+class HeatParameterInfo(_Open):
+    name: str = Field(..., description="Parameter name (model path heat.<name>)")
+    unit: str = Field(..., description="SI unit")
+    default: float = Field(..., description="Default (in its unit)")
+    min: float = Field(..., description="Lower bound (in its unit)")
+    max: float = Field(..., description="Upper bound (in its unit)")
+    description: str = Field("", description="What it is")
+
+
+class HeatModelInfo(_Open):
+    name: str = Field(..., description="Heat model name (the model's heat.model)")
+    description: str = Field(..., description="The law and its source")
+    parameters: list[HeatParameterInfo] = Field(..., description="Its parameters")
+
+
+class HeatModelFit(_Open):
+    name: str = Field(..., description="Heat model")
+    description: str = Field("", description="The law and its source")
+    parameters: dict[str, Any] = Field(..., description="Fitted heat parameters: value, stderr... (units in GET /api/heat-models)")
+    errors: dict[str, Optional[float]] = Field(..., description="Per measured signal: " + FRACTION)
+    temperature_rms: dict[str, Optional[float]] = Field(..., description="RMS gas-temperature error per temperature signal [K]")
+    model: dict[str, Any] = Field(..., description="The calibrated model (ModelIn JSON)")
+    message: str = Field("", description="The calibration's message")
+    t: list[float] = Field(..., description="Sample times of the first experiment [s]")
+    simulated: dict[str, list[Optional[float]]] = Field(..., description="The calibrated model on the first experiment, per signal (SI units)")
+
+
+class HeatModelsCompareResponse(_Open):
+    models: list[HeatModelFit] = Field(..., description="One row per heat model, each calibrated on its own parameters")
+    measured: dict[str, list[Optional[float]]] = Field(..., description="The first experiment's measurement, per signal (SI units; t [s] from its first sample)")
+    experiment: str = Field(..., description="The first experiment's label")
+
+
+def _limits_response():
+    """GET /api/limits, field by field from :class:`app.config.Limits` (one source for the names
+    and types), plus the deployment settings the service adds."""
+    from dataclasses import fields
+
+    from pydantic import create_model
+
+    from .config import Limits
+    types = {"int": int, "float": float}
+    return create_model(
+        "LimitsResponse", __base__=_Open,
+        **{f.name: (f.type if isinstance(f.type, type) else types.get(f.type, Any), Field(..., description=f"Limits.{f.name} (README: REST API)"))
+           for f in fields(Limits)},
+        allowed_hosts=(list[str], Field(..., description="Host names the server answers to")),
+        token_required=(bool, Field(..., description="Every request needs the bearer token [-]")))
+
+
+LimitsResponse = _limits_response()
+
+
 # ---------------------------------------------------------------------------- request examples
 def _examples():
     """Request examples built from the presets (one source for the numbers)."""

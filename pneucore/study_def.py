@@ -245,6 +245,18 @@ class StudyParameter:
         return self.distribution.inverse_cdf(self, np.asarray(u, float))
 
 
+def _preset(value, key):
+    """A study's ``model`` or ``scenario``: its JSON, or the name of a preset (``"paper-4way"``,
+    ``"paper-fig10-pulses"``: :mod:`pneucore.presets`)."""
+    if not isinstance(value, str):
+        return value
+    from .presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
+    known, load = (MODEL_PRESETS, model_preset) if key == "model" else (SCENARIO_PRESETS, scenario_preset)
+    if value not in known:
+        raise FieldError(key, f"unknown {key} preset {value!r}; the presets are {sorted(known)}")
+    return load(value)
+
+
 @dataclass
 class Study:
     """A robustness study (see the module docstring).
@@ -345,10 +357,10 @@ class Study:
             if key not in d:
                 raise FieldError(key, "is required")
         try:
-            model = Model.from_dict(d["model"])
+            model = Model.from_dict(_preset(d["model"], "model"))
         except FieldError as exc:
             raise FieldError(f"model.{exc.path}" if exc.path != "model" else "model", exc.detail) from None
-        scenario = Scenario.from_dict(d["scenario"], model)
+        scenario = Scenario.from_dict(_preset(d["scenario"], "scenario"), model)
         params = _parse_parameters(model, d["parameters"])
         seed = _seed(d.get("seed", 0))
         samples = d.get("samples")

@@ -3,9 +3,11 @@ from fastapi import APIRouter
 
 from pneucore.effects import EFFECTS
 
+from ..schemas import EffectInfo
+
 router = APIRouter(prefix="/api/effects", tags=["effects"])
 
 
-@router.get("", summary="The catalog of switchable physical effects")
+@router.get("", summary="The catalog of switchable physical effects", response_model=list[EffectInfo])
 def list_effects():
     return [e.to_dict() for e in EFFECTS.values()]

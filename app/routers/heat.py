@@ -8,7 +8,8 @@ from pneucore.heat_compare import check_names, compare_heat_models, simulate_hea
 
 from ..deps import JobsDep, LimitsDep, StoreDep, parse_experiments, parse_model, parse_scenario
 from ..responses import JSON
-from ..schemas import HeatModelsCompareRequest, HeatModelsSimulateRequest, JobResponse
+from ..schemas import (HeatModelInfo, HeatModelsCompareRequest, HeatModelsCompareResponse,
+                       HeatModelsResponse, HeatModelsSimulateRequest, JobResponse)
 from ..services import deadline_progress, result_json
 
 router = APIRouter(prefix="/api/heat-models", tags=["heat"])
@@ -17,13 +18,14 @@ router = APIRouter(prefix="/api/heat-models", tags=["heat"])
 HEAT_SERIES = ("t", "u", "p_a", "p_b", "T_a", "T_b", "heat_a", "heat_b", "x")
 
 
-@router.get("", summary="The heat models with their parameters (name, unit, default, min, max)")
+@router.get("", summary="The heat models with their parameters (name, unit, default, min, max)",
+            response_model=list[HeatModelInfo])
 def list_heat_models():
     return [m.to_dict() for m in HEAT_MODELS.values()]
 
 
 @router.post("/simulate", summary="One scenario under every heat model (pressures, temperatures)",
-             response_class=JSON)
+             response_class=JSON, response_model=HeatModelsResponse)
 def simulate_endpoint(req: HeatModelsSimulateRequest, limits: LimitsDep):
     model = parse_model(req.model)
     scen = parse_scenario(req.scenario, model, limits)
@@ -53,7 +55,7 @@ def run_compare(req: HeatModelsCompareRequest, store, limits, progress=None):
 
 @router.post("/compare", summary="One measurement against every heat model, each calibrated on "
                                  "its own parameters: pressure and temperature errors per model",
-             response_class=JSON)
+             response_class=JSON, response_model=HeatModelsCompareResponse)
 def compare_endpoint(req: HeatModelsCompareRequest, store: StoreDep, limits: LimitsDep):
     return JSON(run_compare(req, store, limits, progress=deadline_progress(
         limits, "heat-model comparison", "/api/heat-models/compare/job")))

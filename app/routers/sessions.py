@@ -10,7 +10,7 @@ from pneucore.validation import FieldError, choice, finite_json
 
 from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, StoreDep, not_found, parse_experiments, parse_model
-from ..schemas import SessionCreate, VersionCreate
+from ..schemas import SessionCreate, SessionOut, SessionSummary, VersionCreate
 
 router = APIRouter(prefix="/api/sessions", tags=["sessions"], route_class=OffLoopRoute)
 
@@ -21,7 +21,8 @@ def _errors(model, experiments, store, limits):
     return model_errors(model, parse_experiments(experiments, model, store, limits))
 
 
-@router.post("", status_code=201, summary="Start a refinement session (version 0 = the given model)")
+@router.post("", status_code=201, summary="Start a refinement session (version 0 = the given model)",
+             response_model=SessionOut)
 def create_session(req: SessionCreate, store: StoreDep, limits: LimitsDep):
     model = parse_model(req.model)
     errors, overall = _errors(model, req.experiments, store, limits)
@@ -31,12 +32,12 @@ def create_session(req: SessionCreate, store: StoreDep, limits: LimitsDep):
     return store.session(sid)
 
 
-@router.get("", summary="List sessions")
+@router.get("", summary="List sessions", response_model=list[SessionSummary])
 def list_sessions(store: StoreDep):
     return store.list_sessions()
 
 
-@router.get("/{session_id}", summary="A session with all its versions")
+@router.get("/{session_id}", summary="A session with all its versions", response_model=SessionOut)
 def get_session(session_id: str, store: StoreDep):
     s = store.session(session_id)
     if s is None:
@@ -45,7 +46,8 @@ def get_session(session_id: str, store: StoreDep):
 
 
 @router.post("/{session_id}/versions", status_code=201,
-             summary="Add a model version (errors recomputed on the session's experiments)")
+             summary="Add a model version (errors recomputed on the session's experiments)",
+             response_model=SessionOut)
 def add_version(session_id: str, req: VersionCreate, store: StoreDep, limits: LimitsDep):
     s = store.session(session_id)
     if s is None:

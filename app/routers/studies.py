@@ -14,7 +14,7 @@ from pneucore.validation import FieldError
 from ..config import STUDY_CLUSTERS
 from ..deps import JobsDep, LimitsDep, not_found, parse_model, parse_scenario
 from ..responses import JSON
-from ..schemas import StudyRequest
+from ..schemas import (ClusterInfo, StudyRequest, StudyResultsResponse, StudyStarted, StudyStatus)
 
 router = APIRouter(prefix="/api/studies", tags=["studies"])
 
@@ -86,7 +86,7 @@ def start_study(app_state, db_path, sid, scheduler=None, workers=None, time_limi
 
 
 @router.post("", status_code=202, summary="Start a robustness study (a job); returns its id",
-             response_class=JSON)
+             response_class=JSON, response_model=StudyStarted)
 def create_study(req: StudyRequest, request: Request, limits: LimitsDep):
     model = parse_model(req.model)
     parse_scenario(req.scenario, model, limits)
@@ -110,7 +110,8 @@ def create_study(req: StudyRequest, request: Request, limits: LimitsDep):
                 status_code=202)
 
 
-@router.get("/clusters", summary="Where studies can run: the cluster names a request may give")
+@router.get("/clusters", summary="Where studies can run: the cluster names a request may give",
+            response_model=list[ClusterInfo])
 def get_clusters(request: Request, limits: LimitsDep):
     settings = request.app.state.settings
     out = [{"name": "local", "kind": "local process pool", "max_workers": limits.max_workers,
@@ -121,12 +122,13 @@ def get_clusters(request: Request, limits: LimitsDep):
     return out
 
 
-@router.get("", summary="List stored studies")
+@router.get("", summary="List stored studies", response_model=list[StudyStatus])
 def get_studies(request: Request):
     return list_studies(_db(request))
 
 
-@router.get("/{study_id}", summary="Study progress: runs stored, failed, fraction, the job's state")
+@router.get("/{study_id}", summary="Study progress: runs stored, failed, fraction, the job's state",
+            response_model=StudyStatus)
 def get_study(study_id: str, request: Request, jobs: JobsDep):
     try:
         st = study_status(_db(request), study_id)
@@ -139,7 +141,7 @@ def get_study(study_id: str, request: Request, jobs: JobsDep):
 
 
 @router.get("/{study_id}/results", summary="Distributions, percentiles, sensitivity ranking, raw runs",
-            response_class=JSON)
+            response_class=JSON, response_model=StudyResultsResponse)
 def get_results(study_id: str, request: Request, runs: bool = True):
     try:
         return JSON(study_results(_db(request), study_id, include_runs=runs))
@@ -162,7 +164,7 @@ def get_runs_csv(study_id: str, request: Request):
 
 
 @router.post("/{study_id}/resume", status_code=202, summary="Resume an interrupted study",
-             response_class=JSON)
+             response_class=JSON, response_model=StudyStarted)
 def resume_study(study_id: str, request: Request, jobs: JobsDep, limits: LimitsDep):
     if not _exists(request, study_id):
         raise not_found("study", study_id)
