@@ -25,6 +25,10 @@ PROGRESS_WRITE_S = 0.5
 #: analysis pool). A study runs its own process pool; its thread only feeds and stores it.
 POOLS = {"study": 2}
 
+#: Seconds past its time limit after which the watchdog ends a job that has not stopped by
+#: itself (work checks its limit at each progress report; this holds when none comes)
+WATCHDOG_GRACE_S = 1.0
+
 #: Job states; ``interrupted`` = the server stopped while the job was queued or running
 STATUSES = ("queued", "running", "done", "error", "interrupted")
 
@@ -114,8 +118,32 @@ class JobManager:
         self.store = store
         self.stopping = False
         self._lock = threading.Lock()
+        self._stop = threading.Event()
         if store is not None:
             store.interrupt_jobs()   # what a previous server left queued or running
+        threading.Thread(target=self._watch, name="pneucore-job-watchdog", daemon=True).start()
+
+    def _watch(self, period=0.25):
+        """End every running job past its time limit (+ :data:`WATCHDOG_GRACE_S`), reported or not.
+
+        The job's record says so at once and its thread's late result is dropped; the thread
+        itself runs on until its work returns (a simulation is bounded by its step budget).
+        """
+        while not self._stop.wait(period):
+            now = time.time()
+            for job in list(self.jobs.values()):
+                late = job.status == "running" and job.started is not None and \
+                    now - job.started > job.time_limit + WATCHDOG_GRACE_S
+                if late:
+                    with self._lock:
+                        if job.status != "running":
+                            continue
+                        job.error = (f"the {job.kind} job exceeded its time limit of "
+                                     f"{job.time_limit:g} s (at step: {job.step})")
+                        job.step = "timed out"
+                        job.finished = now
+                        job.status = "error"
+                    self.record(job, result=True)
 
     def active(self):
         return sum(1 for j in self.jobs.values() if j.status in ("queued", "running"))
@@ -156,21 +184,30 @@ class JobManager:
             # the status is written last, so a poll never sees "done" without its result
             try:
                 result = fn(job)
-                job.result = result
-                job.progress = 1.0
-                job.step = "done"
-                job.finished = time.time()
-                job.status = "done"
+                with self._lock:
+                    if job.status != "running":   # ended by the watchdog: the late result is dropped
+                        return
+                    job.result = result
+                    job.progress = 1.0
+                    job.step = "done"
+                    job.finished = time.time()
+                    job.status = "done"
             except ServerStopping as exc:
-                job.error = str(exc)
-                job.finished = time.time()
-                job.status = "interrupted"
+                with self._lock:
+                    if job.status != "running":
+                        return
+                    job.error = str(exc)
+                    job.finished = time.time()
+                    job.status = "interrupted"
             except Exception as exc:  # the job reports its error; the server keeps going
-                job.error = str(exc) if not isinstance(exc, (KeyError,)) else repr(exc)
-                job.trace = traceback.format_exc(limit=3)
-                job.step = "failed"
-                job.finished = time.time()
-                job.status = "error"
+                with self._lock:
+                    if job.status != "running":
+                        return
+                    job.error = str(exc) if not isinstance(exc, (KeyError,)) else repr(exc)
+                    job.trace = traceback.format_exc(limit=3)
+                    job.step = "failed"
+                    job.finished = time.time()
+                    job.status = "error"
             self.record(job, result=True)
 
         self.pools.get(kind, self.pool).submit(run)
@@ -192,6 +229,7 @@ class JobManager:
     def shutdown(self):
         """Stop: queued jobs are dropped, running ones stop at their next progress report."""
         self.stopping = True
+        self._stop.set()
         for pool in (self.pool, *self.pools.values()):
             pool.shutdown(wait=False, cancel_futures=True)
         for pool in (self.pool, *self.pools.values()):

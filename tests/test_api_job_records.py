@@ -142,3 +142,33 @@ def test_kill_9_leaves_jobs_interrupted_not_404(tmp_path):
         except ProcessLookupError:
             pass
         log.close()
+
+
+def test_time_limit_holds_without_progress_reports(tmp_path):
+    """A job whose work never reports progress still ends at its time limit (+ the watchdog's
+    grace): its record says why at once, and the result its thread returns later is dropped."""
+    from app.jobs import WATCHDOG_GRACE_S
+    store = Store(str(tmp_path / "j.sqlite3"))
+    jobs = JobManager(workers=1, store=store, time_limit=0.3)
+    release, returned = threading.Event(), threading.Event()
+
+    def silent(job):
+        release.wait(WAIT_S)
+        returned.set()
+        return {"late": True}
+    try:
+        job = jobs.submit("diagnose", silent)
+        _until(lambda: job.status == "error", "the job outlived its time limit")
+        assert job.finished - job.started >= 0.3
+        # the watchdog wakes every 0.25 s; 5 s more is a bound on a loaded machine, not a speed claim
+        assert job.finished - job.started < 0.3 + WATCHDOG_GRACE_S + 5.0
+        assert "time limit of 0.3 s" in job.error
+        assert store.job(job.id)["status"] == "error"
+        release.set()
+        _until(returned.is_set, "the job's thread did not return")
+        time.sleep(0.1)   # let the thread's epilogue run
+        assert job.status == "error" and job.result is None
+        assert store.job(job.id)["status"] == "error"
+    finally:
+        release.set()
+        jobs.shutdown()
