@@ -249,12 +249,13 @@ def _explain(eff, cand, floor_overall):
     lands = cand["improvement"][:2]
     where = "; ".join(f"{d['signal']} while {d['phase']} ({100 * d['before']:.2f} % -> "
                       f"{100 * d['after']:.2f} %)" for d in lands if d["drop"] > 0) or "nowhere in particular"
-    params = ", ".join(f"{k} = {v['value']:.3g} ± {1.96 * v['stderr']:.2g} {v['unit']}"
+    # the same standard error as the ranking's table (its 95 % interval is ci95 there)
+    params = ", ".join(f"{k} = {v['value']:.3g} ± {v['stderr']:.2g} {v['unit']}"
                        for k, v in cand["params"].items())
     txt = (f"Adding {eff.name} ({eff.description}) lowers the overall error from "
            f"{100 * cand['error_before']:.2f} % to {100 * cand['error_after_overall']:.2f} %"
            f" (noise floor about {100 * floor_overall:.2f} %). The improvement lands on {where}. "
-           f"This matches the effect's signature: {eff.signature}. Fitted: {params}. "
+           f"This matches the effect's signature: {eff.signature}. Fitted (± standard error): {params}. "
            f"Likelihood-ratio p = {cand['p_value']:.2g}, delta BIC = {cand['delta_bic']:.1f}.")
     return txt
 

@@ -82,11 +82,13 @@ def test_coloured_noise_alone_gives_no_verdict(seed):
     exps = synthetic_experiments(m, seed=seed, noise_corr_time=CORR_TIME)
     d = diagnose(m, exps)
     assert d.verdict is None, describe(d)
-    best = d.ranking[0]
+    # the ranking follows the effective evidence; the adversarial one is the candidate that
+    # counting samples as white favours most
+    best = max(d.ranking, key=lambda c: c["lr_statistic_white"])
     k = len(best["params"])
     threshold = stats.chi2.isf(ALPHA / len(d.ranking), k)
-    # the data are adversarial: counted as white, the best candidate would pass the LR test
-    # (measured LR_white 250-350 against a threshold of ~16)
+    # the data are adversarial: counted as white, that candidate would pass the LR test
+    # (measured LR_white 38-350 against a threshold of 13-16)
     assert best["lr_statistic_white"] > threshold
     assert best["lr_statistic"] < best["lr_statistic_white"] / 5
     taus = best["autocorrelation_time"]
