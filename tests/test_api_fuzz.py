@@ -15,8 +15,9 @@ MUTATIONS = 240
 
 def test_no_server_error_and_no_schema_violation(tmp_path):
     report = FuzzReport()
-    # max_duration 5 s: valid fuzzed simulations stay short (a documented setting, GET /api/limits)
-    with live_server(tmp_path / "fuzz.sqlite3", max_duration=5.0) as url:
+    # max_duration 5 s and 50 runs a study: valid fuzzed simulations and studies stay short
+    # (documented settings, GET /api/limits)
+    with live_server(tmp_path / "fuzz.sqlite3", max_duration=5.0, max_study_runs=50) as url:
         run_mutations(url, MUTATIONS, report, seed=0)
         run_schemathesis(url, EXAMPLES, report, seed=0)
     assert report.requests > MUTATIONS + 100

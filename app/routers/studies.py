@@ -11,12 +11,13 @@ from pneucore.study import (Study, check_run_options, delete_study, list_studies
                             requeue_study, run_study, runs_csv, study_results, study_status)
 from pneucore.validation import FieldError
 
+from ..bodies import OffLoopRoute
 from ..config import STUDY_CLUSTERS
 from ..deps import JobsDep, LimitsDep, not_found, parse_model, parse_scenario
 from ..responses import JSON
 from ..schemas import (ClusterInfo, StudyRequest, StudyResultsResponse, StudyStarted, StudyStatus)
 
-router = APIRouter(prefix="/api/studies", tags=["studies"])
+router = APIRouter(prefix="/api/studies", tags=["studies"], route_class=OffLoopRoute)
 
 
 def _db(request: Request):
