@@ -112,7 +112,7 @@ def create_study(req: StudyRequest, request: Request, limits: LimitsDep):
 
 
 @router.get("/clusters", summary="Where studies can run: the cluster names a request may give",
-            response_model=list[ClusterInfo])
+            response_model=list[ClusterInfo], response_model_exclude_unset=True)
 def get_clusters(request: Request, limits: LimitsDep):
     settings = request.app.state.settings
     out = [{"name": "local", "kind": "local process pool", "max_workers": limits.max_workers,
@@ -123,13 +123,13 @@ def get_clusters(request: Request, limits: LimitsDep):
     return out
 
 
-@router.get("", summary="List stored studies", response_model=list[StudyStatus])
+@router.get("", summary="List stored studies", response_model=list[StudyStatus], response_model_exclude_unset=True)
 def get_studies(request: Request):
     return list_studies(_db(request))
 
 
 @router.get("/{study_id}", summary="Study progress: runs stored, failed, fraction, the job's state",
-            response_model=StudyStatus)
+            response_model=StudyStatus, response_model_exclude_unset=True)
 def get_study(study_id: str, request: Request, jobs: JobsDep):
     try:
         st = study_status(_db(request), study_id)
