@@ -628,7 +628,8 @@ function plotSimulation() {
   const t = s.t;
   const ev = r.events || [];
   const shapes = eventShapes(ev);
-  const bar = (a) => a.map((v) => (v == null ? null : v / BAR));
+  const P = plotUnit('Pa'), X = plotUnit('m'), V = plotUnit('m/s'), Q = plotUnit('kg/s');
+  const bar = P.val;
   const pTraces = [];
   if (S.heatRuns) {
     for (const [hm, run] of Object.entries(S.heatRuns)) {
@@ -644,16 +645,16 @@ function plotSimulation() {
   pTraces.push(...eventMarkers(ev, () => pmax * 1.04));
   plot('plot-pressure', pTraces, baseLayout({
     title: { text: S.heatRuns ? 'Chamber pressures under three heat models' : 'Chamber pressures', font: { size: 12 }, x: 0.5, xanchor: 'center', y: 0.995 },
-    xaxis: axis('time t [s]'), yaxis: axis('pressure [bar abs]'),
+    xaxis: axis('time t [s]'), yaxis: axis(`pressure [${P.label}]`),
     yaxis2: axis('command u [-]', { overlaying: 'y', side: 'right', showgrid: false, mirror: false, range: [-1.1, 1.1], tickmode: 'array', tickvals: [-1, -0.5, 0, 0.5, 1] }),
     shapes, margin: { l: 64, r: 64, t: 48, b: 46 },
   }));
   plot('plot-position', [
-    { x: t, y: s.x.map((v) => v * 1e3), name: 'x', line: { color: '#2ca02c', width: 1.8 } },
-  ], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('position x [mm]'), shapes, showlegend: true }));
+    { x: t, y: X.val(s.x), name: 'x', line: { color: '#2ca02c', width: 1.8 } },
+  ], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`position x [${X.label}]`), shapes, showlegend: true }));
   plot('plot-velocity', [
-    { x: t, y: s.v, name: 'v', line: { color: '#9467bd', width: 1.8 } },
-  ], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('velocity v [m/s]'), shapes, showlegend: true }));
+    { x: t, y: V.val(s.v), name: 'v', line: { color: '#9467bd', width: 1.8 } },
+  ], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`velocity v [${V.label}]`), shapes, showlegend: true }));
   const C = (a) => a.map((v) => (v == null ? null : v - 273.15));
   const tTraces = [];
   if (S.heatRuns) {
@@ -670,24 +671,25 @@ function plotSimulation() {
     xaxis: axis('time t [s]'), yaxis: axis('temperature [°C]'), shapes, margin: { l: 64, r: 64, t: 48, b: 46 },
   }));
   plot('plot-flow', [
-    { x: t, y: s.q_a.map((v) => v * 1e3), name: 'q_a (into A)', line: { color: '#1f77b4', width: 1.6 } },
-    { x: t, y: s.q_b.map((v) => v * 1e3), name: 'q_b (into B)', line: { color: '#d62728', width: 1.6 } },
-  ], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('valve mass flow [g/s]'), shapes }));
+    { x: t, y: Q.val(s.q_a), name: 'q_a (into A)', line: { color: '#1f77b4', width: 1.6 } },
+    { x: t, y: Q.val(s.q_b), name: 'q_b (into B)', line: { color: '#d62728', width: 1.6 } },
+  ], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`valve flow [${Q.label}]`), shapes }));
 }
 function plotEmptySimulation() {
   const specs = [
-    ['plot-pressure', 'pressure [bar abs]'], ['plot-position', 'position x [mm]'], ['plot-velocity', 'velocity v [m/s]'],
-    ['plot-temperature', 'temperature [°C]'], ['plot-flow', 'valve mass flow [g/s]'],
+    ['plot-pressure', `pressure [${plotUnit('Pa').label}]`], ['plot-position', `position x [${plotUnit('m').label}]`],
+    ['plot-velocity', `velocity v [${plotUnit('m/s').label}]`], ['plot-temperature', 'temperature [°C]'],
+    ['plot-flow', `valve flow [${plotUnit('kg/s').label}]`],
   ];
   for (const [id, y] of specs) {
     plot(id, [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(y), annotations: emptyNote('Run a simulation (Simulate or a paper scenario)') }));
   }
 }
 function plotEmptyCompare() {
-  plot('compare-plot', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('pressure [bar abs]'),
-    yaxis2: axis('position x [mm]', { overlaying: 'y', side: 'right', showgrid: false, mirror: false }), annotations: emptyNote('Pick a dataset, then Compare') }));
-  plot('residual-plot', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('pressure residual [bar]'),
-    yaxis2: axis('position residual [mm]', { overlaying: 'y', side: 'right', showgrid: false, mirror: false }), annotations: emptyNote('Residuals appear after a comparison') }));
+  plot('compare-plot', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`pressure [${plotUnit('Pa').label}]`),
+    yaxis2: axis(`position x [${plotUnit('m').label}]`, { overlaying: 'y', side: 'right', showgrid: false, mirror: false }), annotations: emptyNote('Pick a dataset, then Compare') }));
+  plot('residual-plot', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`pressure residual [${diffLabel('Pa')}]`),
+    yaxis2: axis(`position residual [${plotUnit('m').label}]`, { overlaying: 'y', side: 'right', showgrid: false, mirror: false }), annotations: emptyNote('Residuals appear after a comparison') }));
 }
 async function overlayHeatModels() {
   clearErrors();
@@ -875,15 +877,19 @@ function stackedLayout(n, left, right, titles, extra = {}) {
   return { layout, rows };
 }
 const SIG_COLORS = { p_a: '#1f77b4', p_b: '#d62728', x: '#2ca02c', v: '#9467bd', T_a: '#17becf', T_b: '#e377c2' };
-function toDisplay(sig, arr) {
-  if (sig.startsWith('p')) return arr.map((v) => (v == null ? null : v / BAR));
-  if (sig === 'x') return arr.map((v) => (v == null ? null : v * 1e3));
-  if (sig.startsWith('T')) return arr.map((v) => (v == null ? null : v - 273.15));
-  return arr;
+const SIG_SI = { p_a: 'Pa', p_b: 'Pa', x: 'm', v: 'm/s' };
+/** A measured or simulated signal as the plots show it; `diff` for residuals (no gauge offset). */
+function toDisplay(sig, arr, diff = false) {
+  if (sig.startsWith('T')) return diff ? arr : arr.map((v) => (v == null ? null : v - 273.15));
+  if (!SIG_SI[sig]) return arr;
+  const u = plotUnit(SIG_SI[sig]);
+  return diff ? u.diff(arr) : u.val(arr);
 }
+/** The unit of a difference of pressures: a gauge offset cancels, so 'bar g' reads 'bar'. */
+function diffLabel(si) { return plotUnit(si).label.replace(/ (abs|g)$/, ''); }
 function plotCompare(c, exps) {
   const n = c.experiments.length;
-  const { layout, rows } = stackedLayout(n, 'pressure [bar abs]', 'position x [mm]', c.experiments.map((e) => e.name),
+  const { layout, rows } = stackedLayout(n, `pressure [${plotUnit('Pa').label}]`, `position x [${plotUnit('m').label}]`, c.experiments.map((e) => e.name),
     { legend: { orientation: 'h', x: 0, y: 1.0, yanchor: 'bottom', yref: 'container' } });
   layout.legend = { orientation: 'h', x: 0.5, xanchor: 'center', y: 1, yanchor: 'top', yref: 'container', font: { size: 11 } };
   layout.margin.t = 56;
@@ -908,7 +914,7 @@ function plotCompare(c, exps) {
 function plotResiduals(c, windows) {
   windows = windows || c.failure_windows || [];
   const n = c.experiments.length;
-  const { layout, rows } = stackedLayout(n, 'pressure residual [bar]', 'position residual [mm]', c.experiments.map((e) => e.name));
+  const { layout, rows } = stackedLayout(n, `pressure residual [${diffLabel('Pa')}]`, `position residual [${plotUnit('m').label}]`, c.experiments.map((e) => e.name));
   layout.legend = { orientation: 'h', x: 0.5, xanchor: 'center', y: 1, yanchor: 'top', yref: 'container', font: { size: 11 } };
   layout.margin.t = 56;
   const traces = [];
@@ -916,7 +922,7 @@ function plotResiduals(c, windows) {
   layout.shapes = [];
   c.experiments.forEach((e, i) => {
     for (const [sig, arr] of Object.entries(e.residuals || {})) {
-      traces.push({ x: e.t, y: toDisplay(sig, arr), xaxis: rows[i].x, yaxis: sig.startsWith('p') ? rows[i].y : rows[i].y2, mode: 'lines',
+      traces.push({ x: e.t, y: toDisplay(sig, arr, true), xaxis: rows[i].x, yaxis: sig.startsWith('p') ? rows[i].y : rows[i].y2, mode: 'lines',
         name: `${sig} residual`, legendgroup: sig, showlegend: !seen.has(sig) && !!seen.add(sig), line: { color: SIG_COLORS[sig] || '#555', width: 1.2 } });
     }
     windows.forEach((w, k) => {
@@ -1166,10 +1172,9 @@ const PARAM_UNITS = {
   load_force: 'N', wall_area_a: 'm^2', wall_area_b: 'm^2', pressure: 'Pa', temperature: 'K', coefficient: 'W/(m^2 K)',
   fc0: 'N', fc_a: 'N/Pa', fc_b: 'N/Pa', kv0: 'N s/m', kv_a: 'N s/(m Pa)', kv_b: 'N s/(m Pa)', r: 'J/(kg K)', gamma: '-',
 };
-// metrics come in SI; shown like the rest of the page (mm, bar abs, °C); `diff` converts spreads (std)
+// metrics come in SI; lengths and pressures shown in the header's unit system (plotUnit),
+// temperatures in °C; `diff` converts spreads (std)
 const METRIC_DISPLAY = {
-  m: { label: 'mm', val: (v) => v * 1e3, diff: (v) => v * 1e3 },
-  Pa: { label: 'bar abs', val: (v) => v / BAR, diff: (v) => v / BAR },
   K: { label: '°C', val: (v) => v - 273.15, diff: (v) => v },
 };
 const METHOD_NAMES = {
@@ -1179,7 +1184,21 @@ const METHOD_NAMES = {
 const DESIGN_NAMES = { monte_carlo: 'Monte Carlo', factorial: 'full factorial', mixed: 'grid × Monte Carlo' };
 
 function prettyUnit(u) { return String(u || '').replace(/\^3/g, '³').replace(/\^2/g, '²'); }
-function metricDisplay(unit) { return METRIC_DISPLAY[unit] || { label: unit || '-', val: (v) => v, diff: (v) => v }; }
+/** How every plot shows a quantity in SI unit `si`: the header's unit switch (units.js).
+ *  `val` converts a series, `diff` a difference (a residual, a spread: no gauge offset). */
+function plotUnit(si) {
+  const d = typeof unitShow === 'function' ? unitShow(si) : { unit: si, scale: 1, offset: 0 };
+  const conv = (off) => (a) => a.map((v) => (v == null ? null : (v - off) / d.scale));
+  return { label: prettyUnit(d.unit), val: conv(d.offset || 0), diff: conv(0) };
+}
+function metricDisplay(unit) {
+  if (METRIC_DISPLAY[unit]) return METRIC_DISPLAY[unit];
+  if (unit === 'm' || unit === 'Pa') {
+    const u = plotUnit(unit);
+    return { label: u.label, val: (v) => u.val([v])[0], diff: (v) => u.diff([v])[0] };
+  }
+  return { label: unit || '-', val: (v) => v, diff: (v) => v };
+}
 function studyUnit(path) {
   const parts = String(path || '').split('.');
   if (parts[0] === 'effects' && parts.length === 3) {

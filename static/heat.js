@@ -65,9 +65,10 @@ function onHeatModelChange(ev) {
 }
 
 /* ------------------------------------------------------------ side by side: one scenario */
-function heatTraces(runs, signal, yscale, dash) {
+/** `show` converts a series to the plot's unit (app.js plotUnit; temperatures stay in K). */
+function heatTraces(runs, signal, show, dash) {
   return Object.entries(runs).map(([name, run], i) => ({
-    x: run.series.t, y: (run.series[signal] || []).map((v) => (v == null ? null : v * yscale)),
+    x: run.series.t, y: show(run.series[signal] || []),
     name: `${name} ${signal}`, mode: 'lines', line: { color: HEAT.colors[i % HEAT.colors.length], width: 1.5, dash },
   }));
 }
@@ -82,9 +83,10 @@ async function heatSimulateAll() {
       const res = await api('POST', '/api/heat-models/simulate', { model: S.model, scenario });
       const runs = res.runs;
       const b = S.model.valve && S.model.valve.kind === '4/2';
-      plot('heat-plot-pressure', [...heatTraces(runs, 'p_a', 1e-5, 'solid'), ...(b ? heatTraces(runs, 'p_b', 1e-5, 'dot') : [])],
-        baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('pressure [bar abs]') }));
-      plot('heat-plot-temperature', [...heatTraces(runs, 'T_a', 1, 'solid'), ...(b ? heatTraces(runs, 'T_b', 1, 'dot') : [])],
+      const P = plotUnit('Pa').val, K = (a) => a;
+      plot('heat-plot-pressure', [...heatTraces(runs, 'p_a', P, 'solid'), ...(b ? heatTraces(runs, 'p_b', P, 'dot') : [])],
+        baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`pressure [${plotUnit('Pa').label}]`) }));
+      plot('heat-plot-temperature', [...heatTraces(runs, 'T_a', K, 'solid'), ...(b ? heatTraces(runs, 'T_b', K, 'dot') : [])],
         baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('gas temperature [K]') }));
       document.getElementById('panel-heat').dataset.simulated = String(Object.keys(runs).length);
       setStatus(`Scenario run under ${Object.keys(runs).length} heat models: ${Object.keys(runs).join(', ')}.`, 'ok');
@@ -135,15 +137,16 @@ async function heatCompareAll() {
       wrap.textContent = '';
       wrap.append(heatTable(res.models));
       const m = res.measured;
-      const meas = (sig, scale) => ({ x: m.t, y: m[sig].map((v) => (v == null ? null : v * scale)), name: `measured ${sig}`, mode: 'markers', marker: { color: '#000', size: 5 } });
-      const sim = (sig, scale) => res.models.map((r, i) => ({
-        x: r.t, y: (r.simulated[sig] || []).map((v) => (v == null ? null : v * scale)), name: `${r.name} ${sig}`, mode: 'lines',
+      const P = plotUnit('Pa').val, K = (a) => a;   // pressures as the header's unit system, temperatures in K
+      const meas = (sig, show) => ({ x: m.t, y: show(m[sig]), name: `measured ${sig}`, mode: 'markers', marker: { color: '#000', size: 5 } });
+      const sim = (sig, show) => res.models.map((r, i) => ({
+        x: r.t, y: show(r.simulated[sig] || []), name: `${r.name} ${sig}`, mode: 'lines',
         line: { color: HEAT.colors[i % HEAT.colors.length], width: 1.5 } }));
       const pSig = ['p_a', 'p_b'].filter((s) => s in m);
       const tSig = ['T_a', 'T_b'].filter((s) => s in m);
-      plot('heat-plot-pressure', pSig.flatMap((s) => [meas(s, 1e-5), ...sim(s, 1e-5)]),
-        baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('pressure [bar abs]'), annotations: pSig.length ? [] : emptyNote('no pressure measured') }));
-      plot('heat-plot-temperature', tSig.flatMap((s) => [meas(s, 1), ...sim(s, 1)]),
+      plot('heat-plot-pressure', pSig.flatMap((s) => [meas(s, P), ...sim(s, P)]),
+        baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`pressure [${plotUnit('Pa').label}]`), annotations: pSig.length ? [] : emptyNote('no pressure measured') }));
+      plot('heat-plot-temperature', tSig.flatMap((s) => [meas(s, K), ...sim(s, K)]),
         baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('gas temperature [K]'), annotations: tSig.length ? [] : emptyNote('no gas temperature measured') }));
       document.getElementById('panel-heat').dataset.compared = String(res.models.length);
       setStatus(`Every heat model calibrated on ${res.experiment || 'the measurement'}; errors in the table.`, 'ok');
@@ -174,7 +177,7 @@ async function initHeat() {
   renderHeatParams();
   document.getElementById('btn-heat-all').addEventListener('click', heatSimulateAll);
   document.getElementById('btn-heat-compare').addEventListener('click', heatCompareAll);
-  plot('heat-plot-pressure', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('pressure [bar abs]'), annotations: emptyNote('Run every heat model') }));
+  plot('heat-plot-pressure', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`pressure [${plotUnit('Pa').label}]`), annotations: emptyNote('Run every heat model') }));
   plot('heat-plot-temperature', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('gas temperature [K]'), annotations: emptyNote('Run every heat model') }));
   document.getElementById('panel-heat').dataset.ready = 'true';
 }

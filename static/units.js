@@ -49,6 +49,10 @@ function applyUnits() {
   if (typeof renderModel === 'function') renderModel();
   if (typeof renderScenario === 'function') renderScenario();
   if (typeof renderDiagnosis === 'function' && S.diag) renderDiagnosis();
+  // the plots follow the same system (app.js plotUnit)
+  if (typeof plotSimulation === 'function') plotSimulation();
+  if (typeof renderCompare === 'function' && S.compare) renderCompare();
+  if (typeof renderStudyResults === 'function' && S.study && S.study.res) renderStudyResults();
   if (typeof renderCalOptions === 'function' && typeof CAL !== 'undefined' && CAL.options.length) renderCalOptions();
   if (typeof renderCalReport === 'function' && typeof CAL !== 'undefined' && CAL.result) renderCalReport();
   document.body.dataset.units = UNITS.system;

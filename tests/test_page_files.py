@@ -160,6 +160,29 @@ def test_unit_switch_from_the_service(page):
     assert page.inner_text("label[for=scn-x0]").endswith("[mm]")
 
 
+def test_plots_follow_the_unit_switch(page):
+    """The plots are drawn in the header's unit system too: titles and values."""
+    def y_title(div):
+        return page.evaluate("(id) => document.getElementById(id).layout.yaxis.title.text", div)
+
+    def first_p_a():
+        return page.evaluate("document.getElementById('plot-pressure').data[0].y[0]")
+    page.evaluate("S.sim = null")
+    page.click("#btn-simulate")
+    page.wait_for_function("() => !!S.sim && (document.getElementById('plot-pressure').data || []).length > 0")
+    p0 = page.evaluate("S.sim.series.p_a[0]")
+    amb = page.evaluate("S.model.ambient.pressure")
+    page.select_option("#unit-system", "si")
+    assert (y_title("plot-pressure"), y_title("plot-position")) == ("pressure [Pa]", "position x [m]")
+    assert first_p_a() == pytest.approx(p0)
+    page.select_option("#unit-system", "engineering-gauge")
+    assert y_title("plot-pressure") == "pressure [bar g]"
+    assert first_p_a() == pytest.approx((p0 - amb) / 1e5)
+    page.select_option("#unit-system", "engineering")
+    assert (y_title("plot-pressure"), y_title("plot-position")) == ("pressure [bar abs]", "position x [mm]")
+    assert first_p_a() == pytest.approx(p0 / 1e5)
+
+
 def test_stored_data_listed_and_deletable(page):
     page.click("#stored-box summary")
     page.wait_for_selector("#stored-lists ul[data-kind=datasets] li[data-id]")
