@@ -106,6 +106,38 @@ async def read_multipart(request: Request, body: bytes, limit: int):
         raise HTTPException(400, f"malformed multipart/form-data body: {exc.message}") from None
 
 
+#: Content types whose body is a file (the rest of an upload's fields in the query string)
+RAW_FILE_TYPES = ("text/csv", "text/plain", "application/octet-stream")
+
+
+async def read_file_upload(request: Request, limit: int):
+    """The file of an upload: a multipart field ``file``, or the raw body of one of
+    :data:`RAW_FILE_TYPES`. Returns ``(data, filename, fields, multipart)``: the file's bytes,
+    its name (the query's ``filename`` for a raw body; None when not given), the other form
+    fields over the query parameters, and whether it came as multipart.
+
+    Parameters
+    ----------
+    request : Request
+        The request (its body is limited by :class:`BodyLimit` while it is read)
+    limit : int
+        Largest multipart part [bytes]
+    """
+    from starlette.datastructures import UploadFile
+
+    from pneucore.validation import FieldError
+    body = await request.body()
+    if request.headers.get("content-type", "").startswith("multipart/form-data"):
+        form = await read_multipart(request, body, limit)
+        upload = form.get("file")
+        if not isinstance(upload, UploadFile):
+            raise FieldError("file", "a file field named 'file' is required")
+        fields = {**request.query_params,
+                  **{k: v for k, v in form.items() if not isinstance(v, UploadFile)}}
+        return await upload.read(), upload.filename, fields, True
+    return body, request.query_params.get("filename"), dict(request.query_params), False
+
+
 def parse_json(body: bytes):
     """JSON text -> Python objects (orjson; the standard parser for NaN/Infinity tokens,
     which then fail validation with the field's path rather than as a syntax error)."""

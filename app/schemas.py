@@ -15,7 +15,7 @@ from pydantic.fields import FieldInfo
 
 from pneucore.heat import HEAT_MODELS, HEAT_PARAMETERS
 from pneucore.model import VALVE_KINDS, FrictionSet, Gas, Jack, Model, Valve
-from pneucore.scenario import COMMAND_INTERPOLATIONS, Initial, Scenario, Solver
+from pneucore.scenario import COMMAND_INTERPOLATIONS, Scenario, Solver
 from pneucore.study_def import DISTRIBUTIONS
 
 Number = float

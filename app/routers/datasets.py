@@ -15,7 +15,7 @@ from pneucore.measurement import DEFAULT_AMBIENT_PRESSURE, Measurement, Measurem
 from pneucore.scenario import Scenario
 from pneucore.validation import FieldError, mapping, number
 
-from ..bodies import OffLoopRoute, read_multipart
+from ..bodies import RAW_FILE_TYPES, OffLoopRoute, read_file_upload
 from ..deps import LimitsDep, StoreDep, not_found
 from ..responses import JSON
 from ..schemas import DatasetCreated, DatasetInfo, DatasetJsonIn, DatasetWithData
@@ -154,22 +154,12 @@ def _store_json(store, payload: DatasetJsonIn):
 async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
     # the body is limited by app.bodies.BodyLimit while it is read (413 beyond the limit)
     ctype = request.headers.get("content-type", "")
+    if ctype.startswith(("multipart/form-data",) + RAW_FILE_TYPES):
+        data, filename, fields, multipart = await read_file_upload(request, limits.max_upload_bytes)
+        name = fields.get("name") or ((filename or "upload").rsplit(".", 1)[0] if multipart else None)
+        description = fields.get("description", "") if multipart else ""
+        return await run_in_threadpool(_store_upload, store, data, filename, fields, name, description)
     body = await request.body()
-    if ctype.startswith("multipart/form-data"):
-        from starlette.datastructures import UploadFile
-        form = await read_multipart(request, body, limits.max_upload_bytes)
-        upload = form.get("file")
-        if not isinstance(upload, UploadFile):
-            raise FieldError("file", "a CSV file field named 'file' is required")
-        data = await upload.read()
-        fields = {**request.query_params, **{k: v for k, v in form.items() if not isinstance(v, UploadFile)}}
-        name = fields.get("name") or (upload.filename or "upload").rsplit(".", 1)[0]
-        return await run_in_threadpool(_store_upload, store, data, upload.filename, fields, name,
-                                       fields.get("description", ""))
-    if ctype.startswith(("text/csv", "text/plain", "application/octet-stream")):
-        fields = dict(request.query_params)
-        return await run_in_threadpool(_store_upload, store, body, fields.get("filename"), fields,
-                                       fields.get("name"))
     try:
         payload = await run_in_threadpool(DatasetJsonIn.model_validate_json, body)
     except ValidationError as exc:

@@ -5,7 +5,6 @@ from ..responses import JSON, CSV_RESPONSES, csv_response, wants_csv
 
 from pneucore.compare import check_heat_models, with_heat_model
 from pneucore.simulate import simulate
-from pneucore.validation import FieldError
 
 from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, parse_model, parse_scenario
