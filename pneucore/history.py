@@ -11,7 +11,7 @@ import datetime as _dt
 from dataclasses import dataclass, field
 
 from .compare import compare
-from .diagnose import apply_diagnosis, diagnose
+from .diagnose import diagnose
 from .experiment import as_experiments
 from .model import Model
 

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import csv
 import difflib
-import io
 import json
 import math
 import numbers
@@ -38,7 +37,7 @@ import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator, Mapping
+from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
 
