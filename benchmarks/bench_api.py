@@ -133,7 +133,7 @@ def in_process(body, runs=50):
     from app.config import Limits
     from app.deps import parse_model, parse_scenario
     from app.responses import JSON
-    from app.routers.simulate import _result
+    from app.services import result_json
     from app.schemas import SimulateRequest
     from pneucore import simulate
     limits = Limits()
@@ -146,7 +146,7 @@ def in_process(body, runs=50):
         t1 = time.perf_counter()
         res = simulate(m, s)
         t2 = time.perf_counter()
-        d = _result(res, req.series)   # as the router does
+        d = result_json(res, req.series)   # as the router does
         t3 = time.perf_counter()
         JSON(d)
         t4 = time.perf_counter()
