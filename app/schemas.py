@@ -223,6 +223,21 @@ class DiagnoseRequest(_Strict):
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along [-]")
 
 
+def _refine_default(name):
+    """A default of :func:`pneucore.history.refine` (one source for the API's)."""
+    import inspect
+
+    from pneucore.history import refine
+    return inspect.signature(refine).parameters[name].default
+
+
+class RefineRequest(_Strict):
+    model: ModelIn = Field(..., description="Starting model")
+    experiments: list[ExperimentIn] = Field(..., description="Experiments")
+    uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along; given, they replace the automatic choice [-]")
+    max_rounds: int = Field(_refine_default("max_rounds"), ge=1, le=8, description="Most rounds (diagnose, apply the findings) [-]")
+
+
 class DatasetJsonIn(_Strict):
     name: Optional[str] = Field(None, description="Label")
     description: str = Field("", description="Free text")
@@ -596,6 +611,24 @@ class HeatModelsCompareResponse(_Open):
     models: list[HeatModelFit] = Field(..., description="One row per heat model, each calibrated on its own parameters")
     measured: dict[str, list[Optional[float]]] = Field(..., description="The first experiment's measurement, per signal (SI units; t [s] from its first sample)")
     experiment: str = Field(..., description="The first experiment's label")
+
+
+class RefineVersion(_Open):
+    version: int = Field(..., description="0 = the starting model [-]")
+    label: str = Field(..., description="base, + <effect>, or recalibrated: <parameters>")
+    model: dict[str, Any] = Field(..., description="The model of this version (ModelIn JSON)")
+    errors: dict[str, Optional[float]] = Field(..., description="Per signal: " + FRACTION)
+    overall: Optional[float] = Field(..., description="Overall: " + FRACTION)
+    added: Optional[str] = Field(None, description="Catalog effect added at this step")
+    recalibrated: list[dict[str, Any]] = Field(default_factory=list, description="Mis-set base parameters corrected at this step: path, before, after, stderr, unit")
+
+
+class RefineResponse(_Open):
+    model: dict[str, Any] = Field(..., description="The refined model (ModelIn JSON), ready for the next test")
+    versions: list[RefineVersion] = Field(..., description="One version per step: the error falling")
+    diagnoses: list[DiagnoseResponse] = Field(..., description="The diagnosis of each round")
+    message: str = Field(..., description="The last round's finding in words")
+    at_floor: bool = Field(..., description="The error reached the noise floor [-]")
 
 
 def _limits_response():

@@ -15,7 +15,7 @@ from pneucore.paths import parse_parameters
 from pneucore.validation import FieldError
 
 from .deps import parse_experiments, parse_model
-from .schemas import CalibrateRequest, CompareRequest, DiagnoseRequest
+from .schemas import CalibrateRequest, CompareRequest, DiagnoseRequest, RefineRequest
 
 #: Series returned by default (everything the page plots)
 DEFAULT_SERIES = ("t", "u", "p_a", "p_b", "T_a", "T_b", "m_a", "m_b", "x", "v", "a", "q_a", "q_b",
@@ -101,3 +101,33 @@ def run_diagnose(req: DiagnoseRequest, store, limits, progress=None):
     model, exps = check_diagnose(req, store, limits)
     return diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
                     progress=progress).to_dict()
+
+
+def check_refine(req: RefineRequest, store, limits):
+    """Everything a refine request can get wrong, checked before any work."""
+    model = parse_model(req.model)
+    check_request(model, None, req.uncertain)
+    return model, parse_experiments(req.experiments, model, store, limits)
+
+
+def run_refine(req: RefineRequest, store, limits, progress=None):
+    """:func:`pneucore.history.refine` on the request: the versions, each round's diagnosis and
+    the refined model (plain JSON)."""
+    from pneucore.history import refine
+    model, exps = check_refine(req, store, limits)
+    state = {"round": 0, "last": 0.0}
+
+    def each_round(fraction, step):   # one progress over the rounds: a new round starts low again
+        if fraction < state["last"]:
+            state["round"] += 1
+        state["last"] = fraction
+        if progress is not None:
+            progress((state["round"] + min(fraction, 1.0)) / req.max_rounds,
+                     f"round {state['round'] + 1}: {step}")
+    final, history, diagnoses = refine(model, exps, max_rounds=req.max_rounds,
+                                       uncertain=req.uncertain, progress=each_round)
+    last = diagnoses[-1] if diagnoses else None
+    return {"model": final.to_dict(), "versions": history.to_dict()["versions"],
+            "diagnoses": [d.to_dict() for d in diagnoses],
+            "message": last.message if last is not None else "",
+            "at_floor": bool(last is not None and last.remaining.get("at_floor"))}

@@ -7,8 +7,9 @@ from pneucore.compare import compare
 from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, StoreDep
 from ..schemas import (CalibrateRequest, CalibrateResponse, CompareRequest, CompareResponse,
-                       DiagnoseRequest, DiagnoseResponse)
-from ..services import check_compare, deadline_progress, run_calibrate, run_compare, run_diagnose
+                       DiagnoseRequest, DiagnoseResponse, RefineRequest, RefineResponse)
+from ..services import (check_compare, deadline_progress, run_calibrate, run_compare, run_diagnose,
+                        run_refine)
 
 router = APIRouter(prefix="/api", tags=["analysis"], route_class=OffLoopRoute)
 
@@ -36,3 +37,10 @@ def calibrate_endpoint(req: CalibrateRequest, store: StoreDep, limits: LimitsDep
              response_class=JSON, response_model=DiagnoseResponse)
 def diagnose_endpoint(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep):
     return JSON(run_diagnose(req, store, limits, progress=deadline_progress(limits, "diagnosis", "/api/jobs/diagnose")))
+
+
+@router.post("/refine", summary="Stepwise to the noise floor: diagnose, apply the findings, repeat",
+             response_class=JSON, response_model=RefineResponse)
+def refine_endpoint(req: RefineRequest, store: StoreDep, limits: LimitsDep):
+    return JSON(run_refine(req, store, limits,
+                           progress=deadline_progress(limits, "refinement", "/api/jobs/refine")))

@@ -1,12 +1,12 @@
-"""Long work as jobs: POST /api/jobs/{diagnose|calibrate|compare} -> id; GET /api/jobs/{id}."""
+"""Long work as jobs: POST /api/jobs/{diagnose|calibrate|compare|refine} -> id; GET /api/jobs/{id}."""
 from fastapi import APIRouter, HTTPException
 from ..responses import JSON
 
 from ..bodies import OffLoopRoute
 from ..deps import JobsDep, LimitsDep, StoreDep, not_found
-from ..schemas import CalibrateRequest, CompareRequest, DiagnoseRequest, JobResponse
-from ..services import (check_calibrate, check_compare, check_diagnose, run_calibrate, run_compare,
-                       run_diagnose)
+from ..schemas import CalibrateRequest, CompareRequest, DiagnoseRequest, JobResponse, RefineRequest
+from ..services import (check_calibrate, check_compare, check_diagnose, check_refine, run_calibrate,
+                        run_compare, run_diagnose, run_refine)
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"], route_class=OffLoopRoute)
 
@@ -36,6 +36,7 @@ def _simple(kind, check, runner):
 
 _calibrate = _simple("calibrate", check_calibrate, run_calibrate)
 _compare = _simple("compare", check_compare, run_compare)
+_refine = _simple("refine", check_refine, run_refine)
 
 
 @router.post("/calibrate", status_code=202, response_model=JobResponse, summary="Calibrate as a job")
@@ -46,6 +47,12 @@ def calibrate_job(req: CalibrateRequest, store: StoreDep, limits: LimitsDep, job
 @router.post("/compare", status_code=202, response_model=JobResponse, summary="Compare as a job")
 def compare_job(req: CompareRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep):
     return _compare(req, store, limits, jobs)
+
+
+@router.post("/refine", status_code=202, response_model=JobResponse,
+             summary="Refine to the noise floor as a job (the versions, each round's diagnosis)")
+def refine_job(req: RefineRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep):
+    return _refine(req, store, limits, jobs)
 
 
 @router.get("/{job_id}", response_model=JobResponse, summary="Job progress and result",
