@@ -58,13 +58,19 @@ def _loads(text, default):
         return default
 
 
+#: How long a write waits for another writer of the same file (a study storing its runs, a
+#: second server) before failing [s]; the study store waits as long (pneucore.study_store)
+BUSY_TIMEOUT_S = 30.0
+
+
 class Store:
     """Thread-safe SQLite store (one connection, serialised by a lock)."""
 
     def __init__(self, path):
         self.path = path
         self._lock = threading.RLock()   # reads too: one connection shared by threads
-        self._db = sqlite3.connect(path, check_same_thread=False, isolation_level=None)
+        self._db = sqlite3.connect(path, check_same_thread=False, isolation_level=None,
+                                   timeout=BUSY_TIMEOUT_S)
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.executescript(_SCHEMA)
 
@@ -74,7 +80,9 @@ class Store:
 
     def _tx(self, fn):
         with self._lock:
-            self._db.execute("BEGIN")
+            # IMMEDIATE: the write lock is taken (waiting up to BUSY_TIMEOUT_S) before the first
+            # read; a deferred BEGIN fails at once when it upgrades while a study is writing
+            self._db.execute("BEGIN IMMEDIATE")
             try:
                 out = fn(self._db)
                 self._db.execute("COMMIT")

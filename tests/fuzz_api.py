@@ -159,10 +159,17 @@ class _Dropped:
 
 
 def _send(c, method, path, text):
-    try:
-        return c.request(method, path, content=text, headers={"content-type": "application/json"})
-    except httpx.TransportError as exc:
-        return _Dropped(f"transport error: {exc!r}")
+    """One request; a transport error is retried once on a fresh connection before it counts.
+
+    A kept-alive connection that the server closes after its idle timeout (uvicorn: 5 s) just
+    as the client reuses it is reset without any fault of the server's; a server that really
+    dropped the request (a crash, a hang) fails the retry too and is counted as 599."""
+    for attempt in (0, 1):
+        try:
+            return c.request(method, path, content=text, headers={"content-type": "application/json"})
+        except httpx.TransportError as exc:
+            if attempt:
+                return _Dropped(f"transport error (twice): {exc!r}")
 
 
 def run_mutations(base_url, n, report, seed=0, excluded=EXCLUDED_PATHS):
