@@ -27,7 +27,6 @@ compilation excluded; it is measured by ``bench_simulator.py``).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
 import sys
@@ -41,6 +40,7 @@ from pneucore.calibrate import calibrate  # noqa: E402
 from pneucore.diagnose import diagnose  # noqa: E402
 from pneucore.experiment import as_experiments  # noqa: E402
 from pneucore.samples import load_sample  # noqa: E402
+from machine import save_figures  # noqa: E402
 
 TARGET_DIAGNOSIS_S = 10.0
 TARGET_CALIBRATION_S = 2.0
@@ -110,9 +110,7 @@ def main(argv=None):
     print(f"calibration of 3 parameters (2 experiments): {t_cal:.2f} s "
           f"(target <= {TARGET_CALIBRATION_S:g} s), {cal.nfev} residual evaluations, "
           f"values {figures['calibration_values']}")
-    if a.json:
-        with open(a.json, "w") as fh:
-            json.dump(figures, fh, indent=1)
+    save_figures(a.json, figures)
     return figures
 
 

@@ -43,7 +43,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from machine import machine_info as _machine_info  # noqa: E402
+from machine import machine_info as _machine_info, save_figures  # noqa: E402
 
 MODEL, SCENARIO = "paper-4way", "paper-fig10-pulses"
 TARGET_MEDIAN_MS = 30.0
@@ -280,10 +280,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     out = run(args)
     report(out)
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(out, f, indent=1)
-        print(f"figures written to {args.json}")
+    save_figures(args.json, out)
     return 0
 
 

@@ -41,7 +41,7 @@ import urllib.request
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
-from machine import machine_info  # noqa: E402
+from machine import machine_info, save_figures  # noqa: E402
 
 MODEL, SCENARIO = "paper-4way", "paper-fig10-pulses"
 TARGET_FIRST_SIM_S = 10.0
@@ -245,10 +245,7 @@ def main(argv=None):
         f = out["fresh_install"]["first_answer_s"]
         print(f"target: first API answer <= {TARGET_FIRST_API_S:g} s after a fresh install -> "
               f"{'PASS' if f <= TARGET_FIRST_API_S else 'FAIL'} ({f:.2f} s)")
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(out, fh, indent=1)
-        print(f"figures written to {args.json}")
+    save_figures(args.json, out)
     return 0
 
 

@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import fnmatch
 import importlib.util
-import json
 import os
 import sys
 import time
@@ -37,6 +36,7 @@ sys.path.insert(0, os.path.dirname(HERE))
 from pneucore.experiment import as_experiments  # noqa: E402
 from pneucore.model import Model  # noqa: E402
 from pneucore.synthetic import RIG_CASES, rig_case  # noqa: E402
+from machine import save_figures  # noqa: E402
 
 
 def _load_old(path):
@@ -116,9 +116,7 @@ def main(argv=None):
     print(f"all        {sum(r['ok'] for r in rows):2d} / {len(rows)}   "
           f"({time.perf_counter() - t_all:.0f} s, cpu {os.cpu_count()}, "
           f"load {os.getloadavg()[0]:.1f})")
-    if a.json:
-        with open(a.json, "w") as fh:
-            json.dump(rows, fh, indent=1, default=str)
+    save_figures(a.json, rows)
     return rows
 
 

@@ -43,7 +43,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from machine import machine_info as _machine_info  # noqa: E402
+from machine import machine_info as _machine_info, save_figures  # noqa: E402
 sys.path.insert(0, HERE)
 
 MODEL, SCENARIO = "paper-4way", "paper-fig10-pulses"
@@ -225,10 +225,7 @@ def main(argv=None):
                         "best_s": best_sp, "ms_per_simulated_second": 1e3 * med_sp / duration}
     figures["speed_ratio"] = {"scipy_over_pneucore": ratio, "target": TARGET_RATIO, "meets_target": ok}
 
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(figures, f, indent=2, default=float)
-        print(f"\nfigures written to {args.json}")
+    save_figures(args.json, figures)
     return figures
 
 

@@ -40,7 +40,6 @@ Figures printed (and written to ``--json PATH``):
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import os
 import sys
@@ -51,7 +50,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, ROOT)
 sys.path.insert(0, HERE)
-from machine import machine_info as _machine_info  # noqa: E402
+from machine import machine_info as _machine_info, save_figures  # noqa: E402
 
 SERIAL_SAMPLE = 500
 STARTUP_TARGET_S = 0.5
@@ -215,10 +214,7 @@ def main(argv=None):
               f"on {best['workers']} workers)")
     out["load_average_end"] = load()
     print(f"load average at end: {out['load_average_end']}")
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(out, fh, indent=2)
-        print(f"wrote {args.json}")
+    save_figures(args.json, out)
     for f in os.listdir(tmp):
         os.remove(os.path.join(tmp, f))
     os.rmdir(tmp)

@@ -28,7 +28,6 @@ Figures printed (and written to ``--json PATH``):
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import tempfile
@@ -40,7 +39,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, ROOT)
 sys.path.insert(0, HERE)
-from machine import machine_info  # noqa: E402
+from machine import machine_info, save_figures  # noqa: E402
 
 STORE_TARGET = 20_000.0      # runs/s
 SUMMARY_TARGET = 1.0         # s, for 100,000 runs
@@ -129,9 +128,7 @@ def main(argv=None):
         print(f"store file: {out['file_bytes'] / 1e6:.1f} MB "
               f"({out['file_bytes'] / a.runs:.0f} bytes per run)")
     print(f"machine: {out['machine']}")
-    if a.json:
-        with open(a.json, "w") as fh:
-            json.dump(out, fh, indent=1)
+    save_figures(a.json, out)
     return out
 
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import importlib
+import json
 import os
 import platform
 
@@ -26,3 +27,13 @@ def machine_info(*modules):
         except ImportError:
             pass
     return info
+
+
+def save_figures(path, figures):
+    """Write a benchmark's figures to ``path`` as JSON (its ``--json`` option); no-op for None."""
+    if not path:
+        return
+    with open(path, "w") as fh:
+        # numpy scalars as numbers, anything else (a path, a date) as text
+        json.dump(figures, fh, indent=1, default=lambda o: o.item() if hasattr(o, "item") else str(o))
+    print(f"figures written to {path}")
