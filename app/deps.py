@@ -5,10 +5,10 @@ from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request
 
-from pneucore.experiment import as_experiments
-from pneucore.model import Model, check_resolvable
-from pneucore.scenario import Scenario
-from pneucore.validation import FieldError
+from pneucore.data.experiment import as_experiments
+from pneucore.spec.model import Model, check_resolvable
+from pneucore.spec.scenario import Scenario
+from pneucore.spec.validation import FieldError
 
 from .config import Limits
 from .jobs import JobManager
@@ -96,7 +96,7 @@ def parse_experiments(exps_in, model: Model, store: Store, limits: Limits):
                 d["name"] = info["name"]
         raw.append(d)
     exps = as_experiments(raw, model.ambient.pressure, datasets=store.measurement)
-    from pneucore.measurement import MeasurementError
+    from pneucore.data.measurement import MeasurementError
     total = sum(e.measurement.n for e in exps)
     if total > limits.max_analysis_samples:
         raise FieldError("experiments", f"{total} measured samples exceed the API limit of "

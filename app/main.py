@@ -19,9 +19,9 @@ from fastapi.responses import FileResponse, HTMLResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from pneucore.measurement import MeasurementError
+from pneucore.data.measurement import MeasurementError
 from pneucore.simulate import SimulationError, start_warm_up
-from pneucore.validation import FieldError
+from pneucore.spec.validation import FieldError
 
 from .bodies import BodyLimit
 from .config import LOCAL_HOSTS, Settings
@@ -164,7 +164,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @app.get("/api/samples", tags=["meta"], summary="Sample datasets shipped with the tool",
              response_model=list[SampleInfo])
     def samples():
-        from pneucore.samples import list_samples
+        from pneucore.data.samples import list_samples
         return list_samples()
 
     @app.get("/", include_in_schema=False)

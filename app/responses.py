@@ -87,7 +87,7 @@ def wants_csv(request) -> bool:
 
 
 def csv_response(text: str, filename: str) -> Response:
-    """A CSV download (see :mod:`pneucore.export` for the format)."""
+    """A CSV download (see :mod:`pneucore.data.export` for the format)."""
     return Response(text, media_type="text/csv; charset=utf-8",
                     headers={"Content-Disposition": f'attachment; filename="{filename}"'})
 

@@ -13,10 +13,10 @@ from typing import Any, Literal, Optional, Union
 from pydantic import BaseModel, ConfigDict, Field
 from pydantic.fields import FieldInfo
 
-from pneucore.heat import HEAT_MODELS, HEAT_PARAMETERS
-from pneucore.model import VALVE_KINDS, FrictionSet, Gas, Jack, Model, Valve
-from pneucore.scenario import COMMAND_INTERPOLATIONS, Scenario, Solver
-from pneucore.study_def import DISTRIBUTIONS
+from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
+from pneucore.spec.model import VALVE_KINDS, FrictionSet, Gas, Jack, Model, Valve
+from pneucore.spec.scenario import COMMAND_INTERPOLATIONS, Scenario, Solver
+from pneucore.study.definition import DISTRIBUTIONS
 
 Number = float
 
@@ -224,10 +224,10 @@ class DiagnoseRequest(_Strict):
 
 
 def _refine_default(name):
-    """A default of :func:`pneucore.history.refine` (one source for the API's)."""
+    """A default of :func:`pneucore.analysis.history.refine` (one source for the API's)."""
     import inspect
 
-    from pneucore.history import refine
+    from pneucore.analysis.history import refine
     return inspect.signature(refine).parameters[name].default
 
 
@@ -654,7 +654,7 @@ LimitsResponse = _limits_response()
 # ---------------------------------------------------------------------------- request examples
 def _examples():
     """Request examples built from the presets (one source for the numbers)."""
-    from pneucore.presets import model_preset, scenario_preset
+    from pneucore.spec.presets import model_preset, scenario_preset
     m4 = model_preset("paper-4way")
     exps = [{"dataset_id": "sample-leak-and-lag-locked-hold"},
             {"dataset_id": "sample-leak-and-lag-free-pulses"}]

@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import time
 
-from pneucore.calibrate import calibrate
-from pneucore.compare import check_heat_models, compare
-from pneucore.diagnose import check_request, diagnose
-from pneucore.paths import parse_parameters
-from pneucore.validation import FieldError
+from pneucore.analysis.calibrate import calibrate
+from pneucore.analysis.compare import check_heat_models, compare
+from pneucore.analysis.diagnose import check_request, diagnose
+from pneucore.spec.paths import parse_parameters
+from pneucore.spec.validation import FieldError
 
 from .deps import parse_experiments, parse_model
 from .schemas import CalibrateRequest, CompareRequest, DiagnoseRequest, RefineRequest
@@ -31,7 +31,7 @@ def result_json(res, series):
         A completed simulation
     series : list of str or None
         Series to return (None = :data:`DEFAULT_SERIES`); an unknown name or an
-        empty list is a :class:`~pneucore.validation.FieldError` on ``series``
+        empty list is a :class:`~pneucore.spec.validation.FieldError` on ``series``
     """
     names = [s for s in (series or DEFAULT_SERIES) if s in res.series]
     if series is not None and len(series) == 0:
@@ -111,9 +111,9 @@ def check_refine(req: RefineRequest, store, limits):
 
 
 def run_refine(req: RefineRequest, store, limits, progress=None):
-    """:func:`pneucore.history.refine` on the request: the versions, each round's diagnosis and
+    """:func:`pneucore.analysis.history.refine` on the request: the versions, each round's diagnosis and
     the refined model (plain JSON)."""
-    from pneucore.history import refine
+    from pneucore.analysis.history import refine
     model, exps = check_refine(req, store, limits)
     state = {"round": 0, "last": 0.0}
 

@@ -18,9 +18,9 @@ import uuid
 
 import orjson
 
-from pneucore.measurement import Measurement
-from pneucore.samples import DATA_DIR, list_samples
-from pneucore.measurement import read_csv
+from pneucore.data.measurement import Measurement
+from pneucore.data.samples import DATA_DIR, list_samples
+from pneucore.data.measurement import read_csv
 
 
 def _dumps(value):
@@ -59,7 +59,7 @@ def _loads(text, default):
 
 
 #: How long a write waits for another writer of the same file (a study storing its runs, a
-#: second server) before failing [s]; the study store waits as long (pneucore.study_store)
+#: second server) before failing [s]; the study store waits as long (pneucore.study.store)
 BUSY_TIMEOUT_S = 30.0
 
 

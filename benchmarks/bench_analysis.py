@@ -12,10 +12,10 @@ Cases (targets from the issue, on this 2-core machine):
   target <= 10 s;
 * **one diagnosis round on a rig as users meet it** (nothing declared: the base
   parameters to recalibrate are chosen from what the experiments identify, see
-  :mod:`pneucore.hypotheses`): the ``effect/piston_leakage`` rig case of
-  :data:`pneucore.synthetic.RIG_CASES`, two experiments of 1 s at 1 kHz;
+  :mod:`pneucore.analysis.hypotheses`): the ``effect/piston_leakage`` rig case of
+  :data:`pneucore.data.synthetic.RIG_CASES`, two experiments of 1 s at 1 kHz;
   target <= 3 s;
-* **the full refinement loop** (:func:`pneucore.history.refine`) on the
+* **the full refinement loop** (:func:`pneucore.analysis.history.refine`) on the
   ``effect/leak+spool`` rig case (two hidden effects behind base errors); target <= 15 s;
 * **calibration of three parameters** (``heat.coefficient``,
   ``friction.extend.fc0``, ``jack.moving_mass``) on the same two experiments
@@ -36,10 +36,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
 from pneucore import model_preset  # noqa: E402
-from pneucore.calibrate import calibrate  # noqa: E402
-from pneucore.diagnose import diagnose  # noqa: E402
-from pneucore.experiment import as_experiments  # noqa: E402
-from pneucore.samples import load_sample  # noqa: E402
+from pneucore.analysis.calibrate import calibrate  # noqa: E402
+from pneucore.analysis.diagnose import diagnose  # noqa: E402
+from pneucore.data.experiment import as_experiments  # noqa: E402
+from pneucore.data.samples import load_sample  # noqa: E402
 from machine import save_figures  # noqa: E402
 
 TARGET_DIAGNOSIS_S = 10.0
@@ -69,8 +69,8 @@ def main(argv=None):
     exps = as_experiments(load_sample("piston-leak"))
 
     t_diag, d = _median_time(lambda: diagnose(model, exps), a.runs)
-    from pneucore.history import refine
-    from pneucore.synthetic import RIG_CASES, rig_case
+    from pneucore.analysis.history import refine
+    from pneucore.data.synthetic import RIG_CASES, rig_case
     rig = rig_case("effect/piston_leakage", **dict(RIG_CASES)["effect/piston_leakage"])
     rig_exps = as_experiments(rig.experiments)
     t_round, d_round = _median_time(lambda: diagnose(rig.start, rig_exps), a.rig_runs)

@@ -5,12 +5,12 @@ Run from the repository root::
     python benchmarks/bench_diagnosis_confusion.py [--json PATH] [--cases PATTERN]
     python benchmarks/bench_diagnosis_confusion.py --before OLD_DIAGNOSE_PY   # an older diagnose.py
 
-Each case of :data:`pneucore.synthetic.RIG_CASES` starts from the catalogue
+Each case of :data:`pneucore.data.synthetic.RIG_CASES` starts from the catalogue
 model with every base parameter somewhat off (friction levels, viscous
 coefficients, moving mass, heat coefficient, valve conductance, supply
 pressure), hides 0, 1 or 2 catalog effects or a truth outside the catalog (a
 transducer gain or offset error), and runs the refinement loop with nothing
-declared: :func:`pneucore.history.refine`. A case is right when
+declared: :func:`pneucore.analysis.history.refine`. A case is right when
 
 * ``base``: no effect is named (the mis-set parameters are recalibrated);
 * ``effect``: exactly the hidden effects are named;
@@ -33,9 +33,9 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
-from pneucore.experiment import as_experiments  # noqa: E402
-from pneucore.model import Model  # noqa: E402
-from pneucore.synthetic import RIG_CASES, rig_case  # noqa: E402
+from pneucore.data.experiment import as_experiments  # noqa: E402
+from pneucore.spec.model import Model  # noqa: E402
+from pneucore.data.synthetic import RIG_CASES, rig_case  # noqa: E402
 from machine import save_figures  # noqa: E402
 
 
@@ -57,14 +57,14 @@ def run_before(mod, case, rounds=4):
             break
         named.append(d.verdict)
         model = mod.apply_diagnosis(model, d)
-    from pneucore.compare import compare
+    from pneucore.analysis.compare import compare
     c = compare(model, exps)
     return {"named": named, "outside": False, "recalibrated": [], "error_after": c.overall,
             "noise_floor": None}
 
 
 def run_after(case, rounds=4):
-    from pneucore.history import refine
+    from pneucore.analysis.history import refine
     model, hist, diags = refine(case.start, case.experiments, max_rounds=rounds)
     last = diags[-1]
     named = [v.added for v in hist.versions[1:] if v.added and not v.added.startswith("recalib")]

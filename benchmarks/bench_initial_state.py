@@ -25,9 +25,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
 from pneucore import model_preset  # noqa: E402
-from pneucore.diagnose import diagnose  # noqa: E402
-from pneucore.experiment import Experiment, as_experiments  # noqa: E402
-from pneucore.samples import load_sample  # noqa: E402
+from pneucore.analysis.diagnose import diagnose  # noqa: E402
+from pneucore.data.experiment import Experiment, as_experiments  # noqa: E402
+from pneucore.data.samples import load_sample  # noqa: E402
 
 
 def one(cached):

@@ -11,7 +11,7 @@ Case: ``--runs`` (default 10,000) simulations of model ``paper-4way`` with
 scenario ``paper-fig10-pulses`` (1 s, four valve pulses, 1 kHz output),
 varying ``friction.extend.fc0`` (uniform 4-16 N) and ``supply.pressure``
 (normal 6 bar abs, std 0.4 bar, truncated to 4.5-7.5 bar), seed 1; every
-metric of :mod:`pneucore.study_metrics` per run; results stored in a
+metric of :mod:`pneucore.study.metrics` per run; results stored in a
 temporary SQLite file.
 
 Figures printed (and written to ``--json PATH``):
@@ -77,7 +77,7 @@ def load():
 
 def first_run(text):
     """Pool task of the start-up figure: one real run, then a pause so every worker gets one."""
-    from pneucore.study_exec import run_block
+    from pneucore.study.execute import run_block
     run_block(text, [0])
     t = time.time()
     time.sleep(0.3)
@@ -89,7 +89,7 @@ def startup(kind, n, text):
     import concurrent.futures as cf
     import multiprocessing
 
-    from pneucore import _study_worker
+    from pneucore.study import _worker as _study_worker
     t0 = time.time()
     if kind == "spawn":
         pool = cf.ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("spawn"))
@@ -118,7 +118,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
 
     from pneucore.study import Study, run_study, study_results
-    from pneucore.study_exec import max_workers
+    from pneucore.study.execute import max_workers
 
     cpus = max_workers()
     counts = ([int(x) for x in args.workers.split(",")] if args.workers

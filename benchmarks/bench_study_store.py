@@ -10,7 +10,7 @@ SQLite file, then fed *finished* runs with synthetic metric values (all 12
 metrics, 0.5 % failed runs with an error message), ``--batch`` runs per
 transaction (default 250, the automatic batch of a large study), exactly as
 the driver writes what its workers return
-(:func:`pneucore.study_store.write_runs`). No simulation runs: this measures
+(:func:`pneucore.study.store.write_runs`). No simulation runs: this measures
 how many runs per second the store can take, i.e. how many workers it can
 serve before it throttles them (a worker computes about 1,000 runs/s of the
 pulse case).
@@ -18,7 +18,7 @@ pulse case).
 Figures printed (and written to ``--json PATH``):
 
 * **store rate** [runs/s]: finished runs written per second (target >= 20,000);
-* **summary** [s]: :func:`pneucore.study_results.study_results` without the raw
+* **summary** [s]: :func:`pneucore.study.results.study_results` without the raw
   runs (percentiles of every metric, PRCC and Spearman of every metric on every
   parameter) on the stored study (target <= 1 s for 100,000 runs);
 * the same with the raw runs (what ``GET /api/studies/{id}/results`` sends by
@@ -57,7 +57,7 @@ def definition(runs):
 
 def synthetic_blocks(study, batch, seed=0):
     """The study's runs in batches, with metrics that depend on the parameters plus noise."""
-    from pneucore.study_store import RunBlock
+    from pneucore.study.store import RunBlock
     rng = np.random.default_rng(seed)
     P = study.values()
     n, names = study.n_runs, study.metric_names
@@ -78,9 +78,9 @@ def main(argv=None):
     ap.add_argument("--json", default=None)
     a = ap.parse_args(argv)
 
-    from pneucore import study_store as store
-    from pneucore.study_def import Study
-    from pneucore.study_results import runs_csv, study_results
+    from pneucore.study import store
+    from pneucore.study.definition import Study
+    from pneucore.study.results import runs_csv, study_results
 
     study = Study.from_dict(definition(a.runs))
     blocks = list(synthetic_blocks(study, a.batch))

@@ -5,19 +5,20 @@ actuators": ISO 6358 valve edges, chambers from mass and energy
 conservation with convective exchange, Coulomb + viscous friction depending
 on pressure and quadrant with exact stick/slip. No web framework here.
 """
-from . import _cache
+from pneucore import _moved
+from pneucore.core import cache as _cache
 
 _cache.check()      # numba's cache must not outlive an edit of any core module
 
-from .effects import EFFECTS, Effect, Parameter, register_effect, unregister_effect
-from .flow import FLOW_LAWS, iso6358_mass_flow, saint_venant_mass_flow
-from .heat import HEAT_MODELS
-from .model import Model
-from .presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
-from .result import SimulationResult
-from .scenario import Scenario, pulse_train
-from .simulate import SimulationError, simulate
-from .validation import FieldError
+from pneucore.spec.effects import EFFECTS, Effect, Parameter, register_effect, unregister_effect
+from pneucore.physics.flow import FLOW_LAWS, iso6358_mass_flow, saint_venant_mass_flow
+from pneucore.physics.heat import HEAT_MODELS
+from pneucore.spec.model import Model
+from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
+from pneucore.result import SimulationResult
+from pneucore.spec.scenario import Scenario, pulse_train
+from pneucore.simulate import SimulationError, simulate
+from pneucore.spec.validation import FieldError
 
 __version__ = "0.1.0"
 
@@ -27,3 +28,13 @@ __all__ = [
     "SCENARIO_PRESETS", "model_preset", "scenario_preset", "SimulationResult", "Scenario",
     "pulse_train", "SimulationError", "simulate", "FieldError",
 ]
+
+
+_moved.install()
+
+
+def __getattr__(name):
+    """``pneucore.<old module name>`` of the flat layout: the moved module, with a DeprecationWarning."""
+    if name in _moved.MOVED:
+        return _moved.resolve(name)
+    raise AttributeError(f"module 'pneucore' has no attribute {name!r}")

@@ -1,6 +1,6 @@
 """``python -m pneucore``: see :mod:`pneucore.cli`."""
 import sys
 
-from .cli import main
+from pneucore.cli import main
 
 sys.exit(main())

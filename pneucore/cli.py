@@ -11,9 +11,9 @@ import json
 import sys
 import time
 
-from .presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
-from .simulate import SimulationError, simulate
-from .validation import FieldError
+from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
+from pneucore.simulate import SimulationError, simulate
+from pneucore.spec.validation import FieldError
 
 #: A simulation of a preset takes milliseconds once compiled; a run above this wall time
 #: [s] includes numba's compilation, and only then the summary says so
@@ -96,7 +96,7 @@ def main(argv=None):
     note = " (includes the one-time compilation of the core)" if wall > COMPILE_NOTE_S else ""
     print(f"wall time {wall * 1e3:.1f} ms{note}")
     if args.csv:
-        from .export import simulation_csv
+        from pneucore.data.export import simulation_csv
         with open(args.csv, "w", newline="") as fh:
             fh.write(simulation_csv(res))
         print(f"wrote {args.csv} (units in the header; POST /api/datasets reads it back)")

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import layout as L
-from .integrator import ST_BACKSTEPS, ST_EVENTS, ST_FEVALS, ST_JACOBIANS, ST_REJECTED, ST_STEPS, \
+from pneucore.core import layout as L
+from pneucore.core.integrator import ST_BACKSTEPS, ST_EVENTS, ST_FEVALS, ST_JACOBIANS, ST_REJECTED, ST_STEPS, \
     STATUS_MESSAGES
 
 #: Sampled series of every result, with their units
@@ -25,18 +25,30 @@ class SimulationResult:
 
     Attributes
     ----------
-    t : ndarray  Sample times [s]
-    u : ndarray  Valve command [-]
-    p_a, p_b : ndarray  Chamber pressures [Pa abs]
-    T_a, T_b : ndarray  Gas temperatures [K]
-    m_a, m_b : ndarray  Gas masses [kg]
-    x, v, a : ndarray  Position [m], velocity [m/s], acceleration [m/s^2]
-    q_a, q_b : ndarray  Net valve mass flow into each chamber [kg/s]
-    friction : ndarray  Friction force, positive towards -x [N] (holding force while stuck, 0 at a stop)
-    mode : ndarray of str  ``slide``, ``stick``, ``stop`` or ``locked``
-    events : list of dict  ``{"t": [s], "kind": "command|slip|stick|stop|reverse", "mode": ...}``
-    stats : dict  Solver statistics (steps, rejected, rhs evaluations, jacobians, events, back-steps)
-    series : dict  Every sampled series by name, including effect states (e.g. ``p_a_sensor``)
+    t : ndarray
+        Sample times [s]
+    u : ndarray
+        Valve command [-]
+    p_a, p_b : ndarray
+        Chamber pressures [Pa abs]
+    T_a, T_b : ndarray
+        Gas temperatures [K]
+    m_a, m_b : ndarray
+        Gas masses [kg]
+    x, v, a : ndarray
+        Position [m], velocity [m/s], acceleration [m/s^2]
+    q_a, q_b : ndarray
+        Net valve mass flow into each chamber [kg/s]
+    friction : ndarray
+        Friction force, positive towards -x [N] (holding force while stuck, 0 at a stop)
+    mode : ndarray of str
+        ``slide``, ``stick``, ``stop`` or ``locked``
+    events : list of dict
+        ``{"t": [s], "kind": "command|slip|stick|stop|reverse", "mode": ...}``
+    stats : dict
+        Solver statistics (steps, rejected, rhs evaluations, jacobians, events, back-steps)
+    series : dict
+        Every sampled series by name, including effect states (e.g. ``p_a_sensor``)
     """
 
     def __init__(self, series, events, stats, model, scenario, status=0, message="ok"):

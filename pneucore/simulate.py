@@ -8,17 +8,17 @@ import time
 import numpy as np
 from numba import njit
 
-from . import layout as L
-from .effects import EFFECTS, CoreBuild, effective_model
-from .flow import FLOW_LAWS
-from .gas import density
-from .heat import HEAT_MODELS
-from .integrator import ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES, integrate, specialize
-from .model import Model, check_resolvable
-from .result import SimulationResult
-from .rhs import no_terms
-from .scenario import Scenario
-from .valve import pack_tables
+from pneucore.core import layout as L
+from pneucore.spec.effects import EFFECTS, CoreBuild, effective_model
+from pneucore.physics.flow import FLOW_LAWS
+from pneucore.physics.gas import density
+from pneucore.physics.heat import HEAT_MODELS
+from pneucore.core.integrator import ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES, integrate, specialize
+from pneucore.spec.model import Model, check_resolvable
+from pneucore.result import SimulationResult
+from pneucore.core.rhs import no_terms
+from pneucore.spec.scenario import Scenario
+from pneucore.physics.valve import pack_tables
 
 
 class SimulationError(RuntimeError):
@@ -62,7 +62,7 @@ def _compose_hooks(hooks):
     """One compiled hook calling each user effect's terms with its own parameters and states.
 
     Memoised on the user functions and their layout, so the specialised core
-    (:func:`pneucore.integrator.specialize`) is compiled once per process.
+    (:func:`pneucore.core.integrator.specialize`) is compiled once per process.
     """
     key = tuple(hooks)
     if key in _HOOKS:
@@ -87,7 +87,8 @@ def build_core(model, scenario):
 
     Returns
     -------
-    core : dict  ``y0``, ``atol``, ``mode0``, ``model`` tuple, ``hook``, ``state_names``,
+    core : dict
+        ``y0``, ``atol``, ``mode0``, ``model`` tuple, ``hook``, ``state_names``,
         ``state_units`` and the effective model (effects' transforms applied)
     """
     eff = effective_model(model)
@@ -199,20 +200,25 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
 
     Parameters
     ----------
-    model : Model or dict  The actuator (validated; see :class:`pneucore.model.Model`)
-    scenario : Scenario or dict  Command, duration, sampling, initial state; a dict is
-        validated, a :class:`~pneucore.scenario.Scenario` is trusted as
-        :meth:`~pneucore.scenario.Scenario.from_dict` built it and only checked against
+    model : Model or dict
+        The actuator (validated; see :class:`pneucore.spec.model.Model`)
+    scenario : Scenario or dict
+        Command, duration, sampling, initial state; a dict is
+        validated, a :class:`~pneucore.spec.scenario.Scenario` is trusted as
+        :meth:`~pneucore.spec.scenario.Scenario.from_dict` built it and only checked against
         ``model`` (after editing a Scenario's fields, rebuild it with ``from_dict``)
-    raise_on_error : bool  Raise :class:`SimulationError` if the solver cannot proceed
+    raise_on_error : bool
+        Raise :class:`SimulationError` if the solver cannot proceed
         (the partial result is attached); else return the partial result with
         ``result.status`` set
-    t_out : array_like or None  Sample times [s], increasing, within [0, duration]
+    t_out : array_like or None
+        Sample times [s], increasing, within [0, duration]
         (e.g. a measurement's irregular time base); None = every ``sample_period``
 
     Returns
     -------
-    result : SimulationResult  Sampled series, events and solver statistics
+    result : SimulationResult
+        Sampled series, events and solver statistics
 
     Examples
     --------
@@ -292,9 +298,10 @@ def warm_up():
 
     Returns
     -------
-    seconds : float  Wall time taken [s]
+    seconds : float
+        Wall time taken [s]
     """
-    from .presets import model_preset, scenario_preset
+    from pneucore.spec.presets import model_preset, scenario_preset
     t0 = time.perf_counter()
     scenario = scenario_preset("paper-fig10-pulses")
     scenario.update(duration=0.01, sample_period=0.001)
@@ -307,7 +314,8 @@ def start_warm_up():
 
     Returns
     -------
-    thread : threading.Thread or None  The started thread (None when nothing to do)
+    thread : threading.Thread or None
+        The started thread (None when nothing to do)
     """
     if integrate.overloads:
         return None

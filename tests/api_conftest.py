@@ -28,7 +28,7 @@ from fastapi.testclient import TestClient
 from app.config import Limits, Settings
 from app.main import create_app
 from pneucore import model_preset, scenario_preset
-from pneucore.samples import DATA_DIR, list_samples, load_sample
+from pneucore.data.samples import DATA_DIR, list_samples, load_sample
 
 #: Sample dataset ids seeded on first start (``sample-<sample>-<experiment>``)
 SAMPLE_IDS = [f"sample-{s['id']}-{e['name']}" for s in list_samples() for e in s["experiments"]]
@@ -124,7 +124,7 @@ def sim_body(m=None, s=None, **extra):
 
 
 def measurement_json(meas, nulls=()):
-    """A :class:`pneucore.measurement.Measurement` as the API's JSON (NaN -> null).
+    """A :class:`pneucore.data.measurement.Measurement` as the API's JSON (NaN -> null).
 
     ``nulls`` lists (signal, index) samples to blank out (missing samples).
     """

@@ -5,7 +5,7 @@ import pytest
 
 from api_conftest import (CLEAN_IDS, LEAK_IDS, api, assert_field_error, client, db_path,  # noqa: F401
                           inline_experiment, measurement_json, model)
-from pneucore.samples import load_sample
+from pneucore.data.samples import load_sample
 
 LEAK = [{"dataset_id": i} for i in LEAK_IDS]
 CLEAN = [{"dataset_id": i} for i in CLEAN_IDS]

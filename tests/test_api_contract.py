@@ -2,8 +2,8 @@
 import pytest
 
 from api_conftest import api  # noqa: F401  (fixture factory)
-from pneucore.study_def import Study
-from pneucore.validation import FieldError
+from pneucore.study.definition import Study
+from pneucore.spec.validation import FieldError
 
 
 @pytest.fixture

@@ -3,8 +3,8 @@ import numpy as np
 
 from api_conftest import assert_field_error, client, db_path, model, scenario, wait_job  # noqa: F401
 from pneucore import simulate
-from pneucore.heat import HEAT_MODELS, HEAT_PARAMETERS
-from pneucore.vessel import vessel_model
+from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
+from pneucore.physics.vessel import vessel_model
 
 VESSEL_HEAT = {"model": "natural_and_jet", "inlet_diameter": 2e-3, "wall_mass": 5.0}
 FILL = {"duration": 40.0, "sample_period": 0.5, "command": [[0.0, 1.0]], "locked": True, "x0": 0.0,

@@ -1,7 +1,7 @@
 """GET /api/limits, /api/samples, the page, its plotly.js, the OpenAPI document."""
 from api_conftest import api, client, db_path  # noqa: F401
 from app.config import Limits
-from pneucore.samples import list_samples
+from pneucore.data.samples import list_samples
 
 
 def test_limits_are_the_settings_limits(client):

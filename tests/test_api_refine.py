@@ -8,7 +8,7 @@ from api_conftest import api, model
 
 #: a bound on a hang under a loaded machine, not a speed claim
 WAIT_S = 300.0
-#: the shipped sample that hides two effects (pneucore/data/samples/truth.json)
+#: the shipped sample that hides two effects (pneucore/data/sample_files/truth.json)
 LEAK_AND_LAG = ["sample-leak-and-lag-locked-hold", "sample-leak-and-lag-free-pulses"]
 
 
@@ -34,7 +34,7 @@ def test_refine_job_names_both_hidden_effects_and_stops_at_the_floor(client):
     assert job["status"] == "done", job["error"]
     res = job["result"]
     added = [v["added"] for v in res["versions"] if v["added"]]
-    # the leak-and-lag sample hides exactly these two (pneucore/data/samples/truth.json)
+    # the leak-and-lag sample hides exactly these two (pneucore/data/sample_files/truth.json)
     assert sorted(added) == ["piston_leakage", "valve_spool_dynamics"]
     overall = [v["overall"] for v in res["versions"]]
     assert overall[-1] < overall[0] / 20          # 5.4 % -> about 0.07 %

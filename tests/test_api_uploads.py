@@ -82,7 +82,7 @@ def test_ambient_as_query_parameter_and_default(client):
     _check_stored(client, r.json())
     r = client.post("/api/datasets", content=text.encode(), headers={"content-type": "text/csv"})
     # no ambient given: the model's default ambient (gas.P_ATM)
-    from pneucore.gas import P_ATM
+    from pneucore.physics.gas import P_ATM
     assert r.json()["import"]["ambient_pressure"] == P_ATM
     _check_stored(client, r.json(), P_ATM)
 

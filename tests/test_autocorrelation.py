@@ -18,12 +18,12 @@ from scipy import stats
 from scipy.signal import lfilter
 
 from pneucore import model_preset
-from pneucore.autocorrelation import (autocorrelation, effective_lr, integrated_time,
+from pneucore.analysis.autocorrelation import (autocorrelation, effective_lr, integrated_time,
                                       times_report)
-from pneucore.diagnose import ALPHA, diagnose
-from pneucore.metrics import cross_correlation_test
-from pneucore.scenario import pulse_train
-from pneucore.synthetic import colored_noise, synthetic_experiments
+from pneucore.analysis.diagnose import ALPHA, diagnose
+from pneucore.analysis.metrics import cross_correlation_test
+from pneucore.spec.scenario import pulse_train
+from pneucore.data.synthetic import colored_noise, synthetic_experiments
 
 from test_diagnosis import base_model, describe, truth_model
 

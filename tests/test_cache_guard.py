@@ -1,4 +1,4 @@
-"""numba's on-disk cache never outlives an edit of a core module (pneucore/_cache.py).
+"""numba's on-disk cache never outlives an edit of a core module (pneucore/core/cache.py).
 
 numba keys a cached function on its own file only; without the guard, an edit
 of ``flow.py`` alone would leave the compiled ``integrate`` (which links the
@@ -10,7 +10,7 @@ import subprocess
 import sys
 
 import pneucore
-from pneucore import _cache
+from pneucore.core import cache as _cache
 
 PKG = os.path.dirname(os.path.abspath(pneucore.__file__))
 
@@ -53,7 +53,7 @@ def test_edit_of_the_flow_law_alone_takes_effect(tmp_path):
         return float(out.stdout.strip().splitlines()[-1])
 
     before = run()
-    flow = work / "pneucore" / "flow.py"
+    flow = work / "pneucore" / "physics" / "flow.py"
     text = flow.read_text()
     old = "        return C * RHO_REF * p1 * math.sqrt(T_REF / T1) * _iso_phi_linearised("
     assert text.count(old) == 1

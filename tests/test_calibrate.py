@@ -3,7 +3,7 @@
 Truth: paper-4way with h = 40 W/(m^2 K), extension Coulomb friction 12 N and
 a 2.5 kg moving mass; the fit starts from the preset (25, 8 N, 2 kg). The data
 are the two diagnostic experiments (locked hold, free pulses) of
-:func:`pneucore.synthetic.synthetic_experiments`.
+:func:`pneucore.data.synthetic.synthetic_experiments`.
 """
 import functools
 import json
@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from pneucore import Model, model_preset
-from pneucore.calibrate import calibrate
-from pneucore.paths import set_values
-from pneucore.synthetic import synthetic_experiments
+from pneucore.analysis.calibrate import calibrate
+from pneucore.spec.paths import set_values
+from pneucore.data.synthetic import synthetic_experiments
 
 TRUE = {"heat.coefficient": 40.0, "friction.extend.fc0": 12.0, "jack.moving_mass": 2.5}
 BOUNDS = {"heat.coefficient": {"min": 0.1, "max": 200.0},
@@ -159,7 +159,7 @@ def test_standard_errors_hold_in_coloured_noise():
     The initial pressures are given: estimated from the quiet window before the first
     command, they carry the correlated noise's error (~300 Pa that does not average out),
     an extra uncertainty the standard errors do not include (measured: rms z of the heat
-    coefficient 3.5 instead of 1.5; see the module docstring of pneucore.calibrate)."""
+    coefficient 3.5 instead of 1.5; see the module docstring of pneucore.analysis.calibrate)."""
     z, z_white = [], []
     for seed in range(10):
         exps = synthetic_experiments(truth_model(), seed=200 + seed, noise_corr_time=0.02)

@@ -1,6 +1,6 @@
 """``compare(model, experiments)`` on synthetic measurements whose truth is known.
 
-Data: :func:`pneucore.synthetic.synthetic_experiments` (locked hold test and
+Data: :func:`pneucore.data.synthetic.synthetic_experiments` (locked hold test and
 Fig. 10 free pulse test; 1 s at 1 kHz; 12-bit converters on 0-10 bar and
 0-250 mm; Gaussian noise 300 Pa on the pressures, 50 um on x, i.e. ~1.2 and
 ~0.8 LSB).
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from pneucore import model_preset
-from pneucore.compare import compare
-from pneucore.synthetic import synthetic_experiments
+from pneucore.analysis.compare import compare
+from pneucore.data.synthetic import synthetic_experiments
 
 #: The true model's Eq. 25 error is its measurement noise, so it must equal the estimated noise
 #: floor up to the estimate's error. The floor comes from a median of ~1000 second differences

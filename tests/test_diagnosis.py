@@ -1,7 +1,7 @@
 """Tests on data with a hidden effect: does ``diagnose`` name what the data hide?
 
 Every catalog effect is hidden in turn in synthetic measurements
-(:func:`pneucore.synthetic.synthetic_experiments`: a locked hold test and the
+(:func:`pneucore.data.synthetic.synthetic_experiments`: a locked hold test and the
 Fig. 10 free pulse test, 1 s at 1 kHz, 12-bit quantised, Gaussian noise of
 about 1.2 LSB), and the model *without* the effect is diagnosed. The
 diagnosis must name the effect first, bring the Eq. 25 error down to what the
@@ -21,9 +21,9 @@ import math
 import pytest
 
 from pneucore import EFFECTS, Model, model_preset
-from pneucore.compare import compare
-from pneucore.diagnose import apply_diagnosis, diagnose
-from pneucore.synthetic import synthetic_experiments
+from pneucore.analysis.compare import compare
+from pneucore.analysis.diagnose import apply_diagnosis, diagnose
+from pneucore.data.synthetic import synthetic_experiments
 
 #: The error after adding the right effect may exceed the noise floor by at most 20 %: the refit
 #: has 1-2 free parameters against ~5000 samples, so a correct model lands within a fraction of

@@ -1,8 +1,8 @@
 """Rigs as users meet them: every base parameter somewhat off, nothing declared.
 
-Each case (:func:`pneucore.synthetic.rig_case`) starts from the catalogue
+Each case (:func:`pneucore.data.synthetic.rig_case`) starts from the catalogue
 model, draws an error for every base parameter of
-:data:`pneucore.synthetic.RIG_BASE_ERRORS` (friction levels and viscous
+:data:`pneucore.data.synthetic.RIG_BASE_ERRORS` (friction levels and viscous
 coefficients per direction 15-40 %, moving mass 5-20 %, heat coefficient
 20-60 %, valve conductance 8-20 %, supply pressure 2-6 %), and records the
 true rig through the paper's 12-bit acquisition with noise. The diagnosis
@@ -21,15 +21,15 @@ import json
 import pytest
 
 from api_conftest import db_path  # noqa: F401  (fixture)
-from pneucore.compare import compare
-from pneucore.diagnose import check_request, diagnose
-from pneucore.experiment import as_experiments
-from pneucore.history import refine
-from pneucore.hypotheses import identifiable, offered
-from pneucore.model import Model
-from pneucore.paths import get_value
-from pneucore.synthetic import RIG_CASES, rig_case
-from pneucore.validation import FieldError
+from pneucore.analysis.compare import compare
+from pneucore.analysis.diagnose import check_request, diagnose
+from pneucore.data.experiment import as_experiments
+from pneucore.analysis.history import refine
+from pneucore.analysis.hypotheses import identifiable, offered
+from pneucore.spec.model import Model
+from pneucore.spec.paths import get_value
+from pneucore.data.synthetic import RIG_CASES, rig_case
+from pneucore.spec.validation import FieldError
 
 #: The recalibrated model must come within 20 % of the noise floor: ~8 base parameters against
 #: ~5000 samples leave the fit a fraction of a percent above the truth's error; 20 % allows an
@@ -167,8 +167,8 @@ def test_a_locked_test_cannot_identify_friction_or_mass():
     c, exps, _ = case("base/paper-4way")
     locked = [e for e in exps if e.scenario.get("locked")]
     model = Model.from_dict(c.start)
-    from pneucore.calibrate import Objective
-    from pneucore.compare import replay
+    from pneucore.analysis.calibrate import Objective
+    from pneucore.analysis.compare import replay
     obj = Objective(model, locked, [])
     r0 = obj.weighted([replay(model, e) for e in locked])
     chosen, report, _ = identifiable(model, locked, obj, r0, offered(model), replay)
@@ -201,7 +201,7 @@ def test_api_refuses_a_property_or_attribute_path_with_422(db_path):  # noqa: F8
 def test_an_experiment_that_moves_nothing_is_said_to_identify_no_base_parameter():
     """Valve closed throughout, piston locked: no base parameter changes a signal."""
     from pneucore import model_preset
-    from pneucore.synthetic import synthesize
+    from pneucore.data.synthetic import synthesize
     m = model_preset("paper-4way")
     scen = {"duration": 0.3, "sample_period": 0.001, "command": [[0.0, 0.0]], "locked": True,
             "x0": 0.125, "initial": {"p_a": 3e5, "p_b": 3e5}}

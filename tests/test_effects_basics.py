@@ -185,7 +185,7 @@ def user_effect_results():
 
     Each run compiles a specialised core in memory (~10 s each), hence module scope.
     """
-    assert pneucore.layout.TERM_NAMES[6] == "force"
+    assert pneucore.core.layout.TERM_NAMES[6] == "force"
     eff = Effect(name=USER_NAME, description="constant force on the piston",
                  signature="position offset", reference="test",
                  parameters=[Parameter("force", "N", 0.0, -100, 100, 0.0, "force towards +x")],

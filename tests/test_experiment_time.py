@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from pneucore import model_preset, scenario_preset
-from pneucore.compare import compare
-from pneucore.experiment import Experiment
-from pneucore.measurement import Measurement
-from pneucore.model import Model
+from pneucore.analysis.compare import compare
+from pneucore.data.experiment import Experiment
+from pneucore.data.measurement import Measurement
+from pneucore.spec.model import Model
 from pneucore.simulate import simulate
-from pneucore.validation import FieldError
+from pneucore.spec.validation import FieldError
 
 
 def _vessel_record(t_first):

@@ -56,7 +56,7 @@ def test_cli_csv_is_the_same_format(tmp_path):
                         "--scenario", "paper-fig9-switching", "--csv", str(out)],
                        capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr
-    from pneucore.measurement import read_csv
+    from pneucore.data.measurement import read_csv
     m = read_csv(out)
     assert m.meta["import"]["pneucore_export"] and "p_a" in m.measured_signals
     assert out.read_text().splitlines()[1].startswith("t[s],u[-],p_a[Pa]")

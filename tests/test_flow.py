@@ -1,4 +1,4 @@
-"""Oracle tests of the orifice flow laws in :mod:`pneucore.flow`.
+"""Oracle tests of the orifice flow laws in :mod:`pneucore.physics.flow`.
 
 The oracles are external to the code base:
 
@@ -18,8 +18,8 @@ import math
 import numpy as np
 import pytest
 
-from pneucore import flow
-from pneucore.flow import (FLOW_LAWS, iso6358_mass_flow, saint_venant_critical_ratio,
+from pneucore.physics import flow
+from pneucore.physics.flow import (FLOW_LAWS, iso6358_mass_flow, saint_venant_critical_ratio,
                            saint_venant_mass_flow)
 
 # ISO 8778 reference atmosphere used by ISO 6358 (ANR): rho_0 and T_0.
@@ -73,7 +73,7 @@ def anr_dm3_per_min(q):
 
 def test_reference_constants_are_iso8778():
     """Oracle: ISO 8778 reference atmosphere (ANR): rho_0 = 1.185 kg/m^3, T_0 = 293.15 K."""
-    from pneucore.gas import RHO_REF, T_REF
+    from pneucore.physics.gas import RHO_REF, T_REF
     assert RHO_REF == 1.185
     assert T_REF == 293.15
     assert flow.anr_volume_flow(1.185) == pytest.approx(1.0, rel=FP_RTOL)

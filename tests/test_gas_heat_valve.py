@@ -8,11 +8,12 @@ paper's Eq. 9 and its Fig. 2 spool overlap.
 import numpy as np
 import pytest
 
-from pneucore import gas, model_preset
-from pneucore.heat import HEAT_MODELS
-from pneucore.model import Model
-from pneucore.valve import edge_characteristic, pack_tables, table_interp
-from pneucore.layout import PORT_NAMES
+from pneucore import model_preset
+from pneucore.physics import gas
+from pneucore.physics.heat import HEAT_MODELS
+from pneucore.spec.model import Model
+from pneucore.physics.valve import edge_characteristic, pack_tables, table_interp
+from pneucore.core.layout import PORT_NAMES
 
 
 def test_isa_sea_level_density():

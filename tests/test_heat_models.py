@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 
 from pneucore import EFFECTS, FieldError, model_preset, simulate
-from pneucore.gas import cv
-from pneucore.heat import (HEAT_MODELS, HEAT_PARAMETERS, churchill_chu_cylinder_nusselt,
+from pneucore.physics.gas import cv
+from pneucore.physics.heat import (HEAT_MODELS, HEAT_PARAMETERS, churchill_chu_cylinder_nusselt,
                            jet_convection_coefficient, natural_convection_coefficient)
-from pneucore.model import Model
-from pneucore.paths import get_value, parse_parameters
-from pneucore.vessel import orifice_conductance, vessel_model
+from pneucore.spec.model import Model
+from pneucore.spec.paths import get_value, parse_parameters
+from pneucore.physics.vessel import orifice_conductance, vessel_model
 
 HOLD = {"duration": 2.0, "sample_period": 1e-3, "command": [[0.0, 0.0]], "locked": True,
         "x0": 0.125, "initial": {"p_a": 5e5, "T_a": 350.0, "p_b": 2e5, "T_b": 300.0}}
@@ -77,7 +77,7 @@ def test_calibration_paths_carry_the_registry_units_and_bounds():
 def test_natural_convection_follows_the_density_squared():
     """Ra ~ rho^2 ~ p^2 at a given temperature: 8x the pressure doubles Ra^(1/6), so in
     Churchill-Chu's form sqrt(Nu) - 0.6 doubles exactly (h ~ p^(2/3) at large Ra)."""
-    from pneucore.gas import air_conductivity
+    from pneucore.physics.gas import air_conductivity
     k = air_conductivity(0.5 * (320.0 + 295.0))
     h1 = natural_convection_coefficient(10e5, 320.0, 295.0, 0.2, 287.05, 1004.7)
     h8 = natural_convection_coefficient(80e5, 320.0, 295.0, 0.2, 287.05, 1004.7)
@@ -210,14 +210,14 @@ def test_sources_where_the_physics_does_not_hold_are_named():
 
 def test_orifice_conductance_matches_the_nozzle_choked_flow():
     """C rho_0 p sqrt(T_0/T) (ISO 6358 choked) equals Cd A p sqrt(gamma/(r T)) (2/(g+1))^((g+1)/(2(g-1)))."""
-    from pneucore.gas import GAMMA_AIR as g, R_AIR as r, RHO_REF, T_REF
+    from pneucore.physics.gas import GAMMA_AIR as g, R_AIR as r, RHO_REF, T_REF
     d, Cd, p, T = 2.71e-3, 0.84, 1e5, 295.0
     iso = orifice_conductance(d, Cd) * RHO_REF * p * math.sqrt(T_REF / T)
     nozzle = Cd * math.pi * d * d / 4 * p * math.sqrt(g / (r * T)) * (2 / (g + 1)) ** ((g + 1) / (2 * (g - 1)))
     assert iso == pytest.approx(nozzle, rel=1e-12)
 
 
-@pytest.mark.parametrize("module", ["pneucore.heat", "pneucore.gas", "pneucore.vessel"])
+@pytest.mark.parametrize("module", ["pneucore.physics.heat", "pneucore.physics.gas", "pneucore.physics.vessel"])
 def test_worked_examples_in_the_docstrings(module):
     """The docstrings' examples (Churchill-Chu, Sutherland against the tables, Eq. 9, the
     orifice's conductance) run as doctests."""

@@ -7,9 +7,6 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-#: Private imports still to be replaced, in modules owned by another branch at the time of
-#: writing (the public name exists: pneucore.compare.plain_json)
-PENDING = {("pneucore/calibrate.py", "_plain"), ("pneucore/diagnose.py", "_plain")}
 #: Router imports still to be replaced: the job router runs the analysis router's check_* and
 #: run_* services (to move to app/services.py when analysis.py is free)
 PENDING_ROUTERS = {("app/routers/jobs.py", "analysis")}
@@ -33,15 +30,23 @@ def _imports(tree):
                 yield node.level, node.module or "", alias.name, node.lineno
 
 
+def _own_private_module(rel, module, name):
+    """``from <package> import _name`` where ``_name`` is a module of ``<package>`` and the
+    importing file lies inside that package."""
+    pkg_dir = module.replace(".", "/")
+    return os.path.isfile(os.path.join(ROOT, pkg_dir, name + ".py")) and rel.startswith(pkg_dir + "/")
+
+
 @pytest.mark.parametrize("package", ["pneucore", "app"])
 def test_no_private_name_is_imported_from_another_module(package):
     bad = []
     for rel, tree in _sources(package):
         for level, module, name, line in _imports(tree):
-            # a private module of the package itself (``from . import _cache``) is its own
-            own_private = module.split(".")[-1].startswith("_") or (level and not module)
-            if name.startswith("_") and not name.startswith("__") and not own_private \
-                    and (rel, name) not in PENDING:
+            # a private module of the package itself (``from . import _cache``,
+            # ``from pneucore.study import _worker`` inside pneucore/study/) is its own
+            own_private = module.split(".")[-1].startswith("_") or (level and not module) \
+                or _own_private_module(rel, module, name)
+            if name.startswith("_") and not name.startswith("__") and not own_private:
                 bad.append(f"{rel}:{line} imports {name} from {'.' * level}{module}")
     assert not bad, "\n".join(bad)
 

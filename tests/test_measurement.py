@@ -1,4 +1,4 @@
-"""Tests for pneucore.measurement."""
+"""Tests for pneucore.data.measurement."""
 
 import io
 import json
@@ -9,8 +9,8 @@ import re
 import numpy as np
 import pytest
 
-import pneucore.measurement as meas
-from pneucore.measurement import (
+import pneucore.data.measurement as meas
+from pneucore.data.measurement import (
     MAX_SAMPLES,
     MIN_SAMPLES,
     SIGNAL_UNITS,
@@ -543,7 +543,7 @@ def test_mapping_and_aliases_are_reported():
 
 def test_exported_simulation_reads_back():
     from pneucore import model_preset, scenario_preset
-    from pneucore.export import simulation_csv
+    from pneucore.data.export import simulation_csv
     from pneucore.simulate import simulate
     res = simulate(model_preset("paper-3way"), scenario_preset("paper-fig9-switching"))
     m = read_csv(simulation_csv(res))

@@ -320,7 +320,7 @@ def test_upload_csv(page):
     err = page.locator(".field-error[data-error-for='upload.file']")
     err.wait_for()
     assert "'u'" in err.inner_text()
-    csv = ROOT / "pneucore" / "data" / "samples" / "piston-leak--locked-hold.csv"
+    csv = ROOT / "pneucore" / "data" / "sample_files" / "piston-leak--locked-hold.csv"
     page.set_input_files("#upload-file", str(csv))
     page.fill("#upload-name", "my locked test")
     page.check("#upload-locked")

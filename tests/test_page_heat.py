@@ -17,7 +17,7 @@ from service import running_service
 from test_page import (_open, browser, click_and_wait_for_plot, context, no_script_errors,  # noqa: F401
                        page_errors, plot_data)
 
-from pneucore.heat import HEAT_MODELS
+from pneucore.physics.heat import HEAT_MODELS
 
 
 @pytest.fixture(scope="module")

@@ -19,7 +19,7 @@ from scipy import stats
 from pneucore import FieldError, model_preset, scenario_preset, simulate
 from pneucore.study import (MAX_RUNS, METRICS, SchedulerError, Study, StudyInterrupted, factorial_indices, main,
                             rank_correlations, run_metrics, run_study, study_results, study_status)
-from pneucore.study_metrics import air_consumption
+from pneucore.study.metrics import air_consumption
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -121,7 +121,7 @@ BAD = [
 @pytest.fixture
 def no_work(monkeypatch):
     """Any pool, Dask engine or simulation started during the test fails it."""
-    import pneucore.study_exec as ex
+    import pneucore.study.execute as ex
 
     def forbidden(*a, **k):
         raise AssertionError("work started before the input was checked")
@@ -597,7 +597,7 @@ def test_dask_failure_ends_interrupted_and_resumes(tmp_path, lone_cluster, refer
     """Issue 9 item 9: with every Dask worker gone (scheduler alive), or the scheduler itself
     dead, the study does not stay "running" for ever: it stops with StudyInterrupted, stores
     "interrupted", and resumes elsewhere to the uninterrupted numbers."""
-    from pneucore import study_exec
+    from pneucore.study import execute as study_exec
     monkeypatch.setattr(study_exec, "CLUSTER_GRACE", 1.0)   # instead of 10 s: a faster test
     monkeypatch.setattr(study_exec, "PROBE_INTERVAL", 0.2)
     db = str(tmp_path / "s.sqlite3")

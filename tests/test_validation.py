@@ -25,7 +25,7 @@ import pytest
 
 from pneucore import (FieldError, Model, Scenario, SimulationError, model_preset, scenario_preset,
                       simulate)
-from pneucore.scenario import MAX_DURATION, MAX_SAMPLES
+from pneucore.spec.scenario import MAX_DURATION, MAX_SAMPLES
 
 MODES = {"slide", "stick", "stop", "locked"}
 SOLVER = {"rtol": 1e-5, "max_step": 0.02, "max_steps": 5_000_000, "max_events": 200_000}

@@ -3,7 +3,7 @@
 Data: ``shared/data/vessel-filling`` (Thorncroft, Patton & Gordon, ASEE 2007; digitised in
 HydDown's validation set): pressure and gas temperature of a 16.18 L steel vessel evacuated to
 3.7 kPa and opened to the atmosphere through a 2.71 mm orifice (Cd 0.84). The vessel is built
-from the jack's model objects (:mod:`pneucore.vessel`): a locked chamber fed through the P-A
+from the jack's model objects (:mod:`pneucore.physics.vessel`): a locked chamber fed through the P-A
 edge of a 3/2 valve, the orifice's conductance from its area and Cd, the wall's steel mass
 from the geometry. Every heat model is calibrated on its own parameters (one parameter set for
 the whole test, filling and relaxation together) and its errors are printed: pressure by the
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from pneucore.heat_compare import compare_heat_models, table
-from pneucore.vessel import FILLING_TEST, VESSEL_WALL, filling_test
+from pneucore.analysis.heat_compare import compare_heat_models, table
+from pneucore.physics.vessel import FILLING_TEST, VESSEL_WALL, filling_test
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT.parent / "shared" / "data" / "vessel-filling"

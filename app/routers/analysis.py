@@ -2,7 +2,7 @@
 from fastapi import APIRouter, Request
 from ..responses import JSON, CSV_RESPONSES, csv_response, wants_csv
 
-from pneucore.compare import compare
+from pneucore.analysis.compare import compare
 
 from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, StoreDep
@@ -19,7 +19,7 @@ router = APIRouter(prefix="/api", tags=["analysis"], route_class=OffLoopRoute)
 def compare_endpoint(req: CompareRequest, store: StoreDep, limits: LimitsDep, request: Request):
     progress = deadline_progress(limits, "comparison", "/api/jobs/compare")
     if wants_csv(request):
-        from pneucore.export import comparison_csv
+        from pneucore.data.export import comparison_csv
         model, exps = check_compare(req, store, limits)
         c = compare(model, exps, progress=progress)
         return csv_response(comparison_csv(c), "comparison.csv")

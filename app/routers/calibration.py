@@ -1,7 +1,7 @@
 """POST /api/calibrate/parameters: what can be fitted on a model, with the default bounds."""
 from fastapi import APIRouter
 
-from pneucore.calibration_options import calibration_options
+from pneucore.analysis.calibration_options import calibration_options
 
 from ..deps import parse_model
 from ..schemas import CalibrationOption, CalibrationParametersRequest

@@ -10,10 +10,10 @@ from fastapi import APIRouter, HTTPException, Request
 from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 
-from pneucore.fileformats import read_measurement
-from pneucore.measurement import DEFAULT_AMBIENT_PRESSURE, Measurement, MeasurementError
-from pneucore.scenario import Scenario
-from pneucore.validation import FieldError, mapping, number
+from pneucore.data.fileformats import read_measurement
+from pneucore.data.measurement import DEFAULT_AMBIENT_PRESSURE, Measurement, MeasurementError
+from pneucore.spec.scenario import Scenario
+from pneucore.spec.validation import FieldError, mapping, number
 
 from ..bodies import RAW_FILE_TYPES, OffLoopRoute, read_file_upload
 from ..deps import LimitsDep, StoreDep, not_found

@@ -1,7 +1,7 @@
 """GET /api/effects: the effect catalog with parameters, units, bounds and descriptions."""
 from fastapi import APIRouter
 
-from pneucore.effects import EFFECTS
+from pneucore.spec.effects import EFFECTS
 
 from ..schemas import EffectInfo
 

@@ -3,8 +3,8 @@
 import numpy as np
 from fastapi import APIRouter, HTTPException
 
-from pneucore.heat import HEAT_MODELS
-from pneucore.heat_compare import check_names, compare_heat_models, simulate_heat_models
+from pneucore.physics.heat import HEAT_MODELS
+from pneucore.analysis.heat_compare import check_names, compare_heat_models, simulate_heat_models
 
 from ..deps import JobsDep, LimitsDep, StoreDep, parse_experiments, parse_model, parse_scenario
 from ..responses import JSON

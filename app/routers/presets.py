@@ -3,7 +3,7 @@ from typing import Any
 
 from fastapi import APIRouter
 
-from pneucore.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
+from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
 
 from ..deps import not_found
 from ..schemas import PresetList

@@ -2,10 +2,10 @@
 from fastapi import APIRouter
 from fastapi.responses import Response
 
-from pneucore.compare import compare
-from pneucore.diagnose import diagnose
-from pneucore.model import Model
-from pneucore.report import comparison_report, diagnosis_report
+from pneucore.analysis.compare import compare
+from pneucore.analysis.diagnose import diagnose
+from pneucore.spec.model import Model
+from pneucore.analysis.report import comparison_report, diagnosis_report
 
 from ..deps import LimitsDep, StoreDep
 from ..schemas import CompareRequest, DiagnoseRequest

@@ -4,9 +4,9 @@ Every stored field is validated before the one transaction that stores it.
 """
 from fastapi import APIRouter
 
-from pneucore.compare import errors as model_errors
-from pneucore.effects import EFFECTS
-from pneucore.validation import FieldError, choice, finite_json
+from pneucore.analysis.compare import errors as model_errors
+from pneucore.spec.effects import EFFECTS
+from pneucore.spec.validation import FieldError, choice, finite_json
 
 from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, StoreDep, not_found, parse_experiments, parse_model

@@ -3,7 +3,7 @@ from fastapi import APIRouter, Request
 
 from ..responses import JSON, CSV_RESPONSES, csv_response, wants_csv
 
-from pneucore.compare import check_heat_models, with_heat_model
+from pneucore.analysis.compare import check_heat_models, with_heat_model
 from pneucore.simulate import simulate
 
 from ..bodies import OffLoopRoute
@@ -23,7 +23,7 @@ def simulate_endpoint(req: SimulateRequest, request: Request):
     res = simulate(model, scen)
     out = result_json(res, req.series)
     if wants_csv(request):
-        from pneucore.export import simulation_csv
+        from pneucore.data.export import simulation_csv
         return csv_response(simulation_csv(out), "simulation.csv")
     return JSON(out)
 

@@ -9,7 +9,7 @@ from fastapi.responses import StreamingResponse
 from pneucore.progress import Cancelled
 from pneucore.study import (Study, check_run_options, delete_study, list_studies, queue_study,
                             requeue_study, run_study, runs_csv, study_results, study_status)
-from pneucore.validation import FieldError
+from pneucore.spec.validation import FieldError
 
 from ..bodies import OffLoopRoute
 from ..config import STUDY_CLUSTERS

@@ -4,7 +4,7 @@ import re
 from fastapi import APIRouter
 from pydantic import BaseModel, Field
 
-from pneucore.units import unit_systems
+from pneucore.spec.units import unit_systems
 
 from .. import schemas
 

@@ -2,7 +2,7 @@
 from fastapi import APIRouter, Request
 from starlette.concurrency import run_in_threadpool
 
-from pneucore.fileformats import inspect_file
+from pneucore.data.fileformats import inspect_file
 
 from ..deps import LimitsDep
 from ..schemas import FilePreview

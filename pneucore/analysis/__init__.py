@@ -1,0 +1,1 @@
+"""Model against measurement: metrics, residual autocorrelation, comparison, calibration, diagnosis, history, reports."""

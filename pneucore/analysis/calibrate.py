@@ -1,0 +1,406 @@
+"""Calibrate model parameters on measurements: ``calibrate(model, experiments, parameters)``.
+
+Least squares (``scipy.optimize.least_squares``, trust-region reflective,
+bounded) on residuals normalised per signal: each residual is divided by the
+white-noise level of its measured signal (estimated from the measurement,
+:func:`pneucore.analysis.metrics.noise_sigma`), so pressures and positions weigh by
+their information, jointly over all experiments. The Jacobian is computed
+by finite differences with the columns simulated in parallel threads (the
+compiled core releases the GIL).
+
+Statistics follow the Gaussian likelihood with one unknown variance per
+experiment and signal, concentrated out: ``-2 ln L = sum N_s ln(RSS_s / N_s)``
+(+ const). Standard errors and correlations come from the Jacobian at the
+optimum (``cov = (J^T J)^-1`` with residuals scaled by their fitted RMS, as
+lmfit does); AIC = -2 ln L + 2k, BIC = -2 ln L + k ln N. Residuals of a
+dynamic model are rarely white: each series is also scaled by the square
+root of its integrated autocorrelation time ``tau``
+(:mod:`pneucore.analysis.autocorrelation`), so that ``n`` correlated samples count as
+``n / tau`` independent ones in the covariance (a quasi-likelihood
+correction; exact for AR(1) noise when the sensitivities vary slowly). With
+white residuals ``tau = 1`` and the usual standard errors result. Not
+included: the error of initial pressures estimated from the measurement's
+first samples (:class:`pneucore.data.experiment.Experiment`), which correlated
+noise does not average out; give them in the experiment's scenario when the
+noise is strongly correlated.
+"""
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from pneucore.analysis.autocorrelation import residual_times, times_report
+from pneucore.analysis.compare import plain_json, replay, summarise
+from pneucore.data.experiment import as_experiments
+from pneucore.analysis.metrics import noise_sigma
+from pneucore.spec.model import Model
+from pneucore.spec.paths import parse_parameters, set_values
+from pneucore.progress import Cancelled
+
+#: Worker threads for the finite-difference Jacobian (the machine has 2 cores)
+THREADS = 2
+#: Smallest noise level assumed per signal (SI): a signal recorded exactly constant (a locked
+#: position, noise-free synthetic data) must not get an infinite weight
+SIGMA_FLOOR = {"p_a": 1.0, "p_b": 1.0, "x": 1e-7, "v": 1e-6, "T_a": 1e-3, "T_b": 1e-3}
+#: Residual given to samples a failed simulation never reached (keeps the cost finite)
+FAILED_RESIDUAL = 1e3
+
+
+class Objective:
+    """Weighted residuals of a set of experiments as a function of parameter values.
+
+    ``check()`` (if given) is called before every set of simulations; it may raise
+    :class:`pneucore.progress.Cancelled` to stop the fit.
+    """
+
+    def __init__(self, model, experiments, specs, check=None):
+        self.check = check
+        self.model = model
+        self.experiments = experiments
+        self.specs = [s for s in specs if s.vary]
+        self.fixed = {s.path: s.value for s in specs if not s.vary}
+        self.sigma = []
+        for e in experiments:
+            self.sigma.append({s: max(noise_sigma(e.measurement.signals[s]),
+                                      1e-6 * np.nanmax(np.abs(e.measurement.signals[s])),
+                                      SIGMA_FLOOR.get(s, 1e-12))
+                               for s in e.signals})
+        self.n_eval = 0
+        self.best = (np.inf, None)
+
+    # parameter vector <-> model
+    def values(self, theta):
+        d = dict(self.fixed)
+        d.update({s.path: float(v) for s, v in zip(self.specs, theta)})
+        return d
+
+    def model_at(self, theta):
+        return set_values(self.model, self.values(theta))
+
+    def replays(self, theta):
+        if self.check is not None:
+            self.check()
+        m = self.model_at(theta)
+        return [replay(m, e) for e in self.experiments]
+
+    def weighted(self, replays):
+        parts = []
+        for rp, sig in zip(replays, self.sigma):
+            for s in rp.measured:
+                meas = rp.experiment.measurement.signals[s]
+                r = np.full(meas.shape[0], 0.0)
+                n = rp.simulated[s].shape[0]
+                ok = np.isfinite(meas)
+                ok_n = ok[:n] & np.isfinite(rp.simulated[s])
+                r[:n][ok_n] = (rp.simulated[s][ok_n] - meas[:n][ok_n]) / sig[s]
+                # samples the simulation did not reach (solver failure) get a large residual
+                miss = ok.copy()
+                miss[:n] = ok[:n] & ~np.isfinite(rp.simulated[s])
+                r[miss] = FAILED_RESIDUAL
+                parts.append(r[ok])
+        return np.concatenate(parts)
+
+    def residuals(self, theta):
+        rps = self.replays(theta)
+        r = self.weighted(rps)
+        self.n_eval += 1
+        c = float(r @ r)
+        if c < self.best[0]:
+            self.best = (c, np.array(theta, float))
+        return r
+
+    def rss(self, replays):
+        """Per (experiment, signal) residual sum of squares and sample count."""
+        out = []
+        for rp in replays:
+            for s in rp.measured:
+                m, g = rp.measured[s], rp.simulated[s]
+                ok = np.isfinite(m)
+                gg = np.where(np.isfinite(g), g, m + FAILED_RESIDUAL * np.nanstd(m) + 1.0)
+                out.append((rp.experiment.name, s, float(np.sum((gg[ok] - m[ok]) ** 2)), int(ok.sum())))
+        return out
+
+
+def neg2_loglik(rss_list):
+    """Concentrated Gaussian ``-2 ln L`` with one variance per (experiment, signal)."""
+    tot = 0.0
+    n_all = 0
+    for _, _, rss, n in rss_list:
+        if n == 0:
+            continue
+        tot += n * math.log(max(rss, 1e-300) / n)
+        n_all += n
+    return tot + n_all * (1.0 + math.log(2.0 * math.pi))
+
+
+def information_criteria(rss_list, k):
+    """``(-2 ln L, AIC, BIC, N)`` for ``k`` fitted parameters (variances counted too)."""
+    n_all = sum(n for *_, n in rss_list)
+    k_tot = k + len(rss_list)
+    m2ll = neg2_loglik(rss_list)
+    return m2ll, m2ll + 2 * k_tot, m2ll + k_tot * math.log(max(n_all, 1)), n_all
+
+
+def _scales(specs):
+    out = []
+    for s in specs:
+        sc = abs(s.value)
+        if sc == 0.0:
+            sc = (s.max - s.min) / 100.0
+        out.append(sc)
+    return np.array(out, float)
+
+
+def _fd_jacobian(obj, theta, r0, scales, lo, hi, step=1e-3):
+    """Forward differences in scaled units, columns simulated in parallel threads."""
+    cols = []
+    for j in range(len(theta)):
+        h = step * scales[j]
+        tj = theta.copy()
+        if tj[j] + h > hi[j]:
+            h = -h
+        tj[j] += h
+        cols.append((j, tj, h))
+
+    def col(args):
+        j, tj, h = args
+        rps = obj.replays(tj)
+        return j, (obj.weighted(rps) - r0) / h
+
+    J = np.empty((r0.shape[0], len(theta)))
+    with ThreadPoolExecutor(THREADS) as pool:
+        for j, c in pool.map(col, cols):
+            J[:, j] = c
+    return J
+
+
+@dataclass
+class Calibration:
+    """Result of :func:`calibrate`; ``summary()`` is plain JSON."""
+    model: Model
+    values: dict
+    correlations: dict
+    error_before: object
+    error_after: object
+    aic: float
+    bic: float
+    neg2_loglik: float
+    n_data: int
+    n_params: int
+    success: bool
+    message: str
+    nfev: int
+    residual_times: list = field(default_factory=list, repr=False)
+    rss_after: list = field(default_factory=list, repr=False)
+    rss_before: list = field(default_factory=list, repr=False)
+    aic_before: float = float("nan")
+    bic_before: float = float("nan")
+
+    @property
+    def autocorrelation_time(self):
+        """``{"experiment/signal": tau}`` of the fitted residuals [samples]."""
+        return times_report(self.residual_times)
+
+    def summary(self):
+        def errs(c):
+            return {"errors": c.errors, "overall": c.overall, "phases": c.phases,
+                    "piston_phases": c.piston_phases}
+        return plain_json({
+            "model": self.model.to_dict(), "values": self.values, "correlations": self.correlations,
+            "error_before": errs(self.error_before), "error_after": errs(self.error_after),
+            "aic": self.aic, "bic": self.bic, "aic_before": self.aic_before,
+            "bic_before": self.bic_before, "neg2_loglik": self.neg2_loglik, "n_data": self.n_data,
+            "n_params": self.n_params, "success": self.success, "message": self.message,
+            "nfev": self.nfev, "autocorrelation_time": self.autocorrelation_time,
+            "failure_windows_after": self.error_after.windows,
+        })
+
+
+def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=None,
+        span=(0.0, 1.0), step="fitting", reweight=False):
+    """Fit ``specs`` on prepared experiments (shared by :func:`calibrate` and the diagnosis).
+
+    ``progress(fraction, step)`` is reported within ``span`` as the optimiser's
+    evaluations are used up; it may raise :class:`Cancelled` to stop.
+
+    ``reweight``: after the first solution, each series (experiment, signal)
+    is reweighted by the RMS of its own residual (never below its noise
+    estimate) and the fit is continued: the optimum of the concentrated
+    likelihood with one unknown variance per series, which the diagnosis's
+    likelihood-ratio tests use. Without it the weights are the noise levels
+    estimated from second differences, which coloured noise (a transducer
+    filter) underestimates by different factors per signal: the fit then
+    trades a large error on one signal for a small gain on another.
+    """
+    def check():
+        if progress is not None:
+            frac = min(obj.n_eval / max(max_nfev, 1), 1.0)
+            progress(span[0] + (span[1] - span[0]) * frac, step)
+
+    obj = Objective(model, experiments, specs, check)
+    vs = obj.specs
+    theta0 = np.array([s.value for s in vs], float)
+    lo = np.array([s.min for s in vs], float)
+    hi = np.array([s.max for s in vs], float)
+    sc = _scales(vs)
+    before = None
+    rps0 = obj.replays(theta0)
+    if compute_before:
+        before = summarise(rps0)
+    rss0 = obj.rss(rps0)
+    success, message = True, "converged"
+    theta = theta0
+    if vs:
+        z0 = theta0 / sc
+        # the starting point is already simulated: hand it to the optimiser's first call
+        r0 = obj.weighted(rps0)
+        cache = {tuple(np.round(z0, 15)): r0}
+        obj.best = (float(r0 @ r0), theta0.copy())
+
+        def fun(z):
+            key = tuple(np.round(z, 15))
+            if key not in cache:
+                cache.clear()
+                cache[key] = obj.residuals(z * sc)
+            return cache[key]
+
+        def jac(z):
+            r = fun(z)
+            return _fd_jacobian(obj, z * sc, r, sc, lo, hi) * sc
+
+        try:
+            sol = least_squares(fun, z0, jac=jac, bounds=(lo / sc, hi / sc), method="trf",
+                                x_scale=1.0, max_nfev=max_nfev, ftol=1e-8, xtol=1e-8, gtol=1e-10)
+            if reweight and _reweight(obj, obj.replays(sol.x * sc)):
+                cache.clear()
+                obj.best = (np.inf, None)
+                sol = least_squares(fun, np.clip(sol.x, lo / sc, hi / sc), jac=jac,
+                                    bounds=(lo / sc, hi / sc), method="trf", x_scale=1.0,
+                                    max_nfev=max(max_nfev // 2, 5), ftol=1e-8, xtol=1e-8,
+                                    gtol=1e-10)
+            theta = np.clip(sol.x * sc, lo, hi)
+            success = sol.status > 0
+            message = sol.message if success else f"did not converge: {sol.message}"
+        except Cancelled:
+            raise
+        except Exception as exc:  # keep the best point found, never NaN
+            success = False
+            message = f"fit failed ({exc}); returning the best point found"
+            theta = obj.best[1] if obj.best[1] is not None else theta0
+    rps1 = obj.replays(theta)
+    if vs:
+        r_end = obj.weighted(rps1)
+        if obj.best[1] is not None and obj.best[0] < float(r_end @ r_end):
+            theta = obj.best[1]
+            rps1 = obj.replays(theta)
+    after = summarise(rps1)
+    rss1 = obj.rss(rps1)
+    m2ll, aic, bic, n_all = information_criteria(rss1, len(vs))
+    m2ll0, aic0, bic0, _ = information_criteria(rss0, 0)
+    # covariance from the Jacobian with residuals scaled by their fitted RMS per (experiment, signal)
+    values = {}
+    corr = {}
+    taus = residual_times(rps1)
+    if vs:
+        r1 = obj.weighted(rps1)
+        J = _fd_jacobian(obj, theta, r1, sc, lo, hi)
+        scale = _rms_scale(obj, rps1, taus)
+        # covariance in scaled units (parameters of very different sizes, e.g. a
+        # conductance of 1e-10 next to h = 25, would make J^T J numerically singular)
+        Jz = (J * sc[None, :]) / scale[:, None]
+        try:
+            cov_z = np.linalg.pinv(Jz.T @ Jz)
+        except np.linalg.LinAlgError:
+            cov_z = np.full((len(vs), len(vs)), np.nan)
+        cov_z = 0.5 * (cov_z + cov_z.T)
+        se = np.sqrt(np.clip(np.diag(cov_z), 0, None)) * sc
+        dz = np.sqrt(np.clip(np.diag(cov_z), 0, None))
+        dz = np.where(dz > 0, dz, np.nan)
+        cm = np.clip(cov_z / np.outer(dz, dz), -1.0, 1.0)
+        for i, s in enumerate(vs):
+            values[s.path] = {"value": float(theta[i]), "stderr": float(se[i]), "initial": s.value,
+                              "min": s.min, "max": s.max, "unit": s.unit,
+                              "at_bound": bool(np.isclose(theta[i], s.min, rtol=1e-6, atol=0)
+                                               or np.isclose(theta[i], s.max, rtol=1e-6, atol=0))}
+            corr[s.path] = {t.path: (float(cm[i, j]) if np.isfinite(cm[i, j]) else None)
+                            for j, t in enumerate(vs)}
+    for p, v in obj.fixed.items():
+        values[p] = {"value": v, "stderr": 0.0, "vary": False}
+    return Calibration(obj.model_at(theta), values, corr, before, after, aic, bic, m2ll, n_all,
+                       len(vs), success, message, obj.n_eval,
+                       taus, rss1, rss0, aic0, bic0)
+
+
+def _reweight(obj, replays):
+    """Scale each series' noise level by the RMS of its weighted residual (floored at 1).
+
+    Returns True when some weight changed by more than 10 % (a second pass is worth it).
+    """
+    changed = False
+    for rp, sig in zip(replays, obj.sigma):
+        for s in rp.measured:
+            m, g = rp.measured[s], rp.simulated[s]
+            ok = np.isfinite(m) & np.isfinite(g)
+            if not ok.any():
+                continue
+            rms = math.sqrt(np.mean(((g[ok] - m[ok]) / sig[s]) ** 2))
+            if rms > 1.1:
+                sig[s] *= rms
+                changed = True
+    return changed
+
+
+def _rms_scale(obj, replays, taus=None):
+    """Per-residual factor turning noise-weighted residuals into unit-variance ones.
+
+    With ``taus`` (:func:`pneucore.analysis.autocorrelation.residual_times` of the same
+    replays) the factor of a series is also multiplied by ``sqrt(tau)``: its n
+    samples then weigh as n / tau independent ones.
+    """
+    parts = []
+    k = 0
+    for rp, sig in zip(replays, obj.sigma):
+        for s in rp.measured:
+            m, g = rp.measured[s], rp.simulated[s]
+            ok = np.isfinite(rp.experiment.measurement.signals[s])
+            okn = np.isfinite(m) & np.isfinite(g)
+            rms = math.sqrt(np.mean(((g[okn] - m[okn]) / sig[s]) ** 2)) if okn.any() else 1.0
+            if taus is not None:
+                rms *= math.sqrt(taus[k][1])
+            k += 1
+            parts.append(np.full(int(ok.sum()), max(rms, 1e-12)))
+    return np.concatenate(parts)
+
+
+def calibrate(model, experiments, parameters, max_nfev=40, datasets=None, progress=None):
+    """Fit model parameters to measurements.
+
+    Parameters
+    ----------
+    model : Model or dict
+        Starting model
+    experiments : list
+        Experiments (objects or JSON), fitted jointly
+    parameters : dict or list
+        ``{path: {"min", "max", "value"?, "vary"?}}`` (see :mod:`pneucore.spec.paths`)
+    max_nfev : int
+        Budget of residual evaluations of the optimiser
+    progress : callable or None
+        ``progress(fraction, step)``; may raise ``Cancelled``
+
+    Returns
+    -------
+    calibration : Calibration
+        Calibrated model, values with standard errors, correlations,
+        Eq. 25 errors before and after (per signal and phase), AIC, BIC and ``summary()``.
+        A fit that does not converge says so in ``success``/``message`` and returns the
+        best point found.
+    """
+    model = Model.from_dict(model) if not isinstance(model, Model) else model
+    exps = as_experiments(experiments, model.ambient.pressure, datasets)
+    specs = parse_parameters(model, parameters)
+    return fit(model, exps, specs, max_nfev=max_nfev, progress=progress, step="calibrating")

@@ -1,0 +1,301 @@
+"""See where the model fails: ``compare(model, experiments)``.
+
+For each experiment the model is replayed with the measured command and
+compared with the measurement: the paper's Eq. 25 error per signal and
+overall, the same error per phase (valve opens / closes / reverses as in
+Table 2, and piston moving / stuck / at a stop), the worst time windows
+described in words, and the residual series. ``heat_models=[...]`` runs the
+same comparison under several heat models side by side (Fig. 8, Table 2).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pneucore.data.experiment import as_experiments
+from pneucore.analysis.metrics import (command_phases, eq25_error, noise_sigma, phase_errors, piston_phases,
+                      worst_windows)
+from pneucore.spec.model import Model
+
+
+@dataclass
+class Replay:
+    """One experiment replayed on a model: aligned measured and simulated signals.
+
+    The phase labels are computed on first use: a fit replays an experiment
+    hundreds of times and needs only the residuals.
+    """
+    experiment: object
+    result: object
+    t: np.ndarray
+    measured: dict
+    simulated: dict
+    u: np.ndarray = field(default=None, repr=False)
+    _cmd: np.ndarray = field(default=None, repr=False)
+    _piston: np.ndarray = field(default=None, repr=False)
+
+    @property
+    def cmd_labels(self):
+        """Valve phase of each sample (:func:`pneucore.analysis.metrics.command_phases`)."""
+        if self._cmd is None:
+            self._cmd = command_phases(self.t, self.u)
+        return self._cmd
+
+    @property
+    def piston_labels(self):
+        """Piston state of each sample (:func:`pneucore.analysis.metrics.piston_phases`)."""
+        if self._piston is None:
+            self._piston = piston_phases(self.result.mode)
+        return self._piston
+
+    @property
+    def ok(self):
+        return self.result.status == 0
+
+
+def replay(model, experiment):
+    """Simulate ``experiment`` on ``model`` and align the signals (no exception on solver failure)."""
+    res = experiment.simulate(model, raise_on_error=False)
+    n = len(res.t)
+    meas = {s: experiment.measurement.signals[s][:n] for s in experiment.signals}
+    sim = {s: np.asarray(res.observed(s), float) for s in experiment.signals}
+    u = experiment.measurement.signals["u"][:n]
+    return Replay(experiment, res, res.t, meas, sim, u)
+
+
+def _overall(errors):
+    vals = [e for e in errors.values() if e is not None and math.isfinite(e)]
+    return float(math.sqrt(np.mean(np.square(vals)))) if vals else float("nan")
+
+
+def _pooled(replays):
+    sigs = {}
+    for rp in replays:
+        for s in rp.measured:
+            sigs.setdefault(s, ([], []))
+            sigs[s][0].append(rp.measured[s])
+            sigs[s][1].append(rp.simulated[s])
+    return {s: eq25_error(np.concatenate(m), np.concatenate(g)) for s, (m, g) in sigs.items()}
+
+
+def _phase_table(replays, which):
+    """Pooled Eq. 25 per phase label per signal: {label: {signal: err}}."""
+    acc = {}
+    for rp in replays:
+        labels = rp.cmd_labels if which == "command" else (
+            rp.piston_labels if which == "piston" else
+            np.char.add(np.char.add(rp.cmd_labels.astype(str), ", "), rp.piston_labels.astype(str)))
+        for s in rp.measured:
+            for lab in dict.fromkeys(labels):
+                sel = labels == lab
+                d = acc.setdefault(str(lab), {}).setdefault(s, ([], []))
+                d[0].append(rp.measured[s][sel])
+                d[1].append(rp.simulated[s][sel])
+    out = {}
+    for lab, sigs in acc.items():
+        row = {}
+        for s, (m, g) in sigs.items():
+            m, g = np.concatenate(m), np.concatenate(g)
+            n = int(np.sum(np.isfinite(m) & np.isfinite(g)))
+            if n:
+                row[s] = eq25_error(m, g)
+        if row:
+            row["overall"] = _overall(row)
+            out[lab] = row
+    return out
+
+
+def errors(model, experiments):
+    """Eq. 25 errors per signal and overall only: ``(errors, overall)`` (cheaper than :func:`compare`)."""
+    errs = _pooled([replay(model, e) for e in experiments])
+    return errs, _overall(errs)
+
+
+def noise_floor(replays):
+    """Eq. 25 error that white measurement noise alone would give, per signal [-].
+
+    Noise is estimated from each measurement's second differences
+    (:func:`pneucore.analysis.metrics.noise_sigma`); the floor is
+    ``sqrt(N sigma^2 / sum y^2)``.
+    """
+    acc = {}
+    for rp in replays:
+        for s, m in rp.measured.items():
+            ok = np.isfinite(m)
+            sig = noise_sigma(m)
+            a = acc.setdefault(s, [0.0, 0.0])
+            a[0] += ok.sum() * sig * sig
+            a[1] += np.sum(m[ok] ** 2)
+    return {s: float(math.sqrt(a[0] / a[1])) if a[1] > 0 else float("nan") for s, a in acc.items()}
+
+
+@dataclass
+class Comparison:
+    """Result of :func:`compare` (all numbers plain; ``to_dict()`` is JSON-ready)."""
+    errors: dict
+    overall: float
+    phases: dict
+    piston_phases: dict
+    combined_phases: dict
+    windows: list
+    experiments: list
+    noise_floor: dict
+    heat_models: dict = field(default_factory=dict)
+    replays: list = field(default_factory=list, repr=False)
+
+    def to_dict(self, residuals=True):
+        d = {"errors": self.errors, "overall": self.overall, "phases": self.phases,
+             "piston_phases": self.piston_phases, "combined_phases": self.combined_phases,
+             "failure_windows": self.windows, "noise_floor": self.noise_floor,
+             "experiments": [dict(e) for e in self.experiments]}
+        if not residuals:
+            for e in d["experiments"]:
+                e.pop("residuals", None)
+                e.pop("simulated", None)
+                e.pop("measured", None)
+        if self.heat_models:
+            d["heat_models"] = self.heat_models
+        return plain_json(d)
+
+
+def plain_json(obj):
+    """``obj`` as plain JSON: numpy arrays and scalars as lists and Python numbers, NaN and
+    infinities as None, keys as strings.
+
+    Parameters
+    ----------
+    obj : object
+        Nested dicts, lists, tuples, numpy arrays and scalars
+
+    Returns
+    -------
+    plain : object
+        The same structure with JSON types only
+
+    Examples
+    --------
+    >>> plain_json({"e": np.array([0.5, np.nan]), 1: (np.int64(2), np.bool_(True))})
+    {'e': [0.5, None], '1': [2, True]}
+    """
+    if isinstance(obj, dict):
+        return {str(k): plain_json(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [plain_json(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return [plain_json(v) for v in obj.tolist()]
+    if isinstance(obj, (np.floating, float)):
+        f = float(obj)
+        return f if math.isfinite(f) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj
+
+
+
+
+def summarise(replays, n_windows=5):
+    """Build a :class:`Comparison` from replays (shared by compare, calibrate and diagnose)."""
+    exps = []
+    windows = []
+    for rp in replays:
+        errs = {s: eq25_error(rp.measured[s], rp.simulated[s]) for s in rp.measured}
+        win = worst_windows(rp.t, rp.measured, rp.simulated, rp.cmd_labels, rp.piston_labels,
+                            n_windows=n_windows, experiment=rp.experiment.name)
+        windows += win
+        exps.append({
+            "name": rp.experiment.name, "dataset_id": rp.experiment.dataset_id,
+            "errors": errs, "overall": _overall(errs),
+            "status": rp.result.message,
+            "phases": {s: phase_errors(rp.measured[s], rp.simulated[s], rp.cmd_labels)
+                       for s in rp.measured},
+            "t": rp.t, "residuals": {s: rp.simulated[s] - rp.measured[s] for s in rp.measured},
+            "simulated": {s: rp.simulated[s] for s in rp.measured},
+            "measured": {s: rp.measured[s] for s in rp.measured},
+            "mode": rp.result.mode.tolist(),
+            "events": rp.result.events,
+        })
+    windows.sort(key=lambda w: -w["energy"])
+    errors = _pooled(replays)
+    return Comparison(errors, _overall(errors), _phase_table(replays, "command"),
+                      _phase_table(replays, "piston"), _phase_table(replays, "combined"),
+                      windows[:n_windows], exps, noise_floor(replays), replays=replays)
+
+
+#: The three heat models of the paper's Fig. 8 and Table 2
+PAPER_HEAT_MODELS = ("convective", "adiabatic", "isothermal")
+
+
+def with_heat_model(model, name):
+    """A copy of ``model`` under heat model ``name``.
+
+    A ``heat_exchange`` effect is removed; under ``convective`` its coefficient is
+    kept, since it is the one the model actually uses.
+    """
+    m = model.copy()
+    m.heat.model = name
+    hx = m.effects.pop("heat_exchange", None)
+    if hx is not None and name == "convective":
+        m.heat.coefficient = hx["h"]
+    return m
+
+
+def check_heat_models(heat_models):
+    """Validate the ``heat_models`` argument of :func:`compare`; returns the names."""
+    from pneucore.physics.heat import HEAT_MODELS
+    from pneucore.spec.validation import FieldError
+    if not heat_models:
+        return ()
+    if heat_models is True:
+        return PAPER_HEAT_MODELS
+    names = tuple(heat_models)
+    for i, n in enumerate(names):
+        if not isinstance(n, str) or n not in HEAT_MODELS:
+            raise FieldError(f"heat_models[{i}]", f"unknown heat model {n!r}; expected one of "
+                                                  f"{sorted(HEAT_MODELS)}")
+    return names
+
+
+def compare(model, experiments, heat_models=None, n_windows=5, datasets=None, progress=None):
+    """Compare the model with measurements.
+
+    Parameters
+    ----------
+    model : Model or dict
+        The actuator model
+    experiments : list
+        :class:`pneucore.data.experiment.Experiment` objects or their JSON
+    heat_models : list of str or True or None
+        Also compare under these heat models
+        (True = isothermal, adiabatic and convective), side by side
+    n_windows : int
+        Number of worst windows to describe
+    progress : callable or None
+        ``progress(fraction, step)``; may raise ``Cancelled``
+
+    Returns
+    -------
+    comparison : Comparison
+        Eq. 25 errors per signal, overall and per phase, worst windows,
+        residual series, estimated noise floor, and ``heat_models`` when asked
+    """
+    model = Model.from_dict(model) if not isinstance(model, Model) else model
+    names = check_heat_models(heat_models)
+    exps = as_experiments(experiments, model.ambient.pressure, datasets)
+    report = progress or (lambda f, s: None)
+    total = len(exps) * (1 + len(names))
+    rps = []
+    for i, e in enumerate(exps):
+        report(i / total, f"simulating {e.name}")
+        rps.append(replay(model, e))
+    comp = summarise(rps, n_windows)
+    if names:
+        for k, name in enumerate(names):
+            report((len(exps) * (1 + k)) / total, f"heat model {name}")
+            m = with_heat_model(model, name)
+            c = summarise([replay(m, e) for e in exps], n_windows=0)
+            comp.heat_models[name] = {"errors": c.errors, "overall": c.overall, "phases": c.phases}
+    return comp

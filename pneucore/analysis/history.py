@@ -1,0 +1,153 @@
+"""Refinement history: each model version with its errors, so the error is seen falling.
+
+``refine(model, experiments)`` runs the loop the tool is built around:
+compare, diagnose, add the named effect with its fitted parameters, and
+again, until no catalog effect explains what remains.
+"""
+from __future__ import annotations
+
+import copy
+import datetime as _dt
+from dataclasses import dataclass, field
+
+from pneucore.analysis.compare import compare
+from pneucore.analysis.diagnose import diagnose
+from pneucore.data.experiment import as_experiments
+from pneucore.spec.model import Model
+
+
+@dataclass
+class ModelVersion:
+    """One step of the refinement.
+
+    Parameters
+    ----------
+    version : int
+        0 for the starting model
+    label : str
+        e.g. ``base`` or ``+ piston_leakage``
+    model : dict
+        Model JSON
+    errors : dict
+        Eq. 25 error per signal [-]
+    overall : float
+        RMS of the per-signal errors [-]
+    added : str or None
+        Effect added at this step
+    params : dict
+        Its fitted parameters (value, stderr, unit)
+    note : str
+        Free text (verdict message)
+    created : str
+        ISO 8601 time
+    """
+    version: int
+    label: str
+    model: dict
+    errors: dict
+    overall: float
+    added: object = None
+    params: dict = field(default_factory=dict)
+    note: str = ""
+    created: str = ""
+    recalibrated: list = field(default_factory=list)
+
+    def to_dict(self):
+        return copy.deepcopy(self.__dict__)
+
+
+class RefinementHistory:
+    """The list of model versions of one refinement session."""
+
+    def __init__(self, versions=None):
+        self.versions = list(versions or [])
+
+    def add(self, model, comparison, added=None, params=None, note="", recalibrated=None):
+        """Record a model version with its comparison; returns the :class:`ModelVersion`.
+
+        ``recalibrated``: the mis-set base parameters corrected at this step
+        (``[{path, label, before, after, stderr, unit}]``).
+        """
+        model = model if isinstance(model, Model) else Model.from_dict(model)
+        if not self.versions:
+            label = "base"
+        elif added:
+            label = f"+ {added}"
+        else:
+            label = "recalibrated: " + ", ".join(r.get("label", r["path"]) for r in recalibrated or [])
+        v = ModelVersion(len(self.versions), label,
+                         model.to_dict(), dict(comparison.errors), comparison.overall, added,
+                         params or {}, note, _dt.datetime.now(_dt.timezone.utc).isoformat(),
+                         list(recalibrated or []))
+        self.versions.append(v)
+        return v
+
+    @property
+    def latest(self):
+        return self.versions[-1] if self.versions else None
+
+    def overall_errors(self):
+        """``(labels, overall errors)`` for a chart of the error falling."""
+        return [v.label for v in self.versions], [v.overall for v in self.versions]
+
+    def to_dict(self):
+        return {"versions": [v.to_dict() for v in self.versions]}
+
+    @classmethod
+    def from_dict(cls, d):
+        return cls([ModelVersion(**v) for v in d.get("versions", [])])
+
+
+def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progress=None):
+    """Stepwise to the noise floor: diagnose, apply the findings, repeat.
+
+    Each round recalibrates the base parameters the experiments identify and
+    adds the best catalog effect when one explains what recalibration does
+    not (both refitted jointly; an effect added earlier whose strength has
+    become indistinguishable from zero is dropped, see
+    :func:`pneucore.analysis.diagnose.diagnose`). The loop stops when the error is at
+    the noise floor, when nothing material remains to name, or after
+    ``max_rounds`` effects.
+
+    Parameters
+    ----------
+    model : Model or dict
+        Starting model
+    experiments : list
+        Experiments
+    max_rounds : int
+        Most effects to add
+    uncertain : list
+        Base parameter paths refitted along; given, they replace the automatic
+        choice (see :func:`pneucore.analysis.diagnose.diagnose`)
+    history : RefinementHistory or None
+        Continue an existing history
+
+    Returns
+    -------
+    model : Model
+        The refined model
+    history : RefinementHistory
+        One version per step, with errors; a step that only
+        recalibrates is labelled ``recalibrated: ...``
+    diagnoses : list
+        The diagnosis of each round (the last one has verdict None unless
+        ``max_rounds`` was reached or the floor was reached)
+    """
+    model = Model.from_dict(model) if not isinstance(model, Model) else model
+    exps = as_experiments(experiments, model.ambient.pressure)
+    history = history or RefinementHistory()
+    if not history.versions:
+        history.add(model, compare(model, exps))
+    diagnoses = []
+    for _ in range(max_rounds):
+        d = diagnose(model, exps, uncertain=uncertain, progress=progress)
+        diagnoses.append(d)
+        if d.verdict is None and not d.recalibrate:
+            break
+        model = d.model.copy()
+        params = d.ranking[0]["params"] if d.verdict else {}
+        history.add(model, compare(model, exps), d.verdict, params, d.message, d.recalibrate)
+        if d.verdict is None or d.remaining.get("at_floor"):
+            break
+    return model, history, diagnoses

@@ -1,0 +1,275 @@
+"""Self-contained HTML reports of a comparison or a diagnosis.
+
+One file that opens offline in any browser: plots as inline SVG drawn here
+(no script, no CDN, no external asset), tables of the Eq. 25 errors (as
+percentages in the text; the API's fields are fractions), the failure
+windows, the diagnosis ranking, the model as JSON and the data provenance
+(experiment, dataset, samples, time span, source file and unit conversions
+when known). Every text that comes from a request is escaped.
+"""
+from __future__ import annotations
+
+import html
+import json
+import math
+import time
+
+import numpy as np
+
+from pneucore.data.measurement import SIGNAL_UNITS
+
+__all__ = ["comparison_report", "diagnosis_report", "svg_plot"]
+
+#: Display scale of each signal in the plots: (factor from SI, unit shown)
+_DISPLAY = {"p_a": (1e-5, "bar abs"), "p_b": (1e-5, "bar abs"), "x": (1e3, "mm"),
+            "v": (1.0, "m/s"), "T_a": (1.0, "K"), "T_b": (1.0, "K")}
+_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd")
+#: Points drawn per line at most (min/max per bucket keeps the peaks)
+MAX_POINTS = 1500
+
+_CSS = """body{font-family:system-ui,sans-serif;margin:2em auto;max-width:980px;color:#222}
+h1{font-size:1.5em}h2{font-size:1.2em;margin-top:1.6em;border-bottom:1px solid #ccc}
+table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:.2em .6em;
+text-align:right}th{background:#f4f4f4}td.l,th.l{text-align:left}pre{background:#f7f7f7;
+padding:.6em;overflow:auto;max-height:24em;font-size:.8em}svg{display:block;margin:.4em 0}
+.note{color:#555;font-size:.9em}"""
+
+
+def _e(x) -> str:
+    return html.escape(str(x), quote=True)
+
+
+def _pct(x) -> str:
+    return "—" if x is None or not math.isfinite(float(x)) else f"{100 * float(x):.3g} %"
+
+
+def _decimate(x, y):
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    n = len(x)
+    if n <= MAX_POINTS:
+        return x, y
+    k = int(math.ceil(n / (MAX_POINTS / 2)))
+    idx = []
+    for i in range(0, n, k):
+        seg = y[i:i + k]
+        if np.all(np.isnan(seg)):
+            continue
+        a, b = i + int(np.nanargmin(seg)), i + int(np.nanargmax(seg))
+        idx += sorted({a, b})
+    idx = np.array(idx, dtype=int)
+    return x[idx], y[idx]
+
+
+def svg_plot(lines, title="", xlabel="t [s]", ylabel="", width=900, height=230) -> str:
+    """A line plot as inline SVG.
+
+    Parameters
+    ----------
+    lines : list of (x, y, label)
+        Series to draw; NaN breaks a line [-]
+    title, xlabel, ylabel : str
+        Texts (escaped) [-]
+    width, height : int
+        Size in CSS pixels [-]
+
+    Returns
+    -------
+    svg : str
+        An ``<svg>`` element with axes, ticks and a legend [-]
+    """
+    ml, mr, mt, mb = 64, 12, 24, 36
+    pw, ph = width - ml - mr, height - mt - mb
+    data = [(*_decimate(x, y), lab) for x, y, lab in lines]
+    xs = np.concatenate([d[0] for d in data]) if data else np.array([0.0, 1.0])
+    ys = np.concatenate([d[1] for d in data]) if data else np.array([0.0, 1.0])
+    ys = ys[np.isfinite(ys)]
+    x0, x1 = (float(np.nanmin(xs)), float(np.nanmax(xs))) if xs.size else (0.0, 1.0)
+    y0, y1 = (float(ys.min()), float(ys.max())) if ys.size else (0.0, 1.0)
+    if x1 <= x0:
+        x1 = x0 + 1.0
+    if y1 <= y0:
+        y0, y1 = y0 - 0.5 * (abs(y0) or 1.0), y1 + 0.5 * (abs(y1) or 1.0)
+    pad = 0.05 * (y1 - y0)
+    y0, y1 = y0 - pad, y1 + pad
+
+    def px(v):
+        return ml + (v - x0) / (x1 - x0) * pw
+
+    def py(v):
+        return mt + (1 - (v - y0) / (y1 - y0)) * ph
+
+    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
+           f'viewBox="0 0 {width} {height}" font-size="11" font-family="sans-serif">',
+           f'<text x="{ml}" y="15" font-weight="bold">{_e(title)}</text>',
+           f'<rect x="{ml}" y="{mt}" width="{pw}" height="{ph}" fill="none" stroke="#999"/>']
+    for v in np.linspace(x0, x1, 6):
+        out.append(f'<line x1="{px(v):.1f}" y1="{mt + ph}" x2="{px(v):.1f}" y2="{mt + ph + 4}" stroke="#999"/>'
+                   f'<text x="{px(v):.1f}" y="{mt + ph + 15}" text-anchor="middle">{v:.3g}</text>')
+    for v in np.linspace(y0, y1, 5):
+        out.append(f'<line x1="{ml - 4}" y1="{py(v):.1f}" x2="{ml + pw}" y2="{py(v):.1f}" stroke="#eee"/>'
+                   f'<text x="{ml - 6}" y="{py(v) + 4:.1f}" text-anchor="end">{v:.4g}</text>')
+    out.append(f'<text x="{ml + pw / 2}" y="{height - 4}" text-anchor="middle">{_e(xlabel)}</text>')
+    out.append(f'<text x="12" y="{mt + ph / 2}" text-anchor="middle" '
+               f'transform="rotate(-90 12 {mt + ph / 2})">{_e(ylabel)}</text>')
+    for k, (x, y, lab) in enumerate(data):
+        color = _COLORS[k % len(_COLORS)]
+        segs, cur = [], []
+        for a, b in zip(x, y):
+            if math.isfinite(b):
+                cur.append(f"{px(a):.1f},{py(b):.1f}")
+            elif cur:
+                segs.append(cur)
+                cur = []
+        if cur:
+            segs.append(cur)
+        for seg in segs:
+            out.append(f'<polyline fill="none" stroke="{color}" stroke-width="1.2" points="{" ".join(seg)}"/>')
+        lx = ml + pw - 150
+        ly = mt + 14 + 14 * k
+        out.append(f'<line x1="{lx}" y1="{ly - 4}" x2="{lx + 18}" y2="{ly - 4}" stroke="{color}" stroke-width="2"/>'
+                   f'<text x="{lx + 22}" y="{ly}">{_e(lab)}</text>')
+    out.append("</svg>")
+    return "".join(out)
+
+
+def _table(header, rows, left=1) -> str:
+    th = "".join(f'<th class="l">{_e(h)}</th>' if i < left else f"<th>{_e(h)}</th>"
+                 for i, h in enumerate(header))
+    body = "".join("<tr>" + "".join(f'<td class="l">{_e(c)}</td>' if i < left else f"<td>{_e(c)}</td>"
+                                    for i, c in enumerate(r)) + "</tr>" for r in rows)
+    return f"<table><tr>{th}</tr>{body}</table>"
+
+
+def _page(title, sections) -> str:
+    stamp = time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())
+    return (f"<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>{_e(title)}</title>"
+            f"<style>{_CSS}</style></head><body><h1>{_e(title)}</h1>"
+            f'<p class="note">pneucore report, {stamp}. Errors are the paper\'s Eq. 25 normalised '
+            f"RMS errors, shown in percent. SI units inside; plots in bar absolute, mm, m/s, K.</p>"
+            + "".join(sections) + "</body></html>")
+
+
+def _provenance(comparison, provenance) -> str:
+    rows = []
+    prov = {p.get("dataset_id"): p for p in (provenance or []) if p.get("dataset_id")}
+    for rp in comparison.replays:
+        exp = rp.experiment
+        m = exp.measurement
+        info = prov.get(exp.dataset_id, {})
+        imp = m.meta.get("import") or {}
+        conv = "; ".join(f"{c['column']}: {c['from']} → {c['to']}"
+                         + (f" (+{c['ambient_pressure']:g} Pa ambient)" if c.get("ambient_pressure") else "")
+                         for c in imp.get("conversions", []) if c["from"] != c["to"])
+        rows.append([exp.name, exp.dataset_id or "inline", info.get("name", ""), m.n,
+                     f"{m.t[0]:.6g} – {m.t[-1]:.6g} s", ", ".join(m.measured_signals),
+                     m.meta.get("source", info.get("description", "")), conv or "none (SI)"])
+    return ("<h2>Data provenance</h2>" + _table(
+        ["experiment", "dataset", "dataset name", "samples", "time span", "signals", "source",
+         "unit conversions"], rows, left=3)
+        + '<p class="note">The model\'s t = 0 is the measurement\'s t = 0.</p>')
+
+
+def _comparison_sections(comparison, label="model") -> list[str]:
+    c = comparison
+    out = ["<h2>Errors (Eq. 25)</h2>",
+           _table(["signal", "error"], [[s, _pct(e)] for s, e in c.errors.items()]
+                  + [["overall", _pct(c.overall)]]),
+           _table(["signal", "noise floor"], [[s, _pct(e)] for s, e in c.noise_floor.items()])]
+    phases = c.phases or {}
+    if phases:
+        names = sorted({p for v in phases.values() for p in v})
+        out.append("<h3>By command phase</h3>" + _table(
+            ["signal"] + names, [[s] + [_pct(v.get(p)) for p in names] for s, v in phases.items()]))
+    if c.windows:
+        out.append("<h2>Where the model fails most</h2>" + _table(
+            ["description"], [[w.get("description", "")] for w in c.windows]))
+    out.append("<h2>Measured and model</h2>")
+    for rp in c.replays:
+        for s in rp.measured:
+            f, unit = _DISPLAY.get(s, (1.0, SIGNAL_UNITS.get(s, "")))
+            t = np.asarray(rp.t) + rp.experiment.t0
+            meas, sim = np.asarray(rp.measured[s]) * f, np.asarray(rp.simulated[s]) * f
+            out.append(svg_plot([(t, meas, "measured"), (t, sim, label)],
+                                title=f"{rp.experiment.name}: {s}", ylabel=f"{s} [{unit}]"))
+            out.append(svg_plot([(t, sim - meas, f"{label} − measured")],
+                                title=f"{rp.experiment.name}: residual of {s}",
+                                ylabel=f"[{unit}]", height=150))
+    return out
+
+
+def _model_section(model_dict) -> str:
+    return ("<h2>Model</h2><pre>" + _e(json.dumps(model_dict, indent=1, sort_keys=True)) + "</pre>")
+
+
+def comparison_report(model, comparison, provenance=None, title="Model versus measurement") -> str:
+    """HTML report of a comparison.
+
+    Parameters
+    ----------
+    model : Model or dict
+        The model compared [-]
+    comparison : pneucore.analysis.compare.Comparison
+        Result of :func:`pneucore.analysis.compare.compare` (with its replays) [-]
+    provenance : list of dict or None, optional
+        Stored dataset records (``dataset_id``, ``name``, ``description``...) [-]
+    title : str, optional
+        Page title [-]
+
+    Returns
+    -------
+    html : str
+        A self-contained page (no script, no external asset) [-]
+    """
+    md = model if isinstance(model, dict) else model.to_dict()
+    return _page(title, [_provenance(comparison, provenance)] + _comparison_sections(comparison)
+                 + [_model_section(md)])
+
+
+def diagnosis_report(model, diagnosis, comparison, provenance=None, refined=None,
+                     title="Diagnosis") -> str:
+    """HTML report of a diagnosis: verdict, ranking, residual tests, plots, model.
+
+    Parameters
+    ----------
+    model : Model or dict
+        The model diagnosed [-]
+    diagnosis : dict
+        ``Diagnosis.to_dict()`` [-]
+    comparison : pneucore.analysis.compare.Comparison
+        The diagnosed model compared with the data (for the plots) [-]
+    provenance : list of dict or None, optional
+        Stored dataset records [-]
+    refined : pneucore.analysis.compare.Comparison or None, optional
+        The verdict's refitted model compared with the data, drawn too [-]
+    title : str, optional
+        Page title [-]
+
+    Returns
+    -------
+    html : str
+        A self-contained page [-]
+    """
+    md = model if isinstance(model, dict) else model.to_dict()
+    d = diagnosis
+    verdict = d.get("verdict") or "no catalog effect explains the remaining residual"
+    rows = []
+    for r in d.get("ranking", []):
+        rows.append([r.get("effect", ""), _pct(r.get("error_before")), _pct(r.get("error_after_overall")),
+                     f"{r.get('lr_statistic', float('nan')):.4g}", f"{r.get('p_value', float('nan')):.3g}",
+                     f"{r.get('delta_bic', float('nan')):.4g}",
+                     ", ".join(f"{k} = {v:.4g}" if isinstance(v, (int, float)) else f"{k} = {v}"
+                               for k, v in (r.get("params") or {}).items())])
+    sections = [f"<h2>Verdict: {_e(verdict)}</h2><p>{_e(d.get('message', ''))}</p>",
+                _table(["effect", "error before", "error after", "LR", "p", "ΔBIC", "fitted"], rows),
+                "<h3>Explanations</h3>" + "".join(f"<p><b>{_e(r.get('effect'))}</b>: {_e(r.get('explanation', ''))}</p>"
+                                                 for r in d.get("ranking", []))]
+    tests = d.get("residual_tests")
+    if isinstance(tests, dict) and tests.get("summary"):
+        sections.append(f"<h3>Residual tests</h3><p>{_e(tests['summary'])}</p>")
+    sections.append(_provenance(comparison, provenance))
+    sections += _comparison_sections(comparison, "diagnosed model")
+    if refined is not None:
+        sections.append(f"<h2>With {_e(d.get('verdict'))} added</h2>")
+        sections += _comparison_sections(refined, f"+ {d.get('verdict')}")[1:]
+    sections.append(_model_section(md))
+    return _page(title, sections)

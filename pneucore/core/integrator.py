@@ -1,0 +1,853 @@
+"""Event-exact stiff integration of the actuator model (compiled with numba).
+
+Method: RODAS4, the 6-stage, order-4(3), L-stable and stiffly accurate
+Rosenbrock method of Hairer & Wanner (Solving ODEs II, 2nd ed., 1996,
+Sect. IV.7), with a finite-difference Jacobian refreshed every step and
+step-size control on the embedded error estimate. L-stability matters here:
+near pressure equilibrium the laminar branch of the valve law and a small
+dead volume give chamber eigenvalues of 1e4-1e5 1/s, which an explicit
+method could only follow with tiny steps.
+
+Discontinuities are events, as the paper's ACSL "schedule" back-step:
+
+* command breakpoints: the step is cut to land on them exactly;
+* stick to slip: net force crosses the static friction limit;
+* slip to stick (or reversal): velocity crosses zero;
+* end-stop hits: position reaches 0 or the stroke (inelastic stop).
+
+State events are located on the cubic Hermite interpolant of the step by
+the Illinois method to ``EVENT_TOL`` seconds, then the step is redone
+exactly from its start to the event time (the back-step) before the mode
+changes. Within one mode the equations are smooth.
+
+Compile options, chosen by measurement (``benchmarks/bench_simulator.py``):
+
+* every function below :func:`integrate` is compiled without numba's
+  reference-counting runtime (``_nrt=False``): none allocates, and with the
+  runtime each array argument of each call costs an atomic increment and
+  decrement; only :func:`integrate` allocates its work arrays, and the
+  user-effect layer :func:`pneucore.core.rhs.call_user_terms` keeps the runtime
+  (a user's terms may allocate; callees inherit the caller's setting);
+* small functions called with several arrays from hot loops (the LU
+  factorisation and solve, the Hermite interpolant, the event functions and
+  the valve edge in :mod:`pneucore.core.rhs`) are inlined at numba IR level
+  (``inline="always"``): an array argument is passed as seven machine words,
+  and these calls cost more than the work they do. Inlining the right-hand
+  side itself, or ``_feval``, was slower and compiled longer.
+
+Together these took the pulse benchmark from 1.22 to 0.54 ms per simulated
+second (the integration core alone from 1.00 to 0.35 ms).
+
+The first compile (numba's cache empty) is cut by compiling less, never
+different code (results are bit-for-bit those of the wrapped build):
+
+* the functions below :func:`integrate` are compiled without numba's CPython
+  and C-callable wrappers (``no_cpython_wrapper``, ``no_cfunc_wrapper``): only
+  compiled code calls them. The right-hand side and the component laws are
+  public, so the core calls wrapper-less copies of them
+  (:func:`_without_wrappers`);
+* integer counters first assigned a constant are typed ``int64`` up front
+  (``locals``), so no callee is compiled a second time for a literal type.
+
+Together about 20 % less CPU time for the first compile (12.5 to 9.9 s on
+average over three pairs on the shared 2-core machine, load 7-11;
+``benchmarks/bench_cold_start.py``).
+"""
+import math
+
+import numpy as np
+from numba import jit, njit, types
+
+from pneucore.core import layout as L
+from pneucore.physics.chamber import chamber_pressure
+from pneucore.physics.friction import coulomb_level
+from pneucore.physics.jack import chamber_volumes, net_pressure_force
+from pneucore.core.rhs import rhs
+from numba.core.registry import CPUDispatcher
+
+
+def _code_names(code):
+    """Global names a code object (and the code objects nested in it) refers to."""
+    names = set(code.co_names)
+    for c in code.co_consts:
+        if hasattr(c, "co_names"):
+            names |= _code_names(c)
+    return names
+
+
+def _without_wrappers(dispatcher, memo):
+    """A copy of a compiled function, and of every compiled function it calls by a global
+    name, that numba compiles without its CPython and C-callable wrappers and without
+    its own on-disk cache entry.
+
+    The right-hand side and the component laws it calls (``flow``, ``chamber``, ...) are
+    public functions that Python code calls too, so they keep their wrappers; the core
+    only calls them from compiled code, where the wrappers (one more function to generate
+    and compile per law) and the per-function cache entries are dead weight: about 30
+    functions of the first compile. The compiled code itself is unchanged (the cached
+    :func:`integrate` carries its callees). Memoised in ``memo`` so that a law called from
+    several places is copied once.
+    """
+    import types as pytypes
+
+    if dispatcher in memo:
+        return memo[dispatcher]
+    f = dispatcher.py_func
+    glb = dict(f.__globals__)
+    opts = {k: v for k, v in dispatcher.targetoptions.items() if k != "cache"}
+    opts.update(no_cpython_wrapper=True, no_cfunc_wrapper=True)
+    copy = jit(**opts)(pytypes.FunctionType(f.__code__, glb, f.__name__, f.__defaults__,
+                                            f.__closure__))
+    memo[dispatcher] = copy
+    for name in _code_names(f.__code__):
+        value = glb.get(name)
+        if isinstance(value, CPUDispatcher):
+            glb[name] = _without_wrappers(value, memo)
+    return copy
+
+
+_COPIES = {}
+rhs, chamber_pressure, coulomb_level, chamber_volumes, net_pressure_force = (
+    _without_wrappers(d, _COPIES)
+    for d in (rhs, chamber_pressure, coulomb_level, chamber_volumes, net_pressure_force))
+
+#: Event location tolerance on time [s] (the contract is 1e-6 s)
+EVENT_TOL = 1e-9
+
+# RODAS4 coefficients in the W-transformed form (Hairer & Wanner; as in KPP's
+# Rosenbrock integrator): G = 1/(h gamma) - J;
+# G K_i = f(t + alpha_i h, y + sum_j A_ij K_j) + sum_j C_ij / h K_j + gamma_i h f_t;
+# y_new = y + sum_i M_i K_i; error estimate = K_6.
+_GAMMA = 0.25
+_ALPHA = np.array([0.0, 0.386, 0.210, 0.630, 1.0, 1.0])
+_GAMMAS = np.array([0.25, -0.1043, 0.1035, -0.3620000000000023e-01, 0.0, 0.0])
+_A = np.zeros((6, 6))
+_A[1, 0] = 1.544
+_A[2, 0] = 0.9466785280815826
+_A[2, 1] = 0.2557011698983284
+_A[3, 0] = 3.314825187068521
+_A[3, 1] = 2.896124015972201
+_A[3, 2] = 0.9986419139977817
+_A[4, 0] = 1.221224509226641
+_A[4, 1] = 6.019134481288629
+_A[4, 2] = 12.53708332932087
+_A[4, 3] = -0.6878860361058950
+_A[5, 0:4] = _A[4, 0:4]
+_A[5, 4] = 1.0
+_C = np.zeros((6, 6))
+_C[1, 0] = -5.6688
+_C[2, 0] = -2.430093356833875
+_C[2, 1] = -0.2063599157091915
+_C[3, 0] = -0.1073529058151375
+_C[3, 1] = -9.594562251023355
+_C[3, 2] = -20.47028614809616
+_C[4, 0] = 7.496443313967647
+_C[4, 1] = -10.24680431464352
+_C[4, 2] = -33.99990352819905
+_C[4, 3] = 11.70890893206160
+_C[5, 0] = 8.083246795921522
+_C[5, 1] = -7.981132988064893
+_C[5, 2] = -31.52159432874371
+_C[5, 3] = 16.31930543123136
+_C[5, 4] = -6.058818238834054
+_M = np.array([1.221224509226641, 6.019134481288629, 12.53708332932087,
+               -0.6878860361058950, 1.0, 1.0])
+
+#: Decorator of the functions below :func:`integrate`: cached, no reference-counting
+#: runtime, and no CPython or C-callable wrapper (they are only called from compiled
+#: code; each wrapper is one more function to generate and compile, about 1.3 s of
+#: the first call over all of them)
+_internal = njit(cache=True, error_model="numpy", _nrt=False, no_cpython_wrapper=True,
+                 no_cfunc_wrapper=True)
+#: The same, inlined at numba IR level into each caller
+_inline = njit(cache=True, error_model="numpy", _nrt=False, no_cpython_wrapper=True,
+               no_cfunc_wrapper=True, inline="always")
+
+# status codes returned by :func:`integrate`
+OK, ERR_MAX_STEPS, ERR_STEP_UNDERFLOW, ERR_EVENTS_OVERFLOW, ERR_NONPHYSICAL, ERR_CHATTER = range(6)
+STATUS_MESSAGES = (
+    "ok",
+    "the solver exceeded its maximum number of steps (solver.max_steps)",
+    "the step size fell below its minimum: the model is too stiff or discontinuous here",
+    "too many events (more than solver.max_events stick/slip/stop/command events)",
+    "a chamber reached a non-physical state (mass or temperature <= 0, or not finite)",
+    "stick/slip chattering: mode changes without the time advancing",
+)
+# statistics slots
+ST_STEPS, ST_REJECTED, ST_FEVALS, ST_JACOBIANS, ST_EVENTS, ST_BACKSTEPS = range(6)
+N_STATS = 6
+
+
+@_internal
+def command_segment(t, cmd_t, cmd_u, linear):
+    """Command segment containing ``t``: (start time, value at start, slope, end time).
+
+    ``hold``: value ``cmd_u[k]`` from ``cmd_t[k]`` to ``cmd_t[k+1]``;
+    ``linear``: straight line between breakpoints. Before the first breakpoint
+    the first value holds; after the last, the last value.
+    """
+    n = cmd_t.shape[0]
+    k = 0
+    while k + 1 < n and cmd_t[k + 1] <= t:
+        k += 1
+    if t < cmd_t[0]:
+        return t, cmd_u[0], 0.0, cmd_t[0]
+    if k + 1 >= n:
+        return cmd_t[k], cmd_u[k], 0.0, np.inf
+    slope = 0.0
+    if linear:
+        slope = (cmd_u[k + 1] - cmd_u[k]) / (cmd_t[k + 1] - cmd_t[k])
+    return cmd_t[k], cmd_u[k], slope, cmd_t[k + 1]
+
+
+@_inline
+def _lu_factor(A, piv, dinv, n):
+    """In-place LU factorisation with partial pivoting; ``dinv`` gets the inverse pivots.
+
+    Returns False if the matrix is singular or not finite. (The inverse
+    pivots turn the back substitution's divisions into products: a 6x6 system
+    is solved six times per step, and divisions dominated its cost.)
+    """
+    for k in range(n):
+        p = k
+        amax = abs(A[k, k])
+        for i in range(k + 1, n):
+            if abs(A[i, k]) > amax:
+                amax = abs(A[i, k])
+                p = i
+        piv[k] = p
+        if amax == 0.0 or not math.isfinite(amax):
+            return False
+        if p != k:
+            for j in range(n):
+                tmp = A[k, j]
+                A[k, j] = A[p, j]
+                A[p, j] = tmp
+        inv = 1.0 / A[k, k]
+        dinv[k] = inv
+        for i in range(k + 1, n):
+            A[i, k] *= inv
+            f = A[i, k]
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    A[i, j] -= f * A[k, j]
+    return True
+
+
+@_inline
+def _lu_solve(A, piv, dinv, b, n):
+    """Solve ``A x = b`` in place with the factors of :func:`_lu_factor`."""
+    for k in range(n):
+        p = piv[k]
+        if p != k:
+            tmp = b[k]
+            b[k] = b[p]
+            b[p] = tmp
+    for i in range(n):
+        s = b[i]
+        for j in range(i):
+            s -= A[i, j] * b[j]
+        b[i] = s
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for j in range(i + 1, n):
+            s -= A[i, j] * b[j]
+        b[i] = s * dinv[i]
+
+
+@_internal
+def _feval(t, y, mode, seg_t0, seg_u0, seg_slope, model, dy, aux):
+    prm, iy, tx, tC, tb, tm, toff, prm_user, scratch = model
+    u = seg_u0 + seg_slope * (t - seg_t0)
+    rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux)
+
+
+@_inline
+def _hermite(theta, h, y0, f0, y1, f1, out):
+    t2 = theta * theta
+    t3 = t2 * theta
+    h10 = t3 - 2.0 * t2 + theta
+    h01 = -2.0 * t3 + 3.0 * t2
+    h11 = t3 - t2
+    # written as y0 + h01 (y1 - y0) + ...: exact when the state is constant (h00 + h01 = 1)
+    for i in range(y0.shape[0]):
+        out[i] = y0[i] + h01 * (y1[i] - y0[i]) + h10 * h * f0[i] + h11 * h * f1[i]
+
+
+@_internal
+def _rodas_step(t, y, h, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
+                ynew, err, K, W, piv, dinv, ytmp, ftmp, aux, stats):
+    """One RODAS4 step of size h from (t, y); returns False if W is singular or the result is not finite."""
+    n = y.shape[0]
+    hinv = 1.0 / h
+    fac = hinv / _GAMMA
+    for i in range(n):
+        for j in range(n):
+            W[i, j] = -J[i, j]
+        W[i, i] += fac
+    if not _lu_factor(W, piv, dinv, n):
+        return False
+    for s in range(6):
+        if s == 0:
+            for i in range(n):
+                ftmp[i] = f0[i]
+        else:
+            for i in range(n):
+                acc = y[i]
+                for j in range(s):
+                    acc += _A[s, j] * K[j, i]
+                ytmp[i] = acc
+            _feval(t + _ALPHA[s] * h, ytmp, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+            stats[ST_FEVALS] += 1
+        for i in range(n):
+            acc = ftmp[i] + _GAMMAS[s] * h * ft[i]
+            for j in range(s):
+                acc += _C[s, j] * hinv * K[j, i]
+            K[s, i] = acc
+        _lu_solve(W, piv, dinv, K[s], n)
+    for i in range(n):
+        acc = y[i]
+        for s in range(6):
+            acc += _M[s] * K[s, i]
+        ynew[i] = acc
+        err[i] = K[5, i]
+        if not math.isfinite(acc):
+            return False
+    return True
+
+
+@_internal
+def _frozen(j, mode, prm):
+    """True when state ``j`` has a structurally zero derivative in this mode.
+
+    Its Jacobian column can then be skipped: the stage increments of a frozen
+    state are exactly zero, so the column never multiplies anything.
+    """
+    if (j == L.Y_X or j == L.Y_V) and mode != L.MODE_SLIDE_POS and mode != L.MODE_SLIDE_NEG:
+        return True
+    if (j == L.Y_MB or j == L.Y_TB) and prm[L.P_B_CONST] > 0.0:
+        return True
+    if (j == L.Y_TA or j == L.Y_TB) and prm[L.P_ISOTHERMAL] > 0.0:
+        return True
+    return False
+
+
+@_internal
+def _jacobian(t, y, f0, mode, seg_t0, seg_u0, seg_slope, model, scale, J, ft,
+              ytmp, ftmp, aux, stats):
+    """Forward-difference Jacobian, skipping the columns of frozen states."""
+    n = y.shape[0]
+    prm = model[0]
+    for j in range(n):
+        if _frozen(j, mode, prm):
+            for i in range(n):
+                J[i, j] = 0.0
+            continue
+        yj = y[j]
+        d = 1.5e-8 * max(abs(yj), scale[j])
+        for i in range(n):
+            ytmp[i] = y[i]
+        ytmp[j] = yj + d
+        dinv = 1.0 / (ytmp[j] - yj)
+        _feval(t, ytmp, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+        stats[ST_FEVALS] += 1
+        for i in range(n):
+            J[i, j] = (ftmp[i] - f0[i]) * dinv
+    if seg_slope != 0.0:
+        dt = 1.5e-8 * max(abs(t), 1e-3)
+        _feval(t + dt, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+        dtinv = 1.0 / dt
+        for i in range(n):
+            ft[i] = (ftmp[i] - f0[i]) * dtinv
+        stats[ST_FEVALS] += 1
+    else:
+        for i in range(n):
+            ft[i] = 0.0
+    stats[ST_JACOBIANS] += 1
+
+
+@_internal
+def _rest_forces(y, prm, aux):
+    """Net force and static limits of a resting piston from the state alone (no valve flows).
+
+    Fills ``aux[AUX_FNET]``, ``aux[AUX_FS_E]``, ``aux[AUX_FS_R]`` as the full
+    right-hand side would (Eq. 17 and 20), at a fraction of its cost; used by
+    the event probes when no user effect adds a force.
+    """
+    r = prm[L.P_R]
+    p_atm = prm[L.P_ATM]
+    V_a, V_b = chamber_volumes(y[L.Y_X], prm[L.P_A_A], prm[L.P_A_B], prm[L.P_STROKE],
+                               prm[L.P_V0_A], prm[L.P_V0_B])
+    p_a = chamber_pressure(y[L.Y_MA], y[L.Y_TA], V_a, r)
+    if prm[L.P_B_CONST] > 0.0:
+        p_b = prm[L.P_B_CONST]
+    else:
+        p_b = chamber_pressure(y[L.Y_MB], y[L.Y_TB], V_b, r)
+    aux[L.AUX_FNET] = net_pressure_force(p_a, p_b, p_atm, prm[L.P_A_A], prm[L.P_A_B],
+                                         prm[L.P_A_ROD_A], prm[L.P_A_ROD_B], prm[L.P_LOAD])
+    ratio = prm[L.P_STRIBECK_RATIO]
+    aux[L.AUX_FS_E] = ratio * coulomb_level(prm[L.P_FE_FC0], prm[L.P_FE_FCA], prm[L.P_FE_FCB],
+                                            p_a, p_b, p_atm)
+    aux[L.AUX_FS_R] = ratio * coulomb_level(prm[L.P_FR_FC0], prm[L.P_FR_FCA], prm[L.P_FR_FCB],
+                                            p_a, p_b, p_atm)
+
+
+@_internal
+def _resting_aux(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux):
+    """Net force and static limits of a resting piston into ``aux``.
+
+    From the state alone (:func:`_rest_forces`) unless a user effect adds
+    terms, whose force only the full right-hand side knows.
+    """
+    if model[1][L.IY_HOOK] > 0:
+        _feval(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+    else:
+        _rest_forces(y, model[0], aux)
+
+
+@_inline
+def _event_values(mode, y, aux, stroke, out):
+    """Event functions of the current mode; an event fires when one becomes > 0."""
+    out[0] = -np.inf
+    out[1] = -np.inf
+    if mode == L.MODE_STICK or mode == L.MODE_STOP_LOW:
+        out[0] = aux[L.AUX_FNET] - aux[L.AUX_FS_E]          # release towards +x
+    if mode == L.MODE_STICK or mode == L.MODE_STOP_HIGH:
+        out[1] = -aux[L.AUX_FNET] - aux[L.AUX_FS_R]         # release towards -x
+    if mode == L.MODE_SLIDE_POS:
+        out[0] = -y[L.Y_V]                                   # velocity reaches zero
+        out[1] = y[L.Y_X] - stroke                           # end stop at the stroke
+    elif mode == L.MODE_SLIDE_NEG:
+        out[0] = y[L.Y_V]
+        out[1] = -y[L.Y_X]                                   # end stop at x = 0
+
+
+@_internal
+def _needs_aux(mode):
+    return mode == L.MODE_STICK or mode == L.MODE_STOP_LOW or mode == L.MODE_STOP_HIGH
+
+
+@_internal
+def _record(ev_t, ev_kind, ev_mode, n_ev, t, kind, mode):
+    if n_ev < ev_t.shape[0]:
+        ev_t[n_ev] = t
+        ev_kind[n_ev] = kind
+        ev_mode[n_ev] = mode
+    return n_ev + 1
+
+
+@_internal
+def _settle(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux, ev_t, ev_kind, ev_mode, n_ev):
+    """Leave a resting mode at once if the net force already exceeds the static limit."""
+    if _needs_aux(mode):
+        _resting_aux(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+        F = aux[L.AUX_FNET]
+        if (mode == L.MODE_STICK or mode == L.MODE_STOP_LOW) and F > aux[L.AUX_FS_E]:
+            y[L.Y_V] = 0.0
+            return L.MODE_SLIDE_POS, _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_SLIP, L.MODE_SLIDE_POS)
+        if (mode == L.MODE_STICK or mode == L.MODE_STOP_HIGH) and -F > aux[L.AUX_FS_R]:
+            y[L.Y_V] = 0.0
+            return L.MODE_SLIDE_NEG, _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_SLIP, L.MODE_SLIDE_NEG)
+    return mode, n_ev
+
+
+@_internal
+def _transition(t, y, mode, k, stroke, seg_t0, seg_u0, seg_slope, model, ftmp, aux,
+                ev_t, ev_kind, ev_mode, n_ev):
+    """Apply the mode change of event ``k`` fired in ``mode``; returns (new mode, n_ev)."""
+    if mode == L.MODE_STICK or mode == L.MODE_STOP_LOW or mode == L.MODE_STOP_HIGH:
+        new = L.MODE_SLIDE_POS if k == 0 else L.MODE_SLIDE_NEG
+        y[L.Y_V] = 0.0
+        return new, _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_SLIP, new)
+    if k == 1:
+        # end stop: inelastic, the piston stays until the net force pulls it away
+        y[L.Y_V] = 0.0
+        if mode == L.MODE_SLIDE_POS:
+            y[L.Y_X] = stroke
+            new = L.MODE_STOP_HIGH
+        else:
+            y[L.Y_X] = 0.0
+            new = L.MODE_STOP_LOW
+        n_ev = _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_STOP, new)
+        return _settle(t, y, new, seg_t0, seg_u0, seg_slope, model, ftmp, aux,
+                       ev_t, ev_kind, ev_mode, n_ev)
+    # velocity reached zero: stick if the net force is within the static limit
+    y[L.Y_V] = 0.0
+    _resting_aux(t, y, L.MODE_STICK, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+    F = aux[L.AUX_FNET]
+    if mode == L.MODE_SLIDE_POS and -F > aux[L.AUX_FS_R]:
+        return L.MODE_SLIDE_NEG, _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_REVERSE, L.MODE_SLIDE_NEG)
+    if mode == L.MODE_SLIDE_NEG and F > aux[L.AUX_FS_E]:
+        return L.MODE_SLIDE_POS, _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_REVERSE, L.MODE_SLIDE_POS)
+    return L.MODE_STICK, _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_STICK, L.MODE_STICK)
+
+
+@_internal
+def _event_at(theta, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u0, seg_slope,
+              model, ytmp, ftmp, aux, ev):
+    _hermite(theta, h, y0, f0, y1, f1, ytmp)
+    if _needs_aux(mode):
+        _resting_aux(t0 + theta * h, ytmp, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+    _event_values(mode, ytmp, aux, stroke, ev)
+    return ev[k]
+
+
+# Counters and indices typed as plain int64: a variable first assigned a constant
+# (``n_ev = 0``, ``k_ev = -1``) would otherwise be typed as a literal and have every
+# callee it reaches compiled once more for that literal (four extra compiles, ~2 s of
+# the first call).
+_INT_LOCALS = {"n_ev": types.int64, "k_ev": types.int64, "k0": types.int64}
+
+
+@njit(cache=True, nogil=True, error_model="numpy", locals=_INT_LOCALS)
+def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
+              h_max, h_init, max_steps, y_out, aux_out, mode_out, u_out,
+              ev_t, ev_kind, ev_mode, stats):
+    """Integrate from t = 0 to ``t_end`` and sample at ``t_out``.
+
+    Parameters
+    ----------
+    y0 : ndarray
+        Initial state (copied)
+    mode0 : int
+        Initial piston mode (``layout.MODE_*``); resting modes are
+        released at once if the force allows
+    model : tuple
+        ``(prm, iy, tx, tC, tb, tm, toff, prm_user, scratch)``, see :mod:`pneucore.core.rhs`
+    cmd_t, cmd_u : ndarray
+        Command breakpoints [s], [-]
+    linear : bool
+        Linear interpolation of the command (else zero-order hold)
+    t_end : float
+        End time [s]
+    t_out : ndarray
+        Increasing sample times in [0, t_end] [s]
+    rtol : float
+        Relative tolerance [-]
+    atol : ndarray
+        Absolute tolerance per state (state units)
+    h_max, h_init : float
+        Largest and first step [s]
+    max_steps : int
+        Step budget
+    y_out, aux_out, mode_out, u_out : ndarray
+        Outputs at ``t_out``
+    ev_t, ev_kind, ev_mode : ndarray
+        Event log (time [s], ``layout.EV_*``, mode after)
+    stats : ndarray of int
+        Solver statistics (``ST_*`` slots)
+
+    Returns
+    -------
+    status : int
+        ``OK`` or an ``ERR_*`` code (see ``STATUS_MESSAGES``)
+    n_events : int
+        Number of events (may exceed the log size on overflow)
+    t_reached : float
+        Time reached [s]
+    """
+    prm = model[0]
+    n = y0.shape[0]
+    stroke = prm[L.P_STROKE]
+    y = y0.copy()
+    y1 = np.empty(n)
+    yh = np.empty(n)
+    err = np.empty(n)
+    f0 = np.empty(n)
+    f1 = np.empty(n)
+    ftmp = np.empty(n)
+    ytmp = np.empty(n)
+    ysave = np.empty(n)
+    K = np.empty((6, n))
+    J = np.empty((n, n))
+    W = np.empty((n, n))
+    ft = np.zeros(n)
+    piv = np.empty(n, np.int64)
+    dinv = np.empty(n)
+    aux = np.zeros(L.N_AUX)
+    ev = np.empty(2)
+    ev0 = np.empty(2)
+    ev1 = np.empty(2)
+    scale = np.empty(n)
+    for i in range(n):
+        scale[i] = atol[i] / rtol
+
+    t = 0.0
+    n_out = t_out.shape[0]
+    k_out = 0
+    n_ev = 0
+    h = h_init
+    mode = mode0
+    seg_t0, seg_u0, seg_slope, seg_end = command_segment(t, cmd_t, cmd_u, linear)
+    mode, n_ev = _settle(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux,
+                         ev_t, ev_kind, ev_mode, n_ev)
+    fresh = True          # f0 must be recomputed (start, event, command switch)
+    stuck_count = 0
+    max_events = ev_t.shape[0]
+    hmin_rel = 1e-13
+
+    while True:
+        # samples at the current time (also t = 0)
+        if fresh:
+            _feval(t, y, mode, seg_t0, seg_u0, seg_slope, model, f0, aux)
+            stats[ST_FEVALS] += 1
+            fresh = False
+        # (sample writing is written out in the three places: a helper taking the output
+        # arrays costs ~0.1 ms per simulated second in call overhead)
+        while k_out < n_out and t_out[k_out] <= t:
+            for i in range(n):
+                y_out[k_out, i] = y[i]
+            _feval(t_out[k_out], y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+            for i in range(L.N_AUX):
+                aux_out[k_out, i] = aux[i]
+            mode_out[k_out] = mode
+            u_out[k_out] = seg_u0 + seg_slope * (t_out[k_out] - seg_t0)
+            k_out += 1
+        if t >= t_end:
+            break
+        if stats[ST_STEPS] + stats[ST_REJECTED] >= max_steps:
+            return ERR_MAX_STEPS, n_ev, t
+        if n_ev >= max_events:
+            return ERR_EVENTS_OVERFLOW, n_ev, t
+
+        t_stop = min(seg_end, t_end)
+        hh = min(h, h_max, t_stop - t)
+        last = False
+        if t + hh >= t_stop * (1.0 - 1e-15) or t_stop - (t + hh) < 1e-12:
+            hh = t_stop - t
+            last = True
+
+        _jacobian(t, y, f0, mode, seg_t0, seg_u0, seg_slope, model, scale, J, ft,
+                  ytmp, ftmp, aux, stats)
+        # --- attempt steps until one is accepted --------------------------------
+        while True:
+            ok = _rodas_step(t, y, hh, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
+                             y1, err, K, W, piv, dinv, ytmp, ftmp, aux, stats)
+            enorm = np.inf
+            if ok and y1[L.Y_MA] > 0.0 and y1[L.Y_TA] > 0.0 and y1[L.Y_MB] > 0.0 and y1[L.Y_TB] > 0.0:
+                s = 0.0
+                for i in range(n):
+                    sc = atol[i] + rtol * max(abs(y[i]), abs(y1[i]))
+                    e = err[i] / sc
+                    s += e * e
+                enorm = math.sqrt(s / n)
+            if enorm <= 1.0:
+                break
+            stats[ST_REJECTED] += 1
+            if stats[ST_STEPS] + stats[ST_REJECTED] >= max_steps:
+                return ERR_MAX_STEPS, n_ev, t
+            if math.isfinite(enorm):
+                hh *= max(0.2, 0.9 * enorm ** -0.25)
+            else:
+                hh *= 0.25
+            last = False
+            if hh < hmin_rel * max(1.0, t):
+                if not ok or not math.isfinite(enorm):
+                    return ERR_NONPHYSICAL, n_ev, t
+                return ERR_STEP_UNDERFLOW, n_ev, t
+        stats[ST_STEPS] += 1
+        if enorm > 0.0:
+            fac = min(6.0, max(0.2, 0.9 * enorm ** -0.25))
+        else:
+            fac = 6.0
+        h_next = hh * fac
+        t1 = t_stop if last else t + hh
+        _feval(t1, y1, mode, seg_t0, seg_u0, seg_slope, model, f1, aux)
+        stats[ST_FEVALS] += 1
+
+        # --- state events within (t, t1] -----------------------------------------
+        k_ev = -1
+        k0 = 0
+        th_best = 2.0
+        if mode != L.MODE_LOCKED:
+            _event_at(0.0, k0, mode, hh, y, f0, y1, f1, t, stroke, seg_t0, seg_u0, seg_slope,
+                      model, ytmp, ftmp, aux, ev0)
+            # probe the end and two interior points so a brief excursion is not missed
+            for probe in range(3):
+                theta_p = (probe + 1) / 3.0
+                _event_at(theta_p, k0, mode, hh, y, f0, y1, f1, t, stroke, seg_t0, seg_u0,
+                          seg_slope, model, ytmp, ftmp, aux, ev1)
+                for k in range(2):
+                    if ev1[k] > 0.0 and ev0[k] <= 0.0 and k_ev < 0:
+                        # bracket [theta_p - 1/3, theta_p]: Illinois on the interpolant
+                        lo = theta_p - 1.0 / 3.0
+                        hi = theta_p
+                        g_lo = _event_at(lo, k, mode, hh, y, f0, y1, f1, t, stroke, seg_t0,
+                                         seg_u0, seg_slope, model, ytmp, ftmp, aux, ev)
+                        g_hi = ev1[k]
+                        if g_lo > 0.0:
+                            lo = 0.0
+                            g_lo = ev0[k]
+                        side = 0
+                        while (hi - lo) * hh > EVENT_TOL:
+                            if g_hi != g_lo:
+                                mid = hi - g_hi * (hi - lo) / (g_hi - g_lo)
+                            else:
+                                mid = 0.5 * (lo + hi)
+                            if not (lo < mid < hi):
+                                mid = 0.5 * (lo + hi)
+                            # keep the bracket shrinking geometrically
+                            if (hi - lo) * hh > 1e3 * EVENT_TOL and side != 0 and side % 4 == 0:
+                                mid = 0.5 * (lo + hi)
+                            g_mid = _event_at(mid, k, mode, hh, y, f0, y1, f1, t, stroke, seg_t0,
+                                              seg_u0, seg_slope, model, ytmp, ftmp, aux, ev)
+                            if g_mid > 0.0:
+                                hi = mid
+                                g_hi = g_mid
+                                g_lo *= 0.5 if side < 0 else 1.0
+                                side = -1 if side >= 0 else side - 1
+                            else:
+                                lo = mid
+                                g_lo = g_mid
+                                g_hi *= 0.5 if side > 0 else 1.0
+                                side = 1 if side <= 0 else side + 1
+                            if side > 1000 or side < -1000:
+                                break
+                        if hi < th_best:
+                            th_best = hi
+                            k_ev = k
+                if k_ev >= 0:
+                    break
+
+        if k_ev >= 0:
+            # samples strictly before the event come from this step's interpolant
+            t_ev = t + th_best * hh
+            while k_out < n_out and t_out[k_out] < t_ev:
+                theta = (t_out[k_out] - t) / hh
+                _hermite(theta, hh, y, f0, y1, f1, ytmp)
+                for i in range(n):
+                    y_out[k_out, i] = ytmp[i]
+                _feval(t_out[k_out], ytmp, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+                for i in range(L.N_AUX):
+                    aux_out[k_out, i] = aux[i]
+                mode_out[k_out] = mode
+                u_out[k_out] = seg_u0 + seg_slope * (t_out[k_out] - seg_t0)
+                k_out += 1
+            # back-step: redo the step exactly from t to the event time
+            hb = t_ev - t
+            for i in range(n):
+                ysave[i] = y[i]
+            ok = False
+            if hb > 0.0:
+                ok = _rodas_step(t, ysave, hb, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
+                                 yh, err, K, W, piv, dinv, ytmp, ftmp, aux, stats)
+                stats[ST_BACKSTEPS] += 1
+            if not ok:
+                _hermite(th_best, hh, y, f0, y1, f1, yh)
+            for i in range(n):
+                y[i] = yh[i]
+            t = t_ev
+            if hb <= 10.0 * EVENT_TOL:
+                stuck_count += 1
+                if stuck_count > 1000:
+                    return ERR_CHATTER, n_ev, t
+            else:
+                stuck_count = 0
+            # confirm on the exact state (interpolant and exact step may differ slightly)
+            if _needs_aux(mode):
+                _resting_aux(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+            _event_values(mode, y, aux, stroke, ev)
+            n_before = n_ev
+            if ev[k_ev] > -1e-9 * (1.0 + abs(aux[L.AUX_FNET])) or mode == L.MODE_SLIDE_POS \
+                    or mode == L.MODE_SLIDE_NEG:
+                mode, n_ev = _transition(t, y, mode, k_ev, stroke, seg_t0, seg_u0, seg_slope, model,
+                                         ftmp, aux, ev_t, ev_kind, ev_mode, n_ev)
+            if n_ev > n_before:
+                stats[ST_EVENTS] += n_ev - n_before
+            fresh = True
+            h = max(min(hh, h_next), 1e-7)
+            continue
+
+        # --- accepted step without state event: samples in (t, t1] --------------------
+        # (a sample exactly at a command breakpoint is taken after the switch: the
+        # command is right-continuous, u(t_k) = u_k)
+        at_switch = last and t_stop == seg_end and t_stop < t_end
+        while k_out < n_out and (t_out[k_out] < t1 or (t_out[k_out] == t1 and not at_switch)):
+            theta = (t_out[k_out] - t) / (t1 - t)
+            _hermite(theta, t1 - t, y, f0, y1, f1, ytmp)
+            for i in range(n):
+                y_out[k_out, i] = ytmp[i]
+            _feval(t_out[k_out], ytmp, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+            for i in range(L.N_AUX):
+                aux_out[k_out, i] = aux[i]
+            mode_out[k_out] = mode
+            u_out[k_out] = seg_u0 + seg_slope * (t_out[k_out] - seg_t0)
+            k_out += 1
+        stuck_count = 0
+        for i in range(n):
+            y[i] = y1[i]
+            f0[i] = f1[i]
+        t = t1
+        if not last or t_stop < seg_end:
+            h = h_next
+        else:
+            h = max(h_next, hh)
+        if last and t_stop == seg_end and t < t_end:
+            # command breakpoint: new segment, log a switch if the value jumps
+            u_left = seg_u0 + seg_slope * (t - seg_t0)
+            seg_t0, seg_u0, seg_slope, seg_end = command_segment(t, cmd_t, cmd_u, linear)
+            if seg_u0 != u_left:
+                n_ev = _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_COMMAND, mode)
+                stats[ST_EVENTS] += 1
+                h = min(h, 1e-4)
+            fresh = True
+            mode, n_ev = _settle(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux,
+                                 ev_t, ev_kind, ev_mode, n_ev)
+    return OK, n_ev, t
+
+
+_SPECIALIZED = {}
+
+
+def _clone(dispatcher, glb):
+    """A new dispatcher of ``dispatcher``'s Python function bound to the globals ``glb``.
+
+    It keeps the original's compile options (notably ``_nrt=False``) except the
+    on-disk cache: the clone's globals are not those of its source file.
+    """
+    import types
+
+    f = dispatcher.py_func
+    opts = {k: v for k, v in dispatcher.targetoptions.items() if k != "cache"}
+    return jit(**opts)(types.FunctionType(f.__code__, glb, f.__name__, f.__defaults__,
+                                          f.__closure__))
+
+
+def specialize(hook):
+    """A compiled copy of :func:`integrate` whose right-hand side calls ``hook`` for user terms.
+
+    The default core (``rhs.user_terms = no_terms``) is compiled once and
+    cached on disk. A model with user-registered effects needs the same code
+    with the hook rebound: every function of the call chain is re-created
+    with a globals dict in which ``user_terms`` is the user's hook and each
+    chain function refers to its clone. Compiled in memory on first use
+    (a few seconds), memoised per hook.
+
+    Parameters
+    ----------
+    hook : numba dispatcher
+        ``hook(t, y, sig, prm_user, terms, dy)``
+
+    Returns
+    -------
+    integrate : numba dispatcher
+        Same signature as :func:`integrate`
+    """
+    from pneucore.core import rhs as rhs_module
+
+    if hook in _SPECIALIZED:
+        return _SPECIALIZED[hook]
+    # the rhs module's own names: the component laws as published, each cached on disk
+    # (a process that loaded the default core from the cache has not compiled the
+    # wrapper-less copies, and these would be compiled afresh in every process)
+    rhs_globals = dict(rhs_module.__dict__)
+    rhs_globals["user_terms"] = hook
+    rhs_globals["call_user_terms"] = _clone(rhs_module.call_user_terms, rhs_globals)
+    rhs_globals["rhs"] = _clone(rhs_module.rhs, rhs_globals)
+    glb = dict(globals())
+    glb["rhs"] = rhs_globals["rhs"]
+    for name in ("_feval", "_rodas_step", "_jacobian", "_resting_aux", "_settle", "_transition",
+                 "_event_at", "integrate"):
+        glb[name] = _clone(globals()[name], glb)
+    _SPECIALIZED[hook] = glb["integrate"]
+    return glb["integrate"]

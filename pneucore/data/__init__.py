@@ -1,0 +1,1 @@
+"""Measurements and the files rigs write: parsing, experiments, synthetic rigs, samples, exports."""

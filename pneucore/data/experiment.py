@@ -1,0 +1,254 @@
+"""An experiment: a measurement plus the scenario context it was recorded in.
+
+JSON shape::
+
+    {"name": "locked-hold",
+     "scenario": {"locked": true, "x0": 0.125},
+     "measurement": {"t": [...], "u": [...], "p_a": [...], "p_b": [...], "x": [...]},
+     "load_force": null, "supply_pressure": null}
+
+The time axis: **the model's t = 0 is the measurement's t = 0.** A record
+whose first sample is at 0.226 s is compared from 0.226 s on, with the
+model started at t = 0 (the first measured command is held back to t = 0).
+An explicit ``time_offset`` [s] moves the model's start to that measurement
+time (model time = measurement time - offset); it must not be after the first
+sample. A record that starts before t = 0 (a pre-trigger) starts the model
+at its first sample.
+
+The scenario's command defaults to the measured ``u`` (zero-order hold at
+the measured breakpoints) and its duration to the measurement's. An initial
+state given in the scenario (``initial``, ``x0``) applies at the model's
+t = 0. Missing initial pressures, temperatures and position are estimated
+from the first measured samples (:meth:`Experiment._first`), once per
+experiment: from the quiet samples before the first command change, never
+extrapolated across a transient and never outside the measured range.
+The model is run at the measurement's own (possibly irregular) sample times.
+"""
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from pneucore.data.measurement import Measurement, MeasurementError
+from pneucore.spec.scenario import Scenario
+from pneucore.simulate import simulate
+from pneucore.spec.validation import FieldError, known_keys, mapping, number
+
+#: A record may start at most this many record lengths after the model's t = 0 (the model
+#: simulates the time before the first sample); beyond, ``time_offset`` is asked for
+LEAD_LIMIT = 10.0
+
+#: Signals that can be compared with the model
+COMPARABLE = ("p_a", "p_b", "x", "v", "T_a", "T_b")
+
+
+@dataclass
+class Experiment:
+    """A measurement with its scenario context.
+
+    Parameters
+    ----------
+    measurement : Measurement
+        The recorded series (SI units)
+    scenario : dict
+        Scenario fields that override the defaults taken from the measurement
+    name : str
+        Label used in reports
+    load_force : float or None
+        External load during this experiment [N] (None = the model's)
+    supply_pressure : float or None
+        Supply pressure during this experiment [Pa abs] (None = the model's)
+    """
+    measurement: Measurement
+    scenario: dict = field(default_factory=dict)
+    name: str = ""
+    load_force: Optional[float] = None
+    supply_pressure: Optional[float] = None
+    dataset_id: Optional[str] = None
+    time_offset: Optional[float] = None
+    _first_cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    @classmethod
+    def from_dict(cls, d, path="experiment", ambient_pressure=101300.0, datasets=None):
+        """Build from plain JSON; ``datasets`` resolves a ``dataset_id`` to a measurement."""
+        if isinstance(d, Experiment):
+            return d
+        mapping(d, path)
+        known_keys(d, ("scenario", "measurement", "dataset_id", "name", "load_force",
+                       "supply_pressure", "time_offset"), path)
+        if d.get("measurement") is not None:
+            meas = d["measurement"]
+            if not isinstance(meas, Measurement):
+                try:
+                    meas = Measurement.from_dict(mapping(meas, f"{path}.measurement"),
+                                                 ambient_pressure=ambient_pressure)
+                except MeasurementError as exc:
+                    raise FieldError(f"{path}.measurement", str(exc)) from exc
+        elif d.get("dataset_id") is not None:
+            if datasets is None:
+                raise FieldError(f"{path}.dataset_id", "no dataset store is available here")
+            meas = datasets(d["dataset_id"])
+            if meas is None:
+                raise FieldError(f"{path}.dataset_id", f"unknown dataset {d['dataset_id']!r}")
+        else:
+            raise FieldError(f"{path}.measurement", "an experiment needs a measurement or a dataset_id")
+        scen = dict(mapping(d.get("scenario") or {}, f"{path}.scenario"))
+        load = number(d.get("load_force"), f"{path}.load_force", allow_none=True)
+        sup = number(d.get("supply_pressure"), f"{path}.supply_pressure", positive=True, allow_none=True)
+        offset = number(d.get("time_offset"), f"{path}.time_offset", allow_none=True)
+        if offset is not None and offset > float(meas.t[0]):
+            raise FieldError(f"{path}.time_offset",
+                             f"{offset:g} s is after the first sample ({float(meas.t[0]):g} s); the "
+                             "model must start at or before the first measured sample")
+        return cls(meas, scen, str(d.get("name") or meas.name or ""), load, sup,
+                   d.get("dataset_id") if d.get("measurement") is None else None, offset)
+
+    def to_dict(self):
+        d = {"name": self.name, "scenario": copy.deepcopy(self.scenario),
+             "measurement": self.measurement.to_dict(), "load_force": self.load_force,
+             "supply_pressure": self.supply_pressure}
+        if self.time_offset is not None:
+            d["time_offset"] = self.time_offset
+        return d
+
+    # ------------------------------------------------------------------
+    @property
+    def t0(self):
+        """Measurement time of the model's t = 0 [s].
+
+        ``time_offset`` when given, else 0 (the measurement's own t = 0), or
+        the first sample's time for a record starting before t = 0.
+        """
+        if self.time_offset is not None:
+            return float(self.time_offset)
+        return min(0.0, float(self.measurement.t[0]))
+
+    @property
+    def times(self):
+        """Sample times on the model's time axis, ``t - t0`` [s]."""
+        return self.measurement.t - self.t0
+
+    @property
+    def signals(self):
+        """Measured signals that the model predicts (``p_a``, ``p_b``, ``x``, ...)."""
+        return tuple(s for s in self.measurement.measured_signals if s in COMPARABLE)
+
+    def model_for(self, model):
+        """The model with this experiment's load and supply pressure applied."""
+        if self.load_force is None and self.supply_pressure is None:
+            return model
+        m = model.copy()
+        if self.load_force is not None:
+            m.jack.load_force = self.load_force
+        if self.supply_pressure is not None:
+            m.supply.pressure = self.supply_pressure
+        return m
+
+    def _first(self, name, max_window=200):
+        """Initial value of a signal, estimated from the quiet samples at the start.
+
+        The window is the samples before the command first changes (at most
+        ``max_window``). A straight line fitted to it and evaluated at the
+        first sample averages the noise without being biased by a slow drift
+        (a leak). A transient inside the window (the chamber filling from the
+        first sample on) is no straight line: while the line's residual RMS
+        exceeds twice the noise (estimated from successive differences,
+        ``sqrt(mean(diff^2) / 2)``, which is the noise's standard deviation
+        for white noise), the window is halved. The estimate is clipped to
+        the range of the samples it came from, so it never extrapolates
+        beyond what was measured (a pressure stays positive). Computed once
+        per experiment and signal (replays reuse it).
+        """
+        if name in self._first_cache:
+            return self._first_cache[name]
+        out = self._estimate_first(name, max_window)
+        self._first_cache[name] = out
+        return out
+
+    def _estimate_first(self, name, max_window):
+        if name not in self.measurement.signals:
+            return None
+        v = self.measurement.signals[name]
+        t = self.measurement.t
+        u = self.measurement.signals["u"]
+        changes = np.flatnonzero(np.diff(u) != 0)
+        end = min(changes[0] + 1 if changes.size else len(u), max_window)
+        ok = np.flatnonzero(np.isfinite(v[:end]))
+        if ok.size == 0:
+            ok = np.flatnonzero(np.isfinite(v))
+            return float(v[ok[0]]) if ok.size else None
+        while ok.size >= 3:
+            tt, vv = t[ok] - t[ok[0]], v[ok]
+            slope, icpt = np.polyfit(tt, vv, 1)
+            resid = vv - (icpt + slope * tt)
+            noise = np.sqrt(np.mean(np.diff(vv) ** 2) / 2.0)
+            if np.sqrt(np.mean(resid ** 2)) <= 2.0 * noise or ok.size <= 4:
+                return float(np.clip(icpt, vv.min(), vv.max()))
+            ok = ok[: max(ok.size // 2, 4)]
+        return float(np.mean(v[ok]))
+
+    def scenario_for(self, model):
+        """The :class:`Scenario` that replays this experiment on ``model`` (validated)."""
+        meas = self.measurement
+        lead = float(meas.t[0]) - self.t0
+        if lead > LEAD_LIMIT * meas.duration:
+            # a logger's absolute time stamps: simulating the rest before them would be a waste
+            raise FieldError("time_offset", (
+                f"the first sample is at t = {float(meas.t[0]):g} s, more than {LEAD_LIMIT:g} times the "
+                f"record's length ({meas.duration:g} s) after the model's t = 0; give time_offset "
+                f"(e.g. {float(meas.t[0]):g} s) to start the model at the first sample"))
+        d = dict(self.scenario)
+        if "command" not in d:
+            lo, hi = model.valve.opening_range
+            u = meas.signals["u"]
+            bad = np.flatnonzero((u < lo - 1e-12) | (u > hi + 1e-12))
+            if bad.size:
+                raise MeasurementError(
+                    f"command {u[bad[0]]:g} is outside the {model.valve.kind} valve's range "
+                    f"[{lo:g}, {hi:g}]", column="u", row=int(bad[0]) + 1)
+            cmd = [[t - self.t0, u] for t, u in meas.command_breakpoints()]
+            cmd[0][0] = 0.0   # the first measured command is held back to the model's t = 0
+            d["command"] = cmd
+        d.setdefault("duration", float(meas.t[-1] - self.t0))
+        d.setdefault("sample_period", float(np.min(np.diff(meas.t))))
+        ini = dict(d.get("initial") or {})
+        for key in ("p_a", "p_b", "T_a", "T_b"):
+            if ini.get(key) is None and not (key == "p_b" and model.valve.kind == "3/2"):
+                if key.startswith("T") and model.heat.model == "isothermal" and \
+                        "heat_exchange" not in model.effects:
+                    continue
+                first = self._first(key)
+                if first is not None:
+                    ini[key] = first
+        d["initial"] = ini
+        if "x0" not in d:
+            x0 = self._first("x")
+            if x0 is not None:
+                d["x0"] = min(max(x0, 0.0), model.jack.stroke)
+        return Scenario.from_dict(d, model)
+
+    def simulate(self, model, raise_on_error=False):
+        """Run ``model`` on this experiment, sampled at the measurement's times."""
+        m = self.model_for(model)
+        scen = self.scenario_for(m)
+        t = self.times
+        t = t[t <= scen.duration * (1 + 1e-12)]
+        return simulate(m, scen, raise_on_error=raise_on_error, t_out=t)
+
+
+def as_experiments(experiments, ambient_pressure=101300.0, datasets=None):
+    """Normalise a list of experiments given as objects or JSON dicts."""
+    if isinstance(experiments, (Experiment, dict)):
+        experiments = [experiments]
+    if not experiments:
+        raise FieldError("experiments", "at least one experiment is required")
+    out = []
+    for i, e in enumerate(experiments):
+        ex = Experiment.from_dict(e, f"experiments[{i}]", ambient_pressure, datasets)
+        if not ex.name:
+            ex.name = f"experiment {i + 1}"
+        out.append(ex)
+    return out

@@ -1,0 +1,266 @@
+"""The files test rigs write: CSV (any dialect), NI TDMS and MATLAB ``.mat``.
+
+:func:`read_measurement` takes a file's bytes, recognises its format from its
+first bytes (TDMS: ``TDSm``; MATLAB 5/7: the ``MATLAB 5.0 MAT-file`` text
+header; else CSV) and reads it into a :class:`~pneucore.data.measurement.Measurement`
+through the same column resolution as CSV: signal names or their aliases
+(``Zeit``, ``p_A``), units (``bar(g)``, ``mm``, ``ms``...), the caller's
+column mapping and the rig's ambient pressure for gauge units. Every reader
+fills the same import report (``measurement.meta["import"]``).
+
+- **TDMS** (National Instruments, npTDMS): every channel of every group is a
+  column, named by the channel (``group/channel`` when two groups share a
+  channel name), with its unit from the standard ``unit_string`` property.
+  Without a time channel, the time comes from the waveform properties
+  (``wf_start_offset``, ``wf_increment``) of the first channel.
+- **MATLAB** ``.mat`` v4-v7 (scipy.io.loadmat): every top-level numeric
+  vector is a column, and so is every numeric vector field of a top-level
+  struct; a struct or cell variable named ``units`` may give units by column
+  name (``units.p_A = 'bar(g)'``). v7.3 files are HDF5: save with ``-v7``.
+
+:func:`inspect_file` previews a file for the page's mapping step: columns,
+units, dialect and a proposed mapping (:func:`pneucore.data.measurement.propose_mapping`).
+"""
+from __future__ import annotations
+
+import io
+from typing import Any, Mapping
+
+import numpy as np
+
+from pneucore.data.measurement import (DEFAULT_AMBIENT_PRESSURE, MAX_SAMPLES, MeasurementError,
+                          Measurement, measurement_from_columns, decode_text, propose_mapping,
+                          read_table)
+
+__all__ = ["read_measurement", "inspect_file", "detect_format", "FORMATS"]
+
+#: Formats recognised by :func:`detect_format`, with their usual file extensions
+FORMATS: dict[str, tuple[str, ...]] = {"csv": (".csv", ".txt", ".tsv", ".dat"),
+                                       "tdms": (".tdms",), "mat": (".mat",)}
+
+
+def detect_format(data: bytes, filename: str | None = None) -> str:
+    """The format of a rig file from its first bytes (the extension breaks no tie).
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content [-]
+    filename : str or None, optional
+        Its name; ``.mat`` marks a MATLAB v4 file, which has no signature [-]
+
+    Returns
+    -------
+    format : str
+        ``"tdms"``, ``"mat"`` or ``"csv"`` [-]
+    """
+    if data[:4] == b"TDSm":
+        return "tdms"
+    if data[:10] == b"MATLAB 5.0" or data[:10] == b"MATLAB 7.3":
+        return "mat"
+    if filename and filename.lower().endswith(".mat"):
+        return "mat"
+    return "csv"
+
+
+# ----------------------------------------------------------------------------- TDMS
+def _tdms_columns(data: bytes):
+    try:
+        from nptdms import TdmsFile
+    except ImportError:  # pragma: no cover - a declared dependency
+        raise MeasurementError("reading TDMS files needs the npTDMS package") from None
+    try:
+        f = TdmsFile.read(io.BytesIO(data))
+        channels = [ch for g in f.groups() for ch in g.channels()]
+        arrays = [(ch, np.asarray(ch[:])) for ch in channels]
+    except MeasurementError:
+        raise
+    except Exception as exc:  # a corrupt file: npTDMS raises many kinds
+        raise MeasurementError(f"not a readable TDMS file ({type(exc).__name__}: {exc})") from None
+    arrays = [(ch, a) for ch, a in arrays if a.ndim == 1 and a.size
+              and np.issubdtype(a.dtype, np.number)]
+    if not arrays:
+        raise MeasurementError("the TDMS file holds no numeric channel")
+    names = [ch.name for ch, _ in arrays]
+    labels = [ch.name if names.count(ch.name) == 1 else f"{ch.group_name}/{ch.name}"
+              for ch, _ in arrays]
+    units = [str(ch.properties.get("unit_string", "") or "") for ch, _ in arrays]
+    cols = [(lab, a) for lab, (_, a) in zip(labels, arrays)]
+    extra = {}
+    if not any(propose_mapping([lab])[lab] == "t" for lab in labels):
+        for lab, (ch, a) in zip(labels, arrays):
+            if "wf_increment" not in ch.properties:
+                continue
+            try:
+                t = np.asarray(ch.time_track(), dtype=np.float64)
+            except Exception:   # e.g. an absolute-time waveform: no relative time base
+                continue
+            cols.insert(0, ("t", t))
+            units.insert(0, "s")
+            extra["time"] = (f"from the waveform properties of channel {lab!r} "
+                             f"(wf_increment = {float(ch.properties['wf_increment']):g} s)")
+            break
+    return cols, units, extra
+
+
+# ----------------------------------------------------------------------------- MATLAB
+def _mat_columns(data: bytes):
+    from scipy.io import loadmat
+    if data[:10] == b"MATLAB 7.3":
+        raise MeasurementError("MATLAB v7.3 files (HDF5) are not supported; save with "
+                               "save(..., '-v7')")
+    try:
+        d = loadmat(io.BytesIO(data), simplify_cells=True)
+    except NotImplementedError:
+        raise MeasurementError("MATLAB v7.3 files (HDF5) are not supported; save with "
+                               "save(..., '-v7')") from None
+    except Exception as exc:
+        raise MeasurementError(f"not a readable MATLAB file ({type(exc).__name__}: {exc})") from None
+    units_var = d.get("units")
+    cols: list[tuple[str, Any]] = []
+
+    def vector(v):
+        a = np.asarray(v)
+        if a.dtype.kind in "iuf" and a.size >= 1 and (a.ndim == 1 or (a.ndim == 2 and min(a.shape) == 1)):
+            return a.reshape(-1).astype(np.float64)
+        return None
+
+    for key, v in d.items():
+        if key.startswith("__") or key == "units":
+            continue
+        if isinstance(v, dict):
+            for fk, fv in v.items():
+                a = vector(fv)
+                if a is not None:
+                    cols.append((fk, a))
+        else:
+            a = vector(v)
+            if a is not None:
+                cols.append((key, a))
+    if not cols:
+        raise MeasurementError("the MATLAB file holds no numeric vector")
+    units = []
+    for label, _ in cols:
+        u = ""
+        if isinstance(units_var, dict):
+            u = units_var.get(label, "")
+        units.append(u if isinstance(u, str) else "")
+    return cols, units, {}
+
+
+def _table(data: bytes, fmt: str):
+    """(columns [(label, values)], units or None, report, row_lines) of a file."""
+    if fmt == "tdms":
+        cols, units, extra = _tdms_columns(data)
+        return cols, units, {"format": "tdms", **extra}, None
+    if fmt == "mat":
+        cols, units, extra = _mat_columns(data)
+        return cols, units, {"format": "mat", **extra}, None
+    text, encoding = decode_text(data)
+    table = read_table(text)
+    return (list(zip(table.header, table.columns)), table.units,
+            {"format": "csv", "encoding": encoding, **table.dialect}, table.row_lines)
+
+
+def read_measurement(data: bytes, filename: str | None = None,
+                     ambient_pressure: float = DEFAULT_AMBIENT_PRESSURE,
+                     name: str | None = None, columns: Mapping[str, Any] | None = None
+                     ) -> Measurement:
+    """Read a rig file (CSV, TDMS or MATLAB) into a validated measurement.
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content [-]
+    filename : str or None, optional
+        Its name: the default measurement name (without extension) and the
+        format of a MATLAB v4 file [-]
+    ambient_pressure : float, optional
+        The rig's ambient pressure, added to gauge pressures [Pa]
+    name : str or None, optional
+        Name of the measurement [-]
+    columns : mapping or None, optional
+        Column mapping ``{"Zeit": "t", "pA": "p_a[bar(g)]", "Kraft": None}`` [-]
+
+    Returns
+    -------
+    measurement : Measurement
+        In SI units, absolute pressures; ``meta["import"]`` is the import
+        report (format, encoding and dialect for CSV, every conversion,
+        ignored columns, missing cells, warnings) [-]
+
+    Raises
+    ------
+    MeasurementError
+        Naming the column and row of what is wrong.
+    """
+    data = bytes(data)
+    fmt = detect_format(data, filename)
+    cols, units, report, lines = _table(data, fmt)
+    n = max((len(v) for _, v in cols), default=0)
+    if n > MAX_SAMPLES:
+        raise MeasurementError(f"too many samples: {n} rows found, at most MAX_SAMPLES = "
+                               f"{MAX_SAMPLES} are supported; decimate or split the measurement")
+    if fmt != "csv":
+        # binary formats: channels of different lengths cannot share one time base
+        lengths = {lab: len(v) for lab, v in cols}
+        t_len = next((len(v) for lab, v in cols if propose_mapping([lab])[lab] == "t"), None)
+        for lab, k in lengths.items():
+            mapped = columns.get(lab, "") if isinstance(columns, Mapping) else ""
+            if t_len is not None and k != t_len and mapped is not None:
+                raise MeasurementError(f"has {k} samples but the time has {t_len}; ignore it "
+                                       f"with columns={{\"{lab}\": null}}", column=lab)
+    if name is None:
+        name = filename.rsplit(".", 1)[0] if filename else ""
+    meta = {"source": filename} if filename else {}
+    return measurement_from_columns(cols, ambient_pressure, name, meta, lines,
+                                    decimal_comma_hint=report.get("delimiter", ",") != ",",
+                                    units=units, mapping=columns, report=report)
+
+
+def inspect_file(data: bytes, filename: str | None = None, rows: int = 5) -> dict:
+    """Preview a rig file for a mapping step: columns, units, dialect, a proposed mapping.
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content [-]
+    filename : str or None, optional
+        Its name [-]
+    rows : int, optional
+        Number of data rows in the preview [-]
+
+    Returns
+    -------
+    preview : dict
+        ``format``, ``encoding``/``delimiter``/``decimal``/``units_row`` for
+        CSV, ``columns`` (name as written, unit, proposed signal), ``mapping``
+        (the proposed ``{column: signal or null}``), ``rows`` (the first
+        cells as text) and ``signals`` (every signal with its SI unit and the
+        units accepted) [-]
+    """
+    data = bytes(data)
+    fmt = detect_format(data, filename)
+    if fmt == "csv":
+        text, encoding = decode_text(data)
+        table = read_table(text, max_rows=rows)
+        cols = list(zip(table.header, table.columns))
+        units, report = table.units, {"format": "csv", "encoding": encoding, **table.dialect}
+    else:
+        cols, units, report, _ = _table(data, fmt)
+    labels = [str(lab) for lab, _ in cols]
+    mapping = propose_mapping(labels)
+    from pneucore.data.measurement import split_label
+    out_cols = []
+    for j, lab in enumerate(labels):
+        name, unit = split_label(lab)
+        if units is not None and j < len(units) and units[j] and not unit:
+            unit = units[j]
+        out_cols.append({"name": lab, "unit": unit or "", "signal": mapping.get(name)})
+    preview = [[str(v) if isinstance(v, str) else f"{float(v):.6g}" for v in r]
+               for r in zip(*[list(v[:rows]) for _, v in cols])]
+    from pneucore.data.measurement import SIGNAL_UNITS, UNITS
+    signals = {"t": "s", **SIGNAL_UNITS}
+    return {**report, "columns": out_cols,
+            "mapping": {c["name"]: c["signal"] for c in out_cols}, "rows": preview,
+            "signals": {k: {"unit": u, "accepted_units": list(UNITS[k])} for k, u in signals.items()}}

@@ -1,0 +1,363 @@
+"""Synthetic measurements: the model with hidden effects, seen through imperfect sensors.
+
+Used to test the diagnosis on data whose truth is known, and to make the
+sample datasets. The acquisition imitates the paper's rig (Sect. 4): a
+12-bit board on 0-10 bar pressure transducers and a 0-250 mm LVDT, plus
+Gaussian noise.
+"""
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pneucore.data.measurement import Measurement
+from pneucore.spec.model import Model
+from pneucore.spec.scenario import pulse_train
+from pneucore.simulate import simulate
+
+#: Sensor ranges of the paper's acquisition (0-10 bar transducers, 250 mm LVDT)
+SENSOR_RANGES = {"p_a": (0.0, 10e5), "p_b": (0.0, 10e5), "x": (0.0, 0.25), "v": (-5.0, 5.0),
+                 "T_a": (200.0, 500.0), "T_b": (200.0, 500.0)}
+#: Default Gaussian noise standard deviations (SI units): ~1.2 LSB of the 12-bit board
+DEFAULT_NOISE = {"p_a": 300.0, "p_b": 300.0, "x": 5e-5, "v": 1e-3, "T_a": 0.1, "T_b": 0.1}
+
+
+def quantise(y, lo, hi, bits=12):
+    """Quantise to a ``bits``-bit converter spanning ``[lo, hi]`` (clipped at the ends).
+
+    Parameters
+    ----------
+    y : ndarray
+        Signal (SI)
+    lo, hi : float
+        Converter range (SI)
+    bits : int
+        Resolution [bit]
+
+    Returns
+    -------
+    yq : ndarray
+        Quantised signal
+    """
+    step = (hi - lo) / (2 ** bits - 1)
+    return lo + np.clip(np.round((np.asarray(y) - lo) / step), 0, 2 ** bits - 1) * step
+
+
+def lsb(signal, bits=12):
+    """Quantisation step of a signal's converter (SI units)."""
+    lo, hi = SENSOR_RANGES[signal]
+    return (hi - lo) / (2 ** bits - 1)
+
+
+def colored_noise(rng, sigma, n, dt, corr_time):
+    """Gaussian AR(1) noise with standard deviation ``sigma`` and correlation time ``corr_time``.
+
+    ``e_k = phi e_{k-1} + sigma sqrt(1 - phi^2) w_k`` with ``phi = exp(-dt / corr_time)``,
+    started in its stationary distribution: the sampled form of a first-order
+    low-pass filtered white noise (a transducer's filter, slow drift).
+
+    Parameters
+    ----------
+    rng : numpy Generator
+    sigma : float
+        Standard deviation (signal units)
+    n : int
+        Number of samples
+    dt : float
+        Sample period [s]
+    corr_time : float
+        Correlation time [s]; 0 gives white noise
+    """
+    w = rng.normal(0.0, 1.0, n)
+    if corr_time <= 0.0 or n == 0:
+        return sigma * w
+    from scipy.signal import lfilter
+    phi = math.exp(-dt / corr_time)
+    w[1:] *= math.sqrt(1.0 - phi * phi)
+    return sigma * lfilter([1.0], [1.0, -phi], w)
+
+
+def synthesize(model, scenario, signals=("p_a", "p_b", "x"), noise=None, bits=12, seed=0,
+               name="synthetic", noise_corr_time=0.0):
+    """Simulate ``model`` and return what the rig's sensors would record.
+
+    Parameters
+    ----------
+    model : Model or dict
+        The *true* actuator, hidden effects included
+    scenario : dict
+        Scenario (command, duration, sampling, locked/x0)
+    signals : tuple of str
+        Measured signals
+    noise : dict or None
+        Gaussian noise standard deviation per signal (SI); None = DEFAULT_NOISE
+    bits : int or None
+        Converter resolution; None = no quantisation
+    seed : int
+        Random seed
+    name : str
+        Measurement name
+    noise_corr_time : float
+        Correlation time of the noise [s] (0 = white; see
+        :func:`colored_noise`)
+
+    Returns
+    -------
+    measurement : Measurement
+        With ``meta["truth"]`` holding the true model JSON
+    """
+    model = Model.from_dict(model) if not isinstance(model, Model) else model
+    res = simulate(model, scenario)
+    rng = np.random.default_rng(seed)
+    noise = DEFAULT_NOISE if noise is None else noise
+    sig = {"u": res.u.copy()}
+    for s in signals:
+        y = np.asarray(res.observed(s), float).copy()
+        dt = float(res.t[1] - res.t[0]) if res.t.shape[0] > 1 else 0.0
+        y = y + colored_noise(rng, noise.get(s, 0.0), y.shape[0], dt, noise_corr_time)
+        if bits:
+            lo, hi = SENSOR_RANGES[s]
+            y = quantise(y, lo, hi, bits)
+        sig[s] = y
+    m = Measurement(res.t.copy(), sig, name=name, meta={"truth": model.to_dict(),
+                                                        "scenario": copy.deepcopy(scenario)})
+    return m.validate()
+
+
+def diagnostic_scenarios(model):
+    """Two experiments that expose most effects: a locked hold test and a free pulse test.
+
+    * ``locked-hold``: piston locked mid-stroke; the valve opens (0.05 s),
+      closes with the chambers sealed (0.30 s), reverses (0.55 s) and closes
+      again (0.75 s): exposes heat exchange, leaks, null leakage, dead
+      volume, supply drop, spool and sensor lags.
+    * ``free-pulses``: the paper's Fig. 10 pulse train on a free piston:
+      exposes friction effects as well.
+
+    Parameters
+    ----------
+    model : Model
+        Used for the stroke and the valve kind
+
+    Returns
+    -------
+    scenarios : dict
+        name -> scenario dict
+    """
+    model = Model.from_dict(model) if not isinstance(model, Model) else model
+    stroke = model.jack.stroke
+    if model.valve.kind == "3/2":
+        hold = [[0.0, 0.0], [0.05, 1.0], [0.4, 0.0]]
+        free = [[0.0, 0.0], [0.18, 1.0], [0.38, 0.0], [0.62, 1.0], [0.76, 0.0]]
+        x_free = 0.0
+    else:
+        hold = [[0.0, 0.0], [0.05, 0.8], [0.30, 0.0], [0.55, -0.8], [0.75, 0.0]]
+        free = pulse_train([(0.18, 0.7), (0.28, -0.7), (0.564, -0.7), (0.62, 0.7)], 0.04)
+        x_free = 0.2 * stroke
+    return {
+        "locked-hold": {"duration": 1.0, "sample_period": 0.001, "command": hold,
+                        "locked": True, "x0": 0.5 * stroke},
+        "free-pulses": {"duration": 1.0, "sample_period": 0.001, "command": free,
+                        "locked": False, "x0": x_free},
+    }
+
+
+def synthetic_experiments(true_model, signals=("p_a", "p_b", "x"), noise=None, bits=12, seed=0,
+                          which=None, noise_corr_time=0.0):
+    """Synthetic experiments (JSON-ready dicts) of the diagnostic scenarios on ``true_model``.
+
+    Returns
+    -------
+    experiments : list of dict
+        ``{"name", "scenario": {"locked", "x0"}, "measurement"}``
+    """
+    true_model = Model.from_dict(true_model) if not isinstance(true_model, Model) else true_model
+    out = []
+    for k, (name, scen) in enumerate(diagnostic_scenarios(true_model).items()):
+        if which is not None and name not in which:
+            continue
+        sigs = tuple(s for s in signals if not (scen["locked"] and s in ("x", "v")))
+        if not sigs:     # e.g. a position-only record of a locked test: nothing recorded
+            continue
+        meas = synthesize(true_model, scen, sigs, noise, bits, seed + k, name, noise_corr_time)
+        out.append({"name": name, "scenario": {"locked": scen["locked"], "x0": scen["x0"]},
+                    "measurement": meas})
+    return out
+
+
+# ------------------------------------------------------------------ rigs as users meet them
+
+#: Hidden catalog effects a rig case may carry, at clearly observable, physically plausible
+#: strengths for a 32-50 mm jack (inside the catalog bounds, away from the probe values)
+RIG_EFFECTS = {
+    "piston_leakage": {"conductance": 1.5e-10},
+    "external_leakage": {"conductance_a": 1.0e-10, "conductance_b": 7.0e-11},
+    "valve_spool_dynamics": {"time_constant": 0.008, "natural_frequency": 0.0, "damping": 0.7},
+    "valve_null_leakage": {"fraction": 0.01},
+    "dead_volume": {"volume_a": 1.2e-5, "volume_b": 8e-6},
+    "supply_pressure_drop": {"C": 3e-8, "b": 0.3, "volume": 1e-4},
+    "sensor_lag": {"time_constant": 0.004},
+}
+
+#: Base parameters a catalogue model gets wrong, with the relative error range drawn for a
+#: rig case (a factor ``1 + e``, ``|e|`` uniform in the range, random sign): catalogue friction
+#: and heat-exchange values are rough (tens of %), a mass or a regulator setting much less so
+RIG_BASE_ERRORS = {
+    "friction.extend.fc0": (0.15, 0.4), "friction.retract.fc0": (0.15, 0.4),
+    "friction.extend.kv0": (0.15, 0.4), "friction.retract.kv0": (0.15, 0.4),
+    "jack.moving_mass": (0.05, 0.2), "heat.coefficient": (0.2, 0.6),
+    "valve.ports.*.C": (0.08, 0.2), "supply.pressure": (0.02, 0.06),
+}
+
+#: Transducer errors outside the catalog: ``(signal, gain, offset [SI])`` applied to the record
+RIG_TRANSDUCER_ERRORS = {"pressure-gain": ("p_a", 1.05, 0.0), "pressure-offset": ("p_b", 1.0, 2e4)}
+
+
+def fifty_mm_jack(kind="4/2"):
+    """A 50 mm bore, 20 mm rod jack of 250 mm stroke on a valve twice the paper's size.
+
+    Catalogue-typical values scaled from the paper's 32 mm jack: moving mass 4 kg, dead
+    volumes 12 cm^3, friction about the piston perimeter ratio (x1.6) higher.
+    """
+    from pneucore.spec.presets import model_preset
+    m = model_preset("paper-4way" if kind == "4/2" else "paper-3way")
+    m["name"] = "jack-50mm-" + kind.replace("/", "")
+    m["jack"].update({"bore": 0.05, "rod_a": 0.02, "rod_b": 0.02 if kind == "4/2" else 0.02,
+                      "dead_volume_a": 1.2e-5, "dead_volume_b": 1.2e-5, "moving_mass": 4.0})
+    for side in ("extend", "retract"):
+        f = m["friction"][side]
+        f["fc0"] *= 1.6
+        f["kv0"] *= 1.6
+    for port in m["valve"]["ports"].values():
+        port["C"] = [2.0 * c for c in port["C"]]
+    return m
+
+
+@dataclass
+class RigCase:
+    """A synthetic rig case: what the engineer starts from, what the rig really is, and the answer.
+
+    Parameters
+    ----------
+    name : str
+        Case label
+    category : str
+        ``base`` (base errors only), ``effect`` (base errors and 1-2 catalog
+        effects) or ``outside`` (base errors and a truth outside the catalog)
+    start : dict
+        The catalogue model the engineer starts from (JSON)
+    truth : dict
+        The true model (JSON; a transducer error is not part of it)
+    experiments : list
+        Recorded experiments (JSON-ready)
+    misset : dict
+        ``{path: (start value, true value)}`` of the base errors drawn
+    effects : tuple
+        The hidden catalog effects
+    outside : str or None
+        The truth outside the catalog, if any
+    """
+    name: str
+    category: str
+    start: dict
+    truth: dict
+    experiments: list
+    misset: dict
+    effects: tuple
+    outside: object = None
+
+
+def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
+             signals=("p_a", "p_b", "x"), noise_corr_time=0.0, base_errors=None, scale=1.0):
+    """Draw one rig case: every base parameter of :data:`RIG_BASE_ERRORS` somewhat off.
+
+    Parameters
+    ----------
+    name : str
+        Label
+    seed : int
+        Seed of the drawn errors and of the noise
+    jack : str
+        ``paper`` (32 mm) or ``50mm``
+    valve : str
+        ``4/2`` or ``3/2``
+    effects : tuple of str
+        Hidden catalog effects (keys of :data:`RIG_EFFECTS`)
+    outside : str or None
+        A key of :data:`RIG_TRANSDUCER_ERRORS`
+    signals : tuple of str
+        Recorded signals
+    noise_corr_time : float
+        Correlation time of the noise [s]
+    base_errors : dict or None
+        ``{path: relative error}`` instead of random draws
+    scale : float
+        Multiplies every drawn relative error (0 = the catalogue is right)
+
+    Returns
+    -------
+    case : RigCase
+    """
+    from pneucore.spec.paths import get_value, set_values
+    from pneucore.spec.presets import model_preset
+    rng = np.random.default_rng(seed)
+    start = model_preset("paper-4way" if valve == "4/2" else "paper-3way") if jack == "paper" \
+        else fifty_mm_jack(valve)
+    start_m = Model.from_dict(start)
+    if base_errors is None:
+        base_errors = {}
+        for path, (lo, hi) in RIG_BASE_ERRORS.items():
+            base_errors[path] = scale * float(rng.uniform(lo, hi) * rng.choice([-1.0, 1.0]))
+    vals = {}
+    misset = {}
+    for path, e in base_errors.items():
+        v0 = get_value(start_m, path)
+        v1 = v0 * (1.0 + e)
+        vals[path] = 1.0 + e if path.startswith("valve.") else v1
+        misset[path] = (v0, v1)
+    truth_m = set_values(start_m, vals)
+    for n in effects:
+        truth_m.effects[n] = dict(RIG_EFFECTS[n])
+    truth = truth_m.to_dict()
+    exps = synthetic_experiments(truth_m, signals=signals, seed=seed + 100,
+                                 noise_corr_time=noise_corr_time)
+    if outside is not None:
+        sig, gain, offset = RIG_TRANSDUCER_ERRORS[outside]
+        amb = start_m.ambient.pressure if sig.startswith("p") else 0.0
+        for e in exps:
+            meas = e["measurement"]
+            if sig in meas.signals:
+                y = amb + gain * (meas.signals[sig] - amb) + offset
+                lo, hi = SENSOR_RANGES[sig]
+                meas.signals[sig] = quantise(y, lo, hi, 12)
+    cat = "outside" if outside else ("effect" if effects else "base")
+    return RigCase(name, cat, start, truth, exps, misset, tuple(effects), outside)
+
+
+#: The confusion benchmark's cases: (name, keyword arguments of :func:`rig_case`)
+RIG_CASES = [
+    ("base/paper-4way", dict(seed=1)),
+    ("base/paper-4way#2", dict(seed=2)),
+    ("base/50mm-4way", dict(seed=3, jack="50mm")),
+    ("base/paper-3way", dict(seed=4, valve="3/2")),
+    ("base/coloured-noise", dict(seed=5, noise_corr_time=0.02)),
+    ("base/pressures-only", dict(seed=6, signals=("p_a", "p_b"))),
+    ("base/position-only", dict(seed=7, signals=("x",))),
+    ("effect/piston_leakage", dict(seed=11, effects=("piston_leakage",))),
+    ("effect/dead_volume", dict(seed=12, effects=("dead_volume",))),
+    ("effect/valve_spool_dynamics", dict(seed=13, effects=("valve_spool_dynamics",))),
+    ("effect/external_leakage/50mm", dict(seed=14, jack="50mm", effects=("external_leakage",))),
+    ("effect/valve_null_leakage/3way", dict(seed=15, valve="3/2", effects=("valve_null_leakage",))),
+    ("effect/sensor_lag/coloured", dict(seed=16, noise_corr_time=0.02, effects=("sensor_lag",))),
+    ("effect/supply_pressure_drop", dict(seed=17, effects=("supply_pressure_drop",))),
+    ("effect/leak+spool", dict(seed=18, effects=("piston_leakage", "valve_spool_dynamics"))),
+    ("effect/dead+lag/pressures-only", dict(seed=19, signals=("p_a", "p_b"),
+                                            effects=("dead_volume", "sensor_lag"))),
+    ("outside/pressure-gain", dict(seed=21, outside="pressure-gain")),
+    ("outside/pressure-offset/50mm", dict(seed=22, jack="50mm", outside="pressure-offset")),
+    ("outside/pressure-gain+leak", dict(seed=23, outside="pressure-gain",
+                                        effects=("piston_leakage",))),
+]

@@ -1,0 +1,265 @@
+"""Compressible flow through a restriction: the ISO 6358 law and the ideal nozzle.
+
+Each law is a small pure function with one signature,
+``law(p1, T1, p2, T2, C, b, m, r_lam, r, gamma) -> q``, the mass flow [kg/s]
+from side 1 to side 2 (negative when side 2 is upstream). They are compiled
+with numba so the simulator core calls them directly; they also work on
+scalars from plain Python. :data:`FLOW_LAWS` is the registry the model picks
+from by name (``valve.flow_law``).
+
+Both laws have an infinite slope ``dq/dp_d`` as the pressure ratio tends to 1,
+which would make the chamber equations infinitely stiff near equilibrium.
+Above the ratio ``r_lam`` (0.999 by default) the flow is replaced by a
+laminar linearisation ``q = q(r_lam) (1 - r) / (1 - r_lam)``: continuous in
+value at ``r_lam`` and zero at ``r = 1``.
+"""
+import math
+
+import numpy as np
+from numba import njit
+
+from pneucore.physics.gas import GAMMA_AIR, R_AIR, RHO_REF, T_REF
+
+#: Default pressure ratio above which the flow is linearised (laminar) [-]
+R_LAMINAR = 0.999
+
+
+@njit(cache=True, error_model="numpy")
+def iso6358_ratio_function(ratio, b, m):
+    """Dimensionless flow function of ISO 6358 (paper Eq. 4-5).
+
+    ``phi = 1`` for ``ratio <= b`` (choked, Eq. 5) and
+    ``phi = [1 - ((ratio - b) / (1 - b))^2]^m`` above (subsonic, Eq. 4 when
+    ``m = 0.5``; ISO 6358-1:2013 allows other subsonic indices ``m``).
+
+    Parameters
+    ----------
+    ratio : float
+        Downstream over upstream absolute pressure [-]
+    b : float
+        Critical pressure ratio [-]
+    m : float
+        Subsonic index [-]
+    """
+    if ratio <= b:
+        return 1.0
+    z = (ratio - b) / (1.0 - b)
+    w = 1.0 - z * z
+    if w <= 0.0:
+        return 0.0
+    if m == 0.5:
+        return math.sqrt(w)
+    return w ** m
+
+
+@njit(cache=True, error_model="numpy")
+def _iso_phi_linearised(ratio, b, m, r_lam):
+    if ratio <= r_lam:
+        return iso6358_ratio_function(ratio, b, m)
+    return iso6358_ratio_function(r_lam, b, m) * (1.0 - ratio) / (1.0 - r_lam)
+
+
+@njit(cache=True, error_model="numpy")
+def iso6358_mass_flow(p1, T1, p2, T2, C, b, m, r_lam, r, gamma):
+    """Mass flow through an ISO 6358 restriction, in either direction.
+
+    .. math::
+        q = C \\rho_0 p_u \\sqrt{T_0 / T_u}\\;
+            \\left[1 - \\left(\\frac{p_d/p_u - b}{1 - b}\\right)^2\\right]^m
+        \\quad (p_d/p_u > b), \\qquad
+        q = C \\rho_0 p_u \\sqrt{T_0 / T_u} \\quad (p_d/p_u \\le b)
+
+    (paper Eq. 4 and 5, with the ISO 6358-1:2013 subsonic index ``m``;
+    ``rho_0 = 1.185 kg/m^3``, ``T_0 = 293.15 K``). The upstream side is the
+    one with the higher pressure and its temperature is used. Above the
+    ratio ``r_lam`` the law is linearised (see module docstring).
+
+    Parameters
+    ----------
+    p1 : float
+        Absolute pressure on side 1 [Pa]
+    T1 : float
+        Gas temperature on side 1 [K]
+    p2 : float
+        Absolute pressure on side 2 [Pa]
+    T2 : float
+        Gas temperature on side 2 [K]
+    C : float
+        Sonic conductance [m^3/(s Pa)]
+    b : float
+        Critical pressure ratio [-]
+    m : float
+        Subsonic index [-] (0.5 in the paper)
+    r_lam : float
+        Pressure ratio above which the flow is linearised [-]
+    r : float
+        Specific gas constant [J/(kg K)] (unused: ISO uses rho_0)
+    gamma : float
+        Ratio of specific heats [-] (unused)
+
+    Returns
+    -------
+    q : float
+        Mass flow from side 1 to side 2 [kg/s]
+
+    Examples
+    --------
+    Catalogue check (ISO 6358 worked figures): C = 2 dm^3/(s bar), b = 0.3,
+    upstream 0.4 MPa gauge at 20 degC; choked flow is 600 dm^3/min (ANR):
+
+    >>> C = 2e-3 / 1e5
+    >>> q = iso6358_mass_flow(5.013e5, 293.15, 1.013e5, 293.15, C, 0.3, 0.5, 0.999, 287.05, 1.4)
+    >>> round(q / 1.185 * 60e3)  # ANR dm^3/min
+    602
+    """
+    if C <= 0.0 or p1 == p2:
+        return 0.0
+    if p1 > p2:
+        return C * RHO_REF * p1 * math.sqrt(T_REF / T1) * _iso_phi_linearised(p2 / p1, b, m, r_lam)
+    return -C * RHO_REF * p2 * math.sqrt(T_REF / T2) * _iso_phi_linearised(p1 / p2, b, m, r_lam)
+
+
+@njit(cache=True, error_model="numpy")
+def saint_venant_critical_ratio(gamma):
+    """Theoretical critical pressure ratio of an ideal nozzle (paper Eq. 3).
+
+    ``Omega = (2 / (gamma + 1)) ** (gamma / (gamma - 1))`` = 0.528 for air.
+    (The exponent is printed as gamma/(gamma+1) in the paper, a typo: the
+    text gives the theoretical value 0.52, which only the form above yields.)
+    """
+    return (2.0 / (gamma + 1.0)) ** (gamma / (gamma - 1.0))
+
+
+@njit(cache=True, error_model="numpy")
+def saint_venant_area(C, r, gamma):
+    """Throat area of an ideal nozzle with the same choked flow as conductance ``C``.
+
+    Equating Eq. 2 and Eq. 5: ``s = C rho_0 sqrt(r T_0) / sqrt(gamma (2/(gamma+1))^((gamma+1)/(gamma-1)))``.
+
+    Parameters
+    ----------
+    C : float
+        Sonic conductance [m^3/(s Pa)]
+    r : float
+        Specific gas constant [J/(kg K)]
+    gamma : float
+        Ratio of specific heats [-]
+
+    Returns
+    -------
+    s : float
+        Effective throat area [m^2]
+    """
+    k = gamma * (2.0 / (gamma + 1.0)) ** ((gamma + 1.0) / (gamma - 1.0))
+    return C * RHO_REF * math.sqrt(r * T_REF) / math.sqrt(k)
+
+
+@njit(cache=True, error_model="numpy")
+def _sv_phi(ratio, gamma):
+    # Flow function normalised by its choked value, Eq. 1 / Eq. 2.
+    omega = saint_venant_critical_ratio(gamma)
+    if ratio <= omega:
+        return 1.0
+    a = ratio ** (1.0 / gamma)   # r^(2/g) = a^2 and r^((g+1)/g) = r a: one power instead of two
+    sub = 2.0 * gamma / (gamma - 1.0) * (a * a - ratio * a)
+    if sub <= 0.0:
+        return 0.0
+    son = gamma * (2.0 / (gamma + 1.0)) ** ((gamma + 1.0) / (gamma - 1.0))
+    return math.sqrt(sub / son)
+
+
+@njit(cache=True, error_model="numpy")
+def _sv_phi_linearised(ratio, gamma, r_lam):
+    if ratio <= r_lam:
+        return _sv_phi(ratio, gamma)
+    return _sv_phi(r_lam, gamma) * (1.0 - ratio) / (1.0 - r_lam)
+
+
+@njit(cache=True, error_model="numpy")
+def saint_venant_mass_flow(p1, T1, p2, T2, C, b, m, r_lam, r, gamma):
+    """Mass flow through an ideal nozzle (Saint-Venant, paper Eq. 1-3).
+
+    .. math::
+        q = s p_u \\sqrt{\\frac{2\\gamma}{(\\gamma-1) r T_u}
+            \\left[(p_d/p_u)^{2/\\gamma} - (p_d/p_u)^{(\\gamma+1)/\\gamma}\\right]}
+        \\quad (p_d/p_u > \\Omega)
+
+        q = s p_u \\sqrt{\\frac{\\gamma}{r T_u}
+            \\left(\\frac{2}{\\gamma+1}\\right)^{(\\gamma+1)/(\\gamma-1)}}
+        \\quad (p_d/p_u \\le \\Omega)
+
+    The throat area ``s`` is the one with the same choked flow as the
+    conductance ``C`` (:func:`saint_venant_area`), so the two laws differ
+    only in the shape of the subsonic branch and the critical ratio
+    (0.528 instead of the measured ``b``). ``b`` and ``m`` are ignored.
+
+    Parameters and return value as :func:`iso6358_mass_flow`.
+    """
+    if C <= 0.0 or p1 == p2:
+        return 0.0
+    # s p_u sqrt(gamma (2/(gamma+1))^((gamma+1)/(gamma-1)) / (r T_u)) with the area s of
+    # saint_venant_area reduces exactly to C rho_0 p_u sqrt(T_0 / T_u): the choked flows match
+    if p1 > p2:
+        return C * RHO_REF * p1 * math.sqrt(T_REF / T1) * _sv_phi_linearised(p2 / p1, gamma, r_lam)
+    return -C * RHO_REF * p2 * math.sqrt(T_REF / T2) * _sv_phi_linearised(p1 / p2, gamma, r_lam)
+
+
+@njit(cache=True, error_model="numpy")
+def laminar_mass_flow(p1, T1, p2, T2, G):
+    """Laminar leak ``q = G (p1 - p2)`` from side 1 to side 2.
+
+    Parameters
+    ----------
+    p1, p2 : float
+        Absolute pressures [Pa]
+    T1, T2 : float
+        Temperatures [K] (unused; kept for a uniform signature)
+    G : float
+        Leak conductance [kg/(s Pa)]
+
+    Returns
+    -------
+    q : float
+        Mass flow from side 1 to side 2 [kg/s]
+    """
+    return G * (p1 - p2)
+
+
+class FlowLaw:
+    """A registered flow law: its compiled function and its integer code in the core."""
+
+    def __init__(self, name, code, func, description):
+        self.name = name
+        self.code = code
+        self.func = func
+        self.description = description
+
+    def __call__(self, p1, T1, p2, T2, C, b, m=0.5, r_lam=R_LAMINAR, r=R_AIR, gamma=GAMMA_AIR):
+        f = np.vectorize(self.func, otypes=[float])
+        out = f(p1, T1, p2, T2, C, b, m, r_lam, r, gamma)
+        return float(out) if np.ndim(out) == 0 else out
+
+
+#: Registry of flow laws by name (``valve.flow_law``)
+FLOW_LAWS = {
+    "iso6358": FlowLaw("iso6358", 0, iso6358_mass_flow,
+                       "ISO 6358 sonic conductance C and critical ratio b (paper Eq. 4-5)"),
+    "saint_venant": FlowLaw("saint_venant", 1, saint_venant_mass_flow,
+                            "ideal nozzle, critical ratio 0.528 (paper Eq. 1-3), area matched to C"),
+}
+
+
+def anr_volume_flow(q):
+    """Convert a mass flow to a volume flow at ISO 8778 reference conditions (ANR).
+
+    Parameters
+    ----------
+    q : float
+        Mass flow [kg/s]
+
+    Returns
+    -------
+    Q : float
+        Volume flow at 20 degC, 100 kPa, 65 % RH [m^3/s] (ANR)
+    """
+    return q / RHO_REF

@@ -1,0 +1,493 @@
+"""Catalog of switchable physical effects, as a registry of names.
+
+An effect is added to a model by name: ``model.effects["piston_leakage"] =
+{"conductance": 5e-11}``. Each effect has named parameters (unit, default,
+bounds), a one-line physical description, the residual signature it
+explains and a reference. It acts in one or both of two ways, never by
+editing the base equations:
+
+* ``transform(model, params)`` rewrites base parameters on a copy of the
+  model (e.g. ``dead_volume`` adds tubing volume to the jack's dead volumes);
+* ``pack(params, build)`` writes its own slots of the compiled core's
+  parameter vector and declares its own states (e.g. ``valve_spool_dynamics``
+  adds the effective spool opening as a state).
+
+With its parameters at their ``off`` values every effect reproduces the base
+model exactly. Users register their own with :func:`register_effect`, giving
+a compiled ``terms`` hook (see :func:`pneucore.core.rhs.no_terms`) that adds
+mass, enthalpy and heat flows to the chambers and a force on the piston.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+from pneucore.core import layout as L
+from pneucore.physics.heat import HEAT_PARAMETERS, add_wall
+from pneucore.spec.validation import FieldError, mapping, number, optional_mapping
+
+
+@dataclass
+class Parameter:
+    """A named effect parameter.
+
+    Parameters
+    ----------
+    name : str
+        Parameter name
+    unit : str
+        SI unit
+    default : float
+        Value used when the user gives none
+    min, max : float
+        Bounds for validation and calibration
+    off : float or None
+        Value at which the effect vanishes (base model)
+    description : str
+        One line
+    """
+    name: str
+    unit: str
+    default: float
+    min: float
+    max: float
+    off: Optional[float] = 0.0
+    description: str = ""
+
+    def to_dict(self):
+        return {"name": self.name, "unit": self.unit, "default": self.default, "min": self.min,
+                "max": self.max, "off": self.off, "description": self.description}
+
+
+@dataclass
+class Effect:
+    """A switchable physical extension of the base model (see module docstring)."""
+    name: str
+    description: str
+    signature: str
+    reference: str
+    parameters: list
+    strength: str = ""
+    transform: Optional[Callable] = None
+    pack: Optional[Callable] = None
+    applies: Optional[Callable] = None
+    terms: Optional[Callable] = None
+    states: tuple = ()
+    state_units: tuple = ()
+    user: bool = False
+    observable_in: tuple = ("locked", "free")
+    fit_params: tuple = ()
+    probe: dict = field(default_factory=dict)
+
+    @property
+    def diagnosis_params(self):
+        """Parameters the diagnosis refits (all parameters unless ``fit_params`` says otherwise)."""
+        return tuple(self.fit_params) or tuple(p.name for p in self.parameters)
+
+    @property
+    def score_params(self):
+        """Parameters that carry the effect's strength (they have an ``off`` value)."""
+        return tuple(n for n in self.diagnosis_params if self.param(n).off is not None)
+
+    def probe_values(self):
+        """A moderate strength used to probe the outputs' sensitivity to the effect."""
+        vals = self.defaults()
+        vals.update(self.probe)
+        return vals
+
+    def param(self, name):
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise KeyError(name)
+
+    def defaults(self, model=None):
+        return {p.name: p.default for p in self.parameters}
+
+    def applicable(self, model):
+        """``(True, "")`` when the effect can be added to ``model``, else ``(False, reason)``."""
+        if self.applies is None:
+            return True, ""
+        return self.applies(model)
+
+    def to_dict(self):
+        return {"name": self.name, "description": self.description, "signature": self.signature,
+                "reference": self.reference, "strength": self.strength,
+                "parameters": [p.to_dict() for p in self.parameters],
+                "fit_params": list(self.diagnosis_params), "states": list(self.states),
+                "user": self.user, "observable_in": list(self.observable_in)}
+
+
+class CoreBuild:
+    """What effects write into while the compiled core's inputs are assembled.
+
+    ``prm`` is the parameter vector (``layout.P_*`` slots), ``iy`` the
+    optional state positions, and ``states`` the list of extra states as
+    ``(name, initial value, absolute tolerance)``.
+    """
+
+    def __init__(self, prm, iy, model, y_base):
+        self.prm = prm
+        self.iy = iy
+        self.model = model
+        self.y_base = y_base
+        self.states = []
+
+    def add_state(self, name, y0, atol):
+        """Append a state; returns its index in the full state vector."""
+        self.states.append((name, float(y0), float(atol)))
+        return L.N_BASE_STATES + len(self.states) - 1
+
+
+EFFECTS: dict = {}
+
+
+def register_effect(effect: Effect, replace=False):
+    """Add an effect to the catalog (a user effect needs no change to the package).
+
+    Parameters
+    ----------
+    effect : Effect
+        The effect; a user effect gives ``terms``, a numba-compiled
+        function ``terms(t, y, sig, p, out, dy, i0)`` where ``p`` is its own
+        parameter vector (in the order of ``effect.parameters``), ``i0`` the
+        index of its first state in ``y`` / ``dy``, ``sig`` the signals named
+        by ``layout.SIG_NAMES`` and ``out`` the terms named by
+        ``layout.TERM_NAMES`` (add to them).
+    replace : bool
+        Allow replacing an existing name
+    """
+    if effect.name in EFFECTS and not replace:
+        raise ValueError(f"effect {effect.name!r} is already registered")
+    if effect.terms is not None:
+        effect.user = True
+    EFFECTS[effect.name] = effect
+    return effect
+
+
+def unregister_effect(name):
+    """Remove a user effect from the catalog."""
+    EFFECTS.pop(name, None)
+
+
+def validate_effects(effects, model):
+    """Check names and parameters of ``model.effects``; fill defaults. Returns a new dict."""
+    mapping(effects, "effects")
+    out = {}
+    for name, params in effects.items():
+        path = f"effects.{name}"
+        if name not in EFFECTS:
+            raise FieldError(path, f"unknown effect; the catalog has {sorted(EFFECTS)}")
+        eff = EFFECTS[name]
+        params = optional_mapping(params, path)
+        known = {p.name for p in eff.parameters}
+        for key in params:
+            if key not in known:
+                raise FieldError(f"{path}.{key}", f"unknown parameter; expected one of {sorted(known)}")
+        vals = {}
+        for p in eff.parameters:
+            v = params.get(p.name, p.default)
+            vals[p.name] = number(v, f"{path}.{p.name}", low=p.min, high=p.max)
+        ok, why = eff.applicable(model)
+        if not ok:
+            raise FieldError(path, f"cannot be added to this model: {why}")
+        out[name] = vals
+    return out
+
+
+def effective_model(model):
+    """The model with every effect's ``transform`` applied (base parameters rewritten).
+
+    Returns ``model`` itself (not a copy) when no effect transforms it.
+    """
+    if not any(EFFECTS[name].transform is not None for name in model.effects):
+        return model
+    m = model.copy()
+    for name, params in model.effects.items():
+        eff = EFFECTS[name]
+        if eff.transform is not None:
+            eff.transform(m, params)
+    return m
+
+
+# ---------------------------------------------------------------------------
+# built-in catalog
+# ---------------------------------------------------------------------------
+
+def _heat_transform(m, p):
+    if m.heat.model in ("isothermal", "adiabatic"):
+        m.heat.model = "convective"
+        m.heat.coefficient = p["h"]
+
+
+def _heat_applies(m):
+    if m.heat.model not in ("isothermal", "adiabatic"):
+        return False, f"the model already exchanges heat with its walls ({m.heat.model})"
+    return True, ""
+
+
+def _exchanging(m, term):
+    """``(ok, why)``: a heat-model term can be added unless the model's heat model has it."""
+    if getattr(m.heat.spec, term):
+        return False, f"the model's heat model ({m.heat.model}) already has it"
+    return True, ""
+
+
+def _free_gas_transform(m, p):
+    # on an isothermal model the term becomes the exchange (as heat_exchange does)
+    if m.heat.model == "isothermal":
+        m.heat.model = "adiabatic"
+
+
+def _pack_natural(p, build):
+    build.prm[L.P_HEAT_NAT] = p["multiplier"]
+
+
+def _pack_jet(p, build):
+    build.prm[L.P_HEAT_JET] = p["multiplier"]
+    build.prm[L.P_HEAT_D_IN] = p["inlet_diameter"]
+
+
+def _wall_applies(m):
+    if m.heat.model == "isothermal":
+        return False, "the gas is held at the wall temperature (isothermal): no wall state to add"
+    if m.heat.wall_mass > 0.0:
+        return False, "the model's walls already have a thermal capacity (heat.wall_mass)"
+    return True, ""
+
+
+def _pack_wall(p, build):
+    if p["mass"] > 0.0:
+        add_wall(build, p["mass"], p["specific_heat"], p["outer_coefficient"])
+
+
+def _pack_slot(slot, key):
+    def pack(p, build):
+        build.prm[L.PRM_INDEX[slot]] = p[key]
+    return pack
+
+
+def _pack_ext_leak(p, build):
+    build.prm[L.P_G_A] = p["conductance_a"]
+    build.prm[L.P_G_B] = p["conductance_b"]
+
+
+def _pack_spool(p, build):
+    wn = p["natural_frequency"]
+    tau = p["time_constant"]
+    u0 = build.y_base["u0"]
+    if wn > 0.0:
+        build.prm[L.P_SPOOL_WN] = wn
+        build.prm[L.P_SPOOL_ZETA] = p["damping"]
+        build.iy[L.IY_SPOOL] = build.add_state("u_spool", u0, 1e-6)
+        build.iy[L.IY_SPOOL_RATE] = build.add_state("u_spool_rate", 0.0, 1e-3)
+    elif tau > 0.0:
+        build.prm[L.P_SPOOL_TAU] = tau
+        build.iy[L.IY_SPOOL] = build.add_state("u_spool", u0, 1e-6)
+
+
+def _pack_null_leak(p, build):
+    build.prm[L.P_NULL_LEAK] = p["fraction"]
+
+
+def _pack_stribeck(p, build):
+    build.prm[L.P_STRIBECK_RATIO] = p["static_ratio"]
+    build.prm[L.P_STRIBECK_V] = p["stribeck_velocity"]
+
+
+def _pdf_transform(m, p):
+    for s in (m.friction.extend, m.friction.retract):
+        s.fc_a += p["fc_a"]
+        s.fc_b += p["fc_b"]
+        s.kv_a += p["kv_a"]
+        s.kv_b += p["kv_b"]
+
+
+def _pdf_applies(m):
+    for s in (m.friction.extend, m.friction.retract):
+        if any(getattr(s, k) != 0.0 for k in ("fc_a", "fc_b", "kv_a", "kv_b")):
+            return False, "the model's friction already depends on pressure"
+    return True, ""
+
+
+_FRICTION_KEYS = ("fc0", "fc_a", "fc_b", "kv0", "kv_a", "kv_b")
+
+
+def _quadrant_transform(m, p):
+    for k in _FRICTION_KEYS:
+        v = p[k]
+        setattr(m.friction.retract, k, getattr(m.friction.extend, k) + v)
+
+
+def _quadrant_applies(m):
+    if m.friction.extend.to_dict() != m.friction.retract.to_dict():
+        return False, "the model already has separate extend and retract friction"
+    return True, ""
+
+
+def _dead_transform(m, p):
+    m.jack.dead_volume_a += p["volume_a"]
+    m.jack.dead_volume_b += p["volume_b"]
+
+
+def _pack_supply(p, build):
+    m = build.model
+    if p["C"] <= 0.0:
+        return
+    V = p["volume"]
+    build.prm[L.P_SUP_C] = p["C"]
+    build.prm[L.P_SUP_B] = p["b"]
+    build.prm[L.P_SUP_V] = V
+    m0 = m.supply.pressure * V / (m.gas.r * m.supply.temperature)
+    build.iy[L.IY_SUPPLY_M] = build.add_state("m_supply", m0, 1e-6 * m0)
+
+
+def _pack_sensor(p, build):
+    tau = p["time_constant"]
+    if tau <= 0.0:
+        return
+    build.prm[L.P_SENSOR_TAU] = tau
+    pa, pb = build.y_base["p_a"], build.y_base["p_b"]
+    build.iy[L.IY_SENSOR_A] = build.add_state("p_a_sensor", pa, 1e-6 * build.model.supply.pressure)
+    build.iy[L.IY_SENSOR_B] = build.add_state("p_b_sensor", pb, 1e-6 * build.model.supply.pressure)
+
+
+for _e in [
+    Effect("heat_exchange",
+           "convective heat exchange with the walls (Eq. 9) on an isothermal or adiabatic model",
+           "pressure overshoot then relaxation after each valve switch; model too stiff on "
+           "compression and too slow on expansion, errors largest while the valve closes",
+           "Maré, Geider & Colin, Eq. 9 and Table 2",
+           [Parameter("h", "W/(m^2 K)", 25.0, 0.0, 2000.0, 0.0, "convection coefficient")],
+           strength="h", transform=_heat_transform, applies=_heat_applies, probe={"h": 25.0}),
+    Effect("natural_convection",
+           "natural convection between gas and wall added to the model's fixed coefficient: "
+           "Churchill-Chu correlation for a horizontal cylinder of the bore's diameter, air's "
+           "properties at the chamber's pressure and temperature (h grows as p^(2/3) dT^(1/3) at large Ra)",
+           "temperature relaxes faster when the gas is dense and far from the wall, slower near "
+           "equilibrium; one fixed coefficient fits either the transient or the hold, not both",
+           "Churchill & Chu, Int. J. Heat Mass Transfer 18 (1975) 1049",
+           [Parameter("multiplier", "-", 1.0, 0.0, HEAT_PARAMETERS["natural_multiplier"].max, 0.0,
+                      "factor on the correlation's Nusselt number")],
+           strength="multiplier", pack=_pack_natural, transform=_free_gas_transform,
+           applies=lambda m: _exchanging(m, "natural"), probe={"multiplier": 1.0}),
+    Effect("inflow_jet_convection",
+           "forced convection of the jet entering a chamber (Nu = 0.56 Re_d^0.67 on the inlet "
+           "diameter), added to the model's exchange while gas flows in",
+           "gas heats less than the model while a chamber fills, then relaxes as the model says; "
+           "a fixed coefficient fitted to the filling is too strong afterwards",
+           "Woodfield, Monde & Mitsutake, J. Thermal Sci. Tech. 2 (2007) 180",
+           [Parameter("multiplier", "-", 1.0, 0.0, HEAT_PARAMETERS["jet_multiplier"].max, 0.0,
+                      "factor on the correlation's Nusselt number"),
+            Parameter("inlet_diameter", "m", HEAT_PARAMETERS["inlet_diameter"].default,
+                      HEAT_PARAMETERS["inlet_diameter"].min, HEAT_PARAMETERS["inlet_diameter"].max,
+                      None, "inlet (jet) diameter")],
+           strength="multiplier", pack=_pack_jet, transform=_free_gas_transform,
+           fit_params=("multiplier",),
+           applies=lambda m: _exchanging(m, "jet"), probe={"multiplier": 1.0}),
+    Effect("wall_heat_capacity",
+           "walls with a thermal capacity (a wall temperature per chamber, exchanging with the "
+           "gas and, through an outer coefficient, with the ambient) instead of walls at ambient",
+           "after repeated fills the gas settles above (or below) ambient; the exchange weakens "
+           "as the wall follows the gas",
+           "HydDown (Andreasen 2021), lumped wall heat balance; paper Eq. 9 with T_w a state",
+           [Parameter("mass", "kg", 0.05, 0.0, HEAT_PARAMETERS["wall_mass"].max, 0.0,
+                      "wall mass of each chamber"),
+            Parameter("specific_heat", "J/(kg K)", HEAT_PARAMETERS["wall_specific_heat"].default,
+                      HEAT_PARAMETERS["wall_specific_heat"].min,
+                      HEAT_PARAMETERS["wall_specific_heat"].max, None, "wall specific heat"),
+            Parameter("outer_coefficient", "W/(m^2 K)", HEAT_PARAMETERS["outer_coefficient"].default,
+                      HEAT_PARAMETERS["outer_coefficient"].min,
+                      HEAT_PARAMETERS["outer_coefficient"].max, None,
+                      "outer coefficient, wall to ambient")],
+           strength="mass", pack=_pack_wall, applies=_wall_applies, fit_params=("mass",),
+           probe={"mass": 0.05}),
+    Effect("piston_leakage",
+           "laminar leak across the piston seal, A <-> B, carrying enthalpy",
+           "pressures of a locked jack converge towards each other while the valve is closed; "
+           "chamber pressure difference decays, piston drifts under load",
+           "Beater, Pneumatic Drives (2007), seal leakage; laminar leak q = G (p_a - p_b)",
+           [Parameter("conductance", "kg/(s Pa)", 5e-11, 0.0, 1e-8, 0.0, "leak conductance G")],
+           strength="conductance", pack=_pack_slot("G_AB", "conductance"), probe={"conductance": 5e-11}),
+    Effect("external_leakage",
+           "laminar leak from each chamber to ambient (rod seal, fittings)",
+           "a pressurised chamber decays towards ambient while the valve is closed",
+           "Beater, Pneumatic Drives (2007); laminar leak q = G (p - p_atm)",
+           [Parameter("conductance_a", "kg/(s Pa)", 5e-11, 0.0, 1e-8, 0.0, "leak of chamber A"),
+            Parameter("conductance_b", "kg/(s Pa)", 5e-11, 0.0, 1e-8, 0.0, "leak of chamber B")],
+           strength="conductance_a", pack=_pack_ext_leak,
+           probe={"conductance_a": 5e-11, "conductance_b": 5e-11}),
+    Effect("valve_spool_dynamics",
+           "spool lag between command and effective opening (first order, or second order if "
+           "natural_frequency > 0)",
+           "model pressures lead the measurement right after every command switch; a delay of a "
+           "few ms at each step",
+           "paper Sect. 3 (spool dynamics left out of the sixth-order model)",
+           [Parameter("time_constant", "s", 0.005, 0.0, 0.2, 0.0, "first-order time constant"),
+            Parameter("natural_frequency", "rad/s", 0.0, 0.0, 5000.0, 0.0,
+                      "second-order natural frequency (0 = first order)"),
+            Parameter("damping", "-", 0.7, 0.05, 5.0, None, "second-order damping ratio")],
+           strength="time_constant", pack=_pack_spool, fit_params=("time_constant",),
+           probe={"time_constant": 0.005, "natural_frequency": 0.0}),
+    Effect("valve_null_leakage",
+           "leakage of a centred spool: a fraction of each edge's full C on all four edges",
+           "with the valve centred, both chambers drift towards the supply/exhaust equilibrium",
+           "ISO 10770-1 (internal leakage of proportional valves); paper Fig. 2 overlap",
+           [Parameter("fraction", "-", 0.005, 0.0, 0.2, 0.0, "leak conductance / full conductance")],
+           strength="fraction", pack=_pack_null_leak, probe={"fraction": 0.005}),
+    Effect("stribeck_friction",
+           "breakaway friction above Coulomb: Fc + (Fs - Fc) exp(-(v/vs)^2)",
+           "piston starts late and then jumps; position error right after each start from rest",
+           "Armstrong-Hélouvry (1991), Control of machines with friction",
+           [Parameter("static_ratio", "-", 1.5, 1.0, 5.0, 1.0, "Fs / Fc"),
+            Parameter("stribeck_velocity", "m/s", 0.01, 1e-4, 1.0, None, "Stribeck velocity vs")],
+           strength="static_ratio", pack=_pack_stribeck, observable_in=("free",),
+           probe={"static_ratio": 1.5}),
+    Effect("pressure_dependent_friction",
+           "Coulomb and viscous friction that grow with the chamber pressures (Eq. 19-20)",
+           "position and velocity errors that grow with the working pressure; a constant-friction "
+           "model is right at low pressure only",
+           "Maré, Geider & Colin, Eq. 19-20",
+           [Parameter("fc_a", "N/Pa", 1e-5, -2e-4, 2e-4, 0.0, "Coulomb per gauge pressure in A"),
+            Parameter("fc_b", "N/Pa", 1e-5, -2e-4, 2e-4, 0.0, "Coulomb per gauge pressure in B"),
+            Parameter("kv_a", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "viscous per gauge pressure in A"),
+            Parameter("kv_b", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "viscous per gauge pressure in B")],
+           strength="fc_a", transform=_pdf_transform, applies=_pdf_applies, observable_in=("free",),
+           fit_params=("fc_a", "fc_b"), probe={"fc_a": 1e-5, "fc_b": 1e-5}),
+    Effect("quadrant_friction",
+           "different extend and retract friction (the quadrant effect); parameters are the "
+           "retract set minus the extend set",
+           "position error of one sign on extension strokes and another on retraction strokes",
+           "Maré (1993); paper Sect. 2.3",
+           [Parameter("fc0", "N", 5.0, -500.0, 500.0, 0.0, "retract - extend constant Coulomb"),
+            Parameter("fc_a", "N/Pa", 0.0, -2e-4, 2e-4, 0.0, "retract - extend Coulomb per p_a"),
+            Parameter("fc_b", "N/Pa", 0.0, -2e-4, 2e-4, 0.0, "retract - extend Coulomb per p_b"),
+            Parameter("kv0", "N s/m", 10.0, -2000.0, 2000.0, 0.0, "retract - extend viscous"),
+            Parameter("kv_a", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "retract - extend viscous per p_a"),
+            Parameter("kv_b", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "retract - extend viscous per p_b")],
+           strength="fc0", transform=_quadrant_transform, applies=_quadrant_applies,
+           observable_in=("free",), fit_params=("fc0", "kv0"), probe={"fc0": 5.0, "kv0": 10.0}),
+    Effect("dead_volume",
+           "extra volume between valve and chamber (tubing, fittings)",
+           "pressure rises and falls slower than the model, most at the small-volume end of stroke",
+           "paper Eq. 23-24 (dead volumes v_m)",
+           [Parameter("volume_a", "m^3", 5e-6, 0.0, 1e-3, 0.0, "extra volume on A"),
+            Parameter("volume_b", "m^3", 5e-6, 0.0, 1e-3, 0.0, "extra volume on B")],
+           strength="volume_a", transform=_dead_transform,
+           probe={"volume_a": 5e-6, "volume_b": 5e-6}),
+    Effect("supply_pressure_drop",
+           "finite supply: a regulator conductance feeding an (isothermal) supply-line volume",
+           "filling chamber pressure sags below the model while flow is high, then recovers",
+           "ISO 6358 for the regulator; Beater, Pneumatic Drives (2007), supply lines",
+           [Parameter("C", "m^3/(s Pa)", 2e-8, 0.0, 1e-6, 0.0, "regulator sonic conductance (0 = ideal supply)"),
+            Parameter("b", "-", 0.3, 0.0, 0.99, None, "regulator critical ratio"),
+            Parameter("volume", "m^3", 1e-4, 1e-7, 1e-2, None, "supply-line volume")],
+           strength="C", pack=_pack_supply, fit_params=("C",), probe={"C": 5e-8}),
+    Effect("sensor_lag",
+           "first-order lag of the pressure transducers",
+           "measured pressures trail the model by a fixed delay at every fast transient",
+           "paper Sect. 4 (phase lags of the acquisition chain)",
+           [Parameter("time_constant", "s", 0.002, 0.0, 0.1, 0.0, "transducer time constant")],
+           strength="time_constant", pack=_pack_sensor, probe={"time_constant": 0.002}),
+]:
+    register_effect(_e)

@@ -1,0 +1,583 @@
+"""The actuator model as plain dataclasses that round-trip to JSON.
+
+``Model.from_dict(d)`` validates everything and raises one
+:class:`~pneucore.spec.validation.FieldError` (a ``ValueError``) naming the field
+path; ``Model.to_dict()`` gives back plain JSON. Units are SI, pressures
+absolute [Pa], temperatures [K].
+"""
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+from typing import Optional
+
+from pneucore.physics.flow import FLOW_LAWS, R_LAMINAR
+from pneucore.physics.friction import FRICTION_LAWS
+from pneucore.physics.gas import GAMMA_AIR, P_ATM, P_CONTINUUM_MIN, R_AIR, T_REF
+from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
+from pneucore.physics.jack import annulus_area, chamber_volumes, rod_area
+from pneucore.spec.validation import FieldError, choice, known_keys, mapping, number, number_list, optional_mapping
+
+#: Edges of each valve kind and the opening range of their tables
+VALVE_KINDS = {
+    "4/2": {"ports": ("P-A", "A-R", "P-B", "B-R"), "range": (-1.0, 1.0)},
+    "3/2": {"ports": ("P-A", "A-R"), "range": (0.0, 1.0)},
+}
+
+
+@dataclass
+class Jack:
+    """Cylinder geometry and load.
+
+    Parameters
+    ----------
+    bore : float
+        Bore (piston) diameter [m]
+    rod_a : float
+        Rod diameter on the chamber-A side, 0 = no rod [m]
+    rod_b : float
+        Rod diameter on the chamber-B side, 0 = no rod [m]
+    stroke : float
+        Stroke [m]
+    dead_volume_a : float
+        Volume of chamber A at x = 0, ports included [m^3]
+    dead_volume_b : float
+        Volume of chamber B at x = stroke [m^3]
+    moving_mass : float
+        Piston, rod and load mass [kg]
+    load_force : float
+        Constant external force pushing towards x = 0 [N]
+    wall_area_a, wall_area_b : float or None
+        Heat-exchange area override [m^2];
+        None = lateral area of the gas column plus both end faces, following the piston
+    """
+    bore: float = 0.032
+    rod_a: float = 0.012
+    rod_b: float = 0.012
+    stroke: float = 0.25
+    dead_volume_a: float = 5e-6
+    dead_volume_b: float = 5e-6
+    moving_mass: float = 2.0
+    load_force: float = 0.0
+    wall_area_a: Optional[float] = None
+    wall_area_b: Optional[float] = None
+
+    @property
+    def area_a(self):
+        """Annulus area of chamber A [m^2]."""
+        return annulus_area(self.bore, self.rod_a)
+
+    @property
+    def area_b(self):
+        """Annulus area of chamber B [m^2]."""
+        return annulus_area(self.bore, self.rod_b)
+
+    @property
+    def rod_area_a(self):
+        """Rod cross-section on side A [m^2]."""
+        return rod_area(self.rod_a)
+
+    @property
+    def rod_area_b(self):
+        """Rod cross-section on side B [m^2]."""
+        return rod_area(self.rod_b)
+
+    def volumes(self, x):
+        """Chamber volumes ``(V_a, V_b)`` at position ``x`` [m] (Eq. 23-24) [m^3]."""
+        return chamber_volumes(x, self.area_a, self.area_b, self.stroke, self.dead_volume_a,
+                               self.dead_volume_b)
+
+    @classmethod
+    def from_dict(cls, d, path="jack"):
+        mapping(d, path)
+        known_keys(d, cls.__dataclass_fields__, path)
+        j = cls(**{**cls().__dict__, **d})
+        j.bore = number(j.bore, f"{path}.bore", positive=True)
+        j.rod_a = number(j.rod_a, f"{path}.rod_a", nonnegative=True)
+        j.rod_b = number(j.rod_b, f"{path}.rod_b", nonnegative=True)
+        for side in ("a", "b"):
+            if getattr(j, f"rod_{side}") >= j.bore:
+                raise FieldError(f"{path}.rod_{side}",
+                                 f"rod diameter {getattr(j, f'rod_{side}'):g} m must be smaller "
+                                 f"than the bore {j.bore:g} m")
+        j.stroke = number(j.stroke, f"{path}.stroke", positive=True)
+        j.dead_volume_a = number(j.dead_volume_a, f"{path}.dead_volume_a", positive=True)
+        j.dead_volume_b = number(j.dead_volume_b, f"{path}.dead_volume_b", positive=True)
+        j.moving_mass = number(j.moving_mass, f"{path}.moving_mass", positive=True)
+        j.load_force = number(j.load_force, f"{path}.load_force")
+        j.wall_area_a = number(j.wall_area_a, f"{path}.wall_area_a", positive=True, allow_none=True)
+        j.wall_area_b = number(j.wall_area_b, f"{path}.wall_area_b", positive=True, allow_none=True)
+        return j
+
+    def to_dict(self):
+        return dict(self.__dict__)
+
+
+@dataclass
+class PortTable:
+    """One metering edge: sonic conductance and critical ratio against spool opening.
+
+    Parameters
+    ----------
+    opening : list of float
+        Strictly increasing spool openings, at least two [-]
+    C : list of float
+        Sonic conductance at each opening [m^3/(s Pa)]
+    b : list of float
+        Critical pressure ratio at each opening, in [0, 1) [-]
+    m : list of float or None
+        Subsonic index at each opening [-]; None = 0.5 (Eq. 4)
+    """
+    opening: list
+    C: list
+    b: list
+    m: Optional[list] = None
+
+    @classmethod
+    def from_dict(cls, d, path, u_range=(-1.0, 1.0)):
+        mapping(d, path)
+        known_keys(d, ("opening", "C", "b", "m"), path)
+        for key in ("opening", "C", "b"):
+            if key not in d:
+                raise FieldError(f"{path}.{key}", "is required")
+        lo, hi = u_range
+        # two points at least: one point would hold its conductance at every opening (linear
+        # interpolation with the ends held), a valve that never closes
+        opening = number_list(d["opening"], f"{path}.opening", min_len=2, low=lo, high=hi)
+        for i in range(1, len(opening)):
+            if opening[i] <= opening[i - 1]:
+                raise FieldError(f"{path}.opening[{i}]",
+                                 f"openings must be strictly increasing ({opening[i - 1]:g} then {opening[i]:g})")
+        n = len(opening)
+        C = number_list(d["C"], f"{path}.C", nonnegative=True)
+        b = number_list(d["b"], f"{path}.b", low=0.0, high=1.0, high_open=True)
+        m = d.get("m")
+        if m is not None:
+            m = number_list(m, f"{path}.m", positive=True, high=2.0)
+        for key, vals in (("C", C), ("b", b), ("m", m)):
+            if vals is not None and len(vals) != n:
+                raise FieldError(f"{path}.{key}", f"must have one value per opening ({n}), got {len(vals)}")
+        return cls(opening, C, b, m)
+
+    def to_dict(self):
+        d = {"opening": list(self.opening), "C": list(self.C), "b": list(self.b)}
+        if self.m is not None:
+            d["m"] = list(self.m)
+        return d
+
+    @property
+    def C_max(self):
+        """Largest conductance of the table [m^3/(s Pa)]."""
+        return max(self.C)
+
+    @property
+    def b_at_C_max(self):
+        """Critical ratio at the largest conductance [-]."""
+        return self.b[self.C.index(max(self.C))]
+
+
+@dataclass
+class Valve:
+    """Directional control valve.
+
+    Parameters
+    ----------
+    kind : str
+        ``"4/2"`` (edges P-A, A-R, P-B, B-R, opening in [-1, 1]) or
+        ``"3/2"`` (edges P-A, A-R, opening in [0, 1]; chamber B at constant pressure)
+    ports : dict
+        Edge name -> :class:`PortTable`
+    b_chamber_pressure : float or None
+        3/2 mode: absolute pressure held in
+        chamber B [Pa]; None = half the supply pressure, as in the paper
+    flow_law : str
+        Name in :data:`pneucore.physics.flow.FLOW_LAWS` (``iso6358`` or ``saint_venant``)
+    laminar_ratio : float
+        Pressure ratio above which edge flows are linearised [-]
+    """
+    kind: str = "4/2"
+    ports: dict = field(default_factory=dict)
+    b_chamber_pressure: Optional[float] = None
+    flow_law: str = "iso6358"
+    laminar_ratio: float = R_LAMINAR
+
+    @classmethod
+    def from_dict(cls, d, path="valve"):
+        mapping(d, path)
+        known_keys(d, cls.__dataclass_fields__, path)
+        kind = choice(d.get("kind", "4/2"), VALVE_KINDS, f"{path}.kind")
+        spec = VALVE_KINDS[kind]
+        ports_in = optional_mapping(d.get("ports"), f"{path}.ports")
+        known_keys(ports_in, spec["ports"], f"{path}.ports")
+        ports = {}
+        for name in spec["ports"]:
+            if name not in ports_in:
+                raise FieldError(f"{path}.ports.{name}", f"is required for a {kind} valve")
+            ports[name] = PortTable.from_dict(ports_in[name], f"{path}.ports.{name}", spec["range"])
+        bcp = number(d.get("b_chamber_pressure"), f"{path}.b_chamber_pressure", positive=True,
+                     allow_none=True)
+        law = choice(d.get("flow_law", "iso6358"), FLOW_LAWS, f"{path}.flow_law")
+        r_lam = number(d.get("laminar_ratio", R_LAMINAR), f"{path}.laminar_ratio", low=0.9,
+                       high=1.0, high_open=True)
+        return cls(kind, ports, bcp, law, r_lam)
+
+    def to_dict(self):
+        return {"kind": self.kind, "ports": {k: p.to_dict() for k, p in self.ports.items()},
+                "b_chamber_pressure": self.b_chamber_pressure, "flow_law": self.flow_law,
+                "laminar_ratio": self.laminar_ratio}
+
+    @property
+    def opening_range(self):
+        """Valid command range ``(low, high)`` of this valve kind [-]."""
+        return VALVE_KINDS[self.kind]["range"]
+
+
+@dataclass
+class Source:
+    """A pressure node: supply or ambient.
+
+    Parameters
+    ----------
+    pressure : float
+        Absolute pressure [Pa]
+    temperature : float
+        Temperature [K]
+    """
+    pressure: float
+    temperature: float = T_REF
+
+    @classmethod
+    def from_dict(cls, d, path, default_pressure):
+        mapping(d, path)
+        known_keys(d, ("pressure", "temperature"), path)
+        p = number(d.get("pressure", default_pressure), f"{path}.pressure", positive=True)
+        T = number(d.get("temperature", T_REF), f"{path}.temperature", positive=True)
+        return cls(p, T)
+
+    def to_dict(self):
+        return {"pressure": self.pressure, "temperature": self.temperature}
+
+
+class Heat:
+    """Heat exchange model: a name in :data:`pneucore.physics.heat.HEAT_MODELS` and its parameters.
+
+    Every parameter of :data:`pneucore.physics.heat.HEAT_PARAMETERS` is an attribute
+    (its default when not given), so calibration paths ``heat.<parameter>``
+    reach it; :meth:`to_dict` writes the model's own parameters (and
+    ``coefficient``, kept for every model as before; the others when not at their default).
+
+    Parameters
+    ----------
+    model : str
+        Name in :data:`pneucore.physics.heat.HEAT_MODELS` (isothermal, adiabatic, convective,
+        natural_convection, natural_and_jet)
+    coefficient : float
+        Convection coefficient h of Eq. 9 [W/(m^2 K)]
+    **params : float
+        Other parameters of the model, in the units of :data:`pneucore.physics.heat.HEAT_PARAMETERS`
+    """
+
+    def __init__(self, model="convective", coefficient=HEAT_PARAMETERS["coefficient"].default,
+                 **params):
+        self.model = model
+        for name, p in HEAT_PARAMETERS.items():
+            setattr(self, name, float(params.pop(name, p.default)))
+        self.coefficient = coefficient
+        if params:
+            raise TypeError(f"unknown heat parameters {sorted(params)}")
+
+    @property
+    def spec(self):
+        """The registered :class:`pneucore.physics.heat.HeatModel`."""
+        return HEAT_MODELS[self.model]
+
+    @classmethod
+    def from_dict(cls, d, path="heat"):
+        mapping(d, path)
+        model = choice(d.get("model", "convective"), HEAT_MODELS, f"{path}.model")
+        # "coefficient" stays accepted whatever the model (the JSON of earlier versions)
+        known_keys(d, tuple(dict.fromkeys(("model", "coefficient") + HEAT_MODELS[model].parameters)),
+                   path)
+        vals = {}
+        for name, p in HEAT_PARAMETERS.items():
+            vals[name] = number(d.get(name, p.default), f"{path}.{name}", low=p.min, high=p.max)
+        return cls(model, **vals)
+
+    def to_dict(self):
+        """``model``, ``coefficient`` and the model's other parameters that differ from their
+        defaults (so that the JSON of earlier versions round-trips unchanged)."""
+        d = {"model": self.model, "coefficient": self.coefficient}
+        for name in HEAT_MODELS[self.model].parameters:
+            v = getattr(self, name)
+            if name != "coefficient" and v != HEAT_PARAMETERS[name].default:
+                d[name] = v
+        return d
+
+    def copy(self):
+        return Heat(**self.__dict__)
+
+    def __eq__(self, other):
+        return isinstance(other, Heat) and self.__dict__ == other.__dict__
+
+    def __repr__(self):
+        return f"Heat({self.to_dict()!r})"
+
+
+@dataclass
+class FrictionSet:
+    """Friction coefficients of one quadrant (Eq. 18-20, gauge pressures).
+
+    Parameters
+    ----------
+    fc0 : float
+        Constant Coulomb force [N]
+    fc_a, fc_b : float
+        Coulomb force per gauge pressure in A and B [N/Pa]
+    kv0 : float
+        Constant viscous coefficient [N s/m]
+    kv_a, kv_b : float
+        Viscous coefficient per gauge pressure [N s/(m Pa)]
+    """
+    fc0: float = 10.0
+    fc_a: float = 0.0
+    fc_b: float = 0.0
+    kv0: float = 30.0
+    kv_a: float = 0.0
+    kv_b: float = 0.0
+
+    @classmethod
+    def from_dict(cls, d, path):
+        mapping(d, path)
+        known_keys(d, cls.__dataclass_fields__, path)
+        out = cls()
+        for key in cls.__dataclass_fields__:
+            kw = {"nonnegative": True} if key in ("fc0", "kv0") else {}
+            setattr(out, key, number(d.get(key, getattr(out, key)), f"{path}.{key}", **kw))
+        return out
+
+    def to_dict(self):
+        return dict(self.__dict__)
+
+
+@dataclass
+class Friction:
+    """Piston friction: extension (v > 0) and retraction (v < 0) sets, and the law's name."""
+    extend: FrictionSet = field(default_factory=FrictionSet)
+    retract: FrictionSet = field(default_factory=FrictionSet)
+    law: str = "coulomb_viscous"
+
+    @classmethod
+    def from_dict(cls, d, path="friction"):
+        mapping(d, path)
+        known_keys(d, ("extend", "retract", "law"), path)
+        ext = FrictionSet.from_dict(d.get("extend", {}), f"{path}.extend")
+        ret = FrictionSet.from_dict(d.get("retract", d.get("extend", {})), f"{path}.retract")
+        law = choice(d.get("law", "coulomb_viscous"), FRICTION_LAWS, f"{path}.law")
+        return cls(ext, ret, law)
+
+    def to_dict(self):
+        return {"extend": self.extend.to_dict(), "retract": self.retract.to_dict(), "law": self.law}
+
+
+@dataclass
+class Gas:
+    """Ideal gas (Eq. 10-11).
+
+    Parameters
+    ----------
+    r : float
+        Specific gas constant [J/(kg K)]
+    gamma : float
+        Ratio of specific heats [-]
+    """
+    r: float = R_AIR
+    gamma: float = GAMMA_AIR
+
+    @classmethod
+    def from_dict(cls, d, path="gas"):
+        mapping(d, path)
+        known_keys(d, ("r", "gamma"), path)
+        return cls(number(d.get("r", R_AIR), f"{path}.r", positive=True),
+                   number(d.get("gamma", GAMMA_AIR), f"{path}.gamma", low=1.0, low_open=True, high=2.0))
+
+    def to_dict(self):
+        return {"r": self.r, "gamma": self.gamma}
+
+
+@dataclass
+class Model:
+    """A complete actuator model: jack, valve, supply, ambient, heat, friction, effects.
+
+    ``effects`` maps catalog effect names (:mod:`pneucore.spec.effects`) to their
+    parameters; an empty dict is the paper's base model.
+    """
+    jack: Jack = field(default_factory=Jack)
+    valve: Valve = field(default_factory=Valve)
+    supply: Source = field(default_factory=lambda: Source(7e5))
+    ambient: Source = field(default_factory=lambda: Source(P_ATM))
+    heat: Heat = field(default_factory=Heat)
+    friction: Friction = field(default_factory=Friction)
+    effects: dict = field(default_factory=dict)
+    gas: Gas = field(default_factory=Gas)
+    name: str = ""
+    description: str = ""
+    notes: str = ""
+
+    @classmethod
+    def from_dict(cls, d):
+        """Build and validate a model from plain JSON (see the README for the shape)."""
+        if isinstance(d, Model):
+            return d.copy()
+        mapping(d, "model")
+        known_keys(d, ("jack", "valve", "supply", "ambient", "heat", "friction", "effects", "gas",
+                       "name", "description", "notes"), "")
+        for key in ("jack", "valve"):
+            if key not in d:
+                raise FieldError(key, "is required")
+        m = cls(
+            jack=Jack.from_dict(d["jack"]),
+            valve=Valve.from_dict(d["valve"]),
+            supply=Source.from_dict(d.get("supply", {}), "supply", 7e5),
+            ambient=Source.from_dict(d.get("ambient", {}), "ambient", P_ATM),
+            heat=Heat.from_dict(d.get("heat", {})),
+            friction=Friction.from_dict(d.get("friction", {})),
+            effects=dict(optional_mapping(d.get("effects"), "effects")),
+            gas=Gas.from_dict(d.get("gas", {})),
+            name=str(d.get("name", "")),
+            description=str(d.get("description", "")),
+            notes=str(d.get("notes", "")),
+        )
+        # A supply at or below the ambient pressure (a vessel filled from the atmosphere, a
+        # vacuum line) is physics the flow laws hold for, in either direction; what they do not
+        # hold for is rarefied gas (gas.P_CONTINUUM_MIN), and a 3/2 valve's chamber B at half a
+        # supply that is no longer the high pressure
+        for key, src in (("supply", m.supply), ("ambient", m.ambient)):
+            if src.pressure < P_CONTINUUM_MIN:
+                raise FieldError(f"{key}.pressure",
+                                 f"{src.pressure:g} Pa is below {P_CONTINUUM_MIN:g} Pa, where air "
+                                 f"through a valve is no longer a continuum (Knudsen number > 0.01)")
+        if m.valve.kind == "3/2" and m.valve.b_chamber_pressure is None \
+                and m.supply.pressure <= m.ambient.pressure:
+            raise FieldError("valve.b_chamber_pressure",
+                             f"with a supply ({m.supply.pressure:g} Pa) at or below the ambient "
+                             f"pressure ({m.ambient.pressure:g} Pa) the default chamber-B pressure "
+                             f"of a 3/2 valve (half the supply) has no meaning: give it")
+        if m.valve.b_chamber_pressure is not None and m.valve.kind != "3/2":
+            raise FieldError("valve.b_chamber_pressure", "only applies to a 3/2 valve")
+        from pneucore.spec.effects import validate_effects
+        m.effects = validate_effects(m.effects, m)
+        return m
+
+    def to_dict(self):
+        """Plain JSON of the model (round-trips through :meth:`from_dict`)."""
+        d = {"jack": self.jack.to_dict(), "valve": self.valve.to_dict(),
+             "supply": self.supply.to_dict(), "ambient": self.ambient.to_dict(),
+             "heat": self.heat.to_dict(), "friction": self.friction.to_dict(),
+             "effects": copy.deepcopy(self.effects), "gas": self.gas.to_dict()}
+        for key in ("name", "description", "notes"):
+            if getattr(self, key):
+                d[key] = getattr(self, key)
+        return d
+
+    def copy(self):
+        """Deep copy (written out: ``copy.deepcopy`` costs more than a simulation here)."""
+        v = self.valve
+        ports = {k: PortTable(list(p.opening), list(p.C), list(p.b), None if p.m is None else list(p.m))
+                 for k, p in v.ports.items()}
+        f = self.friction
+        return Model(
+            jack=Jack(**self.jack.__dict__),
+            valve=Valve(v.kind, ports, v.b_chamber_pressure, v.flow_law, v.laminar_ratio),
+            supply=Source(**self.supply.__dict__), ambient=Source(**self.ambient.__dict__),
+            heat=self.heat.copy(),
+            friction=Friction(FrictionSet(**f.extend.__dict__), FrictionSet(**f.retract.__dict__), f.law),
+            effects={k: dict(p) for k, p in self.effects.items()},
+            gas=Gas(**self.gas.__dict__), name=self.name, description=self.description,
+            notes=self.notes)
+
+    @property
+    def b_chamber_pressure(self):
+        """Constant chamber-B pressure in 3/2 mode [Pa] (half the supply by default), else None."""
+        if self.valve.kind != "3/2":
+            return None
+        if self.valve.b_chamber_pressure is not None:
+            return self.valve.b_chamber_pressure
+        return 0.5 * self.supply.pressure
+
+
+
+def _mechanical_coefficients(model):
+    """``(Kv_max [N s/m], k_max [N/m])``: the largest viscous coefficient and gas stiffness."""
+    j, f = model.jack, model.friction
+    dp = model.supply.pressure - model.ambient.pressure
+    kv = max(max(s.kv0 + max(s.kv_a, 0.0) * dp + max(s.kv_b, 0.0) * dp, 0.0)
+             for s in (f.extend, f.retract))
+    k = max(model.gas.gamma * model.supply.pressure * area ** 2 / v0
+            for area, v0 in ((j.area_a, j.dead_volume_a), (j.area_b, j.dead_volume_b)))
+    return kv, k
+
+
+def mechanical_time_constant(model):
+    """Shortest time constant of the piston's motion, from the model's own numbers [s].
+
+    Two time scales bound how fast the velocity can change (Eq. 17-19):
+
+    * viscous: ``m / Kv_max``, with ``Kv_max`` the largest viscous coefficient of
+      Eq. 19 (either quadrant, both chambers at the supply pressure);
+    * pneumatic: ``sqrt(m / k_max)``, with ``k_max = gamma p_s A^2 / V_0`` the stiffest
+      gas spring (a chamber at the supply pressure compressed to its dead volume,
+      adiabatic index gamma).
+
+    Parameters
+    ----------
+    model : Model
+        A validated model
+
+    Returns
+    -------
+    tau : float
+        The smaller of the two [s]
+    """
+    import math
+    kv, k = _mechanical_coefficients(model)
+    m = model.jack.moving_mass
+    return min(m / kv, math.sqrt(m / k)) if kv > 0.0 else math.sqrt(m / k)
+
+
+
+def check_resolvable(model, rtol, max_step, path="jack.moving_mass"):
+    """Refuse a moving mass too light for the integrator to resolve at tolerance ``rtol``.
+
+    The velocity follows the net force with the mechanical time constant
+    ``tau`` (:func:`mechanical_time_constant`). The integrator's error control
+    sees that fast mode only while its transient spans at least the fraction
+    ``rtol`` of the longest step ``max_step``; a shorter one is stepped over by
+    steps sized for the chambers, with a Jacobian the fast mode makes
+    inaccurate, and the run ends "ok" with a wrong velocity (1e-9 kg: 145 m/s
+    where a tight solve gives 2.03 m/s). Hence the bound
+    ``tau >= rtol * max_step``, i.e. ``m >= max(Kv_max tau, k_max tau^2)``:
+    5e-7 s and 0.05 g for the paper's jack at the defaults (rtol 1e-5,
+    max_step 0.05 s). Measured on the Fig. 10 pulses (error of x and peak |v|
+    against rtol 1e-9, in units of rtol): at ``tau`` = 0.7 x the bound 1.2
+    (rtol 1e-5), 3.1 (1e-4), 2.4 (1e-3); at 0.02 x the bound 98, 100, 32.
+
+    Parameters
+    ----------
+    model : Model
+        A validated model
+    rtol : float
+        Relative tolerance of the run [-]
+    max_step : float
+        Longest integration step of the run [s]
+    path : str
+        Field named in the error
+    """
+    tau = mechanical_time_constant(model)
+    need = rtol * max_step
+    if tau < need:
+        kv, k = _mechanical_coefficients(model)
+        m_min = max(kv * need, k * need ** 2)
+        raise FieldError(path, f"moving mass {model.jack.moving_mass:g} kg gives a mechanical time "
+                               f"constant of {tau:.3g} s, below the {need:.3g} s the solver resolves "
+                               f"(rtol x max_step = {rtol:g} x {max_step:g} s); use at least "
+                               f"{m_min:.3g} kg, or a smaller scenario.solver.rtol or max_step")

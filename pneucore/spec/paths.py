@@ -1,0 +1,207 @@
+"""Model parameters addressed by path (``heat.coefficient``, ``friction.extend.fc0``, ...).
+
+Paths name numeric fields of :class:`pneucore.spec.model.Model`:
+
+* ``jack.<field>``, ``supply.pressure``, ``ambient.temperature``, ``heat.coefficient`` and the
+  other parameters of the model's heat model (``heat.natural_multiplier``, ... :mod:`pneucore.physics.heat`),
+  ``friction.extend.fc0`` ... ``friction.retract.kv_b``, ``gas.r``, ``gas.gamma``;
+* ``effects.<name>.<parameter>`` for a catalog effect (added with its defaults if absent);
+* ``valve.ports.<edge>.C`` and ``valve.ports.<edge>.b``: a *scale factor* on the
+  whole table (1 = as given); ``valve.ports.*.C`` scales every edge together.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from pneucore.spec.effects import EFFECTS
+from pneucore.physics.heat import HEAT_PARAMETERS
+from pneucore.spec.validation import FieldError, number
+
+_SECTIONS = {"jack", "supply", "ambient", "heat", "friction", "gas"}
+
+
+@dataclass
+class ParameterSpec:
+    """A parameter to fit (lmfit style): value, bounds, vary flag.
+
+    Parameters
+    ----------
+    path : str
+        Model path
+    value : float
+        Starting value (SI; a scale factor for valve tables)
+    min, max : float
+        Bounds
+    vary : bool
+        Fit it (False = hold at ``value``)
+    unit : str
+        Unit, for reports
+    """
+    path: str
+    value: float
+    min: float
+    max: float
+    vary: bool = True
+    unit: str = ""
+
+    def to_dict(self):
+        return {"path": self.path, "value": self.value, "min": self.min, "max": self.max,
+                "vary": self.vary, "unit": self.unit}
+
+
+def unit_of(path):
+    """Unit of the parameter at ``path`` (``""`` when unknown)."""
+    return _unit(path)
+
+
+def _unit(path):
+    units = {"bore": "m", "rod_a": "m", "rod_b": "m", "stroke": "m", "dead_volume_a": "m^3",
+             "dead_volume_b": "m^3", "moving_mass": "kg", "load_force": "N", "wall_area_a": "m^2",
+             "wall_area_b": "m^2", "pressure": "Pa", "temperature": "K", "coefficient": "W/(m^2 K)",
+             "fc0": "N", "fc_a": "N/Pa", "fc_b": "N/Pa", "kv0": "N s/m", "kv_a": "N s/(m Pa)",
+             "kv_b": "N s/(m Pa)", "r": "J/(kg K)", "gamma": "-"}
+    parts = path.split(".")
+    if parts[0] == "effects" and len(parts) == 3 and parts[1] in EFFECTS:
+        try:
+            return EFFECTS[parts[1]].param(parts[2]).unit
+        except KeyError:
+            return ""
+    if parts[0] == "valve":
+        return "-"
+    if parts[0] == "heat" and len(parts) == 2 and parts[1] in HEAT_PARAMETERS:
+        return HEAT_PARAMETERS[parts[1]].unit
+    return units.get(parts[-1], "")
+
+
+def get_value(model, path):
+    """Current value of ``path`` on ``model`` (1.0 for valve scale factors)."""
+    parts = path.split(".")
+    if parts[0] == "valve":
+        _check_valve_path(model, path)
+        return 1.0
+    if parts[0] == "effects":
+        if len(parts) != 3 or parts[1] not in EFFECTS:
+            raise FieldError(f"parameters.{path}", f"unknown effect; the catalog has {sorted(EFFECTS)}")
+        eff = EFFECTS[parts[1]]
+        try:
+            p = eff.param(parts[2])
+        except KeyError:
+            raise FieldError(f"parameters.{path}", f"unknown parameter of {parts[1]}; expected one of "
+                                                   f"{[q.name for q in eff.parameters]}") from None
+        return float(model.effects.get(parts[1], {}).get(parts[2], p.default))
+    if parts[0] == "heat" and len(parts) == 2 and parts[1] in HEAT_PARAMETERS \
+            and parts[1] != "coefficient" and parts[1] not in model.heat.spec.parameters:
+        raise FieldError(f"parameters.{path}",
+                         f"not a parameter of heat model {model.heat.model!r}; it has "
+                         f"{list(model.heat.spec.parameters)}")
+    if parts[0] not in _SECTIONS:
+        raise FieldError(f"parameters.{path}", f"unknown parameter path; paths start with one of "
+                                               f"{sorted(_SECTIONS | {'effects', 'valve'})}")
+    obj = model
+    for i, k in enumerate(parts):
+        # only declared dataclass fields: properties (jack.area_a) and attributes of a
+        # number (supply.pressure.real) are not parameters and cannot be set
+        fields = getattr(obj, "__dataclass_fields__", None)
+        if i == 1 and parts[0] == "heat":
+            fields = HEAT_PARAMETERS   # the heat registry declares the heat parameters
+        if fields is None or k not in fields:
+            where = ".".join(parts[:i]) or "model"
+            hint = f"; {where} has {sorted(fields)}" if fields else f"; {where} is a number"
+            raise FieldError(f"parameters.{path}", f"unknown parameter path{hint}")
+        obj = getattr(obj, k)
+    if obj is None or isinstance(obj, bool) or not isinstance(obj, (int, float)):
+        raise FieldError(f"parameters.{path}", "is not a numeric parameter"
+                         + (" (it is null: give a value in the model first)" if obj is None else ""))
+    return float(obj)
+
+
+def _check_valve_path(model, path):
+    parts = path.split(".")
+    if len(parts) != 4 or parts[1] != "ports" or parts[3] not in ("C", "b"):
+        raise FieldError(f"parameters.{path}", "valve paths are valve.ports.<edge>.C or .b (scale factors)")
+    if parts[2] != "*" and parts[2] not in model.valve.ports:
+        raise FieldError(f"parameters.{path}", f"unknown edge; this valve has {sorted(model.valve.ports)}")
+
+
+def set_values(model, values, copy=True):
+    """``model`` with ``{path: value}`` applied (valve entries scale the tables).
+
+    ``copy=False`` edits ``model`` in place (for callers that own a fresh copy).
+    """
+    m = model.copy() if copy else model
+    for path, v in values.items():
+        parts = path.split(".")
+        if parts[0] == "valve":
+            edges = list(m.valve.ports) if parts[2] == "*" else [parts[2]]
+            for e in edges:
+                port = m.valve.ports[e]
+                if parts[3] == "C":
+                    port.C = [c * v for c in port.C]
+                else:
+                    port.b = [min(b * v, 0.999) for b in port.b]
+        elif parts[0] == "effects":
+            eff = m.effects.setdefault(parts[1], EFFECTS[parts[1]].defaults())
+            eff[parts[2]] = float(v)
+        else:
+            obj = m
+            for k in parts[:-1]:
+                obj = getattr(obj, k)
+            setattr(obj, parts[-1], float(v))
+    return m
+
+
+def parse_parameters(model, parameters):
+    """Turn ``{path: {"min", "max", "value"?, "vary"?}}`` (or a list of paths) into specs.
+
+    Missing bounds come from the effect catalog, or default to a factor 10
+    around the current value (and 0 for non-negative quantities).
+    """
+    if isinstance(parameters, (list, tuple)):
+        parameters = {p: {} for p in parameters}
+    if not isinstance(parameters, dict) or not parameters:
+        raise FieldError("parameters", "give at least one parameter path to fit")
+    specs = []
+    for path, opts in parameters.items():
+        opts = opts or {}
+        if not isinstance(opts, dict):
+            raise FieldError(f"parameters.{path}", "must be an object with min/max/value/vary")
+        value = get_value(model, path)
+        lo, hi = _default_bounds(model, path, value)
+        lo = number(opts.get("min", lo), f"parameters.{path}.min")
+        hi = number(opts.get("max", hi), f"parameters.{path}.max")
+        value = number(opts.get("value", value), f"parameters.{path}.value")
+        if not lo < hi:
+            raise FieldError(f"parameters.{path}", f"min {lo:g} must be below max {hi:g}")
+        if not lo <= value <= hi:
+            value = min(max(value, lo), hi)
+        vary = opts.get("vary", True)
+        if not isinstance(vary, bool):
+            raise FieldError(f"parameters.{path}.vary", "must be true or false")
+        specs.append(ParameterSpec(path, value, lo, hi, vary, _unit(path)))
+    return specs
+
+
+#: Fields the model validation requires to be > 0 (default calibration bounds keep them so)
+_STRICTLY_POSITIVE = {"bore", "stroke", "dead_volume_a", "dead_volume_b", "moving_mass", "wall_area_a",
+                      "wall_area_b", "pressure", "temperature", "r"}
+
+
+def _default_bounds(model, path, value):
+    parts = path.split(".")
+    if parts[0] == "effects":
+        p = EFFECTS[parts[1]].param(parts[2])
+        return p.min, p.max
+    if parts[0] == "valve":
+        return (0.1, 10.0) if parts[3] == "C" else (0.5, 1.5)
+    if parts[0] == "heat" and parts[-1] in HEAT_PARAMETERS and parts[-1] != "coefficient":
+        # heat-model parameters carry their bounds (heat.coefficient keeps the factor-10 rule)
+        return HEAT_PARAMETERS[parts[-1]].min, HEAT_PARAMETERS[parts[-1]].max
+    if parts[-1] == "gamma":
+        return 1.01, 2.0
+    if value > 0 and parts[-1] in _STRICTLY_POSITIVE:
+        return value / 10.0, value * 10.0   # the model rejects zero for these
+    if value > 0:
+        return 0.0, value * 10.0
+    if value == 0:
+        return -1.0, 1.0
+    return value * 10.0, -value * 10.0

@@ -1,0 +1,48 @@
+"""Display unit systems of the page: SI, or engineering units (bar absolute or gauge, mm, L/min ANR).
+
+The service computes in SI with absolute pressures; a unit system only says
+how a quantity is *shown*: ``display = (si - offset) / scale``. The page
+reads these tables from ``GET /api/units`` (one source, no copy in the
+JavaScript). ``"gauge"`` as an offset means the model's ambient pressure.
+
+Normal litres per minute (ANR, ISO 8778: 20 °C, 1 bar... here the reference
+density ``RHO_REF`` of :mod:`pneucore.physics.gas`) turn a mass flow into the volume
+flow a flow meter of the air-preparation unit shows: 1 L/min ANR =
+``RHO_REF * 1e-3 / 60`` kg/s.
+"""
+from __future__ import annotations
+
+from pneucore.physics.gas import RHO_REF
+
+__all__ = ["UNIT_SYSTEMS", "unit_systems"]
+
+#: SI unit -> (shown unit, scale to SI, offset to SI) for each system; units absent are shown in SI
+UNIT_SYSTEMS: dict[str, dict] = {
+    "si": {"label": "SI (Pa, m, m³, kg/s)", "units": {}},
+    "engineering": {"label": "engineering (bar abs, mm, cm³, L/min ANR)", "units": {
+        "Pa": ("bar abs", 1e5, 0.0),
+        "m": ("mm", 1e-3, 0.0),
+        "m/s": ("mm/s", 1e-3, 0.0),
+        "m^3": ("cm³", 1e-6, 0.0),
+        "m^2": ("cm²", 1e-4, 0.0),
+        "kg/s": ("L/min ANR", RHO_REF * 1e-3 / 60.0, 0.0),
+        "m^3/(s Pa)": ("dm³/(s bar)", 1e-3 / 1e5, 0.0),
+    }},
+    "engineering-gauge": {"label": "engineering, gauge pressures (bar g, mm, cm³, L/min ANR)", "units": {
+        "Pa": ("bar g", 1e5, "gauge"),
+        "m": ("mm", 1e-3, 0.0),
+        "m/s": ("mm/s", 1e-3, 0.0),
+        "m^3": ("cm³", 1e-6, 0.0),
+        "m^2": ("cm²", 1e-4, 0.0),
+        "kg/s": ("L/min ANR", RHO_REF * 1e-3 / 60.0, 0.0),
+        "m^3/(s Pa)": ("dm³/(s bar)", 1e-3 / 1e5, 0.0),
+    }},
+}
+
+
+def unit_systems() -> dict:
+    """The systems as plain JSON: ``{name: {label, units: {si: {unit, scale, offset}}}}``."""
+    return {name: {"label": s["label"],
+                   "units": {si: {"unit": u, "scale": sc, "offset": off}
+                             for si, (u, sc, off) in s["units"].items()}}
+            for name, s in UNIT_SYSTEMS.items()}

@@ -1,0 +1,112 @@
+"""The package layout: subpackages by topic, the public API unchanged, old module names
+still importable (the same module object) with a DeprecationWarning."""
+import importlib
+import os
+import subprocess
+import sys
+import re
+
+import pytest
+
+import pneucore
+from pneucore._moved import MOVED
+
+PKG = os.path.dirname(os.path.abspath(pneucore.__file__))
+
+#: The public API of ``import pneucore`` (pneucore/__init__.py). A name leaving this list
+#: breaks users' code: change it only with a deprecation.
+PUBLIC = [
+    "EFFECTS", "Effect", "FLOW_LAWS", "FieldError", "HEAT_MODELS", "MODEL_PRESETS", "Model",
+    "Parameter", "SCENARIO_PRESETS", "Scenario", "SimulationError", "SimulationResult",
+    "iso6358_mass_flow", "model_preset", "pulse_train", "register_effect", "saint_venant_mass_flow",
+    "scenario_preset", "simulate", "unregister_effect",
+]
+
+#: The subpackages and the modules each holds (a new module is added here on purpose)
+LAYOUT = {
+    "physics": {"chamber", "flow", "friction", "gas", "heat", "jack", "valve", "vessel"},
+    "core": {"cache", "integrator", "layout", "rhs"},
+    "spec": {"effects", "model", "paths", "presets", "scenario", "units", "validation"},
+    "data": {"experiment", "export", "fileformats", "measurement", "samples", "synthetic"},
+    "analysis": {"autocorrelation", "calibrate", "calibration_options", "compare", "diagnose",
+                 "heat_compare", "history", "hypotheses", "metrics", "report"},
+    "study": {"__main__", "_warm", "_worker", "definition", "execute", "metrics", "results", "store"},
+}
+TOP_LEVEL = {"__main__", "_moved", "cli", "progress", "result", "simulate"}
+
+
+def test_public_api_is_unchanged():
+    assert sorted(pneucore.__all__) == sorted(PUBLIC)
+    for name in PUBLIC:
+        assert getattr(pneucore, name) is not None
+
+
+def test_modules_live_in_their_subpackages():
+    found = {}
+    for sub in LAYOUT:
+        files = os.listdir(os.path.join(PKG, sub))
+        found[sub] = {f[:-3] for f in files if f.endswith(".py") and f != "__init__.py"}
+    assert found == LAYOUT
+    top = {f[:-3] for f in os.listdir(PKG) if f.endswith(".py") and f != "__init__.py"}
+    assert top == TOP_LEVEL, "a flat module beside the subpackages: put it where it belongs"
+
+
+@pytest.mark.parametrize("old", sorted(MOVED))
+def test_old_module_name_is_the_moved_module_with_a_warning(old):
+    new = importlib.import_module(f"pneucore.{MOVED[old]}")
+    sys.modules.pop(f"pneucore.{old}", None)
+    with pytest.warns(DeprecationWarning, match=f"pneucore.{old} moved to pneucore.{MOVED[old]}"):
+        mod = importlib.import_module(f"pneucore.{old}")
+    assert mod is new
+
+
+def test_from_pneucore_import_old_module_name():
+    # an earlier ``import pneucore.flow`` binds the attribute on the package: start without it
+    vars(pneucore).pop("flow", None)
+    sys.modules.pop("pneucore.flow", None)
+    with pytest.warns(DeprecationWarning, match="pneucore.flow moved to pneucore.physics.flow"):
+        from pneucore import flow
+    from pneucore.physics import flow as new
+    assert flow is new
+    with pytest.raises(AttributeError, match="no_such_thing"):
+        pneucore.no_such_thing        # noqa: B018 - an unknown name is still an AttributeError
+
+
+def test_the_package_itself_uses_no_old_name():
+    """Importing every module of the package raises no DeprecationWarning about a moved name:
+    the package, the service and the benchmarks import from the new places."""
+    code = ("import warnings, importlib, pkgutil, pneucore, app.main\n"
+            "warnings.simplefilter('error', DeprecationWarning)\n"
+            "for m in pkgutil.walk_packages(pneucore.__path__, 'pneucore.'):\n"
+            "    if not m.name.endswith('__main__'):\n"
+            "        importlib.import_module(m.name)\n")
+    env = dict(os.environ, PYTHONWARNINGS="error::DeprecationWarning:pneucore")
+    root = os.path.dirname(PKG)
+    out = subprocess.run([sys.executable, "-W", "error::DeprecationWarning", "-c", code],
+                         cwd=root, env=env, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-3000:]
+
+
+def test_study_command_line_runs_as_a_module():
+    out = subprocess.run([sys.executable, "-m", "pneucore.study", "--help"], capture_output=True,
+                         text=True, timeout=300, cwd=os.path.dirname(PKG))
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert "usage" in out.stdout.lower()
+
+
+def test_internal_imports_use_new_names():
+    """No source file of the repository names a module by its old flat path."""
+    root = os.path.dirname(PKG)
+    bad = []
+    old = re.compile(r"\bpneucore\.(" + "|".join(sorted(MOVED, key=len, reverse=True)) + r")\b(?![\w/])")
+    for top in ("pneucore", "app", "benchmarks", "tests"):
+        for dirpath, dirs, files in os.walk(os.path.join(root, top)):
+            dirs[:] = [d for d in dirs if d != "__pycache__"]
+            for f in files:
+                if f.endswith(".py") and f not in ("_moved.py", "test_package_layout.py"):
+                    path = os.path.join(dirpath, f)
+                    with open(path, encoding="utf-8") as fh:
+                        for i, line in enumerate(fh, 1):
+                            if old.search(line):
+                                bad.append(f"{os.path.relpath(path, root)}:{i}: {line.strip()}")
+    assert not bad, "\n".join(bad)
