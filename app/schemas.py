@@ -14,8 +14,10 @@ from pydantic import BaseModel, ConfigDict, Field
 from pydantic.fields import FieldInfo
 
 from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
-from pneucore.spec.model import VALVE_KINDS, FrictionSet, Gas, Jack, Model, Valve
-from pneucore.spec.scenario import COMMAND_INTERPOLATIONS, Scenario, Solver
+from pneucore.spec.docstrings import api_description
+from pneucore.spec.model import (VALVE_KINDS, Friction, FrictionSet, Gas, Heat, Jack, Model,
+                                 PortTable, Source, Valve)
+from pneucore.spec.scenario import COMMAND_INTERPOLATIONS, Initial, Scenario, Solver
 from pneucore.study.definition import DISTRIBUTIONS
 
 Number = float
@@ -25,13 +27,22 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
-def from_lib(obj, name, description, **kw):
-    """A pydantic ``Field`` whose default is ``obj.name``, read from the pneucore object.
+def described(cls, name):
+    """The description of the pneucore field ``cls.name``, from its numpydoc docstring."""
+    return api_description(cls, name)
 
-    The pneucore dataclasses are the one source of every default; the schemas
-    read them here, and tests/test_one_source.py checks every mirrored field
-    (default and unit). A mutable default (a list) is copied for each request.
+
+def from_lib(obj, name, description=None, **kw):
+    """A pydantic ``Field`` whose default is ``obj.name`` and whose description is the
+    field's, both read from the pneucore object.
+
+    The pneucore dataclasses are the one source of every default and every
+    description (their docstrings); the schemas read them here, and
+    tests/test_one_source.py checks every mirrored field (default, description,
+    unit). A mutable default (a list) is copied for each request.
     """
+    if description is None:
+        description = described(type(obj), name)
     value = getattr(obj, name)
     if isinstance(value, (list, dict)):
         return Field(default_factory=lambda: copy.deepcopy(value), description=description, **kw)
@@ -49,41 +60,41 @@ _DISTRIBUTION_FIELDS = "; ".join(f"{name}: {', '.join(d.required + d.optional)}"
 
 # ---------------------------------------------------------------------------- model
 class JackIn(_Strict):
-    bore: Number = from_lib(_JACK, "bore", "Bore (piston) diameter [m]")
-    rod_a: Number = from_lib(_JACK, "rod_a", "Rod diameter on the chamber-A side, 0 = no rod [m]")
-    rod_b: Number = from_lib(_JACK, "rod_b", "Rod diameter on the chamber-B side, 0 = no rod [m]")
-    stroke: Number = from_lib(_JACK, "stroke", "Stroke [m]")
-    dead_volume_a: Number = from_lib(_JACK, "dead_volume_a", "Volume of chamber A at x = 0 [m^3]")
-    dead_volume_b: Number = from_lib(_JACK, "dead_volume_b", "Volume of chamber B at x = stroke [m^3]")
-    moving_mass: Number = from_lib(_JACK, "moving_mass", "Moving mass: piston, rod and load [kg]")
-    load_force: Number = from_lib(_JACK, "load_force", "Constant external force pushing towards x = 0 [N]")
-    wall_area_a: Optional[Number] = from_lib(_JACK, "wall_area_a", "Heat-exchange area of chamber A; null = follows the piston [m^2]")
-    wall_area_b: Optional[Number] = from_lib(_JACK, "wall_area_b", "Heat-exchange area of chamber B; null = follows the piston [m^2]")
+    bore: Number = from_lib(_JACK, "bore")
+    rod_a: Number = from_lib(_JACK, "rod_a")
+    rod_b: Number = from_lib(_JACK, "rod_b")
+    stroke: Number = from_lib(_JACK, "stroke")
+    dead_volume_a: Number = from_lib(_JACK, "dead_volume_a")
+    dead_volume_b: Number = from_lib(_JACK, "dead_volume_b")
+    moving_mass: Number = from_lib(_JACK, "moving_mass")
+    load_force: Number = from_lib(_JACK, "load_force")
+    wall_area_a: Optional[Number] = from_lib(_JACK, "wall_area_a")
+    wall_area_b: Optional[Number] = from_lib(_JACK, "wall_area_b")
 
 
 class PortTableIn(_Strict):
-    opening: list[Number] = Field(..., description="Strictly increasing spool openings, at least two (one point would never close the valve) [-]")
-    C: list[Number] = Field(..., description="Sonic conductance at each opening [m^3/(s Pa)]")
-    b: list[Number] = Field(..., description="Critical pressure ratio at each opening, in [0, 1) [-]")
-    m: Optional[list[Number]] = Field(None, description="Subsonic index at each opening [-]; null = 0.5 (paper Eq. 4)")
+    opening: list[Number] = Field(..., description=described(PortTable, "opening"))
+    C: list[Number] = Field(..., description=described(PortTable, "C"))
+    b: list[Number] = Field(..., description=described(PortTable, "b"))
+    m: Optional[list[Number]] = Field(None, description=described(PortTable, "m"))
 
 
 class ValveIn(_Strict):
-    kind: _VALVE_KIND = from_lib(_VALVE, "kind", "Valve kind: 4/2 (edges P-A, A-R, P-B, B-R; opening -1..1) or 3/2 (P-A, A-R; opening 0..1) [-]")
-    ports: dict[str, PortTableIn] = Field(..., description="Metering edge tables by edge name")
-    b_chamber_pressure: Optional[Number] = Field(None, description="3/2 mode: absolute pressure held in chamber B; null = half the supply [Pa]")
-    flow_law: str = from_lib(_VALVE, "flow_law", "Flow law name: iso6358 (Eq. 4-5) or saint_venant (Eq. 1-3) [-]")
-    laminar_ratio: Number = from_lib(_VALVE, "laminar_ratio", "Pressure ratio above which edge flows are linearised [-]")
+    kind: _VALVE_KIND = from_lib(_VALVE, "kind")
+    ports: dict[str, PortTableIn] = Field(..., description=described(Valve, "ports"))
+    b_chamber_pressure: Optional[Number] = Field(None, description=described(Valve, "b_chamber_pressure"))
+    flow_law: str = from_lib(_VALVE, "flow_law")
+    laminar_ratio: Number = from_lib(_VALVE, "laminar_ratio")
 
 
 class SourceIn(_Strict):
-    pressure: Number = Field(..., description="Absolute pressure [Pa]")
-    temperature: Number = from_lib(_MODEL.ambient, "temperature", "Temperature [K]")
+    pressure: Number = Field(..., description=described(Source, "pressure"))
+    temperature: Number = from_lib(_MODEL.ambient, "temperature")
 
 
 class HeatIn(_Strict):
-    model: str = from_lib(_MODEL.heat, "model", f"Heat model by name (GET /api/heat-models): {', '.join(HEAT_MODELS)} [-]")
-    coefficient: Number = from_lib(_MODEL.heat, "coefficient", "Convection coefficient h of Eq. 9 [W/(m^2 K)]")
+    model: str = from_lib(_MODEL.heat, "model")
+    coefficient: Number = from_lib(_MODEL.heat, "coefficient")
 
 
 # the other heat-model parameters, from their registry (unit, description): null = the default
@@ -95,67 +106,67 @@ HeatIn.model_rebuild(force=True)
 
 
 class FrictionSetIn(_Strict):
-    fc0: Number = from_lib(_FRICTION_SET, "fc0", "Constant Coulomb force [N]")
-    fc_a: Number = from_lib(_FRICTION_SET, "fc_a", "Coulomb force per gauge pressure in A (Eq. 20) [N/Pa]")
-    fc_b: Number = from_lib(_FRICTION_SET, "fc_b", "Coulomb force per gauge pressure in B (Eq. 20) [N/Pa]")
-    kv0: Number = from_lib(_FRICTION_SET, "kv0", "Constant viscous coefficient [N s/m]")
-    kv_a: Number = from_lib(_FRICTION_SET, "kv_a", "Viscous coefficient per gauge pressure in A (Eq. 19) [N s/(m Pa)]")
-    kv_b: Number = from_lib(_FRICTION_SET, "kv_b", "Viscous coefficient per gauge pressure in B (Eq. 19) [N s/(m Pa)]")
+    fc0: Number = from_lib(_FRICTION_SET, "fc0")
+    fc_a: Number = from_lib(_FRICTION_SET, "fc_a")
+    fc_b: Number = from_lib(_FRICTION_SET, "fc_b")
+    kv0: Number = from_lib(_FRICTION_SET, "kv0")
+    kv_a: Number = from_lib(_FRICTION_SET, "kv_a")
+    kv_b: Number = from_lib(_FRICTION_SET, "kv_b")
 
 
 class FrictionIn(_Strict):
-    extend: FrictionSetIn = Field(default_factory=FrictionSetIn, description="Coefficients while extending (v > 0)")
-    retract: Optional[FrictionSetIn] = Field(None, description="Coefficients while retracting (v < 0); null = same as extend")
-    law: str = from_lib(_MODEL.friction, "law", "Friction law name [-]")
+    extend: FrictionSetIn = Field(default_factory=FrictionSetIn, description=described(Friction, "extend"))
+    retract: Optional[FrictionSetIn] = Field(None, description=described(Friction, "retract"))
+    law: str = from_lib(_MODEL.friction, "law")
 
 
 class GasIn(_Strict):
-    r: Number = from_lib(_GAS, "r", "Specific gas constant [J/(kg K)]")
-    gamma: Number = from_lib(_GAS, "gamma", "Ratio of specific heats [-]")
+    r: Number = from_lib(_GAS, "r")
+    gamma: Number = from_lib(_GAS, "gamma")
 
 
 class ModelIn(_Strict):
     """An actuator model (see the pneucore README for the physics)."""
-    jack: JackIn = Field(..., description="Cylinder geometry and load")
-    valve: ValveIn = Field(..., description="Directional valve")
-    supply: SourceIn = Field(default_factory=lambda: SourceIn(**_MODEL.supply.to_dict()), description="Supply node (absolute pressure [Pa], temperature [K])")
-    ambient: SourceIn = Field(default_factory=lambda: SourceIn(**_MODEL.ambient.to_dict()), description="Ambient/exhaust node (absolute pressure [Pa], temperature [K])")
-    heat: HeatIn = Field(default_factory=HeatIn, description="Heat exchange model")
-    friction: FrictionIn = Field(default_factory=FrictionIn, description="Piston friction (Eq. 18-20)")
-    effects: dict[str, dict[str, Number]] = Field(default_factory=dict, description="Catalog effects by name with their parameters (units in GET /api/effects)")
-    gas: GasIn = Field(default_factory=GasIn, description="Ideal gas constants")
-    name: str = Field("", description="Label")
-    description: str = Field("", description="Free text")
-    notes: str = Field("", description="Free text")
+    jack: JackIn = Field(..., description=described(Model, "jack"))
+    valve: ValveIn = Field(..., description=described(Model, "valve"))
+    supply: SourceIn = Field(default_factory=lambda: SourceIn(**_MODEL.supply.to_dict()), description=described(Model, "supply"))
+    ambient: SourceIn = Field(default_factory=lambda: SourceIn(**_MODEL.ambient.to_dict()), description=described(Model, "ambient"))
+    heat: HeatIn = Field(default_factory=HeatIn, description=described(Model, "heat"))
+    friction: FrictionIn = Field(default_factory=FrictionIn, description=described(Model, "friction"))
+    effects: dict[str, dict[str, Number]] = Field(default_factory=dict, description=described(Model, "effects"))
+    gas: GasIn = Field(default_factory=GasIn, description=described(Model, "gas"))
+    name: str = Field("", description=described(Model, "name"))
+    description: str = Field("", description=described(Model, "description"))
+    notes: str = Field("", description=described(Model, "notes"))
 
 
 # ---------------------------------------------------------------------------- scenario
 class InitialIn(_Strict):
-    p_a: Optional[Number] = Field(None, description="Initial absolute pressure in A; null = ambient [Pa]")
-    p_b: Optional[Number] = Field(None, description="Initial absolute pressure in B; null = ambient [Pa]")
-    T_a: Optional[Number] = Field(None, description="Initial gas temperature in A; null = ambient [K]")
-    T_b: Optional[Number] = Field(None, description="Initial gas temperature in B; null = ambient [K]")
+    p_a: Optional[Number] = Field(None, description=described(Initial, "p_a"))
+    p_b: Optional[Number] = Field(None, description=described(Initial, "p_b"))
+    T_a: Optional[Number] = Field(None, description=described(Initial, "T_a"))
+    T_b: Optional[Number] = Field(None, description=described(Initial, "T_b"))
 
 
 class SolverIn(_Strict):
-    rtol: Number = from_lib(_SOLVER, "rtol", "Relative tolerance of the error control [-]")
-    max_step: Number = from_lib(_SOLVER, "max_step", "Largest integration step [s]")
-    max_steps: int = from_lib(_SOLVER, "max_steps", "Step budget; the run stops with an error beyond it [-]")
-    max_events: int = from_lib(_SOLVER, "max_events", "Event budget (stick/slip/stop/command) [-]")
+    rtol: Number = from_lib(_SOLVER, "rtol")
+    max_step: Number = from_lib(_SOLVER, "max_step")
+    max_steps: int = from_lib(_SOLVER, "max_steps")
+    max_events: int = from_lib(_SOLVER, "max_events")
 
 
 class ScenarioIn(_Strict):
-    duration: Optional[Number] = from_lib(_SCENARIO, "duration", "Simulated time [s]")
-    sample_period: Optional[Number] = from_lib(_SCENARIO, "sample_period", "Output sample period [s]")
-    command: Optional[list[tuple[Number, Number]]] = from_lib(_SCENARIO, "command", "Valve command breakpoints [[t [s], u [-]], ...]",
+    duration: Optional[Number] = from_lib(_SCENARIO, "duration")
+    sample_period: Optional[Number] = from_lib(_SCENARIO, "sample_period")
+    command: Optional[list[tuple[Number, Number]]] = from_lib(_SCENARIO, "command",
                                                        validate_default=True)  # pairs, as a request's
-    command_interpolation: _INTERPOLATION = from_lib(_SCENARIO, "command_interpolation", "Zero-order hold or linear between breakpoints [-]")
-    locked: bool = from_lib(_SCENARIO, "locked", "Piston locked at x0 (chamber test) [-]")
-    x0: Optional[Number] = from_lib(_SCENARIO, "x0", "Initial position from the A end [m]")
-    initial: InitialIn = Field(default_factory=InitialIn, description="Initial chamber state")
-    solver: Optional[SolverIn] = Field(None, description="Integrator settings")
-    name: str = Field("", description="Label")
-    description: str = Field("", description="Free text")
+    command_interpolation: _INTERPOLATION = from_lib(_SCENARIO, "command_interpolation")
+    locked: bool = from_lib(_SCENARIO, "locked")
+    x0: Optional[Number] = from_lib(_SCENARIO, "x0")
+    initial: InitialIn = Field(default_factory=InitialIn, description=described(Scenario, "initial"))
+    solver: Optional[SolverIn] = Field(None, description=described(Scenario, "solver"))
+    name: str = Field("", description=described(Scenario, "name"))
+    description: str = Field("", description=described(Scenario, "description"))
 
     def plain(self):
         d = self.model_dump(exclude_none=True)

@@ -18,6 +18,7 @@ from app import schemas
 from app.config import Limits
 from app.deps import parse_model, parse_scenario
 from pneucore.physics.heat import HEAT_PARAMETERS
+from pneucore.spec.docstrings import api_description, field_docs
 from pneucore.spec.model import FrictionSet, Gas, Jack, Model, PortTable, Source, Valve
 from pneucore.spec.scenario import Initial, Scenario, Solver
 
@@ -53,36 +54,8 @@ def _unit(text):
 
 
 def _doc_units(obj):
-    """``field -> unit`` from the numpydoc Parameters section of ``obj``'s class docstring
-    (``name : type`` with the description, ending in ``[unit]``, on the next lines; the
-    one-line ``name : type  Description [unit]`` form of older docstrings is read too)."""
-    doc = inspect.getdoc(type(obj)) or ""
-    if "Parameters" not in doc:
-        return {}
-    lines = doc.split("Parameters", 1)[1].splitlines()[2:]
-    out, names, text = {}, None, ""
-
-    def flush():
-        if names:
-            u = _unit(text)
-            for n in names:
-                out[n] = u
-
-    for line in lines:
-        if not line.strip() or line.strip().startswith("---"):
-            if line.strip().startswith("---"):
-                break
-            continue
-        m = re.match(r"^([\w, *]+?) : (.*)$", line)
-        if m and not line.startswith(" "):
-            flush()
-            names = [n.strip().lstrip("*") for n in m.group(1).split(",")]
-            parts = re.split(r"\s{2,}", m.group(2), maxsplit=1)   # the one-line form
-            text = parts[1] if len(parts) > 1 else ""
-        else:
-            text += " " + line.strip()
-    flush()
-    return out
+    """``field -> unit`` from the numpydoc Parameters section of ``obj``'s class docstring."""
+    return {name: _unit(text) for name, text in field_docs(type(obj)).items()}
 
 
 def _plain(value):
@@ -152,6 +125,24 @@ def test_schema_unit_is_the_dataclass_unit(cls_name, fname):
     if lib_unit is None or api_unit is None:
         return            # only one side states a unit
     assert api_unit == lib_unit, f"{cls_name}.{fname}: API [{api_unit}] vs pneucore [{lib_unit}]"
+
+
+@pytest.mark.parametrize("cls_name,fname", list(_mirrored_fields()))
+def test_schema_description_is_the_dataclass_docstring(cls_name, fname):
+    """Descriptions live once, in the dataclass docstring: the schema's is derived from it
+    (a registered heat parameter's comes from its registry entry, checked above)."""
+    if cls_name == "HeatIn" and fname in HEAT_PARAMETERS and fname not in ("model", "coefficient"):
+        return
+    api = getattr(schemas, cls_name).model_fields[fname].description
+    assert api == api_description(type(MIRRORS[cls_name]), fname)
+    assert "None" not in api and "``" not in api and ":class:" not in api
+
+
+def test_every_mirrored_dataclass_field_is_documented():
+    missing = [f"{type(obj).__name__}.{f}" for obj in MIRRORS.values()
+               for f in getattr(type(obj), "__dataclass_fields__", {})
+               if f not in field_docs(type(obj))]
+    assert not missing, missing
 
 
 def test_the_unit_reader_reads_both_docstring_forms():

@@ -26,7 +26,7 @@ PUBLIC = [
 LAYOUT = {
     "physics": {"chamber", "flow", "friction", "gas", "heat", "jack", "valve", "vessel"},
     "core": {"cache", "integrator", "layout", "rhs"},
-    "spec": {"effects", "model", "paths", "presets", "scenario", "units", "validation"},
+    "spec": {"docstrings", "effects", "model", "paths", "presets", "scenario", "units", "validation"},
     "data": {"experiment", "export", "fileformats", "measurement", "samples", "synthetic"},
     "analysis": {"autocorrelation", "calibrate", "calibration_options", "compare", "diagnose",
                  "heat_compare", "history", "hypotheses", "metrics", "report"},

@@ -44,12 +44,15 @@ class Jack:
     dead_volume_b : float
         Volume of chamber B at x = stroke [m^3]
     moving_mass : float
-        Piston, rod and load mass [kg]
+        Moving mass: piston, rod and load [kg]
     load_force : float
         Constant external force pushing towards x = 0 [N]
-    wall_area_a, wall_area_b : float or None
-        Heat-exchange area override [m^2];
-        None = lateral area of the gas column plus both end faces, following the piston
+    wall_area_a : float or None
+        Heat-exchange area of chamber A; None = lateral area of the gas column plus both
+        end faces, following the piston [m^2]
+    wall_area_b : float or None
+        Heat-exchange area of chamber B; None = lateral area of the gas column plus both
+        end faces, following the piston [m^2]
     """
     bore: float = 0.032
     rod_a: float = 0.012
@@ -120,13 +123,13 @@ class PortTable:
     Parameters
     ----------
     opening : list of float
-        Strictly increasing spool openings, at least two [-]
+        Strictly increasing spool openings, at least two (one point would never close the valve) [-]
     C : list of float
         Sonic conductance at each opening [m^3/(s Pa)]
     b : list of float
         Critical pressure ratio at each opening, in [0, 1) [-]
     m : list of float or None
-        Subsonic index at each opening [-]; None = 0.5 (Eq. 4)
+        Subsonic index at each opening; None = 0.5 (Eq. 4) [-]
     """
     opening: list
     C: list
@@ -183,15 +186,16 @@ class Valve:
     Parameters
     ----------
     kind : str
-        ``"4/2"`` (edges P-A, A-R, P-B, B-R, opening in [-1, 1]) or
-        ``"3/2"`` (edges P-A, A-R, opening in [0, 1]; chamber B at constant pressure)
+        Valve kind: ``4/2`` (edges P-A, A-R, P-B, B-R; opening -1..1) or ``3/2`` (edges P-A,
+        A-R; opening 0..1; chamber B at constant pressure) [-]
     ports : dict
-        Edge name -> :class:`PortTable`
+        Metering edge tables (:class:`PortTable`) by edge name
     b_chamber_pressure : float or None
-        3/2 mode: absolute pressure held in
-        chamber B [Pa]; None = half the supply pressure, as in the paper
+        3/2 mode: absolute pressure held in chamber B; None = half the supply pressure,
+        as in the paper [Pa]
     flow_law : str
-        Name in :data:`pneucore.physics.flow.FLOW_LAWS` (``iso6358`` or ``saint_venant``)
+        Flow law, a name in :data:`pneucore.physics.flow.FLOW_LAWS`: ``iso6358`` (Eq. 4-5)
+        or ``saint_venant`` (Eq. 1-3) [-]
     laminar_ratio : float
         Pressure ratio above which edge flows are linearised [-]
     """
@@ -269,8 +273,9 @@ class Heat:
     Parameters
     ----------
     model : str
-        Name in :data:`pneucore.physics.heat.HEAT_MODELS` (isothermal, adiabatic, convective,
-        natural_convection, natural_and_jet)
+        Heat model, a name in :data:`pneucore.physics.heat.HEAT_MODELS` (isothermal, adiabatic,
+        convective, natural_convection, natural_and_jet, or one registered; GET /api/heat-models
+        lists them with their parameters) [-]
     coefficient : float
         Convection coefficient h of Eq. 9 [W/(m^2 K)]
     **params : float
@@ -331,12 +336,16 @@ class FrictionSet:
     ----------
     fc0 : float
         Constant Coulomb force [N]
-    fc_a, fc_b : float
-        Coulomb force per gauge pressure in A and B [N/Pa]
+    fc_a : float
+        Coulomb force per gauge pressure in A (Eq. 20) [N/Pa]
+    fc_b : float
+        Coulomb force per gauge pressure in B (Eq. 20) [N/Pa]
     kv0 : float
         Constant viscous coefficient [N s/m]
-    kv_a, kv_b : float
-        Viscous coefficient per gauge pressure [N s/(m Pa)]
+    kv_a : float
+        Viscous coefficient per gauge pressure in A (Eq. 19) [N s/(m Pa)]
+    kv_b : float
+        Viscous coefficient per gauge pressure in B (Eq. 19) [N s/(m Pa)]
     """
     fc0: float = 10.0
     fc_a: float = 0.0
@@ -361,7 +370,17 @@ class FrictionSet:
 
 @dataclass
 class Friction:
-    """Piston friction: extension (v > 0) and retraction (v < 0) sets, and the law's name."""
+    """Piston friction: extension (v > 0) and retraction (v < 0) sets, and the law's name.
+
+    Parameters
+    ----------
+    extend : FrictionSet
+        Coefficients while extending (v > 0)
+    retract : FrictionSet
+        Coefficients while retracting (v < 0); None = same as extend
+    law : str
+        Friction law, a name in :data:`pneucore.physics.friction.FRICTION_LAWS` [-]
+    """
     extend: FrictionSet = field(default_factory=FrictionSet)
     retract: FrictionSet = field(default_factory=FrictionSet)
     law: str = "coulomb_viscous"
@@ -410,6 +429,31 @@ class Model:
 
     ``effects`` maps catalog effect names (:mod:`pneucore.spec.effects`) to their
     parameters; an empty dict is the paper's base model.
+
+    Parameters
+    ----------
+    jack : Jack
+        Cylinder geometry and load
+    valve : Valve
+        Directional valve
+    supply : Source
+        Supply node (absolute pressure [Pa], temperature [K])
+    ambient : Source
+        Ambient/exhaust node (absolute pressure [Pa], temperature [K])
+    heat : Heat
+        Heat exchange model
+    friction : Friction
+        Piston friction (Eq. 18-20)
+    effects : dict
+        Catalog effects by name with their parameters (units in GET /api/effects)
+    gas : Gas
+        Ideal gas constants
+    name : str
+        Label
+    description : str
+        Free text
+    notes : str
+        Free text
     """
     jack: Jack = field(default_factory=Jack)
     valve: Valve = field(default_factory=Valve)

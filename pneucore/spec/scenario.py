@@ -34,10 +34,14 @@ class Initial:
 
     Parameters
     ----------
-    p_a, p_b : float or None
-        Absolute pressures [Pa]
-    T_a, T_b : float or None
-        Gas temperatures [K]
+    p_a : float or None
+        Initial absolute pressure in A; None = ambient [Pa]
+    p_b : float or None
+        Initial absolute pressure in B; None = ambient [Pa]
+    T_a : float or None
+        Initial gas temperature in A; None = ambient [K]
+    T_b : float or None
+        Initial gas temperature in B; None = ambient [K]
     """
     p_a: Optional[float] = None
     p_b: Optional[float] = None
@@ -57,7 +61,7 @@ class Solver:
     rtol : float
         Relative tolerance of the error control [-]
     max_step : float
-        Largest step [s]
+        Largest integration step [s]
     max_steps : int
         Step budget; the simulation stops with an error beyond it [-]
     max_events : int
@@ -83,19 +87,21 @@ class Scenario:
     sample_period : float
         Output sample period [s]
     command : list of [t, u]
-        Valve command breakpoints: time [s] and opening [-]
+        Valve command breakpoints [[t [s], u [-]], ...]
     command_interpolation : str
-        ``hold`` or ``linear`` [-]
+        ``hold`` (zero-order hold) or ``linear`` between breakpoints [-]
     locked : bool
         Piston locked at ``x0`` (chamber test) [-]
     x0 : float
         Initial position from the A end [m]
     initial : Initial
-        Initial pressures [Pa] and temperatures [K]
+        Initial chamber state: pressures [Pa] and temperatures [K]
     solver : Solver
         Integrator settings
-    name, description : str
-        Label and free text
+    name : str
+        Label
+    description : str
+        Free text
     """
     duration: float = 1.0
     sample_period: float = 0.001
