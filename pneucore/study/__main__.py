@@ -3,4 +3,7 @@ import sys
 
 from pneucore.study import main
 
-sys.exit(main())
+# guarded: the study pool's forkserver imports the caller's main module (this one, under
+# another name) to preload it, and must not run the command line again
+if __name__ == "__main__":
+    sys.exit(main())
