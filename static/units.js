@@ -64,7 +64,7 @@ async function initUnits() {
   setHeader();
   window.addEventListener('resize', setHeader);
   try {
-    UNITS.api = await api('GET', '/api/units');
+    UNITS.api = await fetchUnits();   // app.js: one request for the page
   } catch (e) { showApiError(e, 'Loading the unit systems'); return; }
   const sel = $('#unit-system');
   for (const [name, s] of Object.entries(UNITS.api.systems)) {
