@@ -522,6 +522,7 @@ function addEffect() {
   S.model.effects = S.model.effects || {};
   S.model.effects[e.name] = params;
   renderEffects();
+  plotFriction();   // a friction effect (Stribeck, pressure, quadrant) changes the map
   setStatus(`Effect ${e.name} added with its default parameters; simulate or compare to see it.`, 'ok');
 }
 function removeEffect(ev) {
@@ -529,6 +530,7 @@ function removeEffect(ev) {
   if (!btn) return;
   delete S.model.effects[btn.dataset.effect];
   renderEffects();
+  plotFriction();
   setStatus(`Effect ${btn.dataset.effect} removed.`, 'info');
 }
 
