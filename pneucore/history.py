@@ -56,18 +56,46 @@ class RefinementHistory:
     def add(self, model, comparison, added=None, params=None, note="", recalibrated=None):
         """Record a model version with its comparison; returns the :class:`ModelVersion`.
 
-        ``recalibrated``: the mis-set base parameters corrected at this step
-        (``[{path, label, before, after, stderr, unit}]``).
+        The first version is labelled ``base``; a later one ``+ <effect>`` when it adds an
+        effect, ``recalibrated: <parameters>`` when it only corrects base parameters, and
+        ``version <n>`` otherwise (a model edited by hand).
+
+        Parameters
+        ----------
+        model : Model or dict
+            The model of this version (a dict is validated)
+        comparison : Comparison, tuple or None
+            Its errors: a :class:`pneucore.compare.Comparison` (or any object with
+            ``errors`` and ``overall``), the pair ``(errors, overall)`` of
+            :func:`pneucore.compare.errors`, or None when there is nothing to compare
+            with (no errors, overall None)
+        added : str or None
+            Effect added at this step
+        params : dict or None
+            Its fitted parameters
+        note : str
+            Free text
+        recalibrated : list or None
+            The mis-set base parameters corrected at this step
+            (``[{path, label, before, after, stderr, unit}]``)
         """
         model = model if isinstance(model, Model) else Model.from_dict(model)
+        if comparison is None:
+            errors, overall = {}, None
+        elif isinstance(comparison, tuple):
+            errors, overall = comparison
+        else:
+            errors, overall = comparison.errors, comparison.overall
         if not self.versions:
             label = "base"
         elif added:
             label = f"+ {added}"
+        elif recalibrated:
+            label = "recalibrated: " + ", ".join(r.get("label", r["path"]) for r in recalibrated)
         else:
-            label = "recalibrated: " + ", ".join(r.get("label", r["path"]) for r in recalibrated or [])
+            label = f"version {len(self.versions)}"
         v = ModelVersion(len(self.versions), label,
-                         model.to_dict(), dict(comparison.errors), comparison.overall, added,
+                         model.to_dict(), dict(errors), overall, added,
                          params or {}, note, _dt.datetime.now(_dt.timezone.utc).isoformat(),
                          list(recalibrated or []))
         self.versions.append(v)
