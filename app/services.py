@@ -100,7 +100,7 @@ def run_calibrate(req: CalibrateRequest, store, limits, progress=None):
 def run_diagnose(req: DiagnoseRequest, store, limits, progress=None):
     model, exps = check_diagnose(req, store, limits)
     return diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
-                    progress=progress).to_dict()
+                    progress=progress, validated=True).to_dict()   # checked just above
 
 
 def check_refine(req: RefineRequest, store, limits):
@@ -125,7 +125,8 @@ def run_refine(req: RefineRequest, store, limits, progress=None):
             progress((state["round"] + min(fraction, 1.0)) / req.max_rounds,
                      f"round {state['round'] + 1}: {step}")
     final, history, diagnoses = refine(model, exps, max_rounds=req.max_rounds,
-                                       uncertain=req.uncertain, progress=each_round)
+                                       uncertain=req.uncertain, progress=each_round,
+                                       validated=True)   # check_refine checked it
     last = diagnoses[-1] if diagnoses else None
     return {"model": final.to_dict(), "versions": history.to_dict()["versions"],
             "diagnoses": [d.to_dict() for d in diagnoses],

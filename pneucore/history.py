@@ -11,7 +11,7 @@ import datetime as _dt
 from dataclasses import dataclass, field
 
 from .compare import compare
-from .diagnose import diagnose
+from .diagnose import check_request, diagnose
 from .experiment import as_experiments
 from .model import Model
 
@@ -117,7 +117,8 @@ class RefinementHistory:
         return cls([ModelVersion(**v) for v in d.get("versions", [])])
 
 
-def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progress=None):
+def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progress=None,
+           validated=False):
     """Stepwise to the noise floor: diagnose, apply the findings, repeat.
 
     Each round recalibrates the base parameters the experiments identify and
@@ -136,6 +137,9 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
     uncertain : list  Base parameter paths refitted along; given, they replace the automatic
         choice (see :func:`pneucore.diagnose.diagnose`)
     history : RefinementHistory or None  Continue an existing history
+    validated : bool  ``uncertain`` was already checked on ``model`` by
+        :func:`pneucore.diagnose.check_request` (the API does at its boundary); otherwise
+        it is checked once here, before the first round, and not again in each round
 
     Returns
     -------
@@ -146,13 +150,15 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
         ``max_rounds`` was reached or the floor was reached)
     """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
+    if not validated:
+        check_request(model, None, uncertain)
     exps = as_experiments(experiments, model.ambient.pressure)
     history = history or RefinementHistory()
     if not history.versions:
         history.add(model, compare(model, exps))
     diagnoses = []
     for _ in range(max_rounds):
-        d = diagnose(model, exps, uncertain=uncertain, progress=progress)
+        d = diagnose(model, exps, uncertain=uncertain, progress=progress, validated=True)
         diagnoses.append(d)
         if d.verdict is None and not d.recalibrate:
             break
