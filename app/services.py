@@ -85,22 +85,26 @@ def check_diagnose(req: DiagnoseRequest, store, limits):
     return model, parse_experiments(req.experiments, model, store, limits)
 
 
-def run_compare(req: CompareRequest, store, limits, progress=None):
-    model, exps = check_compare(req, store, limits)
+def run_compare(req: CompareRequest, store, limits, progress=None, checked=None):
+    """The comparison; ``checked``: what :func:`check_compare` returned for ``req`` (a job
+    checked at submission), else it is checked here."""
+    model, exps = checked or check_compare(req, store, limits)
     return compare(model, exps, heat_models=req.heat_models,
                    progress=progress).to_dict(residuals=req.residuals)
 
 
-def run_calibrate(req: CalibrateRequest, store, limits, progress=None):
-    model, exps, params = check_calibrate(req, store, limits)
+def run_calibrate(req: CalibrateRequest, store, limits, progress=None, checked=None):
+    """The calibration; ``checked`` as for :func:`run_compare` (from :func:`check_calibrate`)."""
+    model, exps, params = checked or check_calibrate(req, store, limits)
     return calibrate(model, exps, params, max_nfev=min(max(req.max_nfev, 1), 200),
                      progress=progress).summary()
 
 
-def run_diagnose(req: DiagnoseRequest, store, limits, progress=None):
-    model, exps = check_diagnose(req, store, limits)
+def run_diagnose(req: DiagnoseRequest, store, limits, progress=None, checked=None):
+    """The diagnosis; ``checked`` as for :func:`run_compare` (from :func:`check_diagnose`)."""
+    model, exps = checked or check_diagnose(req, store, limits)
     return diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
-                    progress=progress, validated=True).to_dict()   # checked just above
+                    progress=progress, validated=True).to_dict()   # checked above
 
 
 def check_refine(req: RefineRequest, store, limits):
@@ -110,11 +114,12 @@ def check_refine(req: RefineRequest, store, limits):
     return model, parse_experiments(req.experiments, model, store, limits)
 
 
-def run_refine(req: RefineRequest, store, limits, progress=None):
+def run_refine(req: RefineRequest, store, limits, progress=None, checked=None):
     """:func:`pneucore.history.refine` on the request: the versions, each round's diagnosis and
-    the refined model (plain JSON)."""
+    the refined model (plain JSON); ``checked`` as for :func:`run_compare` (from
+    :func:`check_refine`)."""
     from pneucore.history import refine
-    model, exps = check_refine(req, store, limits)
+    model, exps = checked or check_refine(req, store, limits)
     state = {"round": 0, "last": 0.0}
 
     def each_round(fraction, step):   # one progress over the rounds: a new round starts low again

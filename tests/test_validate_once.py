@@ -4,6 +4,7 @@ directly from Python)."""
 from __future__ import annotations
 
 import copy
+import time
 
 import pytest
 
@@ -106,7 +107,7 @@ def checks(monkeypatch):
         monkeypatch.setattr(f"{target}.check_request", spy, raising=False)
 
     def stop(*args, **kw):
-        raise _Stop()
+        raise _Stop("stopped after the candidates")
     monkeypatch.setattr(diagnose_module, "summarise", stop)
     return calls
 
@@ -119,6 +120,22 @@ def test_the_api_checks_a_diagnosis_request_once(client, checks, path, body):
     r = client.post(path, json={"model": model(), "experiments": [{"dataset_id": i} for i in LEAK_IDS],
                                 **body})
     assert r.status_code == 500 and "_Stop" in r.text, r.text[:300]   # stopped after the candidates
+    assert len(checks) == 1, checks
+
+
+@pytest.mark.parametrize("path, body", [
+    ("/api/jobs/diagnose", {"candidates": ["piston_leakage"], "uncertain": ["friction.extend.fc0"]}),
+    ("/api/jobs/refine", {"uncertain": ["friction.extend.fc0"], "max_rounds": 2}),
+])
+def test_a_job_runs_on_what_was_checked_at_submission(client, checks, path, body):
+    r = client.post(path, json={"model": model(), "experiments": [{"dataset_id": i} for i in LEAK_IDS],
+                                **body})
+    assert r.status_code == 202, r.text[:300]
+    t0 = time.monotonic()
+    while (job := client.get(f"/api/jobs/{r.json()['id']}").json())["status"] in ("queued", "running"):
+        assert time.monotonic() - t0 < 120, job   # a bound on a hang, not a speed claim
+        time.sleep(0.05)
+    assert job["status"] == "error" and "stopped after the candidates" in job["error"], job   # stopped on purpose
     assert len(checks) == 1, checks
 
 
