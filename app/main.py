@@ -29,6 +29,7 @@ from .jobs import JobManager, JobTimeout
 from .responses import JSON, document_errors
 from .routers import (analysis, calibration, datasets, effects, heat, jobs, presets, reports, sessions,
                       simulate, studies, units, uploads)
+from .routers import friction
 from .schemas import LimitsResponse, SampleInfo
 from .security import Guard
 from .store import Store
@@ -153,6 +154,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for r in (presets, effects, heat, simulate, calibration, analysis, reports, uploads, datasets, sessions,
               jobs, studies, units):
         app.include_router(r.router)
+    app.include_router(friction.router)
 
     @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits",
              response_model=LimitsResponse)

@@ -687,3 +687,51 @@ def _examples():
 for _cls, _ex in _examples().items():
     _cls.model_config["json_schema_extra"] = {"examples": [_ex]}
     _cls.model_rebuild(force=True)
+
+
+# ---------------------------------------------------------------------------- friction preview
+from typing import Annotated  # noqa: E402 - kept with the schemas that use it
+
+#: Bounds of a friction-preview grid (POST /api/friction/preview): at most this many pressure
+#: pairs and velocities per request, velocities within +-FRICTION_V_MAX [m/s] and pressures
+#: within (0, FRICTION_P_MAX] [Pa abs]
+FRICTION_MAX_PRESSURES = 20
+FRICTION_MAX_VELOCITIES = 2001
+FRICTION_V_MAX = 100.0
+FRICTION_P_MAX = 1e9
+#: The velocity grid when a request gives none: -0.6 to 0.6 m/s in 0.01 m/s steps [m/s]
+FRICTION_DEFAULT_VELOCITIES = tuple(round(i / 100, 2) for i in range(-60, 61))
+
+_Pressure = Annotated[float, Field(gt=0.0, le=FRICTION_P_MAX, allow_inf_nan=False)]
+_Velocity = Annotated[float, Field(ge=-FRICTION_V_MAX, le=FRICTION_V_MAX, allow_inf_nan=False)]
+
+
+class FrictionPressures(_Strict):
+    p_a: _Pressure = Field(..., description=f"Chamber A absolute pressure, above 0 and at most {FRICTION_P_MAX:g} [Pa]")
+    p_b: _Pressure = Field(..., description=f"Chamber B absolute pressure, above 0 and at most {FRICTION_P_MAX:g} [Pa]")
+
+
+class FrictionPreviewRequest(_Strict):
+    model: ModelIn = Field(..., description="The model whose friction is mapped (its friction law, coefficients and friction effects such as stribeck_friction)")
+    pressures: list[FrictionPressures] = Field(..., min_length=1, max_length=FRICTION_MAX_PRESSURES, description=f"Chamber pressure pairs, one curve each (1 to {FRICTION_MAX_PRESSURES}) [Pa]")
+    velocities: Optional[list[_Velocity]] = Field(None, min_length=1, max_length=FRICTION_MAX_VELOCITIES, description=f"Piston velocities, each within +-{FRICTION_V_MAX:g} (1 to {FRICTION_MAX_VELOCITIES}); null = -0.6 to 0.6 in 0.01 steps [m/s]")
+
+
+class FrictionCurve(_Open):
+    p_a: float = Field(..., description="Chamber A absolute pressure [Pa]")
+    p_b: float = Field(..., description="Chamber B absolute pressure [Pa]")
+    force: list[Optional[float]] = Field(..., description="Sliding friction force at each velocity, positive when it points towards -x (it opposes extension); null at v = 0, where the piston sticks (see static_extend, static_retract) [N]")
+    static_extend: float = Field(..., description="Static (breakaway) limit towards +x: at rest the piston sticks while the net force lies within [-static_retract, static_extend] [N]")
+    static_retract: float = Field(..., description="Static (breakaway) limit towards -x, as a magnitude [N]")
+    coulomb_extend: float = Field(..., description="Coulomb level Fc(p) of the extension coefficients (Eq. 20) [N]")
+    coulomb_retract: float = Field(..., description="Coulomb level Fc(p) of the retraction coefficients (Eq. 20) [N]")
+    viscous_extend: float = Field(..., description="Viscous coefficient Kv(p) of the extension coefficients (Eq. 19) [N s/m]")
+    viscous_retract: float = Field(..., description="Viscous coefficient Kv(p) of the retraction coefficients (Eq. 19) [N s/m]")
+
+
+class FrictionPreviewResponse(_Open):
+    law: str = Field(..., description="The model's friction law by name [-]")
+    stribeck_ratio: float = Field(..., description="Static over Coulomb friction; 1 = no Stribeck effect [-]")
+    stribeck_velocity: float = Field(..., description="Stribeck velocity of the breakaway term [m/s]")
+    velocities: list[float] = Field(..., description="The piston velocities of every curve [m/s]")
+    curves: list[FrictionCurve] = Field(..., description="One friction curve per pressure pair, in the request's order [N]")

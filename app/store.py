@@ -9,6 +9,7 @@ are read-only and any missing one is restored at every start.
 """
 from __future__ import annotations
 
+import datetime as _dt
 import json
 import math
 import sqlite3
@@ -18,6 +19,7 @@ import uuid
 
 import orjson
 
+from pneucore.analysis.history import ModelVersion, RefinementHistory
 from pneucore.data.measurement import Measurement
 from pneucore.data.samples import DATA_DIR, list_samples
 from pneucore.data.measurement import read_csv
@@ -170,31 +172,76 @@ class Store:
         return self._tx(tx) > 0
 
     # -- refinement sessions ---------------------------------------------------------------
-    def create_session(self, name, experiments, base=None):
-        """A new session; ``base`` (the keyword arguments of :meth:`add_version`) is its
-        version 0, written in the same transaction."""
+    # A session's versions are a pneucore.analysis.history.RefinementHistory: the history numbers and
+    # labels each version (base, + <effect>, version <n>); the store only persists it.
+    def create_session(self, name, experiments, model, comparison=None):
+        """A new session whose version 0 is ``model``, written in the same transaction.
+
+        Parameters
+        ----------
+        name : str
+            Label
+        experiments : list of dict
+            The experiments every version is compared with (validated JSON)
+        model : pneucore.spec.model.Model
+            The starting model (validated)
+        comparison : tuple or None
+            Its errors ``(errors, overall)`` on the experiments (:func:`pneucore.analysis.compare.errors`),
+            None without experiments
+        """
         sid = uuid.uuid4().hex[:12]
 
         def tx(db):
             db.execute("INSERT INTO sessions VALUES (?,?,?,?)",
                        (sid, name, time.time(), _dumps(experiments)))
-            if base is not None:
-                self._insert_version(db, sid, **base)
+            self._insert_version(db, sid, RefinementHistory().add(model, comparison))
         self._tx(tx)
         return sid
 
     @staticmethod
-    def _insert_version(db, sid, label, model, errors, overall, added=None, params=None, note=""):
-        n = db.execute("SELECT COUNT(*) FROM versions WHERE session=?", (sid,)).fetchone()[0]
-        db.execute("INSERT INTO versions VALUES (?,?,?,?,?,?,?,?,?,?)",
-                   (sid, n, label, time.time(), _dumps(model), _dumps(errors),
-                    overall if overall is None or math.isfinite(overall) else None,
-                    added, _dumps(params or {}), note))
-        return n
+    def _history(db, sid):
+        """The stored versions of session ``sid`` as a :class:`RefinementHistory`."""
+        rows = db.execute("SELECT version, label, created, model, errors, overall, added, params, note "
+                          "FROM versions WHERE session=? ORDER BY version", (sid,)).fetchall()
+        return RefinementHistory([
+            ModelVersion(v[0], v[1], _loads(v[3], None), _loads(v[4], {}), v[5], v[6], _loads(v[7], {}),
+                         v[8], _dt.datetime.fromtimestamp(v[2], _dt.timezone.utc).isoformat())
+            for v in rows])
 
-    def add_version(self, sid, label, model, errors, overall, added=None, params=None, note=""):
-        return self._tx(lambda db: self._insert_version(db, sid, label, model, errors, overall,
-                                                        added, params, note))
+    @staticmethod
+    def _insert_version(db, sid, v):
+        """Write a :class:`ModelVersion` (its ISO time stored as Unix epoch seconds)."""
+        overall = v.overall if v.overall is None or math.isfinite(v.overall) else None
+        db.execute("INSERT INTO versions VALUES (?,?,?,?,?,?,?,?,?,?)",
+                   (sid, v.version, v.label, _dt.datetime.fromisoformat(v.created).timestamp(),
+                    _dumps(v.model), _dumps(v.errors), overall, v.added, _dumps(v.params or {}), v.note))
+        return v.version
+
+    def add_version(self, sid, model, comparison=None, added=None, params=None, note=""):
+        """Record the next version of session ``sid``; returns its number.
+
+        The session's history is read and extended by :meth:`RefinementHistory.add` inside
+        the write transaction, so two concurrent writers never get the same number.
+
+        Parameters
+        ----------
+        sid : str
+            Session id
+        model : pneucore.spec.model.Model
+            The new version's model (validated)
+        comparison : tuple or None
+            Its errors ``(errors, overall)``, None without experiments
+        added : str or None
+            Catalog effect added at this step
+        params : dict or None
+            Its fitted parameters (validated JSON)
+        note : str
+            Free text
+        """
+        def tx(db):
+            v = self._history(db, sid).add(model, comparison, added, params, note)
+            return self._insert_version(db, sid, v)
+        return self._tx(tx)
 
     def session(self, sid):
         with self._lock:

@@ -21,14 +21,17 @@ const HEAT_COLORS = { isothermal: '#1f77b4', adiabatic: '#d62728', convective: '
 const SIGNAL_LABELS = {
   p_a: 'p_a', p_b: 'p_b', x: 'x', v: 'v', T_a: 'T_a', T_b: 'T_b', overall: 'overall',
 };
+// the friction coefficients with their labels; units come from GET /api/units (paramUnit)
 const FRICTION_COEFFS = [
-  ['fc0', 'Coulomb force fc0', 'N'],
-  ['fc_a', 'Coulomb per gauge p_a, fc_a', 'N/Pa'],
-  ['fc_b', 'Coulomb per gauge p_b, fc_b', 'N/Pa'],
-  ['kv0', 'Viscous coefficient kv0', 'N s/m'],
-  ['kv_a', 'Viscous per gauge p_a, kv_a', 'N s/(m Pa)'],
-  ['kv_b', 'Viscous per gauge p_b, kv_b', 'N s/(m Pa)'],
+  ['fc0', 'Coulomb force fc0'],
+  ['fc_a', 'Coulomb per gauge p_a, fc_a'],
+  ['fc_b', 'Coulomb per gauge p_b, fc_b'],
+  ['kv0', 'Viscous coefficient kv0'],
+  ['kv_a', 'Viscous per gauge p_a, kv_a'],
+  ['kv_b', 'Viscous per gauge p_b, kv_b'],
 ];
+// the friction map is computed by the service (POST /api/friction/preview), asked once typing pauses
+const FRICTION_DEBOUNCE_MS = 150;
 const PLOT_CONFIG = { responsive: true, displaylogo: false, modeBarButtonsToRemove: ['lasso2d', 'select2d'] };
 
 const S = {
@@ -36,6 +39,7 @@ const S = {
   model: null,
   scenario: null,
   effects: [],
+  units: null,            // GET /api/units (parameter units: paramUnit)
   datasets: [],
   experiments: [],        // [{dataset_id}] currently selected
   sim: null,
@@ -217,6 +221,9 @@ async function api(method, path, body) {
   if (!r.ok) throw new ApiError(r.status, data && data.detail !== undefined ? data.detail : (data || r.statusText));
   return data;
 }
+/** GET /api/units, asked once per page load (units.js and paramUnit share it). */
+let UNITS_REQUEST = null;
+function fetchUnits() { return UNITS_REQUEST || (UNITS_REQUEST = api('GET', '/api/units')); }
 async function busy(btn, fn) {
   const buttons = btn ? [btn] : [];
   buttons.forEach((b) => { b.disabled = true; b.classList.add('busy'); });
@@ -387,7 +394,8 @@ function renderFriction() {
   const same = f.retract == null;
   $('#fric-retract-same').checked = same;
   const body = $('#friction-rows');
-  body.innerHTML = FRICTION_COEFFS.map(([k, label, unit]) => {
+  body.innerHTML = FRICTION_COEFFS.map(([k, label]) => {
+    const unit = paramUnit(`friction.extend.${k}`) || '?';
     const cell = (set) => {
       const id = `fric-${set}-${k}`;
       const src = set === 'retract' && same ? f.extend : f[set];
@@ -409,33 +417,48 @@ function parseFrictionPressures() {
   }
   return { pairs: out.length ? out : [[1.013, 1.013]] };
 }
-function frictionForce(set, v, pa, pb) {
-  const g = (k) => Number(set[k] || 0);
-  const dpa = pa - pAtm();
-  const dpb = pb - pAtm();
-  const fc = Math.max(0, g('fc0') + g('fc_a') * dpa + g('fc_b') * dpb);
-  const kv = Math.max(0, g('kv0') + g('kv_a') * dpa + g('kv_b') * dpb);
-  return kv * v + Math.sign(v) * fc;
-}
+const FRICTION = { timer: null, seq: 0, waiters: [] };
+/** Redraw the friction map once typing pauses; the promise settles when the map is drawn
+ *  (or refused). Every call in the pause shares the one request. */
 function plotFriction() {
+  clearTimeout(FRICTION.timer);
+  const done = new Promise((resolve) => FRICTION.waiters.push(resolve));
+  FRICTION.timer = setTimeout(async () => {
+    const waiters = FRICTION.waiters.splice(0);
+    try { await drawFriction(); } finally { waiters.forEach((w) => w()); }
+  }, FRICTION_DEBOUNCE_MS);
+  return done;
+}
+/** The friction force map from the service: the model's own law (Eq. 18-20 with the Stribeck,
+ *  pressure and quadrant effects it has); at v = 0 the stick band between the static limits. */
+async function drawFriction() {
   if (!S.model) return;
-  const f = S.model.friction || {};
-  const ext = f.extend || {};
-  const ret = f.retract || ext;
   const parsed = parseFrictionPressures();
   const slot = $('#friction-pressures').closest('.field').querySelector('.field-error');
   slot.textContent = parsed.error || '';
   if (parsed.error) return;
-  const vs = [];
-  for (let i = -60; i <= 60; i++) vs.push(i / 100);
+  const seq = ++FRICTION.seq;
+  let res;
+  try {
+    res = await api('POST', '/api/friction/preview', {
+      model: S.model, pressures: parsed.pairs.map(([a, b]) => ({ p_a: a * BAR, p_b: b * BAR })),
+    });
+  } catch (e) {
+    if (seq !== FRICTION.seq) return;
+    const d = e instanceof ApiError && Array.isArray(e.detail) && e.detail[0];
+    slot.textContent = `friction map not drawn: ${d ? `${d.field || 'request'}: ${d.msg}` : (e.message || e)}`;
+    return;
+  }
+  if (seq !== FRICTION.seq) return;   // a newer request is on its way
   const palette = ['#1f77b4', '#ff7f0e', '#2ca02c', '#d62728', '#9467bd', '#8c564b', '#e377c2'];
-  const traces = parsed.pairs.map(([a, b], k) => {
+  const traces = res.curves.map((c, k) => {
+    const [a, b] = parsed.pairs[k];
     const x = []; const y = [];
-    for (const v of vs) {
-      if (v === 0) { x.push(-1e-9, null, 1e-9); y.push(frictionForce(ret, -1e-9, a * BAR, b * BAR), null, frictionForce(ext, 1e-9, a * BAR, b * BAR)); continue; }
-      x.push(v); y.push(frictionForce(v > 0 ? ext : ret, v, a * BAR, b * BAR));
-    }
-    return { x, y, mode: 'lines', name: a === b ? `p = ${a} bar` : `p_a ${a} / p_b ${b} bar`, line: { color: palette[k % palette.length] }, connectgaps: false };
+    res.velocities.forEach((v, i) => {
+      if (v === 0 || c.force[i] == null) { x.push(0, 0); y.push(-c.static_retract, c.static_extend); return; }
+      x.push(v); y.push(c.force[i]);
+    });
+    return { x, y, mode: 'lines', name: a === b ? `p = ${a} bar` : `p_a ${a} / p_b ${b} bar`, line: { color: palette[k % palette.length] } };
   });
   plot('friction-plot', traces, baseLayout({
     height: 260, title: { text: 'Friction force map (paper Fig. 4)', font: { size: 12 }, x: 0.01, y: 0.98 },
@@ -499,6 +522,7 @@ function addEffect() {
   S.model.effects = S.model.effects || {};
   S.model.effects[e.name] = params;
   renderEffects();
+  plotFriction();   // a friction effect (Stribeck, pressure, quadrant) changes the map
   setStatus(`Effect ${e.name} added with its default parameters; simulate or compare to see it.`, 'ok');
 }
 function removeEffect(ev) {
@@ -506,6 +530,7 @@ function removeEffect(ev) {
   if (!btn) return;
   delete S.model.effects[btn.dataset.effect];
   renderEffects();
+  plotFriction();
   setStatus(`Effect ${btn.dataset.effect} removed.`, 'info');
 }
 
@@ -1145,7 +1170,7 @@ async function adoptEffect(ev) {
 }
 
 /* ------------------------------------------------------------------ robustness study */
-// Paths offered in the parameter picker (any other model path can be typed; see pneucore.paths).
+// Paths offered in the parameter picker (any other model path can be typed; see pneucore.spec.paths).
 const STUDY_PATHS = [
   ['friction.extend.fc0', 'Coulomb force, extension'],
   ['friction.retract.fc0', 'Coulomb force, retraction'],
@@ -1165,12 +1190,6 @@ const STUDY_FIELDS = {
   uniform: [['min', 'min', true], ['max', 'max', true]],
   normal: [['mean', 'mean', true], ['std', 'std', true], ['min', 'min', false], ['max', 'max', false]],
   lognormal: [['median', 'median', true], ['sigma', 'sigma of ln x', true, '-'], ['min', 'min', false], ['max', 'max', false]],
-};
-// SI unit by the last path segment: a mirror of pneucore.paths.unit_of (effects come from the catalog)
-const PARAM_UNITS = {
-  bore: 'm', rod_a: 'm', rod_b: 'm', stroke: 'm', dead_volume_a: 'm^3', dead_volume_b: 'm^3', moving_mass: 'kg',
-  load_force: 'N', wall_area_a: 'm^2', wall_area_b: 'm^2', pressure: 'Pa', temperature: 'K', coefficient: 'W/(m^2 K)',
-  fc0: 'N', fc_a: 'N/Pa', fc_b: 'N/Pa', kv0: 'N s/m', kv_a: 'N s/(m Pa)', kv_b: 'N s/(m Pa)', r: 'J/(kg K)', gamma: '-',
 };
 // metrics come in SI; lengths and pressures shown in the header's unit system (plotUnit),
 // temperatures in °C; `diff` converts spreads (std)
@@ -1199,15 +1218,12 @@ function metricDisplay(unit) {
   }
   return { label: unit || '-', val: (v) => v, diff: (v) => v };
 }
-function studyUnit(path) {
-  const parts = String(path || '').split('.');
-  if (parts[0] === 'effects' && parts.length === 3) {
-    const e = catalog(parts[1]);
-    const p = e && e.parameters.find((q) => q.name === parts[2]);
-    return p ? p.unit : '';
-  }
-  if (parts[0] === 'valve') return '-';
-  return PARAM_UNITS[parts[parts.length - 1]] || '';
+/** SI unit of the model parameter at `path` (GET /api/units, from pneucore.spec.paths); '' when unknown. */
+function paramUnit(path) {
+  const units = (S.units && S.units.parameters) || {};
+  const p = String(path || '');
+  // a valve scale factor has the same unit on every edge: the service lists it under '*'
+  return units[p] || units[p.replace(/^valve\.ports\.[^.]+\./, 'valve.ports.*.')] || '';
 }
 /** Value of `path` in the current model (1 for valve scale factors), or null. */
 function studyNominal(path) {
@@ -1246,7 +1262,7 @@ function studyDefaults(path, kind) {
 function nominalText(path) {
   if (String(path).startsWith('valve.')) return 'scale factor on the table: 1 = as given';
   const v = studyNominal(path);
-  return v == null ? (path ? 'not in the current model' : '') : `current model: ${+v.toPrecision(6)} ${prettyUnit(studyUnit(path))}`;
+  return v == null ? (path ? 'not in the current model' : '') : `current model: ${+v.toPrecision(6)} ${prettyUnit(paramUnit(path))}`;
 }
 
 function addStudyRow(path, kind = 'uniform', values) {
@@ -1264,7 +1280,7 @@ function renderStudyRows() {
 function studyRowHtml(r, i) {
   const opts = studyPathOptions();
   const custom = r.custom || !opts.some(([p]) => p === r.path);
-  const unit = prettyUnit(studyUnit(r.path)) || 'SI unit';
+  const unit = prettyUnit(paramUnit(r.path)) || 'SI unit';
   const id = (k) => `sp-${i}-${k}`;
   const pathSel = opts.map(([p, d]) => `<option value="${esc(p)}"${!custom && p === r.path ? ' selected' : ''}>${esc(p)} — ${esc(d)}</option>`).join('') +
     `<option value="${STUDY_CUSTOM}"${custom ? ' selected' : ''}>other path (type it)…</option>`;
@@ -1832,9 +1848,10 @@ async function init() {
   plotEmptyCompare();
   plotEmptyStudy();
   try {
-    const [presets, effects] = await Promise.all([api('GET', '/api/presets'), api('GET', '/api/effects')]);
+    const [presets, effects, units] = await Promise.all([api('GET', '/api/presets'), api('GET', '/api/effects'), fetchUnits()]);
     S.presets = presets;
     S.effects = effects;
+    S.units = units;
     $('#model-preset').innerHTML = presets.models.map((m) => `<option value="${esc(m.name)}" title="${esc(m.description)}">${esc(m.name)}</option>`).join('');
     await Promise.all([
       loadModelPreset(presets.models.some((m) => m.name === 'paper-4way') ? 'paper-4way' : presets.models[0].name),
@@ -1843,6 +1860,7 @@ async function init() {
       loadStudies(),
     ]);
     initStudyForm();
+    await plotFriction();   // the first friction map is drawn before the page says it is ready
     const resumed = await resumeSession();
     if (!resumed) setStatus('Ready. Pick a paper scenario or edit the model, then Simulate.', 'info');
     document.body.dataset.ready = 'true';

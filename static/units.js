@@ -5,7 +5,7 @@
  * label the shown unit. The choice is kept in localStorage. The ambient pressure itself is
  * always shown absolute (gauge would make it 0). */
 
-const UNITS = { api: null, system: localStorage.getItem('pneucore.units') || 'engineering' };
+const UNITS = { api: null, system: localStorage.getItem('pneucore.spec.units') || 'engineering' };
 
 function prettyUnitText(u) { return String(u).replace(/\^3/g, '³').replace(/\^2/g, '²'); }
 
@@ -64,7 +64,7 @@ async function initUnits() {
   setHeader();
   window.addEventListener('resize', setHeader);
   try {
-    UNITS.api = await api('GET', '/api/units');
+    UNITS.api = await fetchUnits();   // app.js: one request for the page
   } catch (e) { showApiError(e, 'Loading the unit systems'); return; }
   const sel = $('#unit-system');
   for (const [name, s] of Object.entries(UNITS.api.systems)) {
@@ -76,7 +76,7 @@ async function initUnits() {
   sel.value = UNITS.system;
   sel.addEventListener('change', () => {
     UNITS.system = sel.value;
-    localStorage.setItem('pneucore.units', UNITS.system);
+    localStorage.setItem('pneucore.spec.units', UNITS.system);
     applyUnits();
   });
   // apply once the page holds its model and scenario

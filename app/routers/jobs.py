@@ -21,16 +21,19 @@ def _submit(jobs, kind, fn):
 
 @router.post("/diagnose", status_code=202, response_model=JobResponse, summary="Diagnose as a job")
 def diagnose_job(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep):
-    # validate up front so bad input is a 422 now, not a failed job later
-    check_diagnose(req, store, limits)
-    return _submit(jobs, "diagnose", lambda job: run_diagnose(req, store, limits, progress=job.report))
+    # validate up front so bad input is a 422 now, not a failed job later; the job runs on
+    # what was checked (validated once)
+    checked = check_diagnose(req, store, limits)
+    return _submit(jobs, "diagnose", lambda job: run_diagnose(req, store, limits, progress=job.report,
+                                                              checked=checked))
 
 
 def _simple(kind, check, runner):
     """A job that validates its request up front, then runs ``runner`` reporting progress."""
     def endpoint(req, store, limits, jobs):
-        check(req, store, limits)
-        return _submit(jobs, kind, lambda job: runner(req, store, limits, progress=job.report))
+        checked = check(req, store, limits)
+        return _submit(jobs, kind, lambda job: runner(req, store, limits, progress=job.report,
+                                                      checked=checked))
     return endpoint
 
 

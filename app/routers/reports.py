@@ -42,7 +42,7 @@ def diagnose_report(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep):
     model, exps = check_diagnose(req, store, limits)
     progress = deadline_progress(limits, "diagnosis", "/api/jobs/diagnose")
     d = diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
-                 progress=progress).to_dict()
+                 progress=progress, validated=True).to_dict()
     c = compare(model, exps)
     refined = None
     best = next((r for r in d.get("ranking", []) if r.get("effect") == d.get("verdict")), None)

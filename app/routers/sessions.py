@@ -1,6 +1,7 @@
 """Refinement sessions: model versions with their errors, so work can be resumed.
 
-Every stored field is validated before the one transaction that stores it.
+Every stored field is validated before the one transaction that stores it; the versions are
+numbered and labelled by :class:`pneucore.analysis.history.RefinementHistory` (through the store).
 """
 from fastapi import APIRouter
 
@@ -16,8 +17,9 @@ router = APIRouter(prefix="/api/sessions", tags=["sessions"], route_class=OffLoo
 
 
 def _errors(model, experiments, store, limits):
+    """``(errors, overall)`` of ``model`` on the experiments; None without experiments."""
     if not experiments:
-        return {}, None
+        return None
     return model_errors(model, parse_experiments(experiments, model, store, limits))
 
 
@@ -25,10 +27,9 @@ def _errors(model, experiments, store, limits):
              response_model=SessionOut)
 def create_session(req: SessionCreate, store: StoreDep, limits: LimitsDep):
     model = parse_model(req.model)
-    errors, overall = _errors(model, req.experiments, store, limits)
+    comparison = _errors(model, req.experiments, store, limits)
     exps = finite_json([e.model_dump(exclude_none=True) for e in req.experiments], "experiments")
-    sid = store.create_session(req.name, exps, base={"label": "base", "model": model.to_dict(),
-                                                     "errors": errors, "overall": overall})
+    sid = store.create_session(req.name, exps, model, comparison)
     return store.session(sid)
 
 
@@ -62,9 +63,7 @@ def add_version(session_id: str, req: VersionCreate, store: StoreDep, limits: Li
     except (TypeError, ValueError):
         raise FieldError("session", f"session {session_id!r} has unreadable experiments; "
                                     f"start a new session") from None
-    errors, overall = _errors(model, exps, store, limits)
-    label = f"+ {req.added}" if req.added else f"version {len(s['versions'])}"
-    store.add_version(session_id, label, model.to_dict(), errors, overall, req.added, params,
+    store.add_version(session_id, model, _errors(model, exps, store, limits), req.added, params,
                       req.note)
     return store.session(session_id)
 

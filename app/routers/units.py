@@ -1,4 +1,5 @@
-"""GET /api/units: the page's display unit systems and the SI unit of every model and scenario field."""
+"""GET /api/units: the page's display unit systems, the SI unit of every model and scenario field,
+and of every model parameter path (:mod:`pneucore.spec.paths`)."""
 import re
 
 from fastapi import APIRouter
@@ -7,6 +8,7 @@ from pydantic import BaseModel, Field
 from pneucore.spec.units import unit_systems
 
 from .. import schemas
+from ..services import parameter_units
 
 router = APIRouter(prefix="/api", tags=["meta"])
 
@@ -32,6 +34,7 @@ def _fields(cls, prefix, out):
 class UnitsResponse(BaseModel):
     systems: dict = Field(..., description="Display systems: {name: {label, units: {SI unit: {unit, scale, offset}}}}; display = (SI - offset) / scale, offset 'gauge' = the model's ambient pressure")
     fields: dict[str, str] = Field(..., description="SI unit of each model and scenario field, from the schemas' descriptions")
+    parameters: dict[str, str] = Field(..., description="SI unit of each model parameter path (calibration, studies, diagnosis: jack.bore, friction.extend.fc0, effects.<effect>.<parameter>, valve.ports.*.C for any edge), from pneucore.spec.paths.unit_of")
 
 
 @router.get("/units", response_model=UnitsResponse, summary="Display unit systems and the SI unit of every field")
@@ -41,4 +44,4 @@ def units():
     _fields(schemas.ScenarioIn, "scenario", fields)
     fields["upload.x0"] = "m"
     fields["upload.ambient_pressure"] = "Pa"
-    return {"systems": unit_systems(), "fields": fields}
+    return {"systems": unit_systems(), "fields": fields, "parameters": parameter_units()}

@@ -261,11 +261,16 @@ def _explain(eff, cand, floor_overall):
     return txt
 
 
+def _candidate_names(model, candidates):
+    """The effects a diagnosis considers: ``candidates``, or every catalog effect not in the model."""
+    return [n for n in EFFECTS if n not in model.effects] if candidates is None else list(candidates)
+
+
 def check_request(model, candidates=None, uncertain=()):
     """Validate ``candidates`` and ``uncertain`` before any work; returns the candidate names."""
     from pneucore.spec.validation import FieldError
     if candidates is None:
-        names = [n for n in EFFECTS if n not in model.effects]
+        names = _candidate_names(model, None)
     else:
         names = list(candidates)
         for i, n in enumerate(names):
@@ -292,7 +297,8 @@ def check_request(model, candidates=None, uncertain=()):
 
 
 def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT, alpha=ALPHA,
-             datasets=None, progress=None, max_nfev=30, refit_existing=True, base_hypotheses=True):
+             datasets=None, progress=None, max_nfev=30, refit_existing=True, base_hypotheses=True,
+             validated=False):
     """Which base parameters are mis-set, which catalog effect is missing, what remains.
 
     Parameters
@@ -320,6 +326,10 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     base_hypotheses : bool
         With no ``uncertain`` given, choose the base parameters to
         recalibrate from what the experiments identify (:mod:`pneucore.analysis.hypotheses`)
+    validated : bool
+        ``candidates`` and ``uncertain`` were already checked on this model by
+        :func:`check_request` (the API does so at its boundary, before any work): they are
+        not checked again
 
     Returns
     -------
@@ -334,7 +344,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     report = progress or (lambda f, s: None)
 
     # -- candidates --------------------------------------------------------------
-    names = check_request(model, candidates, uncertain)
+    names = _candidate_names(model, candidates) if validated else \
+        check_request(model, candidates, uncertain)
     cands = []
     skipped = []
     for n in names:

@@ -11,7 +11,7 @@ import datetime as _dt
 from dataclasses import dataclass, field
 
 from pneucore.analysis.compare import compare
-from pneucore.analysis.diagnose import diagnose
+from pneucore.analysis.diagnose import check_request, diagnose
 from pneucore.data.experiment import as_experiments
 from pneucore.spec.model import Model
 
@@ -65,18 +65,46 @@ class RefinementHistory:
     def add(self, model, comparison, added=None, params=None, note="", recalibrated=None):
         """Record a model version with its comparison; returns the :class:`ModelVersion`.
 
-        ``recalibrated``: the mis-set base parameters corrected at this step
-        (``[{path, label, before, after, stderr, unit}]``).
+        The first version is labelled ``base``; a later one ``+ <effect>`` when it adds an
+        effect, ``recalibrated: <parameters>`` when it only corrects base parameters, and
+        ``version <n>`` otherwise (a model edited by hand).
+
+        Parameters
+        ----------
+        model : Model or dict
+            The model of this version (a dict is validated)
+        comparison : Comparison, tuple or None
+            Its errors: a :class:`pneucore.analysis.compare.Comparison` (or any object with
+            ``errors`` and ``overall``), the pair ``(errors, overall)`` of
+            :func:`pneucore.analysis.compare.errors`, or None when there is nothing to compare
+            with (no errors, overall None)
+        added : str or None
+            Effect added at this step
+        params : dict or None
+            Its fitted parameters
+        note : str
+            Free text
+        recalibrated : list or None
+            The mis-set base parameters corrected at this step
+            (``[{path, label, before, after, stderr, unit}]``)
         """
         model = model if isinstance(model, Model) else Model.from_dict(model)
+        if comparison is None:
+            errors, overall = {}, None
+        elif isinstance(comparison, tuple):
+            errors, overall = comparison
+        else:
+            errors, overall = comparison.errors, comparison.overall
         if not self.versions:
             label = "base"
         elif added:
             label = f"+ {added}"
+        elif recalibrated:
+            label = "recalibrated: " + ", ".join(r.get("label", r["path"]) for r in recalibrated)
         else:
-            label = "recalibrated: " + ", ".join(r.get("label", r["path"]) for r in recalibrated or [])
+            label = f"version {len(self.versions)}"
         v = ModelVersion(len(self.versions), label,
-                         model.to_dict(), dict(comparison.errors), comparison.overall, added,
+                         model.to_dict(), dict(errors), overall, added,
                          params or {}, note, _dt.datetime.now(_dt.timezone.utc).isoformat(),
                          list(recalibrated or []))
         self.versions.append(v)
@@ -98,7 +126,8 @@ class RefinementHistory:
         return cls([ModelVersion(**v) for v in d.get("versions", [])])
 
 
-def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progress=None):
+def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progress=None,
+           validated=False):
     """Stepwise to the noise floor: diagnose, apply the findings, repeat.
 
     Each round recalibrates the base parameters the experiments identify and
@@ -122,6 +151,10 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
         choice (see :func:`pneucore.analysis.diagnose.diagnose`)
     history : RefinementHistory or None
         Continue an existing history
+    validated : bool
+        ``uncertain`` was already checked on ``model`` by
+        :func:`pneucore.analysis.diagnose.check_request` (the API does at its boundary); otherwise
+        it is checked once here, before the first round, and not again in each round
 
     Returns
     -------
@@ -135,13 +168,15 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
         ``max_rounds`` was reached or the floor was reached)
     """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
+    if not validated:
+        check_request(model, None, uncertain)
     exps = as_experiments(experiments, model.ambient.pressure)
     history = history or RefinementHistory()
     if not history.versions:
         history.add(model, compare(model, exps))
     diagnoses = []
     for _ in range(max_rounds):
-        d = diagnose(model, exps, uncertain=uncertain, progress=progress)
+        d = diagnose(model, exps, uncertain=uncertain, progress=progress, validated=True)
         diagnoses.append(d)
         if d.verdict is None and not d.recalibrate:
             break

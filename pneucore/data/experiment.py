@@ -41,6 +41,9 @@ from pneucore.spec.validation import FieldError, known_keys, mapping, number
 #: simulates the time before the first sample); beyond, ``time_offset`` is asked for
 LEAD_LIMIT = 10.0
 
+#: Scenarios an experiment keeps built and validated, one per model shape (Experiment.scenario_for)
+_SCENARIO_CACHE_SIZE = 8
+
 #: Signals that can be compared with the model
 COMPARABLE = ("p_a", "p_b", "x", "v", "T_a", "T_b")
 
@@ -70,6 +73,7 @@ class Experiment:
     dataset_id: Optional[str] = None
     time_offset: Optional[float] = None
     _first_cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    _scenario_cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @classmethod
     def from_dict(cls, d, path="experiment", ambient_pressure=101300.0, datasets=None):
@@ -191,7 +195,29 @@ class Experiment:
         return float(np.mean(v[ok]))
 
     def scenario_for(self, model):
-        """The :class:`Scenario` that replays this experiment on ``model`` (validated)."""
+        """The :class:`Scenario` that replays this experiment on ``model`` (validated).
+
+        Built and validated once for the facts of the model it depends on (the valve's
+        kind and command range, the heat model, the stroke): a calibration replays one
+        experiment on hundreds of models, and each later call repeats only the checks
+        against the model (:meth:`Scenario.check_against`). Like the first-sample
+        estimates, this assumes the experiment's measurement is not edited afterwards
+        (its ``scenario`` and ``time_offset`` may be: they are part of the key).
+        """
+        key = (model.valve.kind, tuple(model.valve.opening_range), model.heat.model,
+               "heat_exchange" in model.effects, model.jack.stroke, self.time_offset)
+        hit = self._scenario_cache.get(key)
+        # the scenario fields it was built from, compared by value (cheaper than hashing them)
+        if hit is not None and hit[0] == self.scenario:
+            hit[1].check_against(model)
+            return hit[1]
+        scen = self._build_scenario(model)
+        if len(self._scenario_cache) >= _SCENARIO_CACHE_SIZE:
+            self._scenario_cache.clear()   # a calibration of the stroke: no unbounded growth
+        self._scenario_cache[key] = (copy.deepcopy(self.scenario), scen)
+        return scen
+
+    def _build_scenario(self, model):
         meas = self.measurement
         lead = float(meas.t[0]) - self.t0
         if lead > LEAD_LIMIT * meas.duration:

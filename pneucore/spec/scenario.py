@@ -118,12 +118,15 @@ class Scenario:
     def from_dict(cls, d, model=None):
         """Build and validate; with ``model``, also check ``x0`` and the command range.
 
-        :func:`pneucore.simulate` trusts a Scenario built here and repeats only
-        :meth:`check_against`; a Scenario whose fields were edited afterwards
-        should be rebuilt: ``Scenario.from_dict(s.to_dict())``.
+        A Scenario (built, hence validated, here) is returned as it is, after only the
+        checks that need ``model`` (:meth:`check_against`); :func:`pneucore.simulate`
+        trusts it the same way. A Scenario whose fields were edited afterwards should be
+        rebuilt: ``Scenario.from_dict(s.to_dict())``.
         """
         if isinstance(d, Scenario):
-            d = d.to_dict()
+            if model is not None:
+                d.check_against(model)
+            return d
         mapping(d, "scenario")
         known_keys(d, cls.__dataclass_fields__, "scenario")
         s = cls()
