@@ -2,7 +2,7 @@
 
 Up to version 0.1 every module sat flat in ``pneucore/``; they now live in
 subpackages by topic (``physics``, ``core``, ``spec``, ``data``, ``analysis``,
-``study``). ``import pneucore.spec.model`` or ``from pneucore import flow`` still
+``study``). ``import pneucore.model`` or ``from pneucore import flow`` still
 work: a finder on ``sys.meta_path`` answers an old name with the module at its
 new place (the very same module object, so monkeypatching and ``isinstance``
 keep working) and warns. :data:`MOVED` is the one table of the

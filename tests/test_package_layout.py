@@ -61,10 +61,10 @@ def test_old_module_name_is_the_moved_module_with_a_warning(old):
 
 
 def test_from_pneucore_import_old_module_name():
-    # an earlier ``import pneucore.physics.flow`` binds the attribute on the package: start without it
+    # an earlier ``import pneucore.flow`` binds the attribute on the package: start without it
     vars(pneucore).pop("flow", None)
-    sys.modules.pop("pneucore.physics.flow", None)
-    with pytest.warns(DeprecationWarning, match="pneucore.physics.flow moved to pneucore.physics.flow"):
+    sys.modules.pop("pneucore.flow", None)
+    with pytest.warns(DeprecationWarning, match="pneucore.flow moved to pneucore.physics.flow"):
         from pneucore import flow
     from pneucore.physics import flow as new
     assert flow is new
