@@ -37,8 +37,9 @@ router = APIRouter(prefix="/api/simulate", tags=["simulate"], route_class=OffLoo
 LOOP_MAX_SAMPLES = 5_001
 #: ... command breakpoints [-] (validating a scenario grows with them)
 LOOP_MAX_COMMAND_POINTS = 1_000
-#: ... solver steps, accepted and rejected [-] (about 2 us each for the base core: 5 ms at most)
-LOOP_MAX_STEPS = 2_500
+#: ... solver steps, accepted and rejected [-]: 2-5 us each for the base core, so at most a few
+#: milliseconds on the loop (the paper's cases take 100-200 steps)
+LOOP_MAX_STEPS = 1_000
 
 
 class _PastLoopBudget(Exception):
