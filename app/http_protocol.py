@@ -2,17 +2,15 @@
 
 uvicorn writes a response's status line and headers to the socket as soon as the
 application starts the response, and the body in a second write. Each write wakes the
-client, which reads the headers and sleeps again until the body comes: on a machine
-with few cores the client then takes the CPU from the server in the middle of the
-response (measured on 2 cores: about 0.3 ms between the two writes of a 240 kB answer
-of ``POST /api/simulate``, and twice the context switches under 20 clients).
+client, which reads the headers and sleeps again until the body comes: two system calls
+and two wake-ups of the client for every answer, where one does.
 
-:class:`CombinedWritesProtocol` gives uvicorn's protocol a transport that holds what is
-written during one turn of the event loop and hands it to the socket at the end of that
-turn in one ``writelines`` (one ``writev`` system call): the headers and the body of a
-response sent in one go leave together. Nothing waits longer than the current turn of
-the loop, so a streamed response is not delayed; closing the connection sends what is
-held first. ``python -m app`` runs it (:func:`app.main.main`); with uvicorn directly:
+:class:`CombinedWritesProtocol` gives uvicorn's protocol a transport
+(:class:`CombinedWrites`) that holds a write until the next one, and hands both to the
+socket in one write: the head of a response leaves with the first part of its body. What is held leaves at the latest when the response is
+complete, when the connection closes, or at the end of the event loop's turn (a head
+whose body is slow to come), so nothing waits behind other requests. ``python -m app``
+runs it (:func:`app.main.main`); with uvicorn directly:
 ``uvicorn app.main:app --http app.http_protocol:CombinedWritesProtocol``.
 """
 from __future__ import annotations
@@ -26,8 +24,10 @@ except ImportError:   # pragma: no cover - httptools is a dependency of uvicorn[
 
 
 class CombinedWrites:
-    """An asyncio transport whose writes during one turn of the event loop leave as one
-    ``writelines`` at the end of that turn; everything else is the wrapped transport's.
+    """An asyncio transport that holds a write until the next one and sends both in one
+    write; what is held leaves at :meth:`flush` (the response is complete), at
+    :meth:`close`, or at the end of the loop's turn. Everything else is the wrapped
+    transport's.
 
     Parameters
     ----------
@@ -40,36 +40,41 @@ class CombinedWrites:
     def __init__(self, transport, loop):
         self._transport = transport
         self._loop = loop
-        self._held = []
+        self._held = None
         self._flush_scheduled = False
 
     def write(self, data):
         if not data:
             return
-        self._held.append(data)
-        if not self._flush_scheduled:
-            self._flush_scheduled = True
-            self._loop.call_soon(self.flush)
+        if self._held is None:
+            self._held = data if isinstance(data, bytes) else bytes(data)   # not changed later
+            if not self._flush_scheduled:
+                self._flush_scheduled = True
+                self._loop.call_soon(self._end_of_turn)
+            return
+        held, self._held = self._held, None
+        if not self._transport.is_closing():
+            # one buffer (a copy: 20 us for 240 kB): uvloop sends a write at once, where
+            # it queues a writelines to the end of the loop's turn, behind other requests
+            self._transport.write(held + data)
 
     def writelines(self, chunks):
         for data in chunks:
             self.write(data)
 
     def flush(self):
-        """Hand what is held to the socket now (one ``writelines``)."""
+        """Hand what is held to the socket now."""
+        if self._held is not None:
+            held, self._held = self._held, None
+            if not self._transport.is_closing():
+                self._transport.write(held)
+
+    def _end_of_turn(self):
         self._flush_scheduled = False
-        if not self._held:
-            return
-        held, self._held = self._held, []
-        if self._transport.is_closing():
-            return
-        if len(held) == 1:
-            self._transport.write(held[0])
-        else:
-            self._transport.writelines(held)
+        self.flush()
 
     def get_write_buffer_size(self):
-        return self._transport.get_write_buffer_size() + sum(len(b) for b in self._held)
+        return self._transport.get_write_buffer_size() + (len(self._held) if self._held else 0)
 
     def write_eof(self):
         self.flush()
@@ -80,7 +85,7 @@ class CombinedWrites:
         self._transport.close()
 
     def abort(self):
-        self._held = []
+        self._held = None
         self._transport.abort()
 
     def __getattr__(self, name):   # everything else: the wrapped transport's
@@ -92,6 +97,10 @@ class CombinedWritesProtocol(_Base):
 
     def connection_made(self, transport):
         super().connection_made(CombinedWrites(transport, asyncio.get_running_loop()))
+
+    def on_response_complete(self):
+        self.transport.flush()   # a response without a body (HEAD, 204, 304) has its head held
+        super().on_response_complete()
 
 
 #: The protocol as uvicorn's ``http`` setting names it

@@ -44,20 +44,23 @@ class FakeTransport:
         return {"peername": ("127.0.0.1", 1)}.get(name, default)
 
 
-def test_writes_of_one_turn_leave_together():
+def test_a_write_leaves_with_the_next_one():
     async def main():
         t = FakeTransport()
         w = CombinedWrites(t, asyncio.get_running_loop())
         w.write(b"HTTP/1.1 200 OK\r\n\r\n")
         w.write(b"")                      # nothing to send: no call
-        w.write(b"body")
-        assert t.calls == []              # held until the end of this turn
-        assert w.get_write_buffer_size() == 23
-        await asyncio.sleep(0)            # the turn ends
-        assert t.calls == [[b"HTTP/1.1 200 OK\r\n\r\n", b"body"]]
-        w.write(b"next")                  # a later turn: its own call, with one chunk
-        await asyncio.sleep(0)
+        assert t.calls == []              # the head is held...
+        assert w.get_write_buffer_size() == 19
+        w.write(b"body")                  # ...and leaves with the body, at once
+        assert t.calls == [[b"HTTP/1.1 200 OK\r\n\r\nbody"]]
+        w.write(bytearray(b"next"))       # held alone: it leaves at flush (response complete)
+        w.flush()
         assert t.calls[1:] == [[b"next"]]
+        w.write(b"slow head")             # or at the end of the loop's turn
+        await asyncio.sleep(0)
+        await asyncio.sleep(0)
+        assert t.calls[2:] == [[b"slow head"]]
         assert w.get_extra_info("peername") == ("127.0.0.1", 1)   # the rest is the transport's
     asyncio.run(main())
 
@@ -67,10 +70,9 @@ def test_close_sends_what_is_held_first_and_abort_drops_it():
         t = FakeTransport()
         w = CombinedWrites(t, asyncio.get_running_loop())
         w.write(b"head")
-        w.write(b"tail")
         w.close()
-        assert t.calls == [[b"head", b"tail"]] and t.closed
-        await asyncio.sleep(0)            # the scheduled flush finds nothing left
+        assert t.calls == [[b"head"]] and t.closed
+        await asyncio.sleep(0)            # the end of the turn finds nothing left
         assert len(t.calls) == 1
         t2 = FakeTransport()
         w2 = CombinedWrites(t2, asyncio.get_running_loop())
