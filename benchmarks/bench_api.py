@@ -94,14 +94,15 @@ class Server:
     runs it (without the access log)."""
 
     def __init__(self, port, db_path, log_path, http="app", loop="auto"):
-        from app.http_protocol import PROTOCOL
+        if http == "app":
+            from app.http_protocol import PROTOCOL as http
         env = dict(os.environ, PNEUCORE_DB=db_path, PYTHONUNBUFFERED="1")
         env["PYTHONPATH"] = ROOT + os.pathsep + env.get("PYTHONPATH", "")
         self.log = open(log_path, "w")
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "uvicorn", "app.main:app", "--host", "127.0.0.1",
              "--port", str(port), "--workers", "1", "--log-level", "warning", "--no-access-log",
-             "--http", PROTOCOL if http == "app" else http, "--loop", loop],
+             "--http", http, "--loop", loop],
             cwd=ROOT, env=env, stdout=self.log, stderr=subprocess.STDOUT)
         self.port = port
         self.url = f"http://127.0.0.1:{port}"
