@@ -89,6 +89,12 @@ def test_many_breakpoints_go_to_a_thread(client, where):
     assert [p for p, _ in where] == ["thread"]
 
 
+def test_csv_answers_go_to_a_thread(client, where):
+    r = client.post("/api/simulate", json=sim_body(), headers={"accept": "text/csv"})
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/csv")
+    assert [p for p, _ in where] == ["thread"]
+
+
 def test_nothing_compiles_on_the_loop(client, where, monkeypatch):
     # while the core is not compiled (or loaded) in this process, every run goes to a thread
     monkeypatch.setattr(router, "integrate", types.SimpleNamespace(overloads={}))
