@@ -46,6 +46,15 @@ def test_the_pulse_case_is_answered_on_the_loop(client, where):
     assert where[0][1] == router.LOOP_MAX_STEPS   # the loop's budget, not the request's
 
 
+def test_while_other_requests_are_in_progress_runs_go_to_a_thread(client, where, monkeypatch):
+    # under uvicorn, app.http_protocol counts the requests received and not yet answered
+    monkeypatch.setattr(router, "requests_in_progress", lambda: 3)
+    assert client.post("/api/simulate", json=sim_body()).status_code == 200
+    monkeypatch.setattr(router, "requests_in_progress", lambda: 1)   # this one alone
+    assert client.post("/api/simulate", json=sim_body()).status_code == 200
+    assert [p for p, _ in where] == ["thread", "loop"]
+
+
 def test_a_run_past_the_loop_budget_is_redone_in_a_thread(client, where, monkeypatch):
     ref = client.post("/api/simulate", json=sim_body())
     assert ref.status_code == 200

@@ -1,16 +1,21 @@
 """POST /api/simulate and /api/simulate/heat-models.
 
 A small simulation (the paper's cases: a few hundred solver steps, about a
-millisecond of work) is answered directly on the event loop: a hop through the
-thread pool and back costs more than the work, and under load the threads fight
-the loop for the GIL. Everything else runs in a worker thread, so a long run
-never blocks the loop that serves every other client:
+millisecond of work) asked while no other request is in progress is answered
+directly on the event loop: a hop through the thread pool and back costs more
+than the work (server CPU per request 1.3 against 1.7 ms). Everything else runs
+in a worker thread: a long run never blocks the loop that serves every other
+client, and while other requests are in progress the solver (compiled without
+the GIL) runs beside the loop's work on the second core, where one loop thread
+would serve them one after the other on one core (and, on a shared machine, get
+one thread's share of the CPU):
 
-* a run is tried on the loop only when the core is already compiled (never a
-  compilation on the loop), the model adds no user terms (a specialised core may
-  still need compiling), the answer is JSON (not the CSV text, slower to write), and
-  the scenario asks for at most
-  :data:`LOOP_MAX_SAMPLES` output samples and :data:`LOOP_MAX_COMMAND_POINTS`
+* a run is tried on the loop only when it is the only request in progress
+  (:func:`app.http_protocol.requests_in_progress`: uvicorn's count; 0 under the
+  tests' client), the core is already compiled (never a compilation on the loop),
+  the model adds no user terms (a specialised core may still need compiling), the
+  answer is JSON (not the CSV text, slower to write), and the scenario asks for at
+  most :data:`LOOP_MAX_SAMPLES` output samples and :data:`LOOP_MAX_COMMAND_POINTS`
   breakpoints;
 * on the loop the solver gets a budget of :data:`LOOP_MAX_STEPS` steps (a few
   milliseconds at most); a run that needs more stops there and is run again, from
@@ -27,6 +32,7 @@ from pneucore.integrator import ERR_MAX_STEPS, integrate
 from pneucore.simulate import SimulationError, simulate
 
 from ..bodies import OffLoopRoute
+from ..http_protocol import requests_in_progress
 from ..deps import LimitsDep, parse_model, parse_scenario
 from ..schemas import HeatModelsRequest, HeatModelsResponse, SimulateRequest, SimulateResponse
 from ..services import result_json
@@ -88,7 +94,7 @@ async def simulate_endpoint(req: SimulateRequest, request: Request):
     # the limits are read here rather than through ``LimitsDep``: a plain (sync)
     # dependency costs a hop through the thread pool on every request
     limits = request.app.state.settings.limits
-    if _loop_candidate(req, request):
+    if requests_in_progress() <= 1 and _loop_candidate(req, request):
         try:
             return _answer(req, request, limits, on_loop=True)
         except _PastLoopBudget:
