@@ -1,6 +1,7 @@
 """Build the FastAPI app: routers, error handlers, the page and its local plotly.js.
 
-Run with ``python -m app`` (or ``uvicorn app.main:app``); the SQLite file is
+Run with ``python -m app`` (or ``uvicorn app.main:app``; ``python -m app`` also selects
+:data:`app.http_protocol.PROTOCOL`, one write per answer); the SQLite file is
 ``$PNEUCORE_DB`` (default ``./pneucore.sqlite3``).
 """
 from __future__ import annotations

@@ -41,6 +41,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import socket
 import statistics
 import subprocess
@@ -336,6 +337,7 @@ def run(args):
         timed("concurrent_lean", concurrent_lean, server.port, raw, args.clients, args.per_client, ref)
     finally:
         server.stop()
+        shutil.rmtree(tmp, ignore_errors=True)
     out["load"].append(_load())
     out["in_process_ms"] = in_process(body)
     p = out["in_process_ms"]
