@@ -1,6 +1,7 @@
 """Build the FastAPI app: routers, error handlers, the page and its local plotly.js.
 
-Run with ``python -m app`` (or ``uvicorn app.main:app``); the SQLite file is
+Run with ``python -m app`` (or ``uvicorn app.main:app``; ``python -m app`` also selects
+:data:`app.http_protocol.PROTOCOL`, one write per answer); the SQLite file is
 ``$PNEUCORE_DB`` (default ``./pneucore.sqlite3``).
 """
 from __future__ import annotations
@@ -247,4 +248,5 @@ def main():
     if a.host not in LOCAL_HOSTS and "PNEUCORE_ALLOWED_HOSTS" not in os.environ:
         print("pneucore: only the host names localhost, 127.0.0.1 and ::1 are answered; on a shared "
               "server set PNEUCORE_ALLOWED_HOSTS and PNEUCORE_TOKEN (README: Running on a shared server)")
-    uvicorn.run("app.main:app", host=a.host, port=a.port, workers=1)
+    from .http_protocol import PROTOCOL   # one write per response (see app.http_protocol)
+    uvicorn.run("app.main:app", host=a.host, port=a.port, workers=1, http=PROTOCOL)

@@ -169,7 +169,7 @@ def friction_preview(model, pressures, velocities):
         where the piston sticks), the static limits ``static_extend`` and
         ``static_retract`` [N] (magnitudes), ``coulomb_*`` [N] and ``viscous_*`` [N s/m]
     """
-    from pneucore import layout as L
+    from pneucore.core import layout as L
     from pneucore.physics.friction import coulomb_level, sliding_friction, viscous_coefficient
     from pneucore.spec.scenario import Scenario
     from pneucore.simulate import build_core

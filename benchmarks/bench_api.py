@@ -4,18 +4,29 @@ Run from the repository root::
 
     python benchmarks/bench_api.py [--json PATH] [--requests N] [--clients C] [--per-client K]
 
-Set-up: ``uvicorn app.main:app`` (one worker, as ``python -m app`` runs it) is
-started in a subprocess on a free localhost port, with ``PNEUCORE_DB`` pointing
-to a temporary SQLite file. After a warm-up (the first call may load or
-compile the numba core), ``POST /api/simulate`` with the ``paper-4way`` model
-and the ``paper-fig10-pulses`` scenario (1 s, 1 kHz, all default series, about
-0.25 MB of JSON) is measured:
+Set-up: ``uvicorn app.main:app`` started in a subprocess as ``python -m app`` runs it
+(one worker, the HTTP protocol :data:`app.http_protocol.PROTOCOL`: uvicorn's httptools
+protocol writing each response in one system call; uvloop), on a free localhost port,
+with ``PNEUCORE_DB`` pointing to a temporary SQLite file, without the access log. After
+a warm-up (the first call may load or compile the numba core), ``POST /api/simulate``
+with the ``paper-4way`` model and the ``paper-fig10-pulses`` scenario (1 s, 1 kHz, all
+default series, about 0.24 MB of JSON) is measured with two clients:
+
+* **httpx** (as a Python script would call the API; the client itself costs about
+  0.3 ms of CPU a request on this answer, and under 20 threads in one process more
+  than the server does) and
+* **lean**: the standard library's ``http.client`` for the sequential requests and
+  one asyncio event loop with one connection per client for the concurrent ones
+  (about 0.1 ms a request: what a client on another machine, or a browser, adds to
+  the server's own time):
 
 * **sequential**: ``--requests`` (200) requests one after the other on one
   keep-alive connection: median, p95, min, max latency;
 * **concurrent**: ``--clients`` (20) clients, each on its own connection,
   sending ``--per-client`` (10) requests back to back: median and p95
   latency over all requests, and the throughput;
+* the server's CPU time per request in each phase (from ``/proc``: less sensitive to
+  the machine's load than the wall times);
 * for reference, the in-process cost of what the endpoint does (parse and
   validate, :func:`pneucore.simulate`, the result's ``to_dict``, orjson), stage by
   stage, without HTTP.
@@ -23,14 +34,14 @@ and the ``paper-fig10-pulses`` scenario (1 s, 1 kHz, all default series, about
 Every response is checked after its timing (status 200, same bytes as the first one).
 Targets: sequential median <= 2x the in-process ``simulate()`` (the ratio is printed,
 with the load average: both sides are measured in the same run); median <= 30 ms with
-20 concurrent clients. uvicorn picks httptools and uvloop when installed, as
-``python -m app`` does.
+20 concurrent clients; both judged for each client.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import os
+import shutil
 import socket
 import statistics
 import subprocess
@@ -80,9 +91,12 @@ def summary(lat_s):
 
 
 class Server:
-    """``uvicorn app.main:app`` in a subprocess on a temporary database."""
+    """``uvicorn app.main:app`` in a subprocess on a temporary database, as ``python -m app``
+    runs it (without the access log)."""
 
-    def __init__(self, port, db_path, log_path, http="auto", loop="auto"):
+    def __init__(self, port, db_path, log_path, http="app", loop="auto"):
+        if http == "app":
+            from app.http_protocol import PROTOCOL as http
         env = dict(os.environ, PNEUCORE_DB=db_path, PYTHONUNBUFFERED="1")
         env["PYTHONPATH"] = ROOT + os.pathsep + env.get("PYTHONPATH", "")
         self.log = open(log_path, "w")
@@ -91,7 +105,14 @@ class Server:
              "--port", str(port), "--workers", "1", "--log-level", "warning", "--no-access-log",
              "--http", http, "--loop", loop],
             cwd=ROOT, env=env, stdout=self.log, stderr=subprocess.STDOUT)
+        self.port = port
         self.url = f"http://127.0.0.1:{port}"
+
+    def cpu_s(self):
+        """CPU time (user + system) the server process has used so far [s]."""
+        with open(f"/proc/{self.proc.pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
     def wait_ready(self, client, timeout=120.0):
         t0 = time.perf_counter()
@@ -123,6 +144,124 @@ def check(resp, ref):
         raise RuntimeError(f"HTTP {resp.status_code}: {resp.text[:300]}")
     if ref is not None and resp.content != ref:
         raise RuntimeError("a response differs from the first one")
+
+
+class _Lean:
+    """A response of the lean clients, with what :func:`check` reads."""
+
+    def __init__(self, status, content):
+        self.status_code, self.content = status, content
+
+    @property
+    def text(self):
+        return self.content.decode("utf-8", "replace")
+
+
+def _request_bytes(raw):
+    """``POST /api/simulate`` with the JSON body ``raw``, as bytes on the wire."""
+    return (b"POST /api/simulate HTTP/1.1\r\nhost: 127.0.0.1\r\ncontent-type: application/json\r\n"
+            b"content-length: %d\r\n\r\n" % len(raw)) + raw
+
+
+def sequential_httpx(client, url, raw, hdr, n, ref):
+    lat = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        r = client.post(url + "/api/simulate", content=raw, headers=hdr)
+        lat.append(time.perf_counter() - t0)
+        check(r, ref)
+    return lat
+
+
+def sequential_lean(port, raw, n, ref):
+    """``n`` requests one after the other on one keep-alive ``http.client`` connection."""
+    import http.client
+    conn = http.client.HTTPConnection("127.0.0.1", port)
+    hdr = {"host": "127.0.0.1", "content-type": "application/json"}
+    lat = []
+    try:
+        for i in range(n + 5):   # the first five open the connection and warm it
+            t0 = time.perf_counter()
+            conn.request("POST", "/api/simulate", body=raw, headers=hdr)
+            r = conn.getresponse()
+            body = r.read()
+            if i >= 5:
+                lat.append(time.perf_counter() - t0)
+            check(_Lean(r.status, body), ref)
+    finally:
+        conn.close()
+    return lat
+
+
+def concurrent_httpx(url, raw, hdr, clients, per_client, ref):
+    """``clients`` threads, each with its own httpx client and connection."""
+    import httpx
+    results, errors = [], []
+    barrier = threading.Barrier(clients + 1)
+
+    def client_loop():
+        mine = []
+        with httpx.Client(timeout=120.0) as cc:
+            cc.get(url + "/api/limits")  # open the connection before the clock starts
+            barrier.wait()
+            for _ in range(per_client):
+                t0 = time.perf_counter()
+                r = cc.post(url + "/api/simulate", content=raw, headers=hdr)
+                mine.append(time.perf_counter() - t0)
+                try:
+                    check(r, ref)
+                except Exception as exc:  # reported after the run
+                    errors.append(str(exc))
+        results.extend(mine)
+
+    threads = [threading.Thread(target=client_loop) for _ in range(clients)]
+    for t in threads:
+        t.start()
+    barrier.wait()
+    t0 = time.perf_counter()
+    for t in threads:
+        t.join()
+    wall = time.perf_counter() - t0
+    if errors:
+        raise RuntimeError(f"{len(errors)} concurrent requests failed, e.g. {errors[0]}")
+    return results, wall
+
+
+def concurrent_lean(port, raw, clients, per_client, ref):
+    """``clients`` connections driven by one asyncio loop (HTTP/1.1 by hand: the request's
+    bytes, then the status line, the headers and ``Content-Length`` bytes of body)."""
+    import asyncio
+    req = _request_bytes(raw)
+
+    async def one(reader, writer):
+        writer.write(req)
+        head = await reader.readuntil(b"\r\n\r\n")
+        lines = head.decode("latin-1").split("\r\n")
+        status = int(lines[0].split()[1])
+        length = next(int(v) for k, _, v in (ln.partition(":") for ln in lines[1:])
+                      if k.strip().lower() == "content-length")
+        return _Lean(status, await reader.readexactly(length))
+
+    async def main():
+        conns = [await asyncio.open_connection("127.0.0.1", port, limit=1 << 20)
+                 for _ in range(clients)]
+        for reader, writer in conns:   # warm each connection before the clock starts
+            check(await one(reader, writer), ref)
+        lat = []
+
+        async def client_loop(reader, writer):
+            for _ in range(per_client):
+                t0 = time.perf_counter()
+                r = await one(reader, writer)
+                lat.append(time.perf_counter() - t0)
+                check(r, ref)
+        t0 = time.perf_counter()
+        await asyncio.gather(*(client_loop(r, w) for r, w in conns))
+        wall = time.perf_counter() - t0
+        for _, writer in conns:
+            writer.close()
+        return lat, wall
+    return asyncio.run(main())
 
 
 def in_process(body, runs=50):
@@ -183,56 +322,35 @@ def run(args):
             for _ in range(args.warmup):
                 check(c.post(server.url + "/api/simulate", content=raw, headers=hdr), ref)
 
-            lat = []
-            for _ in range(args.requests):
-                t0 = time.perf_counter()
-                r = c.post(server.url + "/api/simulate", content=raw, headers=hdr)
-                lat.append(time.perf_counter() - t0)
-                check(r, ref)
-            out["sequential"] = summary(lat)
-
-        results, errors = [], []
-        barrier = threading.Barrier(args.clients + 1)
-
-        def client_loop():
-            mine = []
-            with httpx.Client(timeout=120.0) as cc:
-                cc.get(server.url + "/api/limits")  # open the connection before the clock starts
-                barrier.wait()
-                for _ in range(args.per_client):
-                    t0 = time.perf_counter()
-                    r = cc.post(server.url + "/api/simulate", content=raw, headers=hdr)
-                    mine.append(time.perf_counter() - t0)
-                    try:
-                        check(r, ref)
-                    except Exception as exc:  # reported after the run
-                        errors.append(str(exc))
-            results.extend(mine)
-
-        threads = [threading.Thread(target=client_loop) for _ in range(args.clients)]
-        for t in threads:
-            t.start()
-        barrier.wait()
-        t0 = time.perf_counter()
-        for t in threads:
-            t.join()
-        wall = time.perf_counter() - t0
-        if errors:
-            raise RuntimeError(f"{len(errors)} concurrent requests failed, e.g. {errors[0]}")
-        conc = summary(results)
-        conc.update({"clients": args.clients, "per_client": args.per_client, "wall_s": wall,
-                     "throughput_rps": len(results) / wall})
-        out["concurrent"] = conc
+            def timed(phase, fn, *a):
+                cpu0 = server.cpu_s()
+                res = fn(*a)
+                lat, wall = res if isinstance(res, tuple) else (res, None)
+                out[phase] = summary(lat)
+                out[phase]["server_cpu_ms"] = (server.cpu_s() - cpu0) / len(lat) * 1e3
+                if wall is not None:
+                    out[phase].update({"clients": args.clients, "per_client": args.per_client,
+                                       "wall_s": wall, "throughput_rps": len(lat) / wall})
+            timed("sequential", sequential_httpx, c, server.url, raw, hdr, args.requests, ref)
+        timed("sequential_lean", sequential_lean, server.port, raw, args.requests, ref)
+        timed("concurrent", concurrent_httpx, server.url, raw, hdr, args.clients, args.per_client, ref)
+        timed("concurrent_lean", concurrent_lean, server.port, raw, args.clients, args.per_client, ref)
     finally:
         server.stop()
+        shutil.rmtree(tmp, ignore_errors=True)
     out["load"].append(_load())
     out["in_process_ms"] = in_process(body)
-    seq, p = out["sequential"]["median_ms"], out["in_process_ms"]
-    out["ratio_to_simulation"] = seq / p["simulate"]
-    out["ratio_to_endpoint_work"] = seq / p["total"]
-    out["pass"] = {"sequential_median": seq <= TARGET_MEDIAN_MS,
-                   "ratio": out["ratio_to_simulation"] <= TARGET_RATIO,
-                   "concurrent_p50": out["concurrent"]["median_ms"] <= TARGET_MEDIAN_MS}
+    p = out["in_process_ms"]
+    out["ratio_to_simulation"] = out["sequential"]["median_ms"] / p["simulate"]
+    out["ratio_to_endpoint_work"] = out["sequential"]["median_ms"] / p["total"]
+    out["lean_ratio_to_simulation"] = out["sequential_lean"]["median_ms"] / p["simulate"]
+    out["lean_ratio_to_endpoint_work"] = out["sequential_lean"]["median_ms"] / p["total"]
+    out["pass"] = {
+        "ratio": out["ratio_to_simulation"] <= TARGET_RATIO,
+        "ratio_lean": out["lean_ratio_to_simulation"] <= TARGET_RATIO,
+        "concurrent_p50": out["concurrent"]["median_ms"] <= TARGET_MEDIAN_MS,
+        "concurrent_p50_lean": out["concurrent_lean"]["median_ms"] <= TARGET_MEDIAN_MS,
+        "sequential_median": out["sequential"]["median_ms"] <= TARGET_MEDIAN_MS}
     return out
 
 
@@ -246,25 +364,30 @@ def report(out):
           f"loop {out['uvicorn']['loop']}), httpx {m['httpx']}")
     print(f"server ready in {out['startup_s']:.2f} s; first request {out['first_request_s'] * 1e3:.0f} ms; "
           f"response {out['response_bytes'] / 1e3:.0f} kB")
-    s = out["sequential"]
-    print(f"sequential  {s['n']:4d} requests: median {s['median_ms']:6.1f} ms  p95 {s['p95_ms']:6.1f} ms  "
-          f"(min {s['min_ms']:.1f}, max {s['max_ms']:.1f})")
-    c = out["concurrent"]
-    print(f"concurrent  {c['clients']} clients x {c['per_client']}: median {c['median_ms']:6.1f} ms  "
-          f"p95 {c['p95_ms']:6.1f} ms  (max {c['max_ms']:.1f}); "
-          f"{c['throughput_rps']:.0f} requests/s over {c['wall_s']:.2f} s")
+    for key, what in (("sequential", "httpx"), ("sequential_lean", "lean ")):
+        s = out[key]
+        print(f"sequential {what} {s['n']:4d} requests: median {s['median_ms']:6.2f} ms  p95 "
+              f"{s['p95_ms']:6.2f} ms  (min {s['min_ms']:.2f}, max {s['max_ms']:.1f}); server CPU "
+              f"{s['server_cpu_ms']:.2f} ms/request")
+    for key, what in (("concurrent", "httpx"), ("concurrent_lean", "lean ")):
+        c = out[key]
+        print(f"concurrent {what} {c['clients']} clients x {c['per_client']}: median {c['median_ms']:6.1f} ms  "
+              f"p95 {c['p95_ms']:6.1f} ms  (max {c['max_ms']:.1f}); {c['throughput_rps']:.0f} requests/s; "
+              f"server CPU {c['server_cpu_ms']:.2f} ms/request")
     p = out["in_process_ms"]
     print(f"in-process  (no HTTP) median {p['total']:.2f} ms = validate+parse {p['parse']:.2f} + "
           f"simulate {p['simulate']:.2f} + answer dict {p['to_dict']:.2f} + orjson {p['orjson']:.2f} ms")
-    print(f"round trip / in-process: {out['ratio_to_simulation']:.2f}x simulate() alone, "
-          f"{out['ratio_to_endpoint_work']:.2f}x the endpoint's whole work without HTTP")
+    print(f"round trip / in-process simulate(): httpx {out['ratio_to_simulation']:.2f}x, lean "
+          f"{out['lean_ratio_to_simulation']:.2f}x; / the endpoint's whole work without HTTP: httpx "
+          f"{out['ratio_to_endpoint_work']:.2f}x, lean {out['lean_ratio_to_endpoint_work']:.2f}x")
     if "load" in out:
         print(f"load average (1 min) before / after: {out['load'][0]:.1f} / {out['load'][1]:.1f}")
     v = {k: "PASS" if ok else "FAIL" for k, ok in out["pass"].items()}
-    print(f"targets: round trip <= {TARGET_RATIO:g}x the in-process simulation -> {v['ratio']} "
-          f"({out['ratio_to_simulation']:.2f}x); concurrent p50 <= {TARGET_MEDIAN_MS:g} ms -> "
-          f"{v['concurrent_p50']} ({c['median_ms']:.1f} ms); sequential median <= "
-          f"{TARGET_MEDIAN_MS:g} ms -> {v['sequential_median']} ({s['median_ms']:.1f} ms)")
+    print(f"targets: round trip <= {TARGET_RATIO:g}x the in-process simulation -> httpx {v['ratio']} "
+          f"({out['ratio_to_simulation']:.2f}x), lean {v['ratio_lean']} ({out['lean_ratio_to_simulation']:.2f}x); "
+          f"concurrent p50 <= {TARGET_MEDIAN_MS:g} ms -> httpx {v['concurrent_p50']} "
+          f"({out['concurrent']['median_ms']:.1f} ms), lean {v['concurrent_p50_lean']} "
+          f"({out['concurrent_lean']['median_ms']:.1f} ms)")
 
 
 def main(argv=None):
@@ -274,8 +397,9 @@ def main(argv=None):
     ap.add_argument("--clients", type=int, default=20, help="concurrent clients (20)")
     ap.add_argument("--per-client", type=int, default=10, help="requests per concurrent client (10)")
     ap.add_argument("--warmup", type=int, default=10, help="warm-up requests (10)")
-    ap.add_argument("--http", default="auto", help="uvicorn's HTTP protocol: auto (httptools when "
-                    "installed, as python -m app), httptools or h11")
+    ap.add_argument("--http", default="app", help="uvicorn's HTTP protocol: app (as python -m app: "
+                    "app.http_protocol.PROTOCOL, default), auto (httptools when installed), "
+                    "httptools or h11")
     ap.add_argument("--loop", default="auto", help="uvicorn's event loop: auto, uvloop or asyncio")
     args = ap.parse_args(argv)
     out = run(args)

@@ -130,7 +130,7 @@ def test_every_endpoint_has_the_body_limit(db_path):
         assert c.post("/api/simulate", json=sim_body()).status_code == 200   # under the limit
 
 
-def test_json_bodies_are_parsed_off_the_event_loop(client, monkeypatch):
+def test_large_json_bodies_are_parsed_off_the_event_loop(client, monkeypatch):
     import asyncio
 
     import app.bodies as bodies
@@ -145,8 +145,11 @@ def test_json_bodies_are_parsed_off_the_event_loop(client, monkeypatch):
             seen.append(threading.current_thread().name)
         return parse(body)
     monkeypatch.setattr(bodies, "parse_json", spy)
+    # a body past LOOP_PARSE_BYTES goes to a worker thread; a small one is parsed on the loop
+    big = sim_body(s=scenario(description="x" * (bodies.LOOP_PARSE_BYTES + 1)))
+    assert client.post("/api/simulate", json=big).status_code == 200
     assert client.post("/api/simulate", json=sim_body()).status_code == 200
-    assert len(seen) == 1 and seen[0] != "event loop"
+    assert len(seen) == 2 and seen[0] != "event loop" and seen[1] == "event loop"
 
 
 @pytest.mark.parametrize("ctype, body", [
