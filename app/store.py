@@ -60,6 +60,14 @@ def _loads(text, default):
         return default
 
 
+def _iso(epoch):
+    """ISO 8601 text of a stored Unix time; ``""`` when the stored value is not a time."""
+    try:
+        return _dt.datetime.fromtimestamp(epoch, _dt.timezone.utc).isoformat()
+    except (TypeError, ValueError, OverflowError, OSError):
+        return ""
+
+
 #: How long a write waits for another writer of the same file (a study storing its runs, a
 #: second server) before failing [s]; the study store waits as long (pneucore.study.store)
 BUSY_TIMEOUT_S = 30.0
@@ -205,7 +213,7 @@ class Store:
                           "FROM versions WHERE session=? ORDER BY version", (sid,)).fetchall()
         return RefinementHistory([
             ModelVersion(v[0], v[1], _loads(v[3], None), _loads(v[4], {}), v[5], v[6], _loads(v[7], {}),
-                         v[8], _dt.datetime.fromtimestamp(v[2], _dt.timezone.utc).isoformat())
+                         v[8], _iso(v[2]))
             for v in rows])
 
     @staticmethod

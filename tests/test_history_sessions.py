@@ -83,3 +83,15 @@ def test_a_non_finite_overall_is_stored_as_null(tmp_path, overall):
     sid = store.create_session("s", [], _model(), ({}, overall))
     assert store.session(sid)["versions"][0]["overall"] is None
     store.close()
+
+
+def test_a_damaged_version_row_does_not_stop_the_next_version(tmp_path):
+    store = Store(str(tmp_path / "s.sqlite3"))
+    sid = store.create_session("s", [], _model(), None)
+    with store._lock:   # an older or damaged row: text where the time and the model belong
+        store._db.execute("UPDATE versions SET created='yesterday', model='{not json' WHERE session=?",
+                          (sid,))
+    assert store.add_version(sid, _model(), None, note="after the damage") == 1
+    v = store.session(sid)["versions"][1]
+    assert v["label"] == "version 1" and v["note"] == "after the damage"
+    store.close()
