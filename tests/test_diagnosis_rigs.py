@@ -211,3 +211,36 @@ def test_an_experiment_that_moves_nothing_is_said_to_identify_no_base_parameter(
     assert d.verdict is None and d.recalibrate == []
     assert d.remaining.get("identifies_no_base") is True, describe(d)
     assert "identify none of the base parameters" in d.message
+
+
+def test_effect_beside_a_transducer_gain_error_is_named_and_the_rest_is_outside():
+    """5 % gain on the p_a transducer and a piston leak: the leak is named, the gain is not
+    taken for a stand-in effect, and what remains is said to lie outside the catalog."""
+    c, exps, floor = case("outside/pressure-gain+leak")
+    d = diagnosis("outside/pressure-gain+leak")
+    assert d.verdict == "piston_leakage", describe(d)
+    assert d.ranking[0]["effect"] == "piston_leakage"
+    # the leak removes most of what a transducer correction leaves; the stand-ins do not
+    assert d.ranking[0]["excess_drop_calibrated"] >= 0.5, describe(d)
+    assert d.remaining["outside_catalog"], describe(d)
+
+
+def test_calibrated_error_recovers_a_transducer_gain_and_offset():
+    """A record read through a wrong transducer, replayed on the true model: the gain and
+    offset come back and the corrected error falls to the noise's."""
+    import numpy as np
+    from pneucore.analysis.compare import replay
+    from pneucore.analysis.hypotheses import calibrated_error
+    c, exps, _ = case("base/paper-4way")
+    truth = Model.from_dict(c.truth)
+    rps = [replay(truth, e) for e in exps]
+    e_plain, per_plain = calibrated_error(rps)
+    for rp in rps:
+        rp.measured["p_a"] = 2e4 + 1.05 * rp.measured["p_a"]
+    e_gain, per = calibrated_error(rps)
+    # least squares on ~2000 samples with 300 Pa noise: gain to ~1e-4, offset to ~100 Pa
+    assert per["p_a"]["gain"] == pytest.approx(0.05, abs=2e-3)
+    assert per["p_a"]["offset"] == pytest.approx(2e4, abs=2e3)
+    # the corrected error is the plain one's (noise), within a few percent (the gain scales it)
+    assert e_gain == pytest.approx(e_plain, rel=0.1)
+    assert np.isfinite(e_gain)

@@ -500,6 +500,9 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         taus = ref.residual_times
     else:
         taus = null_fit.residual_times if null_fit is not None else residual_times(rps0)
+    # the null's error once each signal's best transducer gain and offset are removed: what a
+    # catalog effect must explain when a sensor calibration error is also present
+    e0_cal = H.calibrated_error(rps0)[0]
     ranking = []
     for name, cal in refits.items():
         eff = EFFECTS[name]
@@ -519,6 +522,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                 "error_after_phases": cal.error_after.phases,
                 "relative_drop": (e0 - e1) / e0 if e0 else 0.0,
                 "excess_drop": _excess_drop(e0, e1, floor_overall),
+                "excess_drop_calibrated": _excess_drop(
+                    e0_cal, H.calibrated_error(cal.error_after.replays)[0], floor_overall),
                 "lr_statistic": lr, "p_value": p, "delta_bic": d_bic, "delta_aic": d_aic,
                 "lr_statistic_white": max(m2ll0 - cal.neg2_loglik, 0.0),
                 "effective_samples": n_eff, "n_samples": n_all,
@@ -543,23 +548,26 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         c["strong"] = c["delta_bic"] < DELTA_BIC
         c["material"] = c["relative_drop"] >= MATERIAL and c["excess_drop"] >= EXCESS_MATERIAL
         c["consistent"] = None
+        c["named"] = False
     if ranking:
-        b = ranking[0]
-        if b["significant"] and b["strong"] and b["material"] and b["excess_drop"] < EXCESS_MAJOR:
-            # a minor share: name it only if with the next candidate it explains most of the excess
-            # (two missing effects of similar size), otherwise it is a stand-in for something else
-            b["with_next"] = _pair(model, exps, ranking, refits, u_specs_start, comp0.overall,
-                                   floor_overall, max_nfev, report)
-            b["material"] = bool(b["with_next"] and b["with_next"]["excess_drop"] >= EXCESS_MAJOR)
-        if b["significant"] and b["strong"] and b["material"]:
-            report(0.96, f"consistency across experiments: {b['effect']}")
-            b["consistency"] = consistency(refits[b["effect"]], exps, b["effect"], max_nfev)
-            b["consistent"] = b["consistency"]["consistent"]
-        if b["significant"] and b["strong"] and b["material"] and b["consistent"]:
+        # the data cannot prefer the leader over a candidate within |DELTA_BIC| of it: among
+        # those, the first (in evidence order) that passes every test is named, and ranked first
+        tied = [c for c in ranking if c["delta_bic"] - ranking[0]["delta_bic"] < -DELTA_BIC]
+        for b in tied:
+            _judge(b, model, exps, ranking, refits, u_specs_start, comp0.overall, floor_overall,
+                   max_nfev, report)
+            if b["named"]:
+                break
+        named = [c for c in tied if c["named"]]
+        if named:
+            b = named[0]
+            ranking.remove(b)
+            ranking.insert(0, b)
             verdict = b["effect"]
             message = (f"{b['effect']}: {b['description']}. Error {100 * b['error_before']:.2f} % -> "
                        f"{100 * b['error_after_overall']:.2f} %.")
         else:
+            b = ranking[0]
             why = []
             if not b["significant"]:
                 why.append(f"best candidate {b['effect']} not significant (p = {b['p_value']:.2g})")
@@ -616,16 +624,41 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                      identifiability=identifiability, error_start=comp_start, dropped=dropped)
 
 
-def _pair(model, exps, ranking, refits, u_specs, e0, floor, max_nfev, report):
-    """The leading candidate refitted together with the next significant one.
+def _judge(b, model, exps, ranking, refits, u_specs, e0, floor, max_nfev, report):
+    """Decide whether candidate ``b`` is named: significant, strong, major, consistent.
+
+    Its share of the excess must be major (:data:`EXCESS_MAJOR`): alone; or alone once
+    each signal's best transducer gain and offset are removed from the residuals
+    (``excess_drop_calibrated``: a sensor calibration error, the commonest truth outside
+    the catalog, inflates the excess that no catalog effect can remove, and a real effect
+    beside it still removes most of the rest, while a stand-in for it removes nothing of
+    the rest); or together with the next significant, material candidate (two missing
+    effects of similar size). Otherwise it is a stand-in for something else. Sets
+    ``material``, ``with_next``, ``consistency``, ``consistent`` and ``named`` on ``b``.
+    """
+    if b["significant"] and b["strong"] and b["material"] and b["excess_drop"] < EXCESS_MAJOR \
+            and b["excess_drop_calibrated"] < EXCESS_MAJOR:
+        b["with_next"] = _pair(model, exps, b, ranking, refits, u_specs, e0, floor, max_nfev,
+                               report)
+        b["material"] = bool(b["with_next"] and b["with_next"]["excess_drop"] >= EXCESS_MAJOR)
+    if b["significant"] and b["strong"] and b["material"]:
+        report(0.96, f"consistency across experiments: {b['effect']}")
+        b["consistency"] = consistency(refits[b["effect"]], exps, b["effect"], max_nfev)
+        b["consistent"] = b["consistency"]["consistent"]
+    b["named"] = bool(b["significant"] and b["strong"] and b["material"] and b["consistent"])
+    return b["named"]
+
+
+def _pair(model, exps, lead, ranking, refits, u_specs, e0, floor, max_nfev, report):
+    """Candidate ``lead`` refitted together with the next significant one.
 
     Returns ``{"effect", "error_after_overall", "excess_drop"}`` or None when there is no
     second significant, material candidate.
     """
-    nxt = [c for c in ranking[1:] if c["significant"] and c["material"]]
+    nxt = [c for c in ranking if c is not lead and c["significant"] and c["material"]]
     if not nxt:
         return None
-    a, b = ranking[0]["effect"], nxt[0]["effect"]
+    a, b = lead["effect"], nxt[0]["effect"]
     report(0.95, f"refit: {a} with {b}")
     m = model.copy()
     specs = []

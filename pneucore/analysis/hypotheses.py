@@ -275,3 +275,56 @@ def residual_signature(replays):
             f"{_REGRESSORS.get(kbest, kbest)} (explains {100 * scores[kbest]:.0f} % of it)")
     return {"signal": s, "experiment": rp.experiment.name, "phase": phase,
             "proportional_to": kbest, "r2": scores[kbest], "share": share, "description": desc}
+
+
+def calibrated_error(replays):
+    """Eq. 25 error left once each signal's best transducer gain and offset are removed.
+
+    A transducer whose gain or offset is wrong records ``m = a + (1 + g) y``
+    for the true signal ``y``: its residual against a simulation ``s`` close
+    to ``y`` is, to first order, ``a + g s`` plus whatever the model lacks.
+    Per signal (one transducer, pooled over the experiments), the residual
+    ``m - s`` is regressed on ``[1, s]`` by least squares and the remainder
+    gives the error (Eq. 25 of the paper on the corrected residual; overall:
+    RMS over the signals, as :func:`pneucore.analysis.compare.summarise`).
+    It is the misfit that a sensor calibration error, the commonest truth
+    outside the catalog, cannot account for: what a catalog effect must
+    explain.
+
+    Parameters
+    ----------
+    replays : iterable of Replay
+        Replayed experiments (:func:`pneucore.analysis.compare.replay`)
+
+    Returns
+    -------
+    overall : float
+        Error after the correction [-]
+    per_signal : dict
+        ``{signal: {"error", "offset", "gain"}}``: the error [-], the fitted offset
+        (signal units, SI) and relative gain error [-] of each transducer
+    """
+    acc = {}
+    for rp in replays:
+        for s in rp.measured:
+            m, g = np.asarray(rp.measured[s], float), np.asarray(rp.simulated[s], float)
+            n = min(m.shape[0], g.shape[0])
+            m, g = m[:n], g[:n]
+            ok = np.isfinite(m) & np.isfinite(g)
+            a = acc.setdefault(s, ([], []))
+            a[0].append(m[ok])
+            a[1].append(g[ok])
+    out = {}
+    for s, (ms, gs) in acc.items():
+        m, g = np.concatenate(ms), np.concatenate(gs)
+        den = float(m @ m)
+        if m.size < 3 or den <= 0.0:
+            continue
+        A = np.column_stack([np.ones_like(g), g])
+        coef, *_ = np.linalg.lstsq(A, m - g, rcond=None)
+        d = m - g - A @ coef
+        out[s] = {"error": math.sqrt(float(d @ d) / den), "offset": float(coef[0]),
+                  "gain": float(coef[1])}
+    if not out:
+        return float("nan"), out
+    return float(math.sqrt(np.mean([v["error"] ** 2 for v in out.values()]))), out
