@@ -7,7 +7,8 @@ recalibrate is decided here, from the data, not by the user:
 
 1. **Registry.** :data:`BASE_HYPOTHESES` lists the base parameters a test
    engineer actually gets wrong (friction level and viscous coefficient per
-   direction, moving mass, heat coefficient, valve conductance, supply
+   direction, moving mass, heat coefficient, valve conductance of the supply
+   and of the exhaust edges, supply
    pressure, dead volumes, load), each with the relative error a catalogue
    value typically carries and fit bounds relative to the current value.
 2. **Sensitivity.** Each parameter is moved by its typical error and the
@@ -32,12 +33,13 @@ discrepancy is not offered twice.
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Callable, Optional
 
 import numpy as np
 
-from pneucore.spec.paths import ParameterSpec, get_value, set_values, unit_of
+from pneucore.spec.paths import VALVE_GROUPS, ParameterSpec, get_value, set_values, unit_of
 
 #: Sensitivity norm^2 (noise-weighted chi-square units) a typical error must produce to be
 #: considered identifiable: 100 is a 10-sigma effect on the whole record
@@ -61,10 +63,12 @@ class BaseHypothesis:
         Typical relative error of a catalogue value [-]
     lo, hi : float
         Fit bounds as multiples of the current value [-]
-    span : float
-        Absolute half-range used when the current value is 0 (SI)
+    span : float or callable
+        Absolute half-range used when the current value is 0 (SI), or ``span(model)``
     applies : callable or None
         ``applies(model) -> bool``
+    zero_typical : float
+        Typical error as a fraction of ``span`` when the current value is 0 [-]
     same_as_effect : str or None
         Catalog effect carrying the same physics
     """
@@ -73,9 +77,19 @@ class BaseHypothesis:
     typical: float
     lo: float
     hi: float
-    span: float = 0.0
+    span: object = 0.0
     applies: Optional[Callable] = None
     same_as_effect: Optional[str] = None
+    zero_typical: float = 0.1
+
+
+def _span(model, hyp):
+    return hyp.span(model) if callable(hyp.span) else hyp.span
+
+
+def _load_span(m):
+    """Half-range of a load: half the jack's largest force, area A at supply above ambient [N]."""
+    return 0.5 * m.jack.area_a * (m.supply.pressure - m.ambient.pressure)
 
 
 def _convective(m):
@@ -92,12 +106,21 @@ BASE_HYPOTHESES = {h.path: h for h in [
                    same_as_effect="quadrant_friction"),
     BaseHypothesis("jack.moving_mass", "moving mass", 0.15, 0.2, 5.0),
     BaseHypothesis("heat.coefficient", "heat coefficient", 0.5, 0.02, 10.0, applies=_convective),
-    BaseHypothesis("valve.ports.*.C", "valve conductance (scale)", 0.15, 0.2, 5.0),
+    BaseHypothesis(f"valve.ports.{VALVE_GROUPS['supply']}.C", "valve conductance, supply edges (scale)",
+                   0.15, 0.2, 5.0),
+    BaseHypothesis(f"valve.ports.{VALVE_GROUPS['exhaust']}.C", "valve conductance, exhaust edges (scale)",
+                   0.15, 0.2, 5.0),
     BaseHypothesis("supply.pressure", "supply pressure", 0.04, 0.7, 1.3),
     BaseHypothesis("jack.dead_volume_a", "dead volume A", 0.5, 0.05, 10.0,
                    same_as_effect="dead_volume"),
     BaseHypothesis("jack.dead_volume_b", "dead volume B", 0.5, 0.05, 10.0,
                    same_as_effect="dead_volume"),
+    # a load the catalogue model leaves at 0 (a rod-end mass against gravity, a cable's drag):
+    # fitted either sign within half the jack's force; typically small, 0.5 % of that range
+    # (about 1 N on the paper's jack), below the typical error of a Coulomb level, so that a
+    # mis-set friction is not taken for a load (a constant load is, while the piston moves,
+    # a combination of the two Coulomb levels)
+    BaseHypothesis("jack.load_force", "load", 0.3, -5.0, 5.0, _load_span, zero_typical=0.005),
 ]}
 
 
@@ -111,7 +134,8 @@ def spec_for(model, hyp):
     """The :class:`ParameterSpec` that fits ``hyp`` from the current value of ``model``."""
     v = get_value(model, hyp.path)
     if v == 0.0:
-        lo, hi = -hyp.span if hyp.lo < 0 else 0.0, hyp.span
+        span = _span(model, hyp)
+        lo, hi = -span if hyp.lo < 0 else 0.0, span
     else:
         lo, hi = sorted((v * hyp.lo, v * hyp.hi))
     return ParameterSpec(hyp.path, v, lo, hi, True, unit_of(hyp.path))
@@ -119,7 +143,7 @@ def spec_for(model, hyp):
 
 def _step(model, hyp):
     v = get_value(model, hyp.path)
-    return hyp.typical * abs(v) if v != 0.0 else 0.1 * hyp.span
+    return hyp.typical * abs(v) if v != 0.0 else hyp.zero_typical * _span(model, hyp)
 
 
 def offered(model, candidates=(), exclude=()):
@@ -132,7 +156,7 @@ def offered(model, candidates=(), exclude=()):
             continue
         if h.same_as_effect and h.same_as_effect in candidates:
             continue
-        if get_value(model, h.path) == 0.0 and h.span == 0.0:
+        if get_value(model, h.path) == 0.0 and not _span(model, h):
             continue
         out.append(h)
     return out
@@ -171,16 +195,20 @@ def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBL
         path -> sensitivity column per unit of the parameter [1/SI]
     """
     cols, norms, steps = {}, {}, {}
-    for h in hyps:
+
+    def column(h):
         dv = _step(model, h)
-        v0 = get_value(model, h.path)
-        v1 = v0 + dv
-        mp = set_values(model, {h.path: v1})
-        rp = [replay(mp, e) for e in experiments]
-        col = objective.weighted(rp) - r0
-        cols[h.path] = col / dv
-        norms[h.path] = float(col @ col)
-        steps[h.path] = dv
+        mp = set_values(model, {h.path: get_value(model, h.path) + dv})
+        return h, dv, objective.weighted([replay(mp, e) for e in experiments]) - r0
+
+    # one simulation per hypothesis and experiment, in the fit's worker threads (the compiled
+    # integrator runs outside the GIL)
+    from pneucore.analysis.calibrate import THREADS
+    with ThreadPoolExecutor(THREADS) as pool:
+        for h, dv, col in pool.map(column, hyps):
+            cols[h.path] = col / dv
+            norms[h.path] = float(col @ col)
+            steps[h.path] = dv
     order = sorted(hyps, key=lambda h: -norms[h.path])
     chosen, report, basis = [], [], []
     for h in order:
@@ -206,6 +234,51 @@ def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBL
                 chosen.append(h)
         report.append(entry)
     return chosen, report, {p: cols[p] for p in cols}
+
+
+def freed_by_bounds(report, values, tol=1e-3):
+    """Hypotheses reported ``not separable`` whose confounders a fit drove to a bound.
+
+    Collinearity is judged on sensitivities at the starting point: a column
+    that is (nearly) a combination of chosen ones can be fitted through them,
+    as long as the combination stays inside their bounds. When a fit ends with
+    one of those parameters at its bound (within ``tol`` of its range), the
+    combination was cut off and the confounded hypothesis carries what they
+    cannot (a load of 40 N taken for Coulomb levels of +40 N and -40 N: the
+    retracting level stops at 0). Such entries are marked ``identifiable`` in
+    ``report`` (with a ``note``) and returned.
+
+    Parameters
+    ----------
+    report : list of dict
+        The identifiability report of :func:`identifiable` (edited in place)
+    values : dict
+        ``Calibration.values`` of the fit with the chosen hypotheses
+    tol : float
+        Distance to a bound, as a fraction of the range [-]
+
+    Returns
+    -------
+    paths : list of str
+    """
+    out = []
+    for h in report:
+        if h.get("status") != "not separable":
+            continue
+        hit = []
+        for p in h.get("with", []):
+            v = values.get(p)
+            if v is None or "min" not in v:
+                continue
+            rng = v["max"] - v["min"]
+            if min(abs(v["value"] - v["min"]), abs(v["max"] - v["value"])) <= tol * rng:
+                hit.append(p)
+        if hit:
+            h["status"] = "identifiable"
+            h["note"] = (f"confounded with {', '.join(label_of(p) for p in h['with'])} in the "
+                         f"small, but the fit drove {', '.join(label_of(p) for p in hit)} to a bound")
+            out.append(h["path"])
+    return out
 
 
 # ------------------------------------------------------------------ residual signature
@@ -328,3 +401,161 @@ def calibrated_error(replays):
     if not out:
         return float("nan"), out
     return float(math.sqrt(np.mean([v["error"] ** 2 for v in out.values()]))), out
+
+
+# ------------------------------------------------------------------ which experiment separates
+
+#: Separation (noise-weighted chi-square between two hypotheses' predictions) a suggested
+#: experiment must reach: the same 10-sigma level as :data:`VISIBLE`
+SEPARATES = VISIBLE
+
+
+def experiment_variants(model, experiment):
+    """Experiments one could record next: variations of a recorded one, each described in words.
+
+    Each changes one condition that the hypotheses may depend on differently:
+    the piston locked or free (friction, mass and load act only on a moving
+    piston), the supply pressure (anything proportional to a pressure), chamber
+    B's pressure on a 3/2 valve (constant in the records, so that a term in
+    ``p_b`` looks like a constant), the other end of the stroke (dead volumes
+    against chamber volumes), a known added load (a force against a pressure-
+    or velocity-dependent term).
+
+    Returns
+    -------
+    variants : list of tuple
+        ``(key, words, model, scenario dict)``
+    """
+    m0 = experiment.model_for(model)
+    scen = experiment.scenario_for(m0).to_dict()
+    amb = m0.ambient.pressure
+    ps = m0.supply.pressure
+    stroke = m0.jack.stroke
+    name = experiment.name or "recorded"
+    out = []
+    locked = bool(scen.get("locked"))
+    s = dict(scen, locked=not locked)
+    out.append(("free" if locked else "locked",
+                f"the {name} test with the piston {'free' if locked else 'locked'}", m0, s))
+    m = m0.copy()
+    m.supply.pressure = amb + 0.6 * (ps - amb)
+    out.append(("supply", f"the {name} test at 60 % of the supply pressure (gauge)", m, dict(scen)))
+    if m0.valve.kind == "3/2":
+        bcp = m0.valve.b_chamber_pressure if m0.valve.b_chamber_pressure is not None else 0.5 * ps
+        m = m0.copy()
+        m.valve.b_chamber_pressure = amb + 0.5 * (bcp - amb)
+        out.append(("chamber-b", f"the {name} test with chamber B held at half its gauge pressure",
+                    m, dict(scen)))
+    x0 = float(scen.get("x0", 0.0))
+    s = dict(scen, x0=min(max(stroke - x0, 0.02 * stroke), 0.98 * stroke))
+    out.append(("position", f"the {name} test from the other end of the stroke", m0, s))
+    if not locked:
+        m = m0.copy()
+        m.jack.load_force = m0.jack.load_force + 0.1 * m0.jack.area_a * (ps - amb)
+        out.append(("load", f"the {name} test with a known load of 10 % of the jack's force added",
+                    m, dict(scen)))
+    return out
+
+
+def confounded_twin(model, path, chosen, columns):
+    """``model`` moved along the direction the records cannot see: ``path`` by its typical
+    error, the ``chosen`` parameters by the least-squares compensation of its sensitivity
+    column (``columns`` from :func:`identifiable`, per unit); None when not computable.
+
+    The two models predict the records alike (to the collinearity's residual): the pair
+    to hand to :func:`separating_experiments`.
+    """
+    if path not in columns or path not in BASE_HYPOTHESES:
+        return None
+    use = [p for p in chosen if p in columns]
+    if not use:
+        return None
+    dv = _step(model, BASE_HYPOTHESES[path])
+    A = np.column_stack([columns[p] for p in use])
+    coef, *_ = np.linalg.lstsq(A, columns[path], rcond=None)
+    vals = {path: get_value(model, path) + dv}
+    for p, c in zip(use, coef):
+        vals[p] = get_value(model, p) - float(c) * dv
+    try:
+        return set_values(model, vals)
+    except Exception:   # noqa: BLE001 - a compensation outside a parameter's domain
+        return None
+
+
+def separating_experiments(model_a, model_b, experiments, top=3):
+    """Which experiment would tell hypothesis A from hypothesis B?
+
+    Both hypotheses, each fitted to the records (or moved along the direction
+    the records cannot see), predict every variant of every recorded
+    experiment (:func:`experiment_variants`); the separation of a variant is
+    ``sum ((y_a - y_b) / sigma)^2`` over the signals recorded, ``sigma`` each
+    signal's noise in the record (discrimination design: Box and Hill,
+    *Technometrics* 9, 1967). The recorded experiments' own separation is
+    given for reference: small, since the records could not tell A from B.
+
+    Parameters
+    ----------
+    model_a, model_b : Model
+        The two hypotheses, as models
+    experiments : list of Experiment
+        The recorded experiments
+    top : int
+        Number of suggestions returned
+
+    Returns
+    -------
+    suggestions : list of dict
+        ``{key, experiment, separation, recorded}``, best first, only those whose
+        separation reaches :data:`SEPARATES` and exceeds the recorded one tenfold
+    """
+    from pneucore.analysis.calibrate import THREADS, Objective
+    from pneucore.analysis.compare import replay
+    from pneucore.simulate import simulate
+
+    def sep(ya, yb, sig):
+        tot = 0.0
+        for s, sd in sig.items():
+            a, b = ya.get(s), yb.get(s)
+            if a is None or b is None:
+                continue
+            n = min(a.shape[0], b.shape[0])
+            d = (a[:n] - b[:n]) / sd
+            d = d[np.isfinite(d)]
+            tot += float(d @ d)
+        return tot
+
+    jobs = []
+    for e in experiments:
+        sig = Objective(model_a, [e], []).sigma[0]
+        jobs.append((e, sig, None, None, None))
+        for key, words, _m, scen in experiment_variants(model_a, e):
+            jobs.append((e, sig, key, words, scen))
+
+    def run(job):
+        e, sig, key, words, scen = job
+        if key is None:
+            ys = [replay(m, e) for m in (model_a, model_b)]
+            return job, sep(ys[0].simulated, ys[1].simulated, sig)
+        ys = []
+        for m in (model_a, model_b):
+            # the same variation applied to each hypothesis
+            mv = next(v[2] for v in experiment_variants(m, e) if v[0] == key)
+            try:
+                res = simulate(mv, scen, raise_on_error=False)
+            except Exception:   # noqa: BLE001 - a variant the model rejects is not offered
+                return job, None
+            ys.append({s: np.asarray(res.observed(s), float) for s in sig})
+        return job, sep(ys[0], ys[1], sig)
+
+    with ThreadPoolExecutor(THREADS) as pool:
+        results = list(pool.map(run, jobs))
+    recorded = {j[0].name: v for j, v in results if j[2] is None}
+    out = []
+    for (e, _sig, key, words, _s), v in results:
+        if key is None or v is None:
+            continue
+        ref = recorded.get(e.name) or 0.0
+        if v >= SEPARATES and v >= 10.0 * ref:
+            out.append({"key": key, "experiment": words, "separation": v, "recorded": ref})
+    out.sort(key=lambda d: -d["separation"])
+    return out[:top]

@@ -271,7 +271,8 @@ class RigCase:
 
 
 def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
-             signals=("p_a", "p_b", "x"), noise_corr_time=0.0, base_errors=None, scale=1.0):
+             signals=("p_a", "p_b", "x"), noise_corr_time=0.0, base_errors=None, scale=1.0,
+             base_values=None):
     """Draw one rig case: every base parameter of :data:`RIG_BASE_ERRORS` somewhat off.
 
     Parameters
@@ -296,6 +297,9 @@ def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
         ``{path: relative error}`` instead of random draws
     scale : float
         Multiplies every drawn relative error (0 = the catalogue is right)
+    base_values : dict or None
+        ``{path: true value}`` (SI) set on the truth after the relative errors, for
+        parameters the catalogue has at 0 (a load the engineer did not declare)
 
     Returns
     -------
@@ -318,6 +322,9 @@ def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
         v1 = v0 * (1.0 + e)
         vals[path] = 1.0 + e if path.startswith("valve.") else v1
         misset[path] = (v0, v1)
+    for path, v1 in (base_values or {}).items():
+        misset[path] = (get_value(start_m, path), float(v1))
+        vals[path] = float(v1)
     truth_m = set_values(start_m, vals)
     for n in effects:
         truth_m.effects[n] = dict(RIG_EFFECTS[n])
@@ -346,6 +353,9 @@ RIG_CASES = [
     ("base/coloured-noise", dict(seed=5, noise_corr_time=0.02)),
     ("base/pressures-only", dict(seed=6, signals=("p_a", "p_b"))),
     ("base/position-only", dict(seed=7, signals=("x",))),
+    # one base parameter off, the rest right: the right group must be reported
+    ("base/exhaust-conductance", dict(seed=8, base_errors={"valve.ports.*-R.C": -0.3})),
+    ("base/load", dict(seed=9, base_errors={}, base_values={"jack.load_force": 40.0})),
     ("effect/piston_leakage", dict(seed=11, effects=("piston_leakage",))),
     ("effect/dead_volume", dict(seed=12, effects=("dead_volume",))),
     ("effect/valve_spool_dynamics", dict(seed=13, effects=("valve_spool_dynamics",))),
