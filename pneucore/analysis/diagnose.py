@@ -50,6 +50,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
+from pneucore.analysis.blas_threads import single_threaded_blas
 from pneucore.analysis.autocorrelation import effective_lr, residual_times, times_report
 from pneucore.analysis import calibrate as _calibrate
 from pneucore.analysis.calibrate import fit, information_criteria
@@ -296,6 +297,7 @@ def check_request(model, candidates=None, uncertain=()):
     return names
 
 
+@single_threaded_blas
 def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT, alpha=ALPHA,
              datasets=None, progress=None, max_nfev=30, refit_existing=True, base_hypotheses=True):
     """Which base parameters are mis-set, which catalog effect is missing, what remains.
