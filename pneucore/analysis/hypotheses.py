@@ -8,9 +8,10 @@ recalibrate is decided here, from the data, not by the user:
 1. **Registry.** :data:`BASE_HYPOTHESES` lists the base parameters a test
    engineer actually gets wrong (friction level and viscous coefficient per
    direction, moving mass, heat coefficient, valve conductance of the supply
-   and of the exhaust edges, supply
-   pressure, dead volumes, load), each with the relative error a catalogue
-   value typically carries and fit bounds relative to the current value.
+   and of the exhaust edges (``valve.ports.P-*.C``, ``valve.ports.*-R.C``),
+   supply pressure, dead volumes, an undeclared load), each with the relative
+   error a catalogue value typically carries and fit bounds relative to the
+   current value.
 2. **Sensitivity.** Each parameter is moved by its typical error and the
    change of every output, divided by the output's noise level, gives a
    column ``s_j`` of the sensitivity matrix (one simulation per parameter
@@ -24,6 +25,17 @@ recalibrate is decided here, from the data, not by the user:
    from them (``not_separable``), since its value can only be fitted in a
    fixed combination with theirs (Fisher information matrix close to
    singular; Bard, *Nonlinear Parameter Estimation*, 1974, Sect. 7-5).
+   Collinearity is local: when the fit drives one of the confounding
+   parameters to a bound, the confounded one is needed after all
+   (:func:`freed_by_bounds`).
+4. **Separating experiments.** For two hypotheses the records cannot tell
+   apart, :func:`separating_experiments` simulates both on variations of the
+   recorded tests (:func:`experiment_variants`) and names the one where their
+   predictions differ most, against the noise.
+5. **Residual analysis.** :func:`residual_signature` describes a remainder in
+   words; :func:`calibrated_error` gives the error left once each signal's
+   best transducer gain and offset are removed (what a catalog effect must
+   explain beside a sensor calibration error).
 
 A base parameter whose physics is a catalog effect of the same name
 (``same_as_effect``: the base dead volumes and the ``dead_volume`` effect)
