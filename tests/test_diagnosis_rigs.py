@@ -157,6 +157,32 @@ def test_an_undeclared_load_is_reported_with_the_friction_it_is_confounded_with(
     assert compare(d.model, exps).overall <= FLOOR_FACTOR * floor, describe(d)
 
 
+def test_a_rig_left_pressurised_is_reported_as_its_initial_state():
+    """Position-only records of a rig whose chambers start at 2.5 and 4.5 bar (not declared:
+    the replay assumes ambient): the initial state is fitted from the samples before the
+    first command change, and nothing else is taken for it."""
+    c, exps, floor = case("base/pressurised-start")
+    d = diagnosis("base/pressurised-start")
+    assert d.verdict is None and d.recalibrate == [], describe(d)
+    got = {(r["experiment"], r["path"]): r for r in d.initial_state}
+    assert set(got) == {("free-pulses", "initial.p_a"), ("free-pulses", "initial.p_b")}, got
+    # the pressures come back within 0.1 bar: the quiet 0.18 s before the first pulse, the
+    # piston moving under their difference, pins them to well under that (fitted: ~0.3 mbar)
+    assert got[("free-pulses", "initial.p_a")]["after"] == pytest.approx(2.5e5, abs=1e4)
+    assert got[("free-pulses", "initial.p_b")]["after"] == pytest.approx(4.5e5, abs=1e4)
+    assert got[("free-pulses", "initial.p_a")]["unit"] == "Pa"
+    assert d.remaining["at_floor"], describe(d)
+    assert "initial state not in the records" in d.message.lower()
+
+
+def test_a_rig_started_at_ambient_reports_no_initial_state():
+    """The same position-only records started at ambient, every base parameter off: the base
+    errors are not taken for an initial state."""
+    d = diagnosis("base/position-only")
+    assert d.initial_state == [], d.initial_state
+    assert any(h.get("path") == "initial.p_a" for h in d.identifiability)
+
+
 # ----------------------------------------------------------------- base errors and an effect
 
 @pytest.mark.parametrize("name", ["effect/piston_leakage", "effect/external_leakage/50mm"])

@@ -171,6 +171,7 @@ class Diagnosis:
     alternatives: list = field(default_factory=list)
     remaining: dict = field(default_factory=dict)
     identifiability: list = field(default_factory=list)
+    initial_state: list = field(default_factory=list)
     error_start: object = None
     dropped: list = field(default_factory=list)
 
@@ -192,6 +193,7 @@ class Diagnosis:
             "model": self.model.to_dict() if self.model is not None else None,
             "alternatives": self.alternatives, "remaining": self.remaining,
             "identifiability": self.identifiability, "dropped": self.dropped,
+            "initial_state": self.initial_state,
             "error_start": ({"errors": self.error_start.errors, "overall": self.error_start.overall}
                             if self.error_start is not None else None),
         })
@@ -364,11 +366,20 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     unc = {p: {} for p in uncertain} if isinstance(uncertain, (list, tuple)) else dict(uncertain)
     identifiability = []
     id_cols = {}
+    initial_state = []
     auto = not unc and base_hypotheses
     if auto:
+        # the initial state a record does not give, where the record identifies it: the rest
+        # of the diagnosis replays the experiments from it
+        report(0.015, "initial state")
+        exps, initial_state, init_report = H.fit_initial_state(model, exps, replay)
+        identifiability += [{**h, "label": f"{h['path']} of {h['experiment']}",
+                             "sensitivity": None} for h in init_report]
+        rps_id = [replay(model, e) for e in exps] if initial_state else rps_start
         obj_s = Objective(model, exps, [])
-        chosen, identifiability, id_cols = H.identifiable(
-            model, exps, obj_s, obj_s.weighted(rps_start), H.offered(model, cands), replay)
+        chosen, base_report, id_cols = H.identifiable(
+            model, exps, obj_s, obj_s.weighted(rps_id), H.offered(model, cands), replay)
+        identifiability = base_report + identifiability
         auto_specs = [H.spec_for(model, h) for h in chosen]
     else:
         auto_specs = []
@@ -638,8 +649,9 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
             alternatives.append(alt)
     err_final = chosen.error_after.overall if chosen is not None else comp0.overall
     remaining = _remaining(err_final, floor_overall, final_tests, best_rps, verdict)
-    message = _message(message, recal, remaining, verdict)
-    if auto and not any(h["status"] == "identifiable" for h in identifiability):
+    message = _message(message, recal, remaining, verdict, initial_state)
+    if auto and not any(h["status"] == "identifiable" for h in identifiability
+                        if "experiment" not in h):
         remaining["identifies_no_base"] = True
         remaining["identifies_nothing"] = not lead
         message += (" These experiments identify none of the base parameters (none of "
@@ -652,7 +664,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                      comp0, comp0.windows, tests, floor, base, [s.path for s in u_specs], refits,
                      recalibrate=recal, refitted=refitted, model=next_model,
                      alternatives=alternatives, remaining=remaining,
-                     identifiability=identifiability, error_start=comp_start, dropped=dropped)
+                     identifiability=identifiability, error_start=comp_start, dropped=dropped,
+                     initial_state=initial_state)
 
 
 def _judge(b, model, exps, ranking, refits, u_specs, e0, floor, max_nfev, report):
@@ -948,8 +961,12 @@ def _fmt(v):
     return f"{v:.3g}"
 
 
-def _message(message, recal, remaining, verdict):
+def _message(message, recal, remaining, verdict, initial_state=()):
     parts = []
+    if initial_state:
+        parts.append("initial state not in the records: " + "; ".join(
+            f"{r['label']} {_fmt(r['after'])} {r['unit']} (the replay assumed {_fmt(r['before'])})"
+            for r in initial_state))
     if recal:
         parts.append("mis-set: " + "; ".join(
             f"{r['label']} {_fmt(r['before'])} -> {_fmt(r['after'])} {r['unit']}".rstrip()

@@ -571,3 +571,177 @@ def separating_experiments(model_a, model_b, experiments, top=3):
             out.append({"key": key, "experiment": words, "separation": v, "recorded": ref})
     out.sort(key=lambda d: -d["separation"])
     return out[:top]
+
+
+# ------------------------------------------------------------------ initial state
+
+#: Initial-state quantities an experiment may start from, with units
+INITIAL_UNITS = {"p_a": "Pa", "p_b": "Pa", "x0": "m"}
+
+
+def initial_unknowns(model, experiment):
+    """Initial values neither recorded nor given: what the replay has to assume.
+
+    A chamber pressure that is not recorded starts at ambient pressure unless
+    the scenario's ``initial`` gives it; a position neither recorded nor given
+    (``x0``) starts at the scenario's default. A rig left pressurised, or a
+    piston left elsewhere, starts from another state (not in equilibrium with
+    what the replay assumes): these are hypotheses like the base parameters.
+
+    Returns
+    -------
+    keys : list of str
+        Among ``p_a``, ``p_b`` (not with a 3/2 valve) and ``x0``
+    """
+    sigs = experiment.measurement.signals
+    ini = experiment.scenario.get("initial") or {}
+    out = []
+    for key in ("p_a", "p_b"):
+        if key == "p_b" and model.valve.kind == "3/2":
+            continue
+        if key not in sigs and ini.get(key) is None:
+            out.append(key)
+    if "x" not in sigs and "x0" not in experiment.scenario:
+        out.append("x0")
+    return out
+
+
+def with_initial(experiment, values):
+    """A copy of ``experiment`` whose scenario starts from ``values`` (``p_a``, ``p_b``, ``x0``)."""
+    import dataclasses
+    scen = dict(experiment.scenario)
+    ini = dict(scen.get("initial") or {})
+    for k, v in values.items():
+        if k == "x0":
+            scen["x0"] = float(v)
+        else:
+            ini[k] = float(v)
+    scen["initial"] = ini
+    e = dataclasses.replace(experiment, scenario=scen)
+    e._first_cache = experiment._first_cache       # the record's own estimates stay valid
+    return e
+
+
+def _initial_bounds(model, key):
+    amb, ps = model.ambient.pressure, model.supply.pressure
+    if key == "x0":
+        return 0.0, model.jack.stroke, 0.1 * model.jack.stroke
+    return 0.5 * amb, max(ps, amb) * 1.05, 0.1 * (ps - amb)
+
+
+def fit_initial_state(model, experiments, replay, max_nfev=25, visible=VISIBLE):
+    """Fit the initial state each experiment does not record, where its records identify it.
+
+    For every experiment and every unknown of :func:`initial_unknowns`, the
+    value the replay assumes is moved by a tenth of its range (supply above
+    ambient, or the stroke); the noise-weighted change of the recorded signals
+    must be visible (``|s|^2 >= visible``, as for the base parameters) in the
+    samples before the command first changes: what the initial state alone
+    drives (afterwards the valve's flows take over, and the base parameters,
+    fitted later, matter more). The visible ones are fitted on those samples
+    (bounded least squares from the best point of a coarse grid, since static
+    friction makes the misfit flat near a resting state; the base parameters
+    as given), and kept when they
+    move by more than three standard errors and by more than 2 % of their
+    range.
+
+    Returns
+    -------
+    experiments : list
+        The experiments, those with a fitted initial state replaced by copies
+        starting from it (:func:`with_initial`)
+    found : list of dict
+        ``{experiment, path, label, before, after, stderr, unit}`` per kept value
+    report : list of dict
+        ``{experiment, path, status}`` per unknown (``identifiable`` / ``not visible``)
+    """
+    from scipy.optimize import least_squares
+
+    from pneucore.analysis.calibrate import Objective
+    out_exps, found, report = [], [], []
+    for e in experiments:
+        keys = initial_unknowns(model, e)
+        if not keys:
+            out_exps.append(e)
+            continue
+        m_e = e.model_for(model)
+        scen = e.scenario_for(m_e)
+        assumed = {k: (scen.x0 if k == "x0" else getattr(scen.initial, k)) for k in keys}
+        for k in keys:
+            if assumed[k] is None:
+                assumed[k] = model.ambient.pressure
+        obj = Objective(model, [e], [])
+        # the record before the command first changes: what the initial state alone drives
+        # (afterwards the valve's flows take over and the base parameters matter more)
+        u = e.measurement.signals["u"]
+        ch = np.flatnonzero(np.diff(u) != 0)
+        n_quiet = int(ch[0]) + 1 if ch.size else u.shape[0]
+        sig = obj.sigma[0]
+
+        def weighted(ex):
+            rp = replay(model, ex)
+            parts = []
+            for s_ in rp.measured:
+                n = min(n_quiet, rp.simulated[s_].shape[0])
+                d = (rp.simulated[s_][:n] - rp.measured[s_][:n]) / sig[s_]
+                parts.append(np.where(np.isfinite(d), d, 0.0))
+            return np.concatenate(parts) if parts else np.zeros(0)
+
+        r0 = weighted(e)
+        vis = []
+        for k in keys:
+            lo, hi, step = _initial_bounds(model, k)
+            v1 = assumed[k] + step if assumed[k] + step <= hi else assumed[k] - step
+            col = weighted(with_initial(e, {k: v1})) - r0
+            ok = float(col @ col) >= visible
+            report.append({"experiment": e.name, "path": f"initial.{k}",
+                           "status": "identifiable" if ok else "not visible"})
+            if ok:
+                vis.append(k)
+        if not vis or r0.shape[0] <= len(vis):
+            out_exps.append(e)
+            continue
+        bounds = [_initial_bounds(model, k) for k in vis]
+        scale = np.array([b[1] - b[0] for b in bounds])
+        lo = np.array([b[0] for b in bounds]) / scale
+        hi = np.array([b[1] for b in bounds]) / scale
+
+        def fun(z):
+            vals = dict(zip(vis, z * scale))
+            return weighted(with_initial(e, vals))
+
+        # a piston held by static friction makes the misfit flat around the assumed state
+        # (a small change moves nothing): start from the best of a coarse grid over the
+        # bounds (5 levels per unknown, the assumed state included)
+        import itertools
+        z_as = np.clip(np.array([assumed[k] for k in vis]) / scale, lo, hi)
+        grid = [np.linspace(a, b, 5) for a, b in zip(lo, hi)]
+        starts = [z_as] + [np.array(z) for z in itertools.product(*grid)]
+        cost = [float(np.sum(fun(z) ** 2)) for z in starts]
+        z0 = starts[int(np.argmin(cost))]
+        sol = least_squares(fun, z0, bounds=(lo, hi), max_nfev=max_nfev, x_scale=1.0,
+                            diff_step=1e-3)
+        if float(sol.fun @ sol.fun) > cost[0]:
+            out_exps.append(e)     # no better than what the replay assumes
+            continue
+        J = sol.jac
+        n, k_ = sol.fun.shape[0], len(vis)
+        s2 = float(sol.fun @ sol.fun) / max(n - k_, 1)
+        try:
+            cov = np.linalg.inv(J.T @ J) * s2
+            se = np.sqrt(np.clip(np.diag(cov), 0, None)) * scale
+        except np.linalg.LinAlgError:
+            se = np.full(k_, np.inf)
+        keep = {}
+        for i, k in enumerate(vis):
+            after = float(sol.x[i] * scale[i])
+            d = abs(after - assumed[k])
+            if d > 3.0 * se[i] and d > 0.02 * scale[i]:
+                keep[k] = after
+                found.append({"experiment": e.name, "path": f"initial.{k}",
+                              "label": f"initial {'position' if k == 'x0' else 'pressure ' + k[-1].upper()}"
+                                       f" of {e.name}",
+                              "before": float(assumed[k]), "after": after, "stderr": float(se[i]),
+                              "unit": INITIAL_UNITS[k]})
+        out_exps.append(with_initial(e, keep) if keep else e)
+    return out_exps, found, report
