@@ -1,6 +1,4 @@
 """Which experiment would separate two hypotheses the records cannot tell apart?"""
-import pytest
-
 from pneucore import model_preset
 from pneucore.analysis.hypotheses import SEPARATES, separating_experiments
 from pneucore.data.experiment import as_experiments

@@ -838,7 +838,6 @@ def _confounded_group(cal, refitted, recal):
                        and abs(corr.get(r["path"], {}).get(q["path"]) or 0.0) > CONFOUNDED_CORR]
         if len(group) < 2:
             continue
-        k = len(group)
         dth = np.array([q["after"] - q["before"] for q in group])
         se = np.array([q["stderr"] for q in group])
         c = np.array([[1.0 if a is b else (corr.get(a["path"], {}).get(b["path"]) or 0.0)
