@@ -12,7 +12,8 @@ pressure), hides 0, 1 or 2 catalog effects or a truth outside the catalog (a
 transducer gain or offset error), and runs the refinement loop with nothing
 declared: :func:`pneucore.analysis.history.refine`. A case is right when
 
-* ``base``: no effect is named (the mis-set parameters are recalibrated);
+* ``base``: no effect is named (the mis-set parameters, or an undeclared initial state, are
+  recalibrated);
 * ``effect``: exactly the hidden effects are named;
 * ``outside``: the hidden catalog effects (if any) and nothing else are named, and the
   remainder is said to lie outside the catalog.
@@ -70,8 +71,11 @@ def run_after(case, rounds=4):
     named = [v.added for v in hist.versions[1:] if v.added and not v.added.startswith("recalib")]
     named = [n for n in model.effects]
     rec = sorted({r["path"] for d in diags for r in d.recalibrate})
+    # the last diagnosis's error: on the experiments replayed from the initial state it found
+    # (the history's versions replay them as given)
     return {"named": named, "outside": bool(last.remaining.get("outside_catalog")),
-            "recalibrated": rec, "error_after": hist.versions[-1].overall,
+            "recalibrated": rec, "initial_state": [r["path"] for r in last.initial_state],
+            "error_after": last.remaining.get("error", hist.versions[-1].overall),
             "noise_floor": last.remaining.get("noise_floor"),
             "outside_text": last.remaining.get("description", "")}
 
@@ -107,6 +111,7 @@ def main(argv=None):
         print(f"{'OK ' if ok else 'BAD'} {name:34s} expected {sorted(case.effects) or '-'}"
               f"{' + outside' if case.outside else ''}; named {res['named'] or '-'}"
               f"{' + outside' if res['outside'] else ''}; recalibrated {len(res['recalibrated'])}"
+              f"{'; initial state ' + str(len(res['initial_state'])) if res.get('initial_state') else ''}"
               f"; error {100 * res['error_after']:.3f} %; {res['seconds']:.1f} s", flush=True)
     print("\ncategory   right / cases")
     for cat in ("base", "effect", "outside"):

@@ -28,7 +28,7 @@ LAYOUT = {
     "core": {"cache", "integrator", "layout", "rhs"},
     "spec": {"docstrings", "effects", "model", "paths", "presets", "scenario", "units", "validation"},
     "data": {"experiment", "export", "fileformats", "measurement", "samples", "synthetic"},
-    "analysis": {"autocorrelation", "calibrate", "calibration_options", "compare", "diagnose",
+    "analysis": {"autocorrelation", "blas_threads", "calibrate", "calibration_options", "compare", "diagnose",
                  "heat_compare", "history", "hypotheses", "metrics", "report"},
     "study": {"__main__", "_warm", "_worker", "definition", "execute", "metrics", "results", "store"},
 }

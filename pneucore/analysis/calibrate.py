@@ -40,6 +40,7 @@ from pneucore.analysis.metrics import noise_sigma
 from pneucore.spec.model import Model
 from pneucore.spec.paths import parse_parameters, set_values
 from pneucore.progress import Cancelled
+from pneucore.analysis.blas_threads import single_threaded_blas
 
 #: Worker threads for the finite-difference Jacobian (the machine has 2 cores)
 THREADS = 2
@@ -220,6 +221,7 @@ class Calibration:
         })
 
 
+@single_threaded_blas
 def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=None,
         span=(0.0, 1.0), step="fitting", reweight=False):
     """Fit ``specs`` on prepared experiments (shared by :func:`calibrate` and the diagnosis).

@@ -26,9 +26,13 @@
 4. **Verdict.** The best refit is named only if it is significant (LR
    p-value below ``alpha`` divided by the number of refits), strongly
    preferred (ΔBIC < -10), material (at least 5 % of the error, and at least
-   half of the misfit in excess of the noise floor, alone or together with
+   half of the misfit in excess of the noise floor: alone, alone once each
+   signal's best transducer gain and offset are removed from the residuals
+   (:func:`pneucore.analysis.hypotheses.calibrated_error`), or together with
    the next candidate), and consistent across experiments (its parameters
-   fitted on each experiment alone agree, :func:`consistency`). Otherwise
+   fitted on each experiment alone agree, :func:`consistency`). Candidates
+   are judged in order of evidence: a stand-in that fails does not hide the
+   next; the first that passes is named (and ranked first). Otherwise
    the verdict is ``None``: "no catalog effect explains the remaining
    residual".
 5. **Findings.** ``recalibrate`` (mis-set base parameters, before/after),
@@ -46,7 +50,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
+from pneucore.analysis.blas_threads import single_threaded_blas
 from pneucore.analysis.autocorrelation import effective_lr, residual_times, times_report
+from pneucore.analysis import calibrate as _calibrate
 from pneucore.analysis.calibrate import fit, information_criteria
 from pneucore.analysis.compare import plain_json
 from pneucore.analysis.compare import replay, summarise
@@ -165,6 +171,7 @@ class Diagnosis:
     alternatives: list = field(default_factory=list)
     remaining: dict = field(default_factory=dict)
     identifiability: list = field(default_factory=list)
+    initial_state: list = field(default_factory=list)
     error_start: object = None
     dropped: list = field(default_factory=list)
 
@@ -186,6 +193,7 @@ class Diagnosis:
             "model": self.model.to_dict() if self.model is not None else None,
             "alternatives": self.alternatives, "remaining": self.remaining,
             "identifiability": self.identifiability, "dropped": self.dropped,
+            "initial_state": self.initial_state,
             "error_start": ({"errors": self.error_start.errors, "overall": self.error_start.overall}
                             if self.error_start is not None else None),
         })
@@ -296,6 +304,7 @@ def check_request(model, candidates=None, uncertain=()):
     return names
 
 
+@single_threaded_blas
 def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT, alpha=ALPHA,
              datasets=None, progress=None, max_nfev=30, refit_existing=True, base_hypotheses=True,
              validated=False):
@@ -367,11 +376,21 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     # -- which base parameters can the experiments identify? -------------------------
     unc = {p: {} for p in uncertain} if isinstance(uncertain, (list, tuple)) else dict(uncertain)
     identifiability = []
+    id_cols = {}
+    initial_state = []
     auto = not unc and base_hypotheses
     if auto:
+        # the initial state a record does not give, where the record identifies it: the rest
+        # of the diagnosis replays the experiments from it
+        report(0.015, "initial state")
+        exps, initial_state, init_report = H.fit_initial_state(model, exps, replay)
+        identifiability += [{**h, "label": f"{h['path']} of {h['experiment']}",
+                             "sensitivity": None} for h in init_report]
+        rps_id = [replay(model, e) for e in exps] if initial_state else rps_start
         obj_s = Objective(model, exps, [])
-        chosen, identifiability, _ = H.identifiable(
-            model, exps, obj_s, obj_s.weighted(rps_start), H.offered(model, cands), replay)
+        chosen, base_report, id_cols = H.identifiable(
+            model, exps, obj_s, obj_s.weighted(rps_id), H.offered(model, cands), replay)
+        identifiability = base_report + identifiability
         auto_specs = [H.spec_for(model, h) for h in chosen]
     else:
         auto_specs = []
@@ -387,6 +406,17 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     if u_specs:
         null_fit = fit(model, exps, u_specs, max_nfev=max_nfev, progress=report, span=(0.02, 0.05),
                        step="fitting the base model", reweight=True)
+        # a hypothesis confounded in the small with parameters the fit drove to a bound (a
+        # load taken up by a Coulomb level that cannot go below 0) is needed after all
+        freed = H.freed_by_bounds(identifiability, null_fit.values) if auto else []
+        if freed:
+            report(0.04, "refitting the base model with " + ", ".join(H.label_of(p) for p in freed))
+            auto_specs = auto_specs + [H.spec_for(model, H.BASE_HYPOTHESES[p]) for p in freed]
+            u_specs = auto_specs + (parse_parameters(model, unc) if unc else [])
+            base_paths = [s.path for s in u_specs if not s.path.startswith("effects.")]
+            u_specs_start = list(u_specs)
+            null_fit = fit(model, exps, u_specs, max_nfev=max_nfev, compute_before=False,
+                           reweight=True)
         base = null_fit.model
         u_specs = [ParameterSpec(s.path, null_fit.values[s.path]["value"], s.min, s.max, s.vary, s.unit)
                    for s in u_specs]
@@ -408,14 +438,15 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     # sensitivities of the uncertain parameters (to project out)
     Ju = None
     if u_specs:
-        cols = []
-        for s in u_specs:
+        def ucol(s):
             # around the null model (a valve scale reads 1 there, whatever the fit found)
             v = get_value(base, s.path)
             h = 1e-3 * (abs(v) or (s.max - s.min) / 100)
             mp = set_values(base, {s.path: v + h})
-            cols.append((_stack([replay(mp, e) for e in exps], keys) - y0) / h)
-        Ju = np.column_stack(cols)
+            return (_stack([replay(mp, e) for e in exps], keys) - y0) / h
+
+        with ThreadPoolExecutor(_calibrate.THREADS) as pool:
+            Ju = np.column_stack(list(pool.map(ucol, u_specs)))
 
     # -- score pass ------------------------------------------------------------------
     score = []
@@ -443,7 +474,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         return {"effect": name, "lm": lm, "dof": len(used), "p_value": p_lm,
                 "score_params": list(sp)}
 
-    with ThreadPoolExecutor(2) as pool:
+    with ThreadPoolExecutor(_calibrate.THREADS) as pool:
         for k, res in enumerate(pool.map(probe, cands)):
             score.append(res)
             report(0.05 + 0.35 * (k + 1) / max(len(cands), 1), f"score test: {res['effect']}")
@@ -497,7 +528,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         return name, cal
 
     done = 0
-    with ThreadPoolExecutor(2) as pool:
+    with ThreadPoolExecutor(_calibrate.THREADS) as pool:
         for name, cal in pool.map(refit, lead):
             refits[name] = cal
             done += 1
@@ -511,6 +542,9 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         taus = ref.residual_times
     else:
         taus = null_fit.residual_times if null_fit is not None else residual_times(rps0)
+    # the null's error once each signal's best transducer gain and offset are removed: what a
+    # catalog effect must explain when a sensor calibration error is also present
+    e0_cal = H.calibrated_error(rps0)[0]
     ranking = []
     for name, cal in refits.items():
         eff = EFFECTS[name]
@@ -530,6 +564,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                 "error_after_phases": cal.error_after.phases,
                 "relative_drop": (e0 - e1) / e0 if e0 else 0.0,
                 "excess_drop": _excess_drop(e0, e1, floor_overall),
+                "excess_drop_calibrated": _excess_drop(
+                    e0_cal, H.calibrated_error(cal.error_after.replays)[0], floor_overall),
                 "lr_statistic": lr, "p_value": p, "delta_bic": d_bic, "delta_aic": d_aic,
                 "lr_statistic_white": max(m2ll0 - cal.neg2_loglik, 0.0),
                 "effective_samples": n_eff, "n_samples": n_all,
@@ -554,23 +590,28 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         c["strong"] = c["delta_bic"] < DELTA_BIC
         c["material"] = c["relative_drop"] >= MATERIAL and c["excess_drop"] >= EXCESS_MATERIAL
         c["consistent"] = None
+        c["named"] = False
     if ranking:
-        b = ranking[0]
-        if b["significant"] and b["strong"] and b["material"] and b["excess_drop"] < EXCESS_MAJOR:
-            # a minor share: name it only if with the next candidate it explains most of the excess
-            # (two missing effects of similar size), otherwise it is a stand-in for something else
-            b["with_next"] = _pair(model, exps, ranking, refits, u_specs_start, comp0.overall,
-                                   floor_overall, max_nfev, report)
-            b["material"] = bool(b["with_next"] and b["with_next"]["excess_drop"] >= EXCESS_MAJOR)
-        if b["significant"] and b["strong"] and b["material"]:
-            report(0.96, f"consistency across experiments: {b['effect']}")
-            b["consistency"] = consistency(refits[b["effect"]], exps, b["effect"], max_nfev)
-            b["consistent"] = b["consistency"]["consistent"]
-        if b["significant"] and b["strong"] and b["material"] and b["consistent"]:
+        # candidates are judged in evidence order; one that fails (a stand-in: it explains too
+        # little of the excess, or its parameters disagree between experiments) does not hide
+        # the next, which is judged on its own evidence (each test at alpha / number of refits)
+        # and, if it passes, named and ranked first
+        contenders = [c for c in ranking if c["significant"] and c["strong"]] or ranking[:1]
+        for b in contenders:
+            _judge(b, model, exps, ranking, refits, u_specs_start, comp0.overall, floor_overall,
+                   max_nfev, report)
+            if b["named"]:
+                break
+        named = [c for c in contenders if c["named"]]
+        if named:
+            b = named[0]
+            ranking.remove(b)
+            ranking.insert(0, b)
             verdict = b["effect"]
             message = (f"{b['effect']}: {b['description']}. Error {100 * b['error_before']:.2f} % -> "
                        f"{100 * b['error_after_overall']:.2f} %.")
         else:
+            b = ranking[0]
             why = []
             if not b["significant"]:
                 why.append(f"best candidate {b['effect']} not significant (p = {b['p_value']:.2g})")
@@ -600,18 +641,28 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     dropped = _redundant(model, chosen, verdict)
     for name in dropped:
         next_model.effects.pop(name, None)
-    alternatives = _alternatives(ranking, verdict)
+    report(0.97, "which experiment would separate what the records cannot")
+    alternatives = _alternatives(ranking, verdict, refits, exps)
+    moved = {r["path"] for r in recal}
     for h in identifiability:
         if h["status"] == "not separable":
-            alternatives.append({"path": h["path"], "label": h["label"], "kind": "base",
-                                 "with": h.get("with", []),
-                                 "note": f"{h['label']} cannot be told apart from "
-                                         f"{', '.join(H.label_of(w) for w in h.get('with', []))} "
-                                         f"by these experiments: only their combination is fitted"})
+            alt = {"path": h["path"], "label": h["label"], "kind": "base",
+                   "with": h.get("with", []),
+                   "note": f"{h['label']} cannot be told apart from "
+                           f"{', '.join(H.label_of(w) for w in h.get('with', []))} "
+                           f"by these experiments: only their combination is fitted"}
+            # the split matters once its partners were found mis-set: say what would separate
+            if moved & set(h.get("with", [])):
+                twin = H.confounded_twin(model, h["path"], [q.path for q in auto_specs], id_cols)
+                if twin is not None:
+                    alt["separating"] = H.separating_experiments(model, twin, exps)
+                    alt["note"] += _separating_words(alt["separating"])
+            alternatives.append(alt)
     err_final = chosen.error_after.overall if chosen is not None else comp0.overall
     remaining = _remaining(err_final, floor_overall, final_tests, best_rps, verdict)
-    message = _message(message, recal, remaining, verdict)
-    if auto and not any(h["status"] == "identifiable" for h in identifiability):
+    message = _message(message, recal, remaining, verdict, initial_state)
+    if auto and not any(h["status"] == "identifiable" for h in identifiability
+                        if "experiment" not in h):
         remaining["identifies_no_base"] = True
         remaining["identifies_nothing"] = not lead
         message += (" These experiments identify none of the base parameters (none of "
@@ -624,19 +675,45 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                      comp0, comp0.windows, tests, floor, base, [s.path for s in u_specs], refits,
                      recalibrate=recal, refitted=refitted, model=next_model,
                      alternatives=alternatives, remaining=remaining,
-                     identifiability=identifiability, error_start=comp_start, dropped=dropped)
+                     identifiability=identifiability, error_start=comp_start, dropped=dropped,
+                     initial_state=initial_state)
 
 
-def _pair(model, exps, ranking, refits, u_specs, e0, floor, max_nfev, report):
-    """The leading candidate refitted together with the next significant one.
+def _judge(b, model, exps, ranking, refits, u_specs, e0, floor, max_nfev, report):
+    """Decide whether candidate ``b`` is named: significant, strong, major, consistent.
+
+    Its share of the excess must be major (:data:`EXCESS_MAJOR`): alone; or alone once
+    each signal's best transducer gain and offset are removed from the residuals
+    (``excess_drop_calibrated``: a sensor calibration error, the commonest truth outside
+    the catalog, inflates the excess that no catalog effect can remove, and a real effect
+    beside it still removes most of the rest, while a stand-in for it removes nothing of
+    the rest); or together with the next significant, material candidate (two missing
+    effects of similar size). Otherwise it is a stand-in for something else. Sets
+    ``material``, ``with_next``, ``consistency``, ``consistent`` and ``named`` on ``b``.
+    """
+    if b["significant"] and b["strong"] and b["material"] and b["excess_drop"] < EXCESS_MAJOR \
+            and b["excess_drop_calibrated"] < EXCESS_MAJOR:
+        b["with_next"] = _pair(model, exps, b, ranking, refits, u_specs, e0, floor, max_nfev,
+                               report)
+        b["material"] = bool(b["with_next"] and b["with_next"]["excess_drop"] >= EXCESS_MAJOR)
+    if b["significant"] and b["strong"] and b["material"]:
+        report(0.96, f"consistency across experiments: {b['effect']}")
+        b["consistency"] = consistency(refits[b["effect"]], exps, b["effect"], max_nfev)
+        b["consistent"] = b["consistency"]["consistent"]
+    b["named"] = bool(b["significant"] and b["strong"] and b["material"] and b["consistent"])
+    return b["named"]
+
+
+def _pair(model, exps, lead, ranking, refits, u_specs, e0, floor, max_nfev, report):
+    """Candidate ``lead`` refitted together with the next significant one.
 
     Returns ``{"effect", "error_after_overall", "excess_drop"}`` or None when there is no
     second significant, material candidate.
     """
-    nxt = [c for c in ranking[1:] if c["significant"] and c["material"]]
+    nxt = [c for c in ranking if c is not lead and c["significant"] and c["material"]]
     if not nxt:
         return None
-    a, b = ranking[0]["effect"], nxt[0]["effect"]
+    a, b = lead["effect"], nxt[0]["effect"]
     report(0.95, f"refit: {a} with {b}")
     m = model.copy()
     specs = []
@@ -739,7 +816,65 @@ def _recalibration(model, cal, paths):
         d = abs(after - before)
         if d > 3.0 * se and d > RECAL_MIN * max(abs(before), 1e-300):
             recal.append(entry)
+    recal += _confounded_group(cal, refitted, recal)
     return recal, refitted
+
+
+#: Correlation of two fitted parameters above which they form a confounded group
+CONFOUNDED_CORR = 0.9
+
+
+def _confounded_group(cal, refitted, recal):
+    """Parameters that moved materially but only in a combination the data identify.
+
+    Strongly correlated parameters (``|corr| > CONFOUNDED_CORR`` in the fit) each get a
+    large standard error, so none passes the three-standard-error rule alone, while their
+    joint change can be unmistakable (a load confounded with the two Coulomb levels). The
+    group of the materially moved, correlated parameters is reported, each entry with
+    ``confounded_with``, when its change along the combinations the data identify is
+    beyond three standard errors (``sum_i (v_i^T dθ)^2 / λ_i > 9 k`` over the ``k``
+    eigenpairs of the group's covariance with ``λ_i`` under 1 % of the largest); only the
+    identified combinations are meaningful, not the split among the members.
+    """
+    done = {r["path"] for r in recal}
+    moved = [r for r in refitted if r["path"] not in done
+             and abs(r["after"] - r["before"]) > RECAL_MIN * max(abs(r["before"]), 1e-300)
+             and r["stderr"] > 0]
+    corr = getattr(cal, "correlations", None) or {}
+    out = []
+    for r in moved:
+        if r["path"] in {q["path"] for q in out}:
+            continue
+        group = [r] + [q for q in refitted if q is not r and q["stderr"] > 0
+                       and abs(corr.get(r["path"], {}).get(q["path"]) or 0.0) > CONFOUNDED_CORR]
+        if len(group) < 2:
+            continue
+        dth = np.array([q["after"] - q["before"] for q in group])
+        se = np.array([q["stderr"] for q in group])
+        c = np.array([[1.0 if a is b else (corr.get(a["path"], {}).get(b["path"]) or 0.0)
+                       for b in group] for a in group])
+        # the combinations the data identify: eigen-directions of the group's covariance whose
+        # variance is under 1 % of the worst one's (the near-null direction of the confounding,
+        # along which the split between the members is arbitrary, is left out)
+        cov = c * np.outer(se, se)
+        try:
+            lam, vec = np.linalg.eigh(cov)
+        except np.linalg.LinAlgError:
+            continue
+        keep = lam < 1e-2 * lam.max()
+        if not keep.any():
+            continue
+        proj = vec[:, keep].T @ dth
+        m2 = float(np.sum(proj ** 2 / np.maximum(lam[keep], 1e-300)))
+        if m2 > 9.0 * int(keep.sum()):
+            paths = [q["path"] for q in group]
+            for q in group:
+                if q["path"] not in done:
+                    q = dict(q)
+                    q["confounded_with"] = [p for p in paths if p != q["path"]]
+                    out.append(q)
+                    done.add(q["path"])
+    return out
 
 
 def _redundant(model, cal, verdict):
@@ -768,8 +903,23 @@ def _redundant(model, cal, verdict):
     return out
 
 
-def _alternatives(ranking, verdict):
-    """Candidates the data cannot tell apart from the verdict (delta BIC within 10 of it)."""
+def _separating_words(suggestions):
+    if not suggestions:
+        return ("; no variation of the recorded tests (piston locked or free, supply pressure, "
+                "position, load) would separate them")
+    s = suggestions[0]
+    return (f"; {s['experiment']} would separate them (their predictions would differ by "
+            f"{math.sqrt(s['separation']):.0f} noise standard deviations in all, against "
+            f"{math.sqrt(s['recorded']):.1f} in the records)")
+
+
+def _alternatives(ranking, verdict, refits=None, exps=None):
+    """Candidates the data cannot tell apart from the verdict (delta BIC within 10 of it).
+
+    Each says which experiment would separate it from the verdict
+    (:func:`pneucore.analysis.hypotheses.separating_experiments` on the two fitted models,
+    ``separating``), falling back to the locked/free rule of the effects' catalog entries.
+    """
     if verdict is None or not ranking:
         return []
     best = ranking[0]
@@ -777,15 +927,20 @@ def _alternatives(ranking, verdict):
     for c in ranking[1:]:
         if c["significant"] and c["material"] and c["delta_bic"] - best["delta_bic"] < -DELTA_BIC:
             eff_b, eff_c = EFFECTS[best["effect"]], EFFECTS[c["effect"]]
-            sep = None
-            for kind in ("locked", "free"):
-                if (kind in eff_b.observable_in) != (kind in eff_c.observable_in):
-                    sep = f"a {kind} test (only one of them acts there)"
-            out.append({"effect": c["effect"], "kind": "effect", "delta_bic": c["delta_bic"],
-                        "error_after_overall": c["error_after_overall"],
-                        "note": f"{c['effect']} explains the data about as well as {best['effect']} "
-                                f"(delta BIC {c['delta_bic']:.1f} against {best['delta_bic']:.1f})"
-                                + (f"; {sep} would separate them" if sep else "")})
+            note = (f"{c['effect']} explains the data about as well as {best['effect']} "
+                    f"(delta BIC {c['delta_bic']:.1f} against {best['delta_bic']:.1f})")
+            alt = {"effect": c["effect"], "kind": "effect", "delta_bic": c["delta_bic"],
+                   "error_after_overall": c["error_after_overall"]}
+            if refits and exps and best["effect"] in refits and c["effect"] in refits:
+                alt["separating"] = H.separating_experiments(
+                    refits[best["effect"]].model, refits[c["effect"]].model, exps)
+                note += _separating_words(alt["separating"])
+            else:
+                for kind in ("locked", "free"):
+                    if (kind in eff_b.observable_in) != (kind in eff_c.observable_in):
+                        note += f"; a {kind} test (only one of them acts there) would separate them"
+            alt["note"] = note
+            out.append(alt)
     return out
 
 
@@ -816,12 +971,24 @@ def _fmt(v):
     return f"{v:.3g}"
 
 
-def _message(message, recal, remaining, verdict):
+def _message(message, recal, remaining, verdict, initial_state=()):
     parts = []
+    if initial_state:
+        parts.append("initial state not in the records: " + "; ".join(
+            f"{r['label']} {_fmt(r['after'])} {r['unit']} (the replay assumed {_fmt(r['before'])})"
+            for r in initial_state))
     if recal:
         parts.append("mis-set: " + "; ".join(
             f"{r['label']} {_fmt(r['before'])} -> {_fmt(r['after'])} {r['unit']}".rstrip()
             for r in recal))
+        groups = []
+        for r in recal:
+            g = sorted([r["path"]] + r.get("confounded_with", []))
+            if len(g) > 1 and g not in groups:
+                groups.append(g)
+        for g in groups:
+            parts.append("these experiments identify " + ", ".join(H.label_of(p) for p in g)
+                         + " only in combination (the split among them is not determined)")
     if remaining.get("outside_catalog"):
         parts.append("outside the catalog: " + remaining.get("description", ""))
     elif remaining.get("at_floor"):

@@ -7,9 +7,11 @@ recalibrate is decided here, from the data, not by the user:
 
 1. **Registry.** :data:`BASE_HYPOTHESES` lists the base parameters a test
    engineer actually gets wrong (friction level and viscous coefficient per
-   direction, moving mass, heat coefficient, valve conductance, supply
-   pressure, dead volumes, load), each with the relative error a catalogue
-   value typically carries and fit bounds relative to the current value.
+   direction, moving mass, heat coefficient, valve conductance of the supply
+   and of the exhaust edges (``valve.ports.P-*.C``, ``valve.ports.*-R.C``),
+   supply pressure, dead volumes, an undeclared load), each with the relative
+   error a catalogue value typically carries and fit bounds relative to the
+   current value.
 2. **Sensitivity.** Each parameter is moved by its typical error and the
    change of every output, divided by the output's noise level, gives a
    column ``s_j`` of the sensitivity matrix (one simulation per parameter
@@ -23,6 +25,17 @@ recalibrate is decided here, from the data, not by the user:
    from them (``not_separable``), since its value can only be fitted in a
    fixed combination with theirs (Fisher information matrix close to
    singular; Bard, *Nonlinear Parameter Estimation*, 1974, Sect. 7-5).
+   Collinearity is local: when the fit drives one of the confounding
+   parameters to a bound, the confounded one is needed after all
+   (:func:`freed_by_bounds`).
+4. **Separating experiments.** For two hypotheses the records cannot tell
+   apart, :func:`separating_experiments` simulates both on variations of the
+   recorded tests (:func:`experiment_variants`) and names the one where their
+   predictions differ most, against the noise.
+5. **Residual analysis.** :func:`residual_signature` describes a remainder in
+   words; :func:`calibrated_error` gives the error left once each signal's
+   best transducer gain and offset are removed (what a catalog effect must
+   explain beside a sensor calibration error).
 
 A base parameter whose physics is a catalog effect of the same name
 (``same_as_effect``: the base dead volumes and the ``dead_volume`` effect)
@@ -32,12 +45,13 @@ discrepancy is not offered twice.
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Callable, Optional
 
 import numpy as np
 
-from pneucore.spec.paths import ParameterSpec, get_value, set_values, unit_of
+from pneucore.spec.paths import VALVE_GROUPS, ParameterSpec, get_value, set_values, unit_of
 
 #: Sensitivity norm^2 (noise-weighted chi-square units) a typical error must produce to be
 #: considered identifiable: 100 is a 10-sigma effect on the whole record
@@ -61,10 +75,12 @@ class BaseHypothesis:
         Typical relative error of a catalogue value [-]
     lo, hi : float
         Fit bounds as multiples of the current value [-]
-    span : float
-        Absolute half-range used when the current value is 0 (SI)
+    span : float or callable
+        Absolute half-range used when the current value is 0 (SI), or ``span(model)``
     applies : callable or None
         ``applies(model) -> bool``
+    zero_typical : float
+        Typical error as a fraction of ``span`` when the current value is 0 [-]
     same_as_effect : str or None
         Catalog effect carrying the same physics
     """
@@ -73,9 +89,19 @@ class BaseHypothesis:
     typical: float
     lo: float
     hi: float
-    span: float = 0.0
+    span: object = 0.0
     applies: Optional[Callable] = None
     same_as_effect: Optional[str] = None
+    zero_typical: float = 0.1
+
+
+def _span(model, hyp):
+    return hyp.span(model) if callable(hyp.span) else hyp.span
+
+
+def _load_span(m):
+    """Half-range of a load: half the jack's largest force, area A at supply above ambient [N]."""
+    return 0.5 * m.jack.area_a * (m.supply.pressure - m.ambient.pressure)
 
 
 def _convective(m):
@@ -92,12 +118,21 @@ BASE_HYPOTHESES = {h.path: h for h in [
                    same_as_effect="quadrant_friction"),
     BaseHypothesis("jack.moving_mass", "moving mass", 0.15, 0.2, 5.0),
     BaseHypothesis("heat.coefficient", "heat coefficient", 0.5, 0.02, 10.0, applies=_convective),
-    BaseHypothesis("valve.ports.*.C", "valve conductance (scale)", 0.15, 0.2, 5.0),
+    BaseHypothesis(f"valve.ports.{VALVE_GROUPS['supply']}.C", "valve conductance, supply edges (scale)",
+                   0.15, 0.2, 5.0),
+    BaseHypothesis(f"valve.ports.{VALVE_GROUPS['exhaust']}.C", "valve conductance, exhaust edges (scale)",
+                   0.15, 0.2, 5.0),
     BaseHypothesis("supply.pressure", "supply pressure", 0.04, 0.7, 1.3),
     BaseHypothesis("jack.dead_volume_a", "dead volume A", 0.5, 0.05, 10.0,
                    same_as_effect="dead_volume"),
     BaseHypothesis("jack.dead_volume_b", "dead volume B", 0.5, 0.05, 10.0,
                    same_as_effect="dead_volume"),
+    # a load the catalogue model leaves at 0 (a rod-end mass against gravity, a cable's drag):
+    # fitted either sign within half the jack's force; typically small, 0.5 % of that range
+    # (about 1 N on the paper's jack), below the typical error of a Coulomb level, so that a
+    # mis-set friction is not taken for a load (a constant load is, while the piston moves,
+    # a combination of the two Coulomb levels)
+    BaseHypothesis("jack.load_force", "load", 0.3, -5.0, 5.0, _load_span, zero_typical=0.005),
 ]}
 
 
@@ -111,7 +146,8 @@ def spec_for(model, hyp):
     """The :class:`ParameterSpec` that fits ``hyp`` from the current value of ``model``."""
     v = get_value(model, hyp.path)
     if v == 0.0:
-        lo, hi = -hyp.span if hyp.lo < 0 else 0.0, hyp.span
+        span = _span(model, hyp)
+        lo, hi = -span if hyp.lo < 0 else 0.0, span
     else:
         lo, hi = sorted((v * hyp.lo, v * hyp.hi))
     return ParameterSpec(hyp.path, v, lo, hi, True, unit_of(hyp.path))
@@ -119,7 +155,7 @@ def spec_for(model, hyp):
 
 def _step(model, hyp):
     v = get_value(model, hyp.path)
-    return hyp.typical * abs(v) if v != 0.0 else 0.1 * hyp.span
+    return hyp.typical * abs(v) if v != 0.0 else hyp.zero_typical * _span(model, hyp)
 
 
 def offered(model, candidates=(), exclude=()):
@@ -132,7 +168,7 @@ def offered(model, candidates=(), exclude=()):
             continue
         if h.same_as_effect and h.same_as_effect in candidates:
             continue
-        if get_value(model, h.path) == 0.0 and h.span == 0.0:
+        if get_value(model, h.path) == 0.0 and not _span(model, h):
             continue
         out.append(h)
     return out
@@ -171,16 +207,20 @@ def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBL
         path -> sensitivity column per unit of the parameter [1/SI]
     """
     cols, norms, steps = {}, {}, {}
-    for h in hyps:
+
+    def column(h):
         dv = _step(model, h)
-        v0 = get_value(model, h.path)
-        v1 = v0 + dv
-        mp = set_values(model, {h.path: v1})
-        rp = [replay(mp, e) for e in experiments]
-        col = objective.weighted(rp) - r0
-        cols[h.path] = col / dv
-        norms[h.path] = float(col @ col)
-        steps[h.path] = dv
+        mp = set_values(model, {h.path: get_value(model, h.path) + dv})
+        return h, dv, objective.weighted([replay(mp, e) for e in experiments]) - r0
+
+    # one simulation per hypothesis and experiment, in the fit's worker threads (the compiled
+    # integrator runs outside the GIL)
+    from pneucore.analysis.calibrate import THREADS
+    with ThreadPoolExecutor(THREADS) as pool:
+        for h, dv, col in pool.map(column, hyps):
+            cols[h.path] = col / dv
+            norms[h.path] = float(col @ col)
+            steps[h.path] = dv
     order = sorted(hyps, key=lambda h: -norms[h.path])
     chosen, report, basis = [], [], []
     for h in order:
@@ -206,6 +246,51 @@ def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBL
                 chosen.append(h)
         report.append(entry)
     return chosen, report, {p: cols[p] for p in cols}
+
+
+def freed_by_bounds(report, values, tol=1e-3):
+    """Hypotheses reported ``not separable`` whose confounders a fit drove to a bound.
+
+    Collinearity is judged on sensitivities at the starting point: a column
+    that is (nearly) a combination of chosen ones can be fitted through them,
+    as long as the combination stays inside their bounds. When a fit ends with
+    one of those parameters at its bound (within ``tol`` of its range), the
+    combination was cut off and the confounded hypothesis carries what they
+    cannot (a load of 40 N taken for Coulomb levels of +40 N and -40 N: the
+    retracting level stops at 0). Such entries are marked ``identifiable`` in
+    ``report`` (with a ``note``) and returned.
+
+    Parameters
+    ----------
+    report : list of dict
+        The identifiability report of :func:`identifiable` (edited in place)
+    values : dict
+        ``Calibration.values`` of the fit with the chosen hypotheses
+    tol : float
+        Distance to a bound, as a fraction of the range [-]
+
+    Returns
+    -------
+    paths : list of str
+    """
+    out = []
+    for h in report:
+        if h.get("status") != "not separable":
+            continue
+        hit = []
+        for p in h.get("with", []):
+            v = values.get(p)
+            if v is None or "min" not in v:
+                continue
+            rng = v["max"] - v["min"]
+            if min(abs(v["value"] - v["min"]), abs(v["max"] - v["value"])) <= tol * rng:
+                hit.append(p)
+        if hit:
+            h["status"] = "identifiable"
+            h["note"] = (f"confounded with {', '.join(label_of(p) for p in h['with'])} in the "
+                         f"small, but the fit drove {', '.join(label_of(p) for p in hit)} to a bound")
+            out.append(h["path"])
+    return out
 
 
 # ------------------------------------------------------------------ residual signature
@@ -275,3 +360,388 @@ def residual_signature(replays):
             f"{_REGRESSORS.get(kbest, kbest)} (explains {100 * scores[kbest]:.0f} % of it)")
     return {"signal": s, "experiment": rp.experiment.name, "phase": phase,
             "proportional_to": kbest, "r2": scores[kbest], "share": share, "description": desc}
+
+
+def calibrated_error(replays):
+    """Eq. 25 error left once each signal's best transducer gain and offset are removed.
+
+    A transducer whose gain or offset is wrong records ``m = a + (1 + g) y``
+    for the true signal ``y``: its residual against a simulation ``s`` close
+    to ``y`` is, to first order, ``a + g s`` plus whatever the model lacks.
+    Per signal (one transducer, pooled over the experiments), the residual
+    ``m - s`` is regressed on ``[1, s]`` by least squares and the remainder
+    gives the error (Eq. 25 of the paper on the corrected residual; overall:
+    RMS over the signals, as :func:`pneucore.analysis.compare.summarise`).
+    It is the misfit that a sensor calibration error, the commonest truth
+    outside the catalog, cannot account for: what a catalog effect must
+    explain.
+
+    Parameters
+    ----------
+    replays : iterable of Replay
+        Replayed experiments (:func:`pneucore.analysis.compare.replay`)
+
+    Returns
+    -------
+    overall : float
+        Error after the correction [-]
+    per_signal : dict
+        ``{signal: {"error", "offset", "gain"}}``: the error [-], the fitted offset
+        (signal units, SI) and relative gain error [-] of each transducer
+    """
+    acc = {}
+    for rp in replays:
+        for s in rp.measured:
+            m, g = np.asarray(rp.measured[s], float), np.asarray(rp.simulated[s], float)
+            n = min(m.shape[0], g.shape[0])
+            m, g = m[:n], g[:n]
+            ok = np.isfinite(m) & np.isfinite(g)
+            a = acc.setdefault(s, ([], []))
+            a[0].append(m[ok])
+            a[1].append(g[ok])
+    out = {}
+    for s, (ms, gs) in acc.items():
+        m, g = np.concatenate(ms), np.concatenate(gs)
+        den = float(m @ m)
+        if m.size < 3 or den <= 0.0:
+            continue
+        A = np.column_stack([np.ones_like(g), g])
+        coef, *_ = np.linalg.lstsq(A, m - g, rcond=None)
+        d = m - g - A @ coef
+        out[s] = {"error": math.sqrt(float(d @ d) / den), "offset": float(coef[0]),
+                  "gain": float(coef[1])}
+    if not out:
+        return float("nan"), out
+    return float(math.sqrt(np.mean([v["error"] ** 2 for v in out.values()]))), out
+
+
+# ------------------------------------------------------------------ which experiment separates
+
+#: Separation (noise-weighted chi-square between two hypotheses' predictions) a suggested
+#: experiment must reach: the same 10-sigma level as :data:`VISIBLE`
+SEPARATES = VISIBLE
+
+
+def experiment_variants(model, experiment):
+    """Experiments one could record next: variations of a recorded one, each described in words.
+
+    Each changes one condition that the hypotheses may depend on differently:
+    the piston locked or free (friction, mass and load act only on a moving
+    piston), the supply pressure (anything proportional to a pressure), chamber
+    B's pressure on a 3/2 valve (constant in the records, so that a term in
+    ``p_b`` looks like a constant), the other end of the stroke (dead volumes
+    against chamber volumes), a known added load (a force against a pressure-
+    or velocity-dependent term).
+
+    Returns
+    -------
+    variants : list of tuple
+        ``(key, words, model, scenario dict)``
+    """
+    m0 = experiment.model_for(model)
+    scen = experiment.scenario_for(m0).to_dict()
+    amb = m0.ambient.pressure
+    ps = m0.supply.pressure
+    stroke = m0.jack.stroke
+    name = experiment.name or "recorded"
+    out = []
+    locked = bool(scen.get("locked"))
+    s = dict(scen, locked=not locked)
+    out.append(("free" if locked else "locked",
+                f"the {name} test with the piston {'free' if locked else 'locked'}", m0, s))
+    m = m0.copy()
+    m.supply.pressure = amb + 0.6 * (ps - amb)
+    out.append(("supply", f"the {name} test at 60 % of the supply pressure (gauge)", m, dict(scen)))
+    if m0.valve.kind == "3/2":
+        bcp = m0.valve.b_chamber_pressure if m0.valve.b_chamber_pressure is not None else 0.5 * ps
+        m = m0.copy()
+        m.valve.b_chamber_pressure = amb + 0.5 * (bcp - amb)
+        out.append(("chamber-b", f"the {name} test with chamber B held at half its gauge pressure",
+                    m, dict(scen)))
+    x0 = float(scen.get("x0", 0.0))
+    s = dict(scen, x0=min(max(stroke - x0, 0.02 * stroke), 0.98 * stroke))
+    out.append(("position", f"the {name} test from the other end of the stroke", m0, s))
+    if not locked:
+        m = m0.copy()
+        m.jack.load_force = m0.jack.load_force + 0.1 * m0.jack.area_a * (ps - amb)
+        out.append(("load", f"the {name} test with a known load of 10 % of the jack's force added",
+                    m, dict(scen)))
+    return out
+
+
+def confounded_twin(model, path, chosen, columns):
+    """``model`` moved along the direction the records cannot see: ``path`` by its typical
+    error, the ``chosen`` parameters by the least-squares compensation of its sensitivity
+    column (``columns`` from :func:`identifiable`, per unit); None when not computable.
+
+    The two models predict the records alike (to the collinearity's residual): the pair
+    to hand to :func:`separating_experiments`.
+    """
+    if path not in columns or path not in BASE_HYPOTHESES:
+        return None
+    use = [p for p in chosen if p in columns]
+    if not use:
+        return None
+    dv = _step(model, BASE_HYPOTHESES[path])
+    A = np.column_stack([columns[p] for p in use])
+    coef, *_ = np.linalg.lstsq(A, columns[path], rcond=None)
+    vals = {path: get_value(model, path) + dv}
+    for p, c in zip(use, coef):
+        vals[p] = get_value(model, p) - float(c) * dv
+    try:
+        return set_values(model, vals)
+    except Exception:   # noqa: BLE001 - a compensation outside a parameter's domain
+        return None
+
+
+def separating_experiments(model_a, model_b, experiments, top=3):
+    """Which experiment would tell hypothesis A from hypothesis B?
+
+    Both hypotheses, each fitted to the records (or moved along the direction
+    the records cannot see), predict every variant of every recorded
+    experiment (:func:`experiment_variants`); the separation of a variant is
+    ``sum ((y_a - y_b) / sigma)^2`` over the signals recorded, ``sigma`` each
+    signal's noise in the record (discrimination design: Box and Hill,
+    *Technometrics* 9, 1967). The recorded experiments' own separation is
+    given for reference: small, since the records could not tell A from B.
+
+    Parameters
+    ----------
+    model_a, model_b : Model
+        The two hypotheses, as models
+    experiments : list of Experiment
+        The recorded experiments
+    top : int
+        Number of suggestions returned
+
+    Returns
+    -------
+    suggestions : list of dict
+        ``{key, experiment, separation, recorded}``, best first, only those whose
+        separation reaches :data:`SEPARATES` and exceeds the recorded one tenfold
+    """
+    from pneucore.analysis.calibrate import THREADS, Objective
+    from pneucore.analysis.compare import replay
+    from pneucore.simulate import simulate
+
+    def sep(ya, yb, sig):
+        tot = 0.0
+        for s, sd in sig.items():
+            a, b = ya.get(s), yb.get(s)
+            if a is None or b is None:
+                continue
+            n = min(a.shape[0], b.shape[0])
+            d = (a[:n] - b[:n]) / sd
+            d = d[np.isfinite(d)]
+            tot += float(d @ d)
+        return tot
+
+    jobs = []
+    for e in experiments:
+        sig = Objective(model_a, [e], []).sigma[0]
+        jobs.append((e, sig, None, None, None))
+        for key, words, _m, scen in experiment_variants(model_a, e):
+            jobs.append((e, sig, key, words, scen))
+
+    def run(job):
+        e, sig, key, words, scen = job
+        if key is None:
+            ys = [replay(m, e) for m in (model_a, model_b)]
+            return job, sep(ys[0].simulated, ys[1].simulated, sig)
+        ys = []
+        for m in (model_a, model_b):
+            # the same variation applied to each hypothesis
+            mv = next(v[2] for v in experiment_variants(m, e) if v[0] == key)
+            try:
+                res = simulate(mv, scen, raise_on_error=False)
+            except Exception:   # noqa: BLE001 - a variant the model rejects is not offered
+                return job, None
+            ys.append({s: np.asarray(res.observed(s), float) for s in sig})
+        return job, sep(ys[0], ys[1], sig)
+
+    with ThreadPoolExecutor(THREADS) as pool:
+        results = list(pool.map(run, jobs))
+    recorded = {j[0].name: v for j, v in results if j[2] is None}
+    out = []
+    for (e, _sig, key, words, _s), v in results:
+        if key is None or v is None:
+            continue
+        ref = recorded.get(e.name) or 0.0
+        if v >= SEPARATES and v >= 10.0 * ref:
+            out.append({"key": key, "experiment": words, "separation": v, "recorded": ref})
+    out.sort(key=lambda d: -d["separation"])
+    return out[:top]
+
+
+# ------------------------------------------------------------------ initial state
+
+#: Initial-state quantities an experiment may start from, with units
+INITIAL_UNITS = {"p_a": "Pa", "p_b": "Pa", "x0": "m"}
+
+
+def initial_unknowns(model, experiment):
+    """Initial values neither recorded nor given: what the replay has to assume.
+
+    A chamber pressure that is not recorded starts at ambient pressure unless
+    the scenario's ``initial`` gives it; a position neither recorded nor given
+    (``x0``) starts at the scenario's default. A rig left pressurised, or a
+    piston left elsewhere, starts from another state (not in equilibrium with
+    what the replay assumes): these are hypotheses like the base parameters.
+
+    Returns
+    -------
+    keys : list of str
+        Among ``p_a``, ``p_b`` (not with a 3/2 valve) and ``x0``
+    """
+    sigs = experiment.measurement.signals
+    ini = experiment.scenario.get("initial") or {}
+    out = []
+    for key in ("p_a", "p_b"):
+        if key == "p_b" and model.valve.kind == "3/2":
+            continue
+        if key not in sigs and ini.get(key) is None:
+            out.append(key)
+    if "x" not in sigs and "x0" not in experiment.scenario:
+        out.append("x0")
+    return out
+
+
+def with_initial(experiment, values):
+    """A copy of ``experiment`` whose scenario starts from ``values`` (``p_a``, ``p_b``, ``x0``)."""
+    import dataclasses
+    scen = dict(experiment.scenario)
+    ini = dict(scen.get("initial") or {})
+    for k, v in values.items():
+        if k == "x0":
+            scen["x0"] = float(v)
+        else:
+            ini[k] = float(v)
+    scen["initial"] = ini
+    e = dataclasses.replace(experiment, scenario=scen)
+    e._first_cache = experiment._first_cache       # the record's own estimates stay valid
+    return e
+
+
+def _initial_bounds(model, key):
+    amb, ps = model.ambient.pressure, model.supply.pressure
+    if key == "x0":
+        return 0.0, model.jack.stroke, 0.1 * model.jack.stroke
+    return 0.5 * amb, max(ps, amb) * 1.05, 0.1 * (ps - amb)
+
+
+def fit_initial_state(model, experiments, replay, max_nfev=25, visible=VISIBLE):
+    """Fit the initial state each experiment does not record, where its records identify it.
+
+    For every experiment and every unknown of :func:`initial_unknowns`, the
+    value the replay assumes is moved by a tenth of its range (supply above
+    ambient, or the stroke); the noise-weighted change of the recorded signals
+    must be visible (``|s|^2 >= visible``, as for the base parameters) in the
+    samples before the command first changes: what the initial state alone
+    drives (afterwards the valve's flows take over, and the base parameters,
+    fitted later, matter more). The visible ones are fitted on those samples
+    (bounded least squares from the best point of a coarse grid, since static
+    friction makes the misfit flat near a resting state; the base parameters
+    as given), and kept when they
+    move by more than three standard errors and by more than 2 % of their
+    range.
+
+    Returns
+    -------
+    experiments : list
+        The experiments, those with a fitted initial state replaced by copies
+        starting from it (:func:`with_initial`)
+    found : list of dict
+        ``{experiment, path, label, before, after, stderr, unit}`` per kept value
+    report : list of dict
+        ``{experiment, path, status}`` per unknown (``identifiable`` / ``not visible``)
+    """
+    from scipy.optimize import least_squares
+
+    from pneucore.analysis.calibrate import Objective
+    out_exps, found, report = [], [], []
+    for e in experiments:
+        keys = initial_unknowns(model, e)
+        if not keys:
+            out_exps.append(e)
+            continue
+        m_e = e.model_for(model)
+        scen = e.scenario_for(m_e)
+        assumed = {k: (scen.x0 if k == "x0" else getattr(scen.initial, k)) for k in keys}
+        for k in keys:
+            if assumed[k] is None:
+                assumed[k] = model.ambient.pressure
+        obj = Objective(model, [e], [])
+        # the record before the command first changes: what the initial state alone drives
+        # (afterwards the valve's flows take over and the base parameters matter more)
+        u = e.measurement.signals["u"]
+        ch = np.flatnonzero(np.diff(u) != 0)
+        n_quiet = int(ch[0]) + 1 if ch.size else u.shape[0]
+        sig = obj.sigma[0]
+
+        def weighted(ex):
+            rp = replay(model, ex)
+            parts = []
+            for s_ in rp.measured:
+                n = min(n_quiet, rp.simulated[s_].shape[0])
+                d = (rp.simulated[s_][:n] - rp.measured[s_][:n]) / sig[s_]
+                parts.append(np.where(np.isfinite(d), d, 0.0))
+            return np.concatenate(parts) if parts else np.zeros(0)
+
+        r0 = weighted(e)
+        vis = []
+        for k in keys:
+            lo, hi, step = _initial_bounds(model, k)
+            v1 = assumed[k] + step if assumed[k] + step <= hi else assumed[k] - step
+            col = weighted(with_initial(e, {k: v1})) - r0
+            ok = float(col @ col) >= visible
+            report.append({"experiment": e.name, "path": f"initial.{k}",
+                           "status": "identifiable" if ok else "not visible"})
+            if ok:
+                vis.append(k)
+        if not vis or r0.shape[0] <= len(vis):
+            out_exps.append(e)
+            continue
+        bounds = [_initial_bounds(model, k) for k in vis]
+        scale = np.array([b[1] - b[0] for b in bounds])
+        lo = np.array([b[0] for b in bounds]) / scale
+        hi = np.array([b[1] for b in bounds]) / scale
+
+        def fun(z):
+            vals = dict(zip(vis, z * scale))
+            return weighted(with_initial(e, vals))
+
+        # a piston held by static friction makes the misfit flat around the assumed state
+        # (a small change moves nothing): start from the best of a coarse grid over the
+        # bounds (5 levels per unknown, the assumed state included)
+        import itertools
+        z_as = np.clip(np.array([assumed[k] for k in vis]) / scale, lo, hi)
+        grid = [np.linspace(a, b, 5) for a, b in zip(lo, hi)]
+        starts = [z_as] + [np.array(z) for z in itertools.product(*grid)]
+        cost = [float(np.sum(fun(z) ** 2)) for z in starts]
+        z0 = starts[int(np.argmin(cost))]
+        sol = least_squares(fun, z0, bounds=(lo, hi), max_nfev=max_nfev, x_scale=1.0,
+                            diff_step=1e-3)
+        if float(sol.fun @ sol.fun) > cost[0]:
+            out_exps.append(e)     # no better than what the replay assumes
+            continue
+        J = sol.jac
+        n, k_ = sol.fun.shape[0], len(vis)
+        s2 = float(sol.fun @ sol.fun) / max(n - k_, 1)
+        try:
+            cov = np.linalg.inv(J.T @ J) * s2
+            se = np.sqrt(np.clip(np.diag(cov), 0, None)) * scale
+        except np.linalg.LinAlgError:
+            se = np.full(k_, np.inf)
+        keep = {}
+        for i, k in enumerate(vis):
+            after = float(sol.x[i] * scale[i])
+            d = abs(after - assumed[k])
+            if d > 3.0 * se[i] and d > 0.02 * scale[i]:
+                keep[k] = after
+                found.append({"experiment": e.name, "path": f"initial.{k}",
+                              "label": f"initial {'position' if k == 'x0' else 'pressure ' + k[-1].upper()}"
+                                       f" of {e.name}",
+                              "before": float(assumed[k]), "after": after, "stderr": float(se[i]),
+                              "unit": INITIAL_UNITS[k]})
+        out_exps.append(with_initial(e, keep) if keep else e)
+    return out_exps, found, report

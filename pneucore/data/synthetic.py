@@ -166,8 +166,12 @@ def diagnostic_scenarios(model):
 
 
 def synthetic_experiments(true_model, signals=("p_a", "p_b", "x"), noise=None, bits=12, seed=0,
-                          which=None, noise_corr_time=0.0):
+                          which=None, noise_corr_time=0.0, initial=None):
     """Synthetic experiments (JSON-ready dicts) of the diagnostic scenarios on ``true_model``.
+
+    ``initial`` (``{"p_a", "p_b"}`` [Pa abs]) is the true initial chamber state of every
+    test; the experiments do not declare it (the engineer does not know the rig was left
+    pressurised).
 
     Returns
     -------
@@ -182,6 +186,8 @@ def synthetic_experiments(true_model, signals=("p_a", "p_b", "x"), noise=None, b
         sigs = tuple(s for s in signals if not (scen["locked"] and s in ("x", "v")))
         if not sigs:     # e.g. a position-only record of a locked test: nothing recorded
             continue
+        if initial:
+            scen = dict(scen, initial=dict(initial))
         meas = synthesize(true_model, scen, sigs, noise, bits, seed + k, name, noise_corr_time)
         out.append({"name": name, "scenario": {"locked": scen["locked"], "x0": scen["x0"]},
                     "measurement": meas})
@@ -271,7 +277,8 @@ class RigCase:
 
 
 def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
-             signals=("p_a", "p_b", "x"), noise_corr_time=0.0, base_errors=None, scale=1.0):
+             signals=("p_a", "p_b", "x"), noise_corr_time=0.0, base_errors=None, scale=1.0,
+             base_values=None, initial=None):
     """Draw one rig case: every base parameter of :data:`RIG_BASE_ERRORS` somewhat off.
 
     Parameters
@@ -296,6 +303,12 @@ def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
         ``{path: relative error}`` instead of random draws
     scale : float
         Multiplies every drawn relative error (0 = the catalogue is right)
+    base_values : dict or None
+        ``{path: true value}`` (SI) set on the truth after the relative errors, for
+        parameters the catalogue has at 0 (a load the engineer did not declare)
+    initial : dict or None
+        True initial chamber pressures ``{"p_a", "p_b"}`` [Pa abs], not declared in the
+        experiments (a rig left pressurised)
 
     Returns
     -------
@@ -318,12 +331,15 @@ def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
         v1 = v0 * (1.0 + e)
         vals[path] = 1.0 + e if path.startswith("valve.") else v1
         misset[path] = (v0, v1)
+    for path, v1 in (base_values or {}).items():
+        misset[path] = (get_value(start_m, path), float(v1))
+        vals[path] = float(v1)
     truth_m = set_values(start_m, vals)
     for n in effects:
         truth_m.effects[n] = dict(RIG_EFFECTS[n])
     truth = truth_m.to_dict()
     exps = synthetic_experiments(truth_m, signals=signals, seed=seed + 100,
-                                 noise_corr_time=noise_corr_time)
+                                 noise_corr_time=noise_corr_time, initial=initial)
     if outside is not None:
         sig, gain, offset = RIG_TRANSDUCER_ERRORS[outside]
         amb = start_m.ambient.pressure if sig.startswith("p") else 0.0
@@ -346,6 +362,11 @@ RIG_CASES = [
     ("base/coloured-noise", dict(seed=5, noise_corr_time=0.02)),
     ("base/pressures-only", dict(seed=6, signals=("p_a", "p_b"))),
     ("base/position-only", dict(seed=7, signals=("x",))),
+    # one base parameter off, the rest right: the right group must be reported
+    ("base/exhaust-conductance", dict(seed=8, base_errors={"valve.ports.*-R.C": -0.3})),
+    ("base/load", dict(seed=9, base_errors={}, base_values={"jack.load_force": 40.0})),
+    ("base/pressurised-start", dict(seed=10, base_errors={}, signals=("x",),
+                                    initial={"p_a": 2.5e5, "p_b": 4.5e5})),
     ("effect/piston_leakage", dict(seed=11, effects=("piston_leakage",))),
     ("effect/dead_volume", dict(seed=12, effects=("dead_volume",))),
     ("effect/valve_spool_dynamics", dict(seed=13, effects=("valve_spool_dynamics",))),

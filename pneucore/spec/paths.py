@@ -7,10 +7,14 @@ Paths name numeric fields of :class:`pneucore.spec.model.Model`:
   ``friction.extend.fc0`` ... ``friction.retract.kv_b``, ``gas.r``, ``gas.gamma``;
 * ``effects.<name>.<parameter>`` for a catalog effect (added with its defaults if absent);
 * ``valve.ports.<edge>.C`` and ``valve.ports.<edge>.b``: a *scale factor* on the
-  whole table (1 = as given); ``valve.ports.*.C`` scales every edge together.
+  whole table (1 = as given); ``valve.ports.*.C`` scales every edge together, and an
+  edge group is named by a pattern on the edge names (``fnmatch``): ``valve.ports.P-*.C``
+  scales the supply edges (P-A, P-B), ``valve.ports.*-R.C`` the exhaust edges (A-R, B-R)
+  (:data:`VALVE_GROUPS`).
 """
 from __future__ import annotations
 
+import fnmatch
 from dataclasses import dataclass
 
 from pneucore.spec.effects import EFFECTS
@@ -18,6 +22,16 @@ from pneucore.physics.heat import HEAT_PARAMETERS
 from pneucore.spec.validation import FieldError, number
 
 _SECTIONS = {"jack", "supply", "ambient", "heat", "friction", "gas"}
+
+#: Named edge groups of a valve (patterns on the edge names of
+#: :data:`pneucore.spec.model.VALVE_KINDS`): the edges from the supply P, and the edges to
+#: the exhaust R
+VALVE_GROUPS = {"supply": "P-*", "exhaust": "*-R"}
+
+
+def valve_edges(model, pattern):
+    """Edges of ``model``'s valve matched by ``pattern`` (an edge name, ``*`` or a glob)."""
+    return [e for e in model.valve.ports if e == pattern or fnmatch.fnmatchcase(e, pattern)]
 
 
 @dataclass
@@ -119,8 +133,10 @@ def _check_valve_path(model, path):
     parts = path.split(".")
     if len(parts) != 4 or parts[1] != "ports" or parts[3] not in ("C", "b"):
         raise FieldError(f"parameters.{path}", "valve paths are valve.ports.<edge>.C or .b (scale factors)")
-    if parts[2] != "*" and parts[2] not in model.valve.ports:
-        raise FieldError(f"parameters.{path}", f"unknown edge; this valve has {sorted(model.valve.ports)}")
+    if not valve_edges(model, parts[2]):
+        raise FieldError(f"parameters.{path}", f"no edge of this valve matches {parts[2]!r}; it has "
+                                               f"{sorted(model.valve.ports)} (or a group such as "
+                                               f"{', '.join(VALVE_GROUPS.values())})")
 
 
 def set_values(model, values, copy=True):
@@ -132,8 +148,7 @@ def set_values(model, values, copy=True):
     for path, v in values.items():
         parts = path.split(".")
         if parts[0] == "valve":
-            edges = list(m.valve.ports) if parts[2] == "*" else [parts[2]]
-            for e in edges:
+            for e in valve_edges(m, parts[2]):
                 port = m.valve.ports[e]
                 if parts[3] == "C":
                     port.C = [c * v for c in port.C]
