@@ -25,7 +25,7 @@ from pneucore.analysis.calibration_options import calibration_options
 from pneucore.analysis.compare import check_heat_models, compare, errors as model_errors, with_heat_model
 from pneucore.analysis.diagnose import check_request, diagnose
 from pneucore.analysis.heat_compare import check_names, compare_heat_models, simulate_heat_models
-from pneucore.core.integrator import ERR_MAX_STEPS, integrate
+from pneucore.core.integrator import ERR_MAX_STEPS, integrate  # noqa: F401 (read by the simulate router)
 from pneucore.data.fileformats import inspect_file, read_measurement
 from pneucore.data.measurement import DEFAULT_AMBIENT_PRESSURE, Measurement, MeasurementError
 from pneucore.physics.heat import HEAT_MODELS
@@ -46,7 +46,7 @@ from .deps import parse_experiments, parse_model, parse_scenario
 from .schemas import (FRICTION_DEFAULT_VELOCITIES, CalibrateRequest, CompareRequest, DiagnoseRequest,
                       ExperimentIn, RefineRequest)
 
-# Besides the services, the routers read three of the names imported above: ``integrate``
+# Besides the services, the routers read four of the names imported above: ``integrate``
 # and ``EFFECTS``, the facts the simulate router's choice between the event loop and a worker
 # thread rests on (is the core compiled in this process; does an effect bring compiled
 # terms, so a core of its own), ``simulate``, which that router hands to :func:`simulation`,
@@ -54,7 +54,7 @@ from .schemas import (FRICTION_DEFAULT_VELOCITIES, CalibrateRequest, CompareRequ
 
 
 class QueueFull(Exception):
-    """The job queue is full: the work is refused now (429), nothing was started."""
+    """The job queue is full: the work is refused now (429); no job was started."""
 
 
 class PastBudget(Exception):
@@ -721,7 +721,7 @@ def queue_new_study(req, app_state, limits):
     return {"id": sid, "job_id": job.id, "n_runs": study.n_runs, "status": "queued"}
 
 
-def studies(db_path):
+def list_stored_studies(db_path):
     """Every stored study (id, name, created, status, runs)."""
     return list_studies(db_path)
 

@@ -12,7 +12,7 @@ from ..bodies import OffLoopRoute
 from ..deps import JobsDep, LimitsDep, not_found
 from ..responses import JSON
 from ..schemas import ClusterInfo, StudyRequest, StudyResultsResponse, StudyStarted, StudyStatus
-from ..services import (QueueFull, discard_study, queue_new_study, start_study, studies,
+from ..services import (QueueFull, discard_study, list_stored_studies, queue_new_study, start_study,
                         study_clusters, study_exists, study_progress, study_runs_csv, study_summary)
 
 router = APIRouter(prefix="/api/studies", tags=["studies"], route_class=OffLoopRoute)
@@ -40,7 +40,7 @@ def get_clusters(request: Request, limits: LimitsDep):
 
 @router.get("", summary="List stored studies", response_model=list[StudyStatus], response_model_exclude_unset=True)
 def get_studies(request: Request):
-    return studies(_db(request))
+    return list_stored_studies(_db(request))
 
 
 @router.get("/{study_id}", summary="Study progress: runs stored, failed, fraction, the job's state",
