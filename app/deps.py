@@ -1,4 +1,7 @@
-"""Shared services for the routers (``Annotated[..., Depends()]``) and input helpers."""
+"""The routers' dependencies (``Annotated[..., Depends()]``: the store, the jobs, the limits)
+and the request parsing :mod:`app.services` builds on: pydantic input -> validated pneucore
+objects (model, scenario, experiments) within the API's limits, a FieldError's path placed
+under the request's field."""
 from __future__ import annotations
 
 from typing import Annotated

@@ -1,22 +1,68 @@
-"""What the routers share: a simulation result as the API's JSON, a request's time limit, and
-the analyses (compare, calibrate, diagnose) checked up front and run, for the synchronous
-endpoints, the jobs and the reports alike.
+"""The services: the one place in ``app/`` that calls pneucore's simulation and analysis.
 
-Routers import what they share from here, never from one another.
+The routers (``app/routers/``) parse a request (the pydantic schemas of :mod:`app.schemas`),
+call a function of this module and shape the HTTP answer (JSON or CSV, status codes); they
+import nothing from pneucore and nothing from one another (tests/test_layering.py). What
+is here turns a request into pneucore's objects (through :mod:`app.deps`: the model, the
+scenario and the experiments validated once, within the API's limits), runs the work and
+returns plain data. Errors are pneucore's own (a :class:`~pneucore.spec.validation.FieldError`
+is a 422 naming the field, see :mod:`app.main`) or those of this module,
+:class:`QueueFull` (429) and :class:`PastBudget` (the event loop's step budget ran out).
+
+One module, in sections by resource (simulation, analyses, heat models, reports, the
+model catalog, datasets, sessions, studies): the analyses are shared by the synchronous
+endpoints, the jobs and the reports.
 """
 from __future__ import annotations
 
+import json
 import time
 
+import numpy as np
+
 from pneucore.analysis.calibrate import calibrate
-from pneucore.analysis.compare import check_heat_models, compare
+from pneucore.analysis.calibration_options import calibration_options
+from pneucore.analysis.compare import check_heat_models, compare, errors as model_errors, with_heat_model
 from pneucore.analysis.diagnose import check_request, diagnose
+from pneucore.analysis.heat_compare import check_names, compare_heat_models, simulate_heat_models
+from pneucore.core.integrator import ERR_MAX_STEPS, integrate  # noqa: F401 (read by the simulate router)
+from pneucore.data.fileformats import inspect_file, read_measurement
+from pneucore.data.measurement import DEFAULT_AMBIENT_PRESSURE, Measurement, MeasurementError
+from pneucore.physics.heat import HEAT_MODELS
+from pneucore.progress import Cancelled
+from pneucore.simulate import SimulationError, simulate
+from pneucore.spec.effects import EFFECTS
+from pneucore.spec.model import Model
 from pneucore.spec.paths import parse_parameters
-from pneucore.spec.validation import FieldError
+from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
+from pneucore.spec.scenario import Scenario
+from pneucore.spec.units import unit_systems
+from pneucore.spec.validation import FieldError, choice, finite_json, mapping, number
+from pneucore.study import (Study, check_run_options, delete_study, list_studies, queue_study,
+                            requeue_study, run_study, runs_csv, study_results, study_status)
 
-from .deps import parse_experiments, parse_model
-from .schemas import CalibrateRequest, CompareRequest, DiagnoseRequest, RefineRequest
+from .config import STUDY_CLUSTERS
+from .deps import parse_experiments, parse_model, parse_scenario
+from .schemas import (FRICTION_DEFAULT_VELOCITIES, CalibrateRequest, CompareRequest, DiagnoseRequest,
+                      ExperimentIn, RefineRequest)
 
+# Besides the services, the routers read four of the names imported above: ``integrate``
+# and ``EFFECTS``, the facts the simulate router's choice between the event loop and a worker
+# thread rests on (is the core compiled in this process; does an effect bring compiled
+# terms, so a core of its own), ``simulate``, which that router hands to :func:`simulation`,
+# and ``DEFAULT_AMBIENT_PRESSURE``, which the upload form documents.
+
+
+class QueueFull(Exception):
+    """The job queue is full: the work is refused now (429); no job was started."""
+
+
+class PastBudget(Exception):
+    """A run stopped at the step budget it was given below the request's own (the event
+    loop's): it is to be run again, from the start, with the request's whole budget."""
+
+
+# ------------------------------------------------------------------------------ simulation
 #: Series returned by default (everything the page plots)
 DEFAULT_SERIES = ("t", "u", "p_a", "p_b", "T_a", "T_b", "m_a", "m_b", "x", "v", "a", "q_a", "q_b",
                   "friction", "mode", "u_eff", "p_supply", "q_supply", "net_force")
@@ -43,6 +89,62 @@ def result_json(res, series):
     return res.to_dict(series=names, arrays=True, inputs=False)
 
 
+def simulation(req, limits, max_steps=None, run=simulate):
+    """POST /api/simulate: the request checked, simulated, and the result as the API's JSON.
+
+    Parameters
+    ----------
+    req : app.schemas.SimulateRequest
+        The request (model, scenario, series)
+    limits : app.config.Limits
+        The API's limits (duration, samples, breakpoints, solver steps)
+    max_steps : int or None
+        A step budget [-] below the request's own (the event loop's), or None for the
+        request's budget; a run that exhausts it where the request allows more raises
+        :class:`PastBudget` (and is to be run again without it)
+    run : callable
+        The simulation, ``run(model, scenario)`` (:func:`pneucore.simulate.simulate`; the
+        simulate router hands over the one it names, so where each run happens can be watched)
+
+    Returns
+    -------
+    out : dict
+        The body of the answer (:func:`result_json`)
+    """
+    model = parse_model(req.model)
+    scen = parse_scenario(req.scenario, model, limits)
+    budget = scen.solver.max_steps
+    if max_steps is not None:
+        scen.solver.max_steps = min(budget, max_steps)
+    try:
+        res = run(model, scen)
+    except SimulationError as exc:
+        if max_steps is not None and budget > max_steps and exc.result is not None \
+                and exc.result.status == ERR_MAX_STEPS:
+            raise PastBudget from None
+        raise
+    return result_json(res, req.series)
+
+
+def simulation_csv(out):
+    """The CSV text of a simulation's answer (:func:`simulation`'s ``out``)."""
+    from pneucore.data.export import simulation_csv as as_csv
+    return as_csv(out)
+
+
+def simulate_under_heat_models(req, limits):
+    """POST /api/simulate/heat-models: one scenario under each requested heat model.
+
+    Returns ``{"runs": {heat model: result JSON}}``; an unknown heat model is a FieldError
+    on ``heat_models``, found before any run.
+    """
+    model = parse_model(req.model)
+    scen = parse_scenario(req.scenario, model, limits)
+    return {"runs": {name: result_json(simulate(with_heat_model(model, name), scen), req.series)
+                     for name in check_heat_models(req.heat_models)}}
+
+
+# ------------------------------------------------------------------------------ analyses
 def deadline_progress(limits, what, job_path):
     """Progress callback that stops a synchronous analysis past the request time limit.
 
@@ -137,6 +239,122 @@ def run_refine(req: RefineRequest, store, limits, progress=None, checked=None):
             "diagnoses": [d.to_dict() for d in diagnoses],
             "message": last.message if last is not None else "",
             "at_floor": bool(last is not None and last.remaining.get("at_floor"))}
+
+
+def compare_csv(req: CompareRequest, store, limits, progress=None):
+    """POST /api/compare answered as CSV: the comparison's series and errors as text."""
+    from pneucore.data.export import comparison_csv
+    model, exps = check_compare(req, store, limits)
+    return comparison_csv(compare(model, exps, progress=progress))
+
+
+def calibration_parameters(req):
+    """POST /api/calibrate/parameters: what can be fitted on the request's model, with value,
+    unit and default bounds (:func:`pneucore.analysis.calibration_options.calibration_options`)."""
+    return calibration_options(parse_model(req.model))
+
+
+# ------------------------------------------------------------------------------ reports
+def _provenance(store, exps):
+    return [{"dataset_id": e.dataset_id, **(store.dataset_info(e.dataset_id) or {})}
+            for e in exps if e.dataset_id]
+
+
+def comparison_report(req: CompareRequest, store, limits, progress=None):
+    """POST /api/reports/compare: the comparison as one self-contained HTML text."""
+    from pneucore.analysis.report import comparison_report as html_report
+    model, exps = check_compare(req, store, limits)
+    c = compare(model, exps, progress=progress)
+    return html_report(model, c, _provenance(store, exps))
+
+
+def diagnosis_report(req: DiagnoseRequest, store, limits, progress=None):
+    """POST /api/reports/diagnose: the diagnosis (with the comparisons of the model and of the
+    verdict's refined model) as one self-contained HTML text; ``progress`` follows the
+    diagnosis."""
+    from pneucore.analysis.report import diagnosis_report as html_report
+    model, exps = check_diagnose(req, store, limits)
+    d = diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
+                 progress=progress, validated=True).to_dict()   # checked above
+    c = compare(model, exps)
+    refined = None
+    best = next((r for r in d.get("ranking", []) if r.get("effect") == d.get("verdict")), None)
+    if best is not None and best.get("model"):
+        refined = compare(Model.from_dict(best["model"]), exps)
+    return html_report(model, d, c, _provenance(store, exps), refined)
+
+
+# ------------------------------------------------------------------------------ heat models
+#: Series returned per run when the request names none (what the page overlays)
+HEAT_SERIES = ("t", "u", "p_a", "p_b", "T_a", "T_b", "heat_a", "heat_b", "x")
+
+
+def heat_model_catalog():
+    """GET /api/heat-models: every heat model with its parameters (name, unit, default, bounds)."""
+    return [m.to_dict() for m in HEAT_MODELS.values()]
+
+
+def simulate_every_heat_model(req, limits):
+    """POST /api/heat-models/simulate: one scenario under each requested heat model (all by
+    default); the series default to those of :data:`HEAT_SERIES` every run has."""
+    model = parse_model(req.model)
+    scen = parse_scenario(req.scenario, model, limits)
+    check_names(req.heat_models)
+    runs = simulate_heat_models(model, scen, req.heat_models)
+    series = req.series if req.series is not None else [
+        s for s in HEAT_SERIES if all(s in r.series for r in runs.values())]
+    return {"runs": {name: result_json(res, series) for name, res in runs.items()}}
+
+
+def check_heat_compare(req, store, limits):
+    """Everything a heat-model comparison can get wrong, checked before any work."""
+    model = parse_model(req.model)
+    check_names(req.heat_models)
+    return model, parse_experiments(req.experiments, model, store, limits)
+
+
+def run_heat_compare(req, store, limits, progress=None, checked=None):
+    """POST /api/heat-models/compare: each heat model calibrated on the measurement, the
+    errors per model and the measured series; ``checked`` as for :func:`run_compare` (from
+    :func:`check_heat_compare`)."""
+    model, exps = checked or check_heat_compare(req, store, limits)
+    rows = compare_heat_models(model, exps, req.heat_models, sensor=req.sensor,
+                               max_nfev=min(max(req.max_nfev, 1), 200), progress=progress)
+    meas = exps[0].measurement
+    measured = {"t": np.ascontiguousarray(meas.t - meas.t[0], float),
+                **{s: np.ascontiguousarray(meas.signals[s], float) for s in exps[0].signals}}
+    return {"models": rows, "measured": measured, "experiment": exps[0].name}
+
+
+# ------------------------------------------------------------------------------ model catalog
+def effect_catalog():
+    """GET /api/effects: the switchable effects with parameters, units, bounds, descriptions."""
+    return [e.to_dict() for e in EFFECTS.values()]
+
+
+def preset_list():
+    """GET /api/presets: the model and scenario presets, by name with their descriptions."""
+    return {"models": [{"name": k, "description": v.get("description", "")}
+                       for k, v in MODEL_PRESETS.items()],
+            "scenarios": [{"name": k, "description": v.get("description", "")}
+                          for k, v in SCENARIO_PRESETS.items()]}
+
+
+def preset(name):
+    """A preset's JSON (a model or a scenario, SI units), or None for an unknown name."""
+    if name in MODEL_PRESETS:
+        return model_preset(name)
+    if name in SCENARIO_PRESETS:
+        return scenario_preset(name)
+    return None
+
+
+def friction_map(req):
+    """POST /api/friction/preview: :func:`friction_preview` of the request's model, at its
+    pressure pairs and velocities (the schema's default velocities when it gives none)."""
+    model = parse_model(req.model)
+    velocities = req.velocities if req.velocities is not None else FRICTION_DEFAULT_VELOCITIES
+    return friction_preview(model, [(p.p_a, p.p_b) for p in req.pressures], velocities)
 
 
 def friction_preview(model, pressures, velocities):
@@ -243,3 +461,304 @@ def parameter_units():
     for key in ("C", "b"):
         out[f"valve.ports.*.{key}"] = unit_of(f"valve.ports.*.{key}")
     return out
+
+
+def display_units():
+    """The page's display unit systems and the SI unit of every model parameter path.
+
+    Returns
+    -------
+    units : dict
+        ``systems`` (:func:`pneucore.spec.units.unit_systems`) and ``parameters``
+        (:func:`parameter_units`)
+    """
+    return {"systems": unit_systems(), "parameters": parameter_units()}
+
+
+# ------------------------------------------------------------------------------ datasets
+def _ambient(fields) -> float:
+    raw = fields.get("ambient_pressure")
+    if raw in (None, ""):
+        return DEFAULT_AMBIENT_PRESSURE
+    try:
+        p = float(raw)
+    except (TypeError, ValueError):
+        raise FieldError("ambient_pressure", f"must be a number in Pa, got {raw!r}") from None
+    if not (p > 0 and p < float("inf")):
+        raise FieldError("ambient_pressure", f"must be a positive absolute pressure in Pa, got {raw!r}")
+    return p
+
+
+def _columns(fields):
+    raw = fields.get("columns")
+    if raw in (None, ""):
+        return None
+    try:
+        columns = json.loads(raw)
+    except json.JSONDecodeError as exc:
+        raise FieldError("columns", f"is not valid JSON ({exc})") from None
+    if not isinstance(columns, dict):
+        raise FieldError("columns", 'must be a JSON object such as {"Zeit": "t"}')
+    return columns
+
+
+def _context(fields):
+    """The scenario context of an upload (``scenario`` JSON text, ``locked``, ``x0``), validated."""
+    scen = {}
+    if fields.get("scenario"):
+        try:
+            scen = json.loads(fields["scenario"])
+        except (json.JSONDecodeError, RecursionError) as exc:
+            raise FieldError("scenario", f"is not valid JSON ({exc})") from None
+        if not isinstance(scen, dict):
+            raise FieldError("scenario", "must be a JSON object")
+    if fields.get("locked") not in (None, ""):
+        scen["locked"] = str(fields["locked"]).lower() in ("1", "true", "yes", "on")
+    if fields.get("x0") not in (None, ""):
+        try:
+            scen["x0"] = number(float(fields["x0"]), "x0", nonnegative=True)
+        except ValueError as exc:
+            if isinstance(exc, FieldError):
+                raise
+            raise FieldError("x0", f"must be a number, got {fields['x0']!r}") from None
+    return check_context(scen)
+
+
+def check_context(scen):
+    """Validate a stored scenario context before anything is committed.
+
+    Every given field is checked as a scenario field (types, finiteness, bounds,
+    no unknown keys), so a stored dataset can always be read back and analysed;
+    fields left out take their defaults when used (the command and duration the
+    measurement's). Checks that need a model (``x0`` within the stroke, the
+    command within the valve's range) come when the dataset is used.
+    """
+    mapping(scen, "scenario")
+    Scenario.from_dict(dict(scen), None)
+    return scen
+
+
+def store_upload(store, data, filename, fields, name, description=""):
+    """Read (CSV, TDMS or .mat), validate and store an uploaded file (the slow part: the
+    router runs it in a worker thread).
+
+    Parameters
+    ----------
+    store : app.store.Store
+        Where the dataset goes
+    data : bytes
+        The file's content
+    filename : str or None
+        Its name (the format is told from the extension and the content)
+    fields : dict
+        The form's (or query's) other fields: ``ambient_pressure`` [Pa], ``columns`` (JSON
+        text), ``scenario`` (JSON text), ``locked``, ``x0`` [m]
+    name, description : str
+        Labels
+
+    Returns
+    -------
+    info : dict
+        The stored dataset's metadata and ``import`` (how the file was read)
+    """
+    meas = read_measurement(data, filename, ambient_pressure=_ambient(fields), name=name,
+                            columns=_columns(fields))
+    scen = _context(fields)
+    info = store.add_dataset(meas, scen, name=name, description=description)
+    return {**info, "import": meas.meta.get("import")}
+
+
+def store_json(store, payload):
+    """Validate and store a measurement given as JSON (:class:`app.schemas.DatasetJsonIn`);
+    returns the stored dataset's metadata as :func:`store_upload` does."""
+    try:
+        meas = Measurement.from_dict(payload.measurement.model_dump(exclude_none=True),
+                                     ambient_pressure=payload.ambient_pressure or DEFAULT_AMBIENT_PRESSURE)
+    except MeasurementError as exc:
+        raise FieldError("measurement", str(exc)) from None
+    scen = check_context(payload.scenario)
+    info = store.add_dataset(meas, scen, name=payload.name or meas.name,
+                             description=payload.description)
+    return {**info, "import": meas.meta.get("import")}
+
+
+def inspect_rig_file(data, filename):
+    """POST /api/datasets/inspect: a rig file's dialect, columns, units and a proposed mapping
+    (:func:`pneucore.data.fileformats.inspect_file`), nothing stored."""
+    return inspect_file(data, filename)
+
+
+# ------------------------------------------------------------------------------ sessions
+def _session_errors(model, experiments, store, limits):
+    """``(errors, overall)`` of ``model`` on the experiments; None without experiments."""
+    if not experiments:
+        return None
+    return model_errors(model, parse_experiments(experiments, model, store, limits))
+
+
+def new_session(req, store, limits):
+    """Start a refinement session (version 0 = the request's model, with its errors on the
+    experiments); returns the session's id."""
+    model = parse_model(req.model)
+    comparison = _session_errors(model, req.experiments, store, limits)
+    exps = finite_json([e.model_dump(exclude_none=True) for e in req.experiments], "experiments")
+    return store.create_session(req.name, exps, model, comparison)
+
+
+def add_session_version(session_id, req, store, limits):
+    """Add a model version to a session, its errors recomputed on the session's experiments;
+    returns the session with every version, or None for an unknown session."""
+    s = store.session(session_id)
+    if s is None:
+        return None
+    model = parse_model(req.model)
+    if req.added is not None:
+        choice(req.added, EFFECTS, "added")
+    params = finite_json(req.params, "params")
+    try:
+        exps = [ExperimentIn(**e) for e in s["experiments"]]
+    except (TypeError, ValueError):
+        raise FieldError("session", f"session {session_id!r} has unreadable experiments; "
+                                    f"start a new session") from None
+    store.add_version(session_id, model, _session_errors(model, exps, store, limits), req.added,
+                      params, req.note)
+    return store.session(session_id)
+
+
+# ------------------------------------------------------------------------------ studies
+def configured_clusters(settings):
+    """The cluster names a request may give, those of :data:`STUDY_CLUSTERS` configured here."""
+    return [c for c in STUDY_CLUSTERS if c == "local" or (c == "dask" and settings.dask_scheduler)]
+
+
+def study_clusters(settings, limits):
+    """GET /api/studies/clusters: where studies can run, by the names a request may give."""
+    out = [{"name": "local", "kind": "local process pool", "max_workers": limits.max_workers,
+            "default": settings.dask_scheduler is None}]
+    if settings.dask_scheduler:
+        out.append({"name": "dask", "kind": "dask.distributed cluster configured on the server",
+                    "default": True})
+    return out
+
+
+def cluster_address(settings, name=None):
+    """The engine of cluster ``name`` for ``run_study``: ``"local"`` or the configured address.
+
+    ``name`` None = the Dask cluster when one is configured, else the local pool. Any other
+    name, an address above all, is refused (field ``scheduler``): the address comes from the
+    server's configuration only, so no request makes the service connect anywhere.
+    """
+    names = configured_clusters(settings)
+    if name is None:
+        name = "dask" if "dask" in names else "local"
+    if name not in names:
+        shown = name if len(name) <= 64 else name[:61] + "..."
+        raise FieldError("scheduler", f"unknown cluster {shown!r}: give one of {names} (a Dask "
+                                      f"scheduler address is set on the server with "
+                                      f"$PNEUCORE_DASK_SCHEDULER or --scheduler, never in a request)")
+    return "local" if name == "local" else settings.dask_scheduler
+
+
+def start_study(app_state, db_path, sid, scheduler=None, workers=None, time_limit=None):
+    """Queue ``run_study`` for a stored study as a job (POST, resume, start-up recovery).
+
+    ``scheduler`` is a cluster *name* (see :func:`cluster_address`; None = the default).
+    A study deleted while it runs is stopped within a second and its runs removed; the
+    time limit holds whether or not batches finish. Raises :class:`QueueFull` when the
+    job queue is full.
+    """
+    cancelled = app_state.cancelled_studies
+    settings = app_state.settings
+    address = cluster_address(settings, scheduler)
+    limits = settings.limits
+
+    def run(job):
+        def progress(fraction, step):
+            if sid in cancelled:
+                raise Cancelled(f"study {sid} was deleted")
+            job.report(fraction, step)
+        try:
+            return run_study(None, store_path=db_path, scheduler=address, workers=workers,
+                             progress=progress, study_id=sid, time_limit=time_limit or limits.study_time_limit,
+                             scheduler_timeout=limits.scheduler_timeout)
+        finally:
+            if sid in cancelled:
+                delete_study(db_path, sid)
+            elif app_state.jobs.stopping:
+                # stopped by a shutdown: queued again, so the next start resumes it
+                requeue_study(db_path, sid)
+    try:
+        job = app_state.jobs.submit("study", run, time_limit=time_limit)
+    except RuntimeError as exc:   # JobManager.submit: the queue is full
+        raise QueueFull(str(exc)) from None
+    job.study_id = sid
+    return job
+
+
+def queue_new_study(req, app_state, limits):
+    """POST /api/studies: check the study (model, scenario, parameters, runs, cluster,
+    workers), store it and queue it as a job; returns ``{id, job_id, n_runs, status}``.
+    Raises :class:`QueueFull` (before anything is stored) when the job queue is full."""
+    model = parse_model(req.model)
+    parse_scenario(req.scenario, model, limits)
+    # the validated Model itself: Study.from_dict takes it as it is (validated once, above)
+    d = {"model": model, "scenario": req.scenario.plain(), "parameters": req.parameters,
+         "samples": req.samples, "seed": req.seed, "metrics": req.metrics, "name": req.name}
+    study = Study.from_dict(d)
+    if study.n_runs > limits.max_study_runs:
+        raise FieldError("samples", f"{study.n_runs} runs exceed the API limit of {limits.max_study_runs}")
+    settings = app_state.settings
+    address = cluster_address(settings, req.scheduler)
+    if req.workers is not None and not (0 <= req.workers <= limits.max_workers):
+        raise FieldError("workers", f"must be a whole number in [0, {limits.max_workers}] (max_workers "
+                                    f"of GET /api/limits: the CPUs available), got {req.workers}")
+    check_run_options(workers=req.workers, scheduler=None if address == "local" else address)
+    if app_state.jobs.active() >= app_state.jobs.max_jobs:
+        raise QueueFull(f"too many jobs queued or running (limit {app_state.jobs.max_jobs})")
+    sid = queue_study(study, settings.db_path)   # the id exists in the store from now on
+    job = start_study(app_state, settings.db_path, sid, req.scheduler, req.workers,
+                      limits.study_time_limit)
+    return {"id": sid, "job_id": job.id, "n_runs": study.n_runs, "status": "queued"}
+
+
+def list_stored_studies(db_path):
+    """Every stored study (id, name, created, status, runs)."""
+    return list_studies(db_path)
+
+
+def study_exists(db_path, sid):
+    return any(s["id"] == sid for s in list_studies(db_path))
+
+
+def study_progress(db_path, sid):
+    """A study's progress (runs stored, failed, fraction), or None for an unknown study."""
+    try:
+        return study_status(db_path, sid)
+    except KeyError:
+        return None
+
+
+def study_summary(db_path, sid, include_runs=True):
+    """A study's distributions, percentiles, sensitivity ranking and (``include_runs``) raw
+    runs, or None for an unknown study."""
+    try:
+        return study_results(db_path, sid, include_runs=include_runs)
+    except KeyError:
+        return None
+
+
+def study_runs_csv(db_path, sid):
+    """The stored runs of a study as CSV text chunks (an iterator), or None for an unknown
+    study."""
+    try:
+        return runs_csv(db_path, sid)
+    except KeyError:
+        return None
+
+
+def discard_study(app_state, db_path, sid, running):
+    """Delete a study and its runs; ``running``: its job is queued or running, and is told to
+    stop (within a second; the job removes what it stored meanwhile)."""
+    if running:
+        app_state.cancelled_studies.add(sid)
+    delete_study(db_path, sid)

@@ -1,16 +1,12 @@
 """The layering rules the import graph must keep: no private name imported from another
-module, routers never import one another, pneucore never imports the web layer."""
+module, routers never import one another nor pneucore (they call app.services, the one place
+in app/ that calls the simulator), pneucore never imports the web layer."""
 import ast
 import os
 
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-#: Router imports still to be replaced: the job router runs the analysis router's check_* and
-#: run_* services (to move to app/services.py when analysis.py is free)
-PENDING_ROUTERS = {("app/routers/jobs.py", "analysis")}
-
 
 def _sources(package):
     for root, dirs, files in os.walk(os.path.join(ROOT, package)):
@@ -57,9 +53,33 @@ def test_routers_do_not_import_one_another():
     for rel, tree in _sources("app/routers"):
         for level, module, name, line in _imports(tree):
             target = module if module else name
-            if level == 1 and target in routers and (rel, target) not in PENDING_ROUTERS:
+            if level == 1 and target in routers:
                 bad.add(f"{rel}:{line} imports from the router {target}")
     assert not bad, "\n".join(sorted(bad))
+
+
+def _absolute_imports(tree):
+    """``(module, line)`` of every absolute import in ``tree`` (``import a.b``, ``from a.b import
+    c``, at any depth: inside a function too)."""
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            yield from ((a.name, node.lineno) for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0:
+            yield node.module or "", node.lineno
+
+
+def test_routers_do_not_import_pneucore():
+    # routers parse the request, call app.services and shape the answer (thin routers over services)
+    bad = [f"{rel}:{line} imports {module}" for rel, tree in _sources("app/routers")
+           for module, line in _absolute_imports(tree) if module.split(".")[0] == "pneucore"]
+    assert not bad, "\n".join(bad)
+
+
+def test_every_router_takes_its_work_from_the_services():
+    users = {rel for rel, tree in _sources("app/routers") for level, module, _, _ in _imports(tree)
+             if level == 2 and module == "services"}
+    routers = {rel for rel, _ in _sources("app/routers") if not rel.endswith("__init__.py")}
+    assert routers - users == set(), sorted(routers - users)
 
 
 def test_pneucore_does_not_import_the_web_layer():

@@ -1,14 +1,12 @@
 """POST /api/compare, /api/calibrate, /api/diagnose (synchronous; see /api/jobs for long work)."""
 from fastapi import APIRouter, Request
-from ..responses import JSON, CSV_RESPONSES, csv_response, wants_csv
-
-from pneucore.analysis.compare import compare
 
 from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, StoreDep
+from ..responses import JSON, CSV_RESPONSES, csv_response, wants_csv
 from ..schemas import (CalibrateRequest, CalibrateResponse, CompareRequest, CompareResponse,
                        DiagnoseRequest, DiagnoseResponse, RefineRequest, RefineResponse)
-from ..services import (check_compare, deadline_progress, run_calibrate, run_compare, run_diagnose,
+from ..services import (compare_csv, deadline_progress, run_calibrate, run_compare, run_diagnose,
                         run_refine)
 
 router = APIRouter(prefix="/api", tags=["analysis"], route_class=OffLoopRoute)
@@ -19,10 +17,7 @@ router = APIRouter(prefix="/api", tags=["analysis"], route_class=OffLoopRoute)
 def compare_endpoint(req: CompareRequest, store: StoreDep, limits: LimitsDep, request: Request):
     progress = deadline_progress(limits, "comparison", "/api/jobs/compare")
     if wants_csv(request):
-        from pneucore.data.export import comparison_csv
-        model, exps = check_compare(req, store, limits)
-        c = compare(model, exps, progress=progress)
-        return csv_response(comparison_csv(c), "comparison.csv")
+        return csv_response(compare_csv(req, store, limits, progress=progress), "comparison.csv")
     return JSON(run_compare(req, store, limits, progress=progress))
 
 

@@ -1,10 +1,8 @@
 """POST /api/calibrate/parameters: what can be fitted on a model, with the default bounds."""
 from fastapi import APIRouter
 
-from pneucore.analysis.calibration_options import calibration_options
-
-from ..deps import parse_model
 from ..schemas import CalibrationOption, CalibrationParametersRequest
+from ..services import calibration_parameters
 
 router = APIRouter(prefix="/api/calibrate", tags=["analysis"])
 
@@ -12,4 +10,4 @@ router = APIRouter(prefix="/api/calibrate", tags=["analysis"])
 @router.post("/parameters", response_model=list[CalibrationOption],
              summary="Parameters that can be fitted, with value, unit and default bounds")
 def parameters(req: CalibrationParametersRequest):
-    return calibration_options(parse_model(req.model))
+    return calibration_parameters(req)

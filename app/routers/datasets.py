@@ -4,21 +4,15 @@ Every stored field is validated before the one transaction that stores it;
 parsing and validation run in a worker thread, off the event loop. The shipped
 sample datasets are read-only (DELETE answers 403).
 """
-import json
-
 from fastapi import APIRouter, HTTPException, Request
 from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
-
-from pneucore.data.fileformats import read_measurement
-from pneucore.data.measurement import DEFAULT_AMBIENT_PRESSURE, Measurement, MeasurementError
-from pneucore.spec.scenario import Scenario
-from pneucore.spec.validation import FieldError, mapping, number
 
 from ..bodies import RAW_FILE_TYPES, OffLoopRoute, read_file_upload
 from ..deps import LimitsDep, StoreDep, not_found
 from ..responses import JSON
 from ..schemas import DatasetCreated, DatasetInfo, DatasetJsonIn, DatasetWithData
+from ..services import DEFAULT_AMBIENT_PRESSURE, store_json, store_upload
 from ..store import ReadOnly
 
 router = APIRouter(prefix="/api/datasets", tags=["datasets"], route_class=OffLoopRoute)
@@ -60,95 +54,6 @@ _UPLOAD_DOC = {
         "application/json": {"schema": _json_body_schema()}}}}
 
 
-def _ambient(fields) -> float:
-    raw = fields.get("ambient_pressure")
-    if raw in (None, ""):
-        return DEFAULT_AMBIENT_PRESSURE
-    try:
-        p = float(raw)
-    except (TypeError, ValueError):
-        raise FieldError("ambient_pressure", f"must be a number in Pa, got {raw!r}") from None
-    if not (p > 0 and p < float("inf")):
-        raise FieldError("ambient_pressure", f"must be a positive absolute pressure in Pa, got {raw!r}")
-    return p
-
-
-def _columns(fields):
-    raw = fields.get("columns")
-    if raw in (None, ""):
-        return None
-    try:
-        mapping = json.loads(raw)
-    except json.JSONDecodeError as exc:
-        raise FieldError("columns", f"is not valid JSON ({exc})") from None
-    if not isinstance(mapping, dict):
-        raise FieldError("columns", 'must be a JSON object such as {"Zeit": "t"}')
-    return mapping
-
-
-def _read(data, filename, fields, name):
-    meas = read_measurement(data, filename, ambient_pressure=_ambient(fields), name=name,
-                            columns=_columns(fields))
-    return meas
-
-
-def _context(fields):
-    """The scenario context of an upload (``scenario`` JSON text, ``locked``, ``x0``), validated."""
-    scen = {}
-    if fields.get("scenario"):
-        try:
-            scen = json.loads(fields["scenario"])
-        except (json.JSONDecodeError, RecursionError) as exc:
-            raise FieldError("scenario", f"is not valid JSON ({exc})") from None
-        if not isinstance(scen, dict):
-            raise FieldError("scenario", "must be a JSON object")
-    if fields.get("locked") not in (None, ""):
-        scen["locked"] = str(fields["locked"]).lower() in ("1", "true", "yes", "on")
-    if fields.get("x0") not in (None, ""):
-        try:
-            scen["x0"] = number(float(fields["x0"]), "x0", nonnegative=True)
-        except ValueError as exc:
-            if isinstance(exc, FieldError):
-                raise
-            raise FieldError("x0", f"must be a number, got {fields['x0']!r}") from None
-    return check_context(scen)
-
-
-def check_context(scen):
-    """Validate a stored scenario context before anything is committed.
-
-    Every given field is checked as a scenario field (types, finiteness, bounds,
-    no unknown keys), so a stored dataset can always be read back and analysed;
-    fields left out take their defaults when used (the command and duration the
-    measurement's). Checks that need a model (``x0`` within the stroke, the
-    command within the valve's range) come when the dataset is used.
-    """
-    mapping(scen, "scenario")
-    Scenario.from_dict(dict(scen), None)
-    return scen
-
-
-def _store_upload(store, data, filename, fields, name, description=""):
-    """Read (CSV, TDMS or .mat), validate and store an upload (in a worker thread: it is the
-    slow part); the answer carries how the file was read."""
-    meas = _read(data, filename, fields, name)
-    scen = _context(fields)
-    info = store.add_dataset(meas, scen, name=name, description=description)
-    return {**info, "import": meas.meta.get("import")}
-
-
-def _store_json(store, payload: DatasetJsonIn):
-    try:
-        meas = Measurement.from_dict(payload.measurement.model_dump(exclude_none=True),
-                                     ambient_pressure=payload.ambient_pressure or DEFAULT_AMBIENT_PRESSURE)
-    except MeasurementError as exc:
-        raise FieldError("measurement", str(exc)) from None
-    scen = check_context(payload.scenario)
-    info = store.add_dataset(meas, scen, name=payload.name or meas.name,
-                             description=payload.description)
-    return {**info, "import": meas.meta.get("import")}
-
-
 @router.post("", status_code=201, summary="Store a measurement (CSV, TDMS or .mat upload, or JSON)",
              openapi_extra=_UPLOAD_DOC, response_model=DatasetCreated, response_model_by_alias=True)
 async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
@@ -158,14 +63,14 @@ async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
         data, filename, fields, multipart = await read_file_upload(request, limits.max_upload_bytes)
         name = fields.get("name") or ((filename or "upload").rsplit(".", 1)[0] if multipart else None)
         description = fields.get("description", "") if multipart else ""
-        return await run_in_threadpool(_store_upload, store, data, filename, fields, name, description)
+        return await run_in_threadpool(store_upload, store, data, filename, fields, name, description)
     body = await request.body()
     try:
         payload = await run_in_threadpool(DatasetJsonIn.model_validate_json, body)
     except ValidationError as exc:
         from fastapi.exceptions import RequestValidationError
         raise RequestValidationError([{**e, "loc": ("body",) + tuple(e["loc"])} for e in exc.errors()])
-    return await run_in_threadpool(_store_json, store, payload)
+    return await run_in_threadpool(store_json, store, payload)
 
 
 @router.get("", summary="List stored datasets (metadata only)", response_model=list[DatasetInfo])

@@ -1,36 +1,23 @@
 """Refinement sessions: model versions with their errors, so work can be resumed.
 
 Every stored field is validated before the one transaction that stores it; the versions are
-numbered and labelled by :class:`pneucore.analysis.history.RefinementHistory` (through the store).
+numbered and labelled by :class:`pneucore.analysis.history.RefinementHistory` (through the store);
+the work is :func:`app.services.new_session` and :func:`app.services.add_session_version`.
 """
 from fastapi import APIRouter
 
-from pneucore.analysis.compare import errors as model_errors
-from pneucore.spec.effects import EFFECTS
-from pneucore.spec.validation import FieldError, choice, finite_json
-
 from ..bodies import OffLoopRoute
-from ..deps import LimitsDep, StoreDep, not_found, parse_experiments, parse_model
+from ..deps import LimitsDep, StoreDep, not_found
 from ..schemas import SessionCreate, SessionOut, SessionSummary, VersionCreate
+from ..services import add_session_version, new_session
 
 router = APIRouter(prefix="/api/sessions", tags=["sessions"], route_class=OffLoopRoute)
-
-
-def _errors(model, experiments, store, limits):
-    """``(errors, overall)`` of ``model`` on the experiments; None without experiments."""
-    if not experiments:
-        return None
-    return model_errors(model, parse_experiments(experiments, model, store, limits))
 
 
 @router.post("", status_code=201, summary="Start a refinement session (version 0 = the given model)",
              response_model=SessionOut)
 def create_session(req: SessionCreate, store: StoreDep, limits: LimitsDep):
-    model = parse_model(req.model)
-    comparison = _errors(model, req.experiments, store, limits)
-    exps = finite_json([e.model_dump(exclude_none=True) for e in req.experiments], "experiments")
-    sid = store.create_session(req.name, exps, model, comparison)
-    return store.session(sid)
+    return store.session(new_session(req, store, limits))
 
 
 @router.get("", summary="List sessions", response_model=list[SessionSummary])
@@ -50,22 +37,10 @@ def get_session(session_id: str, store: StoreDep):
              summary="Add a model version (errors recomputed on the session's experiments)",
              response_model=SessionOut)
 def add_version(session_id: str, req: VersionCreate, store: StoreDep, limits: LimitsDep):
-    s = store.session(session_id)
+    s = add_session_version(session_id, req, store, limits)
     if s is None:
         raise not_found("session", session_id)
-    model = parse_model(req.model)
-    if req.added is not None:
-        choice(req.added, EFFECTS, "added")
-    params = finite_json(req.params, "params")
-    from ..schemas import ExperimentIn
-    try:
-        exps = [ExperimentIn(**e) for e in s["experiments"]]
-    except (TypeError, ValueError):
-        raise FieldError("session", f"session {session_id!r} has unreadable experiments; "
-                                    f"start a new session") from None
-    store.add_version(session_id, model, _errors(model, exps, store, limits), req.added, params,
-                      req.note)
-    return store.session(session_id)
+    return s
 
 
 @router.delete("/{session_id}", status_code=204, summary="Delete a session")

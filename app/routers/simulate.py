@@ -1,5 +1,9 @@
 """POST /api/simulate and /api/simulate/heat-models.
 
+The work (the request checked, the run, the result as JSON) is
+:func:`app.services.simulation`'s; this router chooses where it runs and answers
+in JSON or CSV.
+
 A small simulation (the paper's cases: a few hundred solver steps, about a
 millisecond of work) asked while no other request is in progress is answered
 directly on the event loop: a hop through the thread pool and back costs more
@@ -24,18 +28,14 @@ one thread's share of the CPU):
 from fastapi import APIRouter, Request
 from starlette.concurrency import run_in_threadpool
 
-from ..responses import JSON, CSV_RESPONSES, csv_response, wants_csv
-
-from pneucore.analysis.compare import check_heat_models, with_heat_model
-from pneucore.spec.effects import EFFECTS
-from pneucore.core.integrator import ERR_MAX_STEPS, integrate
-from pneucore.simulate import SimulationError, simulate
-
 from ..bodies import OffLoopRoute
+from ..deps import LimitsDep
 from ..http_protocol import requests_in_progress
-from ..deps import LimitsDep, parse_model, parse_scenario
+from ..responses import JSON, CSV_RESPONSES, csv_response, wants_csv
 from ..schemas import HeatModelsRequest, HeatModelsResponse, SimulateRequest, SimulateResponse
-from ..services import result_json
+# integrate and EFFECTS: what the choice of the loop reads; simulate: the run handed to the service
+from ..services import (EFFECTS, PastBudget, integrate, simulate, simulate_under_heat_models,
+                        simulation, simulation_csv)
 
 router = APIRouter(prefix="/api/simulate", tags=["simulate"], route_class=OffLoopRoute)
 
@@ -47,10 +47,6 @@ LOOP_MAX_COMMAND_POINTS = 1_000
 #: ... solver steps, accepted and rejected [-]: 2-5 us each for the base core, so at most a few
 #: milliseconds on the loop (the paper's cases take 100-200 steps)
 LOOP_MAX_STEPS = 1_000
-
-
-class _PastLoopBudget(Exception):
-    """The run needs more than :data:`LOOP_MAX_STEPS`: it goes to a worker thread."""
 
 
 def _loop_candidate(req: SimulateRequest, request: Request = None) -> bool:
@@ -69,21 +65,8 @@ def _loop_candidate(req: SimulateRequest, request: Request = None) -> bool:
 
 
 def _answer(req: SimulateRequest, request: Request, limits, on_loop=False):
-    model = parse_model(req.model)
-    scen = parse_scenario(req.scenario, model, limits)
-    budget = scen.solver.max_steps
-    if on_loop:
-        scen.solver.max_steps = min(budget, LOOP_MAX_STEPS)
-    try:
-        res = simulate(model, scen)
-    except SimulationError as exc:
-        if on_loop and budget > LOOP_MAX_STEPS and exc.result is not None \
-                and exc.result.status == ERR_MAX_STEPS:
-            raise _PastLoopBudget from None
-        raise
-    out = result_json(res, req.series)
+    out = simulation(req, limits, LOOP_MAX_STEPS if on_loop else None, run=simulate)
     if wants_csv(request):
-        from pneucore.data.export import simulation_csv
         return csv_response(simulation_csv(out), "simulation.csv")
     return JSON(out)
 
@@ -97,7 +80,7 @@ async def simulate_endpoint(req: SimulateRequest, request: Request):
     if requests_in_progress() <= 1 and _loop_candidate(req, request):
         try:
             return _answer(req, request, limits, on_loop=True)
-        except _PastLoopBudget:
+        except PastBudget:
             pass
     return await run_in_threadpool(_answer, req, request, limits)
 
@@ -105,8 +88,4 @@ async def simulate_endpoint(req: SimulateRequest, request: Request):
 @router.post("/heat-models", summary="One scenario under several heat models (paper Fig. 8, 11)",
              response_class=JSON, response_model=HeatModelsResponse)
 def heat_models_endpoint(req: HeatModelsRequest, limits: LimitsDep):
-    model = parse_model(req.model)
-    scen = parse_scenario(req.scenario, model, limits)
-    out = {name: result_json(simulate(with_heat_model(model, name), scen), req.series)
-           for name in check_heat_models(req.heat_models)}
-    return JSON({"runs": out})
+    return JSON(simulate_under_heat_models(req, limits))

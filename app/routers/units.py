@@ -5,10 +5,8 @@ import re
 from fastapi import APIRouter
 from pydantic import BaseModel, Field
 
-from pneucore.spec.units import unit_systems
-
 from .. import schemas
-from ..services import parameter_units
+from ..services import display_units
 
 router = APIRouter(prefix="/api", tags=["meta"])
 
@@ -44,4 +42,5 @@ def units():
     _fields(schemas.ScenarioIn, "scenario", fields)
     fields["upload.x0"] = "m"
     fields["upload.ambient_pressure"] = "Pa"
-    return {"systems": unit_systems(), "fields": fields, "parameters": parameter_units()}
+    tables = display_units()
+    return {"systems": tables["systems"], "fields": fields, "parameters": tables["parameters"]}

@@ -2,11 +2,10 @@
 from fastapi import APIRouter, Request
 from starlette.concurrency import run_in_threadpool
 
-from pneucore.data.fileformats import inspect_file
-
+from ..bodies import OffLoopRoute, read_file_upload
 from ..deps import LimitsDep
 from ..schemas import FilePreview
-from ..bodies import OffLoopRoute, read_file_upload
+from ..services import inspect_rig_file
 
 router = APIRouter(prefix="/api/datasets", tags=["datasets"], route_class=OffLoopRoute)
 
@@ -19,4 +18,4 @@ router = APIRouter(prefix="/api/datasets", tags=["datasets"], route_class=OffLoo
                  "application/octet-stream": {"schema": {"type": "string", "format": "binary"}}}}})
 async def inspect_upload(request: Request, limits: LimitsDep):
     data, filename, _, _ = await read_file_upload(request, limits.max_upload_bytes)
-    return await run_in_threadpool(inspect_file, data, filename)
+    return await run_in_threadpool(inspect_rig_file, data, filename)
