@@ -175,6 +175,22 @@ def test_a_rig_left_pressurised_is_reported_as_its_initial_state():
     assert "initial state not in the records" in d.message.lower()
 
 
+def test_refine_carries_a_fitted_initial_state_into_its_history():
+    """The refine loop on the rig left pressurised: the history's last version is compared
+    with the experiments started from the fitted initial state, so its error is at the noise
+    floor (it stayed at ~110 % when the history replayed the experiments as declared)."""
+    c, exps, _ = case("base/pressurised-start")
+    model, history, diagnoses = refine(c.start, exps, max_rounds=2)
+    assert diagnoses[0].initial_state, describe(diagnoses[0])
+    # the noise floor the diagnosis estimates from the records (the case's own "truth replayed"
+    # floor starts from ambient too, as declared, so it is no floor here)
+    floor = diagnoses[0].remaining["noise_floor"]
+    last = history.versions[-1]
+    assert last.label.startswith("initial state:"), [v.label for v in history.versions]
+    assert history.versions[0].overall > 10 * floor        # as declared: far off
+    assert last.overall <= FLOOR_FACTOR * floor, (last.overall, floor)
+
+
 def test_a_rig_started_at_ambient_reports_no_initial_state():
     """The same position-only records started at ambient, every base parameter off: the base
     errors are not taken for an initial state."""

@@ -62,7 +62,8 @@ class RefinementHistory:
     def __init__(self, versions=None):
         self.versions = list(versions or [])
 
-    def add(self, model, comparison, added=None, params=None, note="", recalibrated=None):
+    def add(self, model, comparison, added=None, params=None, note="", recalibrated=None,
+            label=None):
         """Record a model version with its comparison; returns the :class:`ModelVersion`.
 
         The first version is labelled ``base``; a later one ``+ <effect>`` when it adds an
@@ -87,6 +88,8 @@ class RefinementHistory:
         recalibrated : list or None
             The mis-set base parameters corrected at this step
             (``[{path, label, before, after, stderr, unit}]``)
+        label : str or None
+            The version's label, in place of the one derived from the above
         """
         model = model if isinstance(model, Model) else Model.from_dict(model)
         if comparison is None:
@@ -95,7 +98,9 @@ class RefinementHistory:
             errors, overall = comparison
         else:
             errors, overall = comparison.errors, comparison.overall
-        if not self.versions:
+        if label:
+            pass
+        elif not self.versions:
             label = "base"
         elif added:
             label = f"+ {added}"
@@ -124,6 +129,30 @@ class RefinementHistory:
     @classmethod
     def from_dict(cls, d):
         return cls([ModelVersion(**v) for v in d.get("versions", [])])
+
+
+def from_initial_state(experiments, found):
+    """The experiments started from the initial state a diagnosis fitted.
+
+    Parameters
+    ----------
+    experiments : list of Experiment
+        The experiments the diagnosis ran on
+    found : list of dict
+        :attr:`pneucore.analysis.diagnose.Diagnosis.initial_state`:
+        ``{experiment, path, after, ...}`` with ``path`` ``initial.p_a``, ``initial.p_b`` or
+        ``initial.x0`` [Pa or m]
+
+    Returns
+    -------
+    experiments : list of Experiment
+        Copies of those with a fitted initial state, starting from it; the others as given
+    """
+    from pneucore.analysis.hypotheses import with_initial
+    by_name = {}
+    for r in found:
+        by_name.setdefault(r["experiment"], {})[r["path"].split(".", 1)[1]] = r["after"]
+    return [with_initial(e, by_name[e.name]) if e.name in by_name else e for e in experiments]
 
 
 def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progress=None,
@@ -178,7 +207,15 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
     for _ in range(max_rounds):
         d = diagnose(model, exps, uncertain=uncertain, progress=progress, validated=True)
         diagnoses.append(d)
+        if d.initial_state:
+            # the records imply an initial state their context does not declare (a rig left
+            # pressurised): later rounds, and this version's errors, start from it
+            exps = from_initial_state(exps, d.initial_state)
         if d.verdict is None and not d.recalibrate:
+            if d.initial_state:
+                history.add(model, compare(model, exps), note=d.message,
+                            label="initial state: " + ", ".join(r.get("label", r["path"])
+                                                                for r in d.initial_state))
             break
         model = d.model.copy()
         params = d.ranking[0]["params"] if d.verdict else {}
