@@ -15,7 +15,7 @@ Why this module exists
    are located by scipy's event machinery instead of pneucore's Illinois
    search on a Hermite interpolant. Agreement between the two therefore
    tests the algebra, the event logic and the error control of both.
-   ``tests/test_cross_solver.py`` runs it at tight tolerance as a reference.
+   ``tests/core/test_cross_solver.py`` runs it at tight tolerance as a reference.
 
 Only :class:`pneucore.Model` (``Model.from_dict``) is used, to validate the
 input dict and read geometry helpers (``Jack.area_a`` ...). Effects are not

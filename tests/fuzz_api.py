@@ -1,6 +1,6 @@
 """Fuzzing the REST API: schemathesis from the OpenAPI document, and mutations of valid requests.
 
-Shared by the in-suite test (``tests/test_api_fuzz.py``, a few examples per
+Shared by the in-suite test (``tests/api/test_api_fuzz.py``, a few examples per
 operation) and the thorough run by hand::
 
     python tests/fuzz_api.py --examples 200 --mutations 3000

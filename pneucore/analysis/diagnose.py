@@ -75,7 +75,7 @@ N_REFIT = 3
 EXCESS_MATERIAL = 0.2
 #: Relative difference of an effect parameter fitted on two experiments beyond which they
 #: disagree: 50 %; a physical effect, refitted with 1-2 parameters on ~2000 samples per
-#: experiment, comes back within a few percent (tests/test_diagnosis.py: within 20 % of the truth)
+#: experiment, comes back within a few percent (tests/analysis/test_diagnosis.py: within 20 % of the truth)
 CONSISTENT_RTOL = 0.5
 #: Share of that excess the named effect must remove, alone or with the next candidate (two
 #: missing effects of similar size): a stand-in for something outside the catalog removes less

@@ -18,7 +18,7 @@ from app.jobs import JobManager
 from app.store import Store
 from service import free_port
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 #: a bound on a hang, not a speed claim
 WAIT_S = 120.0
 

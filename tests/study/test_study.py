@@ -21,7 +21,7 @@ from pneucore.study import (MAX_RUNS, METRICS, SchedulerError, Study, StudyInter
                             rank_correlations, run_metrics, run_study, study_results, study_status)
 from pneucore.study.metrics import air_consumption
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 #: A short extension pulse (0.3 s): the piston moves ~75 mm, overshoots and sticks
 SHORT = {"duration": 0.3, "sample_period": 0.001, "command": [[0, 0], [0.02, 0.7], [0.06, 0]],

@@ -2,7 +2,7 @@
 
 pneucore.analysis.history numbers and labels the versions (``base``, ``+ <effect>``,
 ``recalibrated: ...``, ``version <n>``); the store keeps them, the REST contract of
-/api/sessions unchanged (tests/test_api_sessions.py).
+/api/sessions unchanged (tests/api/test_api_sessions.py).
 """
 from __future__ import annotations
 

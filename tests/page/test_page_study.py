@@ -1,6 +1,6 @@
 """Panel 6 of the page (robustness studies) driven like a user would, in a real headless Chromium.
 
-The browser, the page and the error checks are the fixtures of ``tests/test_page.py``
+The browser, the page and the error checks are the fixtures of ``tests/page/test_page.py``
 (imported). The service fixture is this module's own: its database is seeded, before
 the service starts, with a grid study stopped after its first batch (status
 ``interrupted``) so that the page's Resume button can be exercised.

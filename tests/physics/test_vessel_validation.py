@@ -16,7 +16,7 @@ import pytest
 from pneucore.analysis.heat_compare import compare_heat_models, table
 from pneucore.physics.vessel import FILLING_TEST, VESSEL_WALL, filling_test
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT.parent / "shared" / "data" / "vessel-filling"
 
 pytestmark = pytest.mark.skipif(not (DATA / "pressure.csv").exists(),

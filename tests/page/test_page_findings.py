@@ -1,6 +1,6 @@
 """The page shows the diagnosis's two kinds of finding apart, and applies them with one click.
 
-Driven in Chromium like tests/test_page.py (its fixtures are reused): the
+Driven in Chromium like tests/page/test_page.py (its fixtures are reused): the
 "piston-leak" sample (the paper's jack with a hidden piston leak) is compared
 with a model whose heat coefficient is mis-set (15 instead of the true
 25 W/(m^2 K)). The diagnosis must show "mis-set: heat coefficient 15 -> ~25"

@@ -295,7 +295,7 @@ case("locked-int", S("scenario.locked", 1), "scenario.locked")
 case("locked-null", S("scenario.locked", None), "scenario.locked")
 
 # --- supply at or below ambient is accepted (filling from the atmosphere, a vacuum line,
-# tests/test_heat_models.py); rarefied sources and a 3/2 chamber B at "half a vacuum" are not
+# tests/physics/test_heat_models.py); rarefied sources and a 3/2 chamber B at "half a vacuum" are not
 case("supply-rarefied", M("supply.pressure", 500.0), "supply.pressure")
 case("ambient-rarefied", M("ambient.pressure", 500.0), "ambient.pressure")
 case("vacuum-3way-default-b", three_way(M("supply.pressure", 0.2e5)), "valve.b_chamber_pressure")

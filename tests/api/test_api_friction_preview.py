@@ -19,7 +19,7 @@ from pneucore.spec.effects import EFFECTS
 from pneucore.physics.friction import coulomb_level, sliding_friction, stribeck_factor, viscous_coefficient
 from pneucore.spec.paths import unit_of
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 URL = "/api/friction/preview"
 BAR = 1e5
 #: Velocities across both directions, the Stribeck region near rest and v = 0 itself [m/s]

@@ -1,6 +1,6 @@
 """The model panel's friction map and parameter units come from the service, in a real Chromium.
 
-The browser, the page and the error checks are the fixtures of ``tests/test_page.py``
+The browser, the page and the error checks are the fixtures of ``tests/page/test_page.py``
 (imported), with this module's own service. The friction map drawn by the page must be the
 answer of POST /api/friction/preview for the page's model (the page computes no friction law),
 redrawn when a coefficient changes; the friction rows and the study parameters are labelled

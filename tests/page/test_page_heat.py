@@ -1,6 +1,6 @@
 """The heat-model parts of the page (static/heat.js), driven in a real headless Chromium.
 
-The browser, the page and the error checks are the fixtures of ``tests/test_page.py``
+The browser, the page and the error checks are the fixtures of ``tests/page/test_page.py``
 (imported), with this module's own service. In file order: the model panel lists every heat
 model of the API with an input per parameter (units in the labels), one scenario is run under
 every heat model (pressures and temperatures overlaid), one sample measurement is compared
