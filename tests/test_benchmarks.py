@@ -1,0 +1,70 @@
+"""Every benchmark runs: each script at a tiny size, in its own process, as a user runs it.
+
+Speed is measured in ``benchmarks/`` and never asserted here (the machine is shared); what
+is asserted is that the scripts still work after a change of the code they time (a renamed
+import, a changed signature) and that their ``--json`` figures are numbers. The long ones
+(a cold compile in a fresh process, a refine loop at 1 and 2 workers, a live server's URL)
+are checked for their command line only.
+"""
+import json
+import math
+import os
+import subprocess
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BENCH = os.path.join(ROOT, "benchmarks")
+
+#: script -> arguments of a run small enough for the suite (seconds, not minutes)
+SMALL = {
+    "bench_simulator.py": ["--runs", "20", "--scipy-runs", "1", "--skip-compile"],
+    "bench_api.py": ["--requests", "20", "--clients", "2", "--per-client", "2", "--warmup", "2"],
+    "bench_study.py": ["--runs", "200", "--workers", "1", "--skip-dask", "--skip-startup"],
+    "bench_study_store.py": ["--runs", "2000", "--batch", "250"],
+    "bench_diagnosis_confusion.py": ["--cases", "base/exhaust*"],
+}
+#: scripts whose smallest run is too long for the suite: their command line only
+HELP_ONLY = ["bench_cold_start.py", "bench_diagnosis_threads.py", "bench_loop_block.py",
+             "bench_analysis.py", "bench_initial_state.py"]
+
+
+def _run(args, timeout=600):
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.run([sys.executable] + args, cwd=ROOT, env=env, capture_output=True,
+                          text=True, timeout=timeout)
+
+
+def _numbers(value):
+    if isinstance(value, dict):
+        for v in value.values():
+            yield from _numbers(v)
+    elif isinstance(value, list):
+        for v in value:
+            yield from _numbers(v)
+    elif isinstance(value, (int, float)) and not isinstance(value, bool):
+        yield value
+
+
+def test_every_benchmark_is_listed():
+    scripts = {f for f in os.listdir(BENCH) if f.startswith("bench_") and f.endswith(".py")}
+    assert scripts == set(SMALL) | set(HELP_ONLY)
+
+
+@pytest.mark.parametrize("script", sorted(SMALL))
+def test_benchmark_runs_at_a_small_size(script, tmp_path):
+    out = tmp_path / "figures.json"
+    r = _run([os.path.join(BENCH, script)] + SMALL[script] + ["--json", str(out)])
+    assert r.returncode == 0, (r.stdout[-2000:], r.stderr[-3000:])
+    figures = json.loads(out.read_text())
+    numbers = list(_numbers(figures))
+    assert numbers, figures
+    assert all(math.isfinite(x) for x in numbers), figures
+
+
+@pytest.mark.parametrize("script", HELP_ONLY)
+def test_long_benchmark_command_line(script):
+    r = _run([os.path.join(BENCH, script), "--help"], timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert "usage" in r.stdout.lower()
