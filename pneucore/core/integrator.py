@@ -62,7 +62,7 @@ from pneucore.core import layout as L
 from pneucore.physics.chamber import chamber_pressure
 from pneucore.physics.friction import coulomb_level
 from pneucore.physics.jack import chamber_volumes, net_pressure_force
-from pneucore.core.rhs import rhs
+from pneucore.core.rhs import rhs, static_friction
 from numba.core.registry import CPUDispatcher
 
 
@@ -100,16 +100,26 @@ def _without_wrappers(dispatcher, memo):
                                             f.__closure__))
     memo[dispatcher] = copy
     for name in _code_names(f.__code__):
-        value = glb.get(name)
-        if isinstance(value, CPUDispatcher):
-            glb[name] = _without_wrappers(value, memo)
+        if name in glb:
+            glb[name] = _strip_wrappers(glb[name], memo)
     return copy
 
 
+def _strip_wrappers(value, memo):
+    """``value`` with each compiled function in it (itself, or in a tuple such as the law
+    tables of :mod:`pneucore.core.rhs`) replaced by its wrapper-less copy."""
+    if isinstance(value, CPUDispatcher):
+        return _without_wrappers(value, memo)
+    if isinstance(value, tuple):
+        return tuple(_strip_wrappers(v, memo) for v in value)
+    return value
+
+
 _COPIES = {}
-rhs, chamber_pressure, coulomb_level, chamber_volumes, net_pressure_force = (
+rhs, static_friction, chamber_pressure, coulomb_level, chamber_volumes, net_pressure_force = (
     _without_wrappers(d, _COPIES)
-    for d in (rhs, chamber_pressure, coulomb_level, chamber_volumes, net_pressure_force))
+    for d in (rhs, static_friction, chamber_pressure, coulomb_level, chamber_volumes,
+              net_pressure_force))
 
 #: Event location tolerance on time [s] (the contract is 1e-6 s)
 EVENT_TOL = 1e-9
@@ -386,10 +396,14 @@ def _rest_forces(y, prm, aux):
     aux[L.AUX_FNET] = net_pressure_force(p_a, p_b, p_atm, prm[L.P_A_A], prm[L.P_A_B],
                                          prm[L.P_A_ROD_A], prm[L.P_A_ROD_B], prm[L.P_LOAD])
     ratio = prm[L.P_STRIBECK_RATIO]
-    aux[L.AUX_FS_E] = ratio * coulomb_level(prm[L.P_FE_FC0], prm[L.P_FE_FCA], prm[L.P_FE_FCB],
-                                            p_a, p_b, p_atm)
-    aux[L.AUX_FS_R] = ratio * coulomb_level(prm[L.P_FR_FC0], prm[L.P_FR_FCA], prm[L.P_FR_FCB],
-                                            p_a, p_b, p_atm)
+    v_s = prm[L.P_STRIBECK_V]
+    law = int(prm[L.P_FRICTION_LAW])
+    aux[L.AUX_FS_E] = static_friction(law, coulomb_level(prm[L.P_FE_FC0], prm[L.P_FE_FCA],
+                                                         prm[L.P_FE_FCB], p_a, p_b, p_atm),
+                                      ratio, v_s)
+    aux[L.AUX_FS_R] = static_friction(law, coulomb_level(prm[L.P_FR_FC0], prm[L.P_FR_FCA],
+                                                         prm[L.P_FR_FCB], p_a, p_b, p_atm),
+                                      ratio, v_s)
 
 
 @_internal
@@ -798,6 +812,13 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
 
 _SPECIALIZED = {}
 
+#: Functions of :mod:`pneucore.core.rhs` that refer to a rebound name (the user hook,
+#: the law tables) or to one of each other: each specialised core has its own copies
+_RHS_CHAIN = ("call_user_terms", "edge_flow", "_edge", "friction_force", "static_friction", "rhs")
+#: Functions of this module on the way from :func:`integrate` to those
+_CORE_CHAIN = ("_rest_forces", "_feval", "_rodas_step", "_jacobian", "_resting_aux", "_settle",
+               "_transition", "_event_at", "integrate")
+
 
 def _clone(dispatcher, glb):
     """A new dispatcher of ``dispatcher``'s Python function bound to the globals ``glb``.
@@ -813,20 +834,28 @@ def _clone(dispatcher, glb):
                                           f.__closure__))
 
 
-def specialize(hook):
-    """A compiled copy of :func:`integrate` whose right-hand side calls ``hook`` for user terms.
+def specialize(hook=None, flow_laws=None, friction_laws=None):
+    """A compiled copy of :func:`integrate` with another user hook or other law tables.
 
-    The default core (``rhs.user_terms = no_terms``) is compiled once and
-    cached on disk. A model with user-registered effects needs the same code
-    with the hook rebound: every function of the call chain is re-created
-    with a globals dict in which ``user_terms`` is the user's hook and each
-    chain function refers to its clone. Compiled in memory on first use
-    (a few seconds), memoised per hook.
+    The default core (``rhs.user_terms = no_terms``, the built-in laws'
+    tables ``rhs.flow_laws`` and ``rhs.friction_laws``) is compiled once and
+    cached on disk. A model with user-registered effects, or naming a flow or
+    friction law registered at run time, needs the same code with those names
+    rebound: every function of the call chain is re-created with a globals
+    dict in which ``user_terms`` is the user's hook, the tables are the
+    registries' (:func:`pneucore.core.rhs.law_table`) and each chain function
+    refers to its clone. Compiled in memory on first use (a few seconds: about
+    the first compile of the core, less what numba's cache gives of the
+    component laws), memoised per hook and tables.
 
     Parameters
     ----------
-    hook : numba dispatcher
-        ``hook(t, y, sig, prm_user, terms, dy)``
+    hook : numba dispatcher or None
+        ``hook(t, y, sig, prm_user, terms, dy)``; None: ``rhs.no_terms``
+    flow_laws : tuple or None
+        Flow-law table ``((code, law), ...)``; None: the built-in one
+    friction_laws : tuple or None
+        Friction-law table ``((code, force, static), ...)``; None: the built-in one
 
     Returns
     -------
@@ -835,19 +864,42 @@ def specialize(hook):
     """
     from pneucore.core import rhs as rhs_module
 
-    if hook in _SPECIALIZED:
-        return _SPECIALIZED[hook]
+    hook = rhs_module.no_terms if hook is None else hook
+    flow_laws = rhs_module.flow_laws if flow_laws is None else tuple(flow_laws)
+    friction_laws = rhs_module.friction_laws if friction_laws is None else tuple(friction_laws)
+    key = (hook, flow_laws, friction_laws)
+    if key in _SPECIALIZED:
+        return _SPECIALIZED[key]
     # the rhs module's own names: the component laws as published, each cached on disk
     # (a process that loaded the default core from the cache has not compiled the
     # wrapper-less copies, and these would be compiled afresh in every process)
     rhs_globals = dict(rhs_module.__dict__)
-    rhs_globals["user_terms"] = hook
-    rhs_globals["call_user_terms"] = _clone(rhs_module.call_user_terms, rhs_globals)
-    rhs_globals["rhs"] = _clone(rhs_module.rhs, rhs_globals)
+    rhs_globals.update(user_terms=hook, flow_laws=flow_laws, friction_laws=friction_laws)
+    for name in _RHS_CHAIN:
+        rhs_globals[name] = _clone(getattr(rhs_module, name), rhs_globals)
     glb = dict(globals())
     glb["rhs"] = rhs_globals["rhs"]
-    for name in ("_feval", "_rodas_step", "_jacobian", "_resting_aux", "_settle", "_transition",
-                 "_event_at", "integrate"):
+    glb["static_friction"] = rhs_globals["static_friction"]
+    for name in _CORE_CHAIN:
         glb[name] = _clone(globals()[name], glb)
-    _SPECIALIZED[hook] = glb["integrate"]
+    _SPECIALIZED[key] = glb["integrate"]
     return glb["integrate"]
+
+
+def core_for(hook, flow_laws, friction_laws):
+    """The compiled core for a user hook and law tables: :func:`integrate` itself when they
+    are the defaults (cached on disk), else :func:`specialize`'s copy.
+
+    Parameters
+    ----------
+    hook : numba dispatcher
+        User-effect hook (``rhs.no_terms`` when the model has none)
+    flow_laws, friction_laws : tuple
+        Law tables (:func:`pneucore.core.rhs.law_table`)
+    """
+    from pneucore.core import rhs as rhs_module
+
+    if hook is rhs_module.no_terms and flow_laws == rhs_module.flow_laws \
+            and friction_laws == rhs_module.friction_laws:
+        return integrate
+    return specialize(hook, flow_laws, friction_laws)
