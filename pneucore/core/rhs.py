@@ -10,6 +10,13 @@ write their parameters into ``prm`` and their states into ``iy``
 (:mod:`pneucore.core.layout`); user-registered effects add terms through the
 module-level ``user_terms`` hook (see :func:`pneucore.core.integrator.specialize`).
 
+The flow and friction laws come from their registries
+(:data:`pneucore.physics.flow.FLOW_LAWS`, :data:`pneucore.physics.friction.FRICTION_LAWS`):
+the core dispatches on the law codes in ``prm`` (``P_FLOW_LAW``, ``P_FRICTION_LAW``)
+over the module-level tables :data:`flow_laws` and :data:`friction_laws`, which hold
+the built-in laws; a model naming a law registered at run time runs on a copy of the
+core compiled over the registry's table, as for a user effect's hook.
+
 Within one piston ``mode`` the equations are smooth; stick, slip and end
 stops switch the mode (handled as events by :mod:`pneucore.core.integrator`).
 

@@ -191,7 +191,9 @@ class Valve:
         3/2 mode: absolute pressure held in
         chamber B [Pa]; None = half the supply pressure, as in the paper
     flow_law : str
-        Name in :data:`pneucore.physics.flow.FLOW_LAWS` (``iso6358`` or ``saint_venant``)
+        Name in :data:`pneucore.physics.flow.FLOW_LAWS` (``iso6358``, ``saint_venant``, or
+        a law added with :func:`pneucore.physics.flow.register_flow_law`): the law every
+        valve edge computes its mass flow with in the compiled core
     laminar_ratio : float
         Pressure ratio above which edge flows are linearised [-]
     """
@@ -361,7 +363,17 @@ class FrictionSet:
 
 @dataclass
 class Friction:
-    """Piston friction: extension (v > 0) and retraction (v < 0) sets, and the law's name."""
+    """Piston friction: extension (v > 0) and retraction (v < 0) sets, and the law's name.
+
+    Parameters
+    ----------
+    extend, retract : FrictionSet
+        Coefficients of Eq. 19-20 for each direction of motion (the quadrant effect)
+    law : str
+        Name in :data:`pneucore.physics.friction.FRICTION_LAWS` (``coulomb_viscous``, or a
+        law added with :func:`pneucore.physics.friction.register_friction_law`): the law
+        the compiled core computes the sliding force and the static limit with
+    """
     extend: FrictionSet = field(default_factory=FrictionSet)
     retract: FrictionSet = field(default_factory=FrictionSet)
     law: str = "coulomb_viscous"
