@@ -506,6 +506,82 @@ def _event_at(theta, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u0, seg
     return ev[k]
 
 
+# The event location and the back-step below run only when an event is bracketed (a few
+# dozen times per simulated second), so they are called helpers of :func:`integrate`. The
+# per-step parts (step-size control, sample writing) stay written out in it: as called
+# helpers they made the pulse benchmark 15 % slower (a dozen arrays passed per step, seven
+# machine words each), and inlined at numba's IR level they lengthened the first compile
+# by a quarter (bench_simulator.py and bench_cold_start.py, November 2026).
+@_internal
+def _locate_event(theta_p, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u0, seg_slope,
+                  model, ytmp, ftmp, aux, ev, g_start, g_end):
+    """Event time of event function ``k``, which is <= 0 at the step's start (``g_start``)
+    and > 0 at the fraction ``theta_p`` of the step (``g_end``): the Illinois method on the
+    step's cubic Hermite interpolant, from the bracket ``[theta_p - 1/3, theta_p]`` (or
+    ``[0, theta_p]``), to ``EVENT_TOL`` seconds.
+
+    Returns
+    -------
+    theta : float
+        Upper end of the final bracket, as a fraction of the step [-]
+    """
+    lo = theta_p - 1.0 / 3.0
+    hi = theta_p
+    g_lo = _event_at(lo, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u0, seg_slope,
+                     model, ytmp, ftmp, aux, ev)
+    g_hi = g_end
+    if g_lo > 0.0:
+        lo = 0.0
+        g_lo = g_start
+    side = 0
+    while (hi - lo) * h > EVENT_TOL:
+        if g_hi != g_lo:
+            mid = hi - g_hi * (hi - lo) / (g_hi - g_lo)
+        else:
+            mid = 0.5 * (lo + hi)
+        if not (lo < mid < hi):
+            mid = 0.5 * (lo + hi)
+        # keep the bracket shrinking geometrically
+        if (hi - lo) * h > 1e3 * EVENT_TOL and side != 0 and side % 4 == 0:
+            mid = 0.5 * (lo + hi)
+        g_mid = _event_at(mid, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u0, seg_slope,
+                          model, ytmp, ftmp, aux, ev)
+        if g_mid > 0.0:
+            hi = mid
+            g_hi = g_mid
+            g_lo *= 0.5 if side < 0 else 1.0
+            side = -1 if side >= 0 else side - 1
+        else:
+            lo = mid
+            g_lo = g_mid
+            g_hi *= 0.5 if side > 0 else 1.0
+            side = 1 if side <= 0 else side + 1
+        if side > 1000 or side < -1000:
+            break
+    return hi
+
+
+@_internal
+def _back_step(t, t_ev, theta, h, y, f0, y1, f1, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
+               yh, ysave, err, K, W, piv, dinv, ytmp, ftmp, aux, stats):
+    """Redo the step from ``(t, y)`` exactly to the event time ``t_ev`` (the paper's ACSL
+    back-step) and put the state there into ``y``; the step's interpolant at ``theta``
+    when that step fails."""
+    n = y.shape[0]
+    hb = t_ev - t
+    for i in range(n):
+        ysave[i] = y[i]
+    ok = False
+    if hb > 0.0:
+        ok = _rodas_step(t, ysave, hb, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
+                         yh, err, K, W, piv, dinv, ytmp, ftmp, aux, stats)
+        stats[ST_BACKSTEPS] += 1
+    if not ok:
+        _hermite(theta, h, y, f0, y1, f1, yh)
+    for i in range(n):
+        y[i] = yh[i]
+
+
 # Counters and indices typed as plain int64: a variable first assigned a constant
 # (``n_ev = 0``, ``k_ev = -1``) would otherwise be typed as a literal and have every
 # callee it reaches compiled once more for that literal (four extra compiles, ~2 s of
@@ -683,40 +759,9 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
                           seg_slope, model, ytmp, ftmp, aux, ev1)
                 for k in range(2):
                     if ev1[k] > 0.0 and ev0[k] <= 0.0 and k_ev < 0:
-                        # bracket [theta_p - 1/3, theta_p]: Illinois on the interpolant
-                        lo = theta_p - 1.0 / 3.0
-                        hi = theta_p
-                        g_lo = _event_at(lo, k, mode, hh, y, f0, y1, f1, t, stroke, seg_t0,
-                                         seg_u0, seg_slope, model, ytmp, ftmp, aux, ev)
-                        g_hi = ev1[k]
-                        if g_lo > 0.0:
-                            lo = 0.0
-                            g_lo = ev0[k]
-                        side = 0
-                        while (hi - lo) * hh > EVENT_TOL:
-                            if g_hi != g_lo:
-                                mid = hi - g_hi * (hi - lo) / (g_hi - g_lo)
-                            else:
-                                mid = 0.5 * (lo + hi)
-                            if not (lo < mid < hi):
-                                mid = 0.5 * (lo + hi)
-                            # keep the bracket shrinking geometrically
-                            if (hi - lo) * hh > 1e3 * EVENT_TOL and side != 0 and side % 4 == 0:
-                                mid = 0.5 * (lo + hi)
-                            g_mid = _event_at(mid, k, mode, hh, y, f0, y1, f1, t, stroke, seg_t0,
-                                              seg_u0, seg_slope, model, ytmp, ftmp, aux, ev)
-                            if g_mid > 0.0:
-                                hi = mid
-                                g_hi = g_mid
-                                g_lo *= 0.5 if side < 0 else 1.0
-                                side = -1 if side >= 0 else side - 1
-                            else:
-                                lo = mid
-                                g_lo = g_mid
-                                g_hi *= 0.5 if side > 0 else 1.0
-                                side = 1 if side <= 0 else side + 1
-                            if side > 1000 or side < -1000:
-                                break
+                        hi = _locate_event(theta_p, k, mode, hh, y, f0, y1, f1, t, stroke, seg_t0,
+                                           seg_u0, seg_slope, model, ytmp, ftmp, aux, ev, ev0[k],
+                                           ev1[k])
                         if hi < th_best:
                             th_best = hi
                             k_ev = k
@@ -738,18 +783,9 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
                 u_out[k_out] = seg_u0 + seg_slope * (t_out[k_out] - seg_t0)
                 k_out += 1
             # back-step: redo the step exactly from t to the event time
+            _back_step(t, t_ev, th_best, hh, y, f0, y1, f1, J, ft, mode, seg_t0, seg_u0, seg_slope,
+                       model, yh, ysave, err, K, W, piv, dinv, ytmp, ftmp, aux, stats)
             hb = t_ev - t
-            for i in range(n):
-                ysave[i] = y[i]
-            ok = False
-            if hb > 0.0:
-                ok = _rodas_step(t, ysave, hb, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
-                                 yh, err, K, W, piv, dinv, ytmp, ftmp, aux, stats)
-                stats[ST_BACKSTEPS] += 1
-            if not ok:
-                _hermite(th_best, hh, y, f0, y1, f1, yh)
-            for i in range(n):
-                y[i] = yh[i]
             t = t_ev
             if hb <= 10.0 * EVENT_TOL:
                 stuck_count += 1
@@ -817,7 +853,7 @@ _SPECIALIZED = {}
 _RHS_CHAIN = ("call_user_terms", "edge_flow", "_edge", "friction_force", "static_friction", "rhs")
 #: Functions of this module on the way from :func:`integrate` to those
 _CORE_CHAIN = ("_rest_forces", "_feval", "_rodas_step", "_jacobian", "_resting_aux", "_settle",
-               "_transition", "_event_at", "integrate")
+               "_transition", "_event_at", "_locate_event", "_back_step", "integrate")
 
 
 def _clone(dispatcher, glb):
