@@ -880,9 +880,11 @@ def specialize(hook=None, flow_laws=None, friction_laws=None):
     rebound: every function of the call chain is re-created with a globals
     dict in which ``user_terms`` is the user's hook, the tables are the
     registries' (:func:`pneucore.core.rhs.law_table`) and each chain function
-    refers to its clone. Compiled in memory on first use (a few seconds: about
-    the first compile of the core, less what numba's cache gives of the
-    component laws), memoised per hook and tables.
+    refers to its clone. Compiled in memory on first use, memoised per hook and
+    tables: about the first compile of the core (12 s of CPU time for a
+    registered flow law on the shared 2-core machine, against 10 s for the
+    default core), since numba cannot cache a function whose globals are not
+    its source file's.
 
     Parameters
     ----------

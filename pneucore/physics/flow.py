@@ -303,9 +303,10 @@ def register_flow_law(name, func, description="", replace=False):
     """Add a flow law that a model selects by name (``valve.flow_law``).
 
     The law is compiled into the simulator's core: the first :func:`pneucore.simulate`
-    of a model naming it compiles a core for the registry as it stands (a few
-    seconds, once per process and set of registered laws and effects); models
-    naming only built-in laws keep the core cached on disk.
+    of a model naming it compiles a core for the registry as it stands, in memory:
+    about as long as the core's first compile (12 s of CPU time on a shared 2-core
+    machine), once per process and set of registered laws and user effects. Models
+    naming only built-in laws keep the core numba caches on disk.
 
     Parameters
     ----------

@@ -182,9 +182,10 @@ def register_friction_law(name, force, static=None, description="", replace=Fals
     """Add a friction law that a model selects by name (``friction.law``).
 
     The law is compiled into the simulator's core: the first :func:`pneucore.simulate`
-    of a model naming it compiles a core for the registry as it stands (a few
-    seconds, once per process and set of registered laws and effects); models
-    naming only built-in laws keep the core cached on disk.
+    of a model naming it compiles a core for the registry as it stands, in memory:
+    about as long as the core's first compile (12 s of CPU time on a shared 2-core
+    machine), once per process and set of registered laws and user effects. Models
+    naming only built-in laws keep the core numba caches on disk.
 
     Parameters
     ----------
