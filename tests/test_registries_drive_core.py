@@ -179,3 +179,16 @@ def test_registration_rules():
         assert law.static(40.0, 1.5, 0.01) == pytest.approx(2.0 * 40.0 * 1.5, rel=1e-15)
     finally:
         unregister_friction_law(FRICTION_NAME)
+
+
+def test_specialised_core_re_creates_every_function_on_the_way():
+    # found from the code: every compiled function that reaches a rebound name (user hook,
+    # law tables) is cloned, so none of them silently calls the default core's right-hand side
+    rhs_chain = integrator._chain(vars(rhs), rhs.__name__, integrator._REBOUND)
+    assert {"rhs", "edge_flow", "_edge", "friction_force", "static_friction",
+            "call_user_terms"} <= set(rhs_chain)
+    core_chain = integrator._chain(vars(integrator), integrator.__name__, {"rhs", "static_friction"})
+    assert {"integrate", "_feval", "_rodas_step", "_jacobian", "_rest_forces", "_locate_event",
+            "_back_step", "_event_at", "_settle", "_transition"} <= set(core_chain)
+    # functions that reach none of them are loaded from numba's cache, not recompiled
+    assert "command_segment" not in core_chain and "_hermite" not in core_chain

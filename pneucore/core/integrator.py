@@ -848,12 +848,42 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
 
 _SPECIALIZED = {}
 
-#: Functions of :mod:`pneucore.core.rhs` that refer to a rebound name (the user hook,
-#: the law tables) or to one of each other: each specialised core has its own copies
-_RHS_CHAIN = ("call_user_terms", "edge_flow", "_edge", "friction_force", "static_friction", "rhs")
-#: Functions of this module on the way from :func:`integrate` to those
-_CORE_CHAIN = ("_rest_forces", "_feval", "_rodas_step", "_jacobian", "_resting_aux", "_settle",
-               "_transition", "_event_at", "_locate_event", "_back_step", "integrate")
+#: Names a specialised core rebinds in :mod:`pneucore.core.rhs`: the user hook and the law tables
+_REBOUND = ("user_terms", "flow_laws", "friction_laws")
+
+
+def _chain(namespace, module, seeds):
+    """Compiled functions of ``module`` that refer to a name in ``seeds``, directly or
+    through each other: those a specialised core must re-create (:func:`specialize`).
+
+    Found from the code, so that a new helper on the way joins without an edit here
+    (one left out would silently call the default core's right-hand side).
+
+    Parameters
+    ----------
+    namespace : dict
+        The module's globals
+    module : str
+        The module's name (functions defined elsewhere are not cloned)
+    seeds : iterable of str
+        Rebound names
+
+    Returns
+    -------
+    names : tuple of str
+        In a stable (sorted) order
+    """
+    funcs = {name: v for name, v in namespace.items()
+             if isinstance(v, CPUDispatcher) and v.py_func.__module__ == module}
+    refs = {name: _code_names(f.py_func.__code__) for name, f in funcs.items()}
+    chain = set()
+    targets = set(seeds)
+    while True:
+        new = {name for name in funcs if name not in chain and refs[name] & targets}
+        if not new:
+            return tuple(sorted(chain))
+        chain |= new
+        targets |= new
 
 
 def _clone(dispatcher, glb):
@@ -913,12 +943,16 @@ def specialize(hook=None, flow_laws=None, friction_laws=None):
     # wrapper-less copies, and these would be compiled afresh in every process)
     rhs_globals = dict(rhs_module.__dict__)
     rhs_globals.update(user_terms=hook, flow_laws=flow_laws, friction_laws=friction_laws)
-    for name in _RHS_CHAIN:
+    rhs_chain = _chain(rhs_module.__dict__, rhs_module.__name__, _REBOUND)
+    for name in rhs_chain:
         rhs_globals[name] = _clone(getattr(rhs_module, name), rhs_globals)
     glb = dict(globals())
-    glb["rhs"] = rhs_globals["rhs"]
-    glb["static_friction"] = rhs_globals["static_friction"]
-    for name in _CORE_CHAIN:
+    # this module's copies of rhs functions (rhs, static_friction) become the clones
+    imported = {name for name, v in globals().items() if isinstance(v, CPUDispatcher)
+                and v.py_func.__module__ == rhs_module.__name__ and name in rhs_chain}
+    for name in imported:
+        glb[name] = rhs_globals[name]
+    for name in _chain(globals(), __name__, imported):
         glb[name] = _clone(globals()[name], glb)
     _SPECIALIZED[key] = glb["integrate"]
     return glb["integrate"]
