@@ -11,7 +11,9 @@ from pneucore.core import cache as _cache
 _cache.check()      # numba's cache must not outlive an edit of any core module
 
 from pneucore.spec.effects import EFFECTS, Effect, Parameter, register_effect, unregister_effect
-from pneucore.physics.flow import FLOW_LAWS, iso6358_mass_flow, saint_venant_mass_flow
+from pneucore.physics.flow import (FLOW_LAWS, iso6358_mass_flow, register_flow_law,
+                                   saint_venant_mass_flow, unregister_flow_law)
+from pneucore.physics.friction import FRICTION_LAWS, register_friction_law, unregister_friction_law
 from pneucore.physics.heat import HEAT_MODELS
 from pneucore.spec.model import Model
 from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
@@ -26,7 +28,8 @@ __all__ = [
     "EFFECTS", "Effect", "Parameter", "register_effect", "unregister_effect", "FLOW_LAWS",
     "iso6358_mass_flow", "saint_venant_mass_flow", "HEAT_MODELS", "Model", "MODEL_PRESETS",
     "SCENARIO_PRESETS", "model_preset", "scenario_preset", "SimulationResult", "Scenario",
-    "pulse_train", "SimulationError", "simulate", "FieldError",
+    "pulse_train", "SimulationError", "simulate", "FieldError", "register_flow_law",
+    "unregister_flow_law", "FRICTION_LAWS", "register_friction_law", "unregister_friction_law",
 ]
 
 

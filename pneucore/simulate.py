@@ -11,12 +11,14 @@ from numba import njit
 from pneucore.core import layout as L
 from pneucore.spec.effects import EFFECTS, CoreBuild, effective_model
 from pneucore.physics.flow import FLOW_LAWS
+from pneucore.physics.friction import FRICTION_LAWS
 from pneucore.physics.gas import density
 from pneucore.physics.heat import HEAT_MODELS
-from pneucore.core.integrator import ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES, integrate, specialize
+from pneucore.core.integrator import ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES, core_for, integrate
 from pneucore.spec.model import Model, check_resolvable
+from pneucore.spec.validation import choice
 from pneucore.result import SimulationResult
-from pneucore.core.rhs import no_terms
+from pneucore.core.rhs import law_table, no_terms
 from pneucore.spec.scenario import Scenario
 from pneucore.physics.valve import pack_tables
 
@@ -88,8 +90,9 @@ def build_core(model, scenario):
     Returns
     -------
     core : dict
-        ``y0``, ``atol``, ``mode0``, ``model`` tuple, ``hook``, ``state_names``,
-        ``state_units`` and the effective model (effects' transforms applied)
+        ``y0``, ``atol``, ``mode0``, ``model`` tuple, ``hook``, the law tables
+        ``flow_laws`` and ``friction_laws`` (:func:`pneucore.core.rhs.law_table`),
+        ``state_names`` and the effective model (effects' transforms applied)
     """
     eff = effective_model(model)
     j, g = eff.jack, eff.gas
@@ -122,7 +125,12 @@ def build_core(model, scenario):
             prm[P[f"{side}_{key.upper().replace('_', '')}"]] = getattr(fs, key)
     prm[P["STRIBECK_RATIO"]] = 1.0
     prm[P["STRIBECK_V"]] = 0.01
-    prm[P["FLOW_LAW"]] = FLOW_LAWS[eff.valve.flow_law].code
+    # the laws by name, through the registries (a law may have been unregistered since
+    # the model was validated)
+    flow_law = FLOW_LAWS[choice(eff.valve.flow_law, FLOW_LAWS, "valve.flow_law")]
+    friction_law = FRICTION_LAWS[choice(eff.friction.law, FRICTION_LAWS, "friction.law")]
+    prm[P["FLOW_LAW"]] = flow_law.code
+    prm[P["FRICTION_LAW"]] = friction_law.code
     prm[P["R_LAM"]] = eff.valve.laminar_ratio
     if eff.valve.kind == "3/2":
         prm[P["B_CONST"]] = eff.b_chamber_pressure
@@ -170,6 +178,11 @@ def build_core(model, scenario):
             iy[L.IY_NUSER] += len(e.states)
     hook = _compose_hooks(hooks) if hooks else no_terms
     iy[L.IY_HOOK] = 1 if hooks else 0
+    # the core cached on disk knows the built-in laws; a law registered at run time needs
+    # a core compiled over the registries' tables (one for every such law: compiled once)
+    builtin = flow_law.builtin and friction_law.builtin
+    flow_table = law_table(FLOW_LAWS, builtin_only=builtin)
+    friction_table = law_table(FRICTION_LAWS, builtin_only=builtin)
 
     rtol = scenario.solver.rtol
     r, T_ref = g.r, T_amb
@@ -184,7 +197,8 @@ def build_core(model, scenario):
     core_model = (prm, iy, tx, tC, tb, tm, toff, np.array(user_params, float),
                   np.zeros(L.N_SCRATCH))
     return {"y0": y0, "atol": atol, "mode0": _initial_mode(eff, scenario), "model": core_model,
-            "hook": hook, "state_names": names, "effective_model": eff}
+            "hook": hook, "flow_laws": flow_table, "friction_laws": friction_table,
+            "state_names": names, "effective_model": eff}
 
 
 def _command_at_zero(scenario):
@@ -256,7 +270,7 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
     cmd = np.asarray(scenario.command, float)
     # the event log starts small and is redone once with the exact size if it overflows
     cap = min(max_ev, 256 + 4 * len(cmd))
-    run = integrate if core["hook"] is no_terms else specialize(core["hook"])
+    run = core_for(core["hook"], core["flow_laws"], core["friction_laws"])
     while True:
         ev_t = np.empty(cap)
         ev_kind = np.empty(cap, np.int64)

@@ -16,10 +16,11 @@ PKG = os.path.dirname(os.path.abspath(pneucore.__file__))
 #: The public API of ``import pneucore`` (pneucore/__init__.py). A name leaving this list
 #: breaks users' code: change it only with a deprecation.
 PUBLIC = [
-    "EFFECTS", "Effect", "FLOW_LAWS", "FieldError", "HEAT_MODELS", "MODEL_PRESETS", "Model",
-    "Parameter", "SCENARIO_PRESETS", "Scenario", "SimulationError", "SimulationResult",
-    "iso6358_mass_flow", "model_preset", "pulse_train", "register_effect", "saint_venant_mass_flow",
-    "scenario_preset", "simulate", "unregister_effect",
+    "EFFECTS", "Effect", "FLOW_LAWS", "FRICTION_LAWS", "FieldError", "HEAT_MODELS",
+    "MODEL_PRESETS", "Model", "Parameter", "SCENARIO_PRESETS", "Scenario", "SimulationError",
+    "SimulationResult", "iso6358_mass_flow", "model_preset", "pulse_train", "register_effect",
+    "register_flow_law", "register_friction_law", "saint_venant_mass_flow", "scenario_preset",
+    "simulate", "unregister_effect", "unregister_flow_law", "unregister_friction_law",
 ]
 
 #: The subpackages and the modules each holds (a new module is added here on purpose)

@@ -62,7 +62,7 @@ from pneucore.core import layout as L
 from pneucore.physics.chamber import chamber_pressure
 from pneucore.physics.friction import coulomb_level
 from pneucore.physics.jack import chamber_volumes, net_pressure_force
-from pneucore.core.rhs import rhs
+from pneucore.core.rhs import rhs, static_friction
 from numba.core.registry import CPUDispatcher
 
 
@@ -100,16 +100,26 @@ def _without_wrappers(dispatcher, memo):
                                             f.__closure__))
     memo[dispatcher] = copy
     for name in _code_names(f.__code__):
-        value = glb.get(name)
-        if isinstance(value, CPUDispatcher):
-            glb[name] = _without_wrappers(value, memo)
+        if name in glb:
+            glb[name] = _strip_wrappers(glb[name], memo)
     return copy
 
 
+def _strip_wrappers(value, memo):
+    """``value`` with each compiled function in it (itself, or in a tuple such as the law
+    tables of :mod:`pneucore.core.rhs`) replaced by its wrapper-less copy."""
+    if isinstance(value, CPUDispatcher):
+        return _without_wrappers(value, memo)
+    if isinstance(value, tuple):
+        return tuple(_strip_wrappers(v, memo) for v in value)
+    return value
+
+
 _COPIES = {}
-rhs, chamber_pressure, coulomb_level, chamber_volumes, net_pressure_force = (
+rhs, static_friction, chamber_pressure, coulomb_level, chamber_volumes, net_pressure_force = (
     _without_wrappers(d, _COPIES)
-    for d in (rhs, chamber_pressure, coulomb_level, chamber_volumes, net_pressure_force))
+    for d in (rhs, static_friction, chamber_pressure, coulomb_level, chamber_volumes,
+              net_pressure_force))
 
 #: Event location tolerance on time [s] (the contract is 1e-6 s)
 EVENT_TOL = 1e-9
@@ -386,10 +396,14 @@ def _rest_forces(y, prm, aux):
     aux[L.AUX_FNET] = net_pressure_force(p_a, p_b, p_atm, prm[L.P_A_A], prm[L.P_A_B],
                                          prm[L.P_A_ROD_A], prm[L.P_A_ROD_B], prm[L.P_LOAD])
     ratio = prm[L.P_STRIBECK_RATIO]
-    aux[L.AUX_FS_E] = ratio * coulomb_level(prm[L.P_FE_FC0], prm[L.P_FE_FCA], prm[L.P_FE_FCB],
-                                            p_a, p_b, p_atm)
-    aux[L.AUX_FS_R] = ratio * coulomb_level(prm[L.P_FR_FC0], prm[L.P_FR_FCA], prm[L.P_FR_FCB],
-                                            p_a, p_b, p_atm)
+    v_s = prm[L.P_STRIBECK_V]
+    law = int(prm[L.P_FRICTION_LAW])
+    aux[L.AUX_FS_E] = static_friction(law, coulomb_level(prm[L.P_FE_FC0], prm[L.P_FE_FCA],
+                                                         prm[L.P_FE_FCB], p_a, p_b, p_atm),
+                                      ratio, v_s)
+    aux[L.AUX_FS_R] = static_friction(law, coulomb_level(prm[L.P_FR_FC0], prm[L.P_FR_FCA],
+                                                         prm[L.P_FR_FCB], p_a, p_b, p_atm),
+                                      ratio, v_s)
 
 
 @_internal
@@ -490,6 +504,82 @@ def _event_at(theta, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u0, seg
         _resting_aux(t0 + theta * h, ytmp, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
     _event_values(mode, ytmp, aux, stroke, ev)
     return ev[k]
+
+
+# The event location and the back-step below run only when an event is bracketed (a few
+# dozen times per simulated second), so they are called helpers of :func:`integrate`. The
+# per-step parts (step-size control, sample writing) stay written out in it: as called
+# helpers they made the pulse benchmark 15 % slower (a dozen arrays passed per step, seven
+# machine words each), and inlined at numba's IR level they lengthened the first compile
+# by a quarter (bench_simulator.py and bench_cold_start.py, November 2026).
+@_internal
+def _locate_event(theta_p, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u0, seg_slope,
+                  model, ytmp, ftmp, aux, ev, g_start, g_end):
+    """Event time of event function ``k``, which is <= 0 at the step's start (``g_start``)
+    and > 0 at the fraction ``theta_p`` of the step (``g_end``): the Illinois method on the
+    step's cubic Hermite interpolant, from the bracket ``[theta_p - 1/3, theta_p]`` (or
+    ``[0, theta_p]``), to ``EVENT_TOL`` seconds.
+
+    Returns
+    -------
+    theta : float
+        Upper end of the final bracket, as a fraction of the step [-]
+    """
+    lo = theta_p - 1.0 / 3.0
+    hi = theta_p
+    g_lo = _event_at(lo, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u0, seg_slope,
+                     model, ytmp, ftmp, aux, ev)
+    g_hi = g_end
+    if g_lo > 0.0:
+        lo = 0.0
+        g_lo = g_start
+    side = 0
+    while (hi - lo) * h > EVENT_TOL:
+        if g_hi != g_lo:
+            mid = hi - g_hi * (hi - lo) / (g_hi - g_lo)
+        else:
+            mid = 0.5 * (lo + hi)
+        if not (lo < mid < hi):
+            mid = 0.5 * (lo + hi)
+        # keep the bracket shrinking geometrically
+        if (hi - lo) * h > 1e3 * EVENT_TOL and side != 0 and side % 4 == 0:
+            mid = 0.5 * (lo + hi)
+        g_mid = _event_at(mid, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u0, seg_slope,
+                          model, ytmp, ftmp, aux, ev)
+        if g_mid > 0.0:
+            hi = mid
+            g_hi = g_mid
+            g_lo *= 0.5 if side < 0 else 1.0
+            side = -1 if side >= 0 else side - 1
+        else:
+            lo = mid
+            g_lo = g_mid
+            g_hi *= 0.5 if side > 0 else 1.0
+            side = 1 if side <= 0 else side + 1
+        if side > 1000 or side < -1000:
+            break
+    return hi
+
+
+@_internal
+def _back_step(t, t_ev, theta, h, y, f0, y1, f1, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
+               yh, ysave, err, K, W, piv, dinv, ytmp, ftmp, aux, stats):
+    """Redo the step from ``(t, y)`` exactly to the event time ``t_ev`` (the paper's ACSL
+    back-step) and put the state there into ``y``; the step's interpolant at ``theta``
+    when that step fails."""
+    n = y.shape[0]
+    hb = t_ev - t
+    for i in range(n):
+        ysave[i] = y[i]
+    ok = False
+    if hb > 0.0:
+        ok = _rodas_step(t, ysave, hb, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
+                         yh, err, K, W, piv, dinv, ytmp, ftmp, aux, stats)
+        stats[ST_BACKSTEPS] += 1
+    if not ok:
+        _hermite(theta, h, y, f0, y1, f1, yh)
+    for i in range(n):
+        y[i] = yh[i]
 
 
 # Counters and indices typed as plain int64: a variable first assigned a constant
@@ -669,40 +759,9 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
                           seg_slope, model, ytmp, ftmp, aux, ev1)
                 for k in range(2):
                     if ev1[k] > 0.0 and ev0[k] <= 0.0 and k_ev < 0:
-                        # bracket [theta_p - 1/3, theta_p]: Illinois on the interpolant
-                        lo = theta_p - 1.0 / 3.0
-                        hi = theta_p
-                        g_lo = _event_at(lo, k, mode, hh, y, f0, y1, f1, t, stroke, seg_t0,
-                                         seg_u0, seg_slope, model, ytmp, ftmp, aux, ev)
-                        g_hi = ev1[k]
-                        if g_lo > 0.0:
-                            lo = 0.0
-                            g_lo = ev0[k]
-                        side = 0
-                        while (hi - lo) * hh > EVENT_TOL:
-                            if g_hi != g_lo:
-                                mid = hi - g_hi * (hi - lo) / (g_hi - g_lo)
-                            else:
-                                mid = 0.5 * (lo + hi)
-                            if not (lo < mid < hi):
-                                mid = 0.5 * (lo + hi)
-                            # keep the bracket shrinking geometrically
-                            if (hi - lo) * hh > 1e3 * EVENT_TOL and side != 0 and side % 4 == 0:
-                                mid = 0.5 * (lo + hi)
-                            g_mid = _event_at(mid, k, mode, hh, y, f0, y1, f1, t, stroke, seg_t0,
-                                              seg_u0, seg_slope, model, ytmp, ftmp, aux, ev)
-                            if g_mid > 0.0:
-                                hi = mid
-                                g_hi = g_mid
-                                g_lo *= 0.5 if side < 0 else 1.0
-                                side = -1 if side >= 0 else side - 1
-                            else:
-                                lo = mid
-                                g_lo = g_mid
-                                g_hi *= 0.5 if side > 0 else 1.0
-                                side = 1 if side <= 0 else side + 1
-                            if side > 1000 or side < -1000:
-                                break
+                        hi = _locate_event(theta_p, k, mode, hh, y, f0, y1, f1, t, stroke, seg_t0,
+                                           seg_u0, seg_slope, model, ytmp, ftmp, aux, ev, ev0[k],
+                                           ev1[k])
                         if hi < th_best:
                             th_best = hi
                             k_ev = k
@@ -724,18 +783,9 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
                 u_out[k_out] = seg_u0 + seg_slope * (t_out[k_out] - seg_t0)
                 k_out += 1
             # back-step: redo the step exactly from t to the event time
+            _back_step(t, t_ev, th_best, hh, y, f0, y1, f1, J, ft, mode, seg_t0, seg_u0, seg_slope,
+                       model, yh, ysave, err, K, W, piv, dinv, ytmp, ftmp, aux, stats)
             hb = t_ev - t
-            for i in range(n):
-                ysave[i] = y[i]
-            ok = False
-            if hb > 0.0:
-                ok = _rodas_step(t, ysave, hb, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
-                                 yh, err, K, W, piv, dinv, ytmp, ftmp, aux, stats)
-                stats[ST_BACKSTEPS] += 1
-            if not ok:
-                _hermite(th_best, hh, y, f0, y1, f1, yh)
-            for i in range(n):
-                y[i] = yh[i]
             t = t_ev
             if hb <= 10.0 * EVENT_TOL:
                 stuck_count += 1
@@ -798,6 +848,43 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
 
 _SPECIALIZED = {}
 
+#: Names a specialised core rebinds in :mod:`pneucore.core.rhs`: the user hook and the law tables
+_REBOUND = ("user_terms", "flow_laws", "friction_laws")
+
+
+def _chain(namespace, module, seeds):
+    """Compiled functions of ``module`` that refer to a name in ``seeds``, directly or
+    through each other: those a specialised core must re-create (:func:`specialize`).
+
+    Found from the code, so that a new helper on the way joins without an edit here
+    (one left out would silently call the default core's right-hand side).
+
+    Parameters
+    ----------
+    namespace : dict
+        The module's globals
+    module : str
+        The module's name (functions defined elsewhere are not cloned)
+    seeds : iterable of str
+        Rebound names
+
+    Returns
+    -------
+    names : tuple of str
+        In a stable (sorted) order
+    """
+    funcs = {name: v for name, v in namespace.items()
+             if isinstance(v, CPUDispatcher) and v.py_func.__module__ == module}
+    refs = {name: _code_names(f.py_func.__code__) for name, f in funcs.items()}
+    chain = set()
+    targets = set(seeds)
+    while True:
+        new = {name for name in funcs if name not in chain and refs[name] & targets}
+        if not new:
+            return tuple(sorted(chain))
+        chain |= new
+        targets |= new
+
 
 def _clone(dispatcher, glb):
     """A new dispatcher of ``dispatcher``'s Python function bound to the globals ``glb``.
@@ -813,20 +900,30 @@ def _clone(dispatcher, glb):
                                           f.__closure__))
 
 
-def specialize(hook):
-    """A compiled copy of :func:`integrate` whose right-hand side calls ``hook`` for user terms.
+def specialize(hook=None, flow_laws=None, friction_laws=None):
+    """A compiled copy of :func:`integrate` with another user hook or other law tables.
 
-    The default core (``rhs.user_terms = no_terms``) is compiled once and
-    cached on disk. A model with user-registered effects needs the same code
-    with the hook rebound: every function of the call chain is re-created
-    with a globals dict in which ``user_terms`` is the user's hook and each
-    chain function refers to its clone. Compiled in memory on first use
-    (a few seconds), memoised per hook.
+    The default core (``rhs.user_terms = no_terms``, the built-in laws'
+    tables ``rhs.flow_laws`` and ``rhs.friction_laws``) is compiled once and
+    cached on disk. A model with user-registered effects, or naming a flow or
+    friction law registered at run time, needs the same code with those names
+    rebound: every function of the call chain is re-created with a globals
+    dict in which ``user_terms`` is the user's hook, the tables are the
+    registries' (:func:`pneucore.core.rhs.law_table`) and each chain function
+    refers to its clone. Compiled in memory on first use, memoised per hook and
+    tables: about the first compile of the core (12 s of CPU time for a
+    registered flow law on the shared 2-core machine, against 10 s for the
+    default core), since numba cannot cache a function whose globals are not
+    its source file's.
 
     Parameters
     ----------
-    hook : numba dispatcher
-        ``hook(t, y, sig, prm_user, terms, dy)``
+    hook : numba dispatcher or None
+        ``hook(t, y, sig, prm_user, terms, dy)``; None: ``rhs.no_terms``
+    flow_laws : tuple or None
+        Flow-law table ``((code, law), ...)``; None: the built-in one
+    friction_laws : tuple or None
+        Friction-law table ``((code, force, static), ...)``; None: the built-in one
 
     Returns
     -------
@@ -835,19 +932,46 @@ def specialize(hook):
     """
     from pneucore.core import rhs as rhs_module
 
-    if hook in _SPECIALIZED:
-        return _SPECIALIZED[hook]
+    hook = rhs_module.no_terms if hook is None else hook
+    flow_laws = rhs_module.flow_laws if flow_laws is None else tuple(flow_laws)
+    friction_laws = rhs_module.friction_laws if friction_laws is None else tuple(friction_laws)
+    key = (hook, flow_laws, friction_laws)
+    if key in _SPECIALIZED:
+        return _SPECIALIZED[key]
     # the rhs module's own names: the component laws as published, each cached on disk
     # (a process that loaded the default core from the cache has not compiled the
     # wrapper-less copies, and these would be compiled afresh in every process)
     rhs_globals = dict(rhs_module.__dict__)
-    rhs_globals["user_terms"] = hook
-    rhs_globals["call_user_terms"] = _clone(rhs_module.call_user_terms, rhs_globals)
-    rhs_globals["rhs"] = _clone(rhs_module.rhs, rhs_globals)
+    rhs_globals.update(user_terms=hook, flow_laws=flow_laws, friction_laws=friction_laws)
+    rhs_chain = _chain(rhs_module.__dict__, rhs_module.__name__, _REBOUND)
+    for name in rhs_chain:
+        rhs_globals[name] = _clone(getattr(rhs_module, name), rhs_globals)
     glb = dict(globals())
-    glb["rhs"] = rhs_globals["rhs"]
-    for name in ("_feval", "_rodas_step", "_jacobian", "_resting_aux", "_settle", "_transition",
-                 "_event_at", "integrate"):
+    # this module's copies of rhs functions (rhs, static_friction) become the clones
+    imported = {name for name, v in globals().items() if isinstance(v, CPUDispatcher)
+                and v.py_func.__module__ == rhs_module.__name__ and name in rhs_chain}
+    for name in imported:
+        glb[name] = rhs_globals[name]
+    for name in _chain(globals(), __name__, imported):
         glb[name] = _clone(globals()[name], glb)
-    _SPECIALIZED[hook] = glb["integrate"]
+    _SPECIALIZED[key] = glb["integrate"]
     return glb["integrate"]
+
+
+def core_for(hook, flow_laws, friction_laws):
+    """The compiled core for a user hook and law tables: :func:`integrate` itself when they
+    are the defaults (cached on disk), else :func:`specialize`'s copy.
+
+    Parameters
+    ----------
+    hook : numba dispatcher
+        User-effect hook (``rhs.no_terms`` when the model has none)
+    flow_laws, friction_laws : tuple
+        Law tables (:func:`pneucore.core.rhs.law_table`)
+    """
+    from pneucore.core import rhs as rhs_module
+
+    if hook is rhs_module.no_terms and flow_laws == rhs_module.flow_laws \
+            and friction_laws == rhs_module.friction_laws:
+        return integrate
+    return specialize(hook, flow_laws, friction_laws)

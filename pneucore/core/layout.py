@@ -30,44 +30,99 @@ IY_TSENSOR_B = 11   # gas temperature seen by the sensor of chamber B [K]
 N_IY = 12
 
 # --- parameter slots in ``prm`` ------------------------------------------------
-_names = [
-    # gas
-    "R", "GAMMA",
-    # supply and ambient (exhaust) nodes
-    "SUP", "T_SUP", "ATM", "T_ATM",
-    # jack geometry and load
-    "A_A", "A_B", "A_ROD_A", "A_ROD_B", "STROKE", "V0_A", "V0_B", "MASS", "LOAD",
-    "BORE", "ROD_A", "ROD_B", "WALL_A", "WALL_B",
-    # heat exchange: coefficient, isothermal flag
-    "H", "ISOTHERMAL",
-    # heat models (pneucore.physics.heat): natural and jet multipliers, inlet diameter [m];
-    # wall mass [kg], specific heat [J/(kg K)], outer coefficient [W/(m^2 K)];
-    # gas-temperature sensor time constant [s]
-    "HEAT_NAT", "HEAT_JET", "HEAT_D_IN", "WALL_MASS", "WALL_CP", "WALL_H_OUT", "TSENSOR_TAU",
-    # friction, extend set then retract set
-    "FE_FC0", "FE_FCA", "FE_FCB", "FE_KV0", "FE_KVA", "FE_KVB",
-    "FR_FC0", "FR_FCA", "FR_FCB", "FR_KV0", "FR_KVA", "FR_KVB",
-    # Stribeck breakaway: Fs/Fc ratio (1 = none) and Stribeck velocity [m/s]
-    "STRIBECK_RATIO", "STRIBECK_V",
-    # laminar leaks [kg/(s Pa)]: across the piston, chamber A and B to ambient
-    "G_AB", "G_A", "G_B",
-    # valve: centred-spool leakage fraction, flow law code, laminar ratio
-    "NULL_LEAK", "FLOW_LAW", "R_LAM",
-    # spool dynamics: time constant [s], natural frequency [rad/s], damping [-]
-    "SPOOL_TAU", "SPOOL_WN", "SPOOL_ZETA",
-    # supply line: regulator conductance [m^3/(s Pa)], critical ratio, volume [m^3]
-    "SUP_C", "SUP_B", "SUP_V",
-    # pressure transducer lag [s]
-    "SENSOR_TAU",
-    # 3/2 mode: constant pressure of chamber B [Pa] (0 = chamber B is dynamic)
-    "B_CONST",
-    # scratch for the full-opening C and b of each edge (null leakage)
-    "CMAX_PA", "CMAX_AR", "CMAX_PB", "CMAX_BR",
-    "BMAX_PA", "BMAX_AR", "BMAX_PB", "BMAX_BR",
-]
-PRM_INDEX = {name: i for i, name in enumerate(_names)}
-N_PRM = len(_names)
-globals().update({"P_" + name: i for name, i in PRM_INDEX.items()})
+# Written out (not generated) so that a search finds each slot; PRM_INDEX below is
+# read back from these names, and tests/test_layout_names.py checks that the slots
+# are 0 .. N_PRM - 1 without gaps or repeats.
+# gas: specific gas constant [J/(kg K)], ratio of specific heats [-]
+P_R = 0
+P_GAMMA = 1
+# supply and ambient (exhaust) nodes: pressures [Pa], temperatures [K]
+P_SUP = 2
+P_T_SUP = 3
+P_ATM = 4
+P_T_ATM = 5
+# jack geometry and load: areas [m^2], stroke [m], dead volumes [m^3], mass [kg],
+# load [N], diameters [m], wall areas [m^2] (0 = from the geometry)
+P_A_A = 6
+P_A_B = 7
+P_A_ROD_A = 8
+P_A_ROD_B = 9
+P_STROKE = 10
+P_V0_A = 11
+P_V0_B = 12
+P_MASS = 13
+P_LOAD = 14
+P_BORE = 15
+P_ROD_A = 16
+P_ROD_B = 17
+P_WALL_A = 18
+P_WALL_B = 19
+# heat exchange: coefficient [W/(m^2 K)], isothermal flag
+P_H = 20
+P_ISOTHERMAL = 21
+# heat models (pneucore.physics.heat): natural and jet multipliers, inlet diameter [m];
+# wall mass [kg], specific heat [J/(kg K)], outer coefficient [W/(m^2 K)];
+# gas-temperature sensor time constant [s]
+P_HEAT_NAT = 22
+P_HEAT_JET = 23
+P_HEAT_D_IN = 24
+P_WALL_MASS = 25
+P_WALL_CP = 26
+P_WALL_H_OUT = 27
+P_TSENSOR_TAU = 28
+# friction (Eq. 19-20), extend set then retract set: fc0 [N], fc_a, fc_b [N/Pa],
+# kv0 [N s/m], kv_a, kv_b [N s/(m Pa)]
+P_FE_FC0 = 29
+P_FE_FCA = 30
+P_FE_FCB = 31
+P_FE_KV0 = 32
+P_FE_KVA = 33
+P_FE_KVB = 34
+P_FR_FC0 = 35
+P_FR_FCA = 36
+P_FR_FCB = 37
+P_FR_KV0 = 38
+P_FR_KVA = 39
+P_FR_KVB = 40
+# Stribeck breakaway: Fs/Fc ratio (1 = none) and Stribeck velocity [m/s]
+P_STRIBECK_RATIO = 41
+P_STRIBECK_V = 42
+# laminar leaks [kg/(s Pa)]: across the piston, chamber A and B to ambient
+P_G_AB = 43
+P_G_A = 44
+P_G_B = 45
+# valve: centred-spool leakage fraction, flow law code (FLOW_LAWS[...].code), laminar ratio
+P_NULL_LEAK = 46
+P_FLOW_LAW = 47
+P_R_LAM = 48
+# spool dynamics: time constant [s], natural frequency [rad/s], damping [-]
+P_SPOOL_TAU = 49
+P_SPOOL_WN = 50
+P_SPOOL_ZETA = 51
+# supply line: regulator conductance [m^3/(s Pa)], critical ratio, volume [m^3]
+P_SUP_C = 52
+P_SUP_B = 53
+P_SUP_V = 54
+# pressure transducer lag [s]
+P_SENSOR_TAU = 55
+# 3/2 mode: constant pressure of chamber B [Pa] (0 = chamber B is dynamic)
+P_B_CONST = 56
+# full-opening C [m^3/(s Pa)] and b [-] of each edge, in PORT_NAMES order (null leakage)
+P_CMAX_PA = 57
+P_CMAX_AR = 58
+P_CMAX_PB = 59
+P_CMAX_BR = 60
+P_BMAX_PA = 61
+P_BMAX_AR = 62
+P_BMAX_PB = 63
+P_BMAX_BR = 64
+# friction law code (FRICTION_LAWS[...].code)
+P_FRICTION_LAW = 65
+
+#: Slot of each parameter by name (without the ``P_`` prefix), read from the constants above
+PRM_INDEX = dict(sorted(((name[2:], i) for name, i in globals().items()
+                         if name.startswith("P_") and isinstance(i, int)), key=lambda kv: kv[1]))
+N_PRM = len(PRM_INDEX)
 
 # --- valve edges ---------------------------------------------------------------
 PORT_NAMES = ("P-A", "A-R", "P-B", "B-R")
@@ -85,10 +140,16 @@ N_AUX = len(AUX_NAMES)
 # --- signals handed to user effect terms ----------------------------------------
 SIG_NAMES = ("p_a", "p_b", "T_a", "T_b", "V_a", "V_b", "x", "v", "u_eff",
              "p_supply", "T_supply", "p_atm", "T_atm")
+#: Position of each signal in ``sig`` (pressures [Pa], temperatures [K], volumes [m^3],
+#: position [m], velocity [m/s], spool opening [-])
+SIG_PA, SIG_PB, SIG_TA, SIG_TB, SIG_VA, SIG_VB, SIG_X, SIG_V, SIG_UEFF, \
+    SIG_PSUP, SIG_TSUP, SIG_PATM, SIG_TATM = range(13)
 N_SIG = len(SIG_NAMES)
 #: Terms a user effect may add: mass flow [kg/s], enthalpy flow [W] and heat
 #: flow [W] into each chamber, and a force on the piston towards +x [N]
 TERM_NAMES = ("q_a", "H_a", "Q_a", "q_b", "H_b", "Q_b", "force")
+#: Position of each term in ``terms``
+TERM_QA, TERM_HA, TERM_QHEAT_A, TERM_QB, TERM_HB, TERM_QHEAT_B, TERM_FORCE = range(7)
 N_TERMS = len(TERM_NAMES)
 #: Length of the right-hand side's work vector (signals, then terms)
 N_SCRATCH = N_SIG + N_TERMS

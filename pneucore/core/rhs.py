@@ -10,6 +10,13 @@ write their parameters into ``prm`` and their states into ``iy``
 (:mod:`pneucore.core.layout`); user-registered effects add terms through the
 module-level ``user_terms`` hook (see :func:`pneucore.core.integrator.specialize`).
 
+The flow and friction laws come from their registries
+(:data:`pneucore.physics.flow.FLOW_LAWS`, :data:`pneucore.physics.friction.FRICTION_LAWS`):
+the core dispatches on the law codes in ``prm`` (``P_FLOW_LAW``, ``P_FRICTION_LAW``)
+over the module-level tables :data:`flow_laws` and :data:`friction_laws`, which hold
+the built-in laws; a model naming a law registered at run time runs on a copy of the
+core compiled over the registry's table, as for a user effect's hook.
+
 Within one piston ``mode`` the equations are smooth; stick, slip and end
 stops switch the mode (handled as events by :mod:`pneucore.core.integrator`).
 
@@ -20,12 +27,13 @@ a ``scratch`` vector allocated once per simulation. Together with the
 inlined valve edge this took one evaluation from about 0.21 to 0.07 us.
 """
 from numba import njit
+from numba.extending import overload
 
 from pneucore.core import layout as L
 from pneucore.physics.chamber import chamber_pressure, chamber_rates, enthalpy_flow
-from pneucore.physics.flow import iso6358_mass_flow, laminar_mass_flow, saint_venant_mass_flow
+from pneucore.physics.flow import FLOW_LAWS, iso6358_mass_flow, laminar_mass_flow
 from pneucore.physics.heat import convective_heat_flow, exchange_coefficient, wall_rate
-from pneucore.physics.friction import coulomb_level, sliding_friction, viscous_coefficient
+from pneucore.physics.friction import FRICTION_LAWS, coulomb_level, viscous_coefficient
 from pneucore.physics.jack import chamber_volumes, net_pressure_force, wall_area
 from pneucore.physics.valve import table_segment
 
@@ -69,12 +77,100 @@ def call_user_terms(t, y, sig, prm_user, terms, dy):
     user_terms(t, y, sig, prm_user, terms, dy)
 
 
+def _table_dispatch(column):
+    """A function for compiled code, ``f(table, code, args)``: calls the function in column
+    ``column`` of the entry of ``table`` (a law table, :func:`law_table`) whose code is
+    ``code``, with the tuple ``args``; 0.0 when no entry has that code.
+
+    Its compiled form is generated from the table's type when a caller is compiled: one
+    test of the code and one direct call per entry, the code a hand-written
+    ``if law == 1: ... else: ...`` gives (and as fast: LLVM inlines the small dispatch
+    and the laws; inlining at numba's IR level, ``inline="always"``, only lengthened
+    the first compile).
+    """
+    def call(table, code, args):
+        raise NotImplementedError("called from compiled code only")
+
+    @overload(call)
+    def _generate(table, code, args):
+        lines = ["def impl(table, code, args):"]
+        for i in range(len(table)):
+            lines += [f"    if code == table[{i}][0]:",
+                      f"        return table[{i}][{column}](*args)"]
+        lines.append("    return 0.0")
+        namespace = {}
+        exec("\n".join(lines), namespace)   # text built from integers only
+        return namespace["impl"]
+
+    call.__name__ = call.__qualname__ = f"call_column_{column}"
+    return call
+
+
+#: ``call_law(table, code, args)`` in compiled code: the law (flow table) or the force
+#: (friction table) of the entry with ``code``
+call_law = _table_dispatch(1)
+#: ``call_static(table, code, args)`` in compiled code: the static limit of the friction
+#: law with ``code``
+call_static = _table_dispatch(2)
+
+
+def law_table(registry, builtin_only=False):
+    """The core's dispatch table of a law registry: each law's ``core_entry()``, by code.
+
+    Parameters
+    ----------
+    registry : dict
+        :data:`pneucore.physics.flow.FLOW_LAWS` or
+        :data:`pneucore.physics.friction.FRICTION_LAWS`
+    builtin_only : bool
+        Only the laws of the package (the table of the core cached on disk)
+
+    Returns
+    -------
+    table : tuple
+        ``((code, function, ...), ...)`` in increasing code
+    """
+    laws = sorted(registry.values(), key=lambda law: law.code)
+    return tuple(law.core_entry() for law in laws if law.builtin or not builtin_only)
+
+
+#: Flow laws compiled into the core cached on disk, ``((code, law), ...)``: the
+#: built-in entries of :data:`pneucore.physics.flow.FLOW_LAWS`. A model naming a law
+#: registered at run time runs on a copy of the core compiled over the registry's
+#: table (:func:`pneucore.core.integrator.specialize`).
+flow_laws = law_table(FLOW_LAWS, builtin_only=True)
+#: Friction laws compiled into the core cached on disk, ``((code, force, static), ...)``:
+#: the built-in entries of :data:`pneucore.physics.friction.FRICTION_LAWS`
+friction_laws = law_table(FRICTION_LAWS, builtin_only=True)
+
+
 @njit(cache=True, error_model="numpy", _nrt=False)
 def edge_flow(law, p1, T1, p2, T2, C, b, m, r_lam, r, gamma):
-    """Mass flow from node 1 to node 2 through one valve edge [kg/s], by flow-law code."""
-    if law == 1:
-        return saint_venant_mass_flow(p1, T1, p2, T2, C, b, m, r_lam, r, gamma)
-    return iso6358_mass_flow(p1, T1, p2, T2, C, b, m, r_lam, r, gamma)
+    """Mass flow from node 1 to node 2 through one valve edge [kg/s], by flow-law code.
+
+    Dispatches on the codes of :data:`flow_laws` (``FLOW_LAWS[name].code``): one test
+    and one direct call per law (:func:`_table_dispatch`).
+    """
+    return call_law(flow_laws, law, (p1, T1, p2, T2, C, b, m, r_lam, r, gamma))
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def friction_force(law, v, direction, fc, kv, ratio, v_s):
+    """Friction on a sliding piston [N], counted positive towards -x, by friction-law code.
+
+    Dispatches on the codes of :data:`friction_laws` (``FRICTION_LAWS[name].code``)
+    to the law's ``force(v, direction, fc, kv, ratio, v_s)``.
+    """
+    return call_law(friction_laws, law, (v, direction, fc, kv, ratio, v_s))
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def static_friction(law, fc, ratio, v_s):
+    """Static friction limit of a resting piston [N], by friction-law code.
+
+    Dispatches on the codes of :data:`friction_laws` to the law's ``static(fc, ratio, v_s)``.
+    """
+    return call_static(friction_laws, law, (fc, ratio, v_s))
 
 
 @njit(cache=True, error_model="numpy", _nrt=False, inline="always")
@@ -209,25 +305,30 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
     t_qa = t_ha = t_qa_heat = t_qb = t_hb = t_qb_heat = t_force = 0.0
     if iy[L.IY_HOOK] > 0:
         sig = scratch[:L.N_SIG]
-        sig[0] = p_a
-        sig[1] = p_b
-        sig[2] = T_a
-        sig[3] = T_b
-        sig[4] = V_a
-        sig[5] = V_b
-        sig[6] = x
-        sig[7] = v
-        sig[8] = u_eff
-        sig[9] = p_sup
-        sig[10] = T_sup
-        sig[11] = p_atm
-        sig[12] = T_atm
+        sig[L.SIG_PA] = p_a
+        sig[L.SIG_PB] = p_b
+        sig[L.SIG_TA] = T_a
+        sig[L.SIG_TB] = T_b
+        sig[L.SIG_VA] = V_a
+        sig[L.SIG_VB] = V_b
+        sig[L.SIG_X] = x
+        sig[L.SIG_V] = v
+        sig[L.SIG_UEFF] = u_eff
+        sig[L.SIG_PSUP] = p_sup
+        sig[L.SIG_TSUP] = T_sup
+        sig[L.SIG_PATM] = p_atm
+        sig[L.SIG_TATM] = T_atm
         terms = scratch[L.N_SIG:L.N_SIG + L.N_TERMS]
         for i in range(L.N_TERMS):
             terms[i] = 0.0
         call_user_terms(t, y, sig, prm_user, terms, dy)
-        t_qa, t_ha, t_qa_heat, t_qb, t_hb, t_qb_heat, t_force = (
-            terms[0], terms[1], terms[2], terms[3], terms[4], terms[5], terms[6])
+        t_qa = terms[L.TERM_QA]
+        t_ha = terms[L.TERM_HA]
+        t_qa_heat = terms[L.TERM_QHEAT_A]
+        t_qb = terms[L.TERM_QB]
+        t_hb = terms[L.TERM_HB]
+        t_qb_heat = terms[L.TERM_QHEAT_B]
+        t_force = terms[L.TERM_FORCE]
     q_a += t_qa
     H_a += t_ha
     q_b += t_qb
@@ -287,15 +388,16 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
     fc_r = coulomb_level(prm[L.P_FR_FC0], prm[L.P_FR_FCA], prm[L.P_FR_FCB], p_a, p_b, p_atm)
     ratio = prm[L.P_STRIBECK_RATIO]
     v_s = prm[L.P_STRIBECK_V]
+    law_f = int(prm[L.P_FRICTION_LAW])
     if mode == L.MODE_SLIDE_POS:
         kv = viscous_coefficient(prm[L.P_FE_KV0], prm[L.P_FE_KVA], prm[L.P_FE_KVB], p_a, p_b, p_atm)
-        F_f = sliding_friction(v, 1.0, fc_e, kv, ratio, v_s)
+        F_f = friction_force(law_f, v, 1.0, fc_e, kv, ratio, v_s)
         acc = (F_net - F_f) / prm[L.P_MASS]
         dy[L.Y_X] = v
         dy[L.Y_V] = acc
     elif mode == L.MODE_SLIDE_NEG:
         kv = viscous_coefficient(prm[L.P_FR_KV0], prm[L.P_FR_KVA], prm[L.P_FR_KVB], p_a, p_b, p_atm)
-        F_f = sliding_friction(v, -1.0, fc_r, kv, ratio, v_s)
+        F_f = friction_force(law_f, v, -1.0, fc_r, kv, ratio, v_s)
         acc = (F_net - F_f) / prm[L.P_MASS]
         dy[L.Y_X] = v
         dy[L.Y_V] = acc
@@ -316,8 +418,9 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
     # --- supply line mass balance (isothermal line) ------------------------------------
     q_draw = q_pa + q_pb
     if i_ms >= 0:
-        q_reg = edge_flow(0, prm[L.P_SUP], T_sup, p_sup, T_sup, prm[L.P_SUP_C], prm[L.P_SUP_B],
-                          0.5, prm[L.P_R_LAM], r, gamma)
+        # the regulator is an ISO 6358 restriction whatever the valve's law
+        q_reg = iso6358_mass_flow(prm[L.P_SUP], T_sup, p_sup, T_sup, prm[L.P_SUP_C], prm[L.P_SUP_B],
+                                  0.5, prm[L.P_R_LAM], r, gamma)
         dy[i_ms] = q_reg - q_draw
         q_draw = q_reg
 
@@ -330,8 +433,8 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
     aux[L.AUX_FNET] = F_net
     aux[L.AUX_HEAT_A] = Q_a
     aux[L.AUX_HEAT_B] = Q_b
-    aux[L.AUX_FS_E] = fc_e * ratio
-    aux[L.AUX_FS_R] = fc_r * ratio
+    aux[L.AUX_FS_E] = static_friction(law_f, fc_e, ratio, v_s)
+    aux[L.AUX_FS_R] = static_friction(law_f, fc_r, ratio, v_s)
     aux[L.AUX_VA] = V_a
     aux[L.AUX_VB] = V_b
     aux[L.AUX_QSUP] = q_draw

@@ -194,8 +194,10 @@ class Valve:
         3/2 mode: absolute pressure held in chamber B; None = half the supply pressure,
         as in the paper [Pa]
     flow_law : str
-        Flow law, a name in :data:`pneucore.physics.flow.FLOW_LAWS`: ``iso6358`` (Eq. 4-5)
-        or ``saint_venant`` (Eq. 1-3) [-]
+        Flow law, a name in :data:`pneucore.physics.flow.FLOW_LAWS`: ``iso6358`` (Eq. 4-5),
+        ``saint_venant`` (Eq. 1-3), or a law added with
+        :func:`pneucore.physics.flow.register_flow_law`; every valve edge of the compiled
+        core computes its mass flow with it [-]
     laminar_ratio : float
         Pressure ratio above which edge flows are linearised [-]
     """
@@ -379,7 +381,10 @@ class Friction:
     retract : FrictionSet
         Coefficients while retracting (v < 0); None = same as extend
     law : str
-        Friction law, a name in :data:`pneucore.physics.friction.FRICTION_LAWS` [-]
+        Friction law, a name in :data:`pneucore.physics.friction.FRICTION_LAWS`
+        (``coulomb_viscous``, or a law added with
+        :func:`pneucore.physics.friction.register_friction_law`); the compiled core computes
+        the sliding force and the static limit with it [-]
     """
     extend: FrictionSet = field(default_factory=FrictionSet)
     retract: FrictionSet = field(default_factory=FrictionSet)
