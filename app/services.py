@@ -365,8 +365,9 @@ def friction_preview(model, pressures, velocities):
     applied, so ``pressure_dependent_friction``, ``quadrant_friction`` and
     ``stribeck_friction`` show as they act), and the force comes from the core's functions
     of :mod:`pneucore.physics.friction`: :func:`~pneucore.physics.friction.coulomb_level` (Eq. 20),
-    :func:`~pneucore.physics.friction.viscous_coefficient` (Eq. 19) and
-    :func:`~pneucore.physics.friction.sliding_friction` (Eq. 18 with the breakaway factor), with
+    :func:`~pneucore.physics.friction.viscous_coefficient` (Eq. 19) and the model's law
+    from :data:`~pneucore.physics.friction.FRICTION_LAWS` (its ``force``, Eq. 18 with the
+    breakaway factor for the built-in law, and its ``static`` limit), with
     the extension coefficients for ``v > 0`` and the retraction ones for ``v < 0``, as the
     right-hand side picks them by piston mode (:mod:`pneucore.core.rhs`).
 
@@ -388,11 +389,12 @@ def friction_preview(model, pressures, velocities):
         ``static_retract`` [N] (magnitudes), ``coulomb_*`` [N] and ``viscous_*`` [N s/m]
     """
     from pneucore.core import layout as L
-    from pneucore.physics.friction import coulomb_level, sliding_friction, viscous_coefficient
+    from pneucore.physics.friction import FRICTION_LAWS, coulomb_level, viscous_coefficient
     from pneucore.spec.scenario import Scenario
     from pneucore.simulate import build_core
 
     prm = build_core(model, Scenario())["model"][0]
+    law = FRICTION_LAWS[model.friction.law]       # the law the core dispatches to, by name
     p_atm = float(prm[L.P_ATM])
     ratio, v_s = float(prm[L.P_STRIBECK_RATIO]), float(prm[L.P_STRIBECK_V])
     fc_ext = (prm[L.P_FE_FC0], prm[L.P_FE_FCA], prm[L.P_FE_FCB])
@@ -407,12 +409,13 @@ def friction_preview(model, pressures, velocities):
         fc_r = float(coulomb_level(*fc_ret, p_a, p_b, p_atm))
         kv_e = float(viscous_coefficient(*kv_ext, p_a, p_b, p_atm))
         kv_r = float(viscous_coefficient(*kv_ret, p_a, p_b, p_atm))
-        force = [float(sliding_friction(v, 1.0, fc_e, kv_e, ratio, v_s)) if v > 0.0 else
-                 float(sliding_friction(v, -1.0, fc_r, kv_r, ratio, v_s)) if v < 0.0 else None
+        force = [float(law.force(v, 1.0, fc_e, kv_e, ratio, v_s)) if v > 0.0 else
+                 float(law.force(v, -1.0, fc_r, kv_r, ratio, v_s)) if v < 0.0 else None
                  for v in vs]
         # the static limits as the core's event probes compute them (aux static_limit_ext/_ret)
         curves.append({"p_a": p_a, "p_b": p_b, "force": force,
-                       "static_extend": ratio * fc_e, "static_retract": ratio * fc_r,
+                       "static_extend": float(law.static(fc_e, ratio, v_s)),
+                       "static_retract": float(law.static(fc_r, ratio, v_s)),
                        "coulomb_extend": fc_e, "coulomb_retract": fc_r,
                        "viscous_extend": kv_e, "viscous_retract": kv_r})
     return {"law": model.friction.law, "stribeck_ratio": ratio, "stribeck_velocity": v_s,

@@ -93,6 +93,43 @@ def test_agrees_with_the_pneucore_law_in_both_directions(client):
     assert out["curves"][1]["force"][-1] != out["curves"][2]["force"][-1]
 
 
+def test_a_registered_friction_law_is_what_the_preview_draws(client):
+    """The map comes from the model's law in the registry, not from a copy of Eq. 18: a law
+    registered as three times the built-in force (and static limit) draws three times the
+    curves of the built-in law."""
+    from numba import njit
+
+    from pneucore.physics.friction import (breakaway_friction, register_friction_law,
+                                           unregister_friction_law)
+
+    @njit
+    def triple_force(v, direction, fc, kv, ratio, v_s):
+        return 3.0 * sliding_friction(v, direction, fc, kv, ratio, v_s)
+
+    @njit
+    def triple_static(fc, ratio, v_s):
+        return 3.0 * breakaway_friction(fc, ratio, v_s)
+
+    m = _asymmetric_model()
+    base = _post(client, m).json()
+    register_friction_law("test_preview_triple", triple_force, triple_static, "3 x Eq. 18 (test)")
+    try:
+        m3 = copy.deepcopy(m)
+        m3["friction"]["law"] = "test_preview_triple"
+        r = _post(client, m3)
+    finally:
+        unregister_friction_law("test_preview_triple")
+    assert r.status_code == 200, r.text[:500]
+    out = r.json()
+    assert out["law"] == "test_preview_triple"
+    for c0, c3 in zip(base["curves"], out["curves"]):
+        for f0, f3 in zip(c0["force"], c3["force"]):
+            assert (f0 is None and f3 is None) or f3 == pytest.approx(3.0 * f0, rel=REL)
+        assert c3["static_extend"] == pytest.approx(3.0 * c0["static_extend"], rel=REL)
+        assert c3["static_retract"] == pytest.approx(3.0 * c0["static_retract"], rel=REL)
+        assert c3["coulomb_extend"] == pytest.approx(c0["coulomb_extend"], rel=REL)
+
+
 def test_stribeck_effect_raises_the_breakaway(client):
     m = _asymmetric_model()
     m["effects"] = {"stribeck_friction": {"static_ratio": 2.0, "stribeck_velocity": 0.005}}
