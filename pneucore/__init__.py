@@ -14,7 +14,7 @@ from pneucore.spec.effects import EFFECTS, Effect, Parameter, register_effect, u
 from pneucore.physics.flow import (FLOW_LAWS, iso6358_mass_flow, register_flow_law,
                                    saint_venant_mass_flow, unregister_flow_law)
 from pneucore.physics.friction import FRICTION_LAWS, register_friction_law, unregister_friction_law
-from pneucore.physics.heat import HEAT_MODELS
+from pneucore.physics.heat import HEAT_MODELS, register_heat_model, unregister_heat_model
 from pneucore.spec.model import Model
 from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
 from pneucore.result import SimulationResult
@@ -26,10 +26,11 @@ __version__ = "0.1.0"
 
 __all__ = [
     "EFFECTS", "Effect", "Parameter", "register_effect", "unregister_effect", "FLOW_LAWS",
-    "iso6358_mass_flow", "saint_venant_mass_flow", "HEAT_MODELS", "Model", "MODEL_PRESETS",
+    "iso6358_mass_flow", "saint_venant_mass_flow", "register_flow_law", "unregister_flow_law",
+    "HEAT_MODELS", "register_heat_model", "unregister_heat_model", "FRICTION_LAWS",
+    "register_friction_law", "unregister_friction_law", "Model", "MODEL_PRESETS",
     "SCENARIO_PRESETS", "model_preset", "scenario_preset", "SimulationResult", "Scenario",
-    "pulse_train", "SimulationError", "simulate", "FieldError", "register_flow_law",
-    "unregister_flow_law", "FRICTION_LAWS", "register_friction_law", "unregister_friction_law",
+    "pulse_train", "SimulationError", "simulate", "FieldError",
 ]
 
 

@@ -19,8 +19,9 @@ PUBLIC = [
     "EFFECTS", "Effect", "FLOW_LAWS", "FRICTION_LAWS", "FieldError", "HEAT_MODELS",
     "MODEL_PRESETS", "Model", "Parameter", "SCENARIO_PRESETS", "Scenario", "SimulationError",
     "SimulationResult", "iso6358_mass_flow", "model_preset", "pulse_train", "register_effect",
-    "register_flow_law", "register_friction_law", "saint_venant_mass_flow", "scenario_preset",
-    "simulate", "unregister_effect", "unregister_flow_law", "unregister_friction_law",
+    "register_flow_law", "register_friction_law", "register_heat_model", "saint_venant_mass_flow",
+    "scenario_preset", "simulate", "unregister_effect", "unregister_flow_law",
+    "unregister_friction_law", "unregister_heat_model",
 ]
 
 #: The subpackages and the modules each holds (a new module is added here on purpose)

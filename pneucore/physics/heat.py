@@ -495,3 +495,95 @@ HEAT_MODELS = {m.name: m for m in (
               "(Woodfield, Monde & Mitsutake 2007: Nu = 0.56 Re^0.67 + Nu_natural)",
               natural=True, jet=True, fit_parameters=("natural_multiplier", "jet_multiplier")),
 )}
+
+#: The models shipped with the package: they cannot be replaced or removed
+BUILTIN_HEAT_MODELS = frozenset(HEAT_MODELS)
+#: Parameters the core reads for each term of its law (:meth:`HeatModel.pack`)
+_TERM_PARAMETERS = {"fixed": ("coefficient",), "natural": ("natural_multiplier",),
+                    "jet": ("jet_multiplier", "inlet_diameter")}
+
+
+def register_heat_model(name, func, description, parameters=(), fixed=False, natural=False,
+                        jet=False, isothermal=False, fit_parameters=None, replace=False):
+    """Add a heat model that a model selects by name (``heat.model``).
+
+    A heat model is a choice of the terms of the law the compiled core evaluates
+    (module docstring: ``h = h_0 + c_n h_nat + c_j h_jet``, paper Eq. 9 with the
+    natural and jet correlations), with the parameters it exposes
+    (:data:`HEAT_PARAMETERS`: units, defaults and bounds, with the optional wall and
+    temperature sensor). Selecting it writes its terms into the core's parameter slots
+    (:meth:`HeatModel.pack`): no compilation, the cached core runs it.
+
+    Parameters
+    ----------
+    name : str
+        Registry name
+    func : callable
+        The model's pure law for scalars (its docstring gives the equation and source)
+    description : str
+        One line, shown by GET /api/heat-models
+    parameters : tuple of str
+        Names in :data:`HEAT_PARAMETERS` the model exposes; each term switched on
+        needs its own (``coefficient`` for ``fixed``, ``natural_multiplier`` for
+        ``natural``, ``jet_multiplier`` and ``inlet_diameter`` for ``jet``)
+    fixed, natural, jet : bool
+        The terms of the core's law the model switches on
+    isothermal : bool
+        The core freezes the gas temperature (no other term then)
+    fit_parameters : tuple of str or None
+        Parameters a calibration of this model fits (default: the terms' own)
+    replace : bool
+        Allow replacing a model registered at run time (a built-in one cannot be)
+
+    Returns
+    -------
+    model : HeatModel
+        The registered entry
+
+    Examples
+    --------
+    Paper Eq. 9's fixed coefficient plus natural convection, side by side:
+
+    >>> m = register_heat_model("fixed_and_natural", convective_heat_flow,
+    ...                         "Eq. 9 plus natural convection", ("coefficient", "natural_multiplier"),
+    ...                         fixed=True, natural=True)
+    >>> m.fit_parameters
+    ('coefficient', 'natural_multiplier')
+    >>> unregister_heat_model("fixed_and_natural")
+    """
+    if not isinstance(name, str) or not name:
+        raise ValueError("a heat model's name must be a non-empty string")
+    if name in BUILTIN_HEAT_MODELS:
+        raise ValueError(f"{name!r} is a built-in heat model and cannot be replaced")
+    if name in HEAT_MODELS and not replace:
+        raise ValueError(f"{name!r} is already registered (replace=True to replace it)")
+    parameters = tuple(parameters)
+    unknown = [p for p in parameters if p not in HEAT_PARAMETERS]
+    if unknown:
+        raise ValueError(f"unknown heat parameters {unknown}; known: {sorted(HEAT_PARAMETERS)}")
+    terms = {"fixed": fixed, "natural": natural, "jet": jet}
+    if isothermal and any(terms.values()):
+        raise ValueError("an isothermal model has no exchange terms")
+    own = tuple(p for term, on in terms.items() if on for p in _TERM_PARAMETERS[term])
+    missing = [p for p in own if p not in parameters]
+    if missing:
+        raise ValueError(f"the terms switched on read the parameters {missing}: list them")
+    fit = own if fit_parameters is None else tuple(fit_parameters)
+    model = HeatModel(name, func, isothermal, parameters, description, fixed=fixed,
+                      natural=natural, jet=jet,
+                      fit_parameters=tuple(p for p in fit if p != "inlet_diameter"))
+    HEAT_MODELS[name] = model
+    return model
+
+
+def unregister_heat_model(name):
+    """Remove a heat model registered with :func:`register_heat_model` (a built-in one stays).
+
+    Parameters
+    ----------
+    name : str
+        Its registry name (an unknown name is ignored)
+    """
+    if name in BUILTIN_HEAT_MODELS:
+        raise ValueError(f"{name!r} is a built-in heat model and cannot be removed")
+    HEAT_MODELS.pop(name, None)
