@@ -14,18 +14,10 @@ import json
 import urllib.request
 
 import pytest
-from service import running_service
 
-from test_page import _open, browser, context, no_script_errors, page_errors, plot_data  # noqa: F401
+from test_page import server, _open, browser, context, no_script_errors, page_errors, plot_data  # noqa: F401
 
 BAR = 1e5
-
-
-@pytest.fixture(scope="module")
-def server(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("page-friction")
-    with running_service(tmp, tmp / "page.sqlite3") as url:
-        yield url
 
 
 @pytest.fixture(scope="module")

@@ -12,19 +12,11 @@ No skipping: if Playwright or Chromium is missing the tests fail loudly.
 from __future__ import annotations
 
 import pytest
-from service import running_service
 
-from test_page import (_open, browser, click_and_wait_for_plot, context, no_script_errors,  # noqa: F401
+from test_page import (server, _open, browser, click_and_wait_for_plot, context, no_script_errors,  # noqa: F401
                        page_errors, plot_data)
 
 from pneucore.physics.heat import HEAT_MODELS
-
-
-@pytest.fixture(scope="module")
-def server(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("page-heat")
-    with running_service(tmp, tmp / "page.sqlite3") as url:
-        yield url
 
 
 @pytest.fixture(scope="module")
