@@ -41,6 +41,7 @@ import urllib.request
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
+sys.path.insert(1, ROOT)      # the repository's pneucore, installed or not
 from machine import machine_info, save_figures  # noqa: E402
 
 MODEL, SCENARIO = "paper-4way", "paper-fig10-pulses"
