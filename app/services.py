@@ -28,6 +28,8 @@ from pneucore.analysis.heat_compare import check_names, compare_heat_models, sim
 from pneucore.core.integrator import ERR_MAX_STEPS, integrate  # noqa: F401 (read by the simulate router)
 from pneucore.data.fileformats import inspect_file, read_measurement
 from pneucore.data.measurement import DEFAULT_AMBIENT_PRESSURE, Measurement, MeasurementError
+from pneucore.physics.flow import FLOW_LAWS
+from pneucore.physics.friction import FRICTION_LAWS
 from pneucore.physics.heat import HEAT_MODELS
 from pneucore.progress import Cancelled
 from pneucore.simulate import SimulationError, simulate
@@ -87,6 +89,27 @@ def result_json(res, series):
         if unknown:
             raise FieldError("series", f"unknown series {unknown}; available: {sorted(res.series)}")
     return res.to_dict(series=names, arrays=True, inputs=False)
+
+
+def names_runtime_law(model_in):
+    """Whether a model names a flow or friction law registered at run time (or an unknown one).
+
+    Such a model runs on a core compiled in memory on its first use (about 10 s): never
+    on the event loop.
+
+    Parameters
+    ----------
+    model_in : app.schemas.ModelIn
+        The request's model, before validation
+
+    Returns
+    -------
+    runtime : bool
+        True unless both laws are built into the cached core
+    """
+    flow = FLOW_LAWS.get(model_in.valve.flow_law)
+    friction = FRICTION_LAWS.get(model_in.friction.law)
+    return not (flow is not None and flow.builtin and friction is not None and friction.builtin)
 
 
 def simulation(req, limits, max_steps=None, run=simulate):

@@ -17,7 +17,8 @@ one thread's share of the CPU):
 * a run is tried on the loop only when it is the only request in progress
   (:func:`app.http_protocol.requests_in_progress`: uvicorn's count; 0 under the
   tests' client), the core is already compiled (never a compilation on the loop),
-  the model adds no user terms (a specialised core may still need compiling), the
+  the model adds no user terms and names no law registered at run time (a specialised
+  core may still need compiling), the
   answer is JSON (not the CSV text, slower to write), and the scenario asks for at
   most :data:`LOOP_MAX_SAMPLES` output samples and :data:`LOOP_MAX_COMMAND_POINTS`
   breakpoints;
@@ -34,8 +35,8 @@ from ..http_protocol import requests_in_progress
 from ..responses import JSON, CSV_RESPONSES, csv_response, wants_csv
 from ..schemas import HeatModelsRequest, HeatModelsResponse, SimulateRequest, SimulateResponse
 # integrate and EFFECTS: what the choice of the loop reads; simulate: the run handed to the service
-from ..services import (EFFECTS, PastBudget, integrate, simulate, simulate_under_heat_models,
-                        simulation, simulation_csv)
+from ..services import (EFFECTS, PastBudget, integrate, names_runtime_law, simulate,
+                        simulate_under_heat_models, simulation, simulation_csv)
 
 router = APIRouter(prefix="/api/simulate", tags=["simulate"], route_class=OffLoopRoute)
 
@@ -56,6 +57,8 @@ def _loop_candidate(req: SimulateRequest, request: Request = None) -> bool:
     if not integrate.overloads:   # not compiled (or loaded from the cache) yet in this process
         return False
     if any(EFFECTS[n].terms is not None for n in (req.model.effects or {}) if n in EFFECTS):
+        return False
+    if names_runtime_law(req.model):   # a law registered at run time: its core may need compiling
         return False
     s = req.scenario
     if s.sample_period is None or s.duration is None or s.sample_period <= 0:

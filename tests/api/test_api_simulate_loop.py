@@ -121,3 +121,25 @@ def test_user_terms_go_to_a_thread(monkeypatch):
     body = sim_body()
     body["model"]["effects"] = {"my_terms": {}}
     assert not router._loop_candidate(SimulateRequest.model_validate(body))
+
+
+def test_a_law_registered_at_run_time_goes_to_a_thread():
+    # its core is compiled in memory on first use (~10 s): never on the loop
+    from numba import njit
+
+    from app.schemas import SimulateRequest
+    from pneucore.physics.friction import (register_friction_law, sliding_friction,
+                                           unregister_friction_law)
+
+    @njit
+    def half(v, direction, fc, kv, ratio, v_s):
+        return 0.5 * sliding_friction(v, direction, fc, kv, ratio, v_s)
+
+    body = sim_body()
+    body["model"].setdefault("friction", {})["law"] = "test_loop_half"
+    register_friction_law("test_loop_half", half, description="0.5 x Eq. 18 (test)")
+    try:
+        assert not router._loop_candidate(SimulateRequest.model_validate(body))
+        assert router._loop_candidate(SimulateRequest.model_validate(sim_body()))
+    finally:
+        unregister_friction_law("test_loop_half")
