@@ -11,8 +11,7 @@ socket in one write: the head of a response leaves with the first part of its bo
 complete, when the connection closes, or at the end of the event loop's turn (a head
 whose body is slow to come), so nothing waits behind other requests. ``python -m app``
 runs it (:func:`app.main.main`); with uvicorn directly:
-``uvicorn app.main:app --http app.http_protocol:CombinedWritesProtocol``. It also tells
-the routers how many requests are in progress (:func:`requests_in_progress`).
+``uvicorn app.main:app --http app.http_protocol:CombinedWritesProtocol``.
 """
 from __future__ import annotations
 
@@ -93,24 +92,10 @@ class CombinedWrites:
         return getattr(self._transport, name)
 
 
-#: The state of the uvicorn server running :class:`CombinedWritesProtocol` (its set of
-#: request tasks), taken from its first connection
-_server_state = None
-
-
-def requests_in_progress():
-    """Requests the server is handling now, this one included: uvicorn's tasks of requests
-    received and not yet answered (a batch that arrived together counts whole before the
-    first of it runs). 0 when the app runs under another server (the tests' client)."""
-    return len(_server_state.tasks) if _server_state is not None else 0
-
-
 class CombinedWritesProtocol(_Base):
     """uvicorn's HTTP/1.1 protocol (httptools, else h11) writing through :class:`CombinedWrites`."""
 
     def connection_made(self, transport):
-        global _server_state
-        _server_state = self.server_state
         super().connection_made(CombinedWrites(transport, asyncio.get_running_loop()))
 
     def on_response_complete(self):

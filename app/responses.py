@@ -1,19 +1,28 @@
-"""Fast JSON responses (numpy arrays and NaN as null, by orjson) and the documented error responses."""
+"""The answers' forms (JSON by orjson with numpy arrays and NaN as null, CSV, NumPy .npz: the
+client chooses with ``Accept``) and the documented error responses."""
 from typing import Any
 
 import orjson
 from fastapi.responses import JSONResponse, Response
 from pydantic import BaseModel, Field
 
+from pneucore.data.npz import NPZ_MEDIA_TYPE
+
+
+def dumps(content) -> bytes:
+    """The API's JSON text of ``content`` (orjson: numpy arrays and scalars serialised, NaN
+    and infinities as null, non-string keys as strings)."""
+    return orjson.dumps(content, option=orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS)
+
 
 class JSON(JSONResponse):
-    """``application/json`` rendered by orjson (numpy arrays serialised, NaN -> null).
+    """``application/json`` rendered by :func:`dumps`.
 
     A JSONResponse subclass so that the OpenAPI documents the route's response model."""
     media_type = "application/json"
 
     def render(self, content) -> bytes:
-        return orjson.dumps(content, option=orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS)
+        return dumps(content)
 
 
 class ErrorOut(BaseModel):
@@ -81,9 +90,45 @@ def _add_errors(path, method, op):
             "content": {"application/json": {"schema": {"$ref": "#/components/schemas/ErrorOut"}}}})
 
 
+#: The answer forms an ``Accept`` header chooses between, by media type (JSON by default)
+ANSWER_FORMS = {"application/json": "json", "text/csv": "csv", NPZ_MEDIA_TYPE: "npz"}
+
+
+def answer_form(accept: str, offered=("json", "csv")) -> str:
+    """The form of the answer an ``Accept`` header asks for: ``json``, ``csv`` or ``npz``.
+
+    The offered form with the highest ``q`` wins (the first listed on a tie); a header
+    naming none of them, or none at all, gets JSON.
+
+    Parameters
+    ----------
+    accept : str
+        The request's ``Accept`` header (``""`` when absent)
+    offered : tuple of str
+        The forms the endpoint answers in
+    """
+    best, best_q = "json", 0.0
+    for item in accept.lower().split(",")[:32]:   # a bound on a hostile header
+        media, *params = item.split(";")
+        form = ANSWER_FORMS.get(media.strip())
+        if form is None or form not in offered:
+            continue
+        q = 1.0
+        for p in params:
+            k, _, v = p.partition("=")
+            if k.strip() == "q":
+                try:
+                    q = float(v)
+                except ValueError:
+                    q = 0.0
+        if q > best_q and q == q:   # q == q: not NaN
+            best, best_q = form, q
+    return best
+
+
 def wants_csv(request) -> bool:
     """The client asked for CSV (``Accept: text/csv``) rather than JSON."""
-    return "text/csv" in request.headers.get("accept", "").lower()
+    return answer_form(request.headers.get("accept", "")) == "csv"
 
 
 def csv_response(text: str, filename: str) -> Response:
@@ -92,9 +137,24 @@ def csv_response(text: str, filename: str) -> Response:
                     headers={"Content-Disposition": f'attachment; filename="{filename}"'})
 
 
-#: OpenAPI entry of the CSV alternative of a 200 response
-CSV_RESPONSES = {200: {"content": {"text/csv": {"schema": {
+def npz_response(data: bytes, filename: str) -> Response:
+    """A NumPy ``.npz`` download (see :mod:`pneucore.data.npz` for the format)."""
+    return Response(data, media_type=NPZ_MEDIA_TYPE,
+                    headers={"Content-Disposition": f'attachment; filename="{filename}"'})
+
+
+_CSV_CONTENT = {"text/csv": {"schema": {
     "type": "string",
     "description": "With `Accept: text/csv`: a first line `# pneucore ...`, a header with units "
                    "in brackets (t[s], p_a[Pa], x[m]...), one row per sample, absolute pressures; "
-                   "POST /api/datasets reads it back unchanged"}}}}}
+                   "POST /api/datasets reads it back unchanged"}}}
+#: OpenAPI entry of the CSV alternative of a 200 response
+CSV_RESPONSES = {200: {"content": _CSV_CONTENT}}
+#: ... of the CSV and NumPy alternatives of a simulation's 200 response
+SIMULATION_RESPONSES = {200: {"content": {**_CSV_CONTENT, NPZ_MEDIA_TYPE: {"schema": {
+    "type": "string", "format": "binary",
+    "description": "With `Accept: application/x-npz`: a NumPy .npz archive (numpy.load reads "
+                   "it, no pickle) with one array per series in SI units (absolute pressures; "
+                   "`mode` as text) and `meta.json`, the JSON answer's other fields (units, "
+                   "events, stats, status, message). The same numbers as the JSON answer, "
+                   "written without conversion to text"}}}}}

@@ -28,6 +28,7 @@ from pneucore.analysis.heat_compare import check_names, compare_heat_models, sim
 from pneucore.core.integrator import ERR_MAX_STEPS, integrate  # noqa: F401 (read by the simulate router)
 from pneucore.data.fileformats import inspect_file, read_measurement
 from pneucore.data.measurement import DEFAULT_AMBIENT_PRESSURE, Measurement, MeasurementError
+from pneucore.data.npz import simulation_npz
 from pneucore.physics.flow import FLOW_LAWS
 from pneucore.physics.friction import FRICTION_LAWS
 from pneucore.physics.heat import HEAT_MODELS
@@ -45,6 +46,7 @@ from pneucore.study import (Study, check_run_options, delete_study, list_studies
 
 from .config import STUDY_CLUSTERS
 from .deps import parse_experiments, parse_model, parse_scenario
+from .responses import dumps
 from .schemas import (FRICTION_DEFAULT_VELOCITIES, CalibrateRequest, CompareRequest, DiagnoseRequest,
                       ExperimentIn, RefineRequest)
 
@@ -81,14 +83,27 @@ def result_json(res, series):
         Series to return (None = :data:`DEFAULT_SERIES`); an unknown name or an
         empty list is a :class:`~pneucore.spec.validation.FieldError` on ``series``
     """
-    names = [s for s in (series or DEFAULT_SERIES) if s in res.series]
+    return res.to_dict(series=series_names(res, series), arrays=True, inputs=False)
+
+
+def result_npz(res, series):
+    """A :class:`~pneucore.result.SimulationResult` as the ``.npz`` answer of POST
+    /api/simulate (``Accept: application/x-npz``): the series of :func:`result_json`, one
+    member each, and its other fields in ``meta.json`` (:mod:`pneucore.data.npz`)."""
+    return simulation_npz(res, series_names(res, series), dumps=dumps)
+
+
+def series_names(res, series):
+    """The series an answer carries: ``series`` checked against the result's, or
+    :data:`DEFAULT_SERIES` (those the result has) when None; an unknown name or an empty
+    list is a :class:`~pneucore.spec.validation.FieldError` on ``series``."""
     if series is not None and len(series) == 0:
         raise FieldError("series", "give at least one series name, or omit the field for the default set")
     if series:
         unknown = [s for s in series if s not in res.series]
         if unknown:
             raise FieldError("series", f"unknown series {unknown}; available: {sorted(res.series)}")
-    return res.to_dict(series=names, arrays=True, inputs=False)
+    return [s for s in (series or DEFAULT_SERIES) if s in res.series]
 
 
 def names_runtime_law(model_in):
@@ -112,7 +127,7 @@ def names_runtime_law(model_in):
     return not (flow is not None and flow.builtin and friction is not None and friction.builtin)
 
 
-def simulation(req, limits, max_steps=None, run=simulate):
+def simulation(req, limits, max_steps=None, run=simulate, form="json"):
     """POST /api/simulate: the request checked, simulated, and the result as the API's JSON.
 
     Parameters
@@ -128,11 +143,14 @@ def simulation(req, limits, max_steps=None, run=simulate):
     run : callable
         The simulation, ``run(model, scenario)`` (:func:`pneucore.simulate.simulate`; the
         simulate router hands over the one it names, so where each run happens can be watched)
+    form : {"json", "npz"}
+        The answer's form: the dict :func:`result_json` (rendered by
+        :class:`app.responses.JSON`, or as CSV), or the bytes of :func:`result_npz`
 
     Returns
     -------
-    out : dict
-        The body of the answer (:func:`result_json`)
+    out : dict or bytes
+        The body of the answer
     """
     model = parse_model(req.model)
     scen = parse_scenario(req.scenario, model, limits)
@@ -146,7 +164,7 @@ def simulation(req, limits, max_steps=None, run=simulate):
                 and exc.result.status == ERR_MAX_STEPS:
             raise PastBudget from None
         raise
-    return result_json(res, req.series)
+    return result_npz(res, req.series) if form == "npz" else result_json(res, req.series)
 
 
 def simulation_csv(out):

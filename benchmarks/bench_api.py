@@ -157,10 +157,15 @@ class _Lean:
         return self.content.decode("utf-8", "replace")
 
 
-def _request_bytes(raw):
+#: The ``Accept`` header of each answer form measured (JSON: the default, no header)
+ACCEPT = {"json": None, "npz": "application/x-npz"}
+
+
+def _request_bytes(raw, accept=None):
     """``POST /api/simulate`` with the JSON body ``raw``, as bytes on the wire."""
+    extra = b"accept: %s\r\n" % accept.encode() if accept else b""
     return (b"POST /api/simulate HTTP/1.1\r\nhost: 127.0.0.1\r\ncontent-type: application/json\r\n"
-            b"content-length: %d\r\n\r\n" % len(raw)) + raw
+            b"content-length: %d\r\n" % len(raw)) + extra + b"\r\n" + raw
 
 
 def sequential_httpx(client, url, raw, hdr, n, ref):
@@ -173,11 +178,13 @@ def sequential_httpx(client, url, raw, hdr, n, ref):
     return lat
 
 
-def sequential_lean(port, raw, n, ref):
+def sequential_lean(port, raw, n, ref, accept=None):
     """``n`` requests one after the other on one keep-alive ``http.client`` connection."""
     import http.client
     conn = http.client.HTTPConnection("127.0.0.1", port)
     hdr = {"host": "127.0.0.1", "content-type": "application/json"}
+    if accept:
+        hdr["accept"] = accept
     lat = []
     try:
         for i in range(n + 5):   # the first five open the connection and warm it
@@ -191,6 +198,21 @@ def sequential_lean(port, raw, n, ref):
     finally:
         conn.close()
     return lat
+
+
+def _one_lean(port, raw, accept):
+    """One request with ``http.client``: the answer's bytes (the reference of a phase)."""
+    import http.client
+    conn = http.client.HTTPConnection("127.0.0.1", port)
+    try:
+        conn.request("POST", "/api/simulate", body=raw,
+                     headers={"content-type": "application/json", **({"accept": accept} if accept else {})})
+        r = conn.getresponse()
+        body = r.read()
+        check(_Lean(r.status, body), None)
+        return body
+    finally:
+        conn.close()
 
 
 def concurrent_httpx(url, raw, hdr, clients, per_client, ref):
@@ -227,11 +249,11 @@ def concurrent_httpx(url, raw, hdr, clients, per_client, ref):
     return results, wall
 
 
-def concurrent_lean(port, raw, clients, per_client, ref):
+def concurrent_lean(port, raw, clients, per_client, ref, accept=None):
     """``clients`` connections driven by one asyncio loop (HTTP/1.1 by hand: the request's
     bytes, then the status line, the headers and ``Content-Length`` bytes of body)."""
     import asyncio
-    req = _request_bytes(raw)
+    req = _request_bytes(raw, accept)
 
     async def one(reader, writer):
         writer.write(req)
@@ -267,16 +289,17 @@ def concurrent_lean(port, raw, clients, per_client, ref):
 def in_process(body, runs=50):
     """Median wall times in this process (no HTTP) of what the endpoint does, stage by stage:
     request validation (pydantic) and parsing, :func:`pneucore.simulate`, the answer's dict
-    and its orjson rendering; ``simulate`` alone is the in-process simulation the round trip
-    is compared with."""
+    and its orjson rendering (``total``: the JSON answer's whole work), and the ``.npz``
+    answer's writing in its place (``npz``); ``simulate`` alone is the in-process
+    simulation the round trip is compared with."""
     from app.config import Limits
     from app.deps import parse_model, parse_scenario
     from app.responses import JSON
-    from app.services import result_json
+    from app.services import result_json, result_npz
     from app.schemas import SimulateRequest
     from pneucore import simulate
     limits = Limits()
-    stages = {"parse": [], "simulate": [], "to_dict": [], "orjson": [], "total": []}
+    stages = {"parse": [], "simulate": [], "to_dict": [], "orjson": [], "total": [], "npz": []}
     for i in range(runs + 3):
         t0 = time.perf_counter()
         req = SimulateRequest.model_validate(body)
@@ -289,8 +312,10 @@ def in_process(body, runs=50):
         t3 = time.perf_counter()
         JSON(d)
         t4 = time.perf_counter()
+        result_npz(res, req.series)
+        t5 = time.perf_counter()
         if i >= 3:
-            for k, v in zip(stages, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t4 - t0)):
+            for k, v in zip(stages, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t4 - t0, t5 - t4)):
                 stages[k].append(v)
     return {k: statistics.median(v) * 1e3 for k, v in stages.items()}
 
@@ -333,8 +358,14 @@ def run(args):
                                        "wall_s": wall, "throughput_rps": len(lat) / wall})
             timed("sequential", sequential_httpx, c, server.url, raw, hdr, args.requests, ref)
         timed("sequential_lean", sequential_lean, server.port, raw, args.requests, ref)
+        npz_ref = _one_lean(server.port, raw, ACCEPT["npz"])
+        out["response_bytes_npz"] = len(npz_ref)
+        timed("sequential_lean_npz", sequential_lean, server.port, raw, args.requests, npz_ref,
+              ACCEPT["npz"])
         timed("concurrent", concurrent_httpx, server.url, raw, hdr, args.clients, args.per_client, ref)
         timed("concurrent_lean", concurrent_lean, server.port, raw, args.clients, args.per_client, ref)
+        timed("concurrent_lean_npz", concurrent_lean, server.port, raw, args.clients, args.per_client,
+              npz_ref, ACCEPT["npz"])
     finally:
         server.stop()
         shutil.rmtree(tmp, ignore_errors=True)
@@ -345,11 +376,14 @@ def run(args):
     out["ratio_to_endpoint_work"] = out["sequential"]["median_ms"] / p["total"]
     out["lean_ratio_to_simulation"] = out["sequential_lean"]["median_ms"] / p["simulate"]
     out["lean_ratio_to_endpoint_work"] = out["sequential_lean"]["median_ms"] / p["total"]
+    out["lean_npz_ratio_to_simulation"] = out["sequential_lean_npz"]["median_ms"] / p["simulate"]
     out["pass"] = {
         "ratio": out["ratio_to_simulation"] <= TARGET_RATIO,
         "ratio_lean": out["lean_ratio_to_simulation"] <= TARGET_RATIO,
+        "ratio_lean_npz": out["lean_npz_ratio_to_simulation"] <= TARGET_RATIO,
         "concurrent_p50": out["concurrent"]["median_ms"] <= TARGET_MEDIAN_MS,
         "concurrent_p50_lean": out["concurrent_lean"]["median_ms"] <= TARGET_MEDIAN_MS,
+        "concurrent_p50_lean_npz": out["concurrent_lean_npz"]["median_ms"] <= TARGET_MEDIAN_MS,
         "sequential_median": out["sequential"]["median_ms"] <= TARGET_MEDIAN_MS}
     return out
 
@@ -363,31 +397,34 @@ def report(out):
           f"fastapi {m['fastapi']}, uvicorn {m['uvicorn']} (1 worker, http {out['uvicorn']['http']}, "
           f"loop {out['uvicorn']['loop']}), httpx {m['httpx']}")
     print(f"server ready in {out['startup_s']:.2f} s; first request {out['first_request_s'] * 1e3:.0f} ms; "
-          f"response {out['response_bytes'] / 1e3:.0f} kB")
-    for key, what in (("sequential", "httpx"), ("sequential_lean", "lean ")):
+          f"response {out['response_bytes'] / 1e3:.0f} kB (JSON), {out['response_bytes_npz'] / 1e3:.0f} kB (npz)")
+    for key, what in (("sequential", "httpx"), ("sequential_lean", "lean "), ("sequential_lean_npz", "npz  ")):
         s = out[key]
         print(f"sequential {what} {s['n']:4d} requests: median {s['median_ms']:6.2f} ms  p95 "
               f"{s['p95_ms']:6.2f} ms  (min {s['min_ms']:.2f}, max {s['max_ms']:.1f}); server CPU "
               f"{s['server_cpu_ms']:.2f} ms/request")
-    for key, what in (("concurrent", "httpx"), ("concurrent_lean", "lean ")):
+    for key, what in (("concurrent", "httpx"), ("concurrent_lean", "lean "), ("concurrent_lean_npz", "npz  ")):
         c = out[key]
         print(f"concurrent {what} {c['clients']} clients x {c['per_client']}: median {c['median_ms']:6.1f} ms  "
               f"p95 {c['p95_ms']:6.1f} ms  (max {c['max_ms']:.1f}); {c['throughput_rps']:.0f} requests/s; "
               f"server CPU {c['server_cpu_ms']:.2f} ms/request")
     p = out["in_process_ms"]
     print(f"in-process  (no HTTP) median {p['total']:.2f} ms = validate+parse {p['parse']:.2f} + "
-          f"simulate {p['simulate']:.2f} + answer dict {p['to_dict']:.2f} + orjson {p['orjson']:.2f} ms")
+          f"simulate {p['simulate']:.2f} + answer dict {p['to_dict']:.2f} + orjson {p['orjson']:.2f} ms; "
+          f"the .npz answer instead of dict + orjson {p['npz']:.2f} ms")
     print(f"round trip / in-process simulate(): httpx {out['ratio_to_simulation']:.2f}x, lean "
-          f"{out['lean_ratio_to_simulation']:.2f}x; / the endpoint's whole work without HTTP: httpx "
+          f"{out['lean_ratio_to_simulation']:.2f}x, npz {out['lean_npz_ratio_to_simulation']:.2f}x; / the endpoint's whole work without HTTP: httpx "
           f"{out['ratio_to_endpoint_work']:.2f}x, lean {out['lean_ratio_to_endpoint_work']:.2f}x")
     if "load" in out:
         print(f"load average (1 min) before / after: {out['load'][0]:.1f} / {out['load'][1]:.1f}")
     v = {k: "PASS" if ok else "FAIL" for k, ok in out["pass"].items()}
     print(f"targets: round trip <= {TARGET_RATIO:g}x the in-process simulation -> httpx {v['ratio']} "
-          f"({out['ratio_to_simulation']:.2f}x), lean {v['ratio_lean']} ({out['lean_ratio_to_simulation']:.2f}x); "
+          f"({out['ratio_to_simulation']:.2f}x), lean {v['ratio_lean']} ({out['lean_ratio_to_simulation']:.2f}x), "
+          f"npz {v['ratio_lean_npz']} ({out['lean_npz_ratio_to_simulation']:.2f}x); "
           f"concurrent p50 <= {TARGET_MEDIAN_MS:g} ms -> httpx {v['concurrent_p50']} "
           f"({out['concurrent']['median_ms']:.1f} ms), lean {v['concurrent_p50_lean']} "
-          f"({out['concurrent_lean']['median_ms']:.1f} ms)")
+          f"({out['concurrent_lean']['median_ms']:.1f} ms), npz {v['concurrent_p50_lean_npz']} "
+          f"({out['concurrent_lean_npz']['median_ms']:.1f} ms)")
 
 
 def main(argv=None):

@@ -135,13 +135,25 @@ class SimulationResult:
                 out[k] = lst
             else:
                 out[k] = v.tolist()
-        d = {"series": out, "units": {k: SERIES_UNITS.get(k, _state_unit(k)) for k in names},
-             "events": list(self.events), "stats": dict(self.stats), "status": self.status,
-             "message": self.message}
+        d = {"series": out, **self.summary(names)}
         if inputs:
             d["model"] = self.model.to_dict()
             d["scenario"] = self.scenario.to_dict()
         return d
+
+    def summary(self, series=None):
+        """What :meth:`to_dict` holds besides the series and the inputs: ``units`` (of each
+        named series), ``events``, ``stats``, ``status`` and ``message``.
+
+        Parameters
+        ----------
+        series : list of str, optional
+            Series whose units are listed (default: all)
+        """
+        names = series or list(self.series)
+        return {"units": {k: SERIES_UNITS.get(k, _state_unit(k)) for k in names},
+                "events": list(self.events), "stats": dict(self.stats), "status": self.status,
+                "message": self.message}
 
     def to_pandas(self):
         """A ``pandas.DataFrame`` indexed by time (needs pandas)."""

@@ -14,6 +14,8 @@ vessel of any volume.
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -144,18 +146,20 @@ class Scenario:
             raise FieldError("scenario.command", "must be a non-empty list of [t, u] breakpoints")
         if len(cmd) > MAX_COMMAND_POINTS:
             raise FieldError("scenario.command", f"{len(cmd)} breakpoints; the limit is {MAX_COMMAND_POINTS}")
-        out = []
-        t_prev = -float("inf")
-        for i, pt in enumerate(cmd):
-            if not isinstance(pt, (list, tuple)) or len(pt) != 2:
-                raise FieldError(f"scenario.command[{i}]", f"must be a [t, u] pair, got {pt!r}")
-            t = number(pt[0], f"scenario.command[{i}][0]", nonnegative=True)
-            u = number(pt[1], f"scenario.command[{i}][1]")
-            if t < t_prev:
-                raise FieldError(f"scenario.command[{i}][0]",
-                                 f"breakpoint times must not decrease ({t_prev:g} s then {t:g} s)")
-            t_prev = t
-            out.append([t, u])
+        out = _plain_command(cmd)
+        if out is None:   # the per-breakpoint check, which names the bad one
+            out = []
+            t_prev = -float("inf")
+            for i, pt in enumerate(cmd):
+                if not isinstance(pt, (list, tuple)) or len(pt) != 2:
+                    raise FieldError(f"scenario.command[{i}]", f"must be a [t, u] pair, got {pt!r}")
+                t = number(pt[0], f"scenario.command[{i}][0]", nonnegative=True)
+                u = number(pt[1], f"scenario.command[{i}][1]")
+                if t < t_prev:
+                    raise FieldError(f"scenario.command[{i}][0]",
+                                     f"breakpoint times must not decrease ({t_prev:g} s then {t:g} s)")
+                t_prev = t
+                out.append([t, u])
         s.command = out
         s.command_interpolation = choice(d.get("command_interpolation", s.command_interpolation),
                                          COMMAND_INTERPOLATIONS, "scenario.command_interpolation")
@@ -248,3 +252,29 @@ def pulse_train(pulses, width, rest=0.0):
         cmd.append([float(t), float(u)])
         cmd.append([float(t) + width, rest])
     return cmd
+
+
+def _plain_command(cmd):
+    """Fast acceptance of a command whose breakpoints are all ``[t, u]`` pairs of plain finite
+    numbers with ``t >= 0`` not decreasing: the breakpoints as floats, or None when any
+    needs the per-breakpoint check of :meth:`Scenario.from_dict` (which names it). The
+    check with a path string per number cost about 20 us on the paper's pulse command.
+    """
+    ts, us = [], []
+    for pt in cmd:
+        if type(pt) is not list and type(pt) is not tuple or len(pt) != 2:
+            return None
+        t, u = pt
+        if (type(t) is not float and type(t) is not int) or (type(u) is not float and type(u) is not int):
+            return None
+        ts.append(t)
+        us.append(u)
+    try:
+        ts = [float(t) for t in ts]
+        us = [float(u) for u in us]
+    except OverflowError:
+        return None
+    if not math.isfinite(sum(ts) + sum(us)) or ts[0] < 0.0 or \
+            any(b < a for a, b in zip(ts, ts[1:])):
+        return None
+    return [[t, u] for t, u in zip(ts, us)]

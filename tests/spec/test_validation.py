@@ -512,3 +512,35 @@ def test_normal_result_has_no_nan(model_name, scenario_name):
         if v.dtype.kind == "f":
             assert np.all(np.isfinite(v)), name
     assert set(res.mode) <= MODES
+
+
+# ----------------------------------------------------------------------------- command fast path
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+_NUMBERS = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-5, 5),
+                     st.booleans(), st.none(), st.text(max_size=2))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.one_of(st.tuples(_NUMBERS, _NUMBERS).map(list), st.tuples(_NUMBERS, _NUMBERS),
+                          st.lists(_NUMBERS, max_size=3)), min_size=1, max_size=6))
+def test_the_command_fast_path_accepts_and_refuses_as_the_full_check(cmd):
+    # the fast acceptance of plain commands must change nothing: the same breakpoints, or
+    # the same error naming the same breakpoint, with and without it
+    import pneucore.spec.scenario as sc
+    from pneucore import Scenario, scenario_preset
+    base = scenario_preset("paper-fig10-pulses")
+
+    def outcome():
+        try:
+            return Scenario.from_dict(dict(base, command=cmd)).command
+        except FieldError as exc:
+            return (exc.path, exc.detail)
+    fast = outcome()
+    real = sc._plain_command
+    sc._plain_command = lambda c: None
+    try:
+        full = outcome()
+    finally:
+        sc._plain_command = real
+    assert fast == full
