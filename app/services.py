@@ -25,7 +25,7 @@ from pneucore.analysis.calibration_options import calibration_options
 from pneucore.analysis.compare import check_heat_models, compare, errors as model_errors, with_heat_model
 from pneucore.analysis.diagnose import check_request, diagnose
 from pneucore.analysis.heat_compare import check_names, compare_heat_models, simulate_heat_models
-from pneucore.core.integrator import ERR_MAX_STEPS, integrate  # noqa: F401 (read by the simulate router)
+from pneucore.core.integrator import ERR_MAX_STEPS, integrate  # noqa: F401 (read by the express lane)
 from pneucore.data.fileformats import inspect_file, read_measurement
 from pneucore.data.measurement import DEFAULT_AMBIENT_PRESSURE, Measurement, MeasurementError
 from pneucore.data.npz import simulation_npz
@@ -50,10 +50,10 @@ from .responses import dumps
 from .schemas import (FRICTION_DEFAULT_VELOCITIES, CalibrateRequest, CompareRequest, DiagnoseRequest,
                       ExperimentIn, RefineRequest)
 
-# Besides the services, the routers read four of the names imported above: ``integrate``
-# and ``EFFECTS``, the facts the simulate router's choice between the event loop and a worker
-# thread rests on (is the core compiled in this process; does an effect bring compiled
-# terms, so a core of its own), ``simulate``, which that router hands to :func:`simulation`,
+# Besides the services, the routers and the express lane read four of the names imported
+# above: ``integrate`` and ``EFFECTS``, the facts the lane's choice of the event loop rests on
+# (is the core compiled in this process; does an effect bring compiled terms, so a core of
+# its own), ``simulate``, which the lane and the simulate router hand to :func:`simulation`,
 # and ``DEFAULT_AMBIENT_PRESSURE``, which the upload form documents.
 
 
