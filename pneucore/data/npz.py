@@ -45,22 +45,33 @@ _ZIP_LIMIT = 0xFFFFFFFF                     # sizes and offsets without the ZIP6
 
 
 @lru_cache(maxsize=256)
-def _npy_header(descr: str, shape: tuple) -> bytes:
-    """The ``.npy`` header (format 1.0, padded to 64 bytes) of a C-ordered array."""
+def _npy_header(descr: str, shape: tuple) -> tuple[bytes, int]:
+    """The ``.npy`` header (format 1.0, padded to 64 bytes) of a C-ordered array, and its
+    CRC-32 (the member's CRC continues from it over the data)."""
     head = "{'descr': %r, 'fortran_order': False, 'shape': %r, }" % (descr, shape)
     pad = -(10 + len(head) + 1) % 64   # magic (6) + version (2) + length (2) + head + "\n"
     head = head + " " * pad + "\n"
-    return b"\x93NUMPY\x01\x00" + struct.pack("<H", len(head)) + head.encode("latin-1")
+    head = b"\x93NUMPY\x01\x00" + struct.pack("<H", len(head)) + head.encode("latin-1")
+    return head, zlib.crc32(head)
 
 
-def _npy(arr) -> tuple[bytes, memoryview]:
-    """The ``.npy`` header and the data (C order) of one array."""
+@lru_cache(maxsize=1024)
+def _member_name(name) -> bytes:
+    """A member's name as the archive stores it, checked to be a plain file name."""
+    if not isinstance(name, str) or not _NAME.match(name) or ".." in name:
+        raise ValueError(f"npz: member name {name!r} is not a plain file name")
+    return name.encode("ascii")
+
+
+def _npy(arr) -> tuple[bytes, int, memoryview]:
+    """The ``.npy`` header, its CRC-32 and the data (C order) of one array."""
     arr = np.asarray(arr)
     if arr.dtype.kind not in _KINDS or arr.dtype.fields is not None:
         raise TypeError(f"npz: dtype {arr.dtype} is not written (numbers, booleans, text only)")
     if not arr.flags.c_contiguous:
         arr = arr.copy(order="C")
-    return _npy_header(arr.dtype.str, arr.shape), memoryview(arr.reshape(-1).view(np.uint8))
+    head, crc = _npy_header(arr.dtype.str, arr.shape)
+    return head, crc, memoryview(arr.reshape(-1).view(np.uint8))
 
 
 def npz_bytes(arrays: Mapping[str, np.ndarray], files: Mapping[str, bytes] | None = None) -> bytes:
@@ -94,28 +105,22 @@ def npz_bytes(arrays: Mapping[str, np.ndarray], files: Mapping[str, bytes] | Non
     >>> z["t"].tolist(), z["meta.json"]
     ([0.0, 0.5, 1.0], b'{"units": {"t": "s"}}')
     """
-    members = []
-    for name, arr in arrays.items():
-        head, data = _npy(arr)
-        members.append((name + ".npy", head, data))
-    for name, data in (files or {}).items():
-        members.append((name, b"", memoryview(bytes(data))))
-    chunks, central, offset, seen = [], [], 0, set()
-    for name, head, data in members:
-        if not isinstance(name, str) or not _NAME.match(name) or ".." in name:
-            raise ValueError(f"npz: member name {name!r} is not a plain file name")
-        if name in seen:
-            raise ValueError(f"npz: member {name!r} given twice")
-        seen.add(name)
-        bname = name.encode("ascii")
+    members = [(name + ".npy", *_npy(arr)) for name, arr in arrays.items()]
+    members += [(name, b"", 0, memoryview(bytes(data))) for name, data in (files or {}).items()]
+    chunks, central, offset = [], [], 0
+    for name, head, crc, data in members:
+        bname = _member_name(name)
         size = len(head) + data.nbytes
-        crc = zlib.crc32(data, zlib.crc32(head)) & 0xFFFFFFFF
+        crc = zlib.crc32(data, crc)
         local = _LOCAL.pack(0x04034B50, 20, 0, 0, _DOS_TIME, _DOS_DATE, crc, size, size,
-                            len(bname), 0) + bname
+                            len(bname), 0)
         central.append(_CENTRAL.pack(0x02014B50, 20, 20, 0, 0, _DOS_TIME, _DOS_DATE, crc, size,
-                                     size, len(bname), 0, 0, 0, 0, 0, offset) + bname)
-        chunks += (local, head, data)
-        offset += len(local) + size
+                                     size, len(bname), 0, 0, 0, 0, 0, offset))
+        central.append(bname)
+        chunks += (local, bname, head, data)
+        offset += len(local) + len(bname) + size
+    if len({name for name, *_ in members}) != len(members):
+        raise ValueError(f"npz: a member given twice in {sorted(name for name, *_ in members)}")
     directory = b"".join(central)
     if offset + len(directory) > _ZIP_LIMIT or len(members) > 0xFFFF:
         raise ValueError("npz: the archive would pass 4 GiB or 65,535 members (no ZIP64)")
