@@ -25,10 +25,12 @@ it in a worker thread:
   body already read is handed on as it came.
 
 Requests in the lane are served one after the other on the loop, each in a few
-milliseconds at most (the step budget bounds it): with 20 clients on 2 cores this
-costs less than threads do (server CPU 1.35 against 2.0-2.9 ms a request, p50 23-26
-against 26-38 ms, ``benchmarks/bench_api.py``), because every step but the solver's
-holds the GIL and a hop to a thread and back is paid on each request.
+milliseconds at most (the step budget bounds it). With 20 clients on 2 cores this
+costs less than threads do, because every stage but the solver holds the GIL and a hop
+to a thread and back is paid on each request: answering small runs on the loop whatever
+the number of requests in progress took the server's CPU from 2.0-2.75 to 1.35-1.6 ms a
+request and the p50 from 26-38 to 23-25 ms, and the lane then to 1.1-1.15 ms and 19-20 ms
+(``benchmarks/bench_api.py``, lean client).
 """
 from __future__ import annotations
 

@@ -209,7 +209,7 @@ class ExperimentIn(_Strict):
 class CompareRequest(_Strict):
     model: ModelIn = Field(..., description="Actuator model")
     experiments: list[ExperimentIn] = Field(..., description="Experiments")
-    heat_models: Union[bool, list[str], None] = Field(None, description="Also compare under these heat models (true = all three) [-]")
+    heat_models: Union[bool, list[str], None] = Field(None, description="Also compare under these heat models (true = all three); their errors are in the JSON answer, the CSV answer carries the model's own series [-]")
     residuals: bool = Field(True, description="Return the residual series [-]")
 
 
