@@ -70,6 +70,8 @@ def main(argv=None):
                      help=f"preset ({', '.join(SCENARIO_PRESETS)}) or a scenario JSON file")
     run.add_argument("--csv", help="write the sampled series to this CSV file")
     run.add_argument("--json", help="write the full result (series, events, stats) to this JSON file")
+    run.add_argument("--npz", help="write every series and a meta.json (units, events, stats) to this "
+                                   "NumPy .npz archive (numpy.load reads it)")
     sub.add_parser("presets", help="list the presets")
     args = parser.parse_args(argv)
     if args.cmd in (None, "run") and not hasattr(args, "model"):
@@ -104,6 +106,11 @@ def main(argv=None):
         with open(args.json, "w") as fh:
             json.dump(res.to_dict(), fh)
         print(f"wrote {args.json}")
+    if args.npz:
+        from pneucore.data.npz import simulation_npz
+        with open(args.npz, "wb") as fh:
+            fh.write(simulation_npz(res))
+        print(f"wrote {args.npz} (numpy.load reads it; units in meta.json)")
     return 0
 
 

@@ -5,6 +5,9 @@
  *   "mis-set: heat coefficient 25 -> 41 W/(m^2 K)"   [Apply the recalibration]
  *   "missing: piston_leakage ..."                     [Add piston_leakage (with the recalibration)]
  *   "remaining: 0.08 % (noise floor 0.08 %)" or "outside the catalog: <signature>"
+ *   "initial state, not recorded: <experiment> p_a 3.1e5 Pa (the replay assumed 1e5)"
+ * with a mis-set parameter confounded with others marked "only in combination with ...",
+ * and for effects it cannot tell apart the note naming the experiment that would separate them.
  * and wraps renderHistory() to draw the noise floor under the falling error.
  * Every text from the server goes through esc() or textContent.
  */
@@ -29,9 +32,20 @@
     if (!d) return;
     const ul = document.createElement('ul');
     ul.className = 'findings-list';
+    (d.initial_state || []).forEach((r) => {
+      ul.appendChild(line('initial', `<span class="kind">initial state, not recorded:</span> ` +
+        `<span class="what">${esc(r.experiment || '')} ${esc(r.label || r.path)}</span> ` +
+        `${num(r.after, 3)} ${esc(r.unit || '')} <span class="muted small">(the replay assumed ${num(r.before, 3)}; ` +
+        `fitted on the samples before the first command change, not a model parameter)</span>`));
+    });
+    const labelOf = {};
+    (d.recalibrate || []).forEach((r) => { labelOf[r.path] = r.label || r.path; });
     (d.recalibrate || []).forEach((r) => {
+      const group = (r.confounded_with || []).map((p) => esc(labelOf[p] || p));
       ul.appendChild(line('misset', `<span class="kind">mis-set:</span> <span class="what">${esc(r.label || r.path)}</span> ` +
-        `${num(r.before, 3)} → <b>${num(r.after, 3)}</b> ${esc(r.unit || '')} <span class="muted small">(± ${num(r.stderr, 2)}; ${esc(r.path)})</span>`));
+        `${num(r.before, 3)} → <b>${num(r.after, 3)}</b> ${esc(r.unit || '')} <span class="muted small">(± ${num(r.stderr, 2)}; ${esc(r.path)})</span>` +
+        (group.length ? ` <span class="confounded">only in combination with ${group.join(', ')}: these experiments ` +
+          'identify the joint change, not its split</span>' : '')));
     });
     if (d.verdict) {
       const top = (d.ranking || []).find((q) => q.effect === d.verdict) || {};

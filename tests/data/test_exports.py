@@ -1,5 +1,6 @@
 """Exports (issue 11 item 4): CSV answers of simulate and compare read back unchanged by an
 upload; the CLI's --csv writes the same format."""
+import json
 import subprocess
 import sys
 
@@ -60,6 +61,22 @@ def test_cli_csv_is_the_same_format(tmp_path):
     m = read_csv(out)
     assert m.meta["import"]["pneucore_export"] and "p_a" in m.measured_signals
     assert out.read_text().splitlines()[1].startswith("t[s],u[-],p_a[Pa]")
+
+
+def test_cli_npz_holds_the_run(tmp_path):
+    # in process (the CSV test above covers the subprocess entry point)
+    import io
+
+    from pneucore.cli import main
+    from pneucore import Model, Scenario, scenario_preset, simulate
+    out = tmp_path / "run.npz"
+    assert main(["run", "--model", "paper-3way", "--scenario", "paper-fig9-switching",
+                 "--npz", str(out)]) == 0
+    z = np.load(io.BytesIO(out.read_bytes()))
+    res = simulate(Model.from_dict(model_preset("paper-3way")),
+                   Scenario.from_dict(scenario_preset("paper-fig9-switching")))
+    assert np.array_equal(z["p_a"], res.series["p_a"]) and np.array_equal(z["t"], res.t)
+    assert json.loads(z["meta.json"])["units"]["p_a"] == "Pa"
 
 
 def test_cli_unknown_model_lists_presets(capsys):

@@ -56,3 +56,38 @@ def test_mis_set_and_missing_are_shown_apart_and_applied_in_one_click(page):
     assert page.locator("#diag-findings button:enabled").count() == 0
     ARTIFACTS.mkdir(exist_ok=True)
     page.locator("#panel-diagnose").screenshot(path=str(ARTIFACTS / "findings.png"))
+
+
+def test_initial_state_confounded_groups_and_separating_experiments_are_shown(page):
+    # a diagnosis as POST /api/diagnose answers it on a rig left pressurised, with a load
+    # confounded with the Coulomb levels and two effects the records cannot tell apart;
+    # server text carries markup, which must show as text (esc())
+    result = {
+        "verdict": None, "message": "<b>m</b>", "ranking": [], "score_pass": [],
+        "error_before": {"overall": 0.02}, "noise_floor": {"p_a": 0.001},
+        "initial_state": [{"experiment": "hold<img src=x onerror=alert(1)>", "path": "initial.p_a",
+                           "label": "pressure A", "before": 101325.0, "after": 310000.0,
+                           "stderr": 120.0, "unit": "Pa"}],
+        "recalibrate": [
+            {"path": "jack.load_force", "label": "load force", "before": 0.0, "after": 40.2,
+             "stderr": 3.0, "unit": "N",
+             "confounded_with": ["friction.extend.fc0", "friction.retract.fc0"]},
+            {"path": "friction.extend.fc0", "label": "Coulomb force, extension", "before": 20.0,
+             "after": 12.0, "stderr": 2.0, "unit": "N", "confounded_with": ["jack.load_force"]}],
+        "alternatives": [{"effect": "dead_volume", "note": "cannot tell dead_volume from the "
+                          "heat coefficient on these records; a test with chamber B at half "
+                          "pressure would separate them"}],
+        "remaining": {"error": 0.0011, "noise_floor": 0.001, "at_floor": True},
+    }
+    page.evaluate("(r) => { S.diag = { result: r }; renderDiagnosis(); }", result)
+    initial = page.inner_text("#diag-findings .finding.initial")
+    assert "initial state, not recorded" in initial and "pressure A" in initial
+    assert "hold<img src=x onerror=alert(1)>" in initial   # shown as text, never as markup
+    assert page.locator("#diag-findings img").count() == 0
+    misset = page.locator("#diag-findings .finding.misset")
+    load = misset.nth(0).inner_text()
+    assert "load force" in load and "only in combination with" in load
+    assert "Coulomb force, extension" in load and "friction.retract.fc0" in load
+    assert "only in combination with load force" in misset.nth(1).inner_text()
+    alt = page.inner_text("#diag-findings .finding.alternative")
+    assert "chamber B at half pressure" in alt
