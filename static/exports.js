@@ -1,6 +1,7 @@
 'use strict';
 /* Downloads: simulation and comparison as CSV (the API's Accept: text/csv answer, units in
- * the header; uploads read it back), HTML reports of a comparison or a diagnosis (one
+ * the header; uploads read it back), the simulation as a NumPy .npz archive (Accept:
+ * application/x-npz), HTML reports of a comparison or a diagnosis (one
  * self-contained file), the fitted model as JSON. */
 
 function saveBlob(blob, filename) {
@@ -35,6 +36,9 @@ function needExperiments() {
 function wireExports() {
   $('#btn-sim-csv').addEventListener('click', (ev) => busy(ev.target, async () => {
     try { await download('/api/simulate', { model: S.model, scenario: scenarioForRequest() }, 'text/csv', 'simulation.csv', 'Simulation CSV'); } catch (e) { showApiError(e, 'Simulation CSV'); }
+  }));
+  $('#btn-sim-npz').addEventListener('click', (ev) => busy(ev.target, async () => {
+    try { await download('/api/simulate', { model: S.model, scenario: scenarioForRequest() }, 'application/x-npz', 'simulation.npz', 'Simulation .npz'); } catch (e) { showApiError(e, 'Simulation .npz'); }
   }));
   $('#btn-compare-csv').addEventListener('click', (ev) => busy(ev.target, async () => {
     if (!needExperiments()) return;

@@ -121,6 +121,24 @@ def test_export_comparison_and_upload_it_back(page, rig_file, tmp_path):
     assert f"({len(res.t)} samples" in msg
 
 
+def test_simulation_npz_download_reads_back_with_numpy(page, tmp_path):
+    import io
+    import json
+
+    import numpy as np
+    with page.expect_download() as dl:
+        page.click("#btn-sim-npz")
+    saved = tmp_path / "simulation.npz"
+    dl.value.save_as(saved)
+    assert dl.value.suggested_filename == "simulation.npz"
+    z = np.load(io.BytesIO(saved.read_bytes()))   # no pickle
+    meta = json.loads(z["meta.json"])
+    assert meta["units"]["p_a"] == "Pa" and meta["status"] == 0
+    assert len(z["t"]) == len(z["p_a"]) > 10 and np.all(np.diff(z["t"]) > 0)
+    assert np.all(z["p_a"] > 0)   # absolute pressures
+    _wait_status(page, "saved simulation.npz")
+
+
 def test_html_report_opens_offline(page, browser, tmp_path):  # noqa: F811
     with page.expect_download() as dl:
         page.click("#btn-compare-report")
