@@ -576,10 +576,18 @@ def check_context(scen):
     fields left out take their defaults when used (the command and duration the
     measurement's). Checks that need a model (``x0`` within the stroke, the
     command within the valve's range) come when the dataset is used.
+
+    Returns the given fields as the check read them (numbers as floats: an integer of 30
+    digits is stored as 1e+30, never as a number JSON writers refuse), nothing added.
     """
     mapping(scen, "scenario")
-    Scenario.from_dict(dict(scen), None)
-    return scen
+    checked = Scenario.from_dict(dict(scen), None).to_dict()
+
+    def given(raw, read):
+        if isinstance(raw, dict) and isinstance(read, dict):
+            return {k: given(v, read.get(k)) for k, v in raw.items()}
+        return read
+    return given(dict(scen), checked)
 
 
 def store_upload(store, data, filename, fields, name, description=""):

@@ -158,7 +158,13 @@ class _Dropped:
     status_code: int = 599
 
 
-def _send(c, method, path, text):
+#: ``Accept`` headers sent with the mutated requests: each answer form, and malformed ones
+ACCEPTS = [None, "application/json", "text/csv", "application/x-npz", "*/*",
+           "application/x-npz;q=0.5, text/csv;q=0.9", "application/x-npz;q=nan", "text/csv;q=-1",
+           ";;,,;q=", "application/x-npz;q=" + "9" * 400, ",".join(["text/csv"] * 500)]
+
+
+def _send(c, method, path, text, accept=None):
     """One request; a transport error is retried once on a fresh connection before it counts.
 
     A kept-alive connection that the server closes after its idle timeout (uvicorn: 5 s) just
@@ -166,7 +172,10 @@ def _send(c, method, path, text):
     dropped the request (a crash, a hang) fails the retry too and is counted as 599."""
     for attempt in (0, 1):
         try:
-            return c.request(method, path, content=text, headers={"content-type": "application/json"})
+            headers = {"content-type": "application/json"}
+            if accept is not None:
+                headers["accept"] = accept
+            return c.request(method, path, content=text, headers=headers)
         except httpx.TransportError as exc:
             if attempt:
                 return _Dropped(f"transport error (twice): {exc!r}")
@@ -202,7 +211,7 @@ def run_mutations(base_url, n, report, seed=0, excluded=EXCLUDED_PATHS):
             method, path, body = tmpl[i % len(tmpl)]
             doc = _mutate(body, rng)
             text = json.dumps(doc)   # NaN/Infinity tokens: what a careless client sends
-            r = _send(c, method, path, text)
+            r = _send(c, method, path, text, rng.choice(ACCEPTS))
             report.add(r.status_code)
             if r.status_code >= 500:
                 report.failures.append(("mutation", method, path, f"{r.status_code} {r.text[:300]} "
