@@ -21,10 +21,11 @@ default series, about 0.24 MB of JSON) is measured with two clients:
   the server's own time):
 
 * **sequential**: ``--requests`` (200) requests one after the other on one
-  keep-alive connection: median, p95, min, max latency;
+  keep-alive connection: median, p95, min, max latency; with the lean client also
+  with ``Accept: application/x-npz`` (the same answer as a NumPy archive, 0.17 MB);
 * **concurrent**: ``--clients`` (20) clients, each on its own connection,
   sending ``--per-client`` (10) requests back to back: median and p95
-  latency over all requests, and the throughput;
+  latency over all requests, and the throughput (lean: JSON and ``.npz``);
 * the server's CPU time per request in each phase (from ``/proc``: less sensitive to
   the machine's load than the wall times);
 * for reference, the in-process cost of what the endpoint does (parse and
