@@ -292,7 +292,9 @@ def in_process(body, runs=50):
     request validation (pydantic) and parsing, :func:`pneucore.simulate`, the answer's dict
     and its orjson rendering (``total``: the JSON answer's whole work), and the ``.npz``
     answer's writing in its place (``npz``); ``simulate`` alone is the in-process
-    simulation the round trip is compared with."""
+    simulation the round trip is compared with, from built objects;
+    ``simulate_from_dicts`` is :func:`pneucore.simulate` on the request's own model and
+    scenario dicts (validation included, as ``bench_simulator.py`` measures it)."""
     from app.config import Limits
     from app.deps import parse_model, parse_scenario
     from app.responses import JSON
@@ -300,7 +302,8 @@ def in_process(body, runs=50):
     from app.schemas import SimulateRequest
     from pneucore import simulate
     limits = Limits()
-    stages = {"parse": [], "simulate": [], "to_dict": [], "orjson": [], "total": [], "npz": []}
+    stages = {"parse": [], "simulate": [], "to_dict": [], "orjson": [], "total": [], "npz": [],
+              "simulate_from_dicts": []}
     for i in range(runs + 3):
         t0 = time.perf_counter()
         req = SimulateRequest.model_validate(body)
@@ -315,8 +318,10 @@ def in_process(body, runs=50):
         t4 = time.perf_counter()
         result_npz(res, req.series)
         t5 = time.perf_counter()
+        simulate(body["model"], body["scenario"])   # as a Python user calls it on the same input
+        t6 = time.perf_counter()
         if i >= 3:
-            for k, v in zip(stages, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t4 - t0, t5 - t4)):
+            for k, v in zip(stages, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t4 - t0, t5 - t4, t6 - t5)):
                 stages[k].append(v)
     return {k: statistics.median(v) * 1e3 for k, v in stages.items()}
 
@@ -378,6 +383,9 @@ def run(args):
     out["lean_ratio_to_simulation"] = out["sequential_lean"]["median_ms"] / p["simulate"]
     out["lean_ratio_to_endpoint_work"] = out["sequential_lean"]["median_ms"] / p["total"]
     out["lean_npz_ratio_to_simulation"] = out["sequential_lean_npz"]["median_ms"] / p["simulate"]
+    out["lean_ratio_to_simulation_from_dicts"] = out["sequential_lean"]["median_ms"] / p["simulate_from_dicts"]
+    out["lean_npz_ratio_to_simulation_from_dicts"] = (out["sequential_lean_npz"]["median_ms"]
+                                                      / p["simulate_from_dicts"])
     out["pass"] = {
         "ratio": out["ratio_to_simulation"] <= TARGET_RATIO,
         "ratio_lean": out["lean_ratio_to_simulation"] <= TARGET_RATIO,
@@ -412,10 +420,13 @@ def report(out):
     p = out["in_process_ms"]
     print(f"in-process  (no HTTP) median {p['total']:.2f} ms = validate+parse {p['parse']:.2f} + "
           f"simulate {p['simulate']:.2f} + answer dict {p['to_dict']:.2f} + orjson {p['orjson']:.2f} ms; "
-          f"the .npz answer instead of dict + orjson {p['npz']:.2f} ms")
+          f"the .npz answer instead of dict + orjson {p['npz']:.2f} ms; simulate() from the request's dicts "
+          f"(validation included) {p['simulate_from_dicts']:.2f} ms")
     print(f"round trip / in-process simulate(): httpx {out['ratio_to_simulation']:.2f}x, lean "
           f"{out['lean_ratio_to_simulation']:.2f}x, npz {out['lean_npz_ratio_to_simulation']:.2f}x; / the endpoint's whole work without HTTP: httpx "
           f"{out['ratio_to_endpoint_work']:.2f}x, lean {out['lean_ratio_to_endpoint_work']:.2f}x")
+    print(f"round trip / simulate() from the request's dicts: lean {out['lean_ratio_to_simulation_from_dicts']:.2f}x, "
+          f"npz {out['lean_npz_ratio_to_simulation_from_dicts']:.2f}x")
     if "load" in out:
         print(f"load average (1 min) before / after: {out['load'][0]:.1f} / {out['load'][1]:.1f}")
     v = {k: "PASS" if ok else "FAIL" for k, ok in out["pass"].items()}
