@@ -42,7 +42,7 @@ from pneucore.spec.scenario import Scenario
 from pneucore.spec.units import unit_systems
 from pneucore.spec.validation import FieldError, choice, finite_json, mapping, number
 from pneucore.study import (Study, check_run_options, delete_study, list_studies, queue_study,
-                            requeue_study, run_study, runs_csv, study_results, study_status)
+                            requeue_study, run_study, runs_csv, runs_npz, study_results, study_status)
 
 from .config import STUDY_CLUSTERS
 from .deps import parse_experiments, parse_model, parse_scenario
@@ -804,6 +804,15 @@ def study_runs_csv(db_path, sid):
     study."""
     try:
         return runs_csv(db_path, sid)
+    except KeyError:
+        return None
+
+
+def study_runs_npz(db_path, sid):
+    """The stored runs of a study as a NumPy ``.npz`` archive (bytes), or None for an
+    unknown study."""
+    try:
+        return runs_npz(db_path, sid)
     except KeyError:
         return None
 

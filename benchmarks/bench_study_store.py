@@ -22,7 +22,7 @@ Figures printed (and written to ``--json PATH``):
   runs (percentiles of every metric, PRCC and Spearman of every metric on every
   parameter) on the stored study (target <= 1 s for 100,000 runs);
 * the same with the raw runs (what ``GET /api/studies/{id}/results`` sends by
-  default) and the CSV export, for reference;
+  default) and the CSV and .npz exports, for reference;
 * the machine and its load average (other processes may share it).
 """
 from __future__ import annotations
@@ -80,7 +80,7 @@ def main(argv=None):
 
     from pneucore.study import store
     from pneucore.study.definition import Study
-    from pneucore.study.results import runs_csv, study_results
+    from pneucore.study.results import runs_csv, runs_npz, study_results
 
     study = Study.from_dict(definition(a.runs))
     blocks = list(synthetic_blocks(study, a.batch))
@@ -123,6 +123,11 @@ def main(argv=None):
         out["csv_s"] = time.perf_counter() - t0
         out["csv_bytes"] = size
         print(f"CSV export: {out['csv_s']:.3f} s, {size / 1e6:.1f} MB")
+        t0 = time.perf_counter()
+        size = len(runs_npz(path, "bench"))
+        out["npz_s"] = time.perf_counter() - t0
+        out["npz_bytes"] = size
+        print(f".npz export: {out['npz_s']:.3f} s, {size / 1e6:.1f} MB")
         out["file_bytes"] = os.path.getsize(path) + sum(
             os.path.getsize(path + x) for x in ("-wal",) if os.path.exists(path + x))
         print(f"store file: {out['file_bytes'] / 1e6:.1f} MB "

@@ -1642,7 +1642,8 @@ function renderStudyResults() {
     `<b>${res.failed}</b> failed, status ${esc(res.status)}${res.missing ? ` (${res.missing} missing: resume it)` : ''}. ` +
     `Model <i>${esc(m.name || 'custom')}${Object.keys(m.effects || {}).length ? ` + ${esc(Object.keys(m.effects).join(' + '))}` : ''}</i>, scenario <i>${esc(sc.name || 'custom')}</i> (${num(sc.duration)} s), seed ${esc(def.seed ?? 0)}. ` +
     'Parameters: ' + res.parameters.map((p) => `<code>${esc(p.path)}</code> ${esc(specText(p.spec, p.unit))}`).join('; ') + '.' +
-    ` <a id="study-csv" href="${esc(`/api/studies/${encodeURIComponent(res.id)}/runs.csv`)}" download>Download the runs (CSV, units in the headers)</a>`;
+    ` <a id="study-csv" href="${esc(`/api/studies/${encodeURIComponent(res.id)}/runs.csv`)}" download>Download the runs (CSV, units in the headers)</a>` +
+    ` · <a id="study-npz" href="${esc(`/api/studies/${encodeURIComponent(res.id)}/runs.npz`)}" download title="NumPy archive: params and metrics matrices with their names and units; numpy.load reads it">(.npz)</a>`;
   $('#study-metric').innerHTML = Object.entries(res.metrics).map(([k, d]) =>
     `<option value="${esc(k)}"${k === S.study.metric ? ' selected' : ''}>${esc(k)} [${esc(metricDisplay(d.unit).label)}]</option>`).join('');
   $('#study-xparam').innerHTML = res.parameters.map((p) =>

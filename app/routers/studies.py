@@ -6,14 +6,15 @@ in :mod:`app.services` (queue_new_study, start_study, ...); ``start_study`` is n
 here too, for :mod:`app.main`'s start-up recovery.
 """
 from fastapi import APIRouter, HTTPException, Request
-from fastapi.responses import StreamingResponse
+from fastapi.responses import Response, StreamingResponse
 
 from ..bodies import OffLoopRoute
 from ..deps import JobsDep, LimitsDep, not_found
-from ..responses import JSON
+from ..responses import JSON, NPZ_MEDIA_TYPE, npz_response
 from ..schemas import ClusterInfo, StudyRequest, StudyResultsResponse, StudyStarted, StudyStatus
 from ..services import (QueueFull, discard_study, list_stored_studies, queue_new_study, start_study,
-                        study_clusters, study_exists, study_progress, study_runs_csv, study_summary)
+                        study_clusters, study_exists, study_progress, study_runs_csv, study_runs_npz,
+                        study_summary)
 
 router = APIRouter(prefix="/api/studies", tags=["studies"], route_class=OffLoopRoute)
 
@@ -72,9 +73,28 @@ def get_runs_csv(study_id: str, request: Request):
     chunks = study_runs_csv(_db(request), study_id)
     if chunks is None:
         raise not_found("study", study_id)
-    safe = "".join(c for c in study_id if c.isalnum() or c in "-_.")[:64] or "study"
     return StreamingResponse(chunks, media_type="text/csv; charset=utf-8",
-                             headers={"Content-Disposition": f'attachment; filename="study-{safe}-runs.csv"'})
+                             headers={"Content-Disposition": f'attachment; filename="study-{_safe_name(study_id)}-runs.csv"'})
+
+
+def _safe_name(study_id):
+    """A study id as a file name: letters, digits, ``-_.`` (64 at most)."""
+    return "".join(c for c in study_id if c.isalnum() or c in "-_.")[:64] or "study"
+
+
+@router.get("/{study_id}/runs.npz", summary="Every stored run as a NumPy .npz archive: parameter "
+                                             "and metric matrices, their names and units (SI)",
+            response_class=Response,
+            responses={200: {"content": {NPZ_MEDIA_TYPE: {"schema": {"type": "string", "format": "binary"}}},
+                             "description": "run_index (n), params (n x k) with param_paths and "
+                                            "param_units, metrics (n x m) with metric_names and "
+                                            "metric_units (NaN: undefined or failed), failed_index "
+                                            "and failed_error; numpy.load reads it, no pickle"}})
+def get_runs_npz(study_id: str, request: Request):
+    data = study_runs_npz(_db(request), study_id)
+    if data is None:
+        raise not_found("study", study_id)
+    return npz_response(data, f"study-{_safe_name(study_id)}-runs.npz")
 
 
 @router.post("/{study_id}/resume", status_code=202, summary="Resume an interrupted study",

@@ -48,7 +48,8 @@ from pneucore.study.execute import (ENV_SCHEDULER, SCHEDULER_TIMEOUT, SchedulerE
                          check_run_options, connect_scheduler, max_workers, queue_study, run_batch,
                          run_study)
 from pneucore.study.metrics import METRICS, Metric, RunSeries, register_metric, run_metrics
-from pneucore.study.results import factorial_indices, rank_correlations, runs_csv, study_results, study_status
+from pneucore.study.results import (factorial_indices, rank_correlations, runs_csv, runs_npz, study_results,
+                                    study_status)
 from pneucore.study.store import STATUSES, delete_study, list_studies, set_study_status
 from pneucore.spec.validation import FieldError
 
@@ -58,7 +59,7 @@ __all__ = [
     "run_study", "run_batch", "connect_scheduler", "queue_study", "check_run_options", "SchedulerError", "StudyInterrupted",
     "ENV_SCHEDULER", "SCHEDULER_TIMEOUT", "study_results", "study_status", "list_studies",
     "delete_study", "rank_correlations", "factorial_indices", "main",
-    "requeue_study", "set_study_status", "STATUSES", "runs_csv", "max_workers",
+    "requeue_study", "set_study_status", "STATUSES", "runs_csv", "runs_npz", "max_workers",
 ]
 
 

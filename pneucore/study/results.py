@@ -421,3 +421,56 @@ def runs_csv(store_path, study_id, chunk_rows=5000):
                 buf.truncate()
         yield buf.getvalue()
     return chunks()
+
+
+def runs_npz(store_path, study_id):
+    """The stored runs of a study as a NumPy ``.npz`` archive (:mod:`pneucore.data.npz`).
+
+    Members: ``run_index`` (n,) int64; ``params`` (n, k) float64 in SI units, columns in
+    ``param_paths`` order with ``param_units``; ``metrics`` (n, m) float64, columns
+    ``metric_names`` with ``metric_units`` (NaN: undefined, and every metric of a failed
+    run); ``failed_index`` and ``failed_error``, the index and the message of each failed
+    run. The same numbers as :func:`runs_csv`, without conversion to text: about 8 bytes
+    a value where the CSV takes 20, and written at memory speed.
+
+    Parameters
+    ----------
+    store_path : str
+        SQLite store
+    study_id : str
+        Study id
+
+    Returns
+    -------
+    data : bytes
+        The archive (``numpy.load(io.BytesIO(data))`` reads it; nothing is unpickled)
+
+    Raises
+    ------
+    KeyError
+        Unknown study id
+    """
+    from pneucore.data.npz import npz_bytes
+    db = store.connect(store_path)
+    try:
+        info = store.get_study(db, study_id)
+        if info is None:
+            raise KeyError(f"no study {study_id!r} in the store")
+        study = Study.from_json(info["definition"])
+        paths, names = study.paths, study.metric_names
+        block = store.load_arrays(db, study_id, paths, names)
+    finally:
+        db.close()
+    failed = [(int(i), e) for i, e in zip(block.indices.tolist(), block.errors) if e is not None]
+    k, m = len(paths), len(names)
+    return npz_bytes({
+        "run_index": np.asarray(block.indices, dtype=np.int64),
+        "params": np.asarray(block.params, dtype=np.float64).reshape(-1, k),
+        "param_paths": np.array(paths, dtype=str),
+        "param_units": np.array([unit_of(q) for q in paths], dtype=str),
+        "metrics": np.asarray(block.metrics, dtype=np.float64).reshape(-1, m),
+        "metric_names": np.array(names, dtype=str),
+        "metric_units": np.array([METRICS[q][0] for q in names], dtype=str),
+        "failed_index": np.array([i for i, _ in failed], dtype=np.int64),
+        "failed_error": np.array([str(e) for _, e in failed], dtype=str),
+    })

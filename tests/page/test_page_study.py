@@ -170,6 +170,13 @@ def test_monte_carlo_study_runs_and_shows_results(page, server, state):
     with urllib.request.urlopen(server + href) as r:
         lines = r.read().decode().splitlines()
     assert len(lines) == 41 and "supply.pressure [Pa]" in lines[0] and "t95 [s]" in lines[0]
+    # ... and as a NumPy archive from the link beside it
+    import io
+
+    import numpy as np
+    with urllib.request.urlopen(server + page.get_attribute("#study-npz", "href")) as r:
+        z = np.load(io.BytesIO(r.read()))
+    assert z["params"].shape[0] == 40 and "t95" in z["metric_names"].tolist()
 
     api = get_json(server, f"/api/studies/{sid}/results")
     assert api["stored"] == 40 and api["failed"] == 0

@@ -329,6 +329,34 @@ def test_failed_runs_record_their_error():
     assert sum(e["count"] for e in r2["errors"]) == 2 and r2["failed"] == 2
 
 
+def test_runs_npz_holds_the_stored_runs_and_their_failures(tmp_path):
+    import io
+
+    from pneucore.study import runs_npz, study_results
+    d = short_study(samples=6)
+    d["parameters"]["jack.moving_mass"] = {"distribution": "normal", "mean": 0.01, "std": 1.0}
+    store_path = str(tmp_path / "s.sqlite3")
+    sid = "npz"
+    run_study(d, store_path, workers=0, study_id=sid)
+    res = study_results(store_path, sid)
+    runs = res["runs"]
+    z = np.load(io.BytesIO(runs_npz(store_path, sid)))   # no pickle
+    assert z["run_index"].tolist() == runs["index"]
+    paths = z["param_paths"].tolist()
+    assert paths == list(runs["params"]) and z["params"].shape == (6, len(paths))
+    for j, p in enumerate(paths):
+        assert z["params"][:, j].tolist() == runs["params"][p]   # exact: float64 both ways
+    names = z["metric_names"].tolist()
+    for j, n in enumerate(names):
+        assert [None if math.isnan(v) else v for v in z["metrics"][:, j].tolist()] == runs["metrics"][n], n
+        assert z["metric_units"][j] == METRICS[n][0]
+    assert dict(zip(paths, z["param_units"].tolist()))["jack.moving_mass"] == "kg"
+    failed = [(i, e) for i, e in zip(runs["index"], runs["error"]) if e]
+    assert failed and list(zip(z["failed_index"].tolist(), z["failed_error"].tolist())) == failed
+    with pytest.raises(KeyError):
+        runs_npz(store_path, "nope")
+
+
 # -- sensitivity --------------------------------------------------------------------------------
 def test_prcc_matches_the_inverse_correlation_formula():
     rng = np.random.default_rng(0)
