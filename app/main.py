@@ -61,7 +61,12 @@ def _loc(path: str):
     return out
 
 
-def _freeze_start_up_objects(warm_up_thread=None):
+#: Orders a start-up freeze against the shutdown's unfreeze (an app stopped before its core
+#: was loaded must not freeze afterwards)
+_FREEZE_LOCK = threading.Lock()
+
+
+def _freeze_start_up_objects(warm_up_thread=None, stopped=None):
     """Once the simulator is loaded, leave the objects of the start-up (modules, the compiled
     core: about 190,000) out of the garbage collector's full collections: one of them scans
     every object in about 0.1 s, a pause of every request in progress (the p95 and the
@@ -71,10 +76,21 @@ def _freeze_start_up_objects(warm_up_thread=None):
     ----------
     warm_up_thread : threading.Thread or None
         The warm-up (:func:`pneucore.simulate.start_warm_up`) to wait for
+    stopped : threading.Event or None
+        Set when the app has shut down: nothing is frozen then
     """
     if warm_up_thread is not None:
         warm_up_thread.join()
-    gc.freeze()
+    with _FREEZE_LOCK:
+        if stopped is None or not stopped.is_set():
+            gc.freeze()
+
+
+def _unfreeze(stopped):
+    """The shutdown's half of :func:`_freeze_start_up_objects`."""
+    with _FREEZE_LOCK:
+        stopped.set()
+        gc.unfreeze()
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
@@ -84,7 +100,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def lifespan(app: FastAPI):
         # compile (or load) the simulator in the background while the service starts
         warm = start_warm_up()
-        threading.Thread(target=_freeze_start_up_objects, args=(warm,), daemon=True,
+        stopped = threading.Event()
+        threading.Thread(target=_freeze_start_up_objects, args=(warm, stopped), daemon=True,
                          name="pneucore-gc-freeze").start()
         store = Store(settings.db_path)
         if settings.seed_samples:
@@ -107,7 +124,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         yield
         app.state.jobs.shutdown()
         store.close()
-        gc.unfreeze()
+        _unfreeze(stopped)
 
     app = FastAPI(title="pneucore", version="0.1.0", lifespan=lifespan, default_response_class=JSON,
                   docs_url=None, redoc_url=None,
