@@ -76,17 +76,16 @@ def loop_candidate(req: SimulateRequest) -> bool:
 
 def _headers(scope):
     """Content type (media type only), content length (None if absent or not a number) and
-    Accept of a request."""
-    ctype, length, accept = "", None, ""
+    Accept of a request; of a header given twice, the first, as the route reads it
+    (Starlette's ``request.headers.get``)."""
+    found = {}
     for k, v in scope.get("headers", ()):
-        if k == b"content-type":
-            ctype = v.decode("latin-1").split(";", 1)[0].strip().lower()
-        elif k == b"content-length":
-            v = v.strip()
-            length = int(v) if v.isdigit() and len(v) < 12 else None
-        elif k == b"accept":
-            accept = v.decode("latin-1")
-    return ctype, length, accept
+        if k in (b"content-type", b"content-length", b"accept") and k not in found:
+            found[k] = v
+    ctype = found.get(b"content-type", b"").decode("latin-1").split(";", 1)[0].strip().lower()
+    length = found.get(b"content-length", b"").strip()
+    length = int(length) if length.isdigit() and len(length) < 12 else None
+    return ctype, length, found.get(b"accept", b"").decode("latin-1")
 
 
 class SimulateExpressLane:

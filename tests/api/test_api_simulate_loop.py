@@ -193,6 +193,19 @@ def test_a_body_that_is_not_json_goes_to_the_route(client, where):
     assert r.status_code == 422 and where == []
 
 
+def test_a_header_given_twice_is_read_as_the_route_reads_it(client, where):
+    # the first of two content types is the one FastAPI's route reads: text, not JSON
+    body = json.dumps(sim_body()).encode()
+    r = client.post("/api/simulate", content=body,
+                    headers=[("content-type", "text/plain"), ("content-type", "application/json")])
+    assert r.status_code == 422 and where == []
+    r = client.post("/api/simulate", content=body,
+                    headers=[("content-type", "application/json"), ("accept", "application/x-npz"),
+                             ("accept", "application/json")])
+    assert r.status_code == 200 and r.headers["content-type"] == "application/x-npz"
+    assert [p for p, _ in where] == ["loop"]
+
+
 def test_the_guard_still_stands_before_the_lane(db_path, where):
     from fastapi.testclient import TestClient
 
