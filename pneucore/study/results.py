@@ -364,6 +364,21 @@ def factorial_indices(y, shape):
     return S1, ST
 
 
+def _stored_runs(store_path, study_id):
+    """``(paths, names, block)``: a study's parameter paths, metric names and every stored
+    run (:func:`pneucore.study.store.load_arrays`); KeyError for an unknown study."""
+    db = store.connect(store_path)
+    try:
+        info = store.get_study(db, study_id)
+        if info is None:
+            raise KeyError(f"no study {study_id!r} in the store")
+        study = Study.from_json(info["definition"])
+        paths, names = study.paths, study.metric_names
+        return paths, names, store.load_arrays(db, study_id, paths, names)
+    finally:
+        db.close()
+
+
 def runs_csv(store_path, study_id, chunk_rows=5000):
     """The stored runs of a study as CSV text, in chunks (for a download).
 
@@ -393,16 +408,7 @@ def runs_csv(store_path, study_id, chunk_rows=5000):
     """
     import csv
     import io
-    db = store.connect(store_path)
-    try:
-        info = store.get_study(db, study_id)
-        if info is None:
-            raise KeyError(f"no study {study_id!r} in the store")
-        study = Study.from_json(info["definition"])
-        paths, names = study.paths, study.metric_names
-        block = store.load_arrays(db, study_id, paths, names)
-    finally:
-        db.close()
+    paths, names, block = _stored_runs(store_path, study_id)
     header = (["run_index"] + [f"{p} [{unit_of(p)}]" for p in paths]
               + [f"{m} [{METRICS[m][0]}]" for m in names] + ["error"])
 
@@ -451,16 +457,7 @@ def runs_npz(store_path, study_id):
         Unknown study id
     """
     from pneucore.data.npz import npz_bytes
-    db = store.connect(store_path)
-    try:
-        info = store.get_study(db, study_id)
-        if info is None:
-            raise KeyError(f"no study {study_id!r} in the store")
-        study = Study.from_json(info["definition"])
-        paths, names = study.paths, study.metric_names
-        block = store.load_arrays(db, study_id, paths, names)
-    finally:
-        db.close()
+    paths, names, block = _stored_runs(store_path, study_id)
     failed = [(int(i), e) for i, e in zip(block.indices.tolist(), block.errors) if e is not None]
     k, m = len(paths), len(names)
     return npz_bytes({
