@@ -11,7 +11,7 @@ import types
 import numpy as np
 import pytest
 
-from api_conftest import api, client, db_path, scenario, sim_body  # noqa: F401 (fixtures)
+from api_conftest import api, client, db_path, live_server, scenario, sim_body  # noqa: F401 (fixtures)
 
 import app.express_lane as lane
 import app.routers.simulate as router
@@ -263,3 +263,44 @@ def test_a_law_registered_at_run_time_goes_to_a_thread():
         assert lane.loop_candidate(SimulateRequest.model_validate(sim_body()))
     finally:
         unregister_friction_law("test_loop_half")
+
+
+def test_concurrent_clients_get_the_answers_they_would_get_alone(db_path):
+    # a real server, 12 clients at once, each sending every kind of request in its own order:
+    # answered on the loop (JSON, .npz), in a thread (CSV, many samples), refused (a bad field),
+    # failed on the loop and reported by the route (a budget of 10 steps). Each answer must be
+    # the one the request gets alone, byte for byte
+    import random
+    from concurrent.futures import ThreadPoolExecutor
+
+    import httpx
+    bad = sim_body()
+    bad["model"]["jack"]["bore"] = -1.0
+    cases = {
+        "json": (sim_body(), {}),
+        "npz": (sim_body(), NPZ),
+        "csv": (sim_body(), {"accept": "text/csv"}),
+        "bad": (bad, {}),
+        "samples": (sim_body(s=scenario(sample_period=1.0 / lane.LOOP_MAX_SAMPLES)), {}),
+        "budget": (sim_body(s=scenario(solver={"max_steps": 10})), {}),
+    }
+    with live_server(db_path) as url:
+        def post(c, k):
+            body, headers = cases[k]
+            r = c.post("/api/simulate", json=body, headers=headers)
+            return r.status_code, r.content
+
+        with httpx.Client(base_url=url, timeout=120) as c:   # timeout: a bound on a hang
+            alone = {k: post(c, k) for k in cases}
+        assert [alone[k][0] for k in cases] == [200, 200, 200, 422, 200, 422]
+
+        def one_client(seed):
+            order = list(cases) * 2
+            random.Random(seed).shuffle(order)
+            with httpx.Client(base_url=url, timeout=120) as c:
+                return [(k, post(c, k)) for k in order]
+        with ThreadPoolExecutor(12) as pool:
+            together = [a for answers in pool.map(one_client, range(12)) for a in answers]
+    assert len(together) == 12 * 2 * len(cases)
+    wrong = [k for k, got in together if got != alone[k]]
+    assert not wrong, wrong
