@@ -109,7 +109,7 @@ async def read_multipart(request: Request, body: bytes, limit: int):
 
 
 #: Content types whose body is a file (the rest of an upload's fields in the query string)
-RAW_FILE_TYPES = ("text/csv", "text/plain", "application/octet-stream")
+RAW_FILE_TYPES = ("text/csv", "text/plain", "application/octet-stream", "application/x-npz")
 
 
 async def read_file_upload(request: Request, limit: int):

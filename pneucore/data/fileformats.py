@@ -1,8 +1,8 @@
-"""The files test rigs write: CSV (any dialect), NI TDMS and MATLAB ``.mat``.
+"""The files test rigs write: CSV (any dialect), NI TDMS, MATLAB ``.mat`` and NumPy ``.npz``.
 
 :func:`read_measurement` takes a file's bytes, recognises its format from its
 first bytes (TDMS: ``TDSm``; MATLAB 5/7: the ``MATLAB 5.0 MAT-file`` text
-header; else CSV) and reads it into a :class:`~pneucore.data.measurement.Measurement`
+header; ``.npz``: a ZIP archive, ``PK``; else CSV) and reads it into a :class:`~pneucore.data.measurement.Measurement`
 through the same column resolution as CSV: signal names or their aliases
 (``Zeit``, ``p_A``), units (``bar(g)``, ``mm``, ``ms``...), the caller's
 column mapping and the rig's ambient pressure for gauge units. Every reader
@@ -17,6 +17,14 @@ fills the same import report (``measurement.meta["import"]``).
   vector is a column, and so is every numeric vector field of a top-level
   struct; a struct or cell variable named ``units`` may give units by column
   name (``units.p_A = 'bar(g)'``). v7.3 files are HDF5: save with ``-v7``.
+- **NumPy** ``.npz`` (``numpy.savez``, and the ``.npz`` answers of pneucore itself): every
+  numeric vector member is a column named by the member (``numpy.savez(f, **{"p_A[bar(g)]":
+  pa, "Zeit[ms]": t})``); a ``meta.json`` member whose ``units`` maps names to units gives
+  them (the simulation archives of :mod:`pneucore.data.npz` read back like the CSV export:
+  the simulated-only series are listed as ignored). Nothing is unpickled: an object array
+  is skipped. The archive's directory is checked before anything is read: at most
+  :data:`NPZ_MAX_MEMBERS` members, none larger than a vector of ``MAX_SAMPLES`` doubles
+  allows, and so no compressed member can inflate past it.
 
 :func:`inspect_file` previews a file for the page's mapping step: columns,
 units, dialect and a proposed mapping (:func:`pneucore.data.measurement.propose_mapping`).
@@ -30,13 +38,18 @@ import numpy as np
 
 from pneucore.data.measurement import (DEFAULT_AMBIENT_PRESSURE, MAX_SAMPLES, MeasurementError,
                           Measurement, measurement_from_columns, decode_text, propose_mapping,
-                          read_table)
+                          read_table, split_label)
 
 __all__ = ["read_measurement", "inspect_file", "detect_format", "FORMATS"]
 
 #: Formats recognised by :func:`detect_format`, with their usual file extensions
 FORMATS: dict[str, tuple[str, ...]] = {"csv": (".csv", ".txt", ".tsv", ".dat"),
-                                       "tdms": (".tdms",), "mat": (".mat",)}
+                                       "tdms": (".tdms",), "mat": (".mat",), "npz": (".npz",)}
+#: Most members of an ``.npz`` read [-]
+NPZ_MAX_MEMBERS = 1000
+#: Largest ``.npz`` member read [bytes]: a vector of MAX_SAMPLES doubles and its header; a
+#: larger one (text, a matrix) is skipped unread
+NPZ_MAX_MEMBER_BYTES = 8 * MAX_SAMPLES + 4096
 
 
 def detect_format(data: bytes, filename: str | None = None) -> str:
@@ -52,10 +65,12 @@ def detect_format(data: bytes, filename: str | None = None) -> str:
     Returns
     -------
     format : str
-        ``"tdms"``, ``"mat"`` or ``"csv"`` [-]
+        ``"tdms"``, ``"mat"``, ``"npz"`` or ``"csv"`` [-]
     """
     if data[:4] == b"TDSm":
         return "tdms"
+    if data[:4] in (b"PK\x03\x04", b"PK\x05\x06"):   # a ZIP archive (an empty one: its end record)
+        return "npz"
     if data[:10] == b"MATLAB 5.0" or data[:10] == b"MATLAB 7.3":
         return "mat"
     if filename and filename.lower().endswith(".mat"):
@@ -148,6 +163,61 @@ def _mat_columns(data: bytes):
     return cols, units, {}
 
 
+# ----------------------------------------------------------------------------- NumPy .npz
+def _npz_columns(data: bytes):
+    import json
+    import zipfile
+    try:
+        zf = zipfile.ZipFile(io.BytesIO(data))
+        infos = zf.infolist()
+    except (zipfile.BadZipFile, ValueError, OSError) as exc:
+        raise MeasurementError(f"not a readable .npz (ZIP) archive ({exc})") from None
+    if len(infos) > NPZ_MAX_MEMBERS:
+        raise MeasurementError(f"the archive has {len(infos)} members; at most {NPZ_MAX_MEMBERS} "
+                               f"are read")
+    npy = [i for i in infos if i.filename.endswith(".npy") and not i.is_dir()]
+    if not npy:
+        raise MeasurementError("a ZIP archive without .npy members is not a NumPy .npz file (an "
+                               "Excel workbook? save it as CSV)")
+    meta, extra = {}, {}
+    info = next((i for i in infos if i.filename == "meta.json"), None)
+    if info is not None and info.file_size <= 1 << 20:
+        try:
+            meta = json.loads(zf.read(info))
+        except (ValueError, zipfile.BadZipFile, RuntimeError, OSError):
+            meta = {}
+    units_of = meta.get("units") if isinstance(meta, dict) else None
+    units_of = units_of if isinstance(units_of, dict) else {}
+    if isinstance(meta, dict) and {"units", "stats"} <= set(meta):
+        extra["pneucore_export"] = True   # a simulation archive: simulated-only series ignored
+    cols: list[tuple[str, Any]] = []
+    skipped = []
+    for i in npy:
+        label = i.filename[:-4]
+        if i.file_size > NPZ_MAX_MEMBER_BYTES:
+            skipped.append(label)
+            continue
+        try:
+            with zf.open(i) as fh:
+                a = np.lib.format.read_array(fh, allow_pickle=False)
+        except ValueError:   # an object array (would need unpickling), a malformed header
+            skipped.append(label)
+            continue
+        except (zipfile.BadZipFile, RuntimeError, OSError, EOFError) as exc:
+            raise MeasurementError(f"member {i.filename!r} of the archive is damaged ({exc})",
+                                   column=label) from None
+        if a.dtype.kind in "iuf" and a.size >= 1 and (a.ndim == 1 or (a.ndim == 2 and min(a.shape) == 1)):
+            cols.append((label, a.reshape(-1).astype(np.float64)))
+        else:
+            skipped.append(label)
+    if not cols:
+        raise MeasurementError("the .npz archive holds no numeric vector")
+    units = [u if isinstance(u := units_of.get(lab, ""), str) else "" for lab, _ in cols]
+    if skipped:
+        extra["skipped_members"] = skipped
+    return cols, units, extra
+
+
 def _table(data: bytes, fmt: str):
     """(columns [(label, values)], units or None, report, row_lines) of a file."""
     if fmt == "tdms":
@@ -156,6 +226,9 @@ def _table(data: bytes, fmt: str):
     if fmt == "mat":
         cols, units, extra = _mat_columns(data)
         return cols, units, {"format": "mat", **extra}, None
+    if fmt == "npz":
+        cols, units, extra = _npz_columns(data)
+        return cols, units, {"format": "npz", **extra}, None
     text, encoding = decode_text(data)
     table = read_table(text)
     return (list(zip(table.header, table.columns)), table.units,
@@ -166,7 +239,7 @@ def read_measurement(data: bytes, filename: str | None = None,
                      ambient_pressure: float = DEFAULT_AMBIENT_PRESSURE,
                      name: str | None = None, columns: Mapping[str, Any] | None = None
                      ) -> Measurement:
-    """Read a rig file (CSV, TDMS or MATLAB) into a validated measurement.
+    """Read a rig file (CSV, TDMS, MATLAB or NumPy .npz) into a validated measurement.
 
     Parameters
     ----------
@@ -204,7 +277,8 @@ def read_measurement(data: bytes, filename: str | None = None,
     if fmt != "csv":
         # binary formats: channels of different lengths cannot share one time base
         lengths = {lab: len(v) for lab, v in cols}
-        t_len = next((len(v) for lab, v in cols if propose_mapping([lab])[lab] == "t"), None)
+        t_len = next((len(v) for lab, v in cols
+                      if propose_mapping([lab]).get(split_label(str(lab))[0]) == "t"), None)
         for lab, k in lengths.items():
             mapped = columns.get(lab, "") if isinstance(columns, Mapping) else ""
             if t_len is not None and k != t_len and mapped is not None:
@@ -250,7 +324,6 @@ def inspect_file(data: bytes, filename: str | None = None, rows: int = 5) -> dic
         cols, units, report, _ = _table(data, fmt)
     labels = [str(lab) for lab, _ in cols]
     mapping = propose_mapping(labels)
-    from pneucore.data.measurement import split_label
     out_cols = []
     for j, lab in enumerate(labels):
         name, unit = split_label(lab)

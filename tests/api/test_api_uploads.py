@@ -134,11 +134,21 @@ def _mat_bytes():
     return buf.getvalue()
 
 
-@pytest.mark.parametrize("fmt", ["tdms", "mat"])
+def _npz_bytes():
+    # numpy.savez with the units in a meta.json member, as pneucore's own archives carry them
+    import zipfile
+    buf = io.BytesIO()
+    np.savez(buf, Zeit=T_MS, cmd=U_PCT, pA=PA_BARG, Weg=X_MM)
+    with zipfile.ZipFile(buf, "a") as z:
+        z.writestr("meta.json", json.dumps({"units": {"Zeit": "ms", "cmd": "%", "pA": "bar(g)", "Weg": "mm"}}))
+    return buf.getvalue()
+
+
+@pytest.mark.parametrize("fmt", ["tdms", "mat", "npz"])
 def test_binary_formats_round_trip(client, fmt):
-    data = _tdms_bytes() if fmt == "tdms" else _mat_bytes()
+    data = {"tdms": _tdms_bytes, "mat": _mat_bytes, "npz": _npz_bytes}[fmt]()
     r = client.post("/api/datasets", files={"file": (f"rig.{fmt}", data, "application/octet-stream")},
-                    data={"ambient_pressure": str(AMBIENT), "columns": json.dumps({"cmd": "u"} if fmt == "mat" else {})})
+                    data={"ambient_pressure": str(AMBIENT), "columns": json.dumps({"cmd": "u"} if fmt != "tdms" else {})})
     assert r.status_code == 201, r.text
     assert r.json()["import"]["format"] == fmt
     _check_stored(client, r.json())
