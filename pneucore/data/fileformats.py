@@ -78,6 +78,12 @@ def detect_format(data: bytes, filename: str | None = None) -> str:
     return "csv"
 
 
+def _is_time(label) -> bool:
+    """Whether a column's label (a unit in brackets or not: ``t [ms]``) names the time."""
+    name = split_label(str(label))[0]
+    return propose_mapping([str(label)]).get(name) == "t"
+
+
 # ----------------------------------------------------------------------------- TDMS
 def _tdms_columns(data: bytes):
     try:
@@ -102,7 +108,7 @@ def _tdms_columns(data: bytes):
     units = [str(ch.properties.get("unit_string", "") or "") for ch, _ in arrays]
     cols = [(lab, a) for lab, (_, a) in zip(labels, arrays)]
     extra = {}
-    if not any(propose_mapping([lab])[lab] == "t" for lab in labels):
+    if not any(_is_time(lab) for lab in labels):
         for lab, (ch, a) in zip(labels, arrays):
             if "wf_increment" not in ch.properties:
                 continue
@@ -277,8 +283,7 @@ def read_measurement(data: bytes, filename: str | None = None,
     if fmt != "csv":
         # binary formats: channels of different lengths cannot share one time base
         lengths = {lab: len(v) for lab, v in cols}
-        t_len = next((len(v) for lab, v in cols
-                      if propose_mapping([lab]).get(split_label(str(lab))[0]) == "t"), None)
+        t_len = next((len(v) for lab, v in cols if _is_time(lab)), None)
         for lab, k in lengths.items():
             mapped = columns.get(lab, "") if isinstance(columns, Mapping) else ""
             if t_len is not None and k != t_len and mapped is not None:

@@ -193,3 +193,18 @@ def test_mapping_to_an_unknown_signal_names_the_entry(client):
                     data={"columns": json.dumps({"x[mm]": "position"})})
     assert r.status_code == 422
     assert r.json()["detail"][0]["column"] == "columns.x[mm]"
+
+
+def test_a_tdms_time_channel_with_its_unit_in_brackets(client):
+    # the length check of the binary formats looked a channel up by its whole label: a time
+    # channel named "t [ms]" raised a KeyError (500) before this was fixed
+    from nptdms import ChannelObject, TdmsWriter
+    buf = io.BytesIO()
+    with TdmsWriter(buf) as w:
+        w.write_segment([ChannelObject("rig", "t [ms]", T_MS), ChannelObject("rig", "u [%]", U_PCT),
+                         ChannelObject("rig", "p_a [bar(g)]", PA_BARG),
+                         ChannelObject("rig", "x [mm]", X_MM)])
+    r = client.post("/api/datasets", files={"file": ("rig.tdms", buf.getvalue(), "application/octet-stream")},
+                    data={"ambient_pressure": str(AMBIENT)})
+    assert r.status_code == 201, r.text
+    _check_stored(client, r.json())
