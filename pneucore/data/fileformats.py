@@ -13,10 +13,11 @@ fills the same import report (``measurement.meta["import"]``).
   channel name), with its unit from the standard ``unit_string`` property.
   Without a time channel, the time comes from the waveform properties
   (``wf_start_offset``, ``wf_increment``) of the first channel.
-- **MATLAB** ``.mat`` v4-v7 (scipy.io.loadmat): every top-level numeric
-  vector is a column, and so is every numeric vector field of a top-level
-  struct; a struct or cell variable named ``units`` may give units by column
-  name (``units.p_A = 'bar(g)'``). v7.3 files are HDF5: save with ``-v7``.
+- **MATLAB** ``.mat`` v4-v7 (scipy.io.loadmat, :mod:`pneucore.data.matfile`): every
+  top-level numeric vector is a column, and so is every numeric vector field of a
+  top-level struct; a struct or cell variable named ``units`` may give units by column
+  name (``units.p_A = 'bar(g)'``). v7.3 files are HDF5: save with ``-v7``. Read in a
+  child process by default: a malformed file can crash scipy's compiled reader.
 - **NumPy** ``.npz`` (``numpy.savez``, and the ``.npz`` answers of pneucore itself): every
   numeric vector member is a column named by the member (``numpy.savez(f, **{"p_A[bar(g)]":
   pa, "Zeit[ms]": t})``); a ``meta.json`` member whose ``units`` maps names to units gives
@@ -36,6 +37,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from pneucore.data.matfile import mat_columns, mat_columns_isolated
 from pneucore.data.measurement import (DEFAULT_AMBIENT_PRESSURE, MAX_SAMPLES, MeasurementError,
                           Measurement, measurement_from_columns, decode_text, propose_mapping,
                           read_table, split_label)
@@ -124,51 +126,6 @@ def _tdms_columns(data: bytes):
     return cols, units, extra
 
 
-# ----------------------------------------------------------------------------- MATLAB
-def _mat_columns(data: bytes):
-    from scipy.io import loadmat
-    if data[:10] == b"MATLAB 7.3":
-        raise MeasurementError("MATLAB v7.3 files (HDF5) are not supported; save with "
-                               "save(..., '-v7')")
-    try:
-        d = loadmat(io.BytesIO(data), simplify_cells=True)
-    except NotImplementedError:
-        raise MeasurementError("MATLAB v7.3 files (HDF5) are not supported; save with "
-                               "save(..., '-v7')") from None
-    except Exception as exc:
-        raise MeasurementError(f"not a readable MATLAB file ({type(exc).__name__}: {exc})") from None
-    units_var = d.get("units")
-    cols: list[tuple[str, Any]] = []
-
-    def vector(v):
-        a = np.asarray(v)
-        if a.dtype.kind in "iuf" and a.size >= 1 and (a.ndim == 1 or (a.ndim == 2 and min(a.shape) == 1)):
-            return a.reshape(-1).astype(np.float64)
-        return None
-
-    for key, v in d.items():
-        if key.startswith("__") or key == "units":
-            continue
-        if isinstance(v, dict):
-            for fk, fv in v.items():
-                a = vector(fv)
-                if a is not None:
-                    cols.append((fk, a))
-        else:
-            a = vector(v)
-            if a is not None:
-                cols.append((key, a))
-    if not cols:
-        raise MeasurementError("the MATLAB file holds no numeric vector")
-    units = []
-    for label, _ in cols:
-        u = ""
-        if isinstance(units_var, dict):
-            u = units_var.get(label, "")
-        units.append(u if isinstance(u, str) else "")
-    return cols, units, {}
-
-
 # ----------------------------------------------------------------------------- NumPy .npz
 def _npz_columns(data: bytes):
     import json
@@ -176,8 +133,8 @@ def _npz_columns(data: bytes):
     try:
         zf = zipfile.ZipFile(io.BytesIO(data))
         infos = zf.infolist()
-    except (zipfile.BadZipFile, ValueError, OSError) as exc:
-        raise MeasurementError(f"not a readable .npz (ZIP) archive ({exc})") from None
+    except Exception as exc:  # noqa: BLE001 - zipfile raises many kinds on a damaged directory
+        raise MeasurementError(f"not a readable .npz (ZIP) archive ({type(exc).__name__}: {exc})") from None
     if len(infos) > NPZ_MAX_MEMBERS:
         raise MeasurementError(f"the archive has {len(infos)} members; at most {NPZ_MAX_MEMBERS} "
                                f"are read")
@@ -190,7 +147,7 @@ def _npz_columns(data: bytes):
     if info is not None and info.file_size <= 1 << 20:
         try:
             meta = json.loads(zf.read(info))
-        except (ValueError, zipfile.BadZipFile, RuntimeError, OSError):
+        except Exception:  # noqa: BLE001 - a damaged or foreign meta.json gives no units
             meta = {}
     units_of = meta.get("units") if isinstance(meta, dict) else None
     units_of = units_of if isinstance(units_of, dict) else {}
@@ -209,9 +166,9 @@ def _npz_columns(data: bytes):
         except ValueError:   # an object array (would need unpickling), a malformed header
             skipped.append(label)
             continue
-        except (zipfile.BadZipFile, RuntimeError, OSError, EOFError) as exc:
-            raise MeasurementError(f"member {i.filename!r} of the archive is damaged ({exc})",
-                                   column=label) from None
+        except Exception as exc:  # noqa: BLE001 - a bad CRC, an unknown compression, a short member
+            raise MeasurementError(f"member {i.filename!r} of the archive is damaged "
+                                   f"({type(exc).__name__}: {exc})", column=label) from None
         if a.dtype.kind in "iuf" and a.size >= 1 and (a.ndim == 1 or (a.ndim == 2 and min(a.shape) == 1)):
             cols.append((label, a.reshape(-1).astype(np.float64)))
         else:
@@ -224,13 +181,14 @@ def _npz_columns(data: bytes):
     return cols, units, extra
 
 
-def _table(data: bytes, fmt: str):
-    """(columns [(label, values)], units or None, report, row_lines) of a file."""
+def _table(data: bytes, fmt: str, isolated: bool = True):
+    """(columns [(label, values)], units or None, report, row_lines) of a file; ``isolated``:
+    MATLAB files are read in a child process (:func:`pneucore.data.matfile.mat_columns_isolated`)."""
     if fmt == "tdms":
         cols, units, extra = _tdms_columns(data)
         return cols, units, {"format": "tdms", **extra}, None
     if fmt == "mat":
-        cols, units, extra = _mat_columns(data)
+        cols, units, extra = mat_columns_isolated(data) if isolated else mat_columns(data)
         return cols, units, {"format": "mat", **extra}, None
     if fmt == "npz":
         cols, units, extra = _npz_columns(data)
@@ -243,8 +201,8 @@ def _table(data: bytes, fmt: str):
 
 def read_measurement(data: bytes, filename: str | None = None,
                      ambient_pressure: float = DEFAULT_AMBIENT_PRESSURE,
-                     name: str | None = None, columns: Mapping[str, Any] | None = None
-                     ) -> Measurement:
+                     name: str | None = None, columns: Mapping[str, Any] | None = None,
+                     isolated: bool = True) -> Measurement:
     """Read a rig file (CSV, TDMS, MATLAB or NumPy .npz) into a validated measurement.
 
     Parameters
@@ -260,6 +218,10 @@ def read_measurement(data: bytes, filename: str | None = None,
         Name of the measurement [-]
     columns : mapping or None, optional
         Column mapping ``{"Zeit": "t", "pA": "p_a[bar(g)]", "Kraft": None}`` [-]
+    isolated : bool, optional
+        Read a MATLAB file in a child process, so that a file crashing scipy's reader
+        is an error and not the end of this process (about 0.4 s more); False reads it
+        here (files one trusts) [-]
 
     Returns
     -------
@@ -275,7 +237,7 @@ def read_measurement(data: bytes, filename: str | None = None,
     """
     data = bytes(data)
     fmt = detect_format(data, filename)
-    cols, units, report, lines = _table(data, fmt)
+    cols, units, report, lines = _table(data, fmt, isolated)
     n = max((len(v) for _, v in cols), default=0)
     if n > MAX_SAMPLES:
         raise MeasurementError(f"too many samples: {n} rows found, at most MAX_SAMPLES = "
@@ -297,7 +259,7 @@ def read_measurement(data: bytes, filename: str | None = None,
                                     units=units, mapping=columns, report=report)
 
 
-def inspect_file(data: bytes, filename: str | None = None, rows: int = 5) -> dict:
+def inspect_file(data: bytes, filename: str | None = None, rows: int = 5, isolated: bool = True) -> dict:
     """Preview a rig file for a mapping step: columns, units, dialect, a proposed mapping.
 
     Parameters
@@ -308,6 +270,8 @@ def inspect_file(data: bytes, filename: str | None = None, rows: int = 5) -> dic
         Its name [-]
     rows : int, optional
         Number of data rows in the preview [-]
+    isolated : bool, optional
+        As for :func:`read_measurement` [-]
 
     Returns
     -------
@@ -326,7 +290,7 @@ def inspect_file(data: bytes, filename: str | None = None, rows: int = 5) -> dic
         cols = list(zip(table.header, table.columns))
         units, report = table.units, {"format": "csv", "encoding": encoding, **table.dialect}
     else:
-        cols, units, report, _ = _table(data, fmt)
+        cols, units, report, _ = _table(data, fmt, isolated)
     labels = [str(lab) for lab, _ in cols]
     mapping = propose_mapping(labels)
     out_cols = []
