@@ -20,17 +20,22 @@ import json
 import os
 import subprocess
 import sys
+import threading
 from typing import Any
 
 import numpy as np
 
 from pneucore.data.measurement import MeasurementError
 
-__all__ = ["mat_columns", "mat_columns_isolated", "MAT_CHILD_TIMEOUT"]
+__all__ = ["mat_columns", "mat_columns_isolated", "MAT_CHILD_TIMEOUT", "MAT_MAX_CHILDREN"]
 
 #: Longest a child process may read a file [s] (a bound on a hang: a file within the
 #: upload limit reads in well under a second)
 MAT_CHILD_TIMEOUT = 60.0
+#: Most child readers at once in this process [-] (each is an interpreter with scipy, about
+#: 60 MB: many uploads at once wait for a turn rather than fill the memory)
+MAT_MAX_CHILDREN = 4
+_CHILDREN = threading.BoundedSemaphore(MAT_MAX_CHILDREN)
 
 
 def mat_columns(data: bytes):
@@ -117,6 +122,8 @@ def mat_columns_isolated(data: bytes, timeout: float = MAT_CHILD_TIMEOUT):
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         [root] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
+    if not _CHILDREN.acquire(timeout=timeout):
+        raise MeasurementError(f"{MAT_MAX_CHILDREN} MATLAB files are being read; try again")
     try:
         # a fixed command line, the file on stdin: nothing of the file reaches a shell
         proc = subprocess.run([sys.executable, "-m", "pneucore.data.matfile"], input=bytes(data),
@@ -124,6 +131,8 @@ def mat_columns_isolated(data: bytes, timeout: float = MAT_CHILD_TIMEOUT):
     except subprocess.TimeoutExpired:
         raise MeasurementError(f"the MATLAB reader took more than {timeout:g} s on this file; "
                                f"it is malformed, or save it again with save(..., '-v7')") from None
+    finally:
+        _CHILDREN.release()
     if proc.returncode != 0:
         how = f"signal {-proc.returncode}" if proc.returncode < 0 else f"exit code {proc.returncode}"
         raise MeasurementError(f"the MATLAB reader crashed on this file ({how}): it is malformed; "

@@ -55,3 +55,32 @@ def test_a_child_that_takes_too_long_is_an_error():
     # a start-up of the interpreter takes far longer than 1 ms: the bound is what is tested
     with pytest.raises(MeasurementError, match="more than"):
         mat_columns_isolated(_mat(t=np.arange(3.0)), timeout=0.001)
+
+
+def test_many_files_at_once_share_a_few_children(monkeypatch):
+    # at most MAT_MAX_CHILDREN readers run at once; the others wait for a turn
+    import threading
+    import time
+
+    import pneucore.data.matfile as mf
+    running, peak, lock = [0], [0], threading.Lock()
+    real_run = mf.subprocess.run
+
+    def counting_run(*a, **k):
+        with lock:
+            running[0] += 1
+            peak[0] = max(peak[0], running[0])
+        try:
+            time.sleep(0.05)
+            return real_run(*a, **k)
+        finally:
+            with lock:
+                running[0] -= 1
+    monkeypatch.setattr(mf.subprocess, "run", counting_run)
+    data = _mat(t=np.arange(12) * 1e-3, u=np.ones(12), p_a=np.full(12, 2e5))
+    threads = [threading.Thread(target=mf.mat_columns_isolated, args=(data,)) for _ in range(3 * mf.MAT_MAX_CHILDREN)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert peak[0] == mf.MAT_MAX_CHILDREN
