@@ -459,13 +459,13 @@ def runs_npz(store_path, study_id):
     from pneucore.data.npz import npz_bytes
     paths, names, block = _stored_runs(store_path, study_id)
     failed = [(int(i), e) for i, e in zip(block.indices.tolist(), block.errors) if e is not None]
-    k, m = len(paths), len(names)
+    n, k, m = len(block.indices), len(paths), len(names)
     return npz_bytes({
         "run_index": np.asarray(block.indices, dtype=np.int64),
-        "params": np.asarray(block.params, dtype=np.float64).reshape(-1, k),
+        "params": np.asarray(block.params, dtype=np.float64).reshape(n, k),
         "param_paths": np.array(paths, dtype=str),
         "param_units": np.array([unit_of(q) for q in paths], dtype=str),
-        "metrics": np.asarray(block.metrics, dtype=np.float64).reshape(-1, m),
+        "metrics": np.asarray(block.metrics, dtype=np.float64).reshape(n, m),
         "metric_names": np.array(names, dtype=str),
         "metric_units": np.array([METRICS[q][0] for q in names], dtype=str),
         "failed_index": np.array([i for i, _ in failed], dtype=np.int64),

@@ -355,6 +355,11 @@ def test_runs_npz_holds_the_stored_runs_and_their_failures(tmp_path):
     assert failed and list(zip(z["failed_index"].tolist(), z["failed_error"].tolist())) == failed
     with pytest.raises(KeyError):
         runs_npz(store_path, "nope")
+    # a study queued and not started: empty matrices of the right width
+    from pneucore.study import queue_study
+    queue_study(short_study(samples=3), store_path, study_id="queued")
+    z = np.load(io.BytesIO(runs_npz(store_path, "queued")))
+    assert z["params"].shape == (0, 2) and z["metrics"].shape == (0, len(z["metric_names"]))
 
 
 # -- sensitivity --------------------------------------------------------------------------------
