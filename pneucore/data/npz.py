@@ -80,14 +80,15 @@ def npz_bytes(arrays: Mapping[str, np.ndarray], files: Mapping[str, bytes] | Non
     Parameters
     ----------
     arrays : mapping of str to array_like
-        Arrays by name; each becomes the member ``NAME.npy`` (``numpy.load(f)[NAME]``)
+        Arrays by name, in their own units; each becomes the member ``NAME.npy``
+        (``numpy.load(f)[NAME]``) [-]
     files : mapping of str to bytes, optional
-        Other members by their full name (``meta.json``), stored as given
+        Other members by their full name (``meta.json``), stored as given [-]
 
     Returns
     -------
     data : bytes
-        The archive; ``numpy.load(io.BytesIO(data))`` reads it
+        The archive; ``numpy.load(io.BytesIO(data))`` reads it [-]
 
     Raises
     ------
@@ -140,16 +141,16 @@ def simulation_npz(result, series=None, dumps=None) -> bytes:
     Parameters
     ----------
     result : SimulationResult
-        A completed simulation
+        A completed simulation [-]
     series : list of str, optional
-        Series to write (default: all)
+        Series to write (default: all) [-]
     dumps : callable, optional
-        JSON encoder of ``meta.json``, object -> str or bytes (default :func:`json.dumps`)
+        JSON encoder of ``meta.json``, object -> str or bytes (default :func:`json.dumps`) [-]
 
     Returns
     -------
     data : bytes
-        The archive
+        The archive (series in SI units, absolute pressures) [-]
 
     Examples
     --------
