@@ -137,6 +137,14 @@ def test_simulation_npz_download_reads_back_with_numpy(page, tmp_path):
     assert len(z["t"]) == len(z["p_a"]) > 10 and np.all(np.diff(z["t"]) > 0)
     assert np.all(z["p_a"] > 0)   # absolute pressures
     _wait_status(page, "saved simulation.npz")
+    # ... and the same file uploads back as a measurement, through the page's mapping step
+    page.evaluate("document.getElementById('upload-file').closest('details').open = true")
+    page.set_input_files("#upload-file", str(saved))
+    page.wait_for_selector("#upload-mapping select[data-column='p_a']")
+    page.fill("#upload-name", "npz back")
+    page.click("#btn-upload")
+    msg = _wait_status(page, "Dataset npz back stored")
+    assert f"({len(z['t'])} samples" in msg
 
 
 def test_html_report_opens_offline(page, browser, tmp_path):  # noqa: F811
