@@ -5,7 +5,8 @@ Run from the repository root (on any machine: the worker counts default to 1, 2,
 up to the CPUs available)::
 
     python benchmarks/bench_study.py [--runs N] [--workers 1,2,4] [--skip-dask]
-                                     [--skip-startup] [--batch-size B] [--json PATH]
+                                     [--skip-startup] [--batch-size B] [--big N]
+                                     [--json PATH]
 
 Case: ``--runs`` (default 10,000) simulations of model ``paper-4way`` with
 scenario ``paper-fig10-pulses`` (1 s, four valve pulses, 1 kHz output),
@@ -20,9 +21,12 @@ Figures printed (and written to ``--json PATH``):
   validation, simulation, metrics): the per-worker compute rate ``r``;
 * **runs/s per worker count** on the local pool (``run_study(workers=W)``,
   wall time of the whole call, pool start-up included) and on a Dask
-  LocalCluster of ``W`` single-threaded worker processes (connection
-  included, the cluster's own start-up reported apart), with the parallel
-  efficiency ``runs/s / (W r)``;
+  LocalCluster of ``W`` single-threaded worker processes (the cluster's own
+  start-up and its workers' warm-up reported apart: a cluster's workers are
+  usually long-lived), with the parallel efficiency ``runs/s / (W r)``; for
+  Dask also the workers' busy fraction and compute time per run from Dask's
+  task stream, and the CPU the client side used (driver, store, scheduler):
+  whether the workers ever waited for the client;
 * **worker start-up**: for a pool of the largest worker count, the time at
   which each worker has finished its first run, for the warm forkserver
   (pneucore preloaded; cold = the forkserver's first start in the process,
@@ -32,8 +36,13 @@ Figures printed (and written to ``--json PATH``):
 * **1,000,000-run extrapolation**: the model ``T = N / min(W r e, S)`` with the
   measured per-worker rate ``r``, the efficiency ``e`` measured at the largest
   worker count (pool start-up included, so conservative) and the store rate
-  ``S`` (``bench_study_store.py``), printed for this machine's worker count and
-  for 16 workers; plus the measured summary time;
+  ``S`` measured in this run as ``bench_study_store.py`` measures it (finished
+  runs fed to the store, 20,000 of them), printed for this machine's worker
+  count and for 16 workers; plus the measured summary time;
+* **a real big study** (``--big N``, e.g. 1000000): ``N`` runs at the largest
+  worker count on the local pool and (unless ``--skip-dask``) on a Dask
+  LocalCluster, each stored in its own SQLite file, with the wall time, the
+  runs/s, the summary's time and the file's size, beside the model's prediction;
 * bit-identical results across engines, machine information and the load
   average (other processes may share the machine).
 """
@@ -55,6 +64,7 @@ from machine import machine_info as _machine_info, save_figures  # noqa: E402
 SERIAL_SAMPLE = 500
 STARTUP_TARGET_S = 0.5
 BIG = 1_000_000
+STORE_SAMPLE = 20_000   # runs fed to the store to measure its rate (0.1 s at 200,000 runs/s)
 
 
 def study_definition(runs):
@@ -106,6 +116,104 @@ def startup(kind, n, text):
     return sorted(t - t0 for t in first.values())
 
 
+def measure_store_rate(runs=STORE_SAMPLE):
+    """Finished runs the store takes per second [runs/s] (``bench_study_store.py``'s measure)."""
+    from bench_study_store import definition, synthetic_blocks
+    from pneucore.study import store
+    from pneucore.study.definition import Study
+    study = Study.from_dict(definition(runs))
+    blocks = list(synthetic_blocks(study, 250))
+    with tempfile.TemporaryDirectory() as d:
+        db = store.connect(os.path.join(d, "store.sqlite3"))
+        try:
+            store.create_study(db, "rate", study.to_json())
+            t0 = time.perf_counter()
+            for b in blocks:
+                store.write_runs(db, "rate", b)
+            return runs / (time.perf_counter() - t0)
+        finally:
+            db.close()
+
+
+def dask_study(definition, db, workers, batch_size, study_id):
+    """One study on a fresh Dask LocalCluster of ``workers`` single-threaded worker processes.
+
+    The cluster is started (``cluster_start_s``), its workers are warmed by a small study
+    (import and compiled-cache load in each fresh worker process, ``warm_up_s``), then the
+    study is timed (``wall_s``) under Dask's task stream, which gives the time the workers
+    spent computing (``worker_busy``: compute time over ``workers x wall_s``; 1 means
+    they never waited for the client) and the compute time per run on the workers; the
+    CPU time of this process (the client, the driver that stores the results, and the
+    LocalCluster's scheduler, which runs in it) is ``client_cpu_cores`` [cores].
+    """
+    from distributed import Client, LocalCluster, get_task_stream
+    from pneucore.study import run_study
+    t0 = time.perf_counter()
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=logging.ERROR)
+    client = Client(cluster)
+    start = time.perf_counter() - t0
+    try:
+        t0 = time.perf_counter()
+        run_study(study_definition(4 * workers), scheduler=client, batch_size=1)
+        warm = time.perf_counter() - t0
+        c0, t0 = time.process_time(), time.perf_counter()
+        with get_task_stream(client) as ts:
+            s = run_study(definition, db, scheduler=client, batch_size=batch_size, study_id=study_id)
+        wall = time.perf_counter() - t0
+        cpu = time.process_time() - c0
+    finally:
+        client.close()
+        cluster.close()
+    compute = sum(ss["stop"] - ss["start"] for task in ts.data for ss in task["startstops"]
+                  if ss["action"] == "compute")
+    return s, wall, {"cluster_start_s": start, "warm_up_s": warm,
+                     "worker_busy": compute / (workers * wall),
+                     "worker_ms_per_run": compute / max(1, s["computed"]) * 1e3,
+                     "client_cpu_cores": cpu / wall}
+
+
+def dask_note(extra):
+    return (f"  [cluster start {extra['cluster_start_s']:.1f} s, warm-up {extra['warm_up_s']:.1f} s; "
+            f"workers busy {extra['worker_busy']:.2f} at {extra['worker_ms_per_run']:.3f} ms a run; "
+            f"client {extra['client_cpu_cores']:.2f} cores]")
+
+
+def big_study(n, workers, batch_size, skip_dask, tmp, predicted_s):
+    """One study of ``n`` runs on ``workers`` local workers (and Dask workers): measured figures."""
+    from pneucore.study import run_study, study_results
+    rows = []
+    engines = ["local"] + ([] if skip_dask else ["dask"])
+    print(f"big study: {n:,} runs on {workers} workers (model's prediction {predicted_s:.0f} s "
+          f"+ start-up)")
+    for engine in engines:
+        db = os.path.join(tmp, f"big-{engine}.sqlite3")
+        extra = {}
+        if engine == "dask":
+            s, wall, extra = dask_study(study_definition(n), db, workers, batch_size, f"big-{engine}")
+        else:
+            t0 = time.perf_counter()
+            s = run_study(study_definition(n), db, workers=workers, batch_size=batch_size,
+                          study_id=f"big-{engine}")
+            wall = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        res = study_results(db, s["id"], include_runs=False)
+        summary_s = time.perf_counter() - t0
+        size = sum(os.path.getsize(db + x) for x in ("", "-wal") if os.path.exists(db + x))
+        row = {"engine": engine, "workers": workers, "runs": s["computed"], "failed": s["failed"],
+               "wall_s": wall, "runs_per_s": s["computed"] / wall, "summary_s": summary_s,
+               "stored": res["stored"], "file_bytes": size, "batch_size": s["batch_size"],
+               "predicted_s": predicted_s, **extra}
+        rows.append(row)
+        print(f"  {engine:6s} {wall:8.1f} s {row['runs_per_s']:10,.0f} runs/s, {s['failed']} failed, "
+              f"summary {summary_s:.2f} s, store file {size / 1e6:.0f} MB"
+              + (dask_note(extra) if extra else ""))
+        for x in ("", "-wal", "-shm"):
+            if os.path.exists(db + x):
+                os.remove(db + x)
+    return rows
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=10_000, help="runs per engine (default 10000)")
@@ -115,6 +223,8 @@ def main(argv=None):
     parser.add_argument("--json", help="write the figures to this JSON file")
     parser.add_argument("--skip-dask", action="store_true", help="local pool only")
     parser.add_argument("--skip-startup", action="store_true", help="no start-up figure")
+    parser.add_argument("--big", type=int, default=0,
+                        help="also run one study of this many runs at the largest worker count")
     args = parser.parse_args(argv)
 
     from pneucore.study import Study, run_study, study_results
@@ -168,7 +278,7 @@ def main(argv=None):
         runs[f"{engine}{w}"] = study_results(db, summary["id"])["runs"]
         print(f"{engine:6s} {w:3d} worker{'s' if w > 1 else ' '} {wall:8.2f} s {rate:10,.0f} runs/s  "
               f"efficiency {row['efficiency']:5.2f}  (batches of {row['batch_size']})"
-              + (f"  [cluster start {extra['cluster_start_s']:.2f} s]" if extra else ""))
+              + (dask_note(extra) if extra else ""))
 
     print(f"{args.runs} runs per engine:")
     for w in counts:
@@ -176,20 +286,9 @@ def main(argv=None):
         s = run_study(definition, db, workers=w, batch_size=args.batch_size, study_id=f"local{w}")
         record("local", w, s, time.perf_counter() - t0)
     if not args.skip_dask:
-        from distributed import LocalCluster
         for w in counts:
-            t0 = time.perf_counter()
-            cluster = LocalCluster(n_workers=w, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.ERROR)
-            start = time.perf_counter() - t0
-            try:
-                t0 = time.perf_counter()
-                s = run_study(definition, db, scheduler=cluster.scheduler_address,
-                              batch_size=args.batch_size, study_id=f"dask{w}")
-                wall = time.perf_counter() - t0
-            finally:
-                cluster.close()
-            record("dask", w, s, wall, {"cluster_start_s": start})
+            s, wall, extra = dask_study(definition, db, w, args.batch_size, f"dask{w}")
+            record("dask", w, s, wall, extra)
     out["engines"] = rows
     ref = runs[f"local{counts[0]}"]
     out["identical_results"] = all(r == ref for r in runs.values())
@@ -201,7 +300,9 @@ def main(argv=None):
     out["summary_s"] = time.perf_counter() - t0
     best = max((r for r in rows if r["engine"] == "local"), key=lambda r: r["workers"])
     eff = best["efficiency"]
-    store_rate = 80_000.0   # runs/s, bench_study_store.py on this machine (loaded); see README
+    store_rate = measure_store_rate()
+    print(f"store rate (finished runs fed to the store, as bench_study_store.py): "
+          f"{store_rate:,.0f} runs/s")
     out["model"] = {"per_worker_runs_per_s": rate1, "efficiency": eff, "store_runs_per_s": store_rate}
     print(f"summary of this {args.runs}-run study: {out['summary_s']:.2f} s")
     for w in sorted({best["workers"], 16}):
@@ -212,6 +313,9 @@ def main(argv=None):
               f"{eff:.2f}, store cap {store_rate:,.0f} runs/s): {t:7.0f} s = {t / 60:5.1f} min "
               f"(+ start-up; measured here at {args.runs:,} runs: {best['wall_s']:.1f} s "
               f"on {best['workers']} workers)")
+    if args.big:
+        out["big"] = big_study(args.big, best["workers"], args.batch_size, args.skip_dask, tmp,
+                               out["model"][f"T_1M_{best['workers']}_workers_s"] * args.big / BIG)
     out["load_average_end"] = load()
     print(f"load average at end: {out['load_average_end']}")
     save_figures(args.json, out)

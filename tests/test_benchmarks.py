@@ -21,7 +21,8 @@ BENCH = os.path.join(ROOT, "benchmarks")
 SMALL = {
     "bench_simulator.py": ["--runs", "20", "--scipy-runs", "1", "--skip-compile"],
     "bench_api.py": ["--requests", "20", "--clients", "2", "--per-client", "2", "--warmup", "2"],
-    "bench_study.py": ["--runs", "200", "--workers", "1", "--skip-dask", "--skip-startup"],
+    # Dask included (one worker): its task-stream figures and the --big path are code too
+    "bench_study.py": ["--runs", "200", "--workers", "1", "--skip-startup", "--big", "200"],
     "bench_study_store.py": ["--runs", "2000", "--batch", "250"],
     "bench_diagnosis_confusion.py": ["--cases", "base/exhaust*"],
 }
