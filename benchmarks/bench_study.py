@@ -118,21 +118,12 @@ def startup(kind, n, text):
 
 def measure_store_rate(runs=STORE_SAMPLE):
     """Finished runs the store takes per second [runs/s] (``bench_study_store.py``'s measure)."""
-    from bench_study_store import definition, synthetic_blocks
-    from pneucore.study import store
+    from bench_study_store import definition, feed_store, synthetic_blocks
     from pneucore.study.definition import Study
     study = Study.from_dict(definition(runs))
     blocks = list(synthetic_blocks(study, 250))
     with tempfile.TemporaryDirectory() as d:
-        db = store.connect(os.path.join(d, "store.sqlite3"))
-        try:
-            store.create_study(db, "rate", study.to_json())
-            t0 = time.perf_counter()
-            for b in blocks:
-                store.write_runs(db, "rate", b)
-            return runs / (time.perf_counter() - t0)
-        finally:
-            db.close()
+        return runs / feed_store(os.path.join(d, "store.sqlite3"), "rate", study, blocks)
 
 
 def dask_study(definition, db, workers, batch_size, study_id):

@@ -71,6 +71,23 @@ def synthetic_blocks(study, batch, seed=0):
         yield RunBlock(np.arange(sl.start, sl.stop, dtype=np.int64), P[sl], M[sl], list(errors[sl]))
 
 
+def feed_store(path, study_id, study, blocks):
+    """Store ``study`` in the SQLite file ``path`` and write its finished ``blocks`` as the
+    driver does (:func:`pneucore.study.store.write_runs`); returns the writing's time [s]."""
+    from pneucore.study import store
+    db = store.connect(path)
+    try:
+        store.create_study(db, study_id, study.to_json())
+        t0 = time.perf_counter()
+        for b in blocks:
+            store.write_runs(db, study_id, b)
+        elapsed = time.perf_counter() - t0
+        store.set_status(db, study_id, "done")
+        return elapsed
+    finally:
+        db.close()
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--runs", type=int, default=100_000)
@@ -78,7 +95,6 @@ def main(argv=None):
     ap.add_argument("--json", default=None)
     a = ap.parse_args(argv)
 
-    from pneucore.study import store
     from pneucore.study.definition import Study
     from pneucore.study.results import runs_csv, runs_npz, study_results
 
@@ -87,14 +103,7 @@ def main(argv=None):
     out = {"runs": a.runs, "batch": a.batch, "machine": machine_info()}
     with tempfile.TemporaryDirectory() as d:
         path = os.path.join(d, "store.sqlite3")
-        db = store.connect(path)
-        store.create_study(db, "bench", study.to_json())
-        t0 = time.perf_counter()
-        for b in blocks:
-            store.write_runs(db, "bench", b)
-        t_store = time.perf_counter() - t0
-        store.set_status(db, "bench", "done")
-        db.close()
+        t_store = feed_store(path, "bench", study, blocks)
         out["store_s"] = t_store
         out["store_runs_per_s"] = a.runs / t_store
         print(f"store: {a.runs} finished runs in batches of {a.batch}: {t_store:.2f} s = "
