@@ -28,6 +28,12 @@ default series, about 0.24 MB of JSON) is measured with two clients:
   latency over all requests, and the throughput (lean: JSON and ``.npz``);
 * the server's CPU time per request in each phase (from ``/proc``: less sensitive to
   the machine's load than the wall times);
+* **HTTP alone**: the same requests, sequential, lean client, answered with the same
+  bytes (JSON and ``.npz``) by a server that does no work (``benchmarks/http_alone.py``,
+  under the same uvicorn set-up): the floor under the round trip. Added to the
+  endpoint's work measured in process, it gives the least the round trip can be with
+  that work (printed as a ratio to ``simulate()``), and what the round trip spends
+  above it;
 * for reference, the in-process cost of what the endpoint does (parse and
   validate, :func:`pneucore.simulate`, the result's ``to_dict``, orjson), stage by
   stage, without HTTP.
@@ -93,16 +99,17 @@ def summary(lat_s):
 
 class Server:
     """``uvicorn app.main:app`` in a subprocess on a temporary database, as ``python -m app``
-    runs it (without the access log)."""
+    runs it (without the access log); ``target`` another ASGI app under the same set-up
+    (:mod:`http_alone`), ``env`` more environment variables for it."""
 
-    def __init__(self, port, db_path, log_path, http="app", loop="auto"):
+    def __init__(self, port, db_path, log_path, http="app", loop="auto", target="app.main:app", env=None):
         if http == "app":
             from app.http_protocol import PROTOCOL as http
-        env = dict(os.environ, PNEUCORE_DB=db_path, PYTHONUNBUFFERED="1")
-        env["PYTHONPATH"] = ROOT + os.pathsep + env.get("PYTHONPATH", "")
+        env = dict(os.environ, PNEUCORE_DB=db_path, PYTHONUNBUFFERED="1", **(env or {}))
+        env["PYTHONPATH"] = ROOT + os.pathsep + HERE + os.pathsep + env.get("PYTHONPATH", "")
         self.log = open(log_path, "w")
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "uvicorn", "app.main:app", "--host", "127.0.0.1",
+            [sys.executable, "-m", "uvicorn", target, "--host", "127.0.0.1",
              "--port", str(port), "--workers", "1", "--log-level", "warning", "--no-access-log",
              "--http", http, "--loop", loop],
             cwd=ROOT, env=env, stdout=self.log, stderr=subprocess.STDOUT)
@@ -287,6 +294,43 @@ def concurrent_lean(port, raw, clients, per_client, ref, accept=None):
     return asyncio.run(main())
 
 
+def _timed(out, args, server, phase, fn, *a):
+    """``fn(*a)``'s latencies summarised in ``out[phase]``, with ``server``'s CPU time a request
+    (and, for the concurrent phases, the clients, their wall time and the throughput)."""
+    cpu0 = server.cpu_s()
+    res = fn(*a)
+    lat, wall = res if isinstance(res, tuple) else (res, None)
+    out[phase] = summary(lat)
+    out[phase]["server_cpu_ms"] = (server.cpu_s() - cpu0) / len(lat) * 1e3
+    if wall is not None:
+        out[phase].update({"clients": args.clients, "per_client": args.per_client,
+                           "wall_s": wall, "throughput_rps": len(lat) / wall})
+
+
+def http_alone(args, out, raw, ref, npz_ref, tmp):
+    """The floor under the round trip: the same request answered with the API's own answer
+    bytes (JSON, ``.npz``) by a server that does no work (:mod:`http_alone`), under the same
+    uvicorn set-up, with the lean client, sequentially (``out["http_alone_lean"]`` and
+    ``out["http_alone_lean_npz"]``)."""
+    import httpx
+    from http_alone import ENV_JSON, ENV_NPZ
+    env = {}
+    for var, data, name in ((ENV_JSON, ref, "answer.json"), (ENV_NPZ, npz_ref, "answer.npz")):
+        env[var] = os.path.join(tmp, name)
+        with open(env[var], "wb") as fh:
+            fh.write(data)
+    alone = Server(free_port(), os.path.join(tmp, "unused.sqlite3"), os.path.join(tmp, "alone.log"),
+                   args.http, args.loop, target="http_alone:app", env=env)
+    try:
+        with httpx.Client(timeout=60.0) as c:
+            alone.wait_ready(c)
+        _timed(out, args, alone, "http_alone_lean", sequential_lean, alone.port, raw, args.requests, ref)
+        _timed(out, args, alone, "http_alone_lean_npz", sequential_lean, alone.port, raw, args.requests,
+               npz_ref, ACCEPT["npz"])
+    finally:
+        alone.stop()
+
+
 def in_process(body, runs=50):
     """Median wall times in this process (no HTTP) of what the endpoint does, stage by stage:
     request validation (pydantic) and parsing, :func:`pneucore.simulate`, the answer's dict
@@ -354,14 +398,7 @@ def run(args):
                 check(c.post(server.url + "/api/simulate", content=raw, headers=hdr), ref)
 
             def timed(phase, fn, *a):
-                cpu0 = server.cpu_s()
-                res = fn(*a)
-                lat, wall = res if isinstance(res, tuple) else (res, None)
-                out[phase] = summary(lat)
-                out[phase]["server_cpu_ms"] = (server.cpu_s() - cpu0) / len(lat) * 1e3
-                if wall is not None:
-                    out[phase].update({"clients": args.clients, "per_client": args.per_client,
-                                       "wall_s": wall, "throughput_rps": len(lat) / wall})
+                _timed(out, args, server, phase, fn, *a)
             timed("sequential", sequential_httpx, c, server.url, raw, hdr, args.requests, ref)
         timed("sequential_lean", sequential_lean, server.port, raw, args.requests, ref)
         npz_ref = _one_lean(server.port, raw, ACCEPT["npz"])
@@ -374,6 +411,9 @@ def run(args):
               npz_ref, ACCEPT["npz"])
     finally:
         server.stop()
+    try:
+        http_alone(args, out, raw, ref, npz_ref, tmp)
+    finally:
         shutil.rmtree(tmp, ignore_errors=True)
     out["load"].append(_load())
     out["in_process_ms"] = in_process(body)
@@ -386,6 +426,13 @@ def run(args):
     out["lean_ratio_to_simulation_from_dicts"] = out["sequential_lean"]["median_ms"] / p["simulate_from_dicts"]
     out["lean_npz_ratio_to_simulation_from_dicts"] = (out["sequential_lean_npz"]["median_ms"]
                                                       / p["simulate_from_dicts"])
+    # the floor: HTTP and the endpoint's work measured in process, nothing else
+    out["work_bound_ms"] = {"json": out["http_alone_lean"]["median_ms"] + p["total"],
+                            "npz": out["http_alone_lean_npz"]["median_ms"] + p["parse"] + p["simulate"]
+                            + p["npz"]}
+    out["work_bound_ratio"] = {k: v / p["simulate"] for k, v in out["work_bound_ms"].items()}
+    out["above_work_bound_ms"] = {"json": out["sequential_lean"]["median_ms"] - out["work_bound_ms"]["json"],
+                                  "npz": out["sequential_lean_npz"]["median_ms"] - out["work_bound_ms"]["npz"]}
     out["pass"] = {
         "ratio": out["ratio_to_simulation"] <= TARGET_RATIO,
         "ratio_lean": out["lean_ratio_to_simulation"] <= TARGET_RATIO,
@@ -427,6 +474,13 @@ def report(out):
           f"{out['ratio_to_endpoint_work']:.2f}x, lean {out['lean_ratio_to_endpoint_work']:.2f}x")
     print(f"round trip / simulate() from the request's dicts: lean {out['lean_ratio_to_simulation_from_dicts']:.2f}x, "
           f"npz {out['lean_npz_ratio_to_simulation_from_dicts']:.2f}x")
+    a, w = out["work_bound_ms"], out["work_bound_ratio"]
+    print(f"HTTP alone (the same answers from a server that does no work, lean client): JSON "
+          f"{out['http_alone_lean']['median_ms']:.2f} ms, npz {out['http_alone_lean_npz']['median_ms']:.2f} ms; "
+          f"+ the endpoint's work in process: JSON {a['json']:.2f} ms = {w['json']:.2f}x simulate(), npz "
+          f"{a['npz']:.2f} ms = {w['npz']:.2f}x (the least the round trip can be with this work); the round "
+          f"trip above that: JSON {out['above_work_bound_ms']['json']:+.2f} ms, npz "
+          f"{out['above_work_bound_ms']['npz']:+.2f} ms")
     if "load" in out:
         print(f"load average (1 min) before / after: {out['load'][0]:.1f} / {out['load'][1]:.1f}")
     v = {k: "PASS" if ok else "FAIL" for k, ok in out["pass"].items()}

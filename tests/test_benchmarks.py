@@ -26,6 +26,9 @@ SMALL = {
     "bench_study_store.py": ["--runs", "2000", "--batch", "250"],
     "bench_diagnosis_confusion.py": ["--cases", "base/exhaust*"],
 }
+#: figures a script must write (phases that could silently drop out of its --json)
+KEYS = {"bench_api.py": ("sequential_lean", "sequential_lean_npz", "http_alone_lean",
+                         "http_alone_lean_npz", "work_bound_ratio", "above_work_bound_ms")}
 #: scripts whose smallest run is too long for the suite: their command line only
 HELP_ONLY = ["bench_cold_start.py", "bench_diagnosis_threads.py", "bench_loop_block.py",
              "bench_analysis.py", "bench_initial_state.py"]
@@ -62,6 +65,11 @@ def test_benchmark_runs_at_a_small_size(script, tmp_path):
     numbers = list(_numbers(figures))
     assert numbers, figures
     assert all(math.isfinite(x) for x in numbers), figures
+    missing = [k for k in KEYS.get(script, ()) if k not in figures]
+    assert not missing, missing
+    if script == "bench_api.py":
+        # the floor plus the work in process is more than the simulation alone, by construction
+        assert min(figures["work_bound_ratio"].values()) > 1.0, figures["work_bound_ratio"]
 
 
 @pytest.mark.parametrize("script", HELP_ONLY)
