@@ -106,6 +106,17 @@ def test_every_calibration_error_at_once(page):
     page.wait_for_function("() => document.querySelector(\"#cal-params input[data-path='jack.moving_mass'][data-key='min']\").value !== ''")
 
 
+def _upload_back(page, path, column, name, samples):
+    """Upload a downloaded file back through the page's mapping step (``column`` one of its
+    columns), store it as ``name``, and check the stored dataset has ``samples`` samples."""
+    page.set_input_files("#upload-file", str(path))
+    page.wait_for_selector(f"#upload-mapping select[data-column='{column}']")
+    page.fill("#upload-name", name)
+    page.click("#btn-upload")
+    msg = _wait_status(page, f"Dataset {name} stored")
+    assert f"({samples} samples" in msg
+
+
 def test_export_comparison_and_upload_it_back(page, rig_file, tmp_path):
     _, res = rig_file
     with page.expect_download() as dl:
@@ -113,12 +124,7 @@ def test_export_comparison_and_upload_it_back(page, rig_file, tmp_path):
     saved = tmp_path / "comparison.csv"
     dl.value.save_as(saved)
     assert saved.read_text().splitlines()[1].startswith("experiment,t[s],u[-],p_a[Pa],p_a_model[Pa]")
-    page.set_input_files("#upload-file", str(saved))
-    page.wait_for_selector("#upload-mapping select[data-column='t[s]']")
-    page.fill("#upload-name", "re-uploaded")
-    page.click("#btn-upload")
-    msg = _wait_status(page, "Dataset re-uploaded stored")
-    assert f"({len(res.t)} samples" in msg
+    _upload_back(page, saved, "t[s]", "re-uploaded", len(res.t))
 
 
 def test_simulation_npz_download_reads_back_with_numpy(page, tmp_path):
@@ -139,12 +145,7 @@ def test_simulation_npz_download_reads_back_with_numpy(page, tmp_path):
     _wait_status(page, "saved simulation.npz")
     # ... and the same file uploads back as a measurement, through the page's mapping step
     page.evaluate("document.getElementById('upload-file').closest('details').open = true")
-    page.set_input_files("#upload-file", str(saved))
-    page.wait_for_selector("#upload-mapping select[data-column='p_a']")
-    page.fill("#upload-name", "npz back")
-    page.click("#btn-upload")
-    msg = _wait_status(page, "Dataset npz back stored")
-    assert f"({len(z['t'])} samples" in msg
+    _upload_back(page, saved, "p_a", "npz back", len(z["t"]))
 
 
 def test_html_report_opens_offline(page, browser, tmp_path):  # noqa: F811
