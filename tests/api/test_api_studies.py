@@ -14,7 +14,6 @@ from __future__ import annotations
 import contextlib
 import csv
 import io
-import logging
 import os
 import socket
 import sqlite3
@@ -26,6 +25,7 @@ import pytest
 
 from api_conftest import (JOB_WAIT_S, api, assert_field_error, client, db_path,  # noqa: F401
                           model, wait_job)
+from dask_cluster import local_cluster
 from fastapi.testclient import TestClient
 
 from app.config import Limits, Settings
@@ -542,9 +542,7 @@ def test_lifespan_resumes_a_study_left_running(db_path):
 # ------------------------------------------------------------------------------ Dask
 @pytest.fixture(scope="module")
 def cluster():
-    import distributed  # a core dependency: a missing one must fail, not skip
-    c = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                                 dashboard_address=None, silence_logs=logging.CRITICAL)
+    c = local_cluster(1)
     yield c
     c.close()
 

@@ -16,6 +16,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from dask_cluster import local_cluster
+
 from pneucore import FieldError, model_preset, scenario_preset, simulate
 from pneucore.study import (MAX_RUNS, METRICS, SchedulerError, Study, StudyInterrupted, factorial_indices, main,
                             rank_correlations, run_metrics, run_study, study_results, study_status)
@@ -543,10 +545,7 @@ def test_cli_run_and_results(tmp_path, capsys):
 # -- Dask ------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def cluster():
-    import distributed  # a core dependency: a missing one must fail, not skip
-    import logging
-    c = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                 dashboard_address=None, silence_logs=logging.CRITICAL)
+    c = local_cluster(2)
     yield c
     c.close()
 
@@ -616,10 +615,7 @@ def test_time_limit_holds_while_no_batch_finishes(tmp_path):
 @pytest.fixture
 def lone_cluster():
     """A LocalCluster of one worker process that a test may scale down or close."""
-    import distributed
-    import logging
-    c = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                                 dashboard_address=None, silence_logs=logging.CRITICAL)
+    c = local_cluster(1)
     yield c
     c.close()
 
