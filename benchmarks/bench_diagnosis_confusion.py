@@ -64,6 +64,13 @@ def run_before(mod, case, rounds=4):
             "noise_floor": None}
 
 
+def _load_moved(case, model):
+    """An undeclared load invented by the loop [N] (0 where the case hides a load)."""
+    if "jack.load_force" in case.misset:
+        return 0.0
+    return abs(model.jack.load_force - Model.from_dict(case.start).jack.load_force)
+
+
 def run_after(case, rounds=4):
     from pneucore.analysis.history import refine
     model, hist, diags = refine(case.start, case.experiments, max_rounds=rounds)
@@ -77,11 +84,20 @@ def run_after(case, rounds=4):
             "recalibrated": rec, "initial_state": [r["path"] for r in last.initial_state],
             "error_after": last.remaining.get("error", hist.versions[-1].overall),
             "noise_floor": last.remaining.get("noise_floor"),
-            "outside_text": last.remaining.get("description", "")}
+            "outside_text": last.remaining.get("description", ""),
+            "load_moved": _load_moved(case, model)}
+
+
+#: An undeclared load the loop may invent where the rig has none [N]: 3 N is three times the
+#: catalogue prior's width on the paper's jack (``hypotheses.prior_for``, 0.5 % of half its
+#: force); the issue's failures invented 3.6-18 N to stand in for a friction level
+LOAD_INVENTED = 3.0
 
 
 def judge(case, res):
     named = set(res["named"])
+    if res.get("load_moved", 0.0) > LOAD_INVENTED:
+        return False
     if case.category == "base":
         return not named
     if case.category == "effect":
@@ -112,7 +128,9 @@ def main(argv=None):
               f"{' + outside' if case.outside else ''}; named {res['named'] or '-'}"
               f"{' + outside' if res['outside'] else ''}; recalibrated {len(res['recalibrated'])}"
               f"{'; initial state ' + str(len(res['initial_state'])) if res.get('initial_state') else ''}"
-              f"; error {100 * res['error_after']:.3f} %; {res['seconds']:.1f} s", flush=True)
+              f"; error {100 * res['error_after']:.3f} %"
+              f"{'; load moved %.1f N' % res['load_moved'] if res.get('load_moved') else ''}"
+              f"; {res['seconds']:.1f} s", flush=True)
     print("\ncategory   right / cases")
     for cat in ("base", "effect", "outside"):
         rs = [r for r in rows if r["category"] == cat]

@@ -56,9 +56,15 @@ class Objective:
 
     ``check()`` (if given) is called before every set of simulations; it may raise
     :class:`pneucore.progress.Cancelled` to stop the fit.
+
+    ``prior`` (``{path: (centre, sigma)}``, SI) adds one residual row
+    ``(value - centre) / sigma`` per varied parameter it names: a Gaussian prior
+    centred on the user's (catalogue) value, so that a direction the data do not
+    resolve stays where the user put it (the least change) while a direction the
+    data resolve is set by the data (thousands of samples against one row).
     """
 
-    def __init__(self, model, experiments, specs, check=None):
+    def __init__(self, model, experiments, specs, check=None, prior=None):
         self.check = check
         self.model = model
         self.experiments = experiments
@@ -72,6 +78,21 @@ class Objective:
                                for s in e.signals})
         self.n_eval = 0
         self.best = (np.inf, None)
+        prior = prior or {}
+        idx = [(i, prior[s.path]) for i, s in enumerate(self.specs) if s.path in prior]
+        self._prior_idx = np.array([i for i, _ in idx], int)
+        self._prior_c = np.array([c for _, (c, _) in idx], float)
+        self._prior_s = np.array([sg for _, (_, sg) in idx], float)
+
+    def prior_rows(self, theta):
+        """Residual rows of the prior at ``theta`` (empty without a prior)."""
+        if not self._prior_idx.size:
+            return np.empty(0)
+        return (np.asarray(theta, float)[self._prior_idx] - self._prior_c) / self._prior_s
+
+    def full(self, replays, theta):
+        """Weighted data residuals followed by the prior's rows: what the optimiser minimises."""
+        return np.concatenate([self.weighted(replays), self.prior_rows(theta)])
 
     # parameter vector <-> model
     def values(self, theta):
@@ -107,7 +128,7 @@ class Objective:
 
     def residuals(self, theta):
         rps = self.replays(theta)
-        r = self.weighted(rps)
+        r = self.full(rps, theta)
         self.n_eval += 1
         c = float(r @ r)
         if c < self.best[0]:
@@ -170,7 +191,7 @@ def _fd_jacobian(obj, theta, r0, scales, lo, hi, step=1e-3):
     def col(args):
         j, tj, h = args
         rps = obj.replays(tj)
-        return j, (obj.weighted(rps) - r0) / h
+        return j, (obj.full(rps, tj) - r0) / h
 
     J = np.empty((r0.shape[0], len(theta)))
     with ThreadPoolExecutor(THREADS) as pool:
@@ -223,7 +244,7 @@ class Calibration:
 
 @single_threaded_blas
 def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=None,
-        span=(0.0, 1.0), step="fitting", reweight=False):
+        span=(0.0, 1.0), step="fitting", reweight=False, prior=None):
     """Fit ``specs`` on prepared experiments (shared by :func:`calibrate` and the diagnosis).
 
     ``progress(fraction, step)`` is reported within ``span`` as the optimiser's
@@ -237,13 +258,22 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     estimated from second differences, which coloured noise (a transducer
     filter) underestimates by different factors per signal: the fit then
     trades a large error on one signal for a small gain on another.
+
+    ``prior``: ``{path: (centre, sigma)}`` (SI, see :class:`Objective`), a Gaussian
+    prior on some of the varied parameters (maximum a posteriori instead of maximum
+    likelihood). The reported statistics (RSS, likelihood, AIC/BIC, Eq. 25 errors) are
+    the data's alone, and so are the standard errors and correlations: a parameter the data
+    do not resolve keeps its large standard error (the confounding is reported), while its
+    value stays at the prior's centre along the unresolved direction. ``stderr_prior`` is
+    added beside each standard error: the posterior's, how well the value is known given the
+    user's values along what the data do not resolve.
     """
     def check():
         if progress is not None:
             frac = min(obj.n_eval / max(max_nfev, 1), 1.0)
             progress(span[0] + (span[1] - span[0]) * frac, step)
 
-    obj = Objective(model, experiments, specs, check)
+    obj = Objective(model, experiments, specs, check, prior)
     vs = obj.specs
     theta0 = np.array([s.value for s in vs], float)
     lo = np.array([s.min for s in vs], float)
@@ -259,7 +289,8 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     if vs:
         z0 = theta0 / sc
         # the starting point is already simulated: hand it to the optimiser's first call
-        r0 = obj.weighted(rps0)
+        r0 = obj.full(rps0, theta0)
+        rms_start = _series_rms(obj, rps0)
         cache = {tuple(np.round(z0, 15)): r0}
         obj.best = (float(r0 @ r0), theta0.copy())
 
@@ -277,9 +308,12 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         try:
             sol = least_squares(fun, z0, jac=jac, bounds=(lo / sc, hi / sc), method="trf",
                                 x_scale=1.0, max_nfev=max_nfev, ftol=1e-8, xtol=1e-8, gtol=1e-10)
-            if reweight and _reweight(obj, obj.replays(sol.x * sc)):
+            if reweight and _reweight(obj, obj.replays(sol.x * sc), rms_start):
                 cache.clear()
-                obj.best = (np.inf, None)
+                # the start stays a candidate under the new weights: never a result worse
+                # than the model as given on the fit's own objective
+                r_start = obj.full(rps0, theta0)
+                obj.best = (float(r_start @ r_start), theta0.copy())
                 sol = least_squares(fun, np.clip(sol.x, lo / sc, hi / sc), jac=jac,
                                     bounds=(lo / sc, hi / sc), method="trf", x_scale=1.0,
                                     max_nfev=max(max_nfev // 2, 5), ftol=1e-8, xtol=1e-8,
@@ -295,7 +329,7 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
             theta = obj.best[1] if obj.best[1] is not None else theta0
     rps1 = obj.replays(theta)
     if vs:
-        r_end = obj.weighted(rps1)
+        r_end = obj.full(rps1, theta)
         if obj.best[1] is not None and obj.best[0] < float(r_end @ r_end):
             theta = obj.best[1]
             rps1 = obj.replays(theta)
@@ -308,8 +342,12 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     corr = {}
     taus = residual_times(rps1)
     if vs:
-        r1 = obj.weighted(rps1)
-        J = _fd_jacobian(obj, theta, r1, sc, lo, hi)
+        r1 = obj.full(rps1, theta)
+        # the data's information alone (the prior's rows dropped): a direction the records do
+        # not resolve keeps its large standard error and its correlations, so the confounding is
+        # reported (the prior only chose the point along it)
+        n_pr = obj.prior_rows(theta).size
+        J = _fd_jacobian(obj, theta, r1, sc, lo, hi)[:r1.size - n_pr]
         scale = _rms_scale(obj, rps1, taus)
         # covariance in scaled units (parameters of very different sizes, e.g. a
         # conductance of 1e-10 next to h = 25, would make J^T J numerically singular)
@@ -320,14 +358,26 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
             cov_z = np.full((len(vs), len(vs)), np.nan)
         cov_z = 0.5 * (cov_z + cov_z.T)
         se = np.sqrt(np.clip(np.diag(cov_z), 0, None)) * sc
+        se_prior = None
+        if n_pr:
+            # with the prior's rows (unit variance by construction): how well each value is known
+            # given the user's values along what the data do not resolve
+            Jp = np.zeros((n_pr, len(vs)))
+            Jp[np.arange(n_pr), obj._prior_idx] = sc[obj._prior_idx] / obj._prior_s
+            try:
+                cov_p = np.linalg.pinv(Jz.T @ Jz + Jp.T @ Jp)
+                se_prior = np.sqrt(np.clip(np.diag(cov_p), 0, None)) * sc
+            except np.linalg.LinAlgError:
+                se_prior = None
         dz = np.sqrt(np.clip(np.diag(cov_z), 0, None))
         dz = np.where(dz > 0, dz, np.nan)
         cm = np.clip(cov_z / np.outer(dz, dz), -1.0, 1.0)
         for i, s in enumerate(vs):
             values[s.path] = {"value": float(theta[i]), "stderr": float(se[i]), "initial": s.value,
                               "min": s.min, "max": s.max, "unit": s.unit,
-                              "at_bound": bool(np.isclose(theta[i], s.min, rtol=1e-6, atol=0)
-                                               or np.isclose(theta[i], s.max, rtol=1e-6, atol=0))}
+                              "at_bound": at_bound(theta[i], s.min, s.max)}
+            if se_prior is not None:
+                values[s.path]["stderr_prior"] = float(se_prior[i])
             corr[s.path] = {t.path: (float(cm[i, j]) if np.isfinite(cm[i, j]) else None)
                             for j, t in enumerate(vs)}
     for p, v in obj.fixed.items():
@@ -337,19 +387,60 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
                        taus, rss1, rss0, aic0, bic0)
 
 
-def _reweight(obj, replays):
+#: Distance to a bound, as a fraction of the bound's own size, within which a fitted value is
+#: at it: the optimiser stops far closer than this when a bound holds it (xtol 1e-8 in scaled
+#: units), and a free optimum within 0.1 % of a bound is rare
+AT_BOUND = 1e-3
+#: The same for a bound at 0, as a fraction of the bounds' range: a strength of 5 g in a
+#: range of 10 kg is a value, not the bound; 1e-6 of the range is the optimiser's own scale
+AT_BOUND_ZERO = 1e-6
+
+
+def at_bound(value, lo, hi, tol=AT_BOUND, tol_zero=AT_BOUND_ZERO):
+    """Is ``value`` at ``lo`` or ``hi``, relative to the bound's own scale?
+
+    A leak conductance at 0.99998 of its upper bound is at it (a relative tolerance of
+    1e-6 missed it); a bound at 0 is judged against the range's scale instead.
+    """
+    rng = hi - lo if np.isfinite(hi - lo) else np.inf
+    for b in (lo, hi):
+        d = abs(value - b)
+        if d <= (tol * abs(b) if b != 0.0 else tol_zero * rng):
+            return True
+    return bool(value < lo or value > hi)
+
+
+def _series_rms(obj, replays):
+    """RMS of each series' noise-weighted residual: ``[{signal: rms}]`` per experiment [-]."""
+    out = []
+    for rp, sig in zip(replays, obj.sigma):
+        d = {}
+        for s in rp.measured:
+            m, g = rp.measured[s], rp.simulated[s]
+            ok = np.isfinite(m) & np.isfinite(g)
+            if ok.any():
+                d[s] = math.sqrt(np.mean(((g[ok] - m[ok]) / sig[s]) ** 2))
+        out.append(d)
+    return out
+
+
+def _reweight(obj, replays, cap=None):
     """Scale each series' noise level by the RMS of its weighted residual (floored at 1).
+
+    ``cap`` (:func:`_series_rms` of the starting point) bounds each factor by the
+    series' own misfit at the start: the reweighting may discount a series only down
+    to what the model as given already achieved on it. Without the cap, a misspecified
+    model with few samples per series (a vessel's pressure and gas temperature, ~15
+    points each) lets the fit give up the series it can no longer follow and collapse
+    onto the other (pressure error 1.3 % -> 21.5 % for a better temperature).
 
     Returns True when some weight changed by more than 10 % (a second pass is worth it).
     """
     changed = False
-    for rp, sig in zip(replays, obj.sigma):
-        for s in rp.measured:
-            m, g = rp.measured[s], rp.simulated[s]
-            ok = np.isfinite(m) & np.isfinite(g)
-            if not ok.any():
-                continue
-            rms = math.sqrt(np.mean(((g[ok] - m[ok]) / sig[s]) ** 2))
+    for k, (d, sig) in enumerate(zip(_series_rms(obj, replays), obj.sigma)):
+        for s, rms in d.items():
+            if cap is not None:
+                rms = min(rms, max(cap[k].get(s, rms), 1.0))
             if rms > 1.1:
                 sig[s] *= rms
                 changed = True

@@ -80,6 +80,10 @@ CONSISTENT_RTOL = 0.5
 #: Share of that excess the named effect must remove, alone or with the next candidate (two
 #: missing effects of similar size): a stand-in for something outside the catalog removes less
 EXCESS_MAJOR = 0.5
+#: Relative rise of the Eq. 25 error within which an effect already in the model may be dropped
+#: (its strength indistinguishable from off): 1 %, the scatter of refits stopped by the
+#: optimiser's budget; an effect whose removal costs more is still doing work
+DROP_TOLERANCE = 0.01
 #: Relative change below which a refitted base parameter is not reported as mis-set
 RECAL_MIN = 0.02
 #: An error within this factor of the noise floor is at the floor
@@ -403,9 +407,12 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     u_specs = auto_specs + (parse_parameters(model, unc) if unc else [])
     base_paths = [s.path for s in u_specs if not s.path.startswith("effects.")]
     u_specs_start = list(u_specs)
+    # the catalogue prior on the base parameters: a direction the data do not resolve stays
+    # where the user put it (the least change), :func:`pneucore.analysis.hypotheses.prior_for`
+    prior = H.prior_for(model, base_paths)
     if u_specs:
         null_fit = fit(model, exps, u_specs, max_nfev=max_nfev, progress=report, span=(0.02, 0.05),
-                       step="fitting the base model", reweight=True)
+                       step="fitting the base model", reweight=True, prior=prior)
         # a hypothesis confounded in the small with parameters the fit drove to a bound (a
         # load taken up by a Coulomb level that cannot go below 0) is needed after all
         freed = H.freed_by_bounds(identifiability, null_fit.values) if auto else []
@@ -415,8 +422,9 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
             u_specs = auto_specs + (parse_parameters(model, unc) if unc else [])
             base_paths = [s.path for s in u_specs if not s.path.startswith("effects.")]
             u_specs_start = list(u_specs)
+            prior = H.prior_for(model, base_paths)
             null_fit = fit(model, exps, u_specs, max_nfev=max_nfev, compute_before=False,
-                           reweight=True)
+                           reweight=True, prior=prior)
         base = null_fit.model
         u_specs = [ParameterSpec(s.path, null_fit.values[s.path]["value"], s.min, s.max, s.vary, s.unit)
                    for s in u_specs]
@@ -499,7 +507,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         specs += u_specs_start
         # the refit checks the time limit at each evaluation (progress stays at its level)
         cal = fit(m, exps, specs, max_nfev=max_nfev, compute_before=False,
-                  progress=lambda f, s: report(0.4, f"refit: {name}"), reweight=True)
+                  progress=lambda f, s: report(0.4, f"refit: {name}"), reweight=True, prior=prior)
         # base parameters the joint fit leaves at their catalogue values (within RECAL_MIN) are
         # not mis-set: hold them there and refit the rest from this point, so that they do not
         # blur the effect's parameters (kept unless the fit gets materially worse)
@@ -521,7 +529,9 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                     specs2.append(ParameterSpec(q.path, 1.0, q.min / f, q.max / f, True, q.unit))
                 else:
                     specs2.append(ParameterSpec(q.path, v, q.min, q.max, True, q.unit))
-            cal2 = fit(m2, exps, specs2, max_nfev=max_nfev, compute_before=False, reweight=True)
+            scale = {q: vals[q] for q in vals if q.startswith("valve.")}
+            cal2 = fit(m2, exps, specs2, max_nfev=max_nfev, compute_before=False, reweight=True,
+                       prior=H.prior_for(model, [q.path for q in specs2], scale))
             # kept unless materially worse (2 % of the residual energy: 1 % of the Eq. 25 error)
             if sum(r for _, _, r, _ in cal2.rss_after) <= 1.02 * sum(r for _, _, r, _ in cal.rss_after):
                 cal = cal2
@@ -555,9 +565,9 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         d_bic = -lr_eff + k_eff * math.log(max(n_eff, 1.0))
         d_aic = -lr_eff + 2 * k_eff
         params = {p_: v for p_, v in cal.values.items() if p_.startswith(f"effects.{name}.")}
-        params = {k.split(".")[-1]: {**v, "ci95": [v["value"] - 1.96 * v["stderr"],
-                                                 v["value"] + 1.96 * v["stderr"]]}
-                  for k, v in params.items()}
+        # an effect's parameter given the user's values along what the records do not resolve
+        # (the catalogue prior; a quadrant level beside an undeclared load and the extend level)
+        params = {k.split(".")[-1]: _given_prior(v) for k, v in params.items()}
         e0, e1 = comp0.overall, cal.error_after.overall
         cand = {"effect": name, "error_before": e0, "error_after": cal.error_after.errors,
                 "error_after_overall": e1,
@@ -586,7 +596,10 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     message = NO_EFFECT
     n_tests = max(len(ranking), 1)
     for c in ranking:
-        c["significant"] = c["p_value"] < alpha / n_tests
+        # physical plausibility: a strength at its fit bound, or not distinguishable from off by
+        # its own standard error, is no evidence of the effect however much the fit improves
+        c["undetermined"] = _undetermined(c)
+        c["significant"] = c["p_value"] < alpha / n_tests and not c["undetermined"]
         c["strong"] = c["delta_bic"] < DELTA_BIC
         c["material"] = c["relative_drop"] >= MATERIAL and c["excess_drop"] >= EXCESS_MATERIAL
         c["consistent"] = None
@@ -613,7 +626,10 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         else:
             b = ranking[0]
             why = []
-            if not b["significant"]:
+            if b["undetermined"]:
+                why.append(f"best candidate {b['effect']} is not determined by these records "
+                           f"({b['undetermined']})")
+            elif not b["significant"]:
                 why.append(f"best candidate {b['effect']} not significant (p = {b['p_value']:.2g})")
             if not b["strong"]:
                 why.append(f"delta BIC {b['delta_bic']:.1f} not below {DELTA_BIC:g}")
@@ -638,9 +654,19 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     # -- mis-set base parameters, the next model, alternatives, what remains --------------
     recal, refitted = _recalibration(model, chosen, base_paths)
     next_model = chosen.model.copy() if chosen is not None else model.copy()
-    dropped = _redundant(model, chosen, verdict)
-    for name in dropped:
-        next_model.effects.pop(name, None)
+    # an effect named in an earlier round leaves the model only when the data say so: its
+    # refitted strength is indistinguishable from off *and* the model without it fits as well
+    err_chosen = chosen.error_after.overall if chosen is not None else comp0.overall
+    dropped, kept = [], []
+    for name in _redundant(model, chosen, verdict):
+        trial = next_model.copy()
+        trial.effects.pop(name, None)
+        e_trial = summarise([replay(trial, e) for e in exps]).overall
+        if e_trial <= (1.0 + DROP_TOLERANCE) * err_chosen:
+            next_model = trial
+            dropped.append(name)
+        else:
+            kept.append((name, e_trial))
     report(0.97, "which experiment would separate what the records cannot")
     alternatives = _alternatives(ranking, verdict, refits, exps)
     moved = {r["path"] for r in recal}
@@ -661,6 +687,13 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     err_final = chosen.error_after.overall if chosen is not None else comp0.overall
     remaining = _remaining(err_final, floor_overall, final_tests, best_rps, verdict)
     message = _message(message, recal, remaining, verdict, initial_state)
+    for name in dropped:
+        message += (f" Dropped {name}: its refitted strength is indistinguishable from off and "
+                    f"the model without it fits as well (error {100 * err_chosen:.2f} %).")
+    for name, e_trial in kept:
+        message += (f" Kept {name}: its strength is poorly determined by these records, but "
+                    f"without it the error rises from {100 * err_chosen:.2f} % to "
+                    f"{100 * e_trial:.2f} %.")
     if auto and not any(h["status"] == "identifiable" for h in identifiability
                         if "experiment" not in h):
         remaining["identifies_no_base"] = True
@@ -677,6 +710,47 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                      alternatives=alternatives, remaining=remaining,
                      identifiability=identifiability, error_start=comp_start, dropped=dropped,
                      initial_state=initial_state)
+
+
+def _undetermined(cand):
+    """Why a refitted candidate's strength is not determined, or ``""``.
+
+    A strength parameter (one with an ``off`` value) at its fit bound, or whose standard
+    error exceeds its distance from off, does not show the effect, whatever the fit's
+    improvement: the improvement then comes from what the bound or the confounding lets
+    the effect stand in for.
+    """
+    eff = EFFECTS[cand["effect"]]
+    bound, vague, n = [], [], 0
+    for p in eff.score_params:
+        v = cand["params"].get(p)
+        if v is None:
+            continue
+        n += 1
+        off = eff.param(p).off
+        if v.get("at_bound") and v["value"] != off:
+            bound.append(f"{p} at its fit bound")
+        elif not v["stderr"] < abs(v["value"] - off):
+            vague.append(f"{p} = {v['value']:.3g} +- {v['stderr']:.2g} {v.get('unit', '')}".rstrip()
+                         + " is not distinguishable from off")
+    # one strength away from off is enough (the others may legitimately be off: one chamber's
+    # leak); a strength held by its bound never is
+    if bound or (n and len(vague) == n):
+        return "; ".join(bound + vague)
+    return ""
+
+
+def _given_prior(v):
+    """A fitted effect parameter's entry: the posterior standard error where a prior applied.
+
+    ``stderr_data`` keeps the data's alone; ``ci95`` is the value +- 1.96 standard errors.
+    """
+    out = dict(v)
+    if "stderr_prior" in out:
+        out["stderr_data"] = out["stderr"]
+        out["stderr"] = out.pop("stderr_prior")
+    out["ci95"] = [out["value"] - 1.96 * out["stderr"], out["value"] + 1.96 * out["stderr"]]
+    return out
 
 
 def _judge(b, model, exps, ranking, refits, u_specs, e0, floor, max_nfev, report):
@@ -724,7 +798,7 @@ def _pair(model, exps, lead, ranking, refits, u_specs, e0, floor, max_nfev, repo
         specs += [ParameterSpec(f"effects.{name}.{p}", vals[p], eff.param(p).min, eff.param(p).max,
                                 True, eff.param(p).unit) for p in eff.diagnosis_params]
     cal = fit(m, exps, specs + list(u_specs), max_nfev=max_nfev, compute_before=False,
-              reweight=True)
+              reweight=True, prior=H.prior_for(model, [s.path for s in u_specs]))
     e1 = cal.error_after.overall
     return {"effect": b, "error_after_overall": e1, "excess_drop": _excess_drop(e0, e1, floor)}
 
@@ -812,6 +886,9 @@ def _recalibration(model, cal, paths):
         entry = {"path": p, "label": H.label_of(p), "before": before, "after": after,
                  "stderr": se, "unit": v.get("unit", "") or ("-" if p.startswith("valve.") else ""),
                  "at_bound": v.get("at_bound", False)}
+        why = H.plausibility(model, p, after, entry["at_bound"])
+        if why:
+            entry["implausible"] = why
         refitted.append(entry)
         d = abs(after - before)
         if d > 3.0 * se and d > RECAL_MIN * max(abs(before), 1e-300):
@@ -989,6 +1066,12 @@ def _message(message, recal, remaining, verdict, initial_state=()):
         for g in groups:
             parts.append("these experiments identify " + ", ".join(H.label_of(p) for p in g)
                          + " only in combination (the split among them is not determined)")
+    odd = [r for r in recal if r.get("implausible")]
+    if odd:
+        parts.append("implausible as catalogue errors: " + "; ".join(
+            f"{r['label']} ({r['implausible']})" for r in odd)
+            + ": a missing effect or a wrong declaration may stand behind "
+            + ("it" if len(odd) == 1 else "them"))
     if remaining.get("outside_catalog"):
         parts.append("outside the catalog: " + remaining.get("description", ""))
     elif remaining.get("at_floor"):

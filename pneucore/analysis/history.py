@@ -155,6 +155,12 @@ def from_initial_state(experiments, found):
     return [with_initial(e, by_name[e.name]) if e.name in by_name else e for e in experiments]
 
 
+#: Relative rise of the Eq. 25 error above which a round's proposed model is not taken: 1 %,
+#: the scatter of refits stopped by the optimiser's budget (a proposal worse than that undoes
+#: what an earlier round found)
+WORSE_TOLERANCE = 0.01
+
+
 def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progress=None,
            validated=False):
     """Stepwise to the noise floor: diagnose, apply the findings, repeat.
@@ -204,7 +210,8 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
     if not history.versions:
         history.add(model, compare(model, exps))
     diagnoses = []
-    for _ in range(max_rounds):
+    dropped_in = {}        # effect -> round in which the data dropped it
+    for k in range(max_rounds):
         d = diagnose(model, exps, uncertain=uncertain, progress=progress, validated=True)
         diagnoses.append(d)
         if d.initial_state:
@@ -217,9 +224,22 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
                             label="initial state: " + ", ".join(r.get("label", r["path"])
                                                                 for r in d.initial_state))
             break
+        if d.verdict in dropped_in:
+            d.message += (f" {d.verdict} is added back: round {dropped_in[d.verdict]} dropped it "
+                          f"as indistinguishable from off, these records ask for it again.")
+        for name in d.dropped:
+            dropped_in[name] = k + 1
+        comp_prev = compare(model, exps)
+        comp_new = compare(d.model, exps)
+        if comp_new.overall > (1.0 + WORSE_TOLERANCE) * comp_prev.overall:
+            # never a version worse than the one before: the round's proposal is not taken
+            d.message += (f" Not applied: the proposed model's error ({100 * comp_new.overall:.2f} %)"
+                          f" is above the current version's ({100 * comp_prev.overall:.2f} %), "
+                          f"which refine keeps.")
+            break
         model = d.model.copy()
         params = d.ranking[0]["params"] if d.verdict else {}
-        history.add(model, compare(model, exps), d.verdict, params, d.message, d.recalibrate)
+        history.add(model, comp_new, d.verdict, params, d.message, d.recalibrate)
         if d.verdict is None or d.remaining.get("at_floor"):
             break
     return model, history, diagnoses

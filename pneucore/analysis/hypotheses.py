@@ -158,6 +158,84 @@ def _step(model, hyp):
     return hyp.typical * abs(v) if v != 0.0 else hyp.zero_typical * _span(model, hyp)
 
 
+#: Change of a recalibrated base parameter, in typical catalogue errors, beyond which it is
+#: implausible as a catalogue error (a heat coefficient x10, a load of tens of newtons nobody
+#: declared): 5 typical errors, where a Gaussian catalogue error has odds of 1 in 3.5 million
+IMPLAUSIBLE = 5.0
+
+
+def plausibility(model, path, after, at_bound=False):
+    """Why a recalibrated value is implausible as a catalogue error, or ``""``.
+
+    Parameters
+    ----------
+    model : Model
+        The model the value was recalibrated from (the catalogue)
+    path : str
+        Base parameter path
+    after : float
+        The recalibrated value (SI; a scale factor for valve tables)
+    at_bound : bool
+        The fit left it at a bound
+
+    Returns
+    -------
+    reason : str
+        Empty when plausible
+    """
+    if at_bound:
+        return "at its fit bound: the data push it further than the fit allows"
+    h = BASE_HYPOTHESES.get(path)
+    if h is None:
+        return ""
+    sg = _step(model, h)
+    z = abs(after - get_value(model, path)) / sg if sg > 0 else 0.0
+    if z > IMPLAUSIBLE:
+        return f"{z:.0f} times the typical catalogue error of {h.label}"
+    return ""
+
+
+def prior_for(model, paths, scale=None):
+    """The catalogue prior of the base hypotheses among ``paths``: least change from ``model``.
+
+    A base parameter the experiments cannot resolve (a load against the two
+    Coulomb levels while the piston moves, a per-direction friction level against
+    the quadrant effect) is otherwise set by whatever the optimiser's path gives;
+    with this prior it stays at the user's value, and moves only as far as the data
+    demand. The prior of each registered hypothesis is Gaussian, centred on the
+    value in ``model``, of standard deviation the typical catalogue error
+    (:attr:`BaseHypothesis.typical`, or ``zero_typical * span`` for a value of 0:
+    about 1 N for the load of the paper's jack).
+
+    Parameters
+    ----------
+    model : Model
+        The user's model (its values are the prior's centres)
+    paths : iterable of str
+        The fitted paths; those that are no registered hypothesis get no prior
+    scale : dict or None
+        ``{path: f}`` for valve scale factors fitted around a model whose tables were
+        already multiplied by ``f`` (their centre is then ``1 / f``)
+
+    Returns
+    -------
+    prior : dict
+        ``{path: (centre, sigma)}`` (SI; valve scale factors [-])
+    """
+    out = {}
+    for p in paths:
+        h = BASE_HYPOTHESES.get(p)
+        if h is None:
+            continue
+        c = get_value(model, p)
+        sg = _step(model, h)
+        if scale and p in scale:
+            c, sg = c / scale[p], sg / scale[p]
+        if sg > 0:
+            out[p] = (c, sg)
+    return out
+
+
 def offered(model, candidates=(), exclude=()):
     """Base hypotheses that apply to ``model`` (and are not carried by a candidate effect)."""
     out = []
@@ -166,7 +244,11 @@ def offered(model, candidates=(), exclude=()):
             continue
         if h.applies is not None and not h.applies(model):
             continue
-        if h.same_as_effect and h.same_as_effect in candidates:
+        # one physical discrepancy is not offered twice: the effect (a candidate, or already in
+        # the model) carries it; offered beside the effect, the base parameter and the effect's
+        # strength are confounded, and the effect is dropped as "indistinguishable from off"
+        if h.same_as_effect and (h.same_as_effect in candidates
+                                 or h.same_as_effect in model.effects):
             continue
         if get_value(model, h.path) == 0.0 and not _span(model, h):
             continue

@@ -381,4 +381,16 @@ RIG_CASES = [
     ("outside/pressure-offset/50mm", dict(seed=22, jack="50mm", outside="pressure-offset")),
     ("outside/pressure-gain+leak", dict(seed=23, outside="pressure-gain",
                                         effects=("piston_leakage",))),
+    # the failures of the issue on evidence: a confounded direction must stay at the catalogue
+    # (retract Coulomb 1.5x extend, on both jacks: no load is invented), viscous friction off
+    # in both directions (no quadrant effect), and effects the loop must keep once named
+    ("base/asymmetric-friction", dict(seed=24, base_errors={"friction.retract.fc0": 0.5})),
+    ("base/asymmetric-friction/50mm", dict(seed=25, jack="50mm",
+                                           base_errors={"friction.retract.fc0": 0.5})),
+    ("base/viscous-both", dict(seed=26, base_errors={"friction.extend.kv0": 0.6,
+                                                     "friction.retract.kv0": 0.6})),
+    ("effect/dead_volume/supply-low", dict(seed=27, base_errors={"supply.pressure": -0.06},
+                                           effects=("dead_volume",))),
+    ("effect/leak+dead", dict(seed=28, effects=("piston_leakage", "dead_volume"))),
+    ("effect/dead+supply_drop", dict(seed=29, effects=("dead_volume", "supply_pressure_drop"))),
 ]

@@ -78,6 +78,11 @@ class Effect:
     observable_in: tuple = ("locked", "free")
     fit_params: tuple = ()
     probe: dict = field(default_factory=dict)
+    #: ``{base path: (paths that follow it, ...)}`` while the effect is in a model: a base
+    #: parameter the effect's applicability keeps equal to another (quadrant friction keeps the
+    #: base retract set equal to the extend set; the effect carries their difference), so that
+    #: a recalibration of one never produces a model the effect cannot be part of
+    ties: dict = field(default_factory=dict)
 
     @property
     def diagnosis_params(self):
@@ -466,7 +471,8 @@ for _e in [
             Parameter("kv_a", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "retract - extend viscous per p_a"),
             Parameter("kv_b", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "retract - extend viscous per p_b")],
            strength="fc0", transform=_quadrant_transform, applies=_quadrant_applies,
-           observable_in=("free",), fit_params=("fc0", "kv0"), probe={"fc0": 5.0, "kv0": 10.0}),
+           observable_in=("free",), fit_params=("fc0", "kv0"), probe={"fc0": 5.0, "kv0": 10.0},
+           ties={f"friction.extend.{k}": (f"friction.retract.{k}",) for k in _FRICTION_KEYS}),
     Effect("dead_volume",
            "extra volume between valve and chamber (tubing, fittings)",
            "pressure rises and falls slower than the model, most at the small-volume end of stroke",

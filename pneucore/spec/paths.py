@@ -145,6 +145,15 @@ def set_values(model, values, copy=True):
     ``copy=False`` edits ``model`` in place (for callers that own a fresh copy).
     """
     m = model.copy() if copy else model
+    # base paths that an effect of the model keeps equal to others (:attr:`Effect.ties`)
+    ties = {}
+    for name in m.effects:
+        for src, dst in getattr(EFFECTS.get(name), "ties", {}).items():
+            ties.setdefault(src, []).extend(dst)
+    for path, v in values.items():
+        for q in ties.get(path, ()):
+            if q not in values:
+                values = {**values, q: v}
     for path, v in values.items():
         parts = path.split(".")
         if parts[0] == "valve":
@@ -188,7 +197,15 @@ def parse_parameters(model, parameters):
         if not lo < hi:
             raise FieldError(f"parameters.{path}", f"min {lo:g} must be below max {hi:g}")
         if not lo <= value <= hi:
-            value = min(max(value, lo), hi)
+            # a starting value outside its bounds is a unit mix-up (physical bounds on a scale
+            # factor): starting the fit at the bound would answer a model far from the user's
+            unit = _unit(path) or "-"
+            what = "the starting value" if "value" in opts else "the model's current value"
+            scale = " (a scale factor on the valve table: 1 is the model as given)" \
+                if path.startswith("valve.") else ""
+            raise FieldError(f"parameters.{path}",
+                             f"bounds [{lo:g}, {hi:g}] {unit} exclude {what} {value:g} {unit}"
+                             f"{scale}")
         vary = opts.get("vary", True)
         if not isinstance(vary, bool):
             raise FieldError(f"parameters.{path}.vary", "must be true or false")
