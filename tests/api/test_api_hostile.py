@@ -1,0 +1,78 @@
+"""Hostile load and faults (issue 30): exports a spreadsheet cannot execute, a memory budget per
+request, bounded form fields and names, server limits, a full disk, a bounded synchronous pool."""
+from __future__ import annotations
+
+import csv
+import io
+
+import pytest
+
+from api_conftest import (client, db_path, inline_experiment, model, small_csv)  # noqa: F401
+from pneucore.data.export import FORMULA_STARTS, simulation_csv, spreadsheet_safe
+
+#: Names a spreadsheet would run as formulas (OWASP's CSV injection examples)
+FORMULA_NAMES = ["=1+2", "@SUM(1+1)*cmd|' /C calc'!A0", "+1", "-2+3", "\tx", "\r=1"]
+
+
+def _text_cells_are_safe(text):
+    """Every cell of a CSV text that is not a number starts with no formula character."""
+    for row in csv.reader(io.StringIO(text)):
+        for cell in row:
+            try:
+                float(cell)
+                continue   # numbers untouched: -1.5 stays a number
+            except ValueError:
+                pass
+            assert not cell.startswith(FORMULA_STARTS), (cell, row)
+
+
+# ------------------------------------------------------------------ (4) formula injection
+@pytest.mark.parametrize("name", FORMULA_NAMES)
+def test_spreadsheet_safe_quotes_formula_cells(name):
+    assert spreadsheet_safe(name) == "'" + name
+    assert spreadsheet_safe("run 1") == "run 1"
+
+
+def test_simulation_csv_text_cells_are_neutralised_numbers_untouched():
+    text = simulation_csv({"series": {"t": [0.0, 1.0], "x": [-1.5, 2.0], "mode": ["=cmd", "stick"],
+                                      "=bad": [1.0, -2.0]},
+                           "units": {"t": "s", "x": "m", "mode": "-", "=bad": "-"}})
+    _text_cells_are_safe(text)
+    rows = list(csv.reader(io.StringIO(text)))
+    assert rows[2][1] == "-1.5" and rows[2][2] == "'=cmd"
+
+
+@pytest.mark.parametrize("name", FORMULA_NAMES[:2])
+def test_comparison_csv_neutralises_experiment_and_dataset_names(client, name):
+    exp = inline_experiment("clean", "free-pulses")
+    exp["name"] = name
+    r = client.post("/api/compare", json={"model": model(), "experiments": [exp]},
+                    headers={"accept": "text/csv"})
+    assert r.status_code == 200, r.text[:500]
+    _text_cells_are_safe(r.text)
+    rows = list(csv.reader(io.StringIO(r.text)))
+    assert rows[2][0] == "'" + name and float(rows[2][1]) == pytest.approx(float(rows[2][1]))
+    # a stored dataset named so
+    up = client.post("/api/datasets", files={"file": ("a.csv", small_csv(40), "text/csv")},
+                     data={"name": name})
+    assert up.status_code in (200, 201), up.text
+    r = client.post("/api/compare", json={"model": model(), "experiments": [
+        {"dataset_id": up.json()["id"]}]}, headers={"accept": "text/csv"})
+    assert r.status_code == 200, r.text[:500]
+    _text_cells_are_safe(r.text)
+
+
+def test_study_runs_csv_neutralises_error_messages(monkeypatch):
+    """A failed run's message (text the solver or a user law wrote) cannot start a formula."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from pneucore.study import results
+    block = SimpleNamespace(indices=np.array([0, 1]), params=np.array([[-1.5], [2.0]]),
+                            metrics=np.array([[np.nan], [3.0]]), errors=["=HYPERLINK(1)", None])
+    monkeypatch.setattr(results, "_stored_runs", lambda *a: (["supply.pressure"], ["t95"], block))
+    text = "".join(results.runs_csv("unused", "s1"))
+    _text_cells_are_safe(text)
+    rows = list(csv.reader(io.StringIO(text)))
+    assert rows[1][1] == "-1.5" and rows[1][-1] == "'=HYPERLINK(1)"
