@@ -21,6 +21,11 @@ def _env_int(name, default):
     return int(v) if v else default
 
 
+def _decode_budget():
+    from pneucore.data.fileformats import DECODE_BUDGET
+    return DECODE_BUDGET
+
+
 def _machine_workers():
     from pneucore.study import max_workers
     return max_workers()
@@ -36,6 +41,11 @@ class Limits:
     """Documented size and time limits of the REST API (refused up front when exceeded)."""
     #: largest request body of any endpoint, CSV upload or JSON, refused with 413 while reading [bytes]
     max_upload_bytes: int = field(default_factory=lambda: _env_int("PNEUCORE_MAX_UPLOAD", 20 * 1024 * 1024))
+    #: memory the decoded columns of one uploaded file may take, checked from an archive's
+    #: directory and headers before any member is read; refused with 422 naming it [bytes]
+    #: (default: a full-size measurement, every signal at MAX_SAMPLES, read and converted: 256 MB)
+    max_request_memory: int = field(default_factory=lambda: _env_int("PNEUCORE_MAX_REQUEST_MEMORY",
+                                                                     _decode_budget()))
     max_duration: float = 120.0          # simulated time per request [s]
     max_samples: int = 200_001           # output samples per simulation
     max_command_points: int = 100_000

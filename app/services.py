@@ -590,7 +590,7 @@ def check_context(scen):
     return given(dict(scen), checked)
 
 
-def store_upload(store, data, filename, fields, name, description=""):
+def store_upload(store, data, filename, fields, name, description="", memory_budget=None):
     """Read (CSV, TDMS or .mat), validate and store an uploaded file (the slow part: the
     router runs it in a worker thread).
 
@@ -607,6 +607,8 @@ def store_upload(store, data, filename, fields, name, description=""):
         text), ``scenario`` (JSON text), ``locked``, ``x0`` [m]
     name, description : str
         Labels
+    memory_budget : int or None
+        Most memory the file's decoded columns may take (``Limits.max_request_memory``) [bytes]
 
     Returns
     -------
@@ -614,7 +616,7 @@ def store_upload(store, data, filename, fields, name, description=""):
         The stored dataset's metadata and ``import`` (how the file was read)
     """
     meas = read_measurement(data, filename, ambient_pressure=_ambient(fields), name=name,
-                            columns=_columns(fields))
+                            columns=_columns(fields), memory_budget=memory_budget)
     scen = _context(fields)
     info = store.add_dataset(meas, scen, name=name, description=description)
     return {**info, "import": meas.meta.get("import")}
@@ -624,7 +626,8 @@ def store_json(store, payload):
     """Validate and store a measurement given as JSON (:class:`app.schemas.DatasetJsonIn`);
     returns the stored dataset's metadata as :func:`store_upload` does."""
     try:
-        meas = Measurement.from_dict(payload.measurement.model_dump(exclude_none=True),
+        # the validated lists as they are (model_dump would copy every one of them)
+        meas = Measurement.from_dict({k: v for k, v in payload.measurement if v is not None},
                                      ambient_pressure=payload.ambient_pressure or DEFAULT_AMBIENT_PRESSURE)
     except MeasurementError as exc:
         raise FieldError("measurement", str(exc)) from None

@@ -76,3 +76,25 @@ def test_study_runs_csv_neutralises_error_messages(monkeypatch):
     _text_cells_are_safe(text)
     rows = list(csv.reader(io.StringIO(text)))
     assert rows[1][1] == "-1.5" and rows[1][-1] == "'=HYPERLINK(1)"
+
+
+# ------------------------------------------------------------------ (1) a memory budget per request
+def _npz(**arrays):
+    import numpy as np
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    return buf.getvalue()
+
+
+def test_the_memory_budget_is_a_limit_and_refuses_an_archive_before_reading(db_path):
+    import numpy as np
+
+    from api_conftest import api
+    data = _npz(t=np.arange(50_000) * 1e-4, u=np.ones(50_000), p_a=np.full(50_000, 2e5))
+    with api(db_path, max_request_memory=1_000_000) as c:
+        assert c.get("/api/limits").json()["max_request_memory"] == 1_000_000
+        r = c.post("/api/datasets", files={"file": ("a.npz", data, "application/x-npz")})
+        assert r.status_code == 422 and "max_request_memory" in r.text, r.text
+    with api(db_path) as c:
+        r = c.post("/api/datasets", files={"file": ("a.npz", data, "application/x-npz")})
+        assert r.status_code == 201, r.text
