@@ -46,6 +46,20 @@ class Limits:
     #: (default: a full-size measurement, every signal at MAX_SAMPLES, read and converted: 256 MB)
     max_request_memory: int = field(default_factory=lambda: _env_int("PNEUCORE_MAX_REQUEST_MEMORY",
                                                                      _decode_budget()))
+    #: longest name (dataset, experiment, session, study, model) [characters]: a label on a
+    #: page or in a file name; a megabyte of name is no label
+    max_name_length: int = 200
+    #: longest free text (a description) [characters]: notes of a few pages (100 kB), larger
+    #: than the body parsed on the event loop, far below the body limit
+    max_text_length: int = 100_000
+    #: longest JSON text of a form field (an upload's ``columns`` or ``scenario``) [bytes]: a
+    #: mapping of MAX_COLUMNS columns takes about 30 kB
+    max_form_field_bytes: int = 256 * 1024
+    #: deepest nesting of a JSON form field [-]: a scenario nests 3 levels; the parser's own
+    #: recursion limit (about 1,000) must never be what stops a request
+    max_json_depth: int = 32
+    #: most residual evaluations of one calibration [-] (each replays every experiment)
+    max_nfev: int = 200
     max_duration: float = 120.0          # simulated time per request [s]
     max_samples: int = 200_001           # output samples per simulation
     max_command_points: int = 100_000

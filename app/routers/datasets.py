@@ -64,7 +64,7 @@ async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
         name = fields.get("name") or ((filename or "upload").rsplit(".", 1)[0] if multipart else None)
         description = fields.get("description", "") if multipart else ""
         return await run_in_threadpool(store_upload, store, data, filename, fields, name, description,
-                                       limits.max_request_memory)
+                                       limits)
     body = await request.body()
     try:
         payload = await run_in_threadpool(DatasetJsonIn.model_validate_json, body)

@@ -98,3 +98,57 @@ def test_the_memory_budget_is_a_limit_and_refuses_an_archive_before_reading(db_p
     with api(db_path) as c:
         r = c.post("/api/datasets", files={"file": ("a.npz", data, "application/x-npz")})
         assert r.status_code == 201, r.text
+
+
+# ------------------------------------------------------------------ (6) fields, names, counts
+def _up(c, **fields):
+    return c.post("/api/datasets", files={"file": ("a.csv", small_csv(), "text/csv")},
+                  data={k: str(v) for k, v in fields.items()})
+
+
+@pytest.mark.parametrize("key", ["columns", "scenario"])
+def test_deep_or_long_json_form_fields_are_422_naming_the_field(client, key):
+    from api_conftest import assert_field_error
+    assert_field_error(_up(client, **{key: "[" * 5000 + "]" * 5000}), key, msg_contains="max_json_depth")
+    assert_field_error(_up(client, **{key: '{"a": "' + "x" * 300_000 + '"}'}), key,
+                       msg_contains="max_form_field_bytes")
+
+
+@pytest.mark.parametrize("name", ["x" * 201, "a\nb", "a\x1b[31mb", "a\tb"])
+def test_names_are_bounded_and_free_of_control_characters(client, name):
+    from api_conftest import assert_field_error, inline_experiment
+    assert_field_error(_up(client, name=name), "name")
+    r = client.post("/api/datasets", json={"name": name, "measurement": inline_experiment(
+        "clean", "free-pulses")["measurement"]})
+    assert r.status_code == 422 and r.json()["detail"][0]["field"] == "name", r.text[:300]
+    r = client.post("/api/sessions", json={"name": name, "model": model()})
+    assert r.status_code == 422 and r.json()["detail"][0]["field"] == "name", r.text[:300]
+    assert _up(client, name="ok name").status_code == 201
+
+
+@pytest.mark.parametrize("nfev", [-1, 0, 10_000])
+def test_max_nfev_out_of_range_is_422(client, nfev):
+    r = client.post("/api/calibrate", json={"model": model(), "experiments": [
+        {"dataset_id": "sample-clean-free-pulses"}], "parameters": {"friction.extend.fc0": {}},
+        "max_nfev": nfev})
+    assert r.status_code == 422 and r.json()["detail"][0]["field"] == "max_nfev", r.text[:300]
+
+
+def test_a_token_in_the_query_never_reaches_the_access_log():
+    """uvicorn's access line is written from the request's scope: the guard redacts the token in
+    it before anything answers (the login's 303, a refusal, any route)."""
+    import asyncio
+
+    from app.security import Guard
+    seen = {}
+
+    async def inner(scope, receive, send):
+        seen["inner"] = scope["query_string"]
+
+    async def send(message):
+        pass
+    for path, query in (("/", b"token=s3cret"), ("/api/limits", b"token=s3cret&x=1")):
+        scope = {"type": "http", "method": "GET", "path": path, "query_string": query,
+                 "headers": [(b"host", b"127.0.0.1")], "scheme": "http"}
+        asyncio.run(Guard(inner, ["127.0.0.1"], token="s3cret")(scope, None, send))
+        assert b"s3cret" not in scope["query_string"]
