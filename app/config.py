@@ -60,6 +60,17 @@ class Limits:
     max_json_depth: int = 32
     #: most residual evaluations of one calibration [-] (each replays every experiment)
     max_nfev: int = 200
+    #: largest request head (request line and headers) [bytes]: browsers send a few kB, and
+    #: common servers stop at 8-64 kB (nginx 8 kB a line, Node 16 kB); 431 beyond
+    max_header_bytes: int = 64 * 1024
+    #: time a client has to send a request's head, from the connection or the previous
+    #: answer [s]: a slow-header client (slowloris) holds a socket no longer than this
+    header_timeout: float = 10.0
+    #: idle time of a kept-alive connection before the server closes it [s]
+    keep_alive_timeout: float = 5.0
+    #: most connections and requests in progress at once; beyond, 503 at once [-]: well under
+    #: the usual 1,024 open files of a process, which must also hold the database and workers
+    max_connections: int = 512
     max_duration: float = 120.0          # simulated time per request [s]
     max_samples: int = 200_001           # output samples per simulation
     max_command_points: int = 100_000

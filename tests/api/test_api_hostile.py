@@ -152,3 +152,76 @@ def test_a_token_in_the_query_never_reaches_the_access_log():
                  "headers": [(b"host", b"127.0.0.1")], "scheme": "http"}
         asyncio.run(Guard(inner, ["127.0.0.1"], token="s3cret")(scope, None, send))
         assert b"s3cret" not in scope["query_string"]
+
+
+# ------------------------------------------------------------------ (3) server limits
+@pytest.fixture
+def protocol_server(db_path, monkeypatch):
+    """``python -m app``'s protocol on a live uvicorn (in a thread), the head timeout 1 s."""
+    import socket
+    import threading
+    import time
+
+    import uvicorn
+
+    from api_conftest import make_settings
+    from app import http_protocol
+    from app.main import create_app
+    monkeypatch.setattr(http_protocol, "HEADER_TIMEOUT", 1.0)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = uvicorn.Server(uvicorn.Config(create_app(make_settings(db_path)), host="127.0.0.1",
+                                           port=port, log_level="warning",
+                                           http=http_protocol.CombinedWritesProtocol))
+    th = threading.Thread(target=server.run, daemon=True)
+    th.start()
+    t0 = time.monotonic()
+    while not server.started:
+        assert time.monotonic() - t0 < 60 and th.is_alive()   # a bound on a hang
+        time.sleep(0.02)
+    yield port
+    server.should_exit = True
+    th.join(timeout=30)
+
+
+def _recv_all(sock, budget):
+    import time
+    sock.settimeout(budget)
+    out, t0 = b"", time.monotonic()
+    while time.monotonic() - t0 < budget:
+        try:
+            chunk = sock.recv(65536)
+        except (TimeoutError, OSError):
+            break
+        if not chunk:
+            return out, True   # closed by the server
+        out += chunk
+    return out, False
+
+
+def test_a_slow_header_client_is_cut_off(protocol_server):
+    import socket
+    with socket.create_connection(("127.0.0.1", protocol_server)) as s:
+        s.sendall(b"GET /api/limits HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: 1\r\n")
+        _, closed = _recv_all(s, 20.0)   # generous: the cut comes after 1 s
+        assert closed
+    # a client that sends its head is answered, and kept alive past the head timeout
+    with socket.create_connection(("127.0.0.1", protocol_server)) as s:
+        s.sendall(b"GET /api/limits HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
+        s.settimeout(20)
+        assert s.recv(65536).startswith(b"HTTP/1.1 200")
+
+
+def test_an_oversized_header_is_431(protocol_server):
+    import socket
+
+    from app.config import Limits
+    with socket.create_connection(("127.0.0.1", protocol_server)) as s:
+        s.sendall(b"GET /api/limits HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Big: ")
+        try:
+            s.sendall(b"a" * (Limits.max_header_bytes + 1024))
+        except OSError:
+            pass   # the server may close while we still write
+        out, closed = _recv_all(s, 20.0)
+        assert out.startswith(b"HTTP/1.1 431") and b"max_header_bytes" in out, out[:200]
