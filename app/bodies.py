@@ -166,7 +166,9 @@ class OffLoopRoute(APIRoute):
 
         async def off_loop_handler(request: Request):
             ctype = request.headers.get("content-type", "")
-            if "json" in ctype.split(";", 1)[0]:
+            # only for a route whose body FastAPI parses: one that reads its body itself (an
+            # upload) would hold the parsed objects beside its own, several times the body's size
+            if self.body_field is not None and "json" in ctype.split(";", 1)[0]:
                 body = await request.body()
                 if body:
                     try:

@@ -21,6 +21,11 @@ def _env_int(name, default):
     return int(v) if v else default
 
 
+def _decode_budget():
+    from pneucore.data.fileformats import DECODE_BUDGET
+    return DECODE_BUDGET
+
+
 def _machine_workers():
     from pneucore.study import max_workers
     return max_workers()
@@ -36,6 +41,36 @@ class Limits:
     """Documented size and time limits of the REST API (refused up front when exceeded)."""
     #: largest request body of any endpoint, CSV upload or JSON, refused with 413 while reading [bytes]
     max_upload_bytes: int = field(default_factory=lambda: _env_int("PNEUCORE_MAX_UPLOAD", 20 * 1024 * 1024))
+    #: memory the decoded columns of one uploaded file may take, checked from an archive's
+    #: directory and headers before any member is read; refused with 422 naming it [bytes]
+    #: (default: a full-size measurement, every signal at MAX_SAMPLES, read and converted: 256 MB)
+    max_request_memory: int = field(default_factory=lambda: _env_int("PNEUCORE_MAX_REQUEST_MEMORY",
+                                                                     _decode_budget()))
+    #: longest name (dataset, experiment, session, study, model) [characters]: a label on a
+    #: page or in a file name; a megabyte of name is no label
+    max_name_length: int = 200
+    #: longest free text (a description) [characters]: notes of a few pages (100 kB), larger
+    #: than the body parsed on the event loop, far below the body limit
+    max_text_length: int = 100_000
+    #: longest JSON text of a form field (an upload's ``columns`` or ``scenario``) [bytes]: a
+    #: mapping of MAX_COLUMNS columns takes about 30 kB
+    max_form_field_bytes: int = 256 * 1024
+    #: deepest nesting of a JSON form field [-]: a scenario nests 3 levels; the parser's own
+    #: recursion limit (about 1,000) must never be what stops a request
+    max_json_depth: int = 32
+    #: most residual evaluations of one calibration [-] (each replays every experiment)
+    max_nfev: int = 200
+    #: largest request head (request line and headers) [bytes]: browsers send a few kB, and
+    #: common servers stop at 8-64 kB (nginx 8 kB a line, Node 16 kB); 431 beyond
+    max_header_bytes: int = 64 * 1024
+    #: time a client has to send a request's head, from the connection or the previous
+    #: answer [s]: a slow-header client (slowloris) holds a socket no longer than this
+    header_timeout: float = 10.0
+    #: idle time of a kept-alive connection before the server closes it [s]
+    keep_alive_timeout: float = 5.0
+    #: most connections and requests in progress at once; beyond, 503 at once [-]: well under
+    #: the usual 1,024 open files of a process, which must also hold the database and workers
+    max_connections: int = 512
     max_duration: float = 120.0          # simulated time per request [s]
     max_samples: int = 200_001           # output samples per simulation
     max_command_points: int = 100_000

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import asyncio
 
+from .config import Limits
+
 try:   # uvicorn's choice for "auto": httptools when installed, else h11
     from uvicorn.protocols.http.httptools_impl import HttpToolsProtocol as _Base
 except ImportError:   # pragma: no cover - httptools is a dependency of uvicorn[standard]
@@ -92,15 +94,64 @@ class CombinedWrites:
         return getattr(self._transport, name)
 
 
+#: Largest request head [bytes] and time to send it [s] (one source: :class:`app.config.Limits`)
+MAX_HEADER_BYTES = Limits.max_header_bytes
+HEADER_TIMEOUT = Limits.header_timeout
+
+_TOO_LARGE = (b"HTTP/1.1 431 Request Header Fields Too Large\r\ncontent-type: application/json\r\n"
+              b"connection: close\r\ncontent-length: %d\r\n\r\n%s")
+
+
 class CombinedWritesProtocol(_Base):
-    """uvicorn's HTTP/1.1 protocol (httptools, else h11) writing through :class:`CombinedWrites`."""
+    """uvicorn's HTTP/1.1 protocol (httptools, else h11) writing through :class:`CombinedWrites`,
+    with the limits uvicorn lacks: a request head larger than :data:`MAX_HEADER_BYTES` is
+    answered 431 and the connection closed; a head not complete :data:`HEADER_TIMEOUT` seconds
+    after the connection opened or the previous answer was sent (a slow-header client) closes
+    the connection."""
 
     def connection_made(self, transport):
         super().connection_made(CombinedWrites(transport, asyncio.get_running_loop()))
+        self._head_bytes, self._in_head, self._head_timer = 0, True, None
+        self._arm_head_timer(HEADER_TIMEOUT)
+
+    def _arm_head_timer(self, delay):
+        if self._head_timer is not None:
+            self._head_timer.cancel()
+        self._head_timer = asyncio.get_running_loop().call_later(delay, self._head_timeout)
+
+    def _head_timeout(self):
+        self._head_timer = None
+        if self._in_head and not self.transport.is_closing():
+            self.transport.close()
+
+    def data_received(self, data):
+        super().data_received(data)
+        if self._in_head:
+            self._head_bytes += len(data)
+            if self._head_bytes > MAX_HEADER_BYTES and not self.transport.is_closing():
+                body = (b'{"detail": "request head larger than max_header_bytes = %d bytes '
+                        b'(GET /api/limits)"}' % MAX_HEADER_BYTES)
+                self.transport.write(_TOO_LARGE % (len(body), body))
+                self.transport.close()
+
+    def on_headers_complete(self):
+        self._in_head = False
+        if self._head_timer is not None:
+            self._head_timer.cancel()
+            self._head_timer = None
+        super().on_headers_complete()
 
     def on_response_complete(self):
         self.transport.flush()   # a response without a body (HEAD, 204, 304) has its head held
         super().on_response_complete()
+        # the next request's head: uvicorn's keep-alive timeout closes an idle connection first
+        self._head_bytes, self._in_head = 0, True
+        self._arm_head_timer(HEADER_TIMEOUT + self.config.timeout_keep_alive)
+
+    def connection_lost(self, exc):
+        if getattr(self, "_head_timer", None) is not None:
+            self._head_timer.cancel()
+        super().connection_lost(exc)
 
 
 #: The protocol as uvicorn's ``http`` setting names it

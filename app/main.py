@@ -289,4 +289,9 @@ def main():
         print("pneucore: only the host names localhost, 127.0.0.1 and ::1 are answered; on a shared "
               "server set PNEUCORE_ALLOWED_HOSTS and PNEUCORE_TOKEN (README: Running on a shared server)")
     from .http_protocol import PROTOCOL   # one write per response (see app.http_protocol)
-    uvicorn.run("app.main:app", host=a.host, port=a.port, workers=1, http=PROTOCOL)
+    lim = settings.limits
+    # limits that hold without a reverse proxy (README: Running on a shared server): connections,
+    # keep-alive; the head's size and time are the protocol's (app.http_protocol)
+    uvicorn.run("app.main:app", host=a.host, port=a.port, workers=1, http=PROTOCOL,
+                limit_concurrency=lim.max_connections, timeout_keep_alive=lim.keep_alive_timeout,
+                h11_max_incomplete_event_size=lim.max_header_bytes)

@@ -22,6 +22,19 @@ from pneucore.study.definition import DISTRIBUTIONS
 
 Number = float
 
+from typing import Annotated as _Annotated  # noqa: E402
+
+from pydantic import StringConstraints  # noqa: E402
+
+from .config import Limits as _Limits  # noqa: E402
+
+#: A name: at most Limits.max_name_length characters, no control character (a tab, a line break,
+#: an escape sequence would reach logs, file names and CSV cells)
+Name = _Annotated[str, StringConstraints(max_length=_Limits.max_name_length,
+                                         pattern=r"^[^\x00-\x1f\x7f]*$")]
+#: Free text: at most Limits.max_text_length characters
+Text = _Annotated[str, StringConstraints(max_length=_Limits.max_text_length)]
+
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
@@ -135,8 +148,8 @@ class ModelIn(_Strict):
     friction: FrictionIn = Field(default_factory=FrictionIn, description=described(Model, "friction"))
     effects: dict[str, dict[str, Number]] = Field(default_factory=dict, description=described(Model, "effects"))
     gas: GasIn = Field(default_factory=GasIn, description=described(Model, "gas"))
-    name: str = Field("", description=described(Model, "name"))
-    description: str = Field("", description=described(Model, "description"))
+    name: Name = Field("", description=described(Model, "name"))
+    description: Text = Field("", description=described(Model, "description"))
     notes: str = Field("", description=described(Model, "notes"))
 
 
@@ -165,8 +178,8 @@ class ScenarioIn(_Strict):
     x0: Optional[Number] = from_lib(_SCENARIO, "x0")
     initial: InitialIn = Field(default_factory=InitialIn, description=described(Scenario, "initial"))
     solver: Optional[SolverIn] = Field(None, description=described(Scenario, "solver"))
-    name: str = Field("", description=described(Scenario, "name"))
-    description: str = Field("", description=described(Scenario, "description"))
+    name: Name = Field("", description=described(Scenario, "name"))
+    description: Text = Field("", description=described(Scenario, "description"))
 
     def plain(self):
         d = self.model_dump(exclude_none=True)
@@ -193,11 +206,11 @@ class MeasurementIn(BaseModel):
     model_config = ConfigDict(extra="allow")
     t: list[Optional[Number]] = Field(..., description="Sample times [s]")
     u: list[Optional[Number]] = Field(..., description="Valve command [-]")
-    name: Optional[str] = Field(None, description="Label")
+    name: Optional[Name] = Field(None, description="Label")
 
 
 class ExperimentIn(_Strict):
-    name: Optional[str] = Field(None, description="Label")
+    name: Optional[Name] = Field(None, description="Label")
     scenario: Optional[dict[str, Any]] = Field(None, description="Scenario context (locked, x0, ...); command and duration default to the measurement's")
     measurement: Optional[MeasurementIn] = Field(None, description="Inline measurement: t [s], u [-], p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K]; null marks a missing sample")
     dataset_id: Optional[str] = Field(None, description="Stored dataset to use instead of an inline measurement")
@@ -224,7 +237,8 @@ class CalibrateRequest(_Strict):
     model: ModelIn = Field(..., description="Starting model")
     experiments: list[ExperimentIn] = Field(..., description="Experiments fitted jointly")
     parameters: dict[str, ParamBounds] = Field(..., description="Parameter paths (e.g. heat.coefficient, friction.extend.fc0, effects.piston_leakage.conductance, valve.ports.P-A.C as a scale) with bounds")
-    max_nfev: int = Field(40, description="Budget of residual evaluations [-]")
+    max_nfev: int = Field(40, ge=1, le=_Limits.max_nfev,
+                          description=f"Budget of residual evaluations (at most {_Limits.max_nfev}) [-]")
 
 
 class DiagnoseRequest(_Strict):
@@ -250,15 +264,15 @@ class RefineRequest(_Strict):
 
 
 class DatasetJsonIn(_Strict):
-    name: Optional[str] = Field(None, description="Label")
-    description: str = Field("", description="Free text")
+    name: Optional[Name] = Field(None, description="Label")
+    description: Text = Field("", description="Free text")
     scenario: dict[str, Any] = Field(default_factory=dict, description="Context: locked [-], x0 [m], ...")
     measurement: MeasurementIn = Field(..., description="Measurement (SI units; null = missing)")
     ambient_pressure: Optional[Number] = Field(None, description="The rig's ambient pressure for gauge columns such as \"p_a[bar(g)]\"; null = the model's default ambient [Pa]")
 
 
 class SessionCreate(_Strict):
-    name: str = Field("session", description="Label")
+    name: Name = Field("session", description="Label")
     model: ModelIn = Field(..., description="Starting model (version 0)")
     experiments: list[ExperimentIn] = Field(default_factory=list, description="Experiments the errors are computed on")
 
@@ -279,7 +293,7 @@ class StudyRequest(_Strict):
     metrics: Optional[list[str]] = Field(None, description="Metrics to compute; null = all (see pneucore.study METRICS) [-]")
     scheduler: Optional[str] = Field(None, max_length=64, description="Where to run, by name (never an address): 'local' = this machine's process pool, 'dask' = the Dask cluster configured on the server ($PNEUCORE_DASK_SCHEDULER or --scheduler; see GET /api/studies/clusters); null = 'dask' when configured, else 'local' [-]")
     workers: Optional[int] = Field(None, description="Local pool size, at most max_workers of GET /api/limits (the CPUs available); 0 = in the service's process; null = one per CPU [-]")
-    name: str = Field("", description="Label of the study")
+    name: Name = Field("", description="Label of the study")
 
 
 # ---------------------------------------------------------------------------- responses
@@ -307,7 +321,8 @@ class HeatModelsCompareRequest(_Strict):
     experiments: list[ExperimentIn] = Field(..., description="Experiments fitted jointly")
     heat_models: Optional[list[str]] = Field(None, description="Heat models to compare (default: all) [-]")
     sensor: bool = Field(False, description="Also fit the gas-temperature sensor's time constant heat.sensor_time_constant [s] for each model [-]")
-    max_nfev: int = Field(60, description="Residual evaluations per calibration (at most 200) [-]")
+    max_nfev: int = Field(60, ge=1, le=_Limits.max_nfev,
+                          description=f"Residual evaluations per calibration (at most {_Limits.max_nfev}) [-]")
 
 
 # ---------------------------------------------------------------------------- file import

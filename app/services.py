@@ -44,7 +44,7 @@ from pneucore.spec.validation import FieldError, choice, finite_json, mapping, n
 from pneucore.study import (Study, check_run_options, delete_study, list_studies, queue_study,
                             requeue_study, run_study, runs_csv, runs_npz, study_results, study_status)
 
-from .config import STUDY_CLUSTERS
+from .config import STUDY_CLUSTERS, Limits
 from .deps import parse_experiments, parse_model, parse_scenario
 from .responses import dumps
 from .schemas import (FRICTION_DEFAULT_VELOCITIES, CalibrateRequest, CompareRequest, DiagnoseRequest,
@@ -239,7 +239,7 @@ def run_compare(req: CompareRequest, store, limits, progress=None, checked=None)
 def run_calibrate(req: CalibrateRequest, store, limits, progress=None, checked=None):
     """The calibration; ``checked`` as for :func:`run_compare` (from :func:`check_calibrate`)."""
     model, exps, params = checked or check_calibrate(req, store, limits)
-    return calibrate(model, exps, params, max_nfev=min(max(req.max_nfev, 1), 200),
+    return calibrate(model, exps, params, max_nfev=req.max_nfev,
                      progress=progress).summary()
 
 
@@ -360,7 +360,7 @@ def run_heat_compare(req, store, limits, progress=None, checked=None):
     :func:`check_heat_compare`)."""
     model, exps = checked or check_heat_compare(req, store, limits)
     rows = compare_heat_models(model, exps, req.heat_models, sensor=req.sensor,
-                               max_nfev=min(max(req.max_nfev, 1), 200), progress=progress)
+                               max_nfev=req.max_nfev, progress=progress)
     meas = exps[0].measurement
     measured = {"t": np.ascontiguousarray(meas.t - meas.t[0], float),
                 **{s: np.ascontiguousarray(meas.signals[s], float) for s in exps[0].signals}}
@@ -533,27 +533,78 @@ def _ambient(fields) -> float:
     return p
 
 
-def _columns(fields):
-    raw = fields.get("columns")
+def _json_depth(obj, limit):
+    """Whether a parsed JSON value nests deeper than ``limit`` levels (iterative: any depth)."""
+    stack = [(obj, 1)]
+    while stack:
+        o, d = stack.pop()
+        if isinstance(o, (dict, list)):
+            if d > limit:
+                return True
+            stack.extend((v, d + 1) for v in (o.values() if isinstance(o, dict) else o))
+    return False
+
+
+def form_json(fields, key, limits):
+    """The JSON value of a form field (an upload's ``columns``, ``scenario``), its length and
+    depth checked first (``Limits.max_form_field_bytes``, ``Limits.max_json_depth``); None when
+    not given. Any failure is a :class:`FieldError` naming the field (a 422, never a 500)."""
+    raw = fields.get(key)
     if raw in (None, ""):
         return None
+    if len(raw) > limits.max_form_field_bytes:
+        raise FieldError(key, f"is {len(raw)} characters long; at most max_form_field_bytes = "
+                              f"{limits.max_form_field_bytes} (GET /api/limits)")
+    # nesting counted on the text before parsing: the parser recurses once a level
+    depth = max_depth = 0
+    for ch in raw:
+        if ch in "[{":
+            depth += 1
+            max_depth = max(max_depth, depth)
+        elif ch in "]}":
+            depth -= 1
+    if max_depth > limits.max_json_depth:
+        raise FieldError(key, f"nests {max_depth} levels deep (counting brackets); at most "
+                              f"max_json_depth = {limits.max_json_depth} (GET /api/limits)")
     try:
-        columns = json.loads(raw)
-    except json.JSONDecodeError as exc:
-        raise FieldError("columns", f"is not valid JSON ({exc})") from None
+        value = json.loads(raw)
+    except (json.JSONDecodeError, RecursionError) as exc:
+        raise FieldError(key, f"is not valid JSON ({exc})") from None
+    if _json_depth(value, limits.max_json_depth):   # brackets inside strings miscounted above
+        raise FieldError(key, f"nests deeper than max_json_depth = {limits.max_json_depth}")
+    return value
+
+
+def form_name(fields, key, limits, default=None, text=False):
+    """A name (or, with ``text``, a description) from a form field: at most
+    ``Limits.max_name_length`` characters and no control character (``Limits.max_text_length``
+    for a description); a :class:`FieldError` naming the field otherwise."""
+    value = fields.get(key)
+    if value in (None, ""):
+        return default
+    most = limits.max_text_length if text else limits.max_name_length
+    if len(value) > most:
+        raise FieldError(key, f"is {len(value)} characters long; at most "
+                              f"{'max_text_length' if text else 'max_name_length'} = {most}")
+    if not text and any(ord(c) < 32 or ord(c) == 127 for c in value):
+        raise FieldError(key, "holds a control character (a tab, a line break...)")
+    return value
+
+
+def _columns(fields, limits):
+    columns = form_json(fields, "columns", limits)
+    if columns is None:
+        return None
     if not isinstance(columns, dict):
         raise FieldError("columns", 'must be a JSON object such as {"Zeit": "t"}')
     return columns
 
 
-def _context(fields):
+def _context(fields, limits):
     """The scenario context of an upload (``scenario`` JSON text, ``locked``, ``x0``), validated."""
     scen = {}
     if fields.get("scenario"):
-        try:
-            scen = json.loads(fields["scenario"])
-        except (json.JSONDecodeError, RecursionError) as exc:
-            raise FieldError("scenario", f"is not valid JSON ({exc})") from None
+        scen = form_json(fields, "scenario", limits)
         if not isinstance(scen, dict):
             raise FieldError("scenario", "must be a JSON object")
     if fields.get("locked") not in (None, ""):
@@ -590,7 +641,7 @@ def check_context(scen):
     return given(dict(scen), checked)
 
 
-def store_upload(store, data, filename, fields, name, description=""):
+def store_upload(store, data, filename, fields, name, description="", limits=None):
     """Read (CSV, TDMS or .mat), validate and store an uploaded file (the slow part: the
     router runs it in a worker thread).
 
@@ -607,15 +658,21 @@ def store_upload(store, data, filename, fields, name, description=""):
         text), ``scenario`` (JSON text), ``locked``, ``x0`` [m]
     name, description : str
         Labels
+    limits : app.config.Limits or None
+        The service's limits (``max_request_memory``, the names' and form fields' limits);
+        None = the defaults
 
     Returns
     -------
     info : dict
         The stored dataset's metadata and ``import`` (how the file was read)
     """
+    limits = limits or Limits()
+    name = form_name({"name": name}, "name", limits)
+    description = form_name({"description": description}, "description", limits, "", text=True)
     meas = read_measurement(data, filename, ambient_pressure=_ambient(fields), name=name,
-                            columns=_columns(fields))
-    scen = _context(fields)
+                            columns=_columns(fields, limits), memory_budget=limits.max_request_memory)
+    scen = _context(fields, limits)
     info = store.add_dataset(meas, scen, name=name, description=description)
     return {**info, "import": meas.meta.get("import")}
 
@@ -624,7 +681,8 @@ def store_json(store, payload):
     """Validate and store a measurement given as JSON (:class:`app.schemas.DatasetJsonIn`);
     returns the stored dataset's metadata as :func:`store_upload` does."""
     try:
-        meas = Measurement.from_dict(payload.measurement.model_dump(exclude_none=True),
+        # the validated lists as they are (model_dump would copy every one of them)
+        meas = Measurement.from_dict({k: v for k, v in payload.measurement if v is not None},
                                      ambient_pressure=payload.ambient_pressure or DEFAULT_AMBIENT_PRESSURE)
     except MeasurementError as exc:
         raise FieldError("measurement", str(exc)) from None

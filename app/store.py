@@ -17,10 +17,11 @@ import threading
 import time
 import uuid
 
+import numpy as np
 import orjson
 
 from pneucore.analysis.history import ModelVersion, RefinementHistory
-from pneucore.data.measurement import Measurement
+from pneucore.data.measurement import SIGNALS, Measurement
 from pneucore.data.samples import DATA_DIR, list_samples
 from pneucore.data.measurement import read_csv
 
@@ -126,7 +127,15 @@ class Store:
     def add_dataset(self, meas: Measurement, scenario=None, name=None, description="", sample=None,
                     dataset_id=None):
         did = dataset_id or uuid.uuid4().hex[:12]
-        data = orjson.dumps(meas.to_dict(), option=orjson.OPT_SERIALIZE_NUMPY)
+        # the arrays written as they are (orjson writes NaN as null, as Measurement.to_dict does):
+        # no list of Python floats, several times the size of the text, on the way
+        d = {"t": np.ascontiguousarray(meas.t, dtype=np.float64)}
+        d.update((k, np.ascontiguousarray(meas.signals[k], dtype=np.float64))
+                 for k in SIGNALS if k in meas.signals)
+        if meas.name:
+            d["name"] = meas.name
+        data = orjson.dumps(d, option=orjson.OPT_SERIALIZE_NUMPY)
+        del d
         rec = (did, name or meas.name or did, time.time(), int(meas.n),
                json.dumps(list(meas.measured_signals)), _dumps(scenario or {}), description,
                sample, data)

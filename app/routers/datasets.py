@@ -63,7 +63,8 @@ async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
         data, filename, fields, multipart = await read_file_upload(request, limits.max_upload_bytes)
         name = fields.get("name") or ((filename or "upload").rsplit(".", 1)[0] if multipart else None)
         description = fields.get("description", "") if multipart else ""
-        return await run_in_threadpool(store_upload, store, data, filename, fields, name, description)
+        return await run_in_threadpool(store_upload, store, data, filename, fields, name, description,
+                                       limits)
     body = await request.body()
     try:
         payload = await run_in_threadpool(DatasetJsonIn.model_validate_json, body)

@@ -18,22 +18,53 @@ import numpy as np
 
 from pneucore.data.measurement import EXPORT_MARKER, SIGNALS, SIGNAL_UNITS
 
-__all__ = ["simulation_csv", "comparison_csv", "EXPORT_MARKER"]
+__all__ = ["simulation_csv", "comparison_csv", "spreadsheet_safe", "EXPORT_MARKER"]
 
 #: Significant digits written: below the solver's own accuracy (rtol 1e-5) by far and
 #: above a 24-bit converter's resolution, without printing float noise (18 digits)
 DIGITS = 10
 
 
+#: First characters that make a spreadsheet (Excel, LibreOffice, Google Sheets) read a cell as a
+#: formula, or that some of them strip before doing so (tab, carriage return): OWASP's
+#: "CSV Injection" list
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+
+
+def spreadsheet_safe(cell: str) -> str:
+    """A text cell a spreadsheet shows as text: one that begins with a formula character
+    (:data:`FORMULA_STARTS`) gets a leading single quote, as OWASP recommends against CSV
+    injection (``=1+2`` -> ``'=1+2``). Only text cells go through it: numbers (``-1.5``)
+    are written as they are.
+
+    Parameters
+    ----------
+    cell : str
+        The cell's text, before CSV quoting [-]
+
+    Returns
+    -------
+    cell : str
+        The text, neutralised when it could start a formula [-]
+
+    Examples
+    --------
+    >>> spreadsheet_safe("=1+2"), spreadsheet_safe("@SUM(1+1)"), spreadsheet_safe("run 1")
+    ("'=1+2", "'@SUM(1+1)", 'run 1')
+    """
+    return "'" + cell if cell.startswith(FORMULA_STARTS) else cell
+
+
 def _cells(values) -> list[str]:
-    """Text cells of one column: numbers with DIGITS significant digits, NaN as empty."""
+    """Text cells of one column: numbers with DIGITS significant digits, NaN as empty; text
+    neutralised for spreadsheets (:func:`spreadsheet_safe`)."""
     arr = np.asarray(values)
     if arr.dtype.kind in "fiu":
         arr = arr.astype(np.float64)
         out = np.char.mod(f"%.{DIGITS}g", arr).astype(object)
         out[~np.isfinite(arr)] = ""
         return out.tolist()
-    return [str(v) for v in arr.tolist()]
+    return [spreadsheet_safe(str(v)) for v in arr.tolist()]
 
 
 def _quote(cell: str) -> str:
@@ -43,7 +74,7 @@ def _quote(cell: str) -> str:
 
 
 def _table(header: list[str], columns: list[list[str]], comment: str) -> str:
-    lines = [f"{EXPORT_MARKER} {comment}", ",".join(_quote(h) for h in header)]
+    lines = [f"{EXPORT_MARKER} {comment}", ",".join(_quote(spreadsheet_safe(h)) for h in header)]
     lines += [",".join(row) for row in zip(*columns)]
     return "\n".join(lines) + "\n"
 
@@ -108,7 +139,7 @@ def comparison_csv(comparison) -> str:
         n = len(rp.t)
         exp = rp.experiment
         nan = np.full(n, np.nan)
-        parts = [[exp.name] * n, _cells(np.asarray(rp.t) + exp.t0),
+        parts = [[spreadsheet_safe(str(exp.name))] * n, _cells(np.asarray(rp.t) + exp.t0),
                  _cells(exp.measurement.signals["u"][:n])]
         for s in signals:
             meas = np.asarray(rp.measured.get(s, nan), float)

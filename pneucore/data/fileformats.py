@@ -38,17 +38,26 @@ from typing import Any, Mapping
 import numpy as np
 
 from pneucore.data.matfile import mat_columns, mat_columns_isolated
-from pneucore.data.measurement import (DEFAULT_AMBIENT_PRESSURE, MAX_SAMPLES, MeasurementError,
-                          Measurement, measurement_from_columns, decode_text, propose_mapping,
-                          read_table, split_label)
+from pneucore.data.measurement import (DEFAULT_AMBIENT_PRESSURE, MAX_COLUMNS, MAX_SAMPLES, SIGNALS,
+                                      MeasurementError, Measurement, check_mapping, decode_text,
+                                      measurement_from_columns, propose_mapping, read_table,
+                                      resolve_column, split_label)
 
-__all__ = ["read_measurement", "inspect_file", "detect_format", "FORMATS"]
+__all__ = ["read_measurement", "inspect_file", "detect_format", "FORMATS", "DECODE_BUDGET"]
 
 #: Formats recognised by :func:`detect_format`, with their usual file extensions
 FORMATS: dict[str, tuple[str, ...]] = {"csv": (".csv", ".txt", ".tsv", ".dat"),
                                        "tdms": (".tdms",), "mat": (".mat",), "npz": (".npz",)}
-#: Most members of an ``.npz`` read [-]
-NPZ_MAX_MEMBERS = 1000
+#: Most members of an ``.npz`` read [-]: one a column, and ``meta.json``
+NPZ_MAX_MEMBERS = MAX_COLUMNS + 1
+#: Largest ``meta.json`` member read [bytes]: units and statistics of a simulation take a few kB
+NPZ_MAX_META_BYTES = 1 << 20
+#: Largest ``.npy`` header read [bytes]: numpy's own default (a header holds a dtype and a shape)
+NPY_MAX_HEADER = 10_000
+#: Memory the decoded columns of one file may take by default [bytes]: the time and every signal
+#: at MAX_SAMPLES samples, as stored (at most 8 bytes a value) and as float64 (8 more), what the
+#: largest measurement needs (256 MB); the service passes its own ``max_request_memory``
+DECODE_BUDGET = (1 + len(SIGNALS)) * MAX_SAMPLES * 16
 #: Largest ``.npz`` member read [bytes]: a vector of MAX_SAMPLES doubles and its header; a
 #: larger one (text, a matrix) is skipped unread
 NPZ_MAX_MEMBER_BYTES = 8 * MAX_SAMPLES + 4096
@@ -127,7 +136,45 @@ def _tdms_columns(data: bytes):
 
 
 # ----------------------------------------------------------------------------- NumPy .npz
-def _npz_columns(data: bytes):
+def _npy_head(zf, info):
+    """``(dtype, shape, fortran_order, header_bytes)`` of an ``.npy`` member, from its header
+    alone (a few hundred bytes decompressed); None when it is no plain numeric array (an
+    object array would need unpickling, a structured one is no column)."""
+    fmt = np.lib.format
+    with zf.open(info) as fh:
+        version = fmt.read_magic(fh)
+        if version == (1, 0):
+            shape, fortran, dtype = fmt.read_array_header_1_0(fh, max_header_size=NPY_MAX_HEADER)
+        elif version == (2, 0):
+            shape, fortran, dtype = fmt.read_array_header_2_0(fh, max_header_size=NPY_MAX_HEADER)
+        else:
+            return None
+        offset = fh.tell()
+    if dtype.kind not in "iuf" or dtype.fields is not None or dtype.hasobject:
+        return None
+    return dtype, shape, fortran, offset
+
+
+def _npy_values(zf, info, dtype, count, offset):
+    """The first ``count`` values of an ``.npy`` member whose header ends at ``offset``, as
+    float64; the member's declared size bounds what is decompressed."""
+    with zf.open(info) as fh:
+        fh.read(offset)
+        raw = fh.read(count * dtype.itemsize)
+    if len(raw) != count * dtype.itemsize:
+        raise ValueError(f"{len(raw)} bytes of data where the header declares "
+                         f"{count * dtype.itemsize}")
+    return np.frombuffer(raw, dtype=dtype).astype(np.float64)
+
+
+def _npz_columns(data: bytes, mapping=None, ambient_pressure=DEFAULT_AMBIENT_PRESSURE,
+                 memory_budget=None, preview_rows=None):
+    """Columns of an ``.npz`` archive, the directory and every member's header checked before
+    any array is read: the declared sizes (each at most :data:`NPZ_MAX_MEMBER_BYTES`), the dtype
+    and shape, and, unless ``preview_rows`` is given, the column's name (an unknown name is
+    refused, a column mapped to null or a simulated-only series is not read), and the decoded
+    size of the columns to read summed against ``memory_budget`` [bytes]. A preview reads the
+    first ``preview_rows`` values of each member only."""
     import json
     import zipfile
     try:
@@ -144,7 +191,7 @@ def _npz_columns(data: bytes):
                                "Excel workbook? save it as CSV)")
     meta, extra = {}, {}
     info = next((i for i in infos if i.filename == "meta.json"), None)
-    if info is not None and info.file_size <= 1 << 20:
+    if info is not None and info.file_size <= NPZ_MAX_META_BYTES:
         try:
             meta = json.loads(zf.read(info))
         except Exception:  # noqa: BLE001 - a damaged or foreign meta.json gives no units
@@ -152,47 +199,90 @@ def _npz_columns(data: bytes):
     units_of = meta.get("units") if isinstance(meta, dict) else None
     units_of = units_of if isinstance(units_of, dict) else {}
     if isinstance(meta, dict) and {"units", "stats"} <= set(meta):
-        extra["pneucore_export"] = True   # a simulation archive: simulated-only series ignored
-    cols: list[tuple[str, Any]] = []
-    skipped = []
+        extra["pneucore_export"] = True   # a simulated archive: simulated-only series ignored
+    mapping = check_mapping(mapping)
+    budget = DECODE_BUDGET if memory_budget is None else int(memory_budget)
+    planned, skipped, signals, decoded = [], [], {}, 0
     for i in npy:
         label = i.filename[:-4]
         if i.file_size > NPZ_MAX_MEMBER_BYTES:
             skipped.append(label)
             continue
         try:
-            with zf.open(i) as fh:
-                a = np.lib.format.read_array(fh, allow_pickle=False)
-        except ValueError:   # an object array (would need unpickling), a malformed header
-            skipped.append(label)
-            continue
+            head = _npy_head(zf, i)
+        except ValueError:   # a malformed header
+            head = None
         except Exception as exc:  # noqa: BLE001 - a bad CRC, an unknown compression, a short member
             raise MeasurementError(f"member {i.filename!r} of the archive is damaged "
                                    f"({type(exc).__name__}: {exc})", column=label) from None
-        if a.dtype.kind in "iuf" and a.size >= 1 and (a.ndim == 1 or (a.ndim == 2 and min(a.shape) == 1)):
-            cols.append((label, a.reshape(-1).astype(np.float64)))
-        else:
+        if head is None:
             skipped.append(label)
-    if not cols:
+            continue
+        dtype, shape, _, offset = head
+        count = int(np.prod(shape, dtype=np.int64)) if shape else 1
+        if not (len(shape) == 1 or (len(shape) == 2 and min(shape) == 1)) or count < 1:
+            skipped.append(label)
+            continue
+        if offset + count * dtype.itemsize > i.file_size:
+            raise MeasurementError(f"member {i.filename!r} of the archive is damaged (its header "
+                                   f"declares {count} values, more than its {i.file_size} bytes "
+                                   f"hold)", column=label)
+        unit = units_of.get(label, "")
+        unit = unit if isinstance(unit, str) else ""
+        if preview_rows is None:
+            # the name first: an unknown one is refused, an ignored one never read
+            conv = resolve_column(label, unit or None, mapping, ambient_pressure,
+                                  export=bool(extra.get("pneucore_export")))
+            if conv is None:
+                planned.append((label, unit, None, None))
+                continue
+            if conv.signal in signals:
+                raise MeasurementError(f"duplicate column: {signals[conv.signal]!r} and {label!r} "
+                                       f"both give signal {conv.signal!r}", column=label)
+            signals[conv.signal] = label
+            # as stored, then as float64
+            decoded += count * (dtype.itemsize + 8)
+        else:
+            count = min(count, preview_rows)
+        planned.append((label, unit, (dtype, count, offset), i))
+    if decoded > budget:
+        raise MeasurementError(f"the archive's columns would take {decoded} bytes once decoded, "
+                               f"more than the memory budget of {budget} bytes per request "
+                               f"(max_request_memory); nothing was read")
+    cols: list[tuple[str, Any]] = []
+    units = []
+    for label, unit, how, i in planned:
+        if how is None:
+            cols.append((label, None))   # ignored by name: listed, never read
+        else:
+            try:
+                cols.append((label, _npy_values(zf, i, *how)))
+            except Exception as exc:  # noqa: BLE001 - a bad CRC, an unknown compression, a short member
+                raise MeasurementError(f"member {i.filename!r} of the archive is damaged "
+                                       f"({type(exc).__name__}: {exc})", column=label) from None
+        units.append(unit)
+    if not any(v is not None for _, v in cols):
         raise MeasurementError("the .npz archive holds no numeric vector")
-    units = [u if isinstance(u := units_of.get(lab, ""), str) else "" for lab, _ in cols]
     if skipped:
         extra["skipped_members"] = skipped
     return cols, units, extra
 
 
-def _table(data: bytes, fmt: str, isolated: bool = True):
+def _table(data: bytes, fmt: str, isolated: bool = True, **npz):
     """(columns [(label, values)], units or None, report, row_lines) of a file; ``isolated``:
-    MATLAB files are read in a child process (:func:`pneucore.data.matfile.mat_columns_isolated`)."""
-    if fmt == "tdms":
-        cols, units, extra = _tdms_columns(data)
-        return cols, units, {"format": "tdms", **extra}, None
-    if fmt == "mat":
-        cols, units, extra = mat_columns_isolated(data) if isolated else mat_columns(data)
-        return cols, units, {"format": "mat", **extra}, None
-    if fmt == "npz":
-        cols, units, extra = _npz_columns(data)
-        return cols, units, {"format": "npz", **extra}, None
+    MATLAB files are read in a child process (:func:`pneucore.data.matfile.mat_columns_isolated`);
+    ``npz``: :func:`_npz_columns`'s mapping, ambient pressure, memory budget and preview rows."""
+    if fmt in ("tdms", "mat", "npz"):
+        if fmt == "tdms":
+            cols, units, extra = _tdms_columns(data)
+        elif fmt == "mat":
+            cols, units, extra = mat_columns_isolated(data) if isolated else mat_columns(data)
+        else:
+            cols, units, extra = _npz_columns(data, **npz)
+        if len(cols) > MAX_COLUMNS:
+            raise MeasurementError(f"the file has {len(cols)} columns; at most MAX_COLUMNS = "
+                                   f"{MAX_COLUMNS} are read")
+        return cols, units, {"format": fmt, **extra}, None
     text, encoding = decode_text(data)
     table = read_table(text)
     return (list(zip(table.header, table.columns)), table.units,
@@ -202,7 +292,7 @@ def _table(data: bytes, fmt: str, isolated: bool = True):
 def read_measurement(data: bytes, filename: str | None = None,
                      ambient_pressure: float = DEFAULT_AMBIENT_PRESSURE,
                      name: str | None = None, columns: Mapping[str, Any] | None = None,
-                     isolated: bool = True) -> Measurement:
+                     isolated: bool = True, memory_budget: int | None = None) -> Measurement:
     """Read a rig file (CSV, TDMS, MATLAB or NumPy .npz) into a validated measurement.
 
     Parameters
@@ -222,6 +312,9 @@ def read_measurement(data: bytes, filename: str | None = None,
         Read a MATLAB file in a child process, so that a file crashing scipy's reader
         is an error and not the end of this process (about 0.4 s more); False reads it
         here (files one trusts) [-]
+    memory_budget : int or None, optional
+        Most memory the decoded columns of an ``.npz`` archive may take, checked from the
+        members' headers before any is read; None = :data:`DECODE_BUDGET` [bytes]
 
     Returns
     -------
@@ -237,15 +330,17 @@ def read_measurement(data: bytes, filename: str | None = None,
     """
     data = bytes(data)
     fmt = detect_format(data, filename)
-    cols, units, report, lines = _table(data, fmt, isolated)
-    n = max((len(v) for _, v in cols), default=0)
+    npz = {"mapping": columns, "ambient_pressure": ambient_pressure,
+           "memory_budget": memory_budget} if fmt == "npz" else {}
+    cols, units, report, lines = _table(data, fmt, isolated, **npz)
+    n = max((len(v) for _, v in cols if v is not None), default=0)
     if n > MAX_SAMPLES:
         raise MeasurementError(f"too many samples: {n} rows found, at most MAX_SAMPLES = "
                                f"{MAX_SAMPLES} are supported; decimate or split the measurement")
     if fmt != "csv":
         # binary formats: channels of different lengths cannot share one time base
-        lengths = {lab: len(v) for lab, v in cols}
-        t_len = next((len(v) for lab, v in cols if _is_time(lab)), None)
+        lengths = {lab: len(v) for lab, v in cols if v is not None}   # None: ignored, unread
+        t_len = next((len(v) for lab, v in cols if v is not None and _is_time(lab)), None)
         for lab, k in lengths.items():
             mapped = columns.get(lab, "") if isinstance(columns, Mapping) else ""
             if t_len is not None and k != t_len and mapped is not None:
@@ -290,7 +385,8 @@ def inspect_file(data: bytes, filename: str | None = None, rows: int = 5, isolat
         cols = list(zip(table.header, table.columns))
         units, report = table.units, {"format": "csv", "encoding": encoding, **table.dialect}
     else:
-        cols, units, report, _ = _table(data, fmt, isolated)
+        cols, units, report, _ = _table(data, fmt, isolated,
+                                        **({"preview_rows": rows} if fmt == "npz" else {}))
     labels = [str(lab) for lab, _ in cols]
     mapping = propose_mapping(labels)
     out_cols = []

@@ -53,6 +53,8 @@ __all__ = [
     "canonical_unit",
     "propose_mapping",
     "check_mapping",
+    "resolve_column",
+    "MAX_COLUMNS",
     "ALIASES",
     "EXPORT_MARKER",
     "SIGNALS",
@@ -82,6 +84,11 @@ MIN_SAMPLES: int = 10
 
 MAX_SAMPLES: int = 2_000_000
 """Maximum number of samples (data rows) of a measurement."""
+
+MAX_COLUMNS: int = 1000
+"""Maximum number of columns of a file read or previewed: a rig logs tens of channels, a few
+hundred at most; a header of a million names is an attack, not a measurement (its preview would
+be tens of MB)."""
 
 DEFAULT_AMBIENT_PRESSURE: float = P_ATM
 """Default ambient pressure used to convert gauge pressures: the model's default ambient [Pa]."""
@@ -641,6 +648,45 @@ def _ranges(rows: np.ndarray) -> list[list[int]]:
 _REST_PRESSURE_FRACTION = 0.5
 
 
+def resolve_column(label: str, unit_row: str | None, mapping: Mapping[str, Any],
+                   ambient_pressure: float, export: bool = False):
+    """The signal and unit conversion a column's name gives, or None when it is ignored; read
+    from its name alone, so that a reader can refuse or skip a column before reading its values.
+
+    Parameters
+    ----------
+    label : str
+        The column's name as written (``p_A [bar(g)]``) [-]
+    unit_row : str or None
+        Its unit from a units row or the file's metadata [-]
+    mapping : mapping
+        The caller's checked column mapping (:func:`check_mapping`) [-]
+    ambient_pressure : float
+        The rig's ambient pressure, for gauge units [Pa]
+    export : bool, optional
+        The file is a pneucore export: columns that are no signal are ignored [-]
+
+    Returns
+    -------
+    conversion : Conversion or None
+        ``conversion.signal`` is the signal the column gives; None: ignored [-]
+
+    Raises
+    ------
+    MeasurementError
+        An unknown column name or unit, naming the column and how to map or ignore it
+    """
+    try:
+        return _resolve(label, unit_row, mapping, ambient_pressure, export=export)
+    except MeasurementError as exc:
+        if exc.detail.startswith("unknown column name"):
+            exc = MeasurementError(
+                exc.detail + f"; map it to a signal with columns={{{json.dumps(str(label))}: "
+                f"\"p_a\"}} or ignore it with columns={{{json.dumps(str(label))}: null}}",
+                column=exc.column)
+        raise exc from None
+
+
 def measurement_from_columns(columns: list[tuple[str, list]], ambient_pressure: float,
                              name: str, meta: dict, lines: list[int] | None,
                              decimal_comma_hint: bool = False, units: list | None = None,
@@ -665,16 +711,8 @@ def measurement_from_columns(columns: list[tuple[str, list]], ambient_pressure: 
     ignored: list[str] = []
     for j, (label, values) in enumerate(columns):
         unit_row = units[j] if units is not None and j < len(units) else None
-        try:
-            conv = _resolve(label, unit_row, mapping, ambient_pressure,
-                            export=bool((report or {}).get("pneucore_export")))
-        except MeasurementError as exc:
-            if exc.detail.startswith("unknown column name"):
-                exc = MeasurementError(
-                    exc.detail + f"; map it to a signal with columns={{{json.dumps(str(label))}: "
-                    f"\"p_a\"}} or ignore it with columns={{{json.dumps(str(label))}: null}}",
-                    column=exc.column)
-            raise exc from None
+        conv = resolve_column(label, unit_row, mapping, ambient_pressure,
+                              export=bool((report or {}).get("pneucore_export")))
         if conv is None:
             ignored.append(str(label))
             continue
@@ -1265,6 +1303,9 @@ def read_table(text: str, max_rows: int | None = None) -> CsvTable:
     header = [h.strip() for h in split(header_line, None, header_text)]
     while header and header[-1] == "":  # trailing delimiter
         header.pop()
+    if len(header) > MAX_COLUMNS:
+        raise MeasurementError(f"the header has {len(header)} columns; at most MAX_COLUMNS = "
+                               f"{MAX_COLUMNS} are read (line {header_line})")
     for j, h in enumerate(header):
         if h == "":
             raise MeasurementError(

@@ -408,9 +408,11 @@ def runs_csv(store_path, study_id, chunk_rows=5000):
     """
     import csv
     import io
+    from pneucore.data.export import spreadsheet_safe
     paths, names, block = _stored_runs(store_path, study_id)
-    header = (["run_index"] + [f"{p} [{unit_of(p)}]" for p in paths]
-              + [f"{m} [{METRICS[m][0]}]" for m in names] + ["error"])
+    # text cells neutralised for spreadsheets (a parameter path, an error message): CSV injection
+    header = [spreadsheet_safe(h) for h in ["run_index"] + [f"{p} [{unit_of(p)}]" for p in paths]
+              + [f"{m} [{METRICS[m][0]}]" for m in names] + ["error"]]
 
     def cells(a):
         return ["" if not math.isfinite(v) else repr(v) for v in a.tolist()]
@@ -420,7 +422,8 @@ def runs_csv(store_path, study_id, chunk_rows=5000):
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(header)
         for j, i in enumerate(block.indices.tolist()):
-            w.writerow([i] + cells(block.params[j]) + cells(block.metrics[j]) + [block.errors[j] or ""])
+            w.writerow([i] + cells(block.params[j]) + cells(block.metrics[j])
+                       + [spreadsheet_safe(block.errors[j] or "")])
             if (j + 1) % chunk_rows == 0:
                 yield buf.getvalue()
                 buf.seek(0)

@@ -130,3 +130,68 @@ def test_a_meta_json_that_is_not_json_gives_no_units():
     m = read_measurement(buf.getvalue(), "x.npz")
     assert not m.meta["import"].get("pneucore_export")
     assert json.dumps(m.meta["import"])   # the report stays plain JSON
+
+
+# ------------------------------------------------------------------ issue 30: a memory budget
+_BOMB_CHILD = r"""
+import io, resource, sys, zipfile
+import numpy as np
+from pneucore.data.fileformats import read_measurement
+from pneucore.data.measurement import MeasurementError
+members, mapped = int(sys.argv[1]), sys.argv[2] == "mapped"
+buf = io.BytesIO()
+z0 = io.BytesIO(); np.save(z0, np.zeros(2_000_000)); zeros = z0.getvalue()
+with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as z:
+    z.writestr("t.npy", zeros); z.writestr("u.npy", zeros)
+    for i in range(members):
+        z.writestr(f"c{i}.npy", zeros)
+data = buf.getvalue()
+del buf, z0
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+columns = {f"c{i}": None for i in range(members)} if mapped else None
+try:
+    read_measurement(data, "bomb.npz", columns=columns)
+    outcome = "read"
+except MeasurementError as exc:
+    outcome = str(exc)[:60]
+after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print((after - before) * 1024, len(data), outcome)
+"""
+
+
+@pytest.mark.parametrize("mapped", ["unknown", "mapped"])
+def test_an_npz_bomb_is_refused_with_a_bounded_peak(mapped):
+    """250 members of 2,000,000 zeros (4 MB on the wire, 4 GB decoded): the names are checked
+    before any array is read, so the peak memory of the read stays far below one member per
+    name (measured in a child process: ru_maxrss is the process's own peak)."""
+    import subprocess
+    import sys
+    out = subprocess.run([sys.executable, "-c", _BOMB_CHILD, "250", mapped], capture_output=True,
+                         text=True, timeout=300, check=True).stdout.split(maxsplit=2)
+    peak, size = int(out[0]), int(out[1])
+    assert size < 5_000_000
+    # the bound: t and u decoded (2 x 2,000,000 doubles, read and converted: 64 MB) and
+    # slack for the allocator; without the name check this read took about 4 GB
+    assert peak < 150e6, (peak, out[2])
+    if mapped == "unknown":
+        assert "unknown column" in out[2] or "c0" in out[2], out[2]
+
+
+def test_the_decoded_size_is_summed_against_the_budget_before_reading():
+    data = _savez(t=np.arange(100_000.0), u=np.zeros(100_000), p_a=np.full(100_000, 2e5))
+    with pytest.raises(MeasurementError, match="memory budget of 1000000 bytes"):
+        read_measurement(data, "x.npz", memory_budget=1_000_000)
+    assert read_measurement(data, "x.npz", memory_budget=10_000_000).n == 100_000
+
+
+def test_a_header_declaring_more_values_than_the_member_holds_is_damaged():
+    hdr = "{'descr': '<f8', 'fortran_order': False, 'shape': (1000000000,), }"
+    hdr += " " * (-(10 + len(hdr) + 1) % 64) + "\n"
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        z.writestr("t.npy", _npy_bytes(np.arange(12.0)))
+        z.writestr("u.npy", b"\x93NUMPY\x01\x00" + struct.pack("<H", len(hdr)) + hdr.encode()
+                   + b"\x00" * 96)
+    with pytest.raises(MeasurementError, match="damaged") as exc:
+        read_measurement(buf.getvalue(), "lie.npz")
+    assert exc.value.column == "u"
