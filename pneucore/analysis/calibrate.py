@@ -375,7 +375,7 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         for i, s in enumerate(vs):
             values[s.path] = {"value": float(theta[i]), "stderr": float(se[i]), "initial": s.value,
                               "min": s.min, "max": s.max, "unit": s.unit,
-                              "at_bound": at_bound(theta[i], s.min, s.max)}
+                              "at_bound": at_bound(theta[i], s.min, s.max, sc[i])}
             if se_prior is not None:
                 values[s.path]["stderr_prior"] = float(se_prior[i])
             corr[s.path] = {t.path: (float(cm[i, j]) if np.isfinite(cm[i, j]) else None)
@@ -387,25 +387,26 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
                        taus, rss1, rss0, aic0, bic0)
 
 
-#: Distance to a bound, as a fraction of the bound's own size, within which a fitted value is
-#: at it: the optimiser stops far closer than this when a bound holds it (xtol 1e-8 in scaled
-#: units), and a free optimum within 0.1 % of a bound is rare
+#: Distance to a bound, as a fraction of the bound's own size (or, for a bound at 0, of the
+#: parameter's scale in the fit), within which a fitted value is at it: the optimiser stops far
+#: closer than this when a bound holds it (xtol 1e-8 in scaled units), and a free optimum
+#: within 0.1 % of a bound is rare
 AT_BOUND = 1e-3
-#: The same for a bound at 0, as a fraction of the bounds' range: a strength of 5 g in a
-#: range of 10 kg is a value, not the bound; 1e-6 of the range is the optimiser's own scale
-AT_BOUND_ZERO = 1e-6
 
 
-def at_bound(value, lo, hi, tol=AT_BOUND, tol_zero=AT_BOUND_ZERO):
+def at_bound(value, lo, hi, scale=None, tol=AT_BOUND):
     """Is ``value`` at ``lo`` or ``hi``, relative to the bound's own scale?
 
     A leak conductance at 0.99998 of its upper bound is at it (a relative tolerance of
-    1e-6 missed it); a bound at 0 is judged against the range's scale instead.
+    1e-6 missed it). A bound at 0 has no size of its own: the distance is judged against
+    ``scale``, the parameter's scale in the fit (its starting value; without it, the
+    range), so that 5 g of wall fitted from 50 g in a range up to 10 t is a value, not
+    the bound.
     """
     rng = hi - lo if np.isfinite(hi - lo) else np.inf
     for b in (lo, hi):
-        d = abs(value - b)
-        if d <= (tol * abs(b) if b != 0.0 else tol_zero * rng):
+        ref = abs(b) if b != 0.0 else (abs(scale) if scale else rng)
+        if abs(value - b) <= tol * ref:
             return True
     return bool(value < lo or value > hi)
 

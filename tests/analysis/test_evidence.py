@@ -115,8 +115,9 @@ def test_at_bound_is_relative_to_the_range():
     assert at_bound(0.99998e-8, 0.0, 1e-8)
     assert at_bound(0.0, 0.0, 1e-8) and at_bound(-5.0, -5.0, 5.0)
     assert not at_bound(0.5e-8, 0.0, 1e-8) and not at_bound(4.9, -5.0, 5.0)
-    # a small value above a bound at 0 is a value (5 g of wall in a range up to 10 kg)
-    assert not at_bound(0.005, 0.0, 10.0) and at_bound(1e-6, 0.0, 10.0)
+    # a small value above a bound at 0 is a value (5 g of wall fitted from 50 g, in a range up
+    # to 10 t): judged against the parameter's scale in the fit
+    assert not at_bound(0.005, 0.0, 1e4, scale=0.05) and at_bound(1e-6, 0.0, 1e4, scale=0.05)
 
 
 def test_a_value_far_beyond_a_catalogue_error_is_implausible():
