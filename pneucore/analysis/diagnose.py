@@ -637,7 +637,10 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                 why.append(f"best candidate {b['effect']} fitted separately on each experiment "
                            f"gives parameters that disagree ({b['consistency']['summary']}): "
                            f"a stand-in, not a physical effect")
-            if not b["material"]:
+            if not b["material"] and b["relative_drop"] < 0:
+                why.append(f"best candidate {b['effect']} raises the error by "
+                           f"{-100 * b['relative_drop']:.1f} %")
+            elif not b["material"]:
                 why.append(f"best candidate {b['effect']} removes only {100 * b['relative_drop']:.1f} % of the error and "
                            f"{100 * b['excess_drop']:.0f} % of its excess over the noise floor")
             message = NO_EFFECT + " (" + "; ".join(why) + ")"
