@@ -42,6 +42,7 @@ _ERROR_TEXT = {
     413: "The request body exceeds max_upload_bytes (GET /api/limits)",
     422: "Invalid input: each entry names the field (loc, field) and what is wrong (msg)",
     429: "Too many jobs queued or running (max_jobs, GET /api/limits)",
+    507: "The server's disk is full: nothing can be stored (the cause is named); deletes still work",
     504: "The synchronous analysis exceeded request_time_limit (GET /api/limits); use /api/jobs",
 }
 
@@ -52,7 +53,7 @@ def document_errors(app, settings=None):
     Every operation can answer 400 (Host check) and 401 (token, when one is set);
     state-changing ones 403 (Origin check); those with a path parameter 404;
     those with a body 413 and 422; job-starting ones 429; the synchronous
-    analyses 504. The document is built once, on first use.
+    analyses 504; those that may store something 507 (a full disk). The document is built once, on first use.
     """
     build = app.openapi
 
@@ -83,6 +84,8 @@ def _add_errors(path, method, op):
         codes.append(429)
     if path in ("/api/compare", "/api/calibrate", "/api/diagnose"):
         codes.append(504)
+    if method in ("POST", "PUT", "PATCH"):
+        codes.append(507)
     responses = op.setdefault("responses", {})
     for code in codes:
         responses.setdefault(str(code), {
