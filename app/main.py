@@ -39,6 +39,7 @@ from .routers import friction
 from .schemas import LimitsResponse, SampleInfo
 from .security import Guard
 from .store import Store, StoreUnavailable, disk_full
+from .sync_pool import SyncPool
 
 # the repository's static/ (a checkout or an editable install), else the copy a wheel
 # installs as app/static (see pyproject.toml)
@@ -119,6 +120,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                                     max_jobs=settings.limits.max_jobs,
                                     time_limit=settings.limits.job_time_limit, store=store)
         app.state.cancelled_studies = set()
+        app.state.sync_pool = SyncPool(settings.limits.sync_workers, settings.limits.max_sync_queue)
         if settings.resume_studies:
             # studies left queued or running by a stopped server resume where they were
             from pneucore.study import list_studies
