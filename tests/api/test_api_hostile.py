@@ -376,3 +376,48 @@ def test_a_study_whose_job_failed_on_a_full_disk_reads_interrupted(db_path, monk
         monkeypatch.setattr(services, "set_study_status", set_study_status)
         assert c.get(f"/api/studies/{sid}").json()["status"] == "interrupted"
         assert [s["status"] for s in list_studies(str(db_path)) if s["id"] == sid] == ["interrupted"]
+
+
+# ------------------------------------------------------------------ (2) a bounded synchronous pool
+def test_synchronous_analyses_beyond_the_queue_are_429_and_reads_go_on(db_path, monkeypatch):
+    """Eight diagnoses at once on 1 worker and a queue of 1: one runs, one waits, six are 429
+    with Retry-After naming the limits; a read is answered meanwhile; the two finish."""
+    import threading
+    import time
+    from concurrent.futures import ThreadPoolExecutor
+
+    from api_conftest import api
+    from app.routers import analysis
+    release, running = threading.Event(), threading.Semaphore(0)
+
+    def held(*a, **k):   # a diagnosis that lasts until the test lets it go
+        running.release()
+        assert release.wait(120)
+        return {"held": True}
+    monkeypatch.setattr(analysis, "run_diagnose", held)
+    body = {"model": model(), "experiments": [{"dataset_id": "sample-leak-and-lag-free-pulses"}]}
+    with api(db_path, sync_workers=1, max_sync_queue=1) as c, ThreadPoolExecutor(8) as ex:
+        limits = c.get("/api/limits").json()
+        assert (limits["sync_workers"], limits["max_sync_queue"]) == (1, 1)
+        calls = [ex.submit(c.post, "/api/diagnose", json=body) for _ in range(8)]
+        assert running.acquire(timeout=120)   # one runs (a bound on a hang)
+        t0 = time.monotonic()
+        refused = []
+        while len(refused) < 6:
+            refused = [f.result() for f in calls if f.done()]
+            assert time.monotonic() - t0 < 60, [r.status_code for r in refused]
+            time.sleep(0.01)
+        t0 = time.monotonic()
+        read = c.get("/api/datasets/sample-leak-and-lag-free-pulses")
+        read_s = time.monotonic() - t0
+        busy = c.app.state.sync_pool.admitted
+        release.set()
+        answers = [f.result(timeout=120) for f in calls]
+    assert read.status_code == 200 and read_s < 5.0, read_s   # generous: a loaded 2-core machine
+    assert busy == 2   # precondition: the read came while the pool was full
+    assert all(r.status_code == 429 for r in refused), [r.text for r in refused]
+    for r in refused:
+        assert r.headers["retry-after"].isdigit() and int(r.headers["retry-after"]) > 0
+        assert "max_sync_queue" in r.json()["detail"] and "/api/jobs/diagnose" in r.json()["detail"]
+    assert sorted(r.status_code for r in answers) == [200] * 2 + [429] * 6
+    assert c.app.state.sync_pool.admitted == 0   # every slot given back
