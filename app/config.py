@@ -81,6 +81,15 @@ class Limits:
     request_time_limit: float = 60.0     # wall time of a synchronous analysis [s]
     max_jobs: int = 16                   # queued or running jobs (analysis and studies together)
     analysis_workers: int = 2            # threads running analysis jobs (studies have their own)
+    #: synchronous analyses (POST /api/compare, calibrate, diagnose, refine, the reports, heat
+    #: compare) running at once [-]: each keeps a core busy (the compiled core releases the
+    #: GIL), so more than the cores only slows every one of them; the server's other threads
+    #: stay free for reads
+    sync_workers: int = 2
+    #: synchronous analyses waiting for a worker; beyond, 429 with Retry-After at once [-]:
+    #: with 2 workers and 1-2 s a diagnosis the last one waits about 8 s, well inside
+    #: request_time_limit; a longer queue only holds clients past what their own timeouts allow
+    max_sync_queue: int = 8
     max_study_runs: int = 100_000        # runs of one robustness study
     study_time_limit: float = 3600.0     # wall time of one study job [s]
     scheduler_timeout: float = 3.0       # time to reach a Dask scheduler [s]

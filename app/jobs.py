@@ -120,7 +120,7 @@ class JobManager:
         self._lock = threading.Lock()
         self._stop = threading.Event()
         if store is not None:
-            store.interrupt_jobs()   # what a previous server left queued or running
+            self._interrupt_stored()   # what a previous server left queued or running
         threading.Thread(target=self._watch, name="pneucore-job-watchdog", daemon=True).start()
 
     def _watch(self, period=0.25):
@@ -235,4 +235,13 @@ class JobManager:
         for pool in (self.pool, *self.pools.values()):
             pool.shutdown(wait=True)
         if self.store is not None:
+            self._interrupt_stored()
+
+    def _interrupt_stored(self):
+        """Mark the stored jobs left queued or running as interrupted; a store that cannot be
+        written (a full disk) is reported and the service goes on: those records are marked
+        at the next start."""
+        try:
             self.store.interrupt_jobs()
+        except Exception as exc:
+            print(f"pneucore: stored jobs not marked interrupted: {type(exc).__name__}: {exc}")

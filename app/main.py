@@ -11,6 +11,8 @@ import importlib.util
 import html
 import os
 import re
+import sqlite3
+import sys
 import threading
 from contextlib import asynccontextmanager
 from pathlib import Path
@@ -36,7 +38,8 @@ from .routers import (analysis, calibration, datasets, effects, heat, jobs, pres
 from .routers import friction
 from .schemas import LimitsResponse, SampleInfo
 from .security import Guard
-from .store import Store
+from .store import Store, StoreUnavailable, disk_full
+from .sync_pool import SyncPool
 
 # the repository's static/ (a checkout or an editable install), else the copy a wheel
 # installs as app/static (see pyproject.toml)
@@ -103,14 +106,21 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         stopped = threading.Event()
         threading.Thread(target=_freeze_start_up_objects, args=(warm, stopped), daemon=True,
                          name="pneucore-gc-freeze").start()
-        store = Store(settings.db_path)
+        store = Store(settings.db_path)   # StoreUnavailable: a clear message (see main)
         if settings.seed_samples:
-            store.seed_samples()
+            try:
+                store.seed_samples()
+            except (sqlite3.Error, OSError) as exc:
+                if not disk_full(exc):
+                    raise
+                # a full disk: the service starts and reads; its writes answer 507 until freed
+                print(f"pneucore: sample datasets not restored, the disk is full ({exc})")
         app.state.store = store
         app.state.jobs = JobManager(workers=settings.limits.analysis_workers,
                                     max_jobs=settings.limits.max_jobs,
                                     time_limit=settings.limits.job_time_limit, store=store)
         app.state.cancelled_studies = set()
+        app.state.sync_pool = SyncPool(settings.limits.sync_workers, settings.limits.max_sync_queue)
         if settings.resume_studies:
             # studies left queued or running by a stopped server resume where they were
             from pneucore.study import list_studies
@@ -188,6 +198,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         return JSONResponse(status_code=422, content={"detail": [
             {"loc": ["body"], "msg": str(exc), "type": "value_error"}]})
 
+    @app.exception_handler(sqlite3.Error)
+    @app.exception_handler(OSError)
+    async def storage_error(request: Request, exc: Exception):
+        # an answer of its own, not the generic handler's (whose exception reaches the server,
+        # which then resets the kept-alive connection)
+        return storage_error_response(exc)
+
     @app.exception_handler(Exception)
     async def unexpected(request: Request, exc: Exception):
         return JSONResponse(status_code=500, content={"detail": f"internal error: {type(exc).__name__}: {exc}"})
@@ -252,6 +269,32 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     return app
 
 
+def storage_error_response(exc):
+    """The answer to a database or file error raised by a route.
+
+    A full disk (``SQLITE_FULL``, ``ENOSPC``) answers 507 Insufficient Storage naming the
+    cause; a database locked past the busy timeout 503; anything else 500 naming it.
+
+    Parameters
+    ----------
+    exc : sqlite3.Error or OSError
+        The error
+
+    Returns
+    -------
+    fastapi.responses.JSONResponse
+    """
+    cause = f"{type(exc).__module__}.{type(exc).__name__}: {exc}"
+    if disk_full(exc):
+        return JSONResponse(status_code=507, content={"detail": (
+            f"the server's disk is full: nothing can be stored ({cause}); deleting datasets, "
+            f"sessions or studies still works, or free space on the server")})
+    if isinstance(exc, sqlite3.OperationalError) and "locked" in str(exc):
+        return JSONResponse(status_code=503, headers={"Retry-After": "5"}, content={
+            "detail": f"the database is busy, try again ({cause})"})
+    return JSONResponse(status_code=500, content={"detail": f"internal error: {cause}"})
+
+
 #: Methods probed for the 405 ``Allow`` header
 _METHODS = ("GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS")
 
@@ -284,6 +327,10 @@ def main():
     if a.scheduler:   # read by Settings when uvicorn imports app.main
         os.environ["PNEUCORE_DASK_SCHEDULER"] = a.scheduler
     settings = Settings()
+    try:   # a database that cannot be opened: a clear message, not the server's traceback
+        Store(settings.db_path).close()
+    except StoreUnavailable as exc:
+        sys.exit(f"pneucore: not started: {exc}")
     print(f"pneucore: open http://{a.host}:{a.port}/  (database {settings.db_path})")
     if a.host not in LOCAL_HOSTS and "PNEUCORE_ALLOWED_HOSTS" not in os.environ:
         print("pneucore: only the host names localhost, 127.0.0.1 and ::1 are answered; on a shared "

@@ -41,9 +41,16 @@ _ERROR_TEXT = {
     404: "No such record",
     413: "The request body exceeds max_upload_bytes (GET /api/limits)",
     422: "Invalid input: each entry names the field (loc, field) and what is wrong (msg)",
-    429: "Too many jobs queued or running (max_jobs, GET /api/limits)",
+    429: "Too many jobs queued or running (max_jobs), or synchronous analyses running and "
+         "waiting (sync_workers, max_sync_queue; GET /api/limits); Retry-After says when to retry",
+    507: "The server's disk is full: nothing can be stored (the cause is named); deletes still work",
     504: "The synchronous analysis exceeded request_time_limit (GET /api/limits); use /api/jobs",
 }
+
+
+#: The synchronous analyses admitted by :mod:`app.sync_pool` (429 when its queue is full)
+SYNC_ANALYSES = ("/api/compare", "/api/calibrate", "/api/diagnose", "/api/refine",
+                 "/api/reports/compare", "/api/reports/diagnose", "/api/heat-models/compare")
 
 
 def document_errors(app, settings=None):
@@ -52,7 +59,7 @@ def document_errors(app, settings=None):
     Every operation can answer 400 (Host check) and 401 (token, when one is set);
     state-changing ones 403 (Origin check); those with a path parameter 404;
     those with a body 413 and 422; job-starting ones 429; the synchronous
-    analyses 504. The document is built once, on first use.
+    analyses 504; those that may store something 507 (a full disk). The document is built once, on first use.
     """
     build = app.openapi
 
@@ -81,8 +88,12 @@ def _add_errors(path, method, op):
         codes.append(422)
     if unsafe and path.startswith(("/api/jobs", "/api/studies")):
         codes.append(429)
+    if path in SYNC_ANALYSES:
+        codes.append(429)
     if path in ("/api/compare", "/api/calibrate", "/api/diagnose"):
         codes.append(504)
+    if method in ("POST", "PUT", "PATCH"):
+        codes.append(507)
     responses = op.setdefault("responses", {})
     for code in codes:
         responses.setdefault(str(code), {

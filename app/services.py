@@ -42,7 +42,8 @@ from pneucore.spec.scenario import Scenario
 from pneucore.spec.units import unit_systems
 from pneucore.spec.validation import FieldError, choice, finite_json, mapping, number
 from pneucore.study import (Study, check_run_options, delete_study, list_studies, queue_study,
-                            requeue_study, run_study, runs_csv, runs_npz, study_results, study_status)
+                            requeue_study, run_study, runs_csv, runs_npz, set_study_status,
+                            study_results, study_status)
 
 from .config import STUDY_CLUSTERS, Limits
 from .deps import parse_experiments, parse_model, parse_scenario
@@ -791,6 +792,13 @@ def start_study(app_state, db_path, sid, scheduler=None, workers=None, time_limi
             return run_study(None, store_path=db_path, scheduler=address, workers=workers,
                              progress=progress, study_id=sid, time_limit=time_limit or limits.study_time_limit,
                              scheduler_timeout=limits.scheduler_timeout)
+        except Exception:
+            if sid not in cancelled and not app_state.jobs.stopping:
+                # the study follows its job: a failure (a full disk among them) leaves it
+                # resumable, never "running"; when even this cannot be written, the reads
+                # say so from the job (study_state_from_job)
+                _mark_interrupted(db_path, sid)
+            raise
         finally:
             if sid in cancelled:
                 delete_study(db_path, sid)
@@ -803,6 +811,42 @@ def start_study(app_state, db_path, sid, scheduler=None, workers=None, time_limi
         raise QueueFull(str(exc)) from None
     job.study_id = sid
     return job
+
+
+def _mark_interrupted(db_path, sid):
+    """Store the status ``interrupted`` for study ``sid``; False when it cannot be written."""
+    try:
+        set_study_status(db_path, sid, "interrupted")
+        return True
+    except Exception as exc:   # a full disk: the job's state answers until it can be written
+        print(f"pneucore: study {sid} not marked interrupted: {type(exc).__name__}: {exc}")
+        return False
+
+
+def study_state_from_job(st, job, db_path):
+    """A study's stored state ``st`` corrected by its latest job: a stored ``queued`` or
+    ``running`` whose job has failed or stopped reads ``interrupted`` (and is stored so when
+    it can be, e.g. once space is freed after a full disk).
+
+    Parameters
+    ----------
+    st : dict
+        The study's entry (its ``status`` is changed in place)
+    job : app.jobs.Job or app.jobs.JobRecord or None
+        Its latest job in this server
+    db_path : str
+        The store
+
+    Returns
+    -------
+    dict
+        ``st``
+    """
+    if job is not None and job.status in ("error", "interrupted") and \
+            st.get("status") in ("queued", "running"):
+        st["status"] = "interrupted"
+        _mark_interrupted(db_path, st["id"])
+    return st
 
 
 def queue_new_study(req, app_state, limits):

@@ -10,6 +10,7 @@ are read-only and any missing one is restored at every start.
 from __future__ import annotations
 
 import datetime as _dt
+import errno
 import json
 import math
 import sqlite3
@@ -53,6 +54,35 @@ class ReadOnly(Exception):
     """A write to a record that may not be changed (a shipped sample dataset)."""
 
 
+class StoreUnavailable(Exception):
+    """The database file cannot be opened or its tables created (a full disk, no permission)."""
+
+
+#: SQLite's result code for a full disk or database (``SQLITE_FULL``, "database or disk is full")
+SQLITE_FULL = 13
+
+
+def disk_full(exc) -> bool:
+    """Whether ``exc`` says the disk (or the database's page limit) is full.
+
+    Parameters
+    ----------
+    exc : BaseException
+        A ``sqlite3.Error`` (``SQLITE_FULL``) or an ``OSError`` (``ENOSPC``, ``EDQUOT``)
+
+    Returns
+    -------
+    bool
+        True for a full disk, a full quota or a database at its page limit
+    """
+    if isinstance(exc, sqlite3.Error):
+        code = getattr(exc, "sqlite_errorcode", None)   # Python >= 3.11
+        if code is not None:
+            return code & 0xFF == SQLITE_FULL
+        return "database or disk is full" in str(exc)
+    return isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT)
+
+
 def _loads(text, default):
     """Decode a stored JSON column; ``default`` when the row cannot be decoded."""
     try:
@@ -80,10 +110,26 @@ class Store:
     def __init__(self, path):
         self.path = path
         self._lock = threading.RLock()   # reads too: one connection shared by threads
-        self._db = sqlite3.connect(path, check_same_thread=False, isolation_level=None,
-                                   timeout=BUSY_TIMEOUT_S)
-        self._db.execute("PRAGMA journal_mode=WAL")
-        self._db.executescript(_SCHEMA)
+        try:
+            self._db = self._connect(path)
+        except (sqlite3.Error, OSError) as exc:
+            cause = f"{type(exc).__module__}.{type(exc).__name__}: {exc}"
+            hint = "; free space on its disk, then start again" if disk_full(exc) else ""
+            raise StoreUnavailable(f"the database {str(path)!r} cannot be opened ({cause}){hint}") \
+                from None
+
+    @staticmethod
+    def _connect(path):
+        """Open ``path`` (WAL journal) and create the tables it lacks; returns the connection."""
+        db = sqlite3.connect(path, check_same_thread=False, isolation_level=None,
+                             timeout=BUSY_TIMEOUT_S)
+        try:
+            db.execute("PRAGMA journal_mode=WAL")
+            db.executescript(_SCHEMA)
+        except BaseException:
+            db.close()
+            raise
+        return db
 
     def close(self):
         with self._lock:
@@ -99,7 +145,14 @@ class Store:
                 self._db.execute("COMMIT")
                 return out
             except BaseException:
-                self._db.execute("ROLLBACK")
+                # SQLite has already rolled back after some errors (SQLITE_FULL among them):
+                # a second ROLLBACK would fail with "cannot rollback - no transaction is
+                # active" and hide the cause, which is what propagates
+                if self._db.in_transaction:
+                    try:
+                        self._db.execute("ROLLBACK")
+                    except sqlite3.Error:
+                        pass
                 raise
 
     # -- samples ------------------------------------------------------------------

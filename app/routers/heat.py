@@ -2,6 +2,7 @@
 from fastapi import APIRouter, HTTPException
 
 from ..deps import JobsDep, LimitsDep, StoreDep
+from ..sync_pool import sync_slot
 from ..responses import JSON
 from ..schemas import (HeatModelInfo, HeatModelsCompareRequest, HeatModelsCompareResponse,
                        HeatModelsResponse, HeatModelsSimulateRequest, JobResponse)
@@ -23,8 +24,9 @@ def simulate_endpoint(req: HeatModelsSimulateRequest, limits: LimitsDep):
     return JSON(simulate_every_heat_model(req, limits))
 
 
-@router.post("/compare", summary="One measurement against every heat model, each calibrated on "
-                                 "its own parameters: pressure and temperature errors per model",
+@router.post("/compare", dependencies=[sync_slot("/api/heat-models/compare/job")],
+             summary="One measurement against every heat model, each calibrated on "
+             "its own parameters: pressure and temperature errors per model",
              response_class=JSON, response_model=HeatModelsCompareResponse)
 def compare_endpoint(req: HeatModelsCompareRequest, store: StoreDep, limits: LimitsDep):
     return JSON(run_heat_compare(req, store, limits, progress=deadline_progress(

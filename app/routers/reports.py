@@ -3,6 +3,7 @@ from fastapi import APIRouter
 from fastapi.responses import Response
 
 from ..deps import LimitsDep, StoreDep
+from ..sync_pool import sync_slot
 from ..schemas import CompareRequest, DiagnoseRequest
 from ..services import comparison_report, deadline_progress, diagnosis_report
 
@@ -18,14 +19,16 @@ def _html(text, filename):
                     headers={"Content-Disposition": f'attachment; filename="{filename}"'})
 
 
-@router.post("/compare", response_class=Response, responses=_HTML,
+@router.post("/compare", dependencies=[sync_slot("/api/jobs/compare")],
+             response_class=Response, responses=_HTML,
              summary="HTML report of a comparison (plots, errors, windows, model, provenance)")
 def compare_report(req: CompareRequest, store: StoreDep, limits: LimitsDep):
     progress = deadline_progress(limits, "comparison", "/api/jobs/compare")
     return _html(comparison_report(req, store, limits, progress=progress), "comparison-report.html")
 
 
-@router.post("/diagnose", response_class=Response, responses=_HTML,
+@router.post("/diagnose", dependencies=[sync_slot("/api/jobs/diagnose")],
+             response_class=Response, responses=_HTML,
              summary="HTML report of a diagnosis (verdict, ranking, residual tests, plots, model)")
 def diagnose_report(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep):
     progress = deadline_progress(limits, "diagnosis", "/api/jobs/diagnose")

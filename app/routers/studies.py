@@ -14,7 +14,7 @@ from ..responses import JSON, NPZ_MEDIA_TYPE, npz_response
 from ..schemas import ClusterInfo, StudyRequest, StudyResultsResponse, StudyStarted, StudyStatus
 from ..services import (QueueFull, discard_study, list_stored_studies, queue_new_study, start_study,
                         study_clusters, study_exists, study_progress, study_runs_csv, study_runs_npz,
-                        study_summary)
+                        study_state_from_job, study_summary)
 
 router = APIRouter(prefix="/api/studies", tags=["studies"], route_class=OffLoopRoute)
 
@@ -40,8 +40,9 @@ def get_clusters(request: Request, limits: LimitsDep):
 
 
 @router.get("", summary="List stored studies", response_model=list[StudyStatus], response_model_exclude_unset=True)
-def get_studies(request: Request):
-    return list_stored_studies(_db(request))
+def get_studies(request: Request, jobs: JobsDep):
+    return [study_state_from_job(s, jobs.latest_for_study(s["id"]), _db(request))
+            for s in list_stored_studies(_db(request))]
 
 
 @router.get("/{study_id}", summary="Study progress: runs stored, failed, fraction, the job's state",
@@ -52,6 +53,7 @@ def get_study(study_id: str, request: Request, jobs: JobsDep):
         raise not_found("study", study_id)
     job = jobs.latest_for_study(study_id)
     if job is not None:
+        study_state_from_job(st, job, _db(request))
         st["job"] = job.to_dict(with_result=False)
     return st
 

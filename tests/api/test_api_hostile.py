@@ -225,3 +225,199 @@ def test_an_oversized_header_is_431(protocol_server):
             pass   # the server may close while we still write
         out, closed = _recv_all(s, 20.0)
         assert out.startswith(b"HTTP/1.1 431") and b"max_header_bytes" in out, out[:200]
+
+
+# ------------------------------------------------------------------ (5) a full disk
+# SQLite's ``PRAGMA max_page_count`` (a limit of one connection) at the database's size makes
+# every write that needs a new page fail as a full disk does: SQLITE_FULL, "database or disk
+# is full"; deletes need no new page.
+def _full(db, spare=0):
+    """Set connection ``db``'s page limit ``spare`` pages above the database's size."""
+    n = db.execute("PRAGMA page_count").fetchone()[0]
+    db.execute(f"PRAGMA max_page_count = {max(n + spare, 1)}")
+    return db
+
+
+@pytest.fixture
+def full_disk(monkeypatch):
+    """Every store the app opens from now on is full (the tables exist, no new page fits)."""
+    from app.store import Store
+    opened = Store._connect
+    monkeypatch.setattr(Store, "_connect", staticmethod(lambda path: _full(opened(path))))
+
+
+def _started_once(db_path):
+    """A database a first start has seeded, with one user dataset; returns its id."""
+    from api_conftest import api
+    with api(db_path) as c:
+        up = c.post("/api/datasets", files={"file": ("mine.csv", small_csv(40), "text/csv")})
+        assert up.status_code == 201, up.text
+        return up.json()["id"]
+
+
+def _assert_507(r):
+    assert r.status_code == 507, (r.status_code, r.text[:300])
+    detail = r.json()["detail"]
+    assert "disk is full" in detail and "database or disk is full" in detail, detail
+    assert "cannot rollback" not in detail
+
+
+def test_the_store_rolls_back_a_full_write_and_names_the_cause(tmp_path):
+    import sqlite3
+
+    from app.store import Store, disk_full
+    from pneucore.data.measurement import read_csv
+    store = Store(str(tmp_path / "s.sqlite3"))
+    meas = read_csv(io.StringIO(small_csv(4000)), name="big")
+    _full(store._db)
+    with pytest.raises(sqlite3.OperationalError) as err:
+        store.add_dataset(meas)
+    assert disk_full(err.value) and "cannot rollback" not in str(err.value)
+    assert not store._db.in_transaction and store.list_datasets() == []
+    _full(store._db, spare=10_000)   # space freed: the same store writes again
+    assert store.add_dataset(meas)["n_samples"] == 4000
+    store.close()
+
+
+def test_a_full_disk_answers_507_naming_the_cause_and_deletes_still_work(db_path, full_disk):
+    from api_conftest import api
+    mine = _started_once(db_path)
+    with api(db_path) as c:   # starts on the full disk: its reads work
+        assert c.get("/api/datasets").status_code == 200
+        _assert_507(c.post("/api/datasets", files={"file": ("a.csv", small_csv(4000), "text/csv")}))
+        exp = inline_experiment("clean", "free-pulses")
+        _assert_507(c.post("/api/sessions", json={"name": "s", "model": model(), "experiments": [exp]}))
+        assert c.get(f"/api/datasets/{mine}").status_code == 200   # the same client goes on
+        assert c.delete(f"/api/datasets/{mine}").status_code == 204
+        assert c.get(f"/api/datasets/{mine}").status_code == 404
+
+
+def test_a_full_disk_keeps_the_connection(db_path, full_disk):
+    """A 507 is an ordinary answer: the kept-alive connection carries the next request."""
+    import http.client
+    import json
+
+    from api_conftest import live_server
+    _started_once(db_path)
+    body = json.dumps({"name": "s", "model": model(),
+                       "experiments": [inline_experiment("clean", "free-pulses")]})
+    with live_server(db_path) as url:
+        conn = http.client.HTTPConnection(url.removeprefix("http://"), timeout=60)
+        conn.request("POST", "/api/sessions", body=body, headers={"Content-Type": "application/json"})
+        r = conn.getresponse()
+        detail = json.loads(r.read())["detail"]
+        sock = conn.sock
+        assert r.status == 507 and "database or disk is full" in detail, (r.status, detail)
+        conn.request("GET", "/api/limits")
+        r2 = conn.getresponse()
+        assert r2.status == 200 and json.loads(r2.read())["max_connections"] > 0
+        assert conn.sock is sock   # the same connection, not a new one
+        conn.close()
+
+
+def test_a_database_that_cannot_be_created_is_a_clear_message(tmp_path, monkeypatch):
+    import sqlite3
+
+    import app.main
+    from app.store import _SCHEMA, Store, StoreUnavailable
+
+    def fresh_on_a_full_disk(path):
+        db = sqlite3.connect(path, isolation_level=None)
+        db.execute("PRAGMA max_page_count = 1")
+        db.executescript(_SCHEMA)
+        return db
+    monkeypatch.setattr(Store, "_connect", staticmethod(fresh_on_a_full_disk))
+    path = str(tmp_path / "new.sqlite3")
+    with pytest.raises(StoreUnavailable, match="cannot be opened .*database or disk is full.*free space"):
+        Store(path)
+    # python -m app: the message, no traceback, and no server started
+    monkeypatch.setenv("PNEUCORE_DB", path)
+    monkeypatch.setattr("sys.argv", ["app"])
+    monkeypatch.setattr("uvicorn.run", lambda *a, **k: pytest.fail("started on a full disk"))
+    with pytest.raises(SystemExit) as stop:
+        app.main.main()
+    assert str(stop.value).startswith("pneucore: not started: the database") and \
+        "database or disk is full" in str(stop.value)
+
+
+def test_a_study_whose_job_failed_on_a_full_disk_reads_interrupted(db_path, monkeypatch):
+    import sqlite3
+
+    from api_conftest import api
+    from app import services
+    from pneucore.study import list_studies, set_study_status
+
+    def fails(*a, study_id=None, store_path=None, **k):
+        set_study_status(store_path, study_id, "running")
+        raise sqlite3.OperationalError("database or disk is full")
+
+    def still_full(*a):
+        raise sqlite3.OperationalError("database or disk is full")
+    monkeypatch.setattr(services, "run_study", fails)
+    monkeypatch.setattr(services, "set_study_status", still_full)
+    body = {"model": model(), "scenario": {"duration": 0.3, "command": [[0, 0], [0.02, 0.7]]},
+            "parameters": {"supply.pressure": {"distribution": "uniform", "min": 5e5, "max": 6e5}},
+            "samples": 2, "seed": 1, "workers": 0}
+    with api(db_path) as c:
+        r = c.post("/api/studies", json=body)
+        assert r.status_code == 202, r.text
+        sid, jid = r.json()["id"], r.json()["job_id"]
+        import time
+        t0 = time.monotonic()
+        while c.get(f"/api/jobs/{jid}").json()["status"] in ("queued", "running"):
+            assert time.monotonic() - t0 < 60   # a bound on a hang
+            time.sleep(0.02)
+        assert c.get(f"/api/jobs/{jid}").json()["status"] == "error"
+        assert [s["status"] for s in list_studies(str(db_path)) if s["id"] == sid] == ["running"]
+        # the disk still full: the study reads its job's state
+        assert c.get(f"/api/studies/{sid}").json()["status"] == "interrupted"
+        assert [s["status"] for s in c.get("/api/studies").json() if s["id"] == sid] == ["interrupted"]
+        # space freed: the next read stores it
+        monkeypatch.setattr(services, "set_study_status", set_study_status)
+        assert c.get(f"/api/studies/{sid}").json()["status"] == "interrupted"
+        assert [s["status"] for s in list_studies(str(db_path)) if s["id"] == sid] == ["interrupted"]
+
+
+# ------------------------------------------------------------------ (2) a bounded synchronous pool
+def test_synchronous_analyses_beyond_the_queue_are_429_and_reads_go_on(db_path, monkeypatch):
+    """Eight diagnoses at once on 1 worker and a queue of 1: one runs, one waits, six are 429
+    with Retry-After naming the limits; a read is answered meanwhile; the two finish."""
+    import threading
+    import time
+    from concurrent.futures import ThreadPoolExecutor
+
+    from api_conftest import api
+    from app.routers import analysis
+    release, running = threading.Event(), threading.Semaphore(0)
+
+    def held(*a, **k):   # a diagnosis that lasts until the test lets it go
+        running.release()
+        assert release.wait(120)
+        return {"held": True}
+    monkeypatch.setattr(analysis, "run_diagnose", held)
+    body = {"model": model(), "experiments": [{"dataset_id": "sample-leak-and-lag-free-pulses"}]}
+    with api(db_path, sync_workers=1, max_sync_queue=1) as c, ThreadPoolExecutor(8) as ex:
+        limits = c.get("/api/limits").json()
+        assert (limits["sync_workers"], limits["max_sync_queue"]) == (1, 1)
+        calls = [ex.submit(c.post, "/api/diagnose", json=body) for _ in range(8)]
+        assert running.acquire(timeout=120)   # one runs (a bound on a hang)
+        t0 = time.monotonic()
+        refused = []
+        while len(refused) < 6:
+            refused = [f.result() for f in calls if f.done()]
+            assert time.monotonic() - t0 < 60, [r.status_code for r in refused]
+            time.sleep(0.01)
+        t0 = time.monotonic()
+        read = c.get("/api/datasets/sample-leak-and-lag-free-pulses")
+        read_s = time.monotonic() - t0
+        busy = c.app.state.sync_pool.admitted
+        release.set()
+        answers = [f.result(timeout=120) for f in calls]
+    assert read.status_code == 200 and read_s < 5.0, read_s   # generous: a loaded 2-core machine
+    assert busy == 2   # precondition: the read came while the pool was full
+    assert all(r.status_code == 429 for r in refused), [r.text for r in refused]
+    for r in refused:
+        assert r.headers["retry-after"].isdigit() and int(r.headers["retry-after"]) > 0
+        assert "max_sync_queue" in r.json()["detail"] and "/api/jobs/diagnose" in r.json()["detail"]
+    assert sorted(r.status_code for r in answers) == [200] * 2 + [429] * 6
+    assert c.app.state.sync_pool.admitted == 0   # every slot given back
