@@ -90,6 +90,13 @@ class Objective:
             return np.empty(0)
         return (np.asarray(theta, float)[self._prior_idx] - self._prior_c) / self._prior_s
 
+    def prior_jacobian(self, scales):
+        """d(prior rows)/dz for scaled parameters ``z = theta / scales``: ``(n_prior, n)``."""
+        J = np.zeros((self._prior_idx.size, len(self.specs)))
+        J[np.arange(self._prior_idx.size), self._prior_idx] = \
+            np.asarray(scales, float)[self._prior_idx] / self._prior_s
+        return J
+
     def full(self, replays, theta):
         """Weighted data residuals followed by the prior's rows: what the optimiser minimises."""
         return np.concatenate([self.weighted(replays), self.prior_rows(theta)])
@@ -362,8 +369,7 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         if n_pr:
             # with the prior's rows (unit variance by construction): how well each value is known
             # given the user's values along what the data do not resolve
-            Jp = np.zeros((n_pr, len(vs)))
-            Jp[np.arange(n_pr), obj._prior_idx] = sc[obj._prior_idx] / obj._prior_s
+            Jp = obj.prior_jacobian(sc)
             try:
                 cov_p = np.linalg.pinv(Jz.T @ Jz + Jp.T @ Jp)
                 se_prior = np.sqrt(np.clip(np.diag(cov_p), 0, None)) * sc
