@@ -262,7 +262,7 @@ def run_refine(req: RefineRequest, store, limits, progress=None, checked=None):
     """:func:`pneucore.analysis.history.refine` on the request: the versions, each round's diagnosis and
     the refined model (plain JSON); ``checked`` as for :func:`run_compare` (from
     :func:`check_refine`)."""
-    from pneucore.analysis.history import refine
+    from pneucore.analysis.history import refine, refinement_answer
     model, exps = checked or check_refine(req, store, limits)
     state = {"round": 0, "last": 0.0}
 
@@ -276,11 +276,7 @@ def run_refine(req: RefineRequest, store, limits, progress=None, checked=None):
     final, history, diagnoses = refine(model, exps, max_rounds=req.max_rounds,
                                        uncertain=req.uncertain, progress=each_round,
                                        validated=True)   # check_refine checked it
-    last = diagnoses[-1] if diagnoses else None
-    return {"model": final.to_dict(), "versions": history.to_dict()["versions"],
-            "diagnoses": [d.to_dict() for d in diagnoses],
-            "message": last.message if last is not None else "",
-            "at_floor": bool(last is not None and last.remaining.get("at_floor"))}
+    return refinement_answer(final, history, diagnoses)
 
 
 def compare_csv(req: CompareRequest, store, limits, progress=None):
@@ -314,16 +310,11 @@ def diagnosis_report(req: DiagnoseRequest, store, limits, progress=None):
     """POST /api/reports/diagnose: the diagnosis (with the comparisons of the model and of the
     verdict's refined model) as one self-contained HTML text; ``progress`` follows the
     diagnosis."""
-    from pneucore.analysis.report import diagnosis_report as html_report
+    from pneucore.analysis.report import diagnosis_report_on
     model, exps = check_diagnose(req, store, limits)
     d = diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
                  progress=progress, validated=True).to_dict()   # checked above
-    c = compare(model, exps)
-    refined = None
-    best = next((r for r in d.get("ranking", []) if r.get("effect") == d.get("verdict")), None)
-    if best is not None and best.get("model"):
-        refined = compare(Model.from_dict(best["model"]), exps)
-    return html_report(model, d, c, _provenance(store, exps), refined)
+    return diagnosis_report_on(model, exps, d, _provenance(store, exps))
 
 
 # ------------------------------------------------------------------------------ heat models

@@ -1,4 +1,6 @@
-"""Command line: ``pneucore run`` simulates a preset and prints a summary.
+"""Command line: ``pneucore run`` simulates a preset and prints a summary; ``pneucore
+compare``, ``diagnose`` and ``refine`` run the modelling loop on measurement files
+(:mod:`pneucore.analysis.command_line`).
 
 Examples
 --------
@@ -11,6 +13,7 @@ import json
 import sys
 import time
 
+from pneucore.analysis.command_line import COMMANDS, LoopArgumentError, add_loop_commands, run_loop
 from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
 from pneucore.simulate import SimulationError, simulate
 from pneucore.spec.validation import FieldError
@@ -60,6 +63,19 @@ def summary_lines(res):
     return lines
 
 
+def _loop(args):
+    """Run a loop command; the exit status (0, or 2 for bad input with its message)."""
+    from pneucore.data.measurement import MeasurementError
+    try:
+        lines = run_loop(args)
+    except (LoopArgumentError, FieldError, MeasurementError, ValueError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    for line in lines:
+        print(line)
+    return 0
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="pneucore", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="cmd")
@@ -73,6 +89,8 @@ def main(argv=None):
     run.add_argument("--npz", help="write every series and a meta.json (units, events, stats) to this "
                                    "NumPy .npz archive (numpy.load reads it)")
     sub.add_parser("presets", help="list the presets")
+    sub.add_parser("samples", help="list the shipped samples (rig data hiding known effects)")
+    add_loop_commands(sub)
     args = parser.parse_args(argv)
     if args.cmd in (None, "run") and not hasattr(args, "model"):
         args = parser.parse_args(["run"] + (argv or []))
@@ -80,6 +98,13 @@ def main(argv=None):
         for name, p in {**MODEL_PRESETS, **SCENARIO_PRESETS}.items():
             print(f"{name:24s} {p.get('description', '')}")
         return 0
+    if args.cmd == "samples":
+        from pneucore.data.samples import list_samples
+        for s in list_samples():
+            print(f"{s['id']:24s} {s['description']}")
+        return 0
+    if args.cmd in COMMANDS:
+        return _loop(args)
     try:
         model = _load(args.model, MODEL_PRESETS, model_preset, "model")
         scenario = _load(args.scenario, SCENARIO_PRESETS, scenario_preset, "scenario")

@@ -243,3 +243,28 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
         if d.verdict is None or d.remaining.get("at_floor"):
             break
     return model, history, diagnoses
+
+
+def refinement_answer(final, history, diagnoses):
+    """The answer of a refinement as plain JSON (POST /api/refine and ``pneucore refine``).
+
+    Parameters
+    ----------
+    final : Model
+        The refined model :func:`refine` returns [-]
+    history : RefinementHistory
+        Its versions [-]
+    diagnoses : list of Diagnosis
+        Each round's diagnosis [-]
+
+    Returns
+    -------
+    answer : dict
+        ``model`` (the refined model), ``versions``, ``diagnoses``, ``message`` (the last
+        round's) and ``at_floor`` [-]
+    """
+    last = diagnoses[-1] if diagnoses else None
+    return {"model": final.to_dict(), "versions": history.to_dict()["versions"],
+            "diagnoses": [d.to_dict() for d in diagnoses],
+            "message": last.message if last is not None else "",
+            "at_floor": bool(last is not None and last.remaining.get("at_floor"))}

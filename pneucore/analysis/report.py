@@ -18,7 +18,7 @@ import numpy as np
 
 from pneucore.data.measurement import SIGNAL_UNITS
 
-__all__ = ["comparison_report", "diagnosis_report", "svg_plot"]
+__all__ = ["comparison_report", "diagnosis_report", "diagnosis_report_on", "refinement_report", "svg_plot"]
 
 #: Display scale of each signal in the plots: (factor from SI, unit shown)
 _DISPLAY = {"p_a": (1e-5, "bar abs"), "p_b": (1e-5, "bar abs"), "x": (1e3, "mm"),
@@ -251,14 +251,39 @@ def diagnosis_report(model, diagnosis, comparison, provenance=None, refined=None
     """
     md = model if isinstance(model, dict) else model.to_dict()
     d = diagnosis
+    sections = _diagnosis_sections(d)
+    sections.append(_provenance(comparison, provenance))
+    sections += _comparison_sections(comparison, "diagnosed model")
+    if refined is not None:
+        sections.append(f"<h2>With {_e(d.get('verdict'))} added</h2>")
+        sections += _comparison_sections(refined, f"+ {d.get('verdict')}")[1:]
+    sections.append(_model_section(md))
+    return _page(title, sections)
+
+
+def _fitted(name, v) -> str:
+    """One fitted parameter as text: ``name = value unit (± stderr)``; a parameter is a plain
+    number or the diagnosis' ``{"value", "stderr", "unit"}``."""
+    if isinstance(v, dict):
+        val, err, unit = v.get("value"), v.get("stderr"), v.get("unit") or ""
+        if not isinstance(val, (int, float)):
+            return f"{name} = —"
+        text = f"{name} = {val:.4g}" + (f" {unit}" if unit and unit != "-" else "")
+        if isinstance(err, (int, float)) and math.isfinite(err):
+            text += f" (± {err:.2g})"
+        return text
+    return f"{name} = {v:.4g}" if isinstance(v, (int, float)) else f"{name} = {v}"
+
+
+def _diagnosis_sections(d, level=2):
+    """Verdict, ranking, explanations and residual tests of one diagnosis (``to_dict()``)."""
     verdict = d.get("verdict") or "no catalog effect explains the remaining residual"
     rows = []
     for r in d.get("ranking", []):
         rows.append([r.get("effect", ""), _pct(r.get("error_before")), _pct(r.get("error_after_overall")),
                      f"{r.get('lr_statistic', float('nan')):.4g}", f"{r.get('p_value', float('nan')):.3g}",
                      f"{r.get('delta_bic', float('nan')):.4g}",
-                     ", ".join(f"{k} = {v:.4g}" if isinstance(v, (int, float)) else f"{k} = {v}"
-                               for k, v in (r.get("params") or {}).items())])
+                     ", ".join(_fitted(k, v) for k, v in (r.get("params") or {}).items())])
     sections = [f"<h2>Verdict: {_e(verdict)}</h2><p>{_e(d.get('message', ''))}</p>",
                 _table(["effect", "error before", "error after", "LR", "p", "ΔBIC", "fitted"], rows),
                 "<h3>Explanations</h3>" + "".join(f"<p><b>{_e(r.get('effect'))}</b>: {_e(r.get('explanation', ''))}</p>"
@@ -266,10 +291,74 @@ def diagnosis_report(model, diagnosis, comparison, provenance=None, refined=None
     tests = d.get("residual_tests")
     if isinstance(tests, dict) and tests.get("summary"):
         sections.append(f"<h3>Residual tests</h3><p>{_e(tests['summary'])}</p>")
+    if level != 2:
+        sections[0] = sections[0].replace("<h2>", f"<h{level}>").replace("</h2>", f"</h{level}>")
+    return sections
+
+
+def diagnosis_report_on(model, experiments, diagnosis, provenance=None, title="Diagnosis") -> str:
+    """:func:`diagnosis_report` of a diagnosis made on ``experiments``: the diagnosed model and
+    the verdict's refitted model are compared with them here (POST /api/reports/diagnose and
+    ``pneucore diagnose --report`` share it).
+
+    Parameters
+    ----------
+    model : Model
+        The model diagnosed [-]
+    experiments : list of Experiment
+        The experiments it was diagnosed on [-]
+    diagnosis : dict
+        ``Diagnosis.to_dict()`` [-]
+    provenance : list of dict or None, optional
+        Stored dataset records [-]
+    title : str, optional
+        Page title [-]
+
+    Returns
+    -------
+    html : str
+        A self-contained page [-]
+    """
+    from pneucore.analysis.compare import compare
+    from pneucore.spec.model import Model
+    d = diagnosis
+    refined = None
+    best = next((r for r in d.get("ranking", []) if r.get("effect") == d.get("verdict")), None)
+    if best is not None and best.get("model"):
+        refined = compare(Model.from_dict(best["model"]), experiments)
+    return diagnosis_report(model, d, compare(model, experiments), provenance, refined, title)
+
+
+def refinement_report(answer, comparison, provenance=None, title="Refinement") -> str:
+    """HTML report of a whole refinement: every version with its errors, every round's
+    verdict and ranking, the refined model against the data, and the refined model.
+
+    Parameters
+    ----------
+    answer : dict
+        :func:`pneucore.analysis.history.refinement_answer` [-]
+    comparison : pneucore.analysis.compare.Comparison
+        The refined model compared with the data [-]
+    provenance : list of dict or None, optional
+        Stored dataset records [-]
+    title : str, optional
+        Page title [-]
+
+    Returns
+    -------
+    html : str
+        A self-contained page [-]
+    """
+    versions = answer.get("versions", [])
+    signals = sorted({s for v in versions for s in (v.get("errors") or {})})
+    rows = [[v.get("version"), v.get("label", ""), _pct(v.get("overall"))]
+            + [_pct((v.get("errors") or {}).get(s)) for s in signals] for v in versions]
+    sections = ["<h2>Versions</h2>", _table(["version", "label", "overall"] + signals, rows, left=2),
+                f"<p>{_e(answer.get('message', ''))}</p>"]
+    for k, d in enumerate(answer.get("diagnoses", [])):
+        sections.append(f"<h2>Round {k + 1}</h2>")
+        sections += _diagnosis_sections(d, level=3)
     sections.append(_provenance(comparison, provenance))
-    sections += _comparison_sections(comparison, "diagnosed model")
-    if refined is not None:
-        sections.append(f"<h2>With {_e(d.get('verdict'))} added</h2>")
-        sections += _comparison_sections(refined, f"+ {d.get('verdict')}")[1:]
-    sections.append(_model_section(md))
+    sections += _comparison_sections(comparison, "refined model")
+    sections.append(_model_section(answer.get("model", {})))
     return _page(title, sections)
