@@ -32,8 +32,11 @@ from .config import Limits as _Limits  # noqa: E402
 #: an escape sequence would reach logs, file names and CSV cells)
 Name = _Annotated[str, StringConstraints(max_length=_Limits.max_name_length,
                                          pattern=r"^[^\x00-\x1f\x7f]*$")]
-#: Free text: at most Limits.max_text_length characters
-Text = _Annotated[str, StringConstraints(max_length=_Limits.max_text_length)]
+#: Free text (a description): at most Limits.max_text_length characters, and no control
+#: character either: a CR, LF or NUL in a description would reach the same logs, reports and
+#: CSV headers as a name's
+Text = _Annotated[str, StringConstraints(max_length=_Limits.max_text_length,
+                                         pattern=r"^[^\x00-\x1f\x7f]*$")]
 
 
 class _Strict(BaseModel):

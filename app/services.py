@@ -569,8 +569,8 @@ def form_json(fields, key, limits):
 
 def form_name(fields, key, limits, default=None, text=False):
     """A name (or, with ``text``, a description) from a form field: at most
-    ``Limits.max_name_length`` characters and no control character (``Limits.max_text_length``
-    for a description); a :class:`FieldError` naming the field otherwise."""
+    ``Limits.max_name_length`` characters (``Limits.max_text_length`` for a description) and no
+    control character (CR, LF, NUL, tab...); a :class:`FieldError` naming the field otherwise."""
     value = fields.get(key)
     if value in (None, ""):
         return default
@@ -578,7 +578,7 @@ def form_name(fields, key, limits, default=None, text=False):
     if len(value) > most:
         raise FieldError(key, f"is {len(value)} characters long; at most "
                               f"{'max_text_length' if text else 'max_name_length'} = {most}")
-    if not text and any(ord(c) < 32 or ord(c) == 127 for c in value):
+    if any(ord(c) < 32 or ord(c) == 127 for c in value):
         raise FieldError(key, "holds a control character (a tab, a line break...)")
     return value
 

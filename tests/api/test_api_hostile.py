@@ -126,6 +126,18 @@ def test_names_are_bounded_and_free_of_control_characters(client, name):
     assert _up(client, name="ok name").status_code == 201
 
 
+@pytest.mark.parametrize("text", ["line one\r\nline two", "a\x00b", "a\nb"])
+def test_descriptions_refuse_cr_lf_and_nul_naming_the_field(client, text):
+    """Issue 24: a description reaches the same logs, reports and CSV headers as a name."""
+    from api_conftest import assert_field_error
+    assert_field_error(_up(client, description=text), "description")
+    m = model()
+    m["description"] = text
+    r = client.post("/api/simulate", json={"model": m, "scenario": {"duration": 0.01}})
+    assert r.status_code == 422 and r.json()["detail"][0]["field"] == "model.description", r.text[:300]
+    assert _up(client, description="a plain description").status_code == 201
+
+
 @pytest.mark.parametrize("nfev", [-1, 0, 10_000])
 def test_max_nfev_out_of_range_is_422(client, nfev):
     r = client.post("/api/calibrate", json={"model": model(), "experiments": [
