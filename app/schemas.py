@@ -425,6 +425,12 @@ class ExperimentComparison(BaseModel):
     measured: Optional[dict[str, list[Optional[float]]]] = Field(None, description="Measured per signal (SI units)")
 
 
+class ContextHint(BaseModel):
+    experiment: str = Field(..., description="Experiment label")
+    kind: str = Field(..., description="declared_free_never_moves or declared_locked_moves [-]")
+    message: str = Field(..., description="What the record contradicts, and what to declare instead")
+
+
 class CompareResponse(ErrorSet):
     model_config = ConfigDict(extra="allow")
     combined_phases: dict[str, Any] = Field(default_factory=dict, description="Per command x piston phase and signal: " + FRACTION)
@@ -432,6 +438,7 @@ class CompareResponse(ErrorSet):
     noise_floor: dict[str, Optional[float]] = Field(..., description="Estimated measurement-noise floor of the error per signal: " + FRACTION)
     experiments: list[ExperimentComparison] = Field(..., description="Per experiment")
     heat_models: Optional[dict[str, Any]] = Field(None, description="The same comparison under each heat model asked for")
+    hints: list[ContextHint] = Field(default_factory=list, description="Where a record contradicts the context declared with it (a free test that never moves, a locked one that does)")
 
 
 class CalibrateResponse(BaseModel):
@@ -477,6 +484,7 @@ class DiagnoseResponse(BaseModel):
     noise_floor: dict[str, Optional[float]] = Field(..., description="Noise floor per signal: " + FRACTION)
     base_model: dict[str, Any] = Field(..., description="The null model (uncertain parameters refitted)")
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along [-]")
+    hints: list[ContextHint] = Field(default_factory=list, description="Where a record contradicts the context declared with it; also at the end of the message")
 
 
 class CalibrationParametersRequest(_Strict):

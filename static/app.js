@@ -869,7 +869,8 @@ function renderCompare() {
   }
   $('#phase-table').innerHTML = p + '</tbody></table>';
   $('#compare-summary').innerHTML = `Overall error <b id="compare-overall">${pct(c.overall)} %</b> over ${c.experiments.length} experiment(s); ` +
-    `model <i>${esc(S.model.name || 'custom')}</i>${Object.keys(S.model.effects || {}).length ? ' + ' + esc(Object.keys(S.model.effects).join(' + ')) : ''}.`;
+    `model <i>${esc(S.model.name || 'custom')}</i>${Object.keys(S.model.effects || {}).length ? ' + ' + esc(Object.keys(S.model.effects).join(' + ')) : ''}.` +
+    (c.hints || []).map((h) => `<p class="context-hint warn" data-kind="${esc(h.kind)}">Check the context: ${esc(h.message)}</p>`).join('');
   // worst windows
   $('#failure-windows').innerHTML = (c.failure_windows || []).map((w, i) =>
     `<li><span class="win-tag">#${i + 1}</span> ${esc(w.description || `${w.experiment}: ${w.signal} ${w.t_start}-${w.t_end} s`)}` +

@@ -65,6 +65,63 @@ def replay(model, experiment):
     return Replay(experiment, res, res.t, meas, sim, u)
 
 
+#: A measured position whose spread (1st to 99th percentile) stays below this never moved [m]:
+#: about eight steps of the paper's 12-bit acquisition over a 250 mm stroke (0.06 mm a step),
+#: well above an LVDT's noise, far below any stroke a free test makes
+STILL_SPREAD = 5e-4
+#: A free replay moving farther than this [m] (ten times the above) contradicts a record that
+#: never moved: the context declared is the likelier mistake, not the physics
+MOVES_SPREAD = 5e-3
+
+
+def _spread(x):
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    if x.size < 2:
+        return None
+    lo, hi = np.percentile(x, [1.0, 99.0])
+    return float(hi - lo)
+
+
+def context_hints(replays):
+    """Hints where the records contradict the context declared with them: a "free" test whose
+    measured position never moves while the model's does (a locked test declared free), a
+    "locked" test whose measured position moves.
+
+    Parameters
+    ----------
+    replays : list of Replay
+        The experiments replayed on the model [-]
+
+    Returns
+    -------
+    hints : list of dict
+        ``{"experiment", "kind", "message"}`` each; ``kind`` is ``declared_free_never_moves``
+        or ``declared_locked_moves`` [-]
+    """
+    hints = []
+    for rp in replays:
+        exp = rp.experiment
+        x_meas = exp.measurement.signals.get("x")
+        meas = _spread(x_meas) if x_meas is not None else None
+        if meas is None:
+            continue
+        locked = bool(exp.scenario.get("locked", False))
+        sim = _spread(rp.simulated["x"]) if "x" in rp.simulated else None
+        if not locked and meas < STILL_SPREAD and sim is not None and sim > MOVES_SPREAD:
+            hints.append({"experiment": exp.name, "kind": "declared_free_never_moves", "message": (
+                f"{exp.name}: the measured position stays within {1e3 * meas:.2g} mm over the "
+                f"whole record while the model, told the piston is free, moves it by "
+                f"{1e3 * sim:.3g} mm. If the piston was locked, declare it (scenario.locked = "
+                "true, with its x0); the errors of this test say little about the model until then.")})
+        elif locked and meas > 4 * STILL_SPREAD:
+            hints.append({"experiment": exp.name, "kind": "declared_locked_moves", "message": (
+                f"{exp.name}: declared locked, but the measured position moves by {1e3 * meas:.3g} "
+                "mm. If the piston was free, declare it (scenario.locked = false, with its x0); a "
+                "locked replay ignores the motion.")})
+    return hints
+
+
 def _overall(errors):
     vals = [e for e in errors.values() if e is not None and math.isfinite(e)]
     return float(math.sqrt(np.mean(np.square(vals)))) if vals else float("nan")
@@ -144,12 +201,13 @@ class Comparison:
     noise_floor: dict
     heat_models: dict = field(default_factory=dict)
     replays: list = field(default_factory=list, repr=False)
+    hints: list = field(default_factory=list)
 
     def to_dict(self, residuals=True):
         d = {"errors": self.errors, "overall": self.overall, "phases": self.phases,
              "piston_phases": self.piston_phases, "combined_phases": self.combined_phases,
              "failure_windows": self.windows, "noise_floor": self.noise_floor,
-             "experiments": [dict(e) for e in self.experiments]}
+             "experiments": [dict(e) for e in self.experiments], "hints": self.hints}
         if not residuals:
             for e in d["experiments"]:
                 e.pop("residuals", None)
@@ -222,7 +280,8 @@ def summarise(replays, n_windows=5):
     errors = _pooled(replays)
     return Comparison(errors, _overall(errors), _phase_table(replays, "command"),
                       _phase_table(replays, "piston"), _phase_table(replays, "combined"),
-                      windows[:n_windows], exps, noise_floor(replays), replays=replays)
+                      windows[:n_windows], exps, noise_floor(replays), replays=replays,
+                      hints=context_hints(replays))
 
 
 #: The three heat models of the paper's Fig. 8 and Table 2

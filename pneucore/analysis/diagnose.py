@@ -178,6 +178,7 @@ class Diagnosis:
     initial_state: list = field(default_factory=list)
     error_start: object = None
     dropped: list = field(default_factory=list)
+    hints: list = field(default_factory=list)
 
     def best(self):
         return self.ranking[0] if self.ranking else None
@@ -197,7 +198,7 @@ class Diagnosis:
             "model": self.model.to_dict() if self.model is not None else None,
             "alternatives": self.alternatives, "remaining": self.remaining,
             "identifiability": self.identifiability, "dropped": self.dropped,
-            "initial_state": self.initial_state,
+            "initial_state": self.initial_state, "hints": self.hints,
             "error_start": ({"errors": self.error_start.errors, "overall": self.error_start.overall}
                             if self.error_start is not None else None),
         })
@@ -705,6 +706,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                     f"{', '.join(h['label'] for h in identifiability)} changes the recorded signals "
                     "measurably): record the chamber pressures during valve moves, and a free test "
                     "for friction and mass.")
+    for hint in comp_start.hints:   # the records contradict their declared context
+        message += " Check the context: " + hint["message"]
     report(1.0, "done")
     return Diagnosis(verdict, message, ranking, score + [{"effect": s["effect"], "skipped": s["reason"]}
                                                           for s in skipped],
@@ -712,7 +715,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                      recalibrate=recal, refitted=refitted, model=next_model,
                      alternatives=alternatives, remaining=remaining,
                      identifiability=identifiability, error_start=comp_start, dropped=dropped,
-                     initial_state=initial_state)
+                     initial_state=initial_state, hints=comp_start.hints)
 
 
 def _undetermined(cand):
