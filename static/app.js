@@ -760,19 +760,68 @@ async function loadDatasets(selectValue) {
   if (selectValue && [...sel.options].some((o) => o.value === selectValue)) sel.value = selectValue;
   onDatasetSelect();
 }
+/** The datasets of the picker's selected options, in order, each once: whole samples,
+ * single datasets and the session's experiments may be combined (the method depends on
+ * diagnosing a rig's tests together: a locked test identifies no friction and no mass). */
+function selectedDatasets() {
+  const out = [];
+  const add = (d) => { if (d && !out.includes(d)) out.push(d); };
+  for (const o of $('#dataset-select').selectedOptions) {
+    const v = o.value || '';
+    if (v.startsWith('sample:')) S.datasets.filter((d) => d.sample === v.slice(7)).forEach(add);
+    else if (v.startsWith('ds:')) add(S.datasets.find((d) => d.id === v.slice(3)));
+    else if (v === 'session' && S.session) S.session.experiments.forEach((e) => add(S.datasets.find((d) => d.id === e.dataset_id)));
+  }
+  return out;
+}
 function onDatasetSelect() {
-  const v = $('#dataset-select').value || '';
-  let list = [];
-  if (v.startsWith('sample:')) list = S.datasets.filter((d) => d.sample === v.slice(7));
-  else if (v.startsWith('ds:')) list = S.datasets.filter((d) => d.id === v.slice(3));
-  else if (v === 'session' && S.session) list = S.session.experiments.map((e) => S.datasets.find((d) => d.id === e.dataset_id)).filter(Boolean);
-  S.experiments = list.map((d) => ({ dataset_id: d.id }));
+  const list = selectedDatasets();
+  // a session's experiments keep the context they were stored with (locked, x0, time offset)
+  const kept = new Map((S.session ? S.session.experiments : []).concat(S.experiments || [])
+    .filter((e) => e.dataset_id).map((e) => [e.dataset_id, e]));
+  S.experiments = list.map((d) => {
+    const k = kept.get(d.id);
+    const e = { dataset_id: d.id };
+    if (k && k.scenario) e.scenario = clone(k.scenario);
+    if (k && k.time_offset != null) e.time_offset = k.time_offset;
+    return e;
+  });
   $('#dataset-info').innerHTML = list.map((d) => {
     const sc = d.scenario || {};
     return `<div><b>${esc(d.name)}</b>: ${d.n_samples} samples, signals ${esc(d.signals.join(', '))}, ` +
-      `${sc.locked ? 'piston locked' : 'piston free'}${sc.x0 != null ? `, x0 = ${num(sc.x0)} m` : ''}</div>`;
-  }).join('') || 'No dataset selected.';
+      `stored as ${sc.locked ? 'piston locked' : 'piston free'}${sc.x0 != null ? `, x0 = ${num(1e3 * sc.x0)} mm` : ''}</div>`;
+  }).join('') + (list.length > 1 ? `<div>${list.length} experiments compared, calibrated and diagnosed together; each one's context below.</div>` : '') ||
+    'No dataset selected.';
+  renderExperimentSet(list);
   clearFieldError($('#dataset-select'));
+}
+/** One row per selected experiment: its own context (piston locked, x0 [mm], time offset [s]),
+ * starting from what the dataset was stored with; an edit changes this request's scenario only. */
+function renderExperimentSet(list) {
+  if (!list.length) { $('#experiment-set').innerHTML = ''; return; }
+  let h = '<table id="experiment-set-table" class="data"><thead><tr><th scope="col">experiment</th><th scope="col">samples</th>' +
+    '<th scope="col">signals</th><th scope="col">locked</th><th scope="col">x0 [mm]</th><th scope="col">time offset [s]</th></tr></thead><tbody>';
+  list.forEach((d, i) => {
+    const e = S.experiments[i];
+    const sc = e.scenario || d.scenario || {};
+    h += `<tr data-index="${i}"><th scope="row">${esc(d.name)}</th><td class="num">${d.n_samples}</td><td>${esc(d.signals.join(', '))}</td>` +
+      `<td><input type="checkbox" data-key="locked" aria-label="${esc(d.name)}: piston locked"${sc.locked ? ' checked' : ''}></td>` +
+      `<td><input type="number" step="any" data-key="x0" aria-label="${esc(d.name)}: x0 [mm]" value="${sc.x0 != null ? num(1e3 * sc.x0) : ''}"></td>` +
+      `<td><input type="number" step="any" data-key="time_offset" aria-label="${esc(d.name)}: time offset [s]" value="${e.time_offset != null ? num(e.time_offset) : ''}"></td></tr>`;
+  });
+  $('#experiment-set').innerHTML = h + '</tbody></table>';
+  for (const input of $('#experiment-set').querySelectorAll('input')) {
+    input.addEventListener('change', () => {
+      const i = Number(input.closest('tr').dataset.index);
+      const d = list[i], e = S.experiments[i];
+      const sc = e.scenario || clone(d.scenario || {});
+      if (input.dataset.key === 'locked') sc.locked = input.checked;
+      else if (input.dataset.key === 'x0') sc.x0 = input.value === '' ? (d.scenario || {}).x0 : Number(input.value) / 1e3;
+      else if (input.value === '') delete e.time_offset;
+      else e.time_offset = Number(input.value);
+      if (input.dataset.key !== 'time_offset') e.scenario = sc;
+    });
+  }
 }
 function selectExperiments(exps) {
   // choose the option of the dataset picker that matches a list of experiments
@@ -781,7 +830,12 @@ function selectExperiments(exps) {
   const bySample = new Map();
   for (const d of S.datasets) if (d.sample) { if (!bySample.has(d.sample)) bySample.set(d.sample, []); bySample.get(d.sample).push(d.id); }
   for (const [g, list] of bySample) if (JSON.stringify(list) === JSON.stringify(ids)) { sel.value = `sample:${g}`; onDatasetSelect(); return; }
-  if (ids.length === 1 && S.datasets.some((d) => d.id === ids[0])) { sel.value = `ds:${ids[0]}`; onDatasetSelect(); return; }
+  if (ids.length && ids.every((id) => S.datasets.some((d) => d.id === id))) {
+    // several stored datasets: select each of them (the session's contexts are kept)
+    for (const o of sel.options) o.selected = ids.includes(o.value.slice(3)) && o.value.startsWith('ds:');
+    onDatasetSelect();
+    return;
+  }
   if (ids.length) {
     const opt = document.createElement('option');
     opt.value = 'session';

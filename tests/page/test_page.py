@@ -328,7 +328,7 @@ def test_upload_csv(page):
     page.click("#btn-upload")
     page.wait_for_function("() => document.getElementById('dataset-select').value.startsWith('ds:')")
     assert "my locked test" in page.inner_text("#dataset-info")
-    assert "x0 = 0.125 m" in page.inner_text("#dataset-info")
+    assert "x0 = 125 mm" in page.inner_text("#dataset-info")   # mm, as the page enters it (issue 24)
     page.select_option("#dataset-select", "sample:piston-leak")   # back to the session's sample
 
 
