@@ -297,6 +297,7 @@ function writeInput(el, v) {
 }
 function readInput(el) {
   if (el.type === 'checkbox') return el.checked;
+  if (el.dataset.text) return el.value;   // a name or a description: text, even when it looks like a number
   if (el.tagName === 'SELECT') return el.value;
   const raw = el.value.trim();
   if (raw === '') return null;
@@ -532,6 +533,48 @@ function removeEffect(ev) {
   renderEffects();
   plotFriction();
   setStatus(`Effect ${btn.dataset.effect} removed.`, 'info');
+}
+
+/** A model brought in as JSON (a file or pasted text): the model itself, or an export that
+ * holds one under "model" (a fitted model, a refine or diagnosis answer); checked by the service
+ * (POST /api/calibrate/parameters parses it with the API's own rules) before it replaces the
+ * page's model, so a bad file names its field and leaves the current model alone. */
+async function useModelJson(text, source) {
+  clearErrors();
+  let m;
+  try { m = JSON.parse(text); } catch (e) {
+    fieldError('model.json', `not valid JSON: ${e.message}`);
+    setStatus(`${source}: not valid JSON (${e.message}).`, 'error');
+    return false;
+  }
+  if (m && typeof m === 'object' && !m.jack && m.model && typeof m.model === 'object') m = m.model;
+  if (!m || typeof m !== 'object' || Array.isArray(m)) {
+    fieldError('model.json', 'a JSON object (a model) is expected');
+    setStatus(`${source}: a JSON object (a model) is expected.`, 'error');
+    return false;
+  }
+  try {
+    await api('POST', '/api/calibrate/parameters', { model: m });
+  } catch (e) {
+    showApiError(e, `${source}: the model`);
+    return false;
+  }
+  S.model = m;
+  renderModel();
+  renderEffects();
+  setStatus(`Model ${m.name || '(unnamed)'} loaded from ${source}.`, 'ok');
+  return true;
+}
+function downloadModel() {
+  const name = (S.model.name || 'model').replace(/[^\w.-]+/g, '_');
+  const url = URL.createObjectURL(new Blob([JSON.stringify(S.model, null, 1)], { type: 'application/json' }));
+  const a = document.createElement('a');
+  a.href = url;
+  a.download = `${name}.json`;
+  document.body.appendChild(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(url), 1000);
 }
 
 async function loadModelPreset(name) {
@@ -1860,8 +1903,9 @@ function wire() {
     if (ev.target.id === 'friction-pressures') { plotFriction(); return; }
     if (ev.target.id === 'effect-add-select') { describeEffect(); return; }
     if (ev.target.id === 'valve-c-unit') { S.cUnit = ev.target.value; renderValveTables(); plotValve(); return; }
-    if (ev.target.id === 'model-preset') return;
+    if (ev.target.id === 'model-preset' || ev.target.id === 'model-file' || ev.target.id === 'model-json') return;
     onModelInput(ev);
+    if (ev.target.dataset.text) $('#model-name').textContent = S.model.name ? `${S.model.name}${S.model.description ? ' — ' + S.model.description : ''}` : '';
   });
   mp.addEventListener('input', (ev) => {
     if (ev.target.id === 'friction-pressures') { plotFriction(); return; }
@@ -1870,6 +1914,12 @@ function wire() {
   $('#valve-tables').addEventListener('click', editValveRows);
   $('#effects-list').addEventListener('click', removeEffect);
   $('#btn-add-effect').addEventListener('click', addEffect);
+  $('#btn-model-download').addEventListener('click', downloadModel);
+  $('#btn-model-json').addEventListener('click', (ev) => busy(ev.target, () => useModelJson($('#model-json').value, 'the pasted JSON')));
+  $('#model-file').addEventListener('change', async (ev) => {
+    const f = ev.target.files[0];
+    if (f) await useModelJson(await f.text(), f.name);
+  });
   $('#btn-load-preset').addEventListener('click', async (ev) => {
     await busy(ev.target, async () => {
       try { await loadModelPreset($('#model-preset').value); setStatus(`Model preset ${$('#model-preset').value} loaded.`, 'ok'); } catch (e) { showApiError(e, 'Loading the preset'); }
