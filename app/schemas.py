@@ -459,9 +459,18 @@ class CalibrateResponse(BaseModel):
     nfev: int = Field(..., description="Residual evaluations used [-]")
 
 
+class ModelChange(BaseModel):
+    path: str = Field(..., description="Parameter path (as in CalibrateRequest.parameters), or effects.<name> for an effect added or removed")
+    before: Any = Field(None, description="Value now (the unit's SI value; 1 for a valve table's scale); null when added")
+    after: Any = Field(None, description="Value after (SI); null when removed")
+    unit: str = Field("", description="Unit of both values")
+    kind: str = Field(..., description="changed, added, removed or scaled (a valve edge's table multiplied by 'after') [-]")
+
+
 class RankingEntry(BaseModel):
     model_config = ConfigDict(extra="allow")
     effect: str = Field(..., description="Catalog effect")
+    changes: list[ModelChange] = Field(default_factory=list, description="Every value of the model that taking this candidate changes (the effect and the base parameters recalibrated with it)")
     error_before: Optional[float] = Field(None, description="Overall error before adding it: " + FRACTION)
     error_after_overall: Optional[float] = Field(None, description="Overall error with it added and fitted: " + FRACTION)
     lr_statistic: Optional[float] = Field(None, description="Likelihood-ratio statistic (effective samples) [-]")
@@ -485,6 +494,7 @@ class DiagnoseResponse(BaseModel):
     base_model: dict[str, Any] = Field(..., description="The null model (uncertain parameters refitted)")
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along [-]")
     hints: list[ContextHint] = Field(default_factory=list, description="Where a record contradicts the context declared with it; also at the end of the message")
+    changes: list[ModelChange] = Field(default_factory=list, description="Every value of the model that 'model' (the verdict applied) changes")
 
 
 class CalibrationParametersRequest(_Strict):

@@ -1230,11 +1230,29 @@ function renderDiagnosis() {
       (r.effective_samples != null && r.n_samples ? `<dt title="Samples counted by the LR test and BIC: each residual series weighs n / tau, tau its integrated autocorrelation time (coloured noise carries less information than white)">effective samples</dt>` +
         `<dd class="eff-samples">${Math.round(r.effective_samples)} of ${r.n_samples}</dd>` : '') + '</dl>' +
       (params ? `<table class="data params"><thead><tr><th scope="col">parameter</th><th scope="col">value ± std. error</th><th scope="col">95 % CI</th><th></th></tr></thead><tbody>${params}</tbody></table>` : '') +
-      `<p class="explanation">${esc(r.explanation || '')}</p>` +
+      `<p class="explanation">${esc(r.explanation || '')}</p>` + changesTable(r.changes, r.effect) +
       `<button type="button" class="${r.effect === d.verdict ? 'primary ' : ''}add-effect-btn" id="add-${esc(r.effect)}" data-effect="${esc(r.effect)}"` +
       `${r.model ? '' : ' disabled'} title="Take the refitted model (current model + ${esc(r.effect)}) as the new current model">Add ${esc(r.effect)} to the model</button>`;
     cards.appendChild(card);
   });
+}
+/** Every parameter taking a candidate would change, before it is taken: the effect's own and
+ * the base parameters recalibrated with it (before → after, in the page's units). */
+function changesTable(changes, effect) {
+  if (!changes || !changes.length) return '';
+  const show = (x, u) => {
+    if (typeof x !== 'number') return x == null ? '–' : esc(String(x));
+    return num((x - u.offset) / u.scale);
+  };
+  const rows = changes.map((c) => {
+    const u = c.kind === 'scaled' ? { unit: '× (scale)', scale: 1, offset: 0 }
+      : (typeof unitShow === 'function' ? unitShow(c.unit) : { unit: c.unit, scale: 1, offset: 0 });
+    return `<tr data-path="${esc(c.path)}"><th scope="row">${esc(c.path)}</th><td class="num">${show(c.before, u)}</td>` +
+      `<td class="num">${show(c.after, u)}</td><td>${esc(prettyUnit(u.unit || ''))}</td></tr>`;
+  }).join('');
+  return `<details class="changes"><summary>Adding ${esc(effect)} changes ${changes.length} value(s) of the model</summary>` +
+    '<table class="data"><thead><tr><th scope="col">parameter</th><th scope="col">now</th><th scope="col">after</th><th scope="col">unit</th></tr></thead>' +
+    `<tbody>${rows}</tbody></table></details>`;
 }
 async function adoptEffect(ev) {
   const btn = ev.target.closest('.add-effect-btn');

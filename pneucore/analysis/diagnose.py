@@ -61,7 +61,7 @@ from pneucore.data.experiment import as_experiments
 from pneucore.analysis.metrics import cross_correlation_test, ljung_box
 from pneucore.spec.model import Model
 from pneucore.analysis import hypotheses as H
-from pneucore.spec.paths import ParameterSpec, get_value, parse_parameters, set_values
+from pneucore.spec.paths import ParameterSpec, get_value, model_changes, parse_parameters, set_values
 
 #: Significance level of the likelihood-ratio test, before the Bonferroni split
 ALPHA = 1e-3
@@ -179,6 +179,7 @@ class Diagnosis:
     error_start: object = None
     dropped: list = field(default_factory=list)
     hints: list = field(default_factory=list)
+    given: object = field(default=None, repr=False)
 
     def best(self):
         return self.ranking[0] if self.ranking else None
@@ -196,6 +197,8 @@ class Diagnosis:
             "uncertain": self.uncertain,
             "recalibrate": self.recalibrate, "refitted": self.refitted,
             "model": self.model.to_dict() if self.model is not None else None,
+            "changes": (model_changes(self.given, self.model) if self.model is not None
+                        and self.given is not None else []),
             "alternatives": self.alternatives, "remaining": self.remaining,
             "identifiability": self.identifiability, "dropped": self.dropped,
             "initial_state": self.initial_state, "hints": self.hints,
@@ -706,6 +709,10 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                     f"{', '.join(h['label'] for h in identifiability)} changes the recorded signals "
                     "measurably): record the chamber pressures during valve moves, and a free test "
                     "for friction and mass.")
+    given = model.to_dict()
+    for r in ranking:   # what taking each candidate would change, listed before it is taken
+        if r.get("model"):
+            r["changes"] = model_changes(given, r["model"])
     for hint in comp_start.hints:   # the records contradict their declared context
         message += " Check the context: " + hint["message"]
     report(1.0, "done")
@@ -715,7 +722,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                      recalibrate=recal, refitted=refitted, model=next_model,
                      alternatives=alternatives, remaining=remaining,
                      identifiability=identifiability, error_start=comp_start, dropped=dropped,
-                     initial_state=initial_state, hints=comp_start.hints)
+                     initial_state=initial_state, hints=comp_start.hints, given=given)
 
 
 def _undetermined(cand):

@@ -237,3 +237,72 @@ def _default_bounds(model, path, value):
     if value == 0:
         return -1.0, 1.0
     return value * 10.0, -value * 10.0
+
+
+def _leaves(d, prefix=""):
+    """The leaves of a model's JSON as ``path -> value`` (numbers, strings, None); a list of
+    numbers (a valve table's column, a command) is one leaf."""
+    out = {}
+    if isinstance(d, dict):
+        for k, v in d.items():
+            out.update(_leaves(v, f"{prefix}.{k}" if prefix else str(k)))
+    else:
+        out[prefix] = d
+    return out
+
+
+def model_changes(before, after):
+    """What changes from one model to another, parameter by parameter, with units.
+
+    What a finding would do to the user's model, listed before it is applied (issue 24):
+    every number that moves (a base parameter the diagnosis recalibrated along with the
+    effect it names, too), an effect added or removed, a valve table scaled.
+
+    Parameters
+    ----------
+    before : Model or dict
+        The model as it is (a dict is validated, its defaults filled) [-]
+    after : Model or dict
+        The model proposed [-]
+
+    Returns
+    -------
+    changes : list of dict
+        ``{"path", "before", "after", "unit", "kind"}`` each, ``kind`` one of ``changed``,
+        ``added`` (an effect or a field), ``removed``, ``scaled`` (a valve edge's C or b
+        table multiplied by ``after`` with ``before`` = 1); values in SI (the unit) [-]
+
+    Examples
+    --------
+    >>> from pneucore import model_preset
+    >>> a = model_preset("paper-4way"); b = model_preset("paper-4way")
+    >>> b["heat"]["coefficient"] = 35.0
+    >>> b["effects"]["piston_leakage"] = {"conductance": 8e-11}
+    >>> [(c["path"], c["before"], c["after"], c["kind"]) for c in model_changes(a, b)]
+    [('effects.piston_leakage', None, 'added', 'added'), ('heat.coefficient', 25.0, 35.0, 'changed'), ('effects.piston_leakage.conductance', None, 8e-11, 'added')]
+    """
+    from pneucore.spec.model import Model   # a dict is read as the API reads it (defaults filled)
+    a, b = ((m if isinstance(m, Model) else Model.from_dict(m)).to_dict() for m in (before, after))
+    la, lb = _leaves(a), _leaves(b)
+    out = []
+    for name in sorted(set(b.get("effects") or {}) - set(a.get("effects") or {})):
+        out.append({"path": f"effects.{name}", "before": None, "after": "added", "unit": "",
+                    "kind": "added"})
+    for name in sorted(set(a.get("effects") or {}) - set(b.get("effects") or {})):
+        out.append({"path": f"effects.{name}", "before": "present", "after": None, "unit": "",
+                    "kind": "removed"})
+    for path in list(la) + [p for p in lb if p not in la]:
+        va, vb = la.get(path), lb.get(path)
+        if va == vb or path in ("name", "description", "notes"):
+            continue
+        parts = path.split(".")
+        if parts[0] == "valve" and len(parts) == 4 and parts[3] in ("C", "b") \
+                and isinstance(va, list) and isinstance(vb, list) and len(va) == len(vb):
+            ratios = {round(y / x, 9) for x, y in zip(va, vb) if x}
+            if len(ratios) == 1 and all((x == 0) == (y == 0) for x, y in zip(va, vb)):
+                out.append({"path": path, "before": 1.0, "after": ratios.pop(), "unit": "-",
+                            "kind": "scaled"})
+                continue
+        kind = "added" if path not in la else "removed" if path not in lb else "changed"
+        out.append({"path": path, "before": va, "after": vb, "unit": _unit(path), "kind": kind})
+    return out
