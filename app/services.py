@@ -317,6 +317,16 @@ def diagnosis_report(req: DiagnoseRequest, store, limits, progress=None):
     return diagnosis_report_on(model, exps, d, _provenance(store, exps))
 
 
+def refinement_report(req: RefineRequest, store, limits, progress=None):
+    """POST /api/reports/refine: the whole refinement (every version and round, the refined
+    model against the data) as one self-contained HTML text; ``progress`` follows the loop."""
+    from pneucore.analysis.report import refinement_report as html_report
+    checked = check_refine(req, store, limits)
+    answer = run_refine(req, store, limits, progress=progress, checked=checked)
+    exps = checked[1]
+    return html_report(answer, compare(Model.from_dict(answer["model"]), exps), _provenance(store, exps))
+
+
 # ------------------------------------------------------------------------------ heat models
 #: Series returned per run when the request names none (what the page overlays)
 HEAT_SERIES = ("t", "u", "p_a", "p_b", "T_a", "T_b", "heat_a", "heat_b", "x")

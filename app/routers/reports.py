@@ -1,11 +1,12 @@
-"""POST /api/reports/compare and /api/reports/diagnose: a self-contained HTML report to download."""
+"""POST /api/reports/compare, /api/reports/diagnose and /api/reports/refine: a self-contained HTML
+report to download."""
 from fastapi import APIRouter
 from fastapi.responses import Response
 
 from ..deps import LimitsDep, StoreDep
 from ..sync_pool import sync_slot
-from ..schemas import CompareRequest, DiagnoseRequest
-from ..services import comparison_report, deadline_progress, diagnosis_report
+from ..schemas import CompareRequest, DiagnoseRequest, RefineRequest
+from ..services import comparison_report, deadline_progress, diagnosis_report, refinement_report
 
 router = APIRouter(prefix="/api/reports", tags=["reports"])
 
@@ -33,3 +34,12 @@ def compare_report(req: CompareRequest, store: StoreDep, limits: LimitsDep):
 def diagnose_report(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep):
     progress = deadline_progress(limits, "diagnosis", "/api/jobs/diagnose")
     return _html(diagnosis_report(req, store, limits, progress=progress), "diagnosis-report.html")
+
+
+@router.post("/refine", dependencies=[sync_slot("/api/jobs/refine")],
+             response_class=Response, responses=_HTML,
+             summary="HTML report of a whole refinement (every version and round, the refined "
+                     "model against the data, the model)")
+def refine_report(req: RefineRequest, store: StoreDep, limits: LimitsDep):
+    progress = deadline_progress(limits, "refinement", "/api/jobs/refine")
+    return _html(refinement_report(req, store, limits, progress=progress), "refinement-report.html")

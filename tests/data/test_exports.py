@@ -114,3 +114,22 @@ def test_diagnosis_report_names_the_verdict(client):
     d = client.post("/api/diagnose", json={"model": model_preset("paper-4way"), "experiments": exps}).json()
     assert f"Verdict: {d['verdict']}" in page and "null" not in page.split("<h2>Model</h2>")[0]
     assert f"With {d['verdict']} added" in page
+
+
+def test_refinement_report_covers_every_round(client):
+    """POST /api/reports/refine (issue 24): every version with its errors, every round's verdict,
+    the refined model drawn against the data; offline (no script), user text escaped."""
+    exps = [{"dataset_id": "sample-leak-and-lag-locked-hold"},
+            {"dataset_id": "sample-leak-and-lag-free-pulses"}]
+    body = {"model": model_preset("paper-4way"), "experiments": exps}
+    r = client.post("/api/reports/refine", json=body)
+    assert r.status_code == 200, r.text[:500]
+    assert r.headers["content-type"].startswith("text/html")
+    page = r.text
+    answer = client.post("/api/refine", json=body).json()
+    assert "<script" not in page
+    for v in answer["versions"]:
+        assert v["label"] in page
+    for k in range(1, len(answer["diagnoses"]) + 1):
+        assert f"<h2>Round {k}</h2>" in page
+    assert "refined model" in page and "{'value'" not in page
