@@ -1106,17 +1106,22 @@ function renderHistory() {
       sigs.map((g) => `<td class="num">${pct(q.errors && q.errors[g])}</td>`).join('') + `<td class="num"><b>${pct(q.overall)}</b></td></tr>`).join('') +
     '</tbody></table>';
 }
+/** Open a stored session: its last version's model, its experiments (with their contexts)
+ * and its history; it becomes the page's session (kept across reloads). */
+async function openSession(id) {
+  const s = await api('GET', `/api/sessions/${encodeURIComponent(id)}`);
+  const last = s.versions[s.versions.length - 1];
+  if (last && last.model) { S.model = last.model; renderModel(); }
+  setSession(s);
+  selectExperiments(s.experiments);
+  setStatus(`Opened session ${s.id} “${s.name}” (${s.versions.length} version(s), last: ${last ? last.label : '?'}).`, 'ok');
+  return s;
+}
 async function resumeSession() {
   const id = localStorage.getItem(SESSION_KEY);
   if (!id) { renderHistory(); return false; }
   try {
-    const s = await api('GET', `/api/sessions/${encodeURIComponent(id)}`);
-    S.session = s;
-    const last = s.versions[s.versions.length - 1];
-    if (last && last.model) { S.model = last.model; renderModel(); }
-    selectExperiments(s.experiments);
-    renderHistory();
-    setStatus(`Resumed session ${s.id} (${s.versions.length} version(s), last: ${last ? last.label : '?'}).`, 'ok');
+    await openSession(id);
     return true;
   } catch (e) {
     localStorage.removeItem(SESSION_KEY);

@@ -1,6 +1,7 @@
 'use strict';
 /* Stored data: the datasets, refinement sessions and studies kept in the service's database,
- * listed with a Delete button each (DELETE /api/datasets|sessions|studies/{id}). Names are
+ * listed with a Delete button each (DELETE /api/datasets|sessions|studies/{id}), a session with an
+ * Open button (its model, experiments and history back on the page). Names are
  * user text: inserted with textContent only. */
 
 const STORED_KINDS = [
@@ -27,7 +28,14 @@ async function loadStored() {
       const btn = document.createElement('button');
       btn.type = 'button'; btn.textContent = 'Delete'; btn.className = 'stored-delete';
       btn.dataset.kind = kind; btn.dataset.id = item.id;
-      li.append(span, btn);
+      li.append(span);
+      if (kind === 'sessions') {   // a stored session is reopened here: its model, experiments and history
+        const open = document.createElement('button');
+        open.type = 'button'; open.textContent = 'Open'; open.className = 'stored-open';
+        open.dataset.id = item.id;
+        li.append(open, ' ');
+      }
+      li.append(btn);
       ul.appendChild(li);
     }
     box.appendChild(ul);
@@ -36,7 +44,17 @@ async function loadStored() {
   target.dataset.loads = String(Number(target.dataset.loads || 0) + 1);
 }
 
+async function openStored(ev) {
+  const btn = ev.target.closest('.stored-open');
+  if (!btn) return false;
+  await busy(btn, async () => {
+    try { await openSession(btn.dataset.id); } catch (e) { showApiError(e, 'Opening the session'); }
+  });
+  return true;
+}
+
 async function deleteStored(ev) {
+  if (await openStored(ev)) return;
   const btn = ev.target.closest('.stored-delete');
   if (!btn) return;
   const { kind, id } = btn.dataset;

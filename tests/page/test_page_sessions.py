@@ -1,0 +1,39 @@
+"""A stored session is opened from the Stored panel (issue 24, item 1): its last model, its
+experiments (two datasets of different samples, one with an edited context) and its history come
+back on the page, in Chromium."""
+from __future__ import annotations
+
+import pytest
+
+from test_page import _open, browser, page_errors, server  # noqa: F401
+
+
+@pytest.fixture(scope="module")
+def page(browser, server, page_errors):  # noqa: F811
+    ctx = browser.new_context(viewport={"width": 1366, "height": 768})
+    p = _open(ctx, server, page_errors)
+    yield p
+    p.close()
+    ctx.close()
+
+
+def test_a_stored_session_opens_with_its_model_experiments_and_history(page):
+    sid = page.evaluate("""async () => {
+        const m = await api('GET', '/api/presets/paper-4way');
+        m.name = 'rig B, second try'; m.jack.moving_mass = 2.6;
+        const s = await api('POST', '/api/sessions', { name: 'rig B', model: m, experiments: [
+            { dataset_id: 'sample-piston-leak-locked-hold' },
+            { dataset_id: 'sample-spool-lag-free-pulses', scenario: { locked: false, x0: 0.06 } }] });
+        return s.id; }""")
+    page.click("#stored-box summary")
+    row = page.locator(f"#stored-lists ul[data-kind=sessions] li[data-id='{sid}']")
+    row.wait_for()
+    row.locator("button.stored-open").click()
+    page.wait_for_function("(id) => /Opened session/.test(document.getElementById('status-msg').textContent)", arg=sid)
+    assert page.input_value("#model-name-input") == "rig B, second try"
+    assert page.input_value("#jack-moving_mass") == "2.6"
+    assert page.inner_text("#session-id") == sid
+    assert page.locator("#experiment-set-table tbody tr").count() == 2
+    # the second experiment's stored context (x0 = 60 mm) is the one shown and sent
+    assert page.input_value("#experiment-set-table tr[data-index='1'] input[data-key='x0']") == "60"
+    assert page.evaluate("localStorage.getItem('pneucore.session')") == sid   # a reload reopens it
