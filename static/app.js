@@ -1108,20 +1108,22 @@ function renderHistory() {
 }
 /** Open a stored session: its last version's model, its experiments (with their contexts)
  * and its history; it becomes the page's session (kept across reloads). */
-async function openSession(id) {
+async function openSession(id, verb = 'Opened') {
   const s = await api('GET', `/api/sessions/${encodeURIComponent(id)}`);
   const last = s.versions[s.versions.length - 1];
+  S.session = s;
+  localStorage.setItem(SESSION_KEY, s.id);
   if (last && last.model) { S.model = last.model; renderModel(); }
-  setSession(s);
   selectExperiments(s.experiments);
-  setStatus(`Opened session ${s.id} “${s.name}” (${s.versions.length} version(s), last: ${last ? last.label : '?'}).`, 'ok');
+  renderHistory();
+  setStatus(`${verb} session ${s.id} “${s.name}” (${s.versions.length} version(s), last: ${last ? last.label : '?'}).`, 'ok');
   return s;
 }
 async function resumeSession() {
   const id = localStorage.getItem(SESSION_KEY);
   if (!id) { renderHistory(); return false; }
   try {
-    await openSession(id);
+    await openSession(id, 'Resumed');
     return true;
   } catch (e) {
     localStorage.removeItem(SESSION_KEY);

@@ -256,7 +256,7 @@ def test_reload_resumes_the_session(browser, context, server, page, page_errors)
     ctx = browser.new_context(viewport={"width": 1400, "height": 900}, storage_state=context.storage_state())
     try:
         p2 = _open(ctx, server, page_errors)
-        p2.wait_for_function("() => (document.getElementById('history-plot').data || [{}])[0].y?.length === 2")
+        p2.wait_for_function("() => (((document.getElementById('history-plot').data || [])[0]) || {}).y?.length === 2")
         assert p2.inner_text("#session-id") == page.inner_text("#session-id")
         assert p2.locator("#effect-piston_leakage").count() == 1
         assert p2.input_value("#dataset-select") == "sample:piston-leak"
