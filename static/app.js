@@ -315,6 +315,23 @@ function onModelInput(ev) {
   clearFieldError(el);
   plotValve();
   plotFriction();
+  markStaleComparison();
+}
+/** A comparison on screen that was made with another model says so (it is kept for reference,
+ * not silently taken for the current model's). */
+function markStaleComparison() {
+  const box = $('#compare-summary');
+  if (!box || !S.compare || !S.compare.model) return;
+  const stale = S.compare.model !== JSON.stringify(S.model);
+  box.classList.toggle('stale', stale);
+  let note = $('#compare-stale');
+  if (stale && !note) {
+    note = document.createElement('p');
+    note.id = 'compare-stale';
+    note.className = 'stale-note';
+    note.textContent = 'The model changed since this comparison: these errors and plots are the previous model\'s. Compare again.';
+    box.prepend(note);
+  } else if (!stale && note) note.remove();
 }
 function clearFieldError(el) {
   el.classList.remove('invalid');
@@ -562,6 +579,7 @@ async function useModelJson(text, source) {
   S.model = m;
   renderModel();
   renderEffects();
+  markStaleComparison();
   setStatus(`Model ${m.name || '(unnamed)'} loaded from ${source}.`, 'ok');
   return true;
 }
@@ -583,6 +601,7 @@ async function loadModelPreset(name) {
   $('#model-preset').value = name;
   clearErrors();
   renderModel();
+  markStaleComparison();
   return m;
 }
 
@@ -932,7 +951,7 @@ async function runCompare(opts = {}) {
     try {
       const exps = clone(S.experiments);
       const res = await api('POST', '/api/compare', { model: S.model, experiments: exps, heat_models: false });
-      S.compare = { result: res, experiments: exps };
+      S.compare = { result: res, experiments: exps, model: JSON.stringify(S.model) };
       await Promise.all(exps.map((e) => measured(e.dataset_id)));
       renderCompare();
       setStatus(`Comparison done: overall error ${pct(res.overall)} % (noise floor about ${pct(meanOf(res.noise_floor))} %).`, 'ok');
@@ -975,6 +994,7 @@ function renderCompare() {
     '<li class="muted">No window stands out.</li>';
   plotCompare(c, exps);
   plotResiduals(c);
+  markStaleComparison();
 }
 /** A stacked layout with one row per experiment, each with a left and an overlaying right axis. */
 function stackedLayout(n, left, right, titles, extra = {}) {

@@ -67,3 +67,16 @@ def test_rename_download_and_load_back(page, tmp_path):
     page.set_input_files("#model-file", str(saved))
     page.wait_for_function("() => document.getElementById('jack-bore').value === '50'", timeout=TIMEOUT_MS)
     assert page.input_value("#model-name-input") == "DSBC-50 rig, seals run in"
+
+
+def test_a_comparison_made_with_another_model_says_so(page):
+    """Issue 24, item 7: old comparison results left on screen after the model changed."""
+    page.select_option("#dataset-select", "sample:piston-leak")
+    page.click("#btn-compare")
+    page.wait_for_selector("#error-table-data td[data-signal='overall']")
+    assert page.locator("#compare-stale").count() == 0
+    page.fill("#jack-moving_mass", "3.1")
+    page.dispatch_event("#jack-moving_mass", "change")
+    assert "The model changed since this comparison" in page.inner_text("#compare-stale")
+    page.click("#btn-compare")
+    page.wait_for_function("() => !document.getElementById('compare-stale')")
