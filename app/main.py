@@ -38,7 +38,7 @@ from .routers import (analysis, calibration, datasets, effects, heat, jobs, pres
 from .routers import friction
 from .schemas import LimitsResponse, SampleInfo
 from .security import Guard
-from .store import Store, StoreUnavailable, disk_full
+from .store import ServerLock, Store, StoreUnavailable, disk_full
 from .sync_pool import SyncPool
 
 # the repository's static/ (a checkout or an editable install), else the copy a wheel
@@ -106,7 +106,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         stopped = threading.Event()
         threading.Thread(target=_freeze_start_up_objects, args=(warm, stopped), daemon=True,
                          name="pneucore-gc-freeze").start()
-        store = Store(settings.db_path)   # StoreUnavailable: a clear message (see main)
+        # one server per database (DatabaseInUse: a second server stops before touching it)
+        lock = ServerLock(settings.db_path).acquire()
+        try:
+            store = Store(settings.db_path)   # StoreUnavailable: a clear message (see main)
+        except BaseException:
+            lock.release()
+            raise
         if settings.seed_samples:
             try:
                 store.seed_samples()
@@ -134,6 +140,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         yield
         app.state.jobs.shutdown()
         store.close()
+        lock.release()
         _unfreeze(stopped)
 
     app = FastAPI(title="pneucore", version="0.1.0", lifespan=lifespan, default_response_class=JSON,
@@ -327,7 +334,8 @@ def main():
     if a.scheduler:   # read by Settings when uvicorn imports app.main
         os.environ["PNEUCORE_DASK_SCHEDULER"] = a.scheduler
     settings = Settings()
-    try:   # a database that cannot be opened: a clear message, not the server's traceback
+    try:   # a database in use or that cannot be opened: a clear message, not a traceback
+        ServerLock(settings.db_path).acquire()   # held until the process ends
         Store(settings.db_path).close()
     except StoreUnavailable as exc:
         sys.exit(f"pneucore: not started: {exc}")

@@ -13,6 +13,7 @@ import datetime as _dt
 import errno
 import json
 import math
+import os
 import sqlite3
 import threading
 import time
@@ -56,6 +57,97 @@ class ReadOnly(Exception):
 
 class StoreUnavailable(Exception):
     """The database file cannot be opened or its tables created (a full disk, no permission)."""
+
+
+class DatabaseInUse(StoreUnavailable):
+    """Another live server holds the database (:class:`ServerLock`)."""
+
+
+try:   # POSIX; elsewhere no lock is taken (README: one server per database)
+    import fcntl
+except ImportError:   # pragma: no cover - Windows
+    fcntl = None
+
+
+class ServerLock:
+    """One server per database: an exclusive ``flock`` on ``<database>.lock``, held while the
+    server lives.
+
+    Two servers on one file would both resume the studies left running and compute them
+    twice, and each would mark the other's jobs interrupted at its start. The kernel
+    releases the lock when the holding process ends, however it ends (``kill -9`` too), so
+    a stale lock file never blocks a restart; the file holds the holder's pid for the message.
+    Re-entrant within a process (``python -m app`` takes it before uvicorn starts the app,
+    whose lifespan takes it again); an in-memory database needs none.
+
+    Parameters
+    ----------
+    db_path : str or os.PathLike
+        The SQLite file the server serves
+    """
+
+    _held = {}                     # lock file -> [fd, holders] of this process
+    _guard = threading.Lock()
+
+    def __init__(self, db_path):
+        self.db_path = str(db_path)
+        self.path = None if self.db_path in ("", ":memory:") or fcntl is None \
+            else os.path.abspath(self.db_path) + ".lock"
+        self._acquired = False
+
+    def acquire(self):
+        """Take the lock; raises :class:`DatabaseInUse` naming the other server, or
+        :class:`StoreUnavailable` when the lock file cannot be written."""
+        if self.path is None or self._acquired:
+            return self
+        with self._guard:
+            held = self._held.get(self.path)
+            if held is not None:
+                held[1] += 1
+                self._acquired = True
+                return self
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            except OSError as exc:
+                hint = "; free space on its disk, then start again" if disk_full(exc) else ""
+                raise StoreUnavailable(f"the lock file {self.path!r} of the database cannot be "
+                                       f"created ({type(exc).__name__}: {exc}){hint}") from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                holder = os.pread(fd, 200, 0).decode("ascii", "replace").strip()
+                os.close(fd)
+                raise DatabaseInUse(
+                    f"the database {self.db_path!r} is served by another running server "
+                    f"({holder or 'pid unknown'}; lock {self.path!r}): one server per database, "
+                    f"else both would run the same studies; stop that server, or give this one "
+                    f"another file (PNEUCORE_DB)") from None
+            try:
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, f"pid {os.getpid()}".encode(), 0)
+            except OSError:
+                pass   # the pid is for the message only (a full disk: the lock still holds)
+            self._held[self.path] = [fd, 1]
+            self._acquired = True
+        return self
+
+    def release(self):
+        """Give the lock back (the file stays: removing it would race a starting server)."""
+        if self.path is None or not self._acquired:
+            return
+        with self._guard:
+            self._acquired = False
+            held = self._held[self.path]
+            held[1] -= 1
+            if held[1] == 0:
+                del self._held[self.path]
+                os.close(held[0])   # closing the descriptor releases the flock
+
+    def __enter__(self):
+        return self.acquire()
+
+    def __exit__(self, *exc):
+        self.release()
 
 
 #: SQLite's result code for a full disk or database (``SQLITE_FULL``, "database or disk is full")

@@ -421,3 +421,115 @@ def test_synchronous_analyses_beyond_the_queue_are_429_and_reads_go_on(db_path, 
         assert "max_sync_queue" in r.json()["detail"] and "/api/jobs/diagnose" in r.json()["detail"]
     assert sorted(r.status_code for r in answers) == [200] * 2 + [429] * 6
     assert c.app.state.sync_pool.admitted == 0   # every slot given back
+
+
+# ------------------------------------------------------------------ (6) one server per database
+def _env(db, port):
+    """The environment of a server on ``db`` and ``port`` importing this checkout."""
+    import os
+
+    from service import ROOT
+    env = dict(os.environ, PNEUCORE_DB=str(db), PNEUCORE_PORT=str(port))
+    env.pop("PNEUCORE_DASK_SCHEDULER", None)
+    env["PYTHONPATH"] = str(ROOT) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    return env
+
+
+def _python_m_app(db, log_path):
+    """``python -m app`` on ``db`` and a free port in its own process group, answering; returns
+    the process (its URL as ``.url``)."""
+    import subprocess
+    import sys
+    import time
+    import urllib.request
+
+    from service import ROOT, free_port
+    port = free_port()
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen([sys.executable, "-m", "app"], cwd=ROOT, env=_env(db, port),
+                                stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    proc.url = f"http://127.0.0.1:{port}"
+    t0 = time.monotonic()
+    while True:
+        assert proc.poll() is None, log_path.read_text()
+        try:
+            with urllib.request.urlopen(proc.url + "/api/limits", timeout=2) as r:
+                if r.status == 200:
+                    return proc
+        except OSError:
+            pass
+        # a bound on a hang: a cold numba cache compiles the core on a loaded machine
+        assert time.monotonic() - t0 < 120, "the service did not start: " + log_path.read_text()
+        time.sleep(0.2)
+
+
+def _kill9(proc):
+    import os
+    import signal
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait(30)
+
+
+def test_a_second_server_on_the_same_database_is_refused_at_start(tmp_path):
+    """Two processes on one database: the second stops at once with a message naming the first
+    (else both resume the same studies and compute them twice); ``uvicorn app.main:app`` and an
+    app in a third process are refused too (the app's lifespan); once the first is killed (-9:
+    no clean-up ran) the lock file it left does not block a new server."""
+    import json
+    import subprocess
+    import sys
+    import urllib.request
+
+    from api_conftest import api
+    from app.store import DatabaseInUse, ServerLock
+    from service import ROOT, free_port
+    db = tmp_path / "one.sqlite3"
+    first = _python_m_app(db, tmp_path / "first.log")
+    try:
+        # 120 s: a bound on a hang (the imports on a loaded machine), not a speed claim
+        second = subprocess.run([sys.executable, "-m", "app"], cwd=ROOT, capture_output=True,
+                                text=True, timeout=120, env=_env(db, free_port()))
+        assert second.returncode != 0, second.stdout
+        assert "not started" in second.stderr and "another running server" in second.stderr, \
+            second.stderr
+        assert f"pid {first.pid}" in second.stderr and "Traceback" not in second.stderr, second.stderr
+        plain = subprocess.run([sys.executable, "-m", "uvicorn", "app.main:app", "--port",
+                                str(free_port())], cwd=ROOT, capture_output=True, text=True,
+                               timeout=120, env=_env(db, 0))
+        assert plain.returncode != 0 and "another running server" in plain.stderr, plain.stderr[-2000:]
+        with pytest.raises(DatabaseInUse, match="another running server"):
+            with api(db):
+                pass
+        with urllib.request.urlopen(first.url + "/api/limits", timeout=30) as r:   # the first goes on
+            assert json.loads(r.read())["max_connections"] > 0
+    finally:
+        _kill9(first)
+    assert (tmp_path / "one.sqlite3.lock").exists()   # left behind by the kill...
+    with ServerLock(db):                             # ...and no obstacle
+        pass
+    _kill9(_python_m_app(db, tmp_path / "third.log"))
+
+
+def test_the_server_lock_is_reentrant_in_one_process_and_released(tmp_path):
+    """``python -m app`` takes the lock, then its app's lifespan takes it again; the last
+    release frees it for another process."""
+    import subprocess
+    import sys
+
+    from app.store import ServerLock
+    from service import ROOT
+    db = tmp_path / "r.sqlite3"
+    probe = [sys.executable, "-c", "import sys; from app.store import ServerLock, DatabaseInUse\n"
+             "try: ServerLock(sys.argv[1]).acquire()\nexcept DatabaseInUse: sys.exit(3)", str(db)]
+
+    def other_process_gets_it():
+        # 120 s: a bound on a hang (imports on a loaded machine)
+        rc = subprocess.run(probe, cwd=ROOT, env=_env(db, 0), timeout=120).returncode
+        assert rc in (0, 3), rc
+        return rc == 0
+    outer = ServerLock(db).acquire()
+    inner = ServerLock(db).acquire()
+    inner.release()
+    assert not other_process_gets_it()   # still held by the outer holder
+    outer.release()
+    assert other_process_gets_it()
