@@ -38,7 +38,7 @@ from .routers import (analysis, calibration, datasets, effects, heat, jobs, pres
 from .routers import friction
 from .schemas import LimitsResponse, SampleInfo
 from .security import Guard
-from .store import ServerLock, Store, StoreUnavailable, disk_full
+from .store import DamagedRecord, ServerLock, Store, StoreUnavailable, disk_full
 from .sync_pool import SyncPool
 
 # the repository's static/ (a checkout or an editable install), else the copy a wheel
@@ -204,6 +204,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def value_error(request: Request, exc: ValueError):
         return JSONResponse(status_code=422, content={"detail": [
             {"loc": ["body"], "msg": str(exc), "type": "value_error"}]})
+
+    @app.exception_handler(DamagedRecord)
+    async def damaged_record(request: Request, exc: DamagedRecord):
+        # 409 Conflict: the record's stored state, not the request, is what fails (a 422 would
+        # blame the request, a 500 the server's code); the message names the record and the remedy
+        return JSONResponse(status_code=409, content={"detail": str(exc)})
 
     @app.exception_handler(sqlite3.Error)
     @app.exception_handler(OSError)

@@ -39,6 +39,8 @@ _ERROR_TEXT = {
     403: "Refused: a cross-origin state-changing request, or a write to a read-only record "
          "(a shipped sample dataset)",
     404: "No such record",
+    409: "A stored record the request uses is damaged (it no longer decodes; the message names it "
+         "and the remedy: delete and store it again, a shipped sample is restored at the next start)",
     413: "The request body exceeds max_upload_bytes (GET /api/limits)",
     422: "Invalid input: each entry names the field (loc, field) and what is wrong (msg)",
     429: "Too many jobs queued or running (max_jobs), or synchronous analyses running and "
@@ -90,6 +92,9 @@ def _add_errors(path, method, op):
         codes.append(429)
     if path in SYNC_ANALYSES:
         codes.append(429)
+    if (method == "GET" and path.startswith("/api/datasets/{")) or \
+            (method == "POST" and (path in SYNC_ANALYSES or path.startswith(("/api/jobs", "/api/sessions")))):
+        codes.append(409)   # a stored dataset it reads is damaged
     if path in ("/api/compare", "/api/calibrate", "/api/diagnose"):
         codes.append(504)
     if method in ("POST", "PUT", "PATCH"):

@@ -23,7 +23,7 @@ import numpy as np
 import orjson
 
 from pneucore.analysis.history import ModelVersion, RefinementHistory
-from pneucore.data.measurement import SIGNALS, Measurement
+from pneucore.data.measurement import SIGNALS, Measurement, MeasurementError
 from pneucore.data.samples import DATA_DIR, list_samples
 from pneucore.data.measurement import read_csv
 
@@ -57,6 +57,31 @@ class ReadOnly(Exception):
 
 class StoreUnavailable(Exception):
     """The database file cannot be opened or its tables created (a full disk, no permission)."""
+
+
+class DamagedRecord(Exception):
+    """A stored record that no longer decodes (written by hand, by a faulty disk, or by a
+    version that stored it differently): the service answers 409 naming it, never an empty
+    record, nor an error blamed on the request that only referred to it.
+
+    Parameters
+    ----------
+    kind : str
+        What the record is (``"dataset"``)
+    key : str
+        Its id
+    cause : str
+        What cannot be read
+    sample : str or None
+        The shipped sample it is, restored at the next start; None for a user's record
+    """
+
+    def __init__(self, kind, key, cause, sample=None):
+        self.kind, self.key, self.cause, self.sample = kind, key, cause, sample
+        remedy = ("it is a shipped sample: the next start of the server restores it" if sample
+                  else f"delete it (DELETE /api/{kind}s/{key}) and store it again")
+        super().__init__(f"the stored {kind} {key!r} is damaged ({cause}); nothing in the request "
+                         f"is wrong; {remedy}")
 
 
 class DatabaseInUse(StoreUnavailable):
@@ -183,6 +208,37 @@ def _loads(text, default):
         return default
 
 
+def _metadata_damage(signals_text, scenario_text):
+    """What is wrong with a dataset row's JSON columns; None when both decode as they should."""
+    signals, scenario = _loads(signals_text, None), _loads(scenario_text, None)
+    if not isinstance(signals, list) or not all(isinstance(k, str) for k in signals):
+        return "its list of signals is not a JSON list of names"
+    if not isinstance(scenario, dict):
+        return "its scenario is not a JSON object"
+    return None
+
+
+def _data_damage(blob, n_samples):
+    """What is wrong with a dataset's stored measurement; ``(decoded, None)`` when it is a
+    JSON object whose time and signals are lists of ``n_samples`` values."""
+    try:
+        d = orjson.loads(blob)
+    except (orjson.JSONDecodeError, TypeError):
+        return None, "its measurement is not valid JSON"
+    if not isinstance(d, dict):
+        return None, "its measurement is not a JSON object of columns"
+    for k in ("t",) + tuple(k for k in SIGNALS if k in d):
+        v = d.get(k)
+        if not isinstance(v, list) or len(v) != n_samples:
+            return None, (f"its column {k!r} is not a list of the {n_samples} samples the "
+                          f"record declares")
+        try:   # numbers or null (NaN), as the store writes them: a few ms for 200,000 samples
+            np.asarray(v, dtype=np.float64)
+        except (TypeError, ValueError):
+            return None, f"its column {k!r} holds values that are not numbers"
+    return d, None
+
+
 def _iso(epoch):
     """ISO 8601 text of a stored Unix time; ``""`` when the stored value is not a time."""
     try:
@@ -249,13 +305,21 @@ class Store:
 
     # -- samples ------------------------------------------------------------------
     def seed_samples(self):
-        """Store any shipped sample dataset that is missing; returns how many were restored.
+        """Store any shipped sample dataset that is missing or damaged; returns how many were
+        restored.
 
         Samples are read-only (:meth:`delete_dataset` refuses them), so a missing one was
-        removed by an older version or by hand: it comes back at the next start.
+        removed by an older version or by hand, and a damaged one (a row that no longer
+        decodes: :class:`DamagedRecord`) changed by hand or by a faulty disk: either comes
+        back at the next start.
         """
         with self._lock:
-            have = {r[0] for r in self._db.execute("SELECT id FROM datasets WHERE sample IS NOT NULL")}
+            rows = self._db.execute("SELECT id, n_samples, signals, scenario, data FROM datasets "
+                                    "WHERE sample IS NOT NULL").fetchall()
+        # a damaged one (a row changed by hand or by a faulty disk) is written again
+        have = {r[0] for r in rows if _metadata_damage(r[2], r[3]) is None
+                and _data_damage(r[4], r[1])[1] is None}
+        del rows
         n = 0
         for s in list_samples():
             for e in s["experiments"]:
@@ -289,11 +353,22 @@ class Store:
 
     @staticmethod
     def _dataset_row(row):
+        """The info of a dataset row; a damaged one lists as such (``damaged``: what is wrong)
+        with empty signals and scenario, and never makes a whole listing fail."""
+        damage = _metadata_damage(row[4], row[5])
         info = {"id": row[0], "name": row[1], "created": row[2], "n_samples": row[3],
-                "signals": _loads(row[4], []), "scenario": _loads(row[5], {}),
-                "description": row[6], "sample": row[7]}
-        if not isinstance(info["signals"], list) or not isinstance(info["scenario"], dict):
-            info["signals"], info["scenario"] = [], {}
+                "signals": [], "scenario": {}, "description": row[6], "sample": row[7],
+                "damaged": damage}
+        if damage is None:
+            info["signals"], info["scenario"] = _loads(row[4], []), _loads(row[5], {})
+        return info
+
+    def checked_dataset_info(self, did):
+        """:meth:`dataset_info`, raising :class:`DamagedRecord` for a damaged row; None when
+        there is none."""
+        info = self.dataset_info(did)
+        if info is not None and info["damaged"]:
+            raise DamagedRecord("dataset", did, info["damaged"], info["sample"])
         return info
 
     def dataset_info(self, did):
@@ -309,20 +384,30 @@ class Store:
         return [self._dataset_row(r) for r in rows]
 
     def dataset_data(self, did):
+        """The stored measurement of dataset ``did`` as decoded JSON (``{"t": [...], ...}``);
+        None when there is none. Raises :class:`DamagedRecord` when its row no longer decodes."""
         with self._lock:
-            row = self._db.execute("SELECT data FROM datasets WHERE id=?", (did,)).fetchone()
+            row = self._db.execute("SELECT data, n_samples, signals, scenario, sample FROM datasets "
+                                   "WHERE id=?", (did,)).fetchone()
         if row is None:
             return None
-        try:
-            return orjson.loads(row[0])
-        except orjson.JSONDecodeError:
-            return {}   # a damaged row: Measurement.from_dict names what is missing
+        d, damage = _data_damage(row[0], row[1])
+        damage = damage or _metadata_damage(row[2], row[3])
+        if damage:
+            raise DamagedRecord("dataset", did, damage, row[4])
+        return d
 
     def measurement(self, did):
+        """Dataset ``did`` as a :class:`Measurement`; None when there is none. Raises
+        :class:`DamagedRecord` when its row no longer decodes or is no valid measurement."""
         d = self.dataset_data(did)
         if d is None:
             return None
-        return Measurement.from_dict(d)
+        try:
+            return Measurement.from_dict(d)
+        except MeasurementError as exc:   # stored values no measurement has (changed by hand)
+            raise DamagedRecord("dataset", did, f"its measurement is invalid: {exc}",
+                                self.dataset_info(did)["sample"]) from None
 
     def delete_dataset(self, did):
         """Delete a dataset; False when there is none. Raises :class:`ReadOnly` for a sample."""

@@ -82,10 +82,13 @@ def list_datasets(store: StoreDep):
 @router.get("/{dataset_id}", summary="One dataset with its samples", response_class=JSON,
             response_model=DatasetWithData)
 def get_dataset(dataset_id: str, store: StoreDep):
-    info = store.dataset_info(dataset_id)
+    info = store.checked_dataset_info(dataset_id)   # a damaged row: 409 (app.store.DamagedRecord)
     if info is None:
         raise not_found("dataset", dataset_id)
-    return JSON({**info, "measurement": store.dataset_data(dataset_id)})
+    data = store.dataset_data(dataset_id)
+    if data is None:   # deleted meanwhile
+        raise not_found("dataset", dataset_id)
+    return JSON({**info, "measurement": data})
 
 
 @router.delete("/{dataset_id}", status_code=204, summary="Delete a dataset")

@@ -533,3 +533,75 @@ def test_the_server_lock_is_reentrant_in_one_process_and_released(tmp_path):
     assert not other_process_gets_it()   # still held by the outer holder
     outer.release()
     assert other_process_gets_it()
+
+
+# ------------------------------------------------------------------ (6) damaged rows answered as damaged
+def _scribble(db_path, did, **columns):
+    """Overwrite columns of a stored dataset row behind the service's back (a faulty disk, a
+    hand edit)."""
+    import contextlib
+    import sqlite3
+    with contextlib.closing(sqlite3.connect(db_path, isolation_level=None)) as db:
+        for col, value in columns.items():
+            assert col in ("data", "signals", "scenario")
+            db.execute(f"UPDATE datasets SET {col}=? WHERE id=?", (value, did))
+
+
+#: Damage that leaves a row readable by SQLite but not as a dataset: a truncated blob, JSON of
+#: another shape, columns shorter than the declared length, values no measurement has, and
+#: undecodable metadata columns
+DAMAGE = {
+    "truncated blob": {"data": b'{"t": [0.0, 0.001, 0.00'},
+    "not an object": {"data": b"[1, 2, 3]"},
+    "short column": {"data": b'{"t": [0.0, 0.1], "u": [0, 1]}'},
+    "bad values": {"data": None},   # filled in by the test: the right length, text for numbers
+    "signals": {"signals": "[not json"},
+    "scenario": {"scenario": '["a list"]'},
+}
+
+
+@pytest.mark.parametrize("damage", list(DAMAGE))
+def test_a_damaged_stored_dataset_is_409_naming_it_never_an_empty_200(client, db_path, damage):
+    import orjson
+    up = client.post("/api/datasets", files={"file": ("a.csv", small_csv(40), "text/csv")},
+                     data={"name": "mine"})
+    assert up.status_code == 201, up.text
+    did, n = up.json()["id"], up.json()["n_samples"]
+    columns = dict(DAMAGE[damage])
+    if damage == "bad values":
+        columns["data"] = orjson.dumps({"t": ["soon"] * n, "u": [0.0] * n})
+    _scribble(db_path, did, **columns)
+    r = client.get(f"/api/datasets/{did}")
+    assert r.status_code == 409, (r.status_code, r.text[:300])
+    detail = r.json()["detail"]
+    assert f"dataset {did!r} is damaged" in detail and f"DELETE /api/datasets/{did}" in detail, detail
+    # an analysis that refers to it is not blamed for it (a 422 would say the request is wrong)
+    body = {"model": model(), "experiments": [{"dataset_id": did}]}
+    if damage != "bad values":   # read by the store alone
+        assert client.get(f"/api/datasets/{did}").json()["detail"] == detail
+    r = client.post("/api/compare", json=body)
+    assert r.status_code == 409 and "is damaged" in r.json()["detail"], (r.status_code, r.text[:300])
+    # the listing still answers, and says which one
+    listed = {d["id"]: d for d in client.get("/api/datasets").json()}
+    assert listed["sample-clean-free-pulses"]["damaged"] is None
+    if damage in ("signals", "scenario"):
+        assert listed[did]["damaged"] and listed[did]["signals"] == []
+    assert client.delete(f"/api/datasets/{did}").status_code == 204   # the remedy works
+
+
+def test_a_damaged_shipped_sample_is_restored_at_start(db_path):
+    from api_conftest import api
+    did = "sample-clean-free-pulses"
+    with api(db_path) as c:
+        sound = c.get(f"/api/datasets/{did}").json()
+        _scribble(db_path, did, data=b'{"t": [0.0, 0.0')
+        r = c.get(f"/api/datasets/{did}")
+        assert r.status_code == 409 and "next start of the server restores it" in r.json()["detail"]
+        other = c.get("/api/datasets/sample-clean-locked-hold").json()
+        _scribble(db_path, "sample-clean-locked-hold", scenario="{")
+    with api(db_path) as c:   # the next start
+        again = c.get(f"/api/datasets/{did}")
+        assert again.status_code == 200, again.text[:300]
+        assert again.json()["measurement"] == sound["measurement"]
+        assert again.json()["n_samples"] == sound["n_samples"] > 100
+        assert c.get("/api/datasets/sample-clean-locked-hold").json()["scenario"] == other["scenario"]
