@@ -9,6 +9,7 @@ from __future__ import annotations
 import gc
 import importlib.util
 import html
+import logging
 import os
 import re
 import sqlite3
@@ -32,13 +33,13 @@ from .bodies import BodyLimit
 from .config import LOCAL_HOSTS, Settings
 from .express_lane import SimulateExpressLane
 from .jobs import JobManager, JobTimeout
-from .responses import JSON, document_errors
+from .responses import JSON, document_errors, dumps
 from .routers import (analysis, calibration, datasets, effects, heat, jobs, presets, reports, sessions,
                       simulate, studies, units, uploads)
 from .routers import friction
 from .schemas import LimitsResponse, SampleInfo
 from .security import Guard
-from .store import DamagedRecord, ServerLock, Store, StoreUnavailable, disk_full
+from .store import DamagedRecord, ServerLock, Store, StoreUnavailable, disk_full, storage_fault
 from .sync_pool import SyncPool
 
 # the repository's static/ (a checkout or an editable install), else the copy a wheel
@@ -152,6 +153,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
 
     # the last added is outermost: the guard answers bad hosts, origins and tokens before a body is read
+    app.add_middleware(CatchAll)   # innermost: an unexpected error is an ordinary 500 (see CatchAll)
     app.add_middleware(SimulateExpressLane)   # inside both: small simulations answered on the loop
     app.add_middleware(BodyLimit, limit=settings.limits.max_upload_bytes)
     app.add_middleware(Guard, allowed_hosts=settings.allowed_hosts, token=settings.token)
@@ -282,11 +284,52 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     return app
 
 
+class CatchAll:
+    """ASGI middleware: an exception no handler answered becomes a 500 naming it, sent as an
+    ordinary answer, and is logged with its traceback.
+
+    Starlette's handler for ``Exception`` sends its 500 and then raises the exception again
+    to the server, and uvicorn closes a connection whose application raised after answering:
+    the client's kept-alive connection was reset after every 500. Here the exception ends
+    with the answer, and the connection carries the client's next request. An exception
+    after the answer has started (a stream broken midway) still reaches the server, which
+    must close the connection: the answer is incomplete.
+    """
+
+    def __init__(self, app):
+        self.app = app
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        started = False
+
+        async def tracking_send(message):
+            nonlocal started
+            if message["type"] == "http.response.start":
+                started = True
+            await send(message)
+        try:
+            await self.app(scope, receive, tracking_send)
+        except Exception as exc:
+            if started:
+                raise
+            logging.getLogger("uvicorn.error").error(
+                "Exception in ASGI application (answered 500)", exc_info=exc)
+            body = dumps({"detail": f"internal error: {type(exc).__name__}: {exc}"})
+            await send({"type": "http.response.start", "status": 500,
+                        "headers": [(b"content-type", b"application/json"),
+                                    (b"content-length", str(len(body)).encode())]})
+            await send({"type": "http.response.body", "body": body})
+
+
 def storage_error_response(exc):
     """The answer to a database or file error raised by a route.
 
-    A full disk (``SQLITE_FULL``, ``ENOSPC``) answers 507 Insufficient Storage naming the
-    cause; a database locked past the busy timeout 503; anything else 500 naming it.
+    A storage fault (:data:`app.store.STORAGE_FAULTS`) answers its status naming the cause and
+    the remedy: a full disk (``SQLITE_FULL``, ``ENOSPC``) 507 Insufficient Storage; a database
+    locked past the busy timeout 503 with ``Retry-After``; a disk that fails (``disk I/O
+    error``), a damaged or read-only database file 503. Anything else is 500 naming it.
 
     Parameters
     ----------
@@ -298,14 +341,13 @@ def storage_error_response(exc):
     fastapi.responses.JSONResponse
     """
     cause = f"{type(exc).__module__}.{type(exc).__name__}: {exc}"
-    if disk_full(exc):
-        return JSONResponse(status_code=507, content={"detail": (
-            f"the server's disk is full: nothing can be stored ({cause}); deleting datasets, "
-            f"sessions or studies still works, or free space on the server")})
-    if isinstance(exc, sqlite3.OperationalError) and "locked" in str(exc):
-        return JSONResponse(status_code=503, headers={"Retry-After": "5"}, content={
-            "detail": f"the database is busy, try again ({cause})"})
-    return JSONResponse(status_code=500, content={"detail": f"internal error: {cause}"})
+    fault = storage_fault(exc)
+    if fault is None:
+        return JSONResponse(status_code=500, content={"detail": f"internal error: {cause}"})
+    name, _, status, remedy = fault
+    busy = name in ("SQLITE_BUSY", "SQLITE_LOCKED")
+    return JSONResponse(status_code=status, headers={"Retry-After": "5"} if busy else None,
+                        content={"detail": f"{remedy} ({name}; {cause})"})
 
 
 #: Methods probed for the 405 ``Allow`` header

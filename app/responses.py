@@ -45,6 +45,9 @@ _ERROR_TEXT = {
     422: "Invalid input: each entry names the field (loc, field) and what is wrong (msg)",
     429: "Too many jobs queued or running (max_jobs), or synchronous analyses running and "
          "waiting (sync_workers, max_sync_queue; GET /api/limits); Retry-After says when to retry",
+    503: "The server cannot serve now: its storage failed (a disk I/O error, a damaged or "
+         "read-only database file; the cause is named, not the request's fault), the database "
+         "stayed busy (Retry-After), or max_connections are in progress",
     507: "The server's disk is full: nothing can be stored (the cause is named); deletes still work",
     504: "The synchronous analysis exceeded request_time_limit (GET /api/limits); use /api/jobs",
 }
@@ -78,7 +81,7 @@ def document_errors(app, settings=None):
 
 
 def _add_errors(path, method, op):
-    codes = [400, 401]
+    codes = [400, 401, 503]
     unsafe = method in ("POST", "PUT", "PATCH", "DELETE")
     if unsafe:
         codes.append(403)

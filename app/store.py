@@ -179,6 +179,63 @@ class ServerLock:
 SQLITE_FULL = 13
 
 
+#: Storage faults a request can meet, by SQLite primary result code: (the fault's name, the
+#: text SQLite gives it, the HTTP status, what to do). 507 for a full disk (the request may
+#: succeed once space is freed); 503 for a storage that fails (the service is unavailable: the
+#: request is not wrong, nor is it a bug of the server's code, so never 500)
+STORAGE_FAULTS = {
+    SQLITE_FULL: ("SQLITE_FULL", "database or disk is full", 507,
+                  "the server's disk is full: nothing can be stored; deleting datasets, "
+                  "sessions or studies still works, or free space on the server"),
+    5: ("SQLITE_BUSY", "database is locked", 503, "the database is busy, try again"),
+    6: ("SQLITE_LOCKED", "database table is locked", 503, "the database is busy, try again"),
+    10: ("SQLITE_IOERR", "disk I/O error", 503,
+         "the server's disk could not be read or written: its operator should check the disk "
+         "(dmesg, SMART, a network file system that went away)"),
+    11: ("SQLITE_CORRUPT", "database disk image is malformed", 503,
+         "the database file is damaged: its operator should restore it from a backup "
+         "(sqlite3 .recover)"),
+    26: ("SQLITE_NOTADB", "file is not a database", 503,
+         "the database file is damaged: its operator should restore it from a backup"),
+    8: ("SQLITE_READONLY", "attempt to write a readonly database", 503,
+        "the database cannot be written: its operator should check the permissions of the "
+        "file and its directory"),
+    14: ("SQLITE_CANTOPEN", "unable to open database file", 503,
+         "the database file cannot be opened: its operator should check that its directory "
+         "exists and can be written"),
+}
+
+#: The same faults met as an ``OSError`` (a file written beside the database), by errno
+OS_FAULTS = {errno.ENOSPC: SQLITE_FULL, errno.EDQUOT: SQLITE_FULL, errno.EIO: 10, errno.EROFS: 8}
+
+
+def storage_fault(exc):
+    """Which storage fault ``exc`` is, as an entry of :data:`STORAGE_FAULTS`; None for any
+    other error.
+
+    Parameters
+    ----------
+    exc : BaseException
+        A ``sqlite3.Error`` (its result code, else its text on Pythons that lack the code) or
+        an ``OSError`` (its errno)
+
+    Returns
+    -------
+    tuple or None
+        ``(name, text, status, remedy)``
+    """
+    if isinstance(exc, sqlite3.Error):
+        code = getattr(exc, "sqlite_errorcode", None)   # Python >= 3.11, raised by SQLite
+        if code is not None:
+            return STORAGE_FAULTS.get(code & 0xFF)
+        text = str(exc)
+        return next((f for f in STORAGE_FAULTS.values() if f[1] in text), None)
+    if isinstance(exc, OSError):
+        code = OS_FAULTS.get(exc.errno)
+        return None if code is None else STORAGE_FAULTS[code]
+    return None
+
+
 def disk_full(exc) -> bool:
     """Whether ``exc`` says the disk (or the database's page limit) is full.
 
@@ -192,12 +249,8 @@ def disk_full(exc) -> bool:
     bool
         True for a full disk, a full quota or a database at its page limit
     """
-    if isinstance(exc, sqlite3.Error):
-        code = getattr(exc, "sqlite_errorcode", None)   # Python >= 3.11
-        if code is not None:
-            return code & 0xFF == SQLITE_FULL
-        return "database or disk is full" in str(exc)
-    return isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT)
+    fault = storage_fault(exc)
+    return fault is not None and fault[0] == "SQLITE_FULL"
 
 
 def _loads(text, default):

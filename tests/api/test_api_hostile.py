@@ -605,3 +605,64 @@ def test_a_damaged_shipped_sample_is_restored_at_start(db_path):
         assert again.json()["measurement"] == sound["measurement"]
         assert again.json()["n_samples"] == sound["n_samples"] > 100
         assert c.get("/api/datasets/sample-clean-locked-hold").json()["scenario"] == other["scenario"]
+
+
+# ------------------------------------------------------------------ (5) a failing disk, an unexpected error
+@pytest.mark.parametrize("error, status, named", [
+    # SQLite's texts for its result codes (sqlite3.OperationalError made here has no code: the
+    # store falls back on the text, as on a Python without sqlite_errorcode)
+    ("disk I/O error", 503, "SQLITE_IOERR"),
+    ("database disk image is malformed", 503, "SQLITE_CORRUPT"),
+    ("attempt to write a readonly database", 503, "SQLITE_READONLY"),
+    ("database or disk is full", 507, "SQLITE_FULL"),
+])
+def test_a_failing_disk_is_named_and_the_connection_kept(protocol_server, monkeypatch, error, status,
+                                                        named):
+    """Over ``python -m app``'s protocol: a storage fault is its status naming the cause (never
+    500), an ordinary answer after which the kept-alive connection carries the next request."""
+    import http.client
+    import json
+    import sqlite3
+
+    from app.store import Store
+
+    def fails(self):
+        raise sqlite3.OperationalError(error)
+    monkeypatch.setattr(Store, "list_datasets", fails)
+    conn = http.client.HTTPConnection("127.0.0.1", protocol_server, timeout=60)
+    conn.request("GET", "/api/datasets")
+    r = conn.getresponse()
+    detail = json.loads(r.read())["detail"]
+    sock = conn.sock
+    assert r.status == status and named in detail and error in detail, (r.status, detail)
+    conn.request("GET", "/api/limits")
+    r2 = conn.getresponse()
+    assert r2.status == 200 and json.loads(r2.read())["max_connections"] > 0
+    assert conn.sock is sock   # the same connection
+    conn.close()
+
+
+def test_an_unexpected_error_is_an_ordinary_500_and_the_connection_kept(protocol_server, monkeypatch):
+    """Starlette's catch-all raised the error again after its 500, and uvicorn then reset the
+    kept-alive connection: the client's next request on it failed."""
+    import http.client
+    import json
+
+    from app.store import Store
+
+    def fails(self):
+        raise RuntimeError("a bug")
+    monkeypatch.setattr(Store, "list_datasets", fails)
+    conn = http.client.HTTPConnection("127.0.0.1", protocol_server, timeout=60)
+    for _ in range(2):
+        conn.request("GET", "/api/datasets")
+        r = conn.getresponse()
+        body = json.loads(r.read())
+        assert r.status == 500 and body["detail"] == "internal error: RuntimeError: a bug", body
+        assert r.getheader("x-content-type-options") == "nosniff"   # through the guard
+    sock = conn.sock
+    conn.request("GET", "/api/limits")
+    r2 = conn.getresponse()
+    assert r2.status == 200 and json.loads(r2.read())["max_connections"] > 0
+    assert conn.sock is sock
+    conn.close()
