@@ -154,6 +154,31 @@ def test_a_token_in_the_query_never_reaches_the_access_log():
         assert b"s3cret" not in scope["query_string"]
 
 
+@pytest.mark.parametrize("query, logged", [
+    (b"token=s3cret", b"token=redacted"),
+    (b"token=s3cret&x=1", b"token=redacted&x=1"),
+    (b"a=%C3%A9&token=s3cret&b=2&b=3", b"a=%C3%A9&token=redacted&b=2&b=3"),
+    (b"to%6Ben=s3cret&tokens=kept", b"token=redacted&tokens=kept"),   # an encoded name too
+    (b"x=1&token=s3cret&token=again", b"x=1&token=redacted&token=redacted"),
+])
+def test_the_token_redaction_keeps_the_rest_of_the_query(query, logged):
+    """Only the token's value leaves the access log; the other parameters stay to read there."""
+    import asyncio
+
+    from app.security import Guard
+    seen = {}
+
+    async def inner(scope, receive, send):
+        seen["query"] = scope["query_string"]
+
+    async def send(message):
+        pass
+    scope = {"type": "http", "method": "GET", "path": "/api/limits", "query_string": query,
+             "headers": [(b"host", b"127.0.0.1")], "scheme": "http"}
+    asyncio.run(Guard(inner, ["127.0.0.1"])(scope, None, send))
+    assert seen["query"] == logged and scope["query_string"] == logged
+
+
 # ------------------------------------------------------------------ (3) server limits
 @pytest.fixture
 def protocol_server(db_path, monkeypatch):
