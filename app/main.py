@@ -40,7 +40,7 @@ from .routers import friction
 from .schemas import LimitsResponse, SampleInfo
 from .security import Guard
 from .store import DamagedRecord, ServerLock, Store, StoreUnavailable, disk_full, storage_fault
-from .sync_pool import SyncPool
+from .sync_pool import ClientGone, SyncPool
 
 # the repository's static/ (a checkout or an editable install), else the copy a wheel
 # installs as app/static (see pyproject.toml)
@@ -127,7 +127,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                                     max_jobs=settings.limits.max_jobs,
                                     time_limit=settings.limits.job_time_limit, store=store)
         app.state.cancelled_studies = set()
-        app.state.sync_pool = SyncPool(settings.limits.sync_workers, settings.limits.max_sync_queue)
+        app.state.sync_pool = SyncPool(settings.limits.sync_workers, settings.limits.max_sync_queue,
+                                       settings.limits.request_time_limit)
         if settings.resume_studies:
             # studies left queued or running by a stopped server resume where they were
             from pneucore.study import list_studies
@@ -185,6 +186,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def simulation_error(request: Request, exc: SimulationError):
         return JSONResponse(status_code=422, content={"detail": [
             {"loc": ["body", "scenario", "solver"], "msg": str(exc), "type": "simulation_error"}]})
+
+    @app.exception_handler(ClientGone)
+    async def client_gone(request: Request, exc: ClientGone):
+        # nobody reads it: the status (nginx's 499, "client closed request") is for the access log
+        return JSONResponse(status_code=499, content={"detail": str(exc)})
 
     @app.exception_handler(JobTimeout)
     async def timeout_error(request: Request, exc: JobTimeout):

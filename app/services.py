@@ -188,7 +188,12 @@ def simulate_under_heat_models(req, limits):
 
 # ------------------------------------------------------------------------------ analyses
 def deadline_progress(limits, what, job_path):
-    """Progress callback that stops a synchronous analysis past the request time limit.
+    """Progress callback that stops a synchronous analysis past the request time limit, or
+    once its client has gone.
+
+    The time counts from the request's admission to :mod:`app.sync_pool` (the time it waited
+    in the queue included); the callback raises :class:`app.sync_pool.ClientGone` once the
+    client has closed its connection (nothing would read the answer).
 
     Parameters
     ----------
@@ -200,12 +205,18 @@ def deadline_progress(limits, what, job_path):
         Where the same work runs as a job, for the message (``/api/jobs/diagnose``)
     """
     from .jobs import JobTimeout
-    t0 = time.time()
+    from .sync_pool import CURRENT, ClientGone
+    ticket = CURRENT.get()   # the request's, set by the pool's admission; None outside it
+    t0 = ticket.admitted if ticket is not None else time.monotonic()
+    waited = ticket.waited() if ticket is not None else 0.0
 
     def check(fraction, step):
-        if time.time() - t0 > limits.request_time_limit:
+        if ticket is not None and ticket.gone.is_set():
+            raise ClientGone(f"the client of the {what} left (at step: {step}); stopped")
+        if time.monotonic() - t0 > limits.request_time_limit:
             raise JobTimeout(f"the {what} exceeded the request time limit of "
-                             f"{limits.request_time_limit:g} s (at step: {step}); use POST {job_path}")
+                             f"{limits.request_time_limit:g} s (at step: {step}; {waited:.1f} s of "
+                             f"it waiting for a worker); use POST {job_path}")
     return check
 
 

@@ -691,3 +691,137 @@ def test_an_unexpected_error_is_an_ordinary_500_and_the_connection_kept(protocol
     assert r2.status == 200 and json.loads(r2.read())["max_connections"] > 0
     assert conn.sock is sock
     conn.close()
+
+
+# ------------------------------------------------------------------ (2) work whose client went away
+@pytest.fixture
+def pool_server(db_path):
+    """A live uvicorn (in a thread) over an app with 1 synchronous worker and a queue of 2;
+    yields ``(app, port)``."""
+    import socket
+    import threading
+    import time
+
+    import uvicorn
+
+    from api_conftest import make_settings
+    from app.main import create_app
+    app = create_app(make_settings(db_path, sync_workers=1, max_sync_queue=2))
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
+    th = threading.Thread(target=server.run, daemon=True)
+    th.start()
+    t0 = time.monotonic()
+    while not server.started:
+        assert time.monotonic() - t0 < 60 and th.is_alive()   # a bound on a hang
+        time.sleep(0.02)
+    yield app, port
+    server.should_exit = True
+    th.join(timeout=30)
+
+
+def _until(cond, what, budget=60.0):
+    """Wait for ``cond()``; ``budget`` [s] bounds a hang on a loaded machine, it claims no speed."""
+    import time
+    t0 = time.monotonic()
+    while not cond():
+        assert time.monotonic() - t0 < budget, what
+        time.sleep(0.02)
+
+
+def _post_raw(port, path, body):
+    """Send a JSON POST on a new socket and return the socket (its answer unread)."""
+    import json
+    import socket
+    data = json.dumps(body).encode()
+    s = socket.create_connection(("127.0.0.1", port))
+    s.sendall(b"POST %s HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
+              b"Content-Length: %d\r\n\r\n%s" % (path.encode(), len(data), data))
+    return s
+
+
+def test_analyses_whose_client_left_never_start_or_stop_at_their_next_progress(pool_server,
+                                                                             monkeypatch):
+    """One worker: a running diagnosis and a waiting one. The waiting one's client closes its
+    socket: it leaves the queue and never starts. The running one's client closes: its next
+    progress callback stops it (it would run until released otherwise)."""
+    import threading
+    import time
+
+    import httpx
+
+    from app.routers import analysis
+    from pneucore.progress import Cancelled
+    app, port = pool_server
+    calls, outcomes, release = [], [], threading.Event()
+
+    def held(req, store, limits, progress=None, **k):   # a diagnosis reporting progress
+        calls.append(time.monotonic())
+        try:
+            while not release.is_set():
+                progress(0.5, "held")
+                time.sleep(0.02)
+        except Cancelled as exc:
+            outcomes.append(type(exc).__name__)
+            raise
+        outcomes.append("finished")
+        return {"held": True}
+    monkeypatch.setattr(analysis, "run_diagnose", held)
+    body = {"model": model(), "experiments": [{"dataset_id": "sample-clean-free-pulses"}]}
+    pool = app.state.sync_pool
+    running = _post_raw(port, "/api/diagnose", body)
+    _until(lambda: len(calls) == 1, "the first diagnosis did not start")
+    waiting = _post_raw(port, "/api/diagnose", body)
+    _until(lambda: pool.admitted == 2, "the second diagnosis was not queued")
+    waiting.close()
+    _until(lambda: pool.admitted == 1, "the queued diagnosis of a gone client stayed queued")
+    running.close()
+    _until(lambda: outcomes, "the running diagnosis of a gone client was not stopped")
+    assert outcomes == ["ClientGone"] and len(calls) == 1   # the queued one never started
+    _until(lambda: pool.admitted == 0, "a slot was not given back")
+    release.set()   # a client that stays gets its answer
+    with httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=60) as c:
+        r = c.post("/api/diagnose", json=body)
+    assert r.status_code == 200 and r.json() == {"held": True} and len(calls) == 2
+
+
+def test_time_in_the_queue_counts_against_the_request_time_limit(db_path, monkeypatch):
+    """request_time_limit = 1 s and one worker held: the waiting request is 504 once its time
+    is up, without starting; and a request admitted late has only what is left of its time."""
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    from api_conftest import api
+    from app.jobs import JobTimeout
+    from app.routers import analysis
+    from app.services import deadline_progress
+    from app.sync_pool import CURRENT, Ticket
+    calls, release = [], threading.Event()
+
+    def held(*a, **k):   # holds the worker without reporting progress
+        calls.append(1)
+        assert release.wait(120)
+        return {"held": True}
+    monkeypatch.setattr(analysis, "run_diagnose", held)
+    body = {"model": model(), "experiments": [{"dataset_id": "sample-clean-free-pulses"}]}
+    with api(db_path, sync_workers=1, max_sync_queue=2, request_time_limit=1.0) as c, \
+            ThreadPoolExecutor(2) as ex:
+        first = ex.submit(c.post, "/api/diagnose", json=body)
+        _until(lambda: calls, "the first diagnosis did not start")
+        second = c.post("/api/diagnose", json=body)   # waits 1 s in the queue, then 504
+        assert second.status_code == 504, second.text
+        assert "never started" in second.json()["detail"] and \
+            "request_time_limit" in second.json()["detail"]
+        release.set()
+        assert first.result(timeout=120).status_code == 200 and len(calls) == 1
+    # the deadline of a request counts from its admission: 5 s waited of a 1 s limit is over
+    from app.config import Limits
+    token = CURRENT.set(Ticket(admitted=__import__("time").monotonic() - 5.0))
+    try:
+        check = deadline_progress(Limits(request_time_limit=1.0), "diagnosis", "/api/jobs/diagnose")
+    finally:
+        CURRENT.reset(token)
+    with pytest.raises(JobTimeout, match="waiting for a worker"):
+        check(0.0, "start")
