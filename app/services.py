@@ -47,6 +47,7 @@ from pneucore.study import (Study, check_run_options, delete_study, list_studies
 
 from .config import STUDY_CLUSTERS, Limits
 from .deps import parse_experiments, parse_model, parse_scenario
+from .request_memory import check_file
 from .responses import dumps
 from .schemas import (FRICTION_DEFAULT_VELOCITIES, CalibrateRequest, CompareRequest, DiagnoseRequest,
                       ExperimentIn, RefineRequest)
@@ -682,8 +683,10 @@ def store_upload(store, data, filename, fields, name, description="", limits=Non
     limits = limits or Limits()
     name = form_name({"name": name}, "name", limits)
     description = form_name({"description": description}, "description", limits, "", text=True)
+    columns = _columns(fields, limits)
+    check_file(data, filename, limits.max_request_memory)   # before anything is decoded
     meas = read_measurement(data, filename, ambient_pressure=_ambient(fields), name=name,
-                            columns=_columns(fields, limits), memory_budget=limits.max_request_memory)
+                            columns=columns, memory_budget=limits.max_request_memory)
     scen = _context(fields, limits)
     info = store.add_dataset(meas, scen, name=name, description=description)
     return {**info, "import": meas.meta.get("import")}
@@ -704,9 +707,11 @@ def store_json(store, payload):
     return {**info, "import": meas.meta.get("import")}
 
 
-def inspect_rig_file(data, filename):
+def inspect_rig_file(data, filename, limits=None):
     """POST /api/datasets/inspect: a rig file's dialect, columns, units and a proposed mapping
-    (:func:`pneucore.data.fileformats.inspect_file`), nothing stored."""
+    (:func:`pneucore.data.fileformats.inspect_file`), nothing stored; a TDMS or MATLAB file
+    (read whole) within ``limits.max_request_memory`` (:func:`app.request_memory.check_file`)."""
+    check_file(data, filename, (limits or Limits()).max_request_memory, preview=True)
     return inspect_file(data, filename)
 
 

@@ -825,3 +825,113 @@ def test_time_in_the_queue_counts_against_the_request_time_limit(db_path, monkey
         CURRENT.reset(token)
     with pytest.raises(JobTimeout, match="waiting for a worker"):
         check(0.0, "start")
+
+
+# ------------------------------------------------------------------ (1) a memory budget for every format
+def _never(*a, **k):
+    raise AssertionError("decoded although over the memory budget")
+
+
+def _mat(variables):
+    import scipy.io
+    buf = io.BytesIO()
+    scipy.io.savemat(buf, variables, do_compression=True)
+    return buf.getvalue()
+
+
+def _columns(n):
+    import numpy as np
+    t = np.arange(n) * 1e-3
+    return {"t": t, "u": (t > 0.005).astype(float), "p_a": 2e5 + 1e3 * t, "x": 0.01 + 0.001 * t}
+
+
+def test_a_csv_of_many_short_rows_is_refused_before_it_is_parsed(db_path, monkeypatch):
+    """100,000 rows of "0,0" are 400 kB: 200,000 cells, about 26 MB for the reader (128 bytes a
+    cell), over a 2 MB budget: refused naming it, the reader never called."""
+    from api_conftest import api
+    from app import services
+    with api(db_path, max_request_memory=2_000_000) as c:
+        ok = c.post("/api/datasets", files={"file": ("a.csv", small_csv(200), "text/csv")})
+        assert ok.status_code == 201, ok.text   # 200 rows x 4 columns: 100 kB, within it
+        monkeypatch.setattr(services, "read_measurement", _never)
+        r = c.post("/api/datasets", files={"file": ("h.csv", "t,u\n" + "0,0\n" * 100_000, "text/csv")})
+    assert r.status_code == 422 and "max_request_memory" in r.text and "nothing was decoded" in r.text, \
+        r.text[:300]
+
+
+@pytest.mark.parametrize("path", ["/api/datasets", "/api/compare"])
+def test_a_json_body_of_many_values_is_413_before_it_is_parsed(db_path, path):
+    """300,000 zeros (600 kB) would take about 36 MB parsed (120 bytes a value): over a 2 MB
+    budget, 413 naming it, for a dataset and for inline measurements of an analysis."""
+    import orjson
+
+    from api_conftest import api
+    n = 300_000
+    meas = {"t": [0] * n, "u": [0] * n}
+    body = {"measurement": meas} if path == "/api/datasets" else \
+        {"model": model(), "experiments": [{"measurement": meas, "scenario": {}}]}
+    with api(db_path, max_request_memory=2_000_000) as c:
+        r = c.post(path, content=orjson.dumps(body), headers={"content-type": "application/json"})
+        assert r.status_code == 413 and "max_request_memory" in r.json()["detail"], r.text[:300]
+        small = {"measurement": {k: v.tolist() for k, v in _columns(50).items()}}
+        assert c.post("/api/datasets", json=small).status_code == 201
+
+
+def test_a_compressed_mat_bomb_is_refused_from_its_headers(db_path, monkeypatch):
+    """20 MB of uint8 zeros compress to about 20 kB; read as uint8 and converted to float64 they
+    take 180 MB, over a 50 MB budget: refused from the variable's header, no reader started
+    (neither the upload nor the preview)."""
+    import numpy as np
+
+    from api_conftest import api
+    from pneucore.data import fileformats
+    bomb = _mat({"t": np.zeros((20 * 2**20, 1), dtype=np.uint8)})
+    assert len(bomb) < 200_000   # precondition: a small body
+    in_struct = _mat({"s": {"t": np.zeros(3), "u": np.zeros((20 * 2**20, 1), dtype=np.uint8)}})
+    sound = _mat({"s": _columns(2000)})   # a struct of columns: its fields are counted, within it
+    with api(db_path, max_request_memory=50 * 2**20) as c:
+        r = c.post("/api/datasets", files={"file": ("s.mat", sound, "application/octet-stream")})
+        assert r.status_code == 201 and r.json()["n_samples"] == 2000, r.text[:300]
+        monkeypatch.setattr(fileformats, "mat_columns_isolated", _never)
+        for body in (bomb, in_struct):
+            for path in ("/api/datasets", "/api/datasets/inspect"):
+                r = c.post(path, files={"file": ("b.mat", body, "application/octet-stream")})
+                assert r.status_code == 422 and "max_request_memory" in r.text, (path, r.text[:300])
+
+
+def test_the_matlab_estimate_counts_classes_structs_and_cells():
+    """The headers' estimate against the sizes it stands for: each value as its class and as
+    float64 (the .npz reader's rule), struct fields and cells followed."""
+    import numpy as np
+
+    from app.request_memory import mat_bytes
+    n = 1000
+    cols = _columns(n)
+    budget = 10**9
+    assert mat_bytes(_mat(cols), budget) == 4 * n * 16                      # doubles
+    assert mat_bytes(_mat({"s": cols}), budget) == pytest.approx(4 * n * 16, abs=64)   # + names
+    assert mat_bytes(_mat({"i": np.zeros(n, np.int8)}), budget) == n * 9    # 1 byte + float64
+    cell = np.empty(2, dtype=object)
+    cell[0], cell[1] = np.zeros(10), np.zeros(20, np.float32)
+    assert mat_bytes(_mat({"c": cell}), budget) == 10 * 16 + 20 * 12
+    assert mat_bytes(_mat({"t": np.zeros(10**6)}), 1000) > 1000            # stops at the budget
+
+
+def test_a_tdms_file_over_the_budget_is_refused_from_its_metadata(db_path, monkeypatch):
+    """4 channels of 50,000 doubles: 3.2 MB read and converted; refused under a 1 MB budget
+    without reading a channel, stored under the default one."""
+    from nptdms import ChannelObject, TdmsWriter
+
+    from api_conftest import api
+    from pneucore.data import fileformats
+    buf = io.BytesIO()
+    with TdmsWriter(buf) as w:
+        w.write_segment([ChannelObject("g", k, v) for k, v in _columns(50_000).items()])
+    data = buf.getvalue()
+    with api(db_path) as c:
+        assert c.post("/api/datasets", files={"file": ("a.tdms", data, "application/octet-stream")}
+                      ).status_code == 201
+    with api(db_path, max_request_memory=2**20) as c:
+        monkeypatch.setattr(fileformats, "_tdms_columns", _never)
+        r = c.post("/api/datasets", files={"file": ("a.tdms", data, "application/octet-stream")})
+        assert r.status_code == 422 and "max_request_memory" in r.text and "3 MB" in r.text, r.text[:300]
