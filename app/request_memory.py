@@ -47,8 +47,8 @@ def decoded_bytes(count, itemsize):
 
 
 def _refuse(what, estimate, budget):
-    return MeasurementError(f"the file's {what} would take about {estimate / 2**20:.0f} MB once "
-                            f"decoded, more than the memory budget of {budget / 2**20:.0f} MB per "
+    return MeasurementError(f"the file's {what} would take about {estimate / 1e6:.0f} MB once "
+                            f"decoded, more than the memory budget of {budget / 1e6:.0f} MB per "
                             f"request (max_request_memory, GET /api/limits); nothing was decoded: "
                             f"split or decimate the measurement")
 
@@ -293,7 +293,7 @@ def check_json(body: bytes, budget: int):
     values = body.count(b",") + 1
     if values * JSON_VALUE_BYTES > budget:
         raise HTTPException(413, f"the JSON body's {values} values would take about "
-                                 f"{values * JSON_VALUE_BYTES / 2**20:.0f} MB once parsed, more than "
-                                 f"the memory budget of {budget / 2**20:.0f} MB per request "
+                                 f"{values * JSON_VALUE_BYTES / 1e6:.0f} MB once parsed, more than "
+                                 f"the memory budget of {budget / 1e6:.0f} MB per request "
                                  f"(max_request_memory, GET /api/limits); nothing was parsed: "
                                  f"upload the measurement as a file (CSV, .npz) or decimate it")

@@ -95,7 +95,7 @@ def _add_errors(path, method, op):
         codes.append(429)
     if path in SYNC_ANALYSES:
         codes.append(429)
-    if (method == "GET" and path.startswith("/api/datasets/{")) or \
+    if (method == "GET" and path.startswith(("/api/datasets/{", "/api/sessions/{"))) or \
             (method == "POST" and (path in SYNC_ANALYSES or path.startswith(("/api/jobs", "/api/sessions")))):
         codes.append(409)   # a stored dataset it reads is damaged
     if path in ("/api/compare", "/api/calibrate", "/api/diagnose"):

@@ -460,7 +460,7 @@ class Store:
             return Measurement.from_dict(d)
         except MeasurementError as exc:   # stored values no measurement has (changed by hand)
             raise DamagedRecord("dataset", did, f"its measurement is invalid: {exc}",
-                                self.dataset_info(did)["sample"]) from None
+                                (self.dataset_info(did) or {}).get("sample")) from None
 
     def delete_dataset(self, did):
         """Delete a dataset; False when there is none. Raises :class:`ReadOnly` for a sample."""
@@ -551,7 +551,12 @@ class Store:
                 return None
             vers = self._db.execute("SELECT version, label, created, model, errors, overall, added, params, "
                                     "note FROM versions WHERE session=? ORDER BY version", (sid,)).fetchall()
-        return {"id": row[0], "name": row[1], "created": row[2], "experiments": _loads(row[3], []),
+        experiments = _loads(row[3], None)
+        if not isinstance(experiments, list):
+            # the session's own row no longer decodes (changed by hand, a faulty disk): answered
+            # as damaged; a damaged version reads as it can (model null), the others stay usable
+            raise DamagedRecord("session", sid, "its experiments are not a JSON list")
+        return {"id": row[0], "name": row[1], "created": row[2], "experiments": experiments,
                 "versions": [{"version": v[0], "label": v[1], "created": v[2], "model": _loads(v[3], None),
                               "errors": _loads(v[4], {}), "overall": v[5], "added": v[6],
                               "params": _loads(v[7], {}), "note": v[8]} for v in vers]}

@@ -935,3 +935,23 @@ def test_a_tdms_file_over_the_budget_is_refused_from_its_metadata(db_path, monke
         monkeypatch.setattr(fileformats, "_tdms_columns", _never)
         r = c.post("/api/datasets", files={"file": ("a.tdms", data, "application/octet-stream")})
         assert r.status_code == 422 and "max_request_memory" in r.text and "3 MB" in r.text, r.text[:300]
+
+
+@pytest.mark.parametrize("table, column, value", [("sessions", "experiments", "[{"),
+                                                  ("sessions", "experiments", '{"a": 1}')])
+def test_a_damaged_session_is_409_naming_it(client, db_path, table, column, value):
+    """A session whose experiments no longer decode (its versions are compared on them)."""
+    import contextlib
+    import sqlite3
+    r = client.post("/api/sessions", json={"name": "s", "model": model()})
+    assert r.status_code == 201, r.text[:300]
+    sid = r.json()["id"]
+    key = "id" if table == "sessions" else "session"
+    with contextlib.closing(sqlite3.connect(db_path, isolation_level=None)) as db:
+        db.execute(f"UPDATE {table} SET {column}=? WHERE {key}=?", (value, sid))
+    for r in (client.get(f"/api/sessions/{sid}"),
+              client.post(f"/api/sessions/{sid}/versions", json={"model": model()})):
+        assert r.status_code == 409, (r.status_code, r.text[:300])
+        assert f"session {sid!r} is damaged" in r.json()["detail"], r.text[:300]
+    assert [s["id"] for s in client.get("/api/sessions").json()] == [sid]   # listed still
+    assert client.delete(f"/api/sessions/{sid}").status_code == 204
