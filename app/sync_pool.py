@@ -63,6 +63,7 @@ async def _disconnected(receive):
     while (await receive())["type"] != "http.disconnect":
         pass
 
+
 #: Seconds a client refused for a full queue is told to wait before it tries again
 #: (``Retry-After``): about two diagnoses of a typical size (1-2 s each) ahead of it
 RETRY_AFTER_S = 5
@@ -109,41 +110,35 @@ class SyncPool:
                 f"or use POST {what}"), headers={"Retry-After": str(RETRY_AFTER_S)})
         ticket = Ticket(time.monotonic())
         self.admitted += 1
-        watcher = None
-        if receive is not None:
-            watcher = asyncio.ensure_future(_disconnected(receive))
-            watcher.add_done_callback(
-                lambda t: t.cancelled() or t.exception() is not None or ticket.gone.set())
+        acquire = watcher = None
+        owned = False   # whether this request holds a worker's slot
         try:
             acquire = asyncio.ensure_future(self._slots.acquire())
+            if receive is not None:
+                watcher = asyncio.ensure_future(_disconnected(receive))
             waits = {acquire} if watcher is None else {acquire, watcher}
             await asyncio.wait(waits, timeout=self.time_limit, return_when=asyncio.FIRST_COMPLETED)
+            owned = acquire.done() and not acquire.cancelled()
             if watcher is not None and watcher.done() and not watcher.cancelled() \
                     and watcher.exception() is None:
                 ticket.gone.set()
-            if ticket.gone.is_set() or not acquire.done():
-                if not acquire.cancel():     # granted (now or meanwhile): given back unused
-                    self._slots.release()
-                else:
-                    try:
-                        await acquire
-                        self._slots.release()
-                    except asyncio.CancelledError:
-                        pass
-                if ticket.gone.is_set():
-                    raise ClientGone(f"the client left while its analysis waited "
-                                     f"{ticket.waited():.1f} s for a worker; it never started")
+            if ticket.gone.is_set():
+                raise ClientGone(f"the client left while its analysis waited "
+                                 f"{ticket.waited():.1f} s for a worker; it never started")
+            if not owned:
                 from .jobs import JobTimeout
                 raise JobTimeout(f"the analysis waited {ticket.waited():.0f} s for a worker, past "
                                  f"the request time limit of {self.time_limit:g} s "
                                  f"(GET /api/limits: request_time_limit, sync_workers); it never "
                                  f"started; use POST {what}")
             ticket.started = time.monotonic()
+            if watcher is not None:   # the client leaving from now on: told at the next progress
+                watcher.add_done_callback(
+                    lambda t: t.cancelled() or t.exception() is not None or ticket.gone.set())
             token = CURRENT.set(ticket)
             try:
                 yield ticket
             finally:
-                self._slots.release()
                 try:
                     CURRENT.reset(token)
                 except ValueError:   # exited in another context: the request's task ends anyway
@@ -151,6 +146,10 @@ class SyncPool:
         finally:
             if watcher is not None:
                 watcher.cancel()
+            if owned:
+                self._slots.release()
+            elif acquire is not None and not acquire.cancel() and not acquire.cancelled():
+                self._slots.release()   # granted meanwhile (a cancelled wait gives it back itself)
             self.admitted -= 1
 
 
