@@ -20,6 +20,8 @@ from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException
 from starlette.requests import Request
 
+from .request_memory import check_json
+
 
 class BodyTooLarge(HTTPException):
     """413: the request body passed the size limit."""
@@ -170,6 +172,8 @@ class OffLoopRoute(APIRoute):
             # upload) would hold the parsed objects beside its own, several times the body's size
             if self.body_field is not None and "json" in ctype.split(";", 1)[0]:
                 body = await request.body()
+                # refused before parsing when its values would exceed the memory budget (413)
+                check_json(body, request.app.state.settings.limits.max_request_memory)
                 if body:
                     try:
                         request._json = parse_json(body) if len(body) <= LOOP_PARSE_BYTES \

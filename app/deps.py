@@ -92,7 +92,7 @@ def parse_experiments(exps_in, model: Model, store: Store, limits: Limits):
     for i, e in enumerate(exps_in):
         d = e.model_dump(exclude_none=True) if hasattr(e, "model_dump") else dict(e)
         if d.get("dataset_id") is not None and d.get("scenario") is None:
-            info = store.dataset_info(d["dataset_id"])
+            info = store.checked_dataset_info(d["dataset_id"])   # damaged: 409
             if info is not None:
                 d["scenario"] = info["scenario"]
             if info is not None and not d.get("name"):

@@ -9,6 +9,7 @@ from __future__ import annotations
 import gc
 import importlib.util
 import html
+import logging
 import os
 import re
 import sqlite3
@@ -32,14 +33,14 @@ from .bodies import BodyLimit
 from .config import LOCAL_HOSTS, Settings
 from .express_lane import SimulateExpressLane
 from .jobs import JobManager, JobTimeout
-from .responses import JSON, document_errors
+from .responses import JSON, document_errors, dumps
 from .routers import (analysis, calibration, datasets, effects, heat, jobs, presets, reports, sessions,
                       simulate, studies, units, uploads)
 from .routers import friction
 from .schemas import LimitsResponse, SampleInfo
 from .security import Guard
-from .store import Store, StoreUnavailable, disk_full
-from .sync_pool import SyncPool
+from .store import DamagedRecord, ServerLock, Store, StoreUnavailable, disk_full, storage_fault
+from .sync_pool import ClientGone, SyncPool
 
 # the repository's static/ (a checkout or an editable install), else the copy a wheel
 # installs as app/static (see pyproject.toml)
@@ -106,7 +107,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         stopped = threading.Event()
         threading.Thread(target=_freeze_start_up_objects, args=(warm, stopped), daemon=True,
                          name="pneucore-gc-freeze").start()
-        store = Store(settings.db_path)   # StoreUnavailable: a clear message (see main)
+        # one server per database (DatabaseInUse: a second server stops before touching it)
+        lock = ServerLock(settings.db_path).acquire()
+        try:
+            store = Store(settings.db_path)   # StoreUnavailable: a clear message (see main)
+        except BaseException:
+            lock.release()
+            raise
         if settings.seed_samples:
             try:
                 store.seed_samples()
@@ -120,7 +127,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                                     max_jobs=settings.limits.max_jobs,
                                     time_limit=settings.limits.job_time_limit, store=store)
         app.state.cancelled_studies = set()
-        app.state.sync_pool = SyncPool(settings.limits.sync_workers, settings.limits.max_sync_queue)
+        app.state.sync_pool = SyncPool(settings.limits.sync_workers, settings.limits.max_sync_queue,
+                                       settings.limits.request_time_limit)
         if settings.resume_studies:
             # studies left queued or running by a stopped server resume where they were
             from pneucore.study import list_studies
@@ -134,6 +142,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         yield
         app.state.jobs.shutdown()
         store.close()
+        lock.release()
         _unfreeze(stopped)
 
     app = FastAPI(title="pneucore", version="0.1.0", lifespan=lifespan, default_response_class=JSON,
@@ -145,6 +154,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
 
     # the last added is outermost: the guard answers bad hosts, origins and tokens before a body is read
+    app.add_middleware(CatchAll)   # innermost: an unexpected error is an ordinary 500 (see CatchAll)
     app.add_middleware(SimulateExpressLane)   # inside both: small simulations answered on the loop
     app.add_middleware(BodyLimit, limit=settings.limits.max_upload_bytes)
     app.add_middleware(Guard, allowed_hosts=settings.allowed_hosts, token=settings.token)
@@ -177,6 +187,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         return JSONResponse(status_code=422, content={"detail": [
             {"loc": ["body", "scenario", "solver"], "msg": str(exc), "type": "simulation_error"}]})
 
+    @app.exception_handler(ClientGone)
+    async def client_gone(request: Request, exc: ClientGone):
+        # nobody reads it: the status (nginx's 499, "client closed request") is for the access log
+        return JSONResponse(status_code=499, content={"detail": str(exc)})
+
     @app.exception_handler(JobTimeout)
     async def timeout_error(request: Request, exc: JobTimeout):
         return JSONResponse(status_code=504, content={"detail": str(exc)})
@@ -197,6 +212,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def value_error(request: Request, exc: ValueError):
         return JSONResponse(status_code=422, content={"detail": [
             {"loc": ["body"], "msg": str(exc), "type": "value_error"}]})
+
+    @app.exception_handler(DamagedRecord)
+    async def damaged_record(request: Request, exc: DamagedRecord):
+        # 409 Conflict: the record's stored state, not the request, is what fails (a 422 would
+        # blame the request, a 500 the server's code); the message names the record and the remedy
+        return JSONResponse(status_code=409, content={"detail": str(exc)})
 
     @app.exception_handler(sqlite3.Error)
     @app.exception_handler(OSError)
@@ -269,11 +290,52 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     return app
 
 
+class CatchAll:
+    """ASGI middleware: an exception no handler answered becomes a 500 naming it, sent as an
+    ordinary answer, and is logged with its traceback.
+
+    Starlette's handler for ``Exception`` sends its 500 and then raises the exception again
+    to the server, and uvicorn closes a connection whose application raised after answering:
+    the client's kept-alive connection was reset after every 500. Here the exception ends
+    with the answer, and the connection carries the client's next request. An exception
+    after the answer has started (a stream broken midway) still reaches the server, which
+    must close the connection: the answer is incomplete.
+    """
+
+    def __init__(self, app):
+        self.app = app
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        started = False
+
+        async def tracking_send(message):
+            nonlocal started
+            if message["type"] == "http.response.start":
+                started = True
+            await send(message)
+        try:
+            await self.app(scope, receive, tracking_send)
+        except Exception as exc:
+            if started:
+                raise
+            logging.getLogger("uvicorn.error").error(
+                "Exception in ASGI application (answered 500)", exc_info=exc)
+            body = dumps({"detail": f"internal error: {type(exc).__name__}: {exc}"})
+            await send({"type": "http.response.start", "status": 500,
+                        "headers": [(b"content-type", b"application/json"),
+                                    (b"content-length", str(len(body)).encode())]})
+            await send({"type": "http.response.body", "body": body})
+
+
 def storage_error_response(exc):
     """The answer to a database or file error raised by a route.
 
-    A full disk (``SQLITE_FULL``, ``ENOSPC``) answers 507 Insufficient Storage naming the
-    cause; a database locked past the busy timeout 503; anything else 500 naming it.
+    A storage fault (:data:`app.store.STORAGE_FAULTS`) answers its status naming the cause and
+    the remedy: a full disk (``SQLITE_FULL``, ``ENOSPC``) 507 Insufficient Storage; a database
+    locked past the busy timeout 503 with ``Retry-After``; a disk that fails (``disk I/O
+    error``), a damaged or read-only database file 503. Anything else is 500 naming it.
 
     Parameters
     ----------
@@ -285,14 +347,13 @@ def storage_error_response(exc):
     fastapi.responses.JSONResponse
     """
     cause = f"{type(exc).__module__}.{type(exc).__name__}: {exc}"
-    if disk_full(exc):
-        return JSONResponse(status_code=507, content={"detail": (
-            f"the server's disk is full: nothing can be stored ({cause}); deleting datasets, "
-            f"sessions or studies still works, or free space on the server")})
-    if isinstance(exc, sqlite3.OperationalError) and "locked" in str(exc):
-        return JSONResponse(status_code=503, headers={"Retry-After": "5"}, content={
-            "detail": f"the database is busy, try again ({cause})"})
-    return JSONResponse(status_code=500, content={"detail": f"internal error: {cause}"})
+    fault = storage_fault(exc)
+    if fault is None:
+        return JSONResponse(status_code=500, content={"detail": f"internal error: {cause}"})
+    name, _, status, remedy = fault
+    busy = name in ("SQLITE_BUSY", "SQLITE_LOCKED")
+    return JSONResponse(status_code=status, headers={"Retry-After": "5"} if busy else None,
+                        content={"detail": f"{remedy} ({name}; {cause})"})
 
 
 #: Methods probed for the 405 ``Allow`` header
@@ -327,7 +388,8 @@ def main():
     if a.scheduler:   # read by Settings when uvicorn imports app.main
         os.environ["PNEUCORE_DASK_SCHEDULER"] = a.scheduler
     settings = Settings()
-    try:   # a database that cannot be opened: a clear message, not the server's traceback
+    try:   # a database in use or that cannot be opened: a clear message, not a traceback
+        ServerLock(settings.db_path).acquire()   # held until the process ends
         Store(settings.db_path).close()
     except StoreUnavailable as exc:
         sys.exit(f"pneucore: not started: {exc}")

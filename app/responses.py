@@ -39,10 +39,15 @@ _ERROR_TEXT = {
     403: "Refused: a cross-origin state-changing request, or a write to a read-only record "
          "(a shipped sample dataset)",
     404: "No such record",
+    409: "A stored record the request uses is damaged (it no longer decodes; the message names it "
+         "and the remedy: delete and store it again, a shipped sample is restored at the next start)",
     413: "The request body exceeds max_upload_bytes (GET /api/limits)",
     422: "Invalid input: each entry names the field (loc, field) and what is wrong (msg)",
     429: "Too many jobs queued or running (max_jobs), or synchronous analyses running and "
          "waiting (sync_workers, max_sync_queue; GET /api/limits); Retry-After says when to retry",
+    503: "The server cannot serve now: its storage failed (a disk I/O error, a damaged or "
+         "read-only database file; the cause is named, not the request's fault), the database "
+         "stayed busy (Retry-After), or max_connections are in progress",
     507: "The server's disk is full: nothing can be stored (the cause is named); deletes still work",
     504: "The synchronous analysis exceeded request_time_limit (GET /api/limits); use /api/jobs",
 }
@@ -76,7 +81,7 @@ def document_errors(app, settings=None):
 
 
 def _add_errors(path, method, op):
-    codes = [400, 401]
+    codes = [400, 401, 503]
     unsafe = method in ("POST", "PUT", "PATCH", "DELETE")
     if unsafe:
         codes.append(403)
@@ -90,6 +95,9 @@ def _add_errors(path, method, op):
         codes.append(429)
     if path in SYNC_ANALYSES:
         codes.append(429)
+    if (method == "GET" and path.startswith(("/api/datasets/{", "/api/sessions/{"))) or \
+            (method == "POST" and (path in SYNC_ANALYSES or path.startswith(("/api/jobs", "/api/sessions")))):
+        codes.append(409)   # a stored dataset it reads is damaged
     if path in ("/api/compare", "/api/calibrate", "/api/diagnose"):
         codes.append(504)
     if method in ("POST", "PUT", "PATCH"):

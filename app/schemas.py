@@ -367,6 +367,8 @@ class DatasetInfo(BaseModel):
     scenario: dict[str, Any] = Field(..., description="Context: locked [-], x0 [m], ...")
     description: str = Field("", description="Free text")
     sample: Optional[str] = Field(None, description="Sample id for the shipped samples, else null")
+    damaged: Optional[str] = Field(None, description="What cannot be read in the stored record "
+                                   "(using it answers 409); null for a sound record [-]")
 
 
 class DatasetCreated(DatasetInfo):

@@ -24,7 +24,7 @@ nosniff``; the page inserts user-supplied text only as text.
 from __future__ import annotations
 
 import hmac
-from urllib.parse import parse_qs, urlsplit
+from urllib.parse import parse_qs, unquote_plus, urlsplit
 
 import orjson
 
@@ -51,6 +51,28 @@ def host_name(host: str) -> str:
     if host.count(":") == 1:
         return host.split(":", 1)[0]
     return host
+
+
+def redact_token(query_string: bytes) -> bytes:
+    """``query_string`` with the value of every ``token`` parameter replaced by ``redacted``;
+    every other parameter, its order and its encoding kept as sent.
+
+    Parameters
+    ----------
+    query_string : bytes
+        The raw query string of a request (``a=1&token=s3cret&b=2``)
+
+    Returns
+    -------
+    bytes
+        ``a=1&token=redacted&b=2``
+    """
+    parts = query_string.split(b"&")
+    for i, part in enumerate(parts):
+        key = unquote_plus(part.split(b"=", 1)[0].decode("latin-1"))
+        if key == "token":
+            parts[i] = b"token=redacted"
+    return b"&".join(parts)
 
 
 class Guard:
@@ -81,8 +103,8 @@ class Guard:
         query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
         if "token" in query:
             # the server's access log writes the request line from this very scope when the
-            # answer starts: the secret never reaches a log line
-            scope["query_string"] = b"token=redacted"
+            # answer starts: the secret never reaches a log line, the rest of the query does
+            scope["query_string"] = redact_token(scope["query_string"])
         if self.token is not None:
             if scope["path"] == "/" and scope["method"] == "GET" and "token" in query:
                 return await self._login(send, query["token"][0])

@@ -47,6 +47,7 @@ from pneucore.study import (Study, check_run_options, delete_study, list_studies
 
 from .config import STUDY_CLUSTERS, Limits
 from .deps import parse_experiments, parse_model, parse_scenario
+from .request_memory import check_file
 from .responses import dumps
 from .schemas import (FRICTION_DEFAULT_VELOCITIES, CalibrateRequest, CompareRequest, DiagnoseRequest,
                       ExperimentIn, RefineRequest)
@@ -188,7 +189,12 @@ def simulate_under_heat_models(req, limits):
 
 # ------------------------------------------------------------------------------ analyses
 def deadline_progress(limits, what, job_path):
-    """Progress callback that stops a synchronous analysis past the request time limit.
+    """Progress callback that stops a synchronous analysis past the request time limit, or
+    once its client has gone.
+
+    The time counts from the request's admission to :mod:`app.sync_pool` (the time it waited
+    in the queue included); the callback raises :class:`app.sync_pool.ClientGone` once the
+    client has closed its connection (nothing would read the answer).
 
     Parameters
     ----------
@@ -200,12 +206,18 @@ def deadline_progress(limits, what, job_path):
         Where the same work runs as a job, for the message (``/api/jobs/diagnose``)
     """
     from .jobs import JobTimeout
-    t0 = time.time()
+    from .sync_pool import CURRENT, ClientGone
+    ticket = CURRENT.get()   # the request's, set by the pool's admission; None outside it
+    t0 = ticket.admitted if ticket is not None else time.monotonic()
+    waited = ticket.waited() if ticket is not None else 0.0
 
     def check(fraction, step):
-        if time.time() - t0 > limits.request_time_limit:
+        if ticket is not None and ticket.gone.is_set():
+            raise ClientGone(f"the client of the {what} left (at step: {step}); stopped")
+        if time.monotonic() - t0 > limits.request_time_limit:
             raise JobTimeout(f"the {what} exceeded the request time limit of "
-                             f"{limits.request_time_limit:g} s (at step: {step}); use POST {job_path}")
+                             f"{limits.request_time_limit:g} s (at step: {step}; {waited:.1f} s of "
+                             f"it waiting for a worker); use POST {job_path}")
     return check
 
 
@@ -672,8 +684,10 @@ def store_upload(store, data, filename, fields, name, description="", limits=Non
     limits = limits or Limits()
     name = form_name({"name": name}, "name", limits)
     description = form_name({"description": description}, "description", limits, "", text=True)
+    columns = _columns(fields, limits)
+    check_file(data, filename, limits.max_request_memory)   # before anything is decoded
     meas = read_measurement(data, filename, ambient_pressure=_ambient(fields), name=name,
-                            columns=_columns(fields, limits), memory_budget=limits.max_request_memory)
+                            columns=columns, memory_budget=limits.max_request_memory)
     scen = _context(fields, limits)
     info = store.add_dataset(meas, scen, name=name, description=description)
     return {**info, "import": meas.meta.get("import")}
@@ -694,9 +708,11 @@ def store_json(store, payload):
     return {**info, "import": meas.meta.get("import")}
 
 
-def inspect_rig_file(data, filename):
+def inspect_rig_file(data, filename, limits=None):
     """POST /api/datasets/inspect: a rig file's dialect, columns, units and a proposed mapping
-    (:func:`pneucore.data.fileformats.inspect_file`), nothing stored."""
+    (:func:`pneucore.data.fileformats.inspect_file`), nothing stored; a TDMS or MATLAB file
+    (read whole) within ``limits.max_request_memory`` (:func:`app.request_memory.check_file`)."""
+    check_file(data, filename, (limits or Limits()).max_request_memory, preview=True)
     return inspect_file(data, filename)
 
 

@@ -13,6 +13,7 @@ import datetime as _dt
 import errno
 import json
 import math
+import os
 import sqlite3
 import threading
 import time
@@ -22,7 +23,7 @@ import numpy as np
 import orjson
 
 from pneucore.analysis.history import ModelVersion, RefinementHistory
-from pneucore.data.measurement import SIGNALS, Measurement
+from pneucore.data.measurement import SIGNALS, Measurement, MeasurementError
 from pneucore.data.samples import DATA_DIR, list_samples
 from pneucore.data.measurement import read_csv
 
@@ -58,8 +59,181 @@ class StoreUnavailable(Exception):
     """The database file cannot be opened or its tables created (a full disk, no permission)."""
 
 
+class DamagedRecord(Exception):
+    """A stored record that no longer decodes (written by hand, by a faulty disk, or by a
+    version that stored it differently): the service answers 409 naming it, never an empty
+    record, nor an error blamed on the request that only referred to it.
+
+    Parameters
+    ----------
+    kind : str
+        What the record is (``"dataset"``)
+    key : str
+        Its id
+    cause : str
+        What cannot be read
+    sample : str or None
+        The shipped sample it is, restored at the next start; None for a user's record
+    """
+
+    def __init__(self, kind, key, cause, sample=None):
+        self.kind, self.key, self.cause, self.sample = kind, key, cause, sample
+        remedy = ("it is a shipped sample: the next start of the server restores it" if sample
+                  else f"delete it (DELETE /api/{kind}s/{key}) and store it again")
+        super().__init__(f"the stored {kind} {key!r} is damaged ({cause}); nothing in the request "
+                         f"is wrong; {remedy}")
+
+
+class DatabaseInUse(StoreUnavailable):
+    """Another live server holds the database (:class:`ServerLock`)."""
+
+
+try:   # POSIX; elsewhere no lock is taken (README: one server per database)
+    import fcntl
+except ImportError:   # pragma: no cover - Windows
+    fcntl = None
+
+
+class ServerLock:
+    """One server per database: an exclusive ``flock`` on ``<database>.lock``, held while the
+    server lives.
+
+    Two servers on one file would both resume the studies left running and compute them
+    twice, and each would mark the other's jobs interrupted at its start. The kernel
+    releases the lock when the holding process ends, however it ends (``kill -9`` too), so
+    a stale lock file never blocks a restart; the file holds the holder's pid for the message.
+    Re-entrant within a process (``python -m app`` takes it before uvicorn starts the app,
+    whose lifespan takes it again); an in-memory database needs none.
+
+    Parameters
+    ----------
+    db_path : str or os.PathLike
+        The SQLite file the server serves
+    """
+
+    _held = {}                     # lock file -> [fd, holders] of this process
+    _guard = threading.Lock()
+
+    def __init__(self, db_path):
+        self.db_path = str(db_path)
+        self.path = None if self.db_path in ("", ":memory:") or fcntl is None \
+            else os.path.abspath(self.db_path) + ".lock"
+        self._acquired = False
+
+    def acquire(self):
+        """Take the lock; raises :class:`DatabaseInUse` naming the other server, or
+        :class:`StoreUnavailable` when the lock file cannot be written."""
+        if self.path is None or self._acquired:
+            return self
+        with self._guard:
+            held = self._held.get(self.path)
+            if held is not None:
+                held[1] += 1
+                self._acquired = True
+                return self
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            except OSError as exc:
+                hint = "; free space on its disk, then start again" if disk_full(exc) else ""
+                raise StoreUnavailable(f"the lock file {self.path!r} of the database cannot be "
+                                       f"created ({type(exc).__name__}: {exc}){hint}") from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                holder = os.pread(fd, 200, 0).decode("ascii", "replace").strip()
+                os.close(fd)
+                raise DatabaseInUse(
+                    f"the database {self.db_path!r} is served by another running server "
+                    f"({holder or 'pid unknown'}; lock {self.path!r}): one server per database, "
+                    f"else both would run the same studies; stop that server, or give this one "
+                    f"another file (PNEUCORE_DB)") from None
+            try:
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, f"pid {os.getpid()}".encode(), 0)
+            except OSError:
+                pass   # the pid is for the message only (a full disk: the lock still holds)
+            self._held[self.path] = [fd, 1]
+            self._acquired = True
+        return self
+
+    def release(self):
+        """Give the lock back (the file stays: removing it would race a starting server)."""
+        if self.path is None or not self._acquired:
+            return
+        with self._guard:
+            self._acquired = False
+            held = self._held[self.path]
+            held[1] -= 1
+            if held[1] == 0:
+                del self._held[self.path]
+                os.close(held[0])   # closing the descriptor releases the flock
+
+    def __enter__(self):
+        return self.acquire()
+
+    def __exit__(self, *exc):
+        self.release()
+
+
 #: SQLite's result code for a full disk or database (``SQLITE_FULL``, "database or disk is full")
 SQLITE_FULL = 13
+
+
+#: Storage faults a request can meet, by SQLite primary result code: (the fault's name, the
+#: text SQLite gives it, the HTTP status, what to do). 507 for a full disk (the request may
+#: succeed once space is freed); 503 for a storage that fails (the service is unavailable: the
+#: request is not wrong, nor is it a bug of the server's code, so never 500)
+STORAGE_FAULTS = {
+    SQLITE_FULL: ("SQLITE_FULL", "database or disk is full", 507,
+                  "the server's disk is full: nothing can be stored; deleting datasets, "
+                  "sessions or studies still works, or free space on the server"),
+    5: ("SQLITE_BUSY", "database is locked", 503, "the database is busy, try again"),
+    6: ("SQLITE_LOCKED", "database table is locked", 503, "the database is busy, try again"),
+    10: ("SQLITE_IOERR", "disk I/O error", 503,
+         "the server's disk could not be read or written: its operator should check the disk "
+         "(dmesg, SMART, a network file system that went away)"),
+    11: ("SQLITE_CORRUPT", "database disk image is malformed", 503,
+         "the database file is damaged: its operator should restore it from a backup "
+         "(sqlite3 .recover)"),
+    26: ("SQLITE_NOTADB", "file is not a database", 503,
+         "the database file is damaged: its operator should restore it from a backup"),
+    8: ("SQLITE_READONLY", "attempt to write a readonly database", 503,
+        "the database cannot be written: its operator should check the permissions of the "
+        "file and its directory"),
+    14: ("SQLITE_CANTOPEN", "unable to open database file", 503,
+         "the database file cannot be opened: its operator should check that its directory "
+         "exists and can be written"),
+}
+
+#: The same faults met as an ``OSError`` (a file written beside the database), by errno
+OS_FAULTS = {errno.ENOSPC: SQLITE_FULL, errno.EDQUOT: SQLITE_FULL, errno.EIO: 10, errno.EROFS: 8}
+
+
+def storage_fault(exc):
+    """Which storage fault ``exc`` is, as an entry of :data:`STORAGE_FAULTS`; None for any
+    other error.
+
+    Parameters
+    ----------
+    exc : BaseException
+        A ``sqlite3.Error`` (its result code, else its text on Pythons that lack the code) or
+        an ``OSError`` (its errno)
+
+    Returns
+    -------
+    tuple or None
+        ``(name, text, status, remedy)``
+    """
+    if isinstance(exc, sqlite3.Error):
+        code = getattr(exc, "sqlite_errorcode", None)   # Python >= 3.11, raised by SQLite
+        if code is not None:
+            return STORAGE_FAULTS.get(code & 0xFF)
+        text = str(exc)
+        return next((f for f in STORAGE_FAULTS.values() if f[1] in text), None)
+    if isinstance(exc, OSError):
+        code = OS_FAULTS.get(exc.errno)
+        return None if code is None else STORAGE_FAULTS[code]
+    return None
 
 
 def disk_full(exc) -> bool:
@@ -75,12 +249,8 @@ def disk_full(exc) -> bool:
     bool
         True for a full disk, a full quota or a database at its page limit
     """
-    if isinstance(exc, sqlite3.Error):
-        code = getattr(exc, "sqlite_errorcode", None)   # Python >= 3.11
-        if code is not None:
-            return code & 0xFF == SQLITE_FULL
-        return "database or disk is full" in str(exc)
-    return isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT)
+    fault = storage_fault(exc)
+    return fault is not None and fault[0] == "SQLITE_FULL"
 
 
 def _loads(text, default):
@@ -89,6 +259,37 @@ def _loads(text, default):
         return json.loads(text)
     except (TypeError, ValueError, RecursionError):
         return default
+
+
+def _metadata_damage(signals_text, scenario_text):
+    """What is wrong with a dataset row's JSON columns; None when both decode as they should."""
+    signals, scenario = _loads(signals_text, None), _loads(scenario_text, None)
+    if not isinstance(signals, list) or not all(isinstance(k, str) for k in signals):
+        return "its list of signals is not a JSON list of names"
+    if not isinstance(scenario, dict):
+        return "its scenario is not a JSON object"
+    return None
+
+
+def _data_damage(blob, n_samples):
+    """What is wrong with a dataset's stored measurement; ``(decoded, None)`` when it is a
+    JSON object whose time and signals are lists of ``n_samples`` values."""
+    try:
+        d = orjson.loads(blob)
+    except (orjson.JSONDecodeError, TypeError):
+        return None, "its measurement is not valid JSON"
+    if not isinstance(d, dict):
+        return None, "its measurement is not a JSON object of columns"
+    for k in ("t",) + tuple(k for k in SIGNALS if k in d):
+        v = d.get(k)
+        if not isinstance(v, list) or len(v) != n_samples:
+            return None, (f"its column {k!r} is not a list of the {n_samples} samples the "
+                          f"record declares")
+        try:   # numbers or null (NaN), as the store writes them: a few ms for 200,000 samples
+            np.asarray(v, dtype=np.float64)
+        except (TypeError, ValueError):
+            return None, f"its column {k!r} holds values that are not numbers"
+    return d, None
 
 
 def _iso(epoch):
@@ -157,13 +358,21 @@ class Store:
 
     # -- samples ------------------------------------------------------------------
     def seed_samples(self):
-        """Store any shipped sample dataset that is missing; returns how many were restored.
+        """Store any shipped sample dataset that is missing or damaged; returns how many were
+        restored.
 
         Samples are read-only (:meth:`delete_dataset` refuses them), so a missing one was
-        removed by an older version or by hand: it comes back at the next start.
+        removed by an older version or by hand, and a damaged one (a row that no longer
+        decodes: :class:`DamagedRecord`) changed by hand or by a faulty disk: either comes
+        back at the next start.
         """
         with self._lock:
-            have = {r[0] for r in self._db.execute("SELECT id FROM datasets WHERE sample IS NOT NULL")}
+            rows = self._db.execute("SELECT id, n_samples, signals, scenario, data FROM datasets "
+                                    "WHERE sample IS NOT NULL").fetchall()
+        # a damaged one (a row changed by hand or by a faulty disk) is written again
+        have = {r[0] for r in rows if _metadata_damage(r[2], r[3]) is None
+                and _data_damage(r[4], r[1])[1] is None}
+        del rows
         n = 0
         for s in list_samples():
             for e in s["experiments"]:
@@ -197,11 +406,22 @@ class Store:
 
     @staticmethod
     def _dataset_row(row):
+        """The info of a dataset row; a damaged one lists as such (``damaged``: what is wrong)
+        with empty signals and scenario, and never makes a whole listing fail."""
+        damage = _metadata_damage(row[4], row[5])
         info = {"id": row[0], "name": row[1], "created": row[2], "n_samples": row[3],
-                "signals": _loads(row[4], []), "scenario": _loads(row[5], {}),
-                "description": row[6], "sample": row[7]}
-        if not isinstance(info["signals"], list) or not isinstance(info["scenario"], dict):
-            info["signals"], info["scenario"] = [], {}
+                "signals": [], "scenario": {}, "description": row[6], "sample": row[7],
+                "damaged": damage}
+        if damage is None:
+            info["signals"], info["scenario"] = _loads(row[4], []), _loads(row[5], {})
+        return info
+
+    def checked_dataset_info(self, did):
+        """:meth:`dataset_info`, raising :class:`DamagedRecord` for a damaged row; None when
+        there is none."""
+        info = self.dataset_info(did)
+        if info is not None and info["damaged"]:
+            raise DamagedRecord("dataset", did, info["damaged"], info["sample"])
         return info
 
     def dataset_info(self, did):
@@ -217,20 +437,30 @@ class Store:
         return [self._dataset_row(r) for r in rows]
 
     def dataset_data(self, did):
+        """The stored measurement of dataset ``did`` as decoded JSON (``{"t": [...], ...}``);
+        None when there is none. Raises :class:`DamagedRecord` when its row no longer decodes."""
         with self._lock:
-            row = self._db.execute("SELECT data FROM datasets WHERE id=?", (did,)).fetchone()
+            row = self._db.execute("SELECT data, n_samples, signals, scenario, sample FROM datasets "
+                                   "WHERE id=?", (did,)).fetchone()
         if row is None:
             return None
-        try:
-            return orjson.loads(row[0])
-        except orjson.JSONDecodeError:
-            return {}   # a damaged row: Measurement.from_dict names what is missing
+        d, damage = _data_damage(row[0], row[1])
+        damage = damage or _metadata_damage(row[2], row[3])
+        if damage:
+            raise DamagedRecord("dataset", did, damage, row[4])
+        return d
 
     def measurement(self, did):
+        """Dataset ``did`` as a :class:`Measurement`; None when there is none. Raises
+        :class:`DamagedRecord` when its row no longer decodes or is no valid measurement."""
         d = self.dataset_data(did)
         if d is None:
             return None
-        return Measurement.from_dict(d)
+        try:
+            return Measurement.from_dict(d)
+        except MeasurementError as exc:   # stored values no measurement has (changed by hand)
+            raise DamagedRecord("dataset", did, f"its measurement is invalid: {exc}",
+                                (self.dataset_info(did) or {}).get("sample")) from None
 
     def delete_dataset(self, did):
         """Delete a dataset; False when there is none. Raises :class:`ReadOnly` for a sample."""
@@ -321,7 +551,12 @@ class Store:
                 return None
             vers = self._db.execute("SELECT version, label, created, model, errors, overall, added, params, "
                                     "note FROM versions WHERE session=? ORDER BY version", (sid,)).fetchall()
-        return {"id": row[0], "name": row[1], "created": row[2], "experiments": _loads(row[3], []),
+        experiments = _loads(row[3], None)
+        if not isinstance(experiments, list):
+            # the session's own row no longer decodes (changed by hand, a faulty disk): answered
+            # as damaged; a damaged version reads as it can (model null), the others stay usable
+            raise DamagedRecord("session", sid, "its experiments are not a JSON list")
+        return {"id": row[0], "name": row[1], "created": row[2], "experiments": experiments,
                 "versions": [{"version": v[0], "label": v[1], "created": v[2], "model": _loads(v[3], None),
                               "errors": _loads(v[4], {}), "overall": v[5], "added": v[6],
                               "params": _loads(v[7], {}), "note": v[8]} for v in vers]}

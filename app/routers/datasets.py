@@ -9,6 +9,7 @@ from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 
 from ..bodies import RAW_FILE_TYPES, OffLoopRoute, read_file_upload
+from ..request_memory import check_json
 from ..deps import LimitsDep, StoreDep, not_found
 from ..responses import JSON
 from ..schemas import DatasetCreated, DatasetInfo, DatasetJsonIn, DatasetWithData
@@ -66,6 +67,7 @@ async def create_dataset(request: Request, store: StoreDep, limits: LimitsDep):
         return await run_in_threadpool(store_upload, store, data, filename, fields, name, description,
                                        limits)
     body = await request.body()
+    check_json(body, limits.max_request_memory)   # 413 before parsing, beyond the memory budget
     try:
         payload = await run_in_threadpool(DatasetJsonIn.model_validate_json, body)
     except ValidationError as exc:
@@ -82,10 +84,13 @@ def list_datasets(store: StoreDep):
 @router.get("/{dataset_id}", summary="One dataset with its samples", response_class=JSON,
             response_model=DatasetWithData)
 def get_dataset(dataset_id: str, store: StoreDep):
-    info = store.dataset_info(dataset_id)
+    info = store.checked_dataset_info(dataset_id)   # a damaged row: 409 (app.store.DamagedRecord)
     if info is None:
         raise not_found("dataset", dataset_id)
-    return JSON({**info, "measurement": store.dataset_data(dataset_id)})
+    data = store.dataset_data(dataset_id)
+    if data is None:   # deleted meanwhile
+        raise not_found("dataset", dataset_id)
+    return JSON({**info, "measurement": data})
 
 
 @router.delete("/{dataset_id}", status_code=204, summary="Delete a dataset")

@@ -18,4 +18,4 @@ router = APIRouter(prefix="/api/datasets", tags=["datasets"], route_class=OffLoo
                  "application/octet-stream": {"schema": {"type": "string", "format": "binary"}}}}})
 async def inspect_upload(request: Request, limits: LimitsDep):
     data, filename, _, _ = await read_file_upload(request, limits.max_upload_bytes)
-    return await run_in_threadpool(inspect_rig_file, data, filename)
+    return await run_in_threadpool(inspect_rig_file, data, filename, limits)

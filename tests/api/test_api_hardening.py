@@ -75,22 +75,27 @@ def test_session_version_with_nan_param_is_refused_and_session_intact(client):
 
 
 def test_a_bad_stored_row_never_fails_a_read(db_path):
-    """Rows written by an older version (a NaN token, text that is not JSON) are read around."""
+    """Rows written by an older version (a NaN token, text that is not JSON) are read around:
+    the listing answers; a row that cannot be used is marked and answered 409 when used (a
+    shipped sample would be restored at start: user datasets here)."""
     with api(db_path) as c:
         s = c.post("/api/sessions", json={"name": "s", "model": model(), "experiments": []}).json()
+        mine = [c.post("/api/datasets", files={"file": (f"{i}.csv", small_csv(40), "text/csv")}
+                       ).json()["id"] for i in range(2)]
     db = sqlite3.connect(db_path)
-    db.execute("UPDATE datasets SET scenario='{\"x0\": NaN}' WHERE id=?", (SAMPLE_IDS[0],))
-    db.execute("UPDATE datasets SET signals='not json' WHERE id=?", (SAMPLE_IDS[1],))
+    db.execute("UPDATE datasets SET scenario='{\"x0\": NaN}' WHERE id=?", (mine[0],))
+    db.execute("UPDATE datasets SET signals='not json' WHERE id=?", (mine[1],))
     db.execute("UPDATE versions SET params='{\"g\": NaN}', errors='{' WHERE session=?", (s["id"],))
     db.commit()
     db.close()
     with api(db_path) as c:
         r = c.get("/api/datasets")
-        assert r.status_code == 200 and [d["id"] for d in r.json()] == SAMPLE_IDS
+        assert r.status_code == 200 and [d["id"] for d in r.json()] == SAMPLE_IDS + mine
         by_id = {d["id"]: d for d in r.json()}
-        assert by_id[SAMPLE_IDS[0]]["scenario"] == {"x0": None}   # NaN has no JSON: null
-        assert by_id[SAMPLE_IDS[1]]["signals"] == []
-        assert c.get(f"/api/datasets/{SAMPLE_IDS[0]}").status_code == 200
+        assert by_id[mine[0]]["scenario"] == {"x0": None}   # NaN has no JSON: null
+        assert by_id[mine[1]]["signals"] == [] and "signals" in by_id[mine[1]]["damaged"]
+        assert c.get(f"/api/datasets/{mine[0]}").status_code == 200
+        assert c.get(f"/api/datasets/{mine[1]}").status_code == 409
         r = c.get(f"/api/sessions/{s['id']}")
         assert r.status_code == 200 and r.json()["versions"][0]["params"] == {"g": None}
         assert c.get("/api/sessions").status_code == 200
