@@ -612,6 +612,7 @@ def identify_friction(model, records, *, extras=(), stribeck="auto", quadrant=Tr
             values[f"friction.retract.{key}"] = values[f"friction.extend.{key}"]
     out = _write_model(model, values, strib)
     levels, linear, warns = _levels(s, res, s.y - res, tau)
+    warns += _sign_warnings(s, values)
     for n, why in dropped.items():
         if n in ("offset", "area_a", "area_b", "mass"):
             warns.append(f"{n} was asked for but is not identified: {why}")
@@ -621,6 +622,26 @@ def identify_friction(model, records, *, extras=(), stribeck="auto", quadrant=Tr
     return FrictionBenchResult(out, params, {"names": all_names, "matrix": corr.tolist()}, rms, levels,
                                linear, warns, fmap, float(v_min), float(tau), window, ext,
                                stribeck_test, bool(quadrant))
+
+
+def _sign_warnings(s, values):
+    """Statements where the fitted Coulomb level or viscous coefficient is negative at the
+    records' pressures: the model clips them at zero (Eq. 19-20 as the core computes them),
+    so the fitted law and the simulated one part. A wrong area or force sign does this."""
+    out = []
+    for side in ("extend", "retract"):
+        v = {k: values[f"friction.{side}.{k}"] for k in _KEYS}
+        fc = v["fc0"] + v["fc_a"] * s.g_a + v["fc_b"] * s.g_b
+        kv = v["kv0"] + v["kv_a"] * s.g_a + v["kv_b"] * s.g_b
+        for what, arr, unit in (("Coulomb level", fc, "N"), ("viscous coefficient", kv, "N s/m")):
+            # 5 % of its largest value: a coefficient at its bound of zero with a little noise
+            # in its pressure slope is no contradiction
+            if arr.size and arr.min() < -0.05 * max(abs(arr).max(), 1e-12):
+                out.append(f"the fitted {side} {what} is negative at some of the records' pressures "
+                           f"(down to {arr.min():.3g} {unit}); the model clips it at zero, so its "
+                           f"friction differs from the fit there: check the jack's areas (bore, rods) "
+                           f"and the sign of F (positive outward)")
+    return out
 
 
 def _unit(name):

@@ -95,3 +95,12 @@ def test_no_stribeck_where_the_rig_shows_none(table):
     for seal, (r, _) in table.items():
         assert r.stribeck is not None and not r.stribeck["kept"], (seal, r.stribeck)
         assert "stribeck_friction" not in r.model.effects
+
+
+def test_a_wrong_bore_is_not_silently_fitted():
+    # the paper-4way jack (32 mm bore, 12 mm rod in A) on the 25 mm rig: the pressure force is
+    # off by 30 N a bar, which the per-direction levels can only absorb as a negative Coulomb
+    # level; the model would clip it at zero, and the answer says so
+    recs = [read_bench_file(DATA / f"KDN_{p}bar.csv") for p in FIT]
+    r = identify_friction(Model.from_dict(model_preset("paper-4way")), recs, stribeck=False)
+    assert any("negative" in w and "areas" in w for w in r.warnings), r.warnings
