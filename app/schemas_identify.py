@@ -118,6 +118,7 @@ class FrictionValidation(_Open):
     extend: DirectionErrors = Field(..., description="The errors while extending (v > 0) [N]")
     retract: DirectionErrors = Field(..., description="The errors while retracting (v < 0) [N]")
     v_min: float = Field(..., description="Speed below which samples are left out of the errors [m/s]")
+    errors: dict[str, Any] = Field(..., description="The same errors grouped: rms, mean [N], n [-], extend and retract [N]")
 
 
 class FrictionIdentifyResponse(_Open):

@@ -49,6 +49,11 @@ from pneucore.spec.validation import FieldError
 #: 100 Hz, and a record must hold more than one window
 MIN_RECORD_SAMPLES = 30
 
+#: Magnitude bounds of a record's values, by signal: beyond them a value is a unit mistake
+#: (a time in ms read as s, a force in mN) and the fit's arithmetic would overflow. Times
+#: up to a day [s], positions 100 m [m], absolute pressures 1 GPa [Pa], forces 10 MN [N]
+LIMITS = {"t": 86400.0, "x": 100.0, "p_a": 1e9, "p_b": 1e9, "F": 1e7}
+
 #: Fewest sliding samples per direction to identify that direction's friction set [-]: two
 #: filter windows of sliding (fewer is a reversal, not a stroke)
 MIN_SLIDING_SAMPLES = 30
@@ -147,9 +152,11 @@ class FrictionRecord:
                 arr = np.array([np.nan if v is None else v for v in vals], dtype=float)
             except (TypeError, ValueError):
                 raise FieldError(f"{path}.{key}", f"must be a list of numbers [{unit}]") from None
-            if np.isinf(arr).any():
-                i = int(np.flatnonzero(np.isinf(arr))[0])
-                raise FieldError(f"{path}.{key}[{i}]", f"must be finite [{unit}]")
+            big = np.isinf(arr) | (np.abs(np.nan_to_num(arr)) > LIMITS[key])
+            if big.any():
+                i = int(np.flatnonzero(big)[0])
+                raise FieldError(f"{path}.{key}[{i}]", f"must be finite and within +-{LIMITS[key]:g} "
+                                                       f"[{unit}], got {arr[i]:g}")
             cols[key] = arr
         keep = np.all([np.isfinite(a) for a in cols.values()], axis=0)
         cols = {k: a[keep] for k, a in cols.items()}
@@ -593,6 +600,9 @@ def identify_friction(model, records, *, extras=(), stribeck="auto", quadrant=Tr
         all_names = list(names) + ["effects.stribeck_friction.static_ratio",
                                    "effects.stribeck_friction.stribeck_velocity"]
         theta = np.concatenate([theta, [strib[0], strib[1]]])
+    if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(cov)) and math.isfinite(rms)):
+        raise FieldError("experiments", "the fit gave no finite result on these records (check "
+                                        "their units: t [s], x [m], p_a, p_b [Pa abs], F [N])")
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     d = np.where(se > 0, se, 1.0)
     corr = cov / np.outer(d, d)
@@ -851,7 +861,7 @@ def predict_rod_force(model, record, *, offset=0.0, area_a=0.0, area_b=0.0, wind
     dict
         ``force`` [N] at every sample, and the errors (predicted - measured) over the samples
         faster than ``v_min``: ``rms``, ``mean`` [N], ``extend`` and ``retract`` each with
-        ``rms``, ``mean`` [N] and ``n`` [-]
+        ``rms``, ``mean`` [N] and ``n`` [-]; the same errors grouped under ``errors``
     """
     from pneucore.core import layout as L
     from pneucore.simulate import build_core
@@ -891,6 +901,9 @@ def predict_rod_force(model, record, *, offset=0.0, area_a=0.0, area_b=0.0, wind
         return {"rms": float(np.sqrt(np.mean(e ** 2))), "mean": float(np.mean(e)), "n": n}
 
     total = stats(sel)
+    ext, ret = stats(sel & (v > 0)), stats(sel & (v < 0))
     return {"name": record.name, "t": record.t.tolist(), "force": force.tolist(),
             "measured": record.F.tolist(), "rms": total["rms"], "mean": total["mean"], "n": total["n"],
-            "extend": stats(sel & (v > 0)), "retract": stats(sel & (v < 0)), "v_min": float(v_min)}
+            "extend": ext, "retract": ret, "v_min": float(v_min),
+            "errors": {"rms": total["rms"], "mean": total["mean"], "n": total["n"], "extend": ext,
+                       "retract": ret}}

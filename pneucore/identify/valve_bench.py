@@ -54,6 +54,13 @@ B_MAX = 0.999
 #: The unit of C in the model's tables and in every answer
 C_UNIT = "m^3/(s Pa)"
 
+#: Bounds of a bench point: absolute pressures up to 1 GPa [Pa] (ten times any pneumatic
+#: component's), temperatures 1 K to 2000 K [K], flows up to 1000 kg/s [kg/s]: beyond them a
+#: value is a unit mistake, and the fit's arithmetic would overflow
+P_MAX = 1e9
+T_RANGE = (1.0, 2000.0)
+FLOW_MAX = 1e3
+
 
 @dataclass
 class BenchPoint:
@@ -98,13 +105,13 @@ class BenchPoint:
             if not lo <= u <= hi:
                 raise FieldError(f"{path}.opening", f"opening {u:g} is outside the valve's range "
                                                     f"[{lo:g}, {hi:g}] [-]")
-        p_up = number(d["p_up"], f"{path}.p_up", positive=True)
-        p_down = number(d["p_down"], f"{path}.p_down", positive=True)
+        p_up = number(d["p_up"], f"{path}.p_up", positive=True, high=P_MAX)
+        p_down = number(d["p_down"], f"{path}.p_down", positive=True, high=P_MAX)
         if p_down > p_up:
             raise FieldError(f"{path}.p_down", f"downstream pressure {p_down:g} Pa is above the "
                                                f"upstream pressure {p_up:g} Pa (absolute [Pa])")
-        T_up = number(d["T_up"], f"{path}.T_up", positive=True)
-        flow = number(d["flow"], f"{path}.flow")
+        T_up = number(d["T_up"], f"{path}.T_up", low=T_RANGE[0], high=T_RANGE[1])
+        flow = number(d["flow"], f"{path}.flow", high=FLOW_MAX)
         if flow < 0.0:
             raise FieldError(f"{path}.flow", f"negative mass flow {flow:g} kg/s: the flow runs "
                                              f"from upstream to downstream [kg/s]")
@@ -383,6 +390,9 @@ def identify_valve(points, edge="P-A", *, u_range=(-1.0, 1.0), laminar_ratio=R_L
             C[j], b[j], C_se[j], b_se[j], b_fit[j] = Cj, b[near], cse, None, False
             res[sel] = r
 
+    if not all(math.isfinite(v) for v in C + b):
+        raise FieldError("points", "the fit gave no finite conductance or critical ratio (check the "
+                                   "points' units: Pa abs, K, kg/s)")
     null_band = None
     if any(closed) and not fixed:
         shut = [levels[j] for j in range(k) if closed[j]]
