@@ -620,7 +620,8 @@ def identify_friction(model, records, *, extras=(), stribeck="auto", quadrant=Tr
     if not quadrant:
         for key in _KEYS:
             values[f"friction.retract.{key}"] = values[f"friction.extend.{key}"]
-    out = _write_model(model, values, strib)
+    out = _write_model(model, values, strib, "friction identified on a friction bench (Eq. 17-20) "
+                       f"from {', '.join(r.name or str(i) for i, r in enumerate(recs))}")
     levels, linear, warns = _levels(s, res, s.y - res, tau)
     warns += _sign_warnings(s, values)
     for n, why in dropped.items():
@@ -746,9 +747,12 @@ def _fit_stribeck(s, base, names, held, theta0, v_min):
     return theta, (float(p[-2]), float(p[-1])), res, cov, at_bound
 
 
-def _write_model(model, values, strib):
-    """The input model with the identified friction sets (and mass, Stribeck) written in."""
+def _write_model(model, values, strib, note=""):
+    """The input model with the identified friction sets (and mass, Stribeck) written in, and
+    where they came from appended to its notes."""
     d = model.to_dict()
+    if note:
+        d["notes"] = (d.get("notes") or "") + ("\n" if d.get("notes") else "") + note
     for side in ("extend", "retract"):
         for key in _KEYS:
             d["friction"][side][key] = float(values[f"friction.{side}.{key}"])

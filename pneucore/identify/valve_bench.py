@@ -200,6 +200,9 @@ class ValveBenchResult:
                                      f"{', '.join(VALVE_KINDS[valve.kind]['ports'])})")
         d = model.to_dict()
         d["valve"]["ports"][self.edge] = self.port_table(valve.opening_range).to_dict()
+        note = f"valve.ports.{self.edge} identified on a flow bench (ISO 6358, Eq. 4-5), " \
+               f"{len(self.points)} points"
+        d["notes"] = (d.get("notes") or "") + ("\n" if d.get("notes") else "") + note
         return Model.from_dict(d)
 
     def to_dict(self):
