@@ -78,7 +78,9 @@ class ValveIdentifyResponse(_Open):
     model: Optional[dict[str, Any]] = Field(None, description="The request's model with this edge's table written in (null when no model was given); the API's other routes accept it as it is [-]")
 
 
-class FrictionRecordIn(_Strict):
+class FrictionRecordIn(_Open):
+    """A friction-bench record; a measurement's other signals (u, v, T_a, ...) are accepted
+    and not used."""
     name: Optional[Name] = Field(None, description="Label [-]")
     t: Optional[list[Optional[float]]] = Field(None, max_length=MAX_RECORD_SAMPLES, description="Sample times, increasing [s]")
     x: Optional[list[Optional[float]]] = Field(None, max_length=MAX_RECORD_SAMPLES, description="Piston position, extension positive [m]")

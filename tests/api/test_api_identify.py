@@ -107,6 +107,7 @@ def test_friction_contract_identified_model_and_validation(client, truth):
     start["friction"] = {"extend": {}, "retract": {}}      # the preset's defaults
     body = {"model": start, "experiments": [_record(truth, p, i) for i, p in enumerate((1, 3, 7))],
             "validate": [_record(truth, 5, 9), _record(truth, 2, 8)]}
+    body["experiments"][0]["u"] = [0.0] * 2000     # a measurement's other signals: not used
     r = client.post("/api/identify/friction", json=body)
     assert r.status_code == 200, r.text[:800]
     out = r.json()
