@@ -32,7 +32,7 @@ b = 0.3, 0.4 MPa gauge upstream to 0.3 MPa gauge at 20 degC gives 420 dm^3/min (
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
@@ -163,7 +163,6 @@ class ValveBenchResult:
     null_band: Optional[dict]
     points: list
     laminar_ratio: float
-    table: dict = field(default_factory=dict)
 
     @property
     def fixed_orifice(self):
