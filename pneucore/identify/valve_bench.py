@@ -48,6 +48,11 @@ from pneucore.spec.validation import FieldError, number
 #: leakage (ISO 10770-1), well above the flow meter's resolution [-]
 CLOSED_FRACTION = 0.01
 
+#: Openings in one cell of this width are one table opening (a spool position read by a
+#: sensor scatters by about 0.1 % of its range; 0.5 % of the 4/2 range -1..1 keeps the
+#: paper's Fig. 2 table steps, 5 %, apart) [-]
+OPENING_RESOLUTION = 0.01
+
 #: Upper bound of a fitted critical ratio: the model's tables hold b in [0, 1) [-]
 B_MAX = 0.999
 
@@ -296,7 +301,8 @@ def identify_valve(points, edge="P-A", *, u_range=(-1.0, 1.0), laminar_ratio=R_L
         Pressure ratio above which the model linearises the flow (``valve.laminar_ratio``) [-]
     openings : list of float or None
         Table openings to group the points on (a slow sweep: each point goes to the nearest);
-        None = every distinct opening of the points [-]
+        None = every distinct opening of the points, those in one ``OPENING_RESOLUTION`` cell
+        taken as one [-]
     progress : callable or None
         ``progress(fraction, step)``, called once per opening
 
@@ -334,7 +340,11 @@ def identify_valve(points, edge="P-A", *, u_range=(-1.0, 1.0), laminar_ratio=R_L
         levels = np.array([0.0])
         group = np.zeros(len(pts), dtype=int)
     elif openings is None:
-        levels, group = np.unique(u, return_inverse=True)
+        # openings in one OPENING_RESOLUTION cell are one opening (a measured spool position
+        # scatters), at their median; cells, not chains, so that a fine sweep stays a sweep
+        _, group = np.unique(np.round(u / OPENING_RESOLUTION), return_inverse=True)
+        group = group.reshape(-1)
+        levels = np.array([float(np.median(u[group == j])) for j in range(int(group.max()) + 1)])
     else:
         levels = np.array(sorted(float(v) for v in openings))
         group = np.abs(u[:, None] - levels[None, :]).argmin(axis=1)

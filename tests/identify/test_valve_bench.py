@@ -112,3 +112,15 @@ def test_too_few_points_say_which_parameter():
                "flow": law(5e5, 293.15, pd, 293.15, 1e-8, 0.3)} for pd in (1e5, 1.2e5)]
     with pytest.raises(FieldError, match="identify b at opening 0.5: every point is choked"):
         identify_valve(choked, "P-A")
+
+
+def test_a_scattered_opening_reading_is_one_opening():
+    # a spool position read at 0.6 +- 0.002 (a sensor's scatter) is one table opening
+    rng = np.random.default_rng(3)
+    pts = [p for p in _bench(noise=0.0) if p["opening"] in (0.4, 0.6)]
+    for p in pts:
+        p["opening"] += rng.uniform(-0.002, 0.002)
+    r = identify_valve(pts, "P-A")
+    assert len(r.opening) == 2 and abs(r.opening[1] - 0.6) < 0.002
+    # C(u) varies by 0.15 dm^3/(s bar) per 0.1 of opening: +-0.002 moves C by at most 0.3 %
+    assert r.C[1] == pytest.approx(0.85 * DM3_S_BAR, rel=0.005)
