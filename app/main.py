@@ -37,6 +37,7 @@ from .responses import JSON, document_errors, dumps
 from .routers import (analysis, calibration, datasets, effects, heat, jobs, presets, reports, sessions,
                       simulate, studies, units, uploads)
 from .routers import friction
+from .routers import identify
 from .schemas import LimitsResponse, SampleInfo
 from .security import Guard
 from .store import DamagedRecord, ServerLock, Store, StoreUnavailable, disk_full, storage_fault
@@ -234,6 +235,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
               jobs, studies, units):
         app.include_router(r.router)
     app.include_router(friction.router)
+    app.include_router(identify.router)
+    app.include_router(identify.jobs_router)
 
     @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits",
              response_model=LimitsResponse)

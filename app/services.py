@@ -942,3 +942,71 @@ def discard_study(app_state, db_path, sid, running):
     if running:
         app_state.cancelled_studies.add(sid)
     delete_study(db_path, sid)
+
+
+# ---------------------------------------------------------------------------- identification
+# the step-by-step identification (issue 29): a valve flow bench and a friction bench
+def check_identify_valve(req):
+    """POST /api/identify/valve, validated: the bench points (pneucore's checks, 422 naming
+    the point and field), the model when given and the edge against its valve."""
+    from pneucore.identify.valve_bench import BenchPoint
+    from pneucore.physics.flow import R_LAMINAR
+    from pneucore.spec.model import VALVE_KINDS
+
+    model = parse_model(req.model) if req.model is not None else None
+    u_range = model.valve.opening_range if model is not None else VALVE_KINDS["4/2"]["range"]
+    r_lam = model.valve.laminar_ratio if model is not None else R_LAMINAR
+    if model is not None and req.edge not in VALVE_KINDS[model.valve.kind]["ports"]:
+        raise FieldError("edge", f"a {model.valve.kind} valve has no edge {req.edge!r} (its edges: "
+                                 f"{', '.join(VALVE_KINDS[model.valve.kind]['ports'])})")
+    points = [BenchPoint.from_dict(p.model_dump(), f"points[{i}]", u_range)
+              for i, p in enumerate(req.points)]
+    return {"model": model, "u_range": u_range, "laminar_ratio": r_lam, "points": points}
+
+
+def run_identify_valve(req, progress=None, checked=None):
+    """The edge's C(u), b(u) tables (:func:`pneucore.identify.identify_valve`), with the model's
+    valve table written when a model was given."""
+    from pneucore.identify import identify_valve
+
+    c = checked or check_identify_valve(req)
+    res = identify_valve(c["points"], req.edge, u_range=c["u_range"], laminar_ratio=c["laminar_ratio"],
+                         openings=req.openings, progress=progress)
+    out = res.to_dict()
+    out["table"] = res.port_table(c["u_range"]).to_dict()
+    out["model"] = res.write_into(c["model"]).to_dict() if c["model"] is not None else None
+    return out
+
+
+def check_identify_friction(req):
+    """POST /api/identify/friction, validated: the model and every record (422 naming it)."""
+    from pneucore.identify.friction_bench import FrictionRecord
+
+    model = parse_model(req.model)
+    fit = [FrictionRecord.from_dict(r.model_dump(exclude_none=True), f"experiments[{i}]")
+           for i, r in enumerate(req.experiments)]
+    val = [FrictionRecord.from_dict(r.model_dump(exclude_none=True), f"validate[{i}]")
+           for i, r in enumerate(req.validate_)]
+    return {"model": model, "fit": fit, "validate": val}
+
+
+def run_identify_friction(req, progress=None, checked=None):
+    """The model's friction law from the bench records
+    (:func:`pneucore.identify.identify_friction`) and the rod force it predicts on the
+    validation records (:func:`pneucore.identify.predict_rod_force`)."""
+    from pneucore.identify import identify_friction, predict_rod_force
+
+    c = checked or check_identify_friction(req)
+    progress = progress or (lambda f, s: None)
+    res = identify_friction(c["model"], c["fit"], extras=req.extras, stribeck=req.stribeck,
+                            quadrant=req.quadrant, v_min=req.v_min, window=req.window,
+                            progress=lambda f, s: progress(0.9 * f, s))
+    extra = {k: res.parameters[k]["value"] for k in ("offset", "area_a", "area_b")
+             if k in res.parameters and res.parameters[k]["identified"]}
+    out = res.to_dict()
+    out["validation"] = []
+    for i, rec in enumerate(c["validate"]):
+        progress(0.9 + 0.1 * i / max(len(c["validate"]), 1), f"validating on {rec.name or i}")
+        out["validation"].append(predict_rod_force(res.model, rec, window=req.window, v_min=res.v_min,
+                                                   **extra))
+    return out

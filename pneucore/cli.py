@@ -7,6 +7,12 @@ Examples
 ``pneucore run`` (paper-4way, Fig. 10 pulse train), ``pneucore run --model
 paper-3way --scenario paper-fig9-switching --csv out.csv``,
 ``pneucore run --model my_model.json --scenario my_scenario.json --json out.json``.
+
+``pneucore identify valve points.csv --edge P-A --model paper-4way --json out.json`` fits an
+edge's C(u), b(u) tables to flow-bench points (CSV with a header ``opening,p_up,p_down,T_up,flow``
+in SI units, or JSON); ``pneucore identify friction --model m.json --fit O-ring_1bar.csv
+O-ring_3bar.csv --validate O-ring_5bar.csv`` fits the friction law to friction-bench records
+(the TU Delft bench's 7-column files as they are, or JSON records ``{t, x, p_a, p_b, F}``).
 """
 import argparse
 import json
@@ -91,6 +97,19 @@ def main(argv=None):
     sub.add_parser("presets", help="list the presets")
     sub.add_parser("samples", help="list the shipped samples (rig data hiding known effects)")
     add_loop_commands(sub)
+    ident = sub.add_parser("identify", help="identify a component on its bench (valve, friction)")
+    isub = ident.add_subparsers(dest="bench", required=True)
+    iv = isub.add_parser("valve", help="an edge's C(u), b(u) tables from flow-bench points")
+    iv.add_argument("points", help="CSV (header opening,p_up,p_down,T_up,flow; SI) or JSON points")
+    iv.add_argument("--edge", default="P-A", help="edge name (P-A, A-R, P-B, B-R)")
+    iv.add_argument("--model", help="preset or model JSON file to write the table into")
+    iv.add_argument("--json", help="write the result (and the model, when given) to this JSON file")
+    ifr = isub.add_parser("friction", help="the friction law from friction-bench records")
+    ifr.add_argument("--model", default="paper-4way", help="preset or model JSON file (the jack)")
+    ifr.add_argument("--fit", nargs="+", required=True, help="records to fit on")
+    ifr.add_argument("--validate", nargs="*", default=[], help="records to predict")
+    ifr.add_argument("--extras", nargs="*", default=[], help="also identify: offset, area_a, area_b, mass")
+    ifr.add_argument("--json", help="write the result (with the model) to this JSON file")
     args = parser.parse_args(argv)
     if args.cmd in (None, "run") and not hasattr(args, "model"):
         args = parser.parse_args(["run"] + (argv or []))
@@ -105,6 +124,12 @@ def main(argv=None):
         return 0
     if args.cmd in COMMANDS:
         return _loop(args)
+    if args.cmd == "identify":
+        try:
+            return _identify(args)
+        except (CliError, FieldError, ValueError, OSError) as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
     try:
         model = _load(args.model, MODEL_PRESETS, model_preset, "model")
         scenario = _load(args.scenario, SCENARIO_PRESETS, scenario_preset, "scenario")
@@ -136,6 +161,61 @@ def main(argv=None):
         with open(args.npz, "wb") as fh:
             fh.write(simulation_npz(res))
         print(f"wrote {args.npz} (numpy.load reads it; units in meta.json)")
+    return 0
+
+
+def _bench_points(path):
+    """Flow-bench points from a CSV file with a header (SI units) or a JSON file."""
+    import csv
+    if str(path).endswith(".json"):
+        with open(path) as fh:
+            data = json.load(fh)
+        return data["points"] if isinstance(data, dict) else data
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    return [{k: (None if v in ("", None) else float(v)) for k, v in row.items()} for row in rows]
+
+
+def _bench_record(path):
+    """A friction-bench record: JSON ``{t, x, p_a, p_b, F}`` or the TU Delft bench's file."""
+    from pneucore.identify.friction_bench import FrictionRecord, read_bench_file
+    if str(path).endswith(".json"):
+        with open(path) as fh:
+            return FrictionRecord.from_dict(json.load(fh), str(path))
+    return read_bench_file(path)
+
+
+def _identify(args):
+    """``pneucore identify valve|friction``: print the report, write the JSON."""
+    from pneucore.identify import identify_friction, identify_valve, predict_rod_force
+    from pneucore.spec.model import Model
+
+    if args.bench == "valve":
+        model = Model.from_dict(_load(args.model, MODEL_PRESETS, model_preset, "model")) if args.model else None
+        kw = {"u_range": model.valve.opening_range, "laminar_ratio": model.valve.laminar_ratio} if model else {}
+        res = identify_valve(_bench_points(args.points), args.edge, **kw)
+        print(res.report())
+        if res.null_band:
+            print(f"null band: {res.null_band}")
+        out = res.to_dict()
+        if model is not None:
+            out["model"] = res.write_into(model).to_dict()
+    else:
+        model = Model.from_dict(_load(args.model, MODEL_PRESETS, model_preset, "model"))
+        res = identify_friction(model, [_bench_record(p) for p in args.fit], extras=args.extras)
+        print(res.report())
+        out = res.to_dict()
+        out["validation"] = []
+        for path in args.validate:
+            pred = predict_rod_force(res.model, _bench_record(path), v_min=res.v_min)
+            print(f"validation {pred['name']}: rms {pred['rms']:.3g} N, mean {pred['mean']:+.3g} N; "
+                  f"extend {pred['extend']['mean']:+.3g} / {pred['extend']['rms']:.3g} N, "
+                  f"retract {pred['retract']['mean']:+.3g} / {pred['retract']['rms']:.3g} N")
+            out["validation"].append(pred)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(out, fh)
+        print(f"wrote {args.json}")
     return 0
 
 

@@ -1,0 +1,53 @@
+"""POST /api/identify/valve and /api/identify/friction: the step-by-step identification on
+benches (paper section 2), and the same as jobs (POST /api/jobs/identify/...)."""
+from fastapi import APIRouter, HTTPException
+
+from ..bodies import OffLoopRoute
+from ..deps import JobsDep
+from ..responses import JSON
+from ..schemas import JobResponse
+from ..schemas_identify import (FrictionIdentifyRequest, FrictionIdentifyResponse, ValveIdentifyRequest,
+                                ValveIdentifyResponse)
+from ..services import check_identify_friction, check_identify_valve, run_identify_friction, run_identify_valve
+
+# long records are large bodies: parsed off the event loop (app.bodies.OffLoopRoute)
+router = APIRouter(prefix="/api/identify", tags=["identify"], route_class=OffLoopRoute)
+jobs_router = APIRouter(prefix="/api/jobs/identify", tags=["jobs"], route_class=OffLoopRoute)
+
+
+@router.post("/valve", response_class=JSON, response_model=ValveIdentifyResponse,
+             summary="A valve edge's C(u), b(u) tables from flow-bench points (ISO 6358, paper Eq. 4-5, "
+                     "Fig. 2): standard errors, null band, residuals, the model's table")
+def identify_valve(req: ValveIdentifyRequest):
+    return JSON(run_identify_valve(req))
+
+
+@router.post("/friction", response_class=JSON, response_model=FrictionIdentifyResponse,
+             summary="The friction law (Eq. 18-20) from friction-bench records by the force balance "
+                     "(Eq. 17), validated on records not fitted on (paper Fig. 4)")
+def identify_friction(req: FrictionIdentifyRequest):
+    return JSON(run_identify_friction(req))
+
+
+def _submit(jobs, kind, fn):
+    try:
+        job = jobs.submit(kind, fn)
+    except RuntimeError as exc:
+        raise HTTPException(429, str(exc)) from None
+    return job.to_dict(with_result=False)
+
+
+@jobs_router.post("/valve", status_code=202, response_model=JobResponse,
+                  summary="The valve bench as a job (progress and result at GET /api/jobs/{id})")
+def identify_valve_job(req: ValveIdentifyRequest, jobs: JobsDep):
+    checked = check_identify_valve(req)      # bad input is a 422 now, not a failed job later
+    return _submit(jobs, "identify-valve",
+                   lambda job: run_identify_valve(req, progress=job.report, checked=checked))
+
+
+@jobs_router.post("/friction", status_code=202, response_model=JobResponse,
+                  summary="The friction bench as a job (progress and result at GET /api/jobs/{id})")
+def identify_friction_job(req: FrictionIdentifyRequest, jobs: JobsDep):
+    checked = check_identify_friction(req)
+    return _submit(jobs, "identify-friction",
+                   lambda job: run_identify_friction(req, progress=job.report, checked=checked))
