@@ -37,6 +37,7 @@ from .responses import JSON, document_errors, dumps
 from .routers import (analysis, calibration, datasets, effects, heat, jobs, presets, reports, sessions,
                       simulate, studies, units, uploads)
 from .routers import friction
+from .routers import models
 from .routers import identify
 from .schemas import LimitsResponse, SampleInfo
 from .security import Guard
@@ -235,6 +236,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
               jobs, studies, units):
         app.include_router(r.router)
     app.include_router(friction.router)
+    app.include_router(models.router)
     app.include_router(identify.router)
     app.include_router(identify.jobs_router)
 

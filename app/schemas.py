@@ -469,6 +469,11 @@ class ModelChange(BaseModel):
     kind: str = Field(..., description="changed, added, removed or scaled (a valve edge's table multiplied by 'after') [-]")
 
 
+class ModelDiffRequest(_Strict):
+    before: ModelIn = Field(..., description="The model as it was")
+    after: ModelIn = Field(..., description="The model as it is now")
+
+
 class RankingEntry(BaseModel):
     model_config = ConfigDict(extra="allow")
     effect: str = Field(..., description="Catalog effect")

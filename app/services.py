@@ -304,6 +304,13 @@ def calibration_parameters(req):
     return calibration_options(parse_model(req.model))
 
 
+def model_diff(req):
+    """POST /api/models/diff: :func:`pneucore.spec.paths.model_changes` of two models, each
+    validated first (a wrong one is a 422 naming ``before.<field>`` or ``after.<field>``)."""
+    from pneucore.spec.paths import model_changes
+    return model_changes(parse_model(req.before, "before"), parse_model(req.after, "after"))
+
+
 # ------------------------------------------------------------------------------ reports
 def _provenance(store, exps):
     return [{"dataset_id": e.dataset_id, **(store.dataset_info(e.dataset_id) or {})}

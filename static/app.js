@@ -1122,7 +1122,7 @@ function renderHistory() {
   const sigs = [...new Set(v.flatMap((q) => Object.keys(q.errors || {})))];
   $('#history-table').innerHTML = '<table class="data"><thead><tr><th scope="col">version</th><th scope="col">change</th>' +
     sigs.map((q) => `<th scope="col">${esc(q)} [%]</th>`).join('') + '<th scope="col">overall [%]</th></tr></thead><tbody>' +
-    v.map((q) => `<tr><td class="num">${q.version}</td><td>${esc(q.label)}${q.params && Object.keys(q.params).length ? ` <span class="muted small">(${esc(Object.entries(q.params).map(([k, x]) => `${k} = ${num(typeof x === 'object' && x ? x.value : x)}`).join(', '))})</span>` : ''}</td>` +
+    v.map((q, i) => `<tr data-version="${q.version}"><td class="num">${q.version}${i > 0 && q.model && v[i - 1].model ? ` <button type="button" class="icon version-diff" data-index="${i}" title="What changed from version ${v[i - 1].version}">diff</button>` : ''}</td><td>${esc(q.label)}${q.params && Object.keys(q.params).length ? ` <span class="muted small">(${esc(Object.entries(q.params).map(([k, x]) => `${k} = ${num(typeof x === 'object' && x ? x.value : x)}`).join(', '))})</span>` : ''}</td>` +
       sigs.map((g) => `<td class="num">${pct(q.errors && q.errors[g])}</td>`).join('') + `<td class="num"><b>${pct(q.overall)}</b></td></tr>`).join('') +
     '</tbody></table>';
 }
@@ -1138,6 +1138,22 @@ async function openSession(id, verb = 'Opened') {
   renderHistory();
   setStatus(`${verb} session ${s.id} “${s.name}” (${s.versions.length} version(s), last: ${last ? last.label : '?'}).`, 'ok');
   return s;
+}
+/** The changes from the previous version to this one (POST /api/models/diff), under the table. */
+async function showVersionDiff(ev) {
+  const btn = ev.target.closest('.version-diff');
+  if (!btn || !S.session) return;
+  const v = S.session.versions;
+  const i = Number(btn.dataset.index);
+  await busy(btn, async () => {
+    try {
+      const changes = await api('POST', '/api/models/diff', { before: v[i - 1].model, after: v[i].model });
+      let box = $('#version-diff');
+      if (!box) { box = document.createElement('div'); box.id = 'version-diff'; $('#history-table').after(box); }
+      box.innerHTML = `<h3>Version ${v[i - 1].version} → ${v[i].version} (${esc(v[i].label)})</h3>` +
+        (changes.length ? changesTable(changes, `${changes.length} value(s) changed`, true) : '<p class="muted small">The two models are the same.</p>');
+    } catch (e) { showApiError(e, 'Comparing the versions'); }
+  });
 }
 async function resumeSession() {
   const id = localStorage.getItem(SESSION_KEY);
@@ -1257,7 +1273,7 @@ function renderDiagnosis() {
       (r.effective_samples != null && r.n_samples ? `<dt title="Samples counted by the LR test and BIC: each residual series weighs n / tau, tau its integrated autocorrelation time (coloured noise carries less information than white)">effective samples</dt>` +
         `<dd class="eff-samples">${Math.round(r.effective_samples)} of ${r.n_samples}</dd>` : '') + '</dl>' +
       (params ? `<table class="data params"><thead><tr><th scope="col">parameter</th><th scope="col">value ± std. error</th><th scope="col">95 % CI</th><th></th></tr></thead><tbody>${params}</tbody></table>` : '') +
-      `<p class="explanation">${esc(r.explanation || '')}</p>` + changesTable(r.changes, r.effect) +
+      `<p class="explanation">${esc(r.explanation || '')}</p>` + changesTable(r.changes, `Adding ${r.effect} changes ${(r.changes || []).length} value(s) of the model`) +
       `<button type="button" class="${r.effect === d.verdict ? 'primary ' : ''}add-effect-btn" id="add-${esc(r.effect)}" data-effect="${esc(r.effect)}"` +
       `${r.model ? '' : ' disabled'} title="Take the refitted model (current model + ${esc(r.effect)}) as the new current model">Add ${esc(r.effect)} to the model</button>`;
     cards.appendChild(card);
@@ -1265,7 +1281,7 @@ function renderDiagnosis() {
 }
 /** Every parameter taking a candidate would change, before it is taken: the effect's own and
  * the base parameters recalibrated with it (before → after, in the page's units). */
-function changesTable(changes, effect) {
+function changesTable(changes, summary, open = false) {
   if (!changes || !changes.length) return '';
   const show = (x, u) => {
     if (typeof x !== 'number') return x == null ? '–' : esc(String(x));
@@ -1277,7 +1293,7 @@ function changesTable(changes, effect) {
     return `<tr data-path="${esc(c.path)}"><th scope="row">${esc(c.path)}</th><td class="num">${show(c.before, u)}</td>` +
       `<td class="num">${show(c.after, u)}</td><td>${esc(prettyUnit(u.unit || ''))}</td></tr>`;
   }).join('');
-  return `<details class="changes"><summary>Adding ${esc(effect)} changes ${changes.length} value(s) of the model</summary>` +
+  return `<details class="changes"${open ? ' open' : ''}><summary>${esc(summary)}</summary>` +
     '<table class="data"><thead><tr><th scope="col">parameter</th><th scope="col">now</th><th scope="col">after</th><th scope="col">unit</th></tr></thead>' +
     `<tbody>${rows}</tbody></table></details>`;
 }
@@ -1960,6 +1976,7 @@ function wire() {
   $('#effects-list').addEventListener('click', removeEffect);
   $('#btn-add-effect').addEventListener('click', addEffect);
   $('#btn-model-download').addEventListener('click', downloadModel);
+  $('#history-table').addEventListener('click', showVersionDiff);
   $('#btn-model-json').addEventListener('click', (ev) => busy(ev.target, () => useModelJson($('#model-json').value, 'the pasted JSON')));
   $('#model-file').addEventListener('change', async (ev) => {
     const f = ev.target.files[0];

@@ -37,3 +37,15 @@ def test_a_stored_session_opens_with_its_model_experiments_and_history(page):
     # the second experiment's stored context (x0 = 60 mm) is the one shown and sent
     assert page.input_value("#experiment-set-table tr[data-index='1'] input[data-key='x0']") == "60"
     assert page.evaluate("localStorage.getItem('pneucore.session')") == sid   # a reload reopens it
+
+
+def test_two_versions_are_compared_in_the_history(page):
+    """The history table's diff button lists what changed from the previous version."""
+    sid = page.evaluate("S.session.id")
+    page.evaluate("""async (sid) => {
+        const m = JSON.parse(JSON.stringify(S.model)); m.heat.coefficient = 31.5;
+        const s = await api('POST', `/api/sessions/${sid}/versions`, { model: m, added: null, params: {} });
+        setSession(s); }""", sid)
+    page.click("#history-table button.version-diff")
+    page.wait_for_selector("#version-diff tr[data-path='heat.coefficient']")
+    assert "31.5" in page.inner_text("#version-diff tr[data-path='heat.coefficient']")
