@@ -31,7 +31,7 @@ LAYOUT = {
     "spec": {"docstrings", "effects", "model", "paths", "presets", "scenario", "units", "validation"},
     "data": {"experiment", "export", "fileformats", "matfile", "measurement", "npz", "samples", "synthetic"},
     "analysis": {"autocorrelation", "blas_threads", "calibrate", "calibration_options", "compare", "diagnose",
-                 "command_line", "heat_compare", "history", "hypotheses", "metrics", "report"},
+                 "command_line", "engineering", "heat_compare", "history", "hypotheses", "metrics", "report"},
     "study": {"__main__", "_warm", "_worker", "definition", "execute", "metrics", "results", "store"},
     "identify": {"friction_bench", "valve_bench"},
 }

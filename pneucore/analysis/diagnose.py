@@ -61,6 +61,7 @@ from pneucore.data.experiment import as_experiments
 from pneucore.analysis.metrics import cross_correlation_test, ljung_box
 from pneucore.spec.model import Model
 from pneucore.analysis import hypotheses as H
+from pneucore.analysis.engineering import in_words
 from pneucore.spec.paths import ParameterSpec, get_value, model_changes, parse_parameters, set_values
 
 #: Significance level of the likelihood-ratio test, before the Bonferroni split
@@ -713,6 +714,13 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     for r in ranking:   # what taking each candidate would change, listed before it is taken
         if r.get("model"):
             r["changes"] = model_changes(given, r["model"])
+            words = in_words(r["effect"], (r["model"].get("effects") or {}).get(r["effect"])
+                             or r.get("params"), model)
+            if words:   # where it acts and how big, in the units it is checked by
+                r["in_words"] = words
+                r["explanation"] = r.get("explanation", "") + f" In engineering terms: {words}."
+                if r["effect"] == verdict:
+                    message += f" In engineering terms: {words}."
     for hint in comp_start.hints:   # the records contradict their declared context
         message += " Check the context: " + hint["message"]
     report(1.0, "done")
