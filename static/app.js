@@ -954,13 +954,15 @@ async function runCompare(opts = {}) {
       S.compare = { result: res, experiments: exps, model: JSON.stringify(S.model) };
       await Promise.all(exps.map((e) => measured(e.dataset_id)));
       renderCompare();
-      setStatus(`Comparison done: overall error ${pct(res.overall)} % (noise floor about ${pct(meanOf(res.noise_floor))} %).`, 'ok');
+      setStatus(`Comparison done: overall error ${pct(res.overall)} % (noise floor about ${pct(floorOf(res.noise_floor))} %).`, 'ok');
       if (!opts.noSession) await ensureSession();
       return res;
     } catch (e) { showApiError(e, 'Comparison', (f) => (f.startsWith('experiments') ? 'experiments' : f)); return null; }
   });
 }
-function meanOf(o) { const v = Object.values(o || {}).filter((x) => typeof x === 'number'); return v.length ? v.reduce((a, b) => a + b, 0) / v.length : null; }
+/** The overall noise floor from the per-signal ones: the RMS, as the service forms the overall
+ * error and the diagnosis its floor (one figure on the page, the one the messages quote). */
+function floorOf(o) { const v = Object.values(o || {}).filter((x) => typeof x === 'number'); return v.length ? Math.sqrt(v.reduce((a, b) => a + b * b, 0) / v.length) : null; }
 function renderCompare() {
   const { result: c, experiments: exps } = S.compare;
   const signals = Object.keys(c.errors);
@@ -973,7 +975,7 @@ function renderCompare() {
     h += `<td class="num muted">${pct(c.noise_floor && c.noise_floor[s])}</td></tr>`;
   }
   h += `<tr class="total"><th scope="row">overall</th><td class="num" data-signal="overall">${pct(c.overall)}</td>`;
-  h += c.experiments.map((e) => `<td class="num">${pct(e.overall)}</td>`).join('') + `<td class="num muted">${pct(meanOf(c.noise_floor))}</td></tr></tbody></table>`;
+  h += c.experiments.map((e) => `<td class="num">${pct(e.overall)}</td>`).join('') + `<td class="num muted">${pct(floorOf(c.noise_floor))}</td></tr></tbody></table>`;
   $('#error-table').innerHTML = h;
   // per phase (Table 2 layout: phases as rows, signals as columns)
   const phaseRows = [...Object.entries(c.phases || {}), ...Object.entries(c.piston_phases || {})];
@@ -1240,7 +1242,7 @@ function renderDiagnosis() {
   const before = d.error_before ? d.error_before.overall : null;
   const verdict = d.verdict ? esc(d.verdict) : 'none (no catalog effect explains the residual)';
   $('#diag-verdict').innerHTML = `<div class="verdict-name">Verdict: <b id="diag-verdict-name">${verdict}</b></div><div>${esc(d.message)}</div>` +
-    `<div class="muted small">Error before: ${pct(before)} % · noise floor about ${pct(meanOf(d.noise_floor))} %</div>`;
+    `<div class="muted small">Error before: ${pct(before)} % · noise floor ${pct(d.remaining && d.remaining.noise_floor != null ? d.remaining.noise_floor : floorOf(d.noise_floor))} %</div>`;
   $('#diag-residual-summary').textContent = d.residual_tests && d.residual_tests.summary ? `Residual tests: ${d.residual_tests.summary}` : '';
   const score = d.score_pass || [];
   $('#diag-score').innerHTML = score.length ? '<h3>Score test of every candidate (before refitting)</h3>' +
