@@ -36,6 +36,7 @@ from .responses import JSON, document_errors
 from .routers import (analysis, calibration, datasets, effects, heat, jobs, presets, reports, sessions,
                       simulate, studies, units, uploads)
 from .routers import friction
+from .routers import sizing
 from .schemas import LimitsResponse, SampleInfo
 from .security import Guard
 from .store import Store, StoreUnavailable, disk_full
@@ -213,6 +214,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
               jobs, studies, units):
         app.include_router(r.router)
     app.include_router(friction.router)
+    app.include_router(sizing.router)
 
     @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits",
              response_model=LimitsResponse)

@@ -20,10 +20,22 @@ from pneucore.spec.validation import FieldError, known_keys, mapping, number
 G_STANDARD = 9.80665
 #: The largest |mounting angle|: 90 degrees is vertical [deg]
 MAX_ANGLE = 90.0
+#: Upper bounds of the requirement's fields, in their units: well beyond any pneumatic drive
+#: (ISO 15552 cylinders are rated 10 bar, strokes of a few metres), they keep a mistyped
+#: number from asking the simulator for nonsense
+BOUNDS = {"stroke": 10.0, "moving_mass": 1e5, "load_force": 1e7, "supply_pressure": 5e6,
+          "extend_time": 600.0, "retract_time": 600.0, "max_end_speed": 100.0,
+          "tube_length": 100.0, "ambient_pressure": 5e6}
 
 
 def _checked(value, path, unit, **bounds):
-    """``number(value, path, **bounds)`` whose error also states the unit."""
+    """``number(value, path, **bounds)`` whose error also states the unit; the field's upper
+    bound is :data:`BOUNDS`'s."""
+    name = path.rsplit(".", 1)[-1]
+    if name in BOUNDS:
+        bounds["high"] = BOUNDS[name]
+        if name == "load_force":
+            bounds["low"] = -BOUNDS[name]
     try:
         return number(value, path, **bounds)
     except FieldError as exc:

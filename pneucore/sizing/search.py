@@ -65,6 +65,9 @@ REASONS = {
     "simulation": "the simulation of this family failed",
 }
 DIRECTIONS = ("extend", "retract")
+#: Most families one sizing tries (cylinders x valves x tubes): the shipped series make 390
+#: with a tube; beyond this a request is refused before any work [-]
+MAX_FAMILIES = 5000
 
 
 def meter_out_edge(valve, setting):
@@ -289,6 +292,16 @@ def evaluate_family(requirement, choices, cylinder, valve, tube=None, base=None)
         cycle); an infeasible one's ``reason`` (a key of :data:`REASONS`), ``direction`` and
         ``detail``, and ``design`` fully open where its runs exist
     """
+    try:
+        return _evaluate(requirement, choices, cylinder, valve, tube, base)
+    except (ArithmeticError, ValueError) as exc:
+        # a numerical failure of one family (a root without a bracket, an overflow) is that
+        # family's outcome, not the search's
+        return {**_family_key(cylinder, valve, tube), "feasible": False, "reason": "simulation",
+                "direction": None, "detail": f"{type(exc).__name__}: {exc}"}
+
+
+def _evaluate(requirement, choices, cylinder, valve, tube, base):
     family = _family_key(cylinder, valve, tube)
     d = build_model(requirement, cylinder, valve, tube, base=base)
     try:
@@ -357,9 +370,16 @@ def _design(requirement, cylinder, valve, tube, settings, metrics, base):
     }
 
 
+#: Significant digits to which air per cycle is compared when ranking: closer than that, the
+#: difference is the solver's tolerance (rtol 1e-5 over a run) rather than the design's, and
+#: the smaller design ranks first [-]
+AIR_DIGITS = 3
+
+
 def _size_key(design):
     tube = design["tube"]["inner_diameter"] if design["tube"] else 0.0
-    return (design["air_per_cycle"], design["cylinder"]["bore"], design["valve"]["C"], tube)
+    air = float(f"{design['air_per_cycle']:.{AIR_DIGITS}g}")
+    return (air, design["cylinder"]["bore"], design["valve"]["C"], tube)
 
 
 def families(requirement, choices):
@@ -380,6 +400,10 @@ def families(requirement, choices):
     val = resolve_valves(choices.valve)
     tubes = resolve_tubes(choices.tube_inner_diameter) if requirement.tube_length is not None \
         else [None]
+    n = len(cyl) * len(val) * len(tubes)
+    if n > MAX_FAMILIES:
+        raise FieldError("choices", f"{len(cyl)} cylinders x {len(val)} valves x {len(tubes)} "
+                                    f"tubes = {n} families, more than {MAX_FAMILIES}: choose fewer")
     return [(c, v, t) for c in cyl for v in val for t in tubes]
 
 
@@ -391,7 +415,37 @@ def default_workers():
         return os.cpu_count() or 1
 
 
-def size(requirement, choices=None, workers=None, progress=None, base=None):
+def check(requirement, choices=None, max_duration=None):
+    """Everything a sizing request can get wrong, checked before any work.
+
+    Parameters
+    ----------
+    requirement : Requirement or dict
+        The required motion
+    choices : Choices or dict or None
+        What may vary
+    max_duration : float or None
+        Longest simulated time of one run allowed [s]; each direction's run lasts
+        :data:`DURATION_FACTOR` times its required time
+
+    Returns
+    -------
+    checked : tuple
+        ``(requirement, choices, families)``
+    """
+    req = Requirement.from_dict(requirement)
+    ch = Choices.from_dict(choices)
+    if max_duration is not None:
+        for key in ("extend_time", "retract_time"):
+            if DURATION_FACTOR * getattr(req, key) > max_duration:
+                raise FieldError(f"requirement.{key}", (
+                    f"{getattr(req, key):g} s: each direction is simulated for {DURATION_FACTOR:g} "
+                    f"times its required time, more than the {max_duration:g} s a run may last "
+                    f"here (GET /api/limits: max_duration) (unit: s)"))
+    return req, ch, families(req, ch)
+
+
+def size(requirement, choices=None, workers=None, progress=None, base=None, checked=None):
     """Size a drive: the designs that meet the requirement, best first, and why others fail.
 
     Parameters
@@ -407,6 +461,8 @@ def size(requirement, choices=None, workers=None, progress=None, base=None):
     base : dict or None
         Model the designs are built on (heat, friction, gas); None = the ``paper-4way``
         preset
+    checked : tuple or None
+        What :func:`check` returned for these arguments (not checked again)
 
     Returns
     -------
@@ -424,9 +480,7 @@ def size(requirement, choices=None, workers=None, progress=None, base=None):
     >>> ans["designs"][0]["cylinder"]["name"], ans["designs"][0]["feasible"]
     ('iso15552:32', True)
     """
-    req = Requirement.from_dict(requirement)
-    ch = Choices.from_dict(choices)
-    fams = families(req, ch)
+    req, ch, fams = checked if checked is not None else check(requirement, choices)
     progress = progress or no_progress
     workers = max(1, int(workers or default_workers()))
     outcomes = [None] * len(fams)

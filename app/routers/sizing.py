@@ -1,0 +1,22 @@
+"""POST /api/sizing: from a required motion to the circuits that meet it (synchronous; the
+same as a job with progress: POST /api/jobs/sizing)."""
+from fastapi import APIRouter
+
+from ..bodies import OffLoopRoute
+from ..deps import LimitsDep
+from ..responses import JSON
+from ..services import deadline_progress
+from ..sizing_schemas import SizingRequest, SizingResponse
+from ..sizing_service import run_sizing
+from ..sync_pool import sync_slot
+
+router = APIRouter(prefix="/api", tags=["sizing"], route_class=OffLoopRoute)
+
+
+@router.post("/sizing", dependencies=[sync_slot("/api/jobs/sizing")],
+             summary="Size a drive: cylinder, valve, tube and meter-out settings that meet a "
+                     "required motion, ranked by air per cycle; why the others fail",
+             response_class=JSON, response_model=SizingResponse)
+def sizing_endpoint(req: SizingRequest, limits: LimitsDep):
+    return JSON(run_sizing(req, limits, progress=deadline_progress(limits, "sizing",
+                                                                   "/api/jobs/sizing")))
