@@ -33,6 +33,7 @@ LAYOUT = {
     "analysis": {"autocorrelation", "blas_threads", "calibrate", "calibration_options", "compare", "diagnose",
                  "heat_compare", "history", "hypotheses", "metrics", "report"},
     "study": {"__main__", "_warm", "_worker", "definition", "execute", "metrics", "results", "store"},
+    "sizing": {"requirement", "search", "series", "stroke"},
 }
 TOP_LEVEL = {"__main__", "_moved", "cli", "progress", "result", "simulate"}
 
