@@ -183,6 +183,11 @@ class SizingResponse(BaseModel):
     infeasible: list[InfeasibleOut] = Field(..., description="Each family that fails, with its "
                                                              "reason")
     reasons: dict[str, int] = Field(..., description="Number of failing families per reason")
+    robustness_studies: Optional[dict[str, dict[str, Any]]] = Field(
+        None, description="The best design's strokes (extend, retract) under seal friction "
+                          "(half to twice) and supply pressure (5 % of gauge) spread: study "
+                          "definitions to POST to /api/studies as they are; null when no "
+                          "design is feasible")
     reason_meanings: dict[str, str] = Field(..., description="Each reason in words")
     families: int = Field(..., description="Families tried [-]")
     notes: list[str] = Field(..., description="What the designs' models approximate")

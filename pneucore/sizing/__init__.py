@@ -11,10 +11,11 @@ sources (:mod:`pneucore.sizing.series`); the stroke metrics are
 :func:`pneucore.sizing.stroke.stroke_metrics`.
 """
 from pneucore.sizing.requirement import Choices, Requirement, gravity_load, tube_volume
-from pneucore.sizing.search import REASONS, build_model, check, evaluate_family, families, size
+from pneucore.sizing.search import (REASONS, build_model, check, evaluate_family, families,
+                                     robustness_studies, size)
 from pneucore.sizing.series import load_series, nominal_flow
 from pneucore.sizing.stroke import STROKE_METRIC_UNITS, stroke_metrics
 
 __all__ = ["Choices", "Requirement", "gravity_load", "tube_volume", "REASONS", "build_model", "check",
-           "evaluate_family", "families", "size", "load_series", "nominal_flow",
+           "evaluate_family", "families", "robustness_studies", "size", "load_series", "nominal_flow",
            "STROKE_METRIC_UNITS", "stroke_metrics"]

@@ -267,6 +267,67 @@ class _Direction:
         return s
 
 
+#: Spread of the robustness studies: seal friction from half to twice the design's (it
+#: drifts with service life: the paper's closing warning), supply pressure normal with this
+#: standard deviation as a fraction of the gauge pressure, truncated at 3 of them [-]
+FRICTION_SPREAD = (0.5, 2.0)
+SUPPLY_STD = 0.05
+#: Runs of each robustness study [-]
+ROBUSTNESS_SAMPLES = 200
+
+
+def robustness_studies(design, requirement, samples=ROBUSTNESS_SAMPLES):
+    """Study definitions of a design's strokes under friction and supply variation.
+
+    One study per direction, ready for ``POST /api/studies`` (or
+    :func:`pneucore.study.run_study`) as they are: the design's model, the full stroke of
+    the sizing (from rest at the end stop), the seal friction of that direction drawn
+    uniformly from :data:`FRICTION_SPREAD` times the design's, the supply pressure normal
+    (:data:`SUPPLY_STD` of the gauge pressure). Their ``t95`` (time to 95 % of the travel)
+    spread is the stroke time's.
+
+    Parameters
+    ----------
+    design : dict
+        A design of :func:`size` (its ``model``)
+    requirement : Requirement
+        The requirement it was sized for
+    samples : int
+        Runs of each study [-]
+
+    Returns
+    -------
+    studies : dict
+        ``{"extend": study, "retract": study}`` (plain JSON study definitions)
+    """
+    model = design["model"]
+    p_s, p_0 = requirement.supply_pressure, requirement.ambient_pressure
+    std = SUPPLY_STD * (p_s - p_0)
+    out = {}
+    for k in DIRECTIONS:
+        ext = k == "extend"
+        t_req = requirement.extend_time if ext else requirement.retract_time
+        duration = DURATION_FACTOR * t_req
+        fs = model["friction"][k]
+        lo, hi = FRICTION_SPREAD
+        params = {f"friction.{k}.{c}": {"distribution": "uniform", "min": lo * fs[c],
+                                        "max": hi * fs[c]}
+                  for c in ("fc0", "kv0") if fs[c] > 0.0}
+        params["supply.pressure"] = {"distribution": "normal", "mean": p_s, "std": std,
+                                     "min": max(p_s - 3 * std, p_0 * 1.01), "max": p_s + 3 * std}
+        out[k] = {"name": f"{model.get('name', 'design')}: {k} under friction and supply spread",
+                  "model": model,
+                  "scenario": {"duration": duration, "sample_period": duration / RUN_SAMPLES,
+                               "command": [[0.0, 1.0 if ext else -1.0]],
+                               "command_interpolation": "hold", "locked": False,
+                               "x0": 0.0 if ext else requirement.stroke,
+                               "initial": {"p_a": p_0 if ext else p_s,
+                                           "p_b": p_s if ext else p_0}},
+                  "parameters": params, "samples": int(samples), "seed": 1,
+                  "metrics": ["t95", "x_final", "overshoot", "air_consumption"]}
+    return out
+
+
 def _family_key(cylinder, valve, tube):
     return {"cylinder": cylinder, "valve": valve, "tube": tube}
 
@@ -469,7 +530,9 @@ def size(requirement, choices=None, workers=None, progress=None, base=None, chec
     answer : dict
         ``designs`` (feasible, ranked by air per cycle then size; when none is feasible, the
         closest families fully open, ``feasible`` false), ``infeasible`` (each failing
-        family with its ``reason`` and ``detail``), ``reasons`` (counts), ``notes``,
+        family with its ``reason`` and ``detail``), ``reasons`` (counts),
+        ``robustness_studies`` (the best design's strokes under friction and supply spread,
+        ready for ``POST /api/studies``; null without a feasible design), ``notes``,
         ``families`` (count), ``requirement``, ``choices``, ``units``
 
     Examples
@@ -528,7 +591,9 @@ def _answer(req, ch, outcomes):
     if not any(o["feasible"] for o in outcomes):
         summary = "no family meets the requirement: " + "; ".join(
             f"{n} {REASONS[r]}" for r, n in sorted(counts.items()))
+    robust = robustness_studies(designs[0], req) if designs and designs[0]["feasible"] else None
     return {"summary": summary, "designs": designs, "infeasible": infeasible, "reasons": counts,
+            "robustness_studies": robust,
             "reason_meanings": dict(REASONS), "families": len(outcomes),
             "notes": model_notes(req), "requirement": req.to_dict(), "choices": ch.to_dict(),
             "units": {"air_per_cycle": "NL", **{f"metrics.*.{k}": u

@@ -255,3 +255,28 @@ def test_progress_is_reported_and_can_stop_the_search():
             raise Stop(step)
     with pytest.raises(Stop):
         size(_requirement(), {"bore": ["iso15552"], "valve": ["ckd-4ga"]}, workers=2, progress=stop)
+
+
+def test_the_best_design_comes_with_its_robustness_studies():
+    from pneucore.study.definition import Study
+    ans = size(_requirement(), {"bore": ["iso15552:32"], "valve": ["ckd-4ga:M4GA2"]}, workers=1)
+    studies = ans["robustness_studies"]
+    assert set(studies) == {"extend", "retract"}
+    for k, d in studies.items():
+        study = Study.from_dict(d)          # a study pneucore (and POST /api/studies) accepts
+        assert study.n_runs == 200
+        assert f"friction.{k}.fc0" in d["parameters"] and "supply.pressure" in d["parameters"]
+    # eight runs of the extension's study: every run reaches the end stop, and the time to
+    # 95 % of the stroke (0.485 s at the nominal friction and supply, a little under the
+    # 0.5 s full stroke it was sized for) spreads on both sides of 0.95 T_req as the friction
+    # goes from half to twice the design's, never beyond 1.2 T_req (measured 0.44-0.53 s)
+    from pneucore.study import run_study
+    out = run_study({**studies["extend"], "samples": 8}, None, workers=0)["results"]
+    t95 = out["metrics"]["t95"]
+    assert (out["failed"], t95["count"]) == (0, 8)
+    assert out["metrics"]["x_final"]["min"] == pytest.approx(STROKE, abs=1e-9)
+    assert t95["min"] < 0.95 * T_REQ < t95["max"] < 1.2 * T_REQ
+    # no family feasible: no study
+    ans = size(_requirement(extend_time=0.01), {"bore": ["iso15552:32"], "valve": ["ckd-4ga:M4GA1"]},
+               workers=1)
+    assert ans["robustness_studies"] is None
