@@ -595,7 +595,10 @@ def _answer(req, ch, outcomes):
     return {"summary": summary, "designs": designs, "infeasible": infeasible, "reasons": counts,
             "robustness_studies": robust,
             "reason_meanings": dict(REASONS), "families": len(outcomes),
-            "notes": model_notes(req), "requirement": req.to_dict(), "choices": ch.to_dict(),
+            "notes": model_notes(req) + ([
+                "tube_inner_diameter choices ignored: the requirement has no tube_length."]
+                if ch.tube_inner_diameter and req.tube_length is None else []),
+            "requirement": req.to_dict(), "choices": ch.to_dict(),
             "units": {"air_per_cycle": "NL", **{f"metrics.*.{k}": u
                                                   for k, u in STROKE_METRIC_UNITS.items()},
                       "settings.*_meter_out": "-", "settings.*_exhaust_C": "m^3/(s Pa)"}}
