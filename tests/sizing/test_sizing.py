@@ -280,3 +280,25 @@ def test_the_best_design_comes_with_its_robustness_studies():
     ans = size(_requirement(extend_time=0.01), {"bore": ["iso15552:32"], "valve": ["ckd-4ga:M4GA1"]},
                workers=1)
     assert ans["robustness_studies"] is None
+
+
+def test_the_command_line_sizes_a_requirement_file(tmp_path, capsys):
+    import json
+    from pneucore.cli import main
+    req = tmp_path / "requirement.json"
+    req.write_text(json.dumps({"requirement": _requirement(),
+                               "choices": {"bore": ["iso15552:32"], "valve": ["ckd-4ga"]}}))
+    out, best = tmp_path / "answer.json", tmp_path / "best.json"
+    assert main(["size", str(req), "--json", str(out), "--model", str(best), "--workers", "1"]) == 0
+    text = capsys.readouterr().out
+    assert "3 of 3 families meet the requirement" in text and "iso15552:32" in text
+    ans = json.loads(out.read_text())
+    assert json.loads(best.read_text()) == ans["designs"][0]["model"]
+    # a requirement no family meets: exit status 1, the reasons printed
+    req.write_text(json.dumps({**_requirement(), "extend_time": 0.01}))
+    assert main(["size", str(req), "--workers", "1"]) == 1
+    assert "too_slow" in capsys.readouterr().out
+    # a malformed one: exit status 2, the field and its unit
+    req.write_text(json.dumps({**_requirement(), "angle": 120}))
+    assert main(["size", str(req)]) == 2
+    assert "requirement.angle" in capsys.readouterr().err
