@@ -51,6 +51,7 @@ class RequirementSpec(_Strict):
     extend_time: float = _lib(Requirement, _REQ, "extend_time", required=True)
     retract_time: float = _lib(Requirement, _REQ, "retract_time", required=True)
     max_end_speed: Optional[float] = _lib(Requirement, _REQ, "max_end_speed")
+    max_end_energy: Optional[float] = _lib(Requirement, _REQ, "max_end_energy")
     tube_length: Optional[float] = _lib(Requirement, _REQ, "tube_length")
     ambient_pressure: float = _lib(Requirement, _REQ, "ambient_pressure")
 

@@ -15,6 +15,7 @@ const SIZING_FIELDS = [
   ['load_force', 'Load force against the extension [N]', 50], ['angle', 'Mounting angle, 90 = rod up [deg]', 30],
   ['supply_pressure', 'Supply pressure [Pa abs]', 7e5], ['extend_time', 'Extend time, full stroke [s]', 0.6],
   ['retract_time', 'Retract time, full stroke [s]', 0.6], ['max_end_speed', 'Max stroke-end speed [m/s] (blank: none)', 1.0],
+  ['max_end_energy', 'Cushion capacity at the end stop [J] (blank: none)', ''],
   ['tube_length', 'Tube length per port [m] (blank: no tube)', ''],
 ];
 const SIZING_CHOICES = [

@@ -24,7 +24,7 @@ MAX_ANGLE = 90.0
 #: (ISO 15552 cylinders are rated 10 bar, strokes of a few metres), they keep a mistyped
 #: number from asking the simulator for nonsense
 BOUNDS = {"stroke": 10.0, "moving_mass": 1e5, "load_force": 1e7, "supply_pressure": 5e6,
-          "extend_time": 600.0, "retract_time": 600.0, "max_end_speed": 100.0,
+          "extend_time": 600.0, "retract_time": 600.0, "max_end_speed": 100.0, "max_end_energy": 1e6,
           "tube_length": 100.0, "ambient_pressure": 5e6}
 
 
@@ -67,6 +67,9 @@ class Requirement:
     max_end_speed : float or None
         Largest piston speed allowed at either end stop (what the cushion or the stop absorbs);
         null = no limit [m/s]
+    max_end_energy : float or None
+        Largest kinetic energy of the moving mass allowed at either end stop (the cushion's
+        energy capacity, as catalogues state it); null = no limit [J]
     tube_length : float or None
         Length of the tube between the valve and each cylinder port; null = valve on the
         cylinder [m]
@@ -81,6 +84,7 @@ class Requirement:
     extend_time: float = 1.0
     retract_time: float = 1.0
     max_end_speed: Optional[float] = None
+    max_end_energy: Optional[float] = None
     tube_length: Optional[float] = None
     ambient_pressure: float = P_ATM
 
@@ -131,6 +135,8 @@ class Requirement:
                                   positive=True)
         r.max_end_speed = None if d.get("max_end_speed") is None else _checked(
             d["max_end_speed"], f"{path}.max_end_speed", u("max_end_speed"), positive=True)
+        r.max_end_energy = None if d.get("max_end_energy") is None else _checked(
+            d["max_end_energy"], f"{path}.max_end_energy", u("max_end_energy"), positive=True)
         r.tube_length = None if d.get("tube_length") is None else _checked(
             d["tube_length"], f"{path}.tube_length", u("tube_length"), positive=True)
         return r

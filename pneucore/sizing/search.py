@@ -13,8 +13,9 @@ inner diameter. For each family :func:`size`
    required one, by a 1-D root (:func:`scipy.optimize.brentq` on the logarithms; the time
    falls monotonically as the setting opens). The slowest motion that meets the time is the
    gentlest: its stroke-end speed is the smallest this family reaches;
-4. checks the stroke-end speed against ``max_end_speed``: above is the reason
-   ``end_speed``.
+4. checks the stroke-end speed against ``max_end_speed`` and its kinetic energy against
+   ``max_end_energy`` (the cushion's capacity): above is the reason ``end_speed`` or
+   ``end_energy``.
 
 The feasible designs are ranked by air per cycle, then size (bore, valve conductance, tube).
 Families run in parallel on a thread pool (the compiled integrator releases the GIL), with
@@ -62,6 +63,8 @@ REASONS = {
     "force": "force too low against the load at that angle (static, at the supply pressure)",
     "too_slow": "too slow even fully open",
     "end_speed": "stroke-end speed above the limit at the slowest setting that meets the time",
+    "end_energy": "kinetic energy at the end stop above the cushion's capacity at the slowest "
+                  "setting that meets the time",
     "simulation": "the simulation of this family failed",
 }
 DIRECTIONS = ("extend", "retract")
@@ -401,16 +404,19 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
         return {**family, "feasible": False, "reason": "simulation", "direction": None,
                 "detail": str(exc)}
     design = _design(requirement, cylinder, valve, tube, settings, metrics, base)
-    limit = requirement.max_end_speed
-    if limit is not None:
+    checks = (("end_speed", "stroke-end speed", requirement.max_end_speed, "m/s"),
+              ("end_energy", "kinetic energy at the end stop", requirement.max_end_energy, "J"))
+    for reason, what, limit, unit in checks:
+        if limit is None:
+            continue
         for k in DIRECTIONS:
-            v_end = metrics[k]["end_speed"]
-            if v_end > limit:
-                return {**family, "feasible": False, "reason": "end_speed", "direction": k,
-                        "detail": f"{k}: stroke-end speed {v_end:.3g} m/s at the slowest setting "
-                                  f"that meets {dirs[k].t_req:.4g} s (meter-out "
-                                  f"{settings[k]:.3g}), limit {limit:.3g} m/s",
-                        "shortfall": v_end / limit, "design": {**design, "feasible": False}}
+            value = metrics[k][reason]
+            if value > limit:
+                return {**family, "feasible": False, "reason": reason, "direction": k,
+                        "detail": f"{k}: {what} {value:.3g} {unit} at the slowest setting that "
+                                  f"meets {dirs[k].t_req:.4g} s (meter-out {settings[k]:.3g}), "
+                                  f"limit {limit:.3g} {unit}",
+                        "shortfall": value / limit, "design": {**design, "feasible": False}}
     return {**family, "feasible": True, "design": design}
 
 

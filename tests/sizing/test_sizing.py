@@ -178,6 +178,22 @@ def test_stroke_end_speed_above_the_limit():
     assert ans["designs"][0]["feasible"] is False
 
 
+def test_kinetic_energy_at_the_stop_above_the_cushion_capacity():
+    req = _requirement(extend_time=0.3, retract_time=0.3)
+    ch = {"bore": ["iso15552:32"], "valve": ["ckd-4ga:M4GA2"]}
+    free = size(req, ch, workers=1)["designs"][0]["metrics"]
+    energy = max(free["extend"]["end_energy"], free["retract"]["end_energy"])
+    # the energy is the moving mass's m v^2 / 2 at the stop (exact: computed so)
+    v = max(free["extend"]["end_speed"], free["retract"]["end_speed"])
+    assert energy == pytest.approx(0.5 * 2.0 * v ** 2, rel=1e-12)
+    # a cushion that absorbs half of it: the family fails with that reason
+    ans = size({**req, "max_end_energy": 0.5 * energy}, ch, workers=1)
+    (fail,) = ans["infeasible"]
+    assert fail["reason"] == "end_energy" and "J" in fail["detail"]
+    # one that absorbs a little more: feasible
+    assert size({**req, "max_end_energy": 1.01 * energy}, ch, workers=1)["designs"][0]["feasible"]
+
+
 def test_gravity_sign_rod_up_lifts_the_load():
     r = Requirement(moving_mass=10.0, load_force=5.0)
     assert gravity_load(Requirement(**{**r.to_dict(), "angle": 90.0})) == pytest.approx(5.0 + 98.0665)
