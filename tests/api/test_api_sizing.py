@@ -104,3 +104,35 @@ def test_sizing_is_documented(client):
     assert props["angle"]["description"].endswith("[deg]")
     ex = spec["components"]["schemas"]["SizingRequest"]["examples"][0]
     assert client.post("/api/sizing", json=ex).status_code == 200
+
+
+def test_sizings_beyond_the_sync_queue_are_429_naming_the_job_route(db_path, monkeypatch):
+    """Four sizings at once on 1 worker and a queue of 1 (the bounded pool of the other
+    synchronous analyses, app.sync_pool): one runs, one waits, two are 429 naming
+    /api/jobs/sizing; every slot is given back."""
+    import threading
+    import time
+    from concurrent.futures import ThreadPoolExecutor
+
+    from app.routers import sizing
+    release, running = threading.Event(), threading.Semaphore(0)
+
+    def held(*a, **k):   # a sizing that lasts until the test lets it go
+        running.release()
+        assert release.wait(120)
+        return {"held": True}
+    monkeypatch.setattr(sizing, "run_sizing", held)
+    with api(db_path, sync_workers=1, max_sync_queue=1) as c, ThreadPoolExecutor(4) as ex:
+        calls = [ex.submit(c.post, "/api/sizing", json=_body()) for _ in range(4)]
+        assert running.acquire(timeout=120)   # one runs (a bound on a hang)
+        t0 = time.monotonic()
+        refused = []
+        while len(refused) < 2:
+            refused = [f.result() for f in calls if f.done()]
+            assert time.monotonic() - t0 < 60, [r.status_code for r in refused]
+            time.sleep(0.01)
+        release.set()
+        answers = [f.result(timeout=120) for f in calls]
+        assert c.app.state.sync_pool.admitted == 0
+    assert all(r.status_code == 429 and "/api/jobs/sizing" in r.json()["detail"] for r in refused)
+    assert sorted(r.status_code for r in answers) == [200] * 2 + [429] * 2
