@@ -205,8 +205,11 @@ def _force_reason(requirement, cylinder, model):
     A_a, A_b, Ar = j.area_a, j.area_b, rod_area(cylinder["rod"])
     fc_ext = f.extend.fc0 + f.extend.fc_a * dp
     fc_ret = f.retract.fc0 + f.retract.fc_b * dp
-    push = net_pressure_force(p_s, p_0, p_0, A_a, A_b, 0.0, Ar, load)
-    pull = -net_pressure_force(p_0, p_s, p_0, A_a, A_b, 0.0, Ar, load)
+    # the law's Python body (.py_func): the same source as the compiled core's, without a
+    # compile of its own at the first call of a process (about 2 s)
+    force = net_pressure_force.py_func
+    push = force(p_s, p_0, p_0, A_a, A_b, 0.0, Ar, load)
+    pull = -force(p_0, p_s, p_0, A_a, A_b, 0.0, Ar, load)
     if push - fc_ext <= 0.0:
         return "extend", (f"extension: {push + load:.4g} N of pressure force at "
                           f"{p_s / 1e5:.4g} bar abs against {load:.4g} N of load (gravity "
@@ -554,16 +557,18 @@ def size(requirement, choices=None, workers=None, progress=None, base=None, chec
     workers = max(1, int(workers or default_workers()))
     outcomes = [None] * len(fams)
     progress(0.0, f"sizing: {len(fams)} families")
-    if workers == 1:
-        for i, (c, v, t) in enumerate(fams):
-            outcomes[i] = evaluate_family(req, ch, c, v, t, base)
-            progress((i + 1) / len(fams), f"family {i + 1} of {len(fams)}")
-    else:
+    # the first family in this thread: the compiled core is loaded (or compiled) once, by one
+    # thread, before the worker threads call it
+    serial = len(fams) if workers == 1 else min(1, len(fams))
+    for i, (c, v, t) in enumerate(fams[:serial]):
+        outcomes[i] = evaluate_family(req, ch, c, v, t, base)
+        progress((i + 1) / len(fams), f"family {i + 1} of {len(fams)}")
+    if serial < len(fams):
         with cf.ThreadPoolExecutor(workers, thread_name_prefix="pneucore-sizing") as pool:
             futures = {pool.submit(evaluate_family, req, ch, c, v, t, base): i
-                       for i, (c, v, t) in enumerate(fams)}
+                       for i, (c, v, t) in enumerate(fams) if i >= serial}
             try:
-                for n, f in enumerate(cf.as_completed(futures), 1):
+                for n, f in enumerate(cf.as_completed(futures), serial + 1):
                     outcomes[futures[f]] = f.result()
                     progress(n / len(fams), f"family {n} of {len(fams)}")
             except BaseException:
