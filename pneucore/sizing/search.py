@@ -414,7 +414,7 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
             continue
         for k in DIRECTIONS:
             value = metrics[k][reason]
-            if value > limit:
+            if value is not None and value > limit:
                 return {**family, "feasible": False, "reason": reason, "direction": k,
                         "detail": f"{k}: {what} {value:.3g} {unit} at the slowest setting that "
                                   f"meets {dirs[k].t_req:.4g} s (meter-out {settings[k]:.3g}), "
