@@ -39,6 +39,7 @@ from .routers import (analysis, calibration, datasets, effects, heat, jobs, pres
 from .routers import friction
 from .routers import models
 from .routers import identify
+from .routers import sizing
 from .schemas import LimitsResponse, SampleInfo
 from .security import Guard
 from .store import DamagedRecord, ServerLock, Store, StoreUnavailable, disk_full, storage_fault
@@ -239,6 +240,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(models.router)
     app.include_router(identify.router)
     app.include_router(identify.jobs_router)
+    app.include_router(sizing.router)
 
     @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits",
              response_model=LimitsResponse)

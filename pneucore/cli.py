@@ -110,7 +110,17 @@ def main(argv=None):
     ifr.add_argument("--validate", nargs="*", default=[], help="records to predict")
     ifr.add_argument("--extras", nargs="*", default=[], help="also identify: offset, area_a, area_b, mass")
     ifr.add_argument("--json", help="write the result (with the model) to this JSON file")
+    sz = sub.add_parser("size", help="size a drive from a requirement JSON file "
+                                     "({\"requirement\": {...}, \"choices\": {...}})")
+    sz.add_argument("file", help="JSON file: {\"requirement\": {...}, \"choices\": {...}} "
+                                 "(or the requirement alone)")
+    sz.add_argument("--workers", type=int, default=None, help="threads (default: the CPUs)")
+    sz.add_argument("--top", type=int, default=10, help="designs printed (default 10)")
+    sz.add_argument("--json", help="write the whole answer to this JSON file")
+    sz.add_argument("--model", help="write the best design's model to this JSON file")
     args = parser.parse_args(argv)
+    if args.cmd == "size":
+        return _size(args)
     if args.cmd in (None, "run") and not hasattr(args, "model"):
         args = parser.parse_args(["run"] + (argv or []))
     if args.cmd == "presets":
@@ -217,6 +227,59 @@ def _identify(args):
             json.dump(out, fh)
         print(f"wrote {args.json}")
     return 0
+def _size(args):
+    """``pneucore size requirement.json``: the ranked designs and the reasons, as a table."""
+    from pneucore.sizing import size
+    try:
+        with open(args.file) as fh:
+            data = json.load(fh)
+        if not isinstance(data, dict):
+            raise CliError(f"{args.file}: expected a JSON object")
+        req, choices = (data["requirement"], data.get("choices")) if "requirement" in data \
+            else (data, None)
+        t0 = time.perf_counter()
+        ans = size(req, choices, workers=args.workers)
+        wall = time.perf_counter() - t0
+    except (CliError, FieldError, ValueError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    for line in sizing_lines(ans, args.top):
+        print(line)
+    print(f"wall time {wall:.2f} s")
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(ans, fh, indent=1)
+        print(f"wrote {args.json}")
+    if args.model:
+        if not ans["designs"]:
+            print("error: no design to write", file=sys.stderr)
+            return 1
+        with open(args.model, "w") as fh:
+            json.dump(ans["designs"][0]["model"], fh, indent=1)
+        print(f"wrote {args.model} (pneucore run --model {args.model} simulates it)")
+    return 0 if any(d["feasible"] for d in ans["designs"]) else 1
+
+
+def sizing_lines(ans, top=10):
+    """Human-readable table of a sizing answer (list of lines)."""
+    lines = [ans["summary"],
+             f"{'rank':>4}  {'cylinder':<14} {'valve':<16} {'tube':<16} {'air NL':>8} "
+             f"{'t_ext s':>8} {'t_ret s':>8} {'v_end m/s':>10} {'meter-out':>12}"]
+    for d in ans["designs"][:top]:
+        m = d["metrics"]
+        fmt = lambda v, f: format(v, f) if v is not None else "-"   # noqa: E731
+        lines.append(
+            f"{d['rank']:>4}  {d['cylinder']['name']:<14} {d['valve']['name']:<16} "
+            f"{(d['tube'] or {}).get('name', '-'):<16} {d['air_per_cycle']:8.3f} "
+            f"{fmt(m['extend']['full_stroke_time'], '8.3f')} {fmt(m['retract']['full_stroke_time'], '8.3f')} "
+            f"{fmt(max(m['extend']['end_speed'] or 0, m['retract']['end_speed'] or 0), '10.3f')} "
+            f"{d['settings']['extend_meter_out']:5.3f}/{d['settings']['retract_meter_out']:5.3f}"
+            + ("" if d["feasible"] else "  (not feasible)"))
+    if ans["reasons"]:
+        lines.append("infeasible families: " + ", ".join(f"{n} {r}" for r, n in sorted(ans["reasons"].items())))
+    for note in ans["notes"]:
+        lines.append(f"note: {note}")
+    return lines
 
 
 if __name__ == "__main__":

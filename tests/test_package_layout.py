@@ -34,6 +34,7 @@ LAYOUT = {
                  "command_line", "engineering", "heat_compare", "history", "hypotheses", "metrics", "report"},
     "study": {"__main__", "_warm", "_worker", "definition", "execute", "metrics", "results", "store"},
     "identify": {"friction_bench", "valve_bench"},
+    "sizing": {"requirement", "search", "series", "stroke"},
 }
 TOP_LEVEL = {"__main__", "_moved", "cli", "progress", "result", "simulate"}
 

@@ -7,6 +7,8 @@ from ..deps import JobsDep, LimitsDep, StoreDep, not_found
 from ..schemas import CalibrateRequest, CompareRequest, DiagnoseRequest, JobResponse, RefineRequest
 from ..services import (check_calibrate, check_compare, check_diagnose, check_refine, run_calibrate,
                         run_compare, run_diagnose, run_refine)
+from ..sizing_schemas import SizingRequest
+from ..sizing_service import check_sizing, run_sizing
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"], route_class=OffLoopRoute)
 
@@ -56,6 +58,14 @@ def compare_job(req: CompareRequest, store: StoreDep, limits: LimitsDep, jobs: J
              summary="Refine to the noise floor as a job (the versions, each round's diagnosis)")
 def refine_job(req: RefineRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep):
     return _refine(req, store, limits, jobs)
+
+
+@router.post("/sizing", status_code=202, response_model=JobResponse,
+             summary="Size a drive as a job (progress per family; the result is POST /api/sizing's)")
+def sizing_job(req: SizingRequest, limits: LimitsDep, jobs: JobsDep):
+    checked = check_sizing(req, limits)
+    return _submit(jobs, "sizing", lambda job: run_sizing(req, limits, progress=job.report,
+                                                          checked=checked))
 
 
 @router.get("/{job_id}", response_model=JobResponse, summary="Job progress and result",

@@ -1,0 +1,197 @@
+"""Pydantic schemas of the sizing API (POST /api/sizing, POST /api/jobs/sizing).
+
+The requirement's and the choices' fields mirror :class:`pneucore.sizing.Requirement` and
+:class:`pneucore.sizing.Choices`: their defaults and descriptions (with units) are read from
+those dataclasses, the one source (tests/sizing/test_sizing_api_schema.py checks it).
+Pydantic checks types and shapes; pneucore checks the physics and its bounds, and its
+``FieldError`` becomes a 422 naming the field and its unit.
+"""
+from __future__ import annotations
+
+import copy
+from typing import Any, Optional, Union
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from pneucore.sizing.requirement import Choices, Requirement
+from pneucore.sizing.search import REASONS
+from pneucore.sizing.stroke import STROKE_METRIC_UNITS
+from pneucore.spec.docstrings import api_description
+
+from .schemas import Name
+
+#: Most items of one choices list (a series name counts as one)
+MAX_CHOICE_ITEMS = 200
+
+_REQ, _CH = Requirement(), Choices()
+
+
+def _lib(cls, obj, name, required=False):
+    """A Field with the pneucore field's description, and its default unless required."""
+    desc = api_description(cls, name)
+    if required:
+        return Field(..., description=desc)
+    value = getattr(obj, name)
+    if isinstance(value, list):
+        return Field(default_factory=lambda: copy.deepcopy(value), description=desc,
+                     max_length=MAX_CHOICE_ITEMS)
+    return Field(value, description=desc)
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class RequirementSpec(_Strict):
+    stroke: float = _lib(Requirement, _REQ, "stroke", required=True)
+    moving_mass: float = _lib(Requirement, _REQ, "moving_mass", required=True)
+    load_force: float = _lib(Requirement, _REQ, "load_force")
+    angle: float = _lib(Requirement, _REQ, "angle")
+    supply_pressure: float = _lib(Requirement, _REQ, "supply_pressure", required=True)
+    extend_time: float = _lib(Requirement, _REQ, "extend_time", required=True)
+    retract_time: float = _lib(Requirement, _REQ, "retract_time", required=True)
+    max_end_speed: Optional[float] = _lib(Requirement, _REQ, "max_end_speed")
+    max_end_energy: Optional[float] = _lib(Requirement, _REQ, "max_end_energy")
+    tube_length: Optional[float] = _lib(Requirement, _REQ, "tube_length")
+    ambient_pressure: float = _lib(Requirement, _REQ, "ambient_pressure")
+
+
+class CylinderSpec(_Strict):
+    bore: float = Field(..., description="Bore (piston) diameter [m]")
+    rod: float = Field(0.0, description="Rod diameter, on the chamber-B side [m]")
+    name: Optional[Name] = Field(None, description="Label [-]")
+
+
+class ValveSpec(_Strict):
+    C: float = Field(..., description="Sonic conductance of the supply edges P-A, P-B [m^3/(s Pa)]")
+    b: float = Field(..., description="Critical pressure ratio of the supply edges [-]")
+    C_exhaust: Optional[float] = Field(None, description="Sonic conductance of the exhaust edges "
+                                                         "A-R, B-R; null = as C [m^3/(s Pa)]")
+    b_exhaust: Optional[float] = Field(None, description="Critical pressure ratio of the exhaust "
+                                                         "edges; null = as b [-]")
+    name: Optional[Name] = Field(None, description="Label [-]")
+
+
+class ChoicesSpec(_Strict):
+    bore: list[Union[Name, CylinderSpec]] = _lib(Choices, _CH, "bore")
+    valve: list[Union[Name, ValveSpec]] = _lib(Choices, _CH, "valve")
+    tube_inner_diameter: list[Union[Name, float]] = _lib(Choices, _CH, "tube_inner_diameter")
+    meter_out: bool = _lib(Choices, _CH, "meter_out")
+    min_meter_out: float = _lib(Choices, _CH, "min_meter_out")
+
+    def plain(self):
+        """Plain JSON for pneucore (unset optional values left out)."""
+        return self.model_dump(exclude_none=True)
+
+
+_EXAMPLE = {"requirement": {"stroke": 0.2, "moving_mass": 5.0, "load_force": 50.0, "angle": 30.0,
+                            "supply_pressure": 7e5, "extend_time": 0.6, "retract_time": 0.6,
+                            "max_end_speed": 1.0},
+            "choices": {"bore": ["iso15552", "iso6432:20", "iso6432:25"], "valve": ["ckd-4ga"]}}
+
+
+class SizingRequest(_Strict):
+    model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [_EXAMPLE]})
+    requirement: RequirementSpec = Field(..., description="The required motion (SI units, "
+                                                          "absolute pressures)")
+    choices: ChoicesSpec = Field(default_factory=ChoicesSpec,
+                                 description="What may vary; every list empty = the shipped series")
+
+    def plain(self):
+        """``(requirement, choices)`` as plain JSON for :func:`pneucore.sizing.size`."""
+        return self.requirement.model_dump(exclude_none=True), self.choices.plain()
+
+
+# ------------------------------------------------------------------------------- answers
+class CylinderOut(BaseModel):
+    series: Optional[str] = Field(None, description="Series it comes from; null = the user's own [-]")
+    name: str = Field(..., description="series:member, or the user's label [-]")
+    bore: float = Field(..., description="Bore diameter [m]")
+    rod: float = Field(..., description="Rod diameter [m]")
+
+
+class ValveOut(BaseModel):
+    series: Optional[str] = Field(None, description="Series it comes from; null = the user's own [-]")
+    name: str = Field(..., description="series:member, or the user's label [-]")
+    C: float = Field(..., description="Sonic conductance of the supply edges [m^3/(s Pa)]")
+    b: float = Field(..., description="Critical pressure ratio of the supply edges [-]")
+    C_exhaust: float = Field(..., description="Sonic conductance of the exhaust edges [m^3/(s Pa)]")
+    b_exhaust: float = Field(..., description="Critical pressure ratio of the exhaust edges [-]")
+    qn: float = Field(..., description="ISO 6358 nominal flow of the supply edge, from C and b "
+                                       "(6 bar gauge in, 1 bar drop) [NL/min]")
+
+
+class TubeOut(BaseModel):
+    series: Optional[str] = Field(None, description="Series it comes from; null = the user's own [-]")
+    name: str = Field(..., description="series:member or the inner diameter [-]")
+    inner_diameter: float = Field(..., description="Inner diameter [m]")
+
+
+def _metric_field(name):
+    return Field(None, description=f"{name.replace('_', ' ')}; null = not reached "
+                                   f"[{STROKE_METRIC_UNITS[name]}]")
+
+
+class StrokeMetricsOut(BaseModel):
+    start_up_time: Optional[float] = _metric_field("start_up_time")
+    full_stroke_time: Optional[float] = _metric_field("full_stroke_time")
+    mean_speed: Optional[float] = _metric_field("mean_speed")
+    max_speed: Optional[float] = _metric_field("max_speed")
+    end_speed: Optional[float] = _metric_field("end_speed")
+    end_energy: Optional[float] = _metric_field("end_energy")
+    air: Optional[float] = _metric_field("air")
+
+
+class DesignMetricsOut(BaseModel):
+    extend: StrokeMetricsOut = Field(..., description="Full-stroke extension from rest at x = 0")
+    retract: StrokeMetricsOut = Field(..., description="Full-stroke retraction from rest at x = stroke")
+    units: dict[str, str] = Field(..., description="Unit of each metric")
+
+
+class DesignOut(BaseModel):
+    rank: int = Field(..., description="1 = best: least air per cycle, then smallest [-]")
+    cylinder: CylinderOut
+    valve: ValveOut
+    tube: Optional[TubeOut] = Field(None, description="Tube on each port; null = no tube")
+    settings: dict[str, float] = Field(..., description=(
+        "Meter-out setting of each direction (extend_meter_out, retract_meter_out: fraction "
+        "of the valve's exhaust conductance open [-]) and the exhaust conductance it leaves "
+        "(extend_exhaust_C, retract_exhaust_C [m^3/(s Pa)])"))
+    model: dict[str, Any] = Field(..., description="The design's model, as POST /api/simulate "
+                                                   "accepts it")
+    metrics: DesignMetricsOut
+    air_per_cycle: float = Field(..., description="Air drawn from the supply per cycle (extension "
+                                                  "and retraction), ANR [NL]")
+    feasible: bool = Field(..., description="Meets the requirement (false: one of the closest "
+                                            "families, shown when none meets it) [-]")
+
+
+class InfeasibleOut(BaseModel):
+    cylinder: CylinderOut
+    valve: ValveOut
+    tube: Optional[TubeOut] = None
+    reason: str = Field(..., description="; ".join(f"{k}: {v}" for k, v in REASONS.items()) + " [-]")
+    direction: Optional[str] = Field(None, description="extend or retract; null = both or "
+                                                       "neither [-]")
+    detail: str = Field(..., description="The numbers behind the reason, with units")
+
+
+class SizingResponse(BaseModel):
+    summary: str = Field(..., description="One line: how many families meet the requirement, "
+                                          "or why none does")
+    designs: list[DesignOut] = Field(..., description="Feasible designs, best first; when none "
+                                                      "is feasible, the closest, feasible false")
+    infeasible: list[InfeasibleOut] = Field(..., description="Each family that fails, with its "
+                                                             "reason")
+    reasons: dict[str, int] = Field(..., description="Number of failing families per reason")
+    robustness_studies: Optional[dict[str, dict[str, Any]]] = Field(
+        None, description="The best design's strokes (extend, retract) under seal friction "
+                          "(half to twice) and supply pressure (5 % of gauge) spread: study "
+                          "definitions to POST to /api/studies as they are; null when no "
+                          "design is feasible")
+    reason_meanings: dict[str, str] = Field(..., description="Each reason in words")
+    families: int = Field(..., description="Families tried [-]")
+    notes: list[str] = Field(..., description="What the designs' models approximate")
+    requirement: dict[str, Any] = Field(..., description="The requirement as checked")
+    choices: dict[str, Any] = Field(..., description="The choices as checked")
+    units: dict[str, str] = Field(..., description="Unit of each number of the answer")

@@ -1,0 +1,55 @@
+"""The sizing work behind POST /api/sizing and POST /api/jobs/sizing (see :mod:`pneucore.sizing`).
+
+Kept beside :mod:`app.services` (the routers take their other work from there): a request is
+checked whole before any work (:func:`check_sizing`: a 422 naming the field and its unit),
+then sized on the request's limits (:func:`run_sizing`).
+"""
+from __future__ import annotations
+
+from pneucore.sizing import check, size
+from pneucore.spec.validation import FieldError
+
+from .deps import prefixed
+
+
+def check_sizing(req, limits):
+    """Everything a sizing request can get wrong, checked before any work.
+
+    Parameters
+    ----------
+    req : app.sizing_schemas.SizingRequest
+        The request
+    limits : app.config.Limits
+        Its ``max_duration`` bounds each simulated run [s]
+
+    Returns
+    -------
+    checked : tuple
+        What :func:`pneucore.sizing.check` returns
+    """
+    requirement, choices = req.plain()
+    try:
+        return check(requirement, choices, max_duration=limits.max_duration)
+    except FieldError as exc:
+        # the paths pneucore names (requirement.stroke, choices.bore[2]) are the request's
+        raise prefixed(exc, "") from None
+
+
+def run_sizing(req, limits, progress=None, checked=None):
+    """Size the request's drive (the answer of :func:`pneucore.sizing.size`).
+
+    Parameters
+    ----------
+    req : app.sizing_schemas.SizingRequest
+        The request
+    limits : app.config.Limits
+        ``max_workers`` threads evaluate families at once
+    progress : callable or None
+        ``progress(fraction, step)``; may raise to stop
+    checked : tuple or None
+        What :func:`check_sizing` returned for this request
+    """
+    checked = checked if checked is not None else check_sizing(req, limits)
+    requirement, choices = req.plain()
+    return size(requirement, choices, workers=limits.max_workers, progress=progress,
+                checked=checked)

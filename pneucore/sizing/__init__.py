@@ -1,0 +1,21 @@
+"""Sizing: from a required motion to the circuits that meet it (issue 25).
+
+``size(requirement, choices)`` tries every family of discrete choices (cylinder bore and
+rod, valve, tube inner diameter), solves each one's meter-out settings for the required
+times, and ranks the feasible designs by air per cycle, then size; each infeasible family
+comes back with its reason. Every design carries a model that :func:`pneucore.simulate`
+and the REST API accept as it is.
+
+The series (ISO 15552 and ISO 6432 cylinders, tubes, valves by C and b) are data with their
+sources (:mod:`pneucore.sizing.series`); the stroke metrics are
+:func:`pneucore.sizing.stroke.stroke_metrics`.
+"""
+from pneucore.sizing.requirement import Choices, Requirement, gravity_load, tube_volume
+from pneucore.sizing.search import (REASONS, build_model, check, evaluate_family, families,
+                                     robustness_studies, size)
+from pneucore.sizing.series import load_series, nominal_flow
+from pneucore.sizing.stroke import STROKE_METRIC_UNITS, stroke_metrics
+
+__all__ = ["Choices", "Requirement", "gravity_load", "tube_volume", "REASONS", "build_model", "check",
+           "evaluate_family", "families", "robustness_studies", "size", "load_series", "nominal_flow",
+           "STROKE_METRIC_UNITS", "stroke_metrics"]

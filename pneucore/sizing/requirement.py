@@ -1,0 +1,282 @@
+"""What a sizing is asked for: the required motion (:class:`Requirement`) and what may vary
+(:class:`Choices`), both from plain JSON with every field checked.
+
+A bad field raises one :class:`~pneucore.spec.validation.FieldError` naming its path
+(``requirement.stroke``) and its unit. Two small functions hold the circuit approximations
+that stand in for the components the model does not have yet (issue 23): gravity as a load
+force (:func:`gravity_load`) and a tube as dead volume (:func:`tube_volume`); each is the one
+place to switch to the model's own mounting angle and tubing once they exist.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+from typing import Optional
+
+from pneucore.physics.gas import P_ATM
+from pneucore.spec.validation import FieldError, known_keys, mapping, number
+
+#: Standard gravity [m/s^2] (CGPM 1901, the conventional value)
+G_STANDARD = 9.80665
+#: The largest |mounting angle|: 90 degrees is vertical [deg]
+MAX_ANGLE = 90.0
+#: Upper bounds of the requirement's fields, in their units: well beyond any pneumatic drive
+#: (ISO 15552 cylinders are rated 10 bar, strokes of a few metres), they keep a mistyped
+#: number from asking the simulator for nonsense
+BOUNDS = {"stroke": 10.0, "moving_mass": 1e5, "load_force": 1e7, "supply_pressure": 5e6,
+          "extend_time": 600.0, "retract_time": 600.0, "max_end_speed": 100.0, "max_end_energy": 1e6,
+          "tube_length": 100.0, "ambient_pressure": 5e6}
+
+
+def _checked(value, path, unit, **bounds):
+    """``number(value, path, **bounds)`` whose error also states the unit; the field's upper
+    bound is :data:`BOUNDS`'s."""
+    name = path.rsplit(".", 1)[-1]
+    if name in BOUNDS:
+        bounds["high"] = BOUNDS[name]
+        if name == "load_force":
+            bounds["low"] = -BOUNDS[name]
+    try:
+        return number(value, path, **bounds)
+    except FieldError as exc:
+        raise FieldError(path, f"{exc.detail} (unit: {unit})") from None
+
+
+@dataclass
+class Requirement:
+    """The motion a drive must make: load, stroke, mounting, supply and the times allowed.
+
+    Parameters
+    ----------
+    stroke : float
+        Stroke [m]
+    moving_mass : float
+        Moving mass: load, piston and rod [kg]
+    load_force : float
+        External force against the extension, pushing the rod in (towards x = 0), gravity
+        excluded; negative pulls the rod out [N]
+    angle : float
+        Mounting angle from the horizontal, -90 to 90: 90 = vertical rod up (the extension
+        lifts the load), -90 = vertical rod down [deg]
+    supply_pressure : float
+        Absolute supply pressure at the valve [Pa]
+    extend_time : float
+        Full-stroke extension time allowed, from the valve's command to the end stop [s]
+    retract_time : float
+        Full-stroke retraction time allowed, from the valve's command to the end stop [s]
+    max_end_speed : float or None
+        Largest piston speed allowed at either end stop (what the cushion or the stop absorbs);
+        null = no limit [m/s]
+    max_end_energy : float or None
+        Largest kinetic energy of the moving mass allowed at either end stop (the cushion's
+        energy capacity, as catalogues state it); null = no limit [J]
+    tube_length : float or None
+        Length of the tube between the valve and each cylinder port; null = valve on the
+        cylinder [m]
+    ambient_pressure : float
+        Absolute ambient (exhaust) pressure [Pa]
+    """
+    stroke: float = 0.1
+    moving_mass: float = 1.0
+    load_force: float = 0.0
+    angle: float = 0.0
+    supply_pressure: float = 7e5
+    extend_time: float = 1.0
+    retract_time: float = 1.0
+    max_end_speed: Optional[float] = None
+    max_end_energy: Optional[float] = None
+    tube_length: Optional[float] = None
+    ambient_pressure: float = P_ATM
+
+    #: fields a request must give (the others have their defaults)
+    REQUIRED = ("stroke", "moving_mass", "supply_pressure", "extend_time", "retract_time")
+    #: unit of each field, read once from the docstring above (the one source)
+    UNITS = {}
+
+    @classmethod
+    def from_dict(cls, d, path="requirement"):
+        """Check a requirement given as plain JSON.
+
+        Parameters
+        ----------
+        d : dict
+            The requirement's fields (see the class docstring)
+        path : str
+            Field path named in errors
+
+        Returns
+        -------
+        requirement : Requirement
+        """
+        if isinstance(d, Requirement):
+            d = d.to_dict()
+        mapping(d, path)
+        known_keys(d, [f.name for f in fields(cls)], path)
+        for key in cls.REQUIRED:
+            if d.get(key) is None:
+                raise FieldError(f"{path}.{key}", f"is required (unit: {cls.unit(key)})")
+        r = cls()
+        u = cls.unit
+        r.stroke = _checked(d["stroke"], f"{path}.stroke", u("stroke"), positive=True)
+        r.moving_mass = _checked(d["moving_mass"], f"{path}.moving_mass", u("moving_mass"),
+                                 positive=True)
+        r.load_force = _checked(d.get("load_force", r.load_force), f"{path}.load_force",
+                                u("load_force"))
+        r.angle = _checked(d.get("angle", r.angle), f"{path}.angle", u("angle"), low=-MAX_ANGLE,
+                           high=MAX_ANGLE)
+        r.ambient_pressure = _checked(d.get("ambient_pressure", r.ambient_pressure),
+                                      f"{path}.ambient_pressure", u("ambient_pressure"),
+                                      positive=True)
+        r.supply_pressure = _checked(d["supply_pressure"], f"{path}.supply_pressure",
+                                     u("supply_pressure"), low=r.ambient_pressure, low_open=True)
+        r.extend_time = _checked(d["extend_time"], f"{path}.extend_time", u("extend_time"),
+                                 positive=True)
+        r.retract_time = _checked(d["retract_time"], f"{path}.retract_time", u("retract_time"),
+                                  positive=True)
+        r.max_end_speed = None if d.get("max_end_speed") is None else _checked(
+            d["max_end_speed"], f"{path}.max_end_speed", u("max_end_speed"), positive=True)
+        r.max_end_energy = None if d.get("max_end_energy") is None else _checked(
+            d["max_end_energy"], f"{path}.max_end_energy", u("max_end_energy"), positive=True)
+        r.tube_length = None if d.get("tube_length") is None else _checked(
+            d["tube_length"], f"{path}.tube_length", u("tube_length"), positive=True)
+        return r
+
+    def to_dict(self):
+        """Plain JSON (round-trips through :meth:`from_dict`)."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def unit(cls, name):
+        """The unit of field ``name`` as its docstring states it (``m``, ``Pa``, ...)."""
+        if not cls.UNITS:
+            from pneucore.spec.docstrings import field_docs
+            for key, text in field_docs(cls).items():
+                cls.UNITS[key] = text.rsplit("[", 1)[-1].rstrip("]") if text.endswith("]") else "-"
+        return cls.UNITS[name]
+
+
+def gravity_load(requirement):
+    """The load force the model's jack gets: the external force plus gravity along the rod [N].
+
+    ``load_force + m g sin(angle)``, positive towards x = 0 (the model's
+    ``jack.load_force`` convention): at 90 degrees (rod up) the extension lifts the whole
+    weight, at -90 degrees (rod down) the weight pulls the rod out. The one place the
+    mounting angle enters the model, until the model has its own angle (issue 23).
+
+    Parameters
+    ----------
+    requirement : Requirement
+        The requirement
+
+    Returns
+    -------
+    force : float
+        Constant force pushing the rod in [N]
+
+    Examples
+    --------
+    A 10 kg load lifted vertically with no other force: its weight.
+
+    >>> round(gravity_load(Requirement(moving_mass=10.0, angle=90.0)), 4)
+    98.0665
+    """
+    return requirement.load_force + requirement.moving_mass * G_STANDARD \
+        * math.sin(math.radians(requirement.angle))
+
+
+def tube_volume(inner_diameter, length):
+    """Inner volume of a tube, ``pi d^2 L / 4`` [m^3].
+
+    The tube enters the model as dead volume only (its flow resistance is not modelled
+    until the model has tubing, issue 23): the one place to switch.
+
+    Parameters
+    ----------
+    inner_diameter : float
+        Tube inner diameter [m]
+    length : float
+        Tube length [m]
+
+    Returns
+    -------
+    volume : float
+        Inner volume [m^3]
+
+    Examples
+    --------
+    Two metres of 4 mm bore hold 25.1 cm^3 (issue 23's tube example):
+
+    >>> round(tube_volume(0.004, 2.0) * 1e6, 1)
+    25.1
+    """
+    return math.pi * inner_diameter ** 2 * length / 4.0
+
+
+@dataclass
+class Choices:
+    """What the search may vary; each list holds series names, member names or values.
+
+    Parameters
+    ----------
+    bore : list
+        Cylinders: a series name (``iso15552``, ``iso6432``), a member (``iso15552:50``) or
+        ``{"bore": [m], "rod": [m]}``; empty = every shipped cylinder series [-]
+    valve : list
+        Valves: a series name (``ckd-4ga``, ``ckd-4gb``), a member (``ckd-4ga:M4GA2``) or
+        ``{"C": [m^3/(s Pa)], "b": [-]}`` (optionally ``C_exhaust``, ``b_exhaust``, ``name``);
+        empty = every shipped valve series [-]
+    tube_inner_diameter : list
+        Tube inner diameters when a tube length is given: a series name (``pu-tube``), a
+        member (``pu-tube:TU0604``) or a value [m]; empty = the shipped tube series [-]
+    meter_out : bool
+        Whether a meter-out flow control may slow each direction down to its required time
+        (its setting solved for); false = valves fully open only [-]
+    min_meter_out : float
+        Smallest meter-out setting tried, as a fraction of the valve's exhaust conductance [-]
+    """
+    bore: list = field(default_factory=list)
+    valve: list = field(default_factory=list)
+    tube_inner_diameter: list = field(default_factory=list)
+    meter_out: bool = True
+    min_meter_out: float = 0.02
+
+    @classmethod
+    def from_dict(cls, d, path="choices"):
+        """Check the choices given as plain JSON (series names are resolved by the search).
+
+        Parameters
+        ----------
+        d : dict or None
+            The choices; None = the defaults
+        path : str
+            Field path named in errors
+
+        Returns
+        -------
+        choices : Choices
+        """
+        if d is None:
+            return cls()
+        if isinstance(d, Choices):
+            d = d.to_dict()
+        mapping(d, path)
+        known_keys(d, [f.name for f in fields(cls)], path)
+        c = cls()
+        for key in ("bore", "valve", "tube_inner_diameter"):
+            v = d.get(key, [])
+            if v is None:
+                v = []
+            if not isinstance(v, (list, tuple)):
+                v = [v]
+            setattr(c, key, list(v))
+        mo = d.get("meter_out", c.meter_out)
+        if not isinstance(mo, bool):
+            raise FieldError(f"{path}.meter_out", f"must be true or false, got {mo!r}")
+        c.meter_out = mo
+        c.min_meter_out = number(d.get("min_meter_out", c.min_meter_out), f"{path}.min_meter_out",
+                                 low=1e-4, high=1.0)
+        return c
+
+    def to_dict(self):
+        """Plain JSON (round-trips through :meth:`from_dict`)."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}

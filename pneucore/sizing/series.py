@@ -1,0 +1,233 @@
+"""Component series as data: cylinders, tubes and valves, each series with its one source.
+
+The numbers live in ``series.json`` beside this module, in the units their source prints
+them (mm, dm^3/(s bar)) with the source named for each series; :func:`load_series` converts
+them to SI once. :func:`resolve_cylinders`, :func:`resolve_valves` and :func:`resolve_tubes`
+turn a request's choices (series names, ``series:member`` names, or the user's own values)
+into plain SI records.
+
+>>> s = load_series()
+>>> [c["rod"] for c in s["cylinders"]["iso15552"]["members"]][:3]   # 32, 40, 50 mm bores
+[0.012, 0.016, 0.02]
+"""
+from __future__ import annotations
+
+import copy
+import functools
+import json
+import os
+
+from pneucore.physics.flow import R_LAMINAR, anr_volume_flow, iso6358_mass_flow
+from pneucore.physics.gas import GAMMA_AIR, R_AIR, T_REF
+from pneucore.spec.validation import FieldError, known_keys, number
+
+#: File holding the series (beside this module)
+SERIES_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "series.json")
+#: SI factor of each unit the series file uses
+_UNIT_FACTORS = {"mm": 1e-3, "m": 1.0, "dm^3/(s bar)": 1e-8}
+#: ISO 6358 nominal flow conditions: 6 bar gauge upstream, 1 bar pressure drop [Pa]
+QN_UPSTREAM_GAUGE = 6e5
+QN_DROP = 1e5
+
+
+@functools.lru_cache(maxsize=None)
+def _load():
+    with open(SERIES_FILE, encoding="utf-8") as fh:
+        raw = json.load(fh)
+    out = {"cylinders": {}, "tubes": {}, "valves": {}, "dead_length": raw["dead_length"]}
+    for kind, keys in (("cylinders", ("bore", "rod")), ("tubes", ("outer", "inner")),
+                       ("valves", ("C", "C_exhaust"))):
+        for name, series in raw[kind].items():
+            f = _UNIT_FACTORS[series["unit"]]
+            members = []
+            for m in series["members"]:
+                m = dict(m)
+                for k in keys:
+                    m[k] = round(m[k] * f, 15)
+                members.append(m)
+            out[kind][name] = {**series, "members": members, "unit": "SI"}
+    out["dead_length"] = {**raw["dead_length"],
+                          "value": raw["dead_length"]["value"] * _UNIT_FACTORS[raw["dead_length"]["unit"]]}
+    return out
+
+
+def load_series():
+    """The shipped series in SI units (a copy), with each series' ``source``.
+
+    Returns
+    -------
+    series : dict
+        ``cylinders``, ``tubes``, ``valves``: series name -> ``{"label", "source",
+        "members"}``; ``dead_length``: the equivalent dead length of a cylinder chamber [m]
+        with its source
+    """
+    return copy.deepcopy(_load())
+
+
+def dead_length():
+    """Equivalent length of bore that each chamber's dead volume fills (see series.json) [m]."""
+    return _load()["dead_length"]["value"]
+
+
+def nominal_flow(C, b):
+    """ISO 6358 nominal flow Qn of a valve edge: 6 bar gauge in, 5 bar gauge out, 20 degC.
+
+    Derived from the edge's C and b (the model's one source) with the paper's Eq. 4-5.
+
+    Parameters
+    ----------
+    C : float
+        Sonic conductance [m^3/(s Pa)]
+    b : float
+        Critical pressure ratio [-]
+
+    Returns
+    -------
+    qn : float
+        Nominal flow [NL/min] (ANR, ISO 8778)
+
+    Examples
+    --------
+    A 1 dm^3/(s bar) edge with b = 0.3. Choked at 7.013 bar abs it would pass SMC's worked
+    figure 600 x C x (P1 + 0.1) = 600 x 1 x 0.7013 = 421 NL/min (P1 in MPa gauge; SMC's
+    "Solenoid valves flow characteristics"); at the nominal ratio 6.013 / 7.013 = 0.857 the
+    subsonic law leaves sqrt(1 - ((0.857 - 0.3) / 0.7)^2) = 0.606 of it:
+
+    >>> round(nominal_flow(1e-8, 0.3))
+    255
+    """
+    p1 = 1.013e5 + QN_UPSTREAM_GAUGE
+    q = iso6358_mass_flow(p1, T_REF, p1 - QN_DROP, T_REF, C, b, 0.5, R_LAMINAR, R_AIR, GAMMA_AIR)
+    return anr_volume_flow(q) * 60e3
+
+
+def _series_or_member(item, registry, path, what):
+    """Members named by ``item`` (a series name or ``series:member``), or None if not a name."""
+    if not isinstance(item, str):
+        return None
+    series_name, _, member = item.partition(":")
+    if series_name not in registry:
+        raise FieldError(path, f"unknown {what} series {series_name!r}; expected one of "
+                               f"{sorted(registry)} (or {what} values)")
+    members = registry[series_name]["members"]
+    if member:
+        found = [m for m in members if m["name"] == member]
+        if not found:
+            raise FieldError(path, f"no {what} {member!r} in series {series_name!r}; expected one "
+                                   f"of {[m['name'] for m in members]}")
+        members = found
+    return [{**m, "series": series_name} for m in members]
+
+
+def resolve_cylinders(items, path="choices.bore"):
+    """Cylinders named or given in ``items``; empty = every shipped cylinder series.
+
+    Parameters
+    ----------
+    items : list
+        Series names, ``series:member`` names or ``{"bore": [m], "rod": [m]}``
+    path : str
+        Field path named in errors
+
+    Returns
+    -------
+    cylinders : list of dict
+        ``{"series", "name", "bore" [m], "rod" [m]}``
+    """
+    registry = _load()["cylinders"]
+    items = items or list(registry)
+    out = []
+    for i, item in enumerate(items):
+        p = f"{path}[{i}]"
+        named = _series_or_member(item, registry, p, "cylinder")
+        if named is not None:
+            out += [{"series": m["series"], "name": f"{m['series']}:{m['name']}", "bore": m["bore"],
+                     "rod": m["rod"]} for m in named]
+            continue
+        if isinstance(item, (int, float)) and not isinstance(item, bool):
+            raise FieldError(p, "a cylinder needs its rod too: give {\"bore\": [m], \"rod\": [m]} "
+                                "or a series name")
+        if not isinstance(item, dict):
+            raise FieldError(p, f"must be a series name or {{\"bore\": [m], \"rod\": [m]}}, got "
+                                f"{type(item).__name__}")
+        known_keys(item, ("bore", "rod", "name"), p)
+        bore = number(item.get("bore"), f"{p}.bore", positive=True)
+        rod = number(item.get("rod", 0.0), f"{p}.rod", nonnegative=True)
+        if rod >= bore:
+            raise FieldError(f"{p}.rod", f"rod diameter {rod:g} m must be smaller than the bore "
+                                         f"{bore:g} m")
+        out.append({"series": None, "name": str(item.get("name") or f"bore {bore * 1e3:g} mm"),
+                    "bore": bore, "rod": rod})
+    return out
+
+
+def resolve_valves(items, path="choices.valve"):
+    """Valves named or given in ``items``; empty = every shipped valve series.
+
+    Parameters
+    ----------
+    items : list
+        Series names, ``series:member`` names or ``{"C": [m^3/(s Pa)], "b": [-]}`` with
+        optional ``C_exhaust``, ``b_exhaust`` (default: as the supply edge) and ``name``
+    path : str
+        Field path named in errors
+
+    Returns
+    -------
+    valves : list of dict
+        ``{"series", "name", "C", "b", "C_exhaust", "b_exhaust"}`` (C in m^3/(s Pa))
+    """
+    registry = _load()["valves"]
+    items = items or list(registry)
+    out = []
+    for i, item in enumerate(items):
+        p = f"{path}[{i}]"
+        named = _series_or_member(item, registry, p, "valve")
+        if named is not None:
+            out += [{"series": m["series"], "name": f"{m['series']}:{m['name']}", "C": m["C"],
+                     "b": m["b"], "C_exhaust": m["C_exhaust"], "b_exhaust": m["b_exhaust"]}
+                    for m in named]
+            continue
+        if not isinstance(item, dict):
+            raise FieldError(p, f"must be a series name or {{\"C\": [m^3/(s Pa)], \"b\": [-]}}, "
+                                f"got {type(item).__name__}")
+        known_keys(item, ("C", "b", "C_exhaust", "b_exhaust", "name"), p)
+        C = number(item.get("C"), f"{p}.C", positive=True)
+        b = number(item.get("b"), f"{p}.b", low=0.0, high=1.0, high_open=True)
+        Ce = number(item.get("C_exhaust", C), f"{p}.C_exhaust", positive=True)
+        be = number(item.get("b_exhaust", b), f"{p}.b_exhaust", low=0.0, high=1.0, high_open=True)
+        out.append({"series": None, "name": str(item.get("name") or f"C {C:.3g} m^3/(s Pa)"),
+                    "C": C, "b": b, "C_exhaust": Ce, "b_exhaust": be})
+    for v in out:
+        v["qn"] = nominal_flow(v["C"], v["b"])
+    return out
+
+
+def resolve_tubes(items, path="choices.tube_inner_diameter"):
+    """Tubes named or given in ``items``; empty = the shipped tube series.
+
+    Parameters
+    ----------
+    items : list
+        Series names, ``series:member`` names or inner diameters [m]
+    path : str
+        Field path named in errors
+
+    Returns
+    -------
+    tubes : list of dict
+        ``{"series", "name", "inner_diameter" [m]}``
+    """
+    registry = _load()["tubes"]
+    items = items or list(registry)
+    out = []
+    for i, item in enumerate(items):
+        p = f"{path}[{i}]"
+        named = _series_or_member(item, registry, p, "tube")
+        if named is not None:
+            out += [{"series": m["series"], "name": f"{m['series']}:{m['name']}",
+                     "inner_diameter": m["inner"]} for m in named]
+            continue
+        d = number(item, p, positive=True)
+        out.append({"series": None, "name": f"ID {d * 1e3:g} mm", "inner_diameter": d})
+    return out

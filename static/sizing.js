@@ -1,0 +1,151 @@
+/* pneucore page: the sizing panel (loaded after app.js; uses its S, api, busy, plot, esc, ...).
+ *
+ * The requirement form -> POST /api/sizing -> the ranked designs as a table (and the reason of
+ * every family that fails); the chosen design's motion plot (one cycle through POST
+ * /api/simulate, the design's model as it is); "use in the model panel" and "export the
+ * model (JSON)". All text from the server or the user goes through textContent or esc().
+ */
+'use strict';
+
+const SZ = { ans: null, chosen: 0 };
+
+/** Requirement fields: [field, label with unit, default ('' = not given)]. */
+const SIZING_FIELDS = [
+  ['stroke', 'Stroke [m]', 0.2], ['moving_mass', 'Moving mass [kg]', 5],
+  ['load_force', 'Load force against the extension [N]', 50], ['angle', 'Mounting angle, 90 = rod up [deg]', 30],
+  ['supply_pressure', 'Supply pressure [Pa abs]', 7e5], ['extend_time', 'Extend time, full stroke [s]', 0.6],
+  ['retract_time', 'Retract time, full stroke [s]', 0.6], ['max_end_speed', 'Max stroke-end speed [m/s] (blank: none)', 1.0],
+  ['max_end_energy', 'Cushion capacity at the end stop [J] (blank: none)', ''],
+  ['tube_length', 'Tube length per port [m] (blank: no tube)', ''],
+];
+const SIZING_CHOICES = [
+  ['bore', 'Cylinders (series or series:member, comma-separated; blank: all)', 'iso15552, iso6432'],
+  ['valve', 'Valves (blank: all)', 'ckd-4ga'],
+  ['tube_inner_diameter', 'Tubes (blank: all)', ''],
+];
+
+function buildSizingForm() {
+  const box = document.getElementById('sizing-form');
+  for (const [name, label, dflt] of SIZING_FIELDS.concat(SIZING_CHOICES)) {
+    const isChoice = SIZING_CHOICES.some((c) => c[0] === name);
+    const div = document.createElement('div');
+    div.className = 'field';
+    const lab = document.createElement('label');
+    lab.htmlFor = `sz-${name}`;
+    lab.textContent = label;
+    const input = document.createElement('input');
+    input.id = `sz-${name}`;
+    input.type = isChoice ? 'text' : 'number';
+    if (!isChoice) input.step = 'any';
+    input.value = String(dflt);
+    input.dataset.field = `${isChoice ? 'choices' : 'requirement'}.${name}`;
+    const err = document.createElement('span');
+    err.className = 'field-error';
+    err.setAttribute('role', 'alert');
+    div.append(lab, input, err);
+    box.append(div);
+  }
+}
+
+function sizingRequest() {
+  const requirement = {};
+  for (const [name] of SIZING_FIELDS) {
+    const v = document.getElementById(`sz-${name}`).value.trim();
+    if (v !== '') requirement[name] = Number(v);
+  }
+  const choices = {};
+  for (const [name] of SIZING_CHOICES) {
+    const v = document.getElementById(`sz-${name}`).value.trim();
+    if (v === '') continue;
+    choices[name] = v.split(',').map((s) => s.trim()).filter((s) => s)
+      .map((s) => (name === 'tube_inner_diameter' && /^[0-9.eE+-]+$/.test(s) ? Number(s) : s));
+  }
+  return { requirement, choices };
+}
+
+function metric(d, dir, name, digits = 3) {
+  const v = d.metrics[dir][name];
+  return v == null ? '–' : num(v, digits);
+}
+
+function renderSizing() {
+  const ans = SZ.ans;
+  document.getElementById('sizing-summary').textContent = ans.summary;
+  const rows = ans.designs.map((d, i) => `<tr data-rank="${d.rank}">
+    <td><input type="radio" name="sz-pick" value="${i}" ${i === SZ.chosen ? 'checked' : ''} aria-label="choose design ${d.rank}"></td>
+    <td>${d.rank}</td><td>${esc(d.cylinder.name)}</td><td>${esc(d.valve.name)}</td>
+    <td>${esc(d.tube ? d.tube.name : '–')}</td><td>${num(d.air_per_cycle, 3)}</td>
+    <td>${metric(d, 'extend', 'full_stroke_time')}</td><td>${metric(d, 'retract', 'full_stroke_time')}</td>
+    <td>${metric(d, 'extend', 'end_speed')}</td><td>${metric(d, 'retract', 'end_speed')}</td>
+    <td>${num(d.settings.extend_meter_out, 3)} / ${num(d.settings.retract_meter_out, 3)}</td>
+    <td>${d.feasible ? 'yes' : 'no'}</td></tr>`).join('');
+  const reasons = Object.entries(ans.reasons).map(([r, n]) => `${n} ${esc(r)} (${esc(ans.reason_meanings[r] || '')})`).join('; ');
+  document.getElementById('sizing-table').innerHTML = `<table id="sizing-designs"><thead><tr><th></th><th>rank</th>
+    <th>cylinder</th><th>valve</th><th>tube</th><th>air per cycle [NL]</th><th>extend [s]</th><th>retract [s]</th>
+    <th>end speed out [m/s]</th><th>end speed in [m/s]</th><th>meter-out ext / ret [-]</th><th>feasible</th></tr></thead>
+    <tbody>${rows}</tbody></table>
+    <p class="muted small">${ans.families} families; failing: ${reasons || 'none'}.</p>
+    <ul class="muted small">${ans.notes.map((n) => `<li>${esc(n)}</li>`).join('')}</ul>`;
+  for (const r of document.querySelectorAll('input[name="sz-pick"]')) {
+    r.addEventListener('change', (ev) => { SZ.chosen = Number(ev.target.value); plotChosenDesign(); });
+  }
+  const none = !ans.designs.length;
+  document.getElementById('btn-size-use').disabled = none;
+  document.getElementById('btn-size-export').disabled = none;
+}
+
+/** One cycle of the chosen design: extension from rest, then retraction. */
+async function plotChosenDesign() {
+  const d = SZ.ans && SZ.ans.designs[SZ.chosen];
+  if (!d) return;
+  const req = SZ.ans.requirement;
+  const t1 = 1.5 * req.extend_time;
+  const scenario = { duration: t1 + 1.5 * req.retract_time, sample_period: (t1 + 1.5 * req.retract_time) / 1000,
+    command: [[0, 1], [t1, -1]], x0: 0, initial: { p_b: req.supply_pressure } };
+  const r = await api('POST', '/api/simulate', { model: d.model, scenario, series: ['t', 'x', 'v'] });
+  plot('sizing-plot', [
+    { x: r.series.t, y: r.series.x.map((v) => v * 1e3), name: 'x [mm]', mode: 'lines' },
+    { x: r.series.t, y: r.series.v, name: 'v [m/s]', mode: 'lines', yaxis: 'y2' },
+  ], baseLayout({ title: { text: `rank ${d.rank}: ${d.cylinder.name} + ${d.valve.name}`, font: { size: 13 } },
+    xaxis: axis('t [s]'), yaxis: axis('x [mm]'), yaxis2: axis('v [m/s]', { overlaying: 'y', side: 'right' }) }));
+  document.getElementById('panel-sizing').dataset.plotted = String(d.rank);
+}
+
+async function runSizing(btn) {
+  clearErrors();
+  setStatus('Sizing: every cylinder, valve and tube, meter-out settings solved…', 'busy');
+  try {
+    SZ.ans = await api('POST', '/api/sizing', sizingRequest());
+    SZ.chosen = 0;
+    renderSizing();
+    document.getElementById('panel-sizing').dataset.sized = String(SZ.ans.designs.length);
+    setStatus(`Sizing: ${SZ.ans.summary}.`, SZ.ans.designs.some((d) => d.feasible) ? 'ok' : 'error');
+    await plotChosenDesign();
+  } catch (e) {
+    showApiError(e, 'Sizing');
+    document.getElementById('panel-sizing').dataset.sized = 'error';
+  }
+}
+
+function useChosenDesign() {
+  const d = SZ.ans && SZ.ans.designs[SZ.chosen];
+  if (!d) return;
+  S.model = clone(d.model);
+  renderModel();
+  setStatus(`Model panel: design ${d.rank} (${d.cylinder.name} + ${d.valve.name}).`, 'ok');
+}
+
+function exportChosenDesign() {
+  const d = SZ.ans && SZ.ans.designs[SZ.chosen];
+  if (!d) return;
+  saveBlob(new Blob([JSON.stringify(d.model, null, 1)], { type: 'application/json' }), `design-${d.rank}-model.json`);
+}
+
+function initSizing() {
+  buildSizingForm();
+  document.getElementById('btn-size').addEventListener('click', (ev) => busy(ev.target, () => runSizing(ev.target)));
+  document.getElementById('btn-size-use').addEventListener('click', useChosenDesign);
+  document.getElementById('btn-size-export').addEventListener('click', exportChosenDesign);
+  document.getElementById('panel-sizing').dataset.ready = 'true';
+}
+if (document.readyState === 'loading') document.addEventListener('DOMContentLoaded', initSizing); else initSizing();

@@ -1,0 +1,138 @@
+"""POST /api/sizing and POST /api/jobs/sizing through the TestClient (issue 25's contract)."""
+import pytest
+
+from api_conftest import api, assert_field_error, client, db_path, wait_job  # noqa: F401
+
+REQ = {"stroke": 0.2, "moving_mass": 5.0, "load_force": 50.0, "angle": 30.0,
+       "supply_pressure": 7e5, "extend_time": 0.6, "retract_time": 0.6, "max_end_speed": 1.0}
+CHOICES = {"bore": ["iso15552:32", "iso15552:40", "iso6432:20"], "valve": ["ckd-4ga"]}
+
+
+def _body(**req):
+    return {"requirement": {**REQ, **req}, "choices": CHOICES}
+
+
+def test_sizing_answers_ranked_designs_whose_models_simulate(client):
+    r = client.post("/api/sizing", json=_body())
+    assert r.status_code == 200, r.text[:800]
+    ans = r.json()
+    assert ans["families"] == 9
+    designs = ans["designs"]
+    assert designs and all(d["feasible"] for d in designs)
+    assert [d["rank"] for d in designs] == list(range(1, len(designs) + 1))
+    assert len(designs) + len(ans["infeasible"]) == 9
+    for d in designs:
+        m = d["metrics"]
+        assert m["units"]["full_stroke_time"] == "s" and m["units"]["air"] == "NL"
+        # each direction meets its time (the meter-out root lands at or under it)
+        assert m["extend"]["full_stroke_time"] <= REQ["extend_time"]
+        assert m["retract"]["full_stroke_time"] <= REQ["retract_time"]
+        assert m["extend"]["end_speed"] <= REQ["max_end_speed"]
+        assert d["air_per_cycle"] == pytest.approx(m["extend"]["air"] + m["retract"]["air"])
+        # the model is one the API accepts as it is
+        s = client.post("/api/simulate", json={
+            "model": d["model"], "scenario": {"duration": 0.2, "sample_period": 0.01,
+                                              "command": [[0.0, 1.0]]}, "series": ["x"]})
+        assert s.status_code == 200, s.text[:800]
+    assert any("m g sin(angle)" in n for n in ans["notes"])
+
+
+def test_a_requirement_no_series_meets_gets_reasons(client):
+    r = client.post("/api/sizing", json=_body(extend_time=0.01, retract_time=0.01))
+    assert r.status_code == 200, r.text[:800]
+    ans = r.json()
+    assert ans["reasons"] == {"too_slow": 9}
+    assert ans["designs"] and not any(d["feasible"] for d in ans["designs"])
+    assert all(i["reason"] == "too_slow" and i["detail"] for i in ans["infeasible"])
+
+
+@pytest.mark.parametrize("change,field,unit", [
+    ({"stroke": -0.2}, "requirement.stroke", "m"),
+    ({"angle": 100.0}, "requirement.angle", "deg"),
+    ({"supply_pressure": 9e4}, "requirement.supply_pressure", "Pa"),
+    ({"max_end_speed": 0.0}, "requirement.max_end_speed", "m/s"),
+])
+def test_a_malformed_requirement_is_a_422_naming_the_field_and_unit(client, change, field, unit):
+    r = client.post("/api/sizing", json=_body(**change))
+    assert_field_error(r, field, msg_contains=f"(unit: {unit})")
+
+
+def test_missing_fields_and_bad_choices_are_422s(client):
+    body = _body()
+    del body["requirement"]["extend_time"]
+    assert_field_error(client.post("/api/sizing", json=body), "requirement.extend_time")
+    body = _body()
+    body["choices"] = {"bore": ["iso9999"]}
+    assert_field_error(client.post("/api/sizing", json=body), "choices.bore[0]",
+                       msg_contains="iso15552")
+    body["choices"] = {"valve": [{"C": -1.0, "b": 0.3}]}
+    assert_field_error(client.post("/api/sizing", json=body), "choices.valve[0].C")
+    body = _body()
+    body["requirement"]["stroke_length"] = 1.0
+    assert client.post("/api/sizing", json=body).status_code == 422
+
+
+def test_a_run_longer_than_max_duration_is_refused(tmp_path):
+    with api(tmp_path / "s.sqlite3", max_duration=1.0) as c:
+        # 0.6 s a direction is simulated for 1.8 s: above the 1 s limit
+        assert_field_error(c.post("/api/sizing", json=_body()), "requirement.extend_time",
+                           msg_contains="max_duration")
+
+
+def test_sizing_as_a_job_reports_progress_and_the_same_answer(client):
+    r = client.post("/api/jobs/sizing", json=_body())
+    assert r.status_code == 202, r.text[:800]
+    job, seen = wait_job(client, r.json()["id"])
+    assert job["status"] == "done", job
+    assert job["kind"] == "sizing"
+    sync = client.post("/api/sizing", json=_body()).json()
+    # the same search: the same designs in the same order, the same metrics (deterministic)
+    assert [d["model"] for d in job["result"]["designs"]] == [d["model"] for d in sync["designs"]]
+    assert job["result"]["designs"][0]["air_per_cycle"] == sync["designs"][0]["air_per_cycle"]
+    # bad input is a 422 at once, not a failed job
+    body = _body(stroke=0.0)
+    assert_field_error(client.post("/api/jobs/sizing", json=body), "requirement.stroke")
+
+
+def test_sizing_is_documented(client):
+    spec = client.get("/openapi.json").json()
+    op = spec["paths"]["/api/sizing"]["post"]
+    assert "$ref" in op["responses"]["200"]["content"]["application/json"]["schema"]
+    assert "429" in op["responses"]
+    props = spec["components"]["schemas"]["RequirementSpec"]["properties"]
+    assert props["stroke"]["description"].endswith("[m]")
+    assert props["angle"]["description"].endswith("[deg]")
+    ex = spec["components"]["schemas"]["SizingRequest"]["examples"][0]
+    assert client.post("/api/sizing", json=ex).status_code == 200
+
+
+def test_sizings_beyond_the_sync_queue_are_429_naming_the_job_route(db_path, monkeypatch):
+    """Four sizings at once on 1 worker and a queue of 1 (the bounded pool of the other
+    synchronous analyses, app.sync_pool): one runs, one waits, two are 429 naming
+    /api/jobs/sizing; every slot is given back."""
+    import threading
+    import time
+    from concurrent.futures import ThreadPoolExecutor
+
+    from app.routers import sizing
+    release, running = threading.Event(), threading.Semaphore(0)
+
+    def held(*a, **k):   # a sizing that lasts until the test lets it go
+        running.release()
+        assert release.wait(120)
+        return {"held": True}
+    monkeypatch.setattr(sizing, "run_sizing", held)
+    with api(db_path, sync_workers=1, max_sync_queue=1) as c, ThreadPoolExecutor(4) as ex:
+        calls = [ex.submit(c.post, "/api/sizing", json=_body()) for _ in range(4)]
+        assert running.acquire(timeout=120)   # one runs (a bound on a hang)
+        t0 = time.monotonic()
+        refused = []
+        while len(refused) < 2:
+            refused = [f.result() for f in calls if f.done()]
+            assert time.monotonic() - t0 < 60, [r.status_code for r in refused]
+            time.sleep(0.01)
+        release.set()
+        answers = [f.result(timeout=120) for f in calls]
+        assert c.app.state.sync_pool.admitted == 0
+    assert all(r.status_code == 429 and "/api/jobs/sizing" in r.json()["detail"] for r in refused)
+    assert sorted(r.status_code for r in answers) == [200] * 2 + [429] * 2

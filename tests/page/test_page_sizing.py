@@ -1,0 +1,68 @@
+"""The sizing panel (static/sizing.js) in a real headless Chromium: the requirement form, the
+ranked designs, the chosen design's motion, the model panel and the export, a 422 next to its
+field. No skipping: if Playwright or Chromium is missing the tests fail loudly."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from test_page import (server, _open, browser, no_script_errors, page_errors,  # noqa: F401
+                       plot_data)
+
+
+@pytest.fixture(scope="module")
+def context(browser):  # noqa: F811
+    ctx = browser.new_context(viewport={"width": 1600, "height": 1000}, accept_downloads=True)
+    yield ctx
+    ctx.close()
+
+
+@pytest.fixture(scope="module")
+def page(context, server, page_errors):  # noqa: F811
+    p = _open(context, server, page_errors)
+    p.wait_for_function("() => document.getElementById('panel-sizing').dataset.ready === 'true'")
+    yield p
+    p.close()
+
+
+def _size(page):
+    page.evaluate("delete document.getElementById('panel-sizing').dataset.sized")
+    page.click("#btn-size")
+    page.wait_for_function("() => document.getElementById('panel-sizing').dataset.sized")
+
+
+def test_the_form_sizes_and_ranks_designs_and_plots_the_chosen_one(page):
+    # every label states its unit
+    for field in ("stroke", "moving_mass", "load_force", "angle", "supply_pressure"):
+        assert "[" in page.inner_text(f"label[for='sz-{field}']")
+    page.fill("#sz-bore", "iso15552:32, iso15552:40")
+    page.fill("#sz-valve", "ckd-4ga")
+    _size(page)
+    assert page.get_attribute("#panel-sizing", "data-sized") == "6", page.inner_text("#status")
+    ranks = page.eval_on_selector_all("#sizing-designs tbody tr", "rs => rs.map(r => r.dataset.rank)")
+    assert ranks == ["1", "2", "3", "4", "5", "6"]
+    assert "families meet the requirement" in page.inner_text("#sizing-summary")
+    page.wait_for_function("() => document.getElementById('panel-sizing').dataset.plotted === '1'")
+    x = next(t for t in plot_data(page, "sizing-plot") if t["name"] == "x [mm]")
+    # one cycle: out to the 200 mm stroke and back
+    assert max(x["y"]) == pytest.approx(200.0, abs=0.01) and x["y"][-1] == pytest.approx(0.0, abs=0.01)
+    page.check("#sizing-designs tbody tr:nth-child(2) input[type=radio]")
+    page.wait_for_function("() => document.getElementById('panel-sizing').dataset.plotted === '2'")
+
+
+def test_the_chosen_design_goes_to_the_model_panel_and_exports(page):
+    page.click("#btn-size-use")
+    assert page.evaluate("S.model.name").startswith("sizing: ")
+    with page.expect_download() as dl:
+        page.click("#btn-size-export")
+    model = json.loads(open(dl.value.path()).read())
+    assert model["jack"]["stroke"] == 0.2 and model["valve"]["kind"] == "4/2"
+
+
+def test_a_malformed_requirement_is_shown_next_to_its_field(page):
+    page.fill("#sz-angle", "120")
+    _size(page)
+    assert page.get_attribute("#panel-sizing", "data-sized") == "error"
+    assert "unit: deg" in page.inner_text("#sz-angle + .field-error")
+    page.fill("#sz-angle", "30")
