@@ -205,18 +205,24 @@ class HeatModelsSimulateRequest(SimulateRequest):
 class MeasurementIn(BaseModel):
     model_config = ConfigDict(extra="allow")
     t: list[Optional[Number]] = Field(..., description="Sample times [s]")
-    u: list[Optional[Number]] = Field(..., description="Valve command [-]")
+    u: Optional[list[Optional[Number]]] = Field(None, description="Valve command [-]; a record without it needs the experiment's scenario.command (POST /api/datasets/{id}/propose-command proposes one)")
     name: Optional[Name] = Field(None, description="Label")
 
 
 class ExperimentIn(_Strict):
     name: Optional[Name] = Field(None, description="Label")
-    scenario: Optional[dict[str, Any]] = Field(None, description="Scenario context (locked, x0, ...); command and duration default to the measurement's")
+    scenario: Optional[dict[str, Any]] = Field(None, description="Scenario context (locked, x0, ...); command ([[t [s], u [-]], ...], held) and duration [s] default to the measurement's; a record without a u column needs the command here")
     measurement: Optional[MeasurementIn] = Field(None, description="Inline measurement: t [s], u [-], p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K]; null marks a missing sample")
     dataset_id: Optional[str] = Field(None, description="Stored dataset to use instead of an inline measurement")
     load_force: Optional[Number] = Field(None, description="Load during this experiment [N]")
     supply_pressure: Optional[Number] = Field(None, description="Supply pressure during this experiment [Pa abs]")
     time_offset: Optional[Number] = Field(None, description="Measurement time at which the model starts (model t = measurement t - offset); null = the measurement's own t = 0, where an initial state given in the scenario applies; at most the first sample's time [s]")
+
+
+#: What a request's ``known`` list means (one text for calibrate, diagnose and refine)
+KNOWN_DOC = ("Parameter paths whose values are known (a weighed mass jack.moving_mass, the bore, a load "
+             "from gravity jack.load_force): never moved by any fit; a fit that would need one far off "
+             "says so as a finding [-]")
 
 
 class CompareRequest(_Strict):
@@ -239,6 +245,7 @@ class CalibrateRequest(_Strict):
     parameters: dict[str, ParamBounds] = Field(..., description="Parameter paths (e.g. heat.coefficient, friction.extend.fc0, effects.piston_leakage.conductance, valve.ports.P-A.C as a scale) with bounds")
     max_nfev: int = Field(40, ge=1, le=_Limits.max_nfev,
                           description=f"Budget of residual evaluations (at most {_Limits.max_nfev}) [-]")
+    known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
 
 
 class DiagnoseRequest(_Strict):
@@ -246,6 +253,7 @@ class DiagnoseRequest(_Strict):
     experiments: list[ExperimentIn] = Field(..., description="Experiments")
     candidates: Optional[list[str]] = Field(None, description="Effects to consider; null = all applicable [-]")
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along [-]")
+    known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
 
 
 def _refine_default(name):
@@ -260,6 +268,7 @@ class RefineRequest(_Strict):
     model: ModelIn = Field(..., description="Starting model")
     experiments: list[ExperimentIn] = Field(..., description="Experiments")
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along; given, they replace the automatic choice [-]")
+    known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
     max_rounds: int = Field(_refine_default("max_rounds"), ge=1, le=8, description="Most rounds (diagnose, apply the findings) [-]")
 
 
@@ -333,6 +342,9 @@ class ImportConversion(BaseModel):
     to: str = Field(..., description="SI unit stored")
     ambient_pressure: Optional[Number] = Field(None, description="Ambient pressure added for a gauge unit [Pa]; null = absolute")
     how: str = Field(..., description="name, alias (Zeit, Time, p_A...) or mapping (the request's columns)")
+    gain: Optional[Number] = Field(None, description="Sensor gain of a mapped sensor: unit 'from' per raw unit (1 bar/V) [from/raw]")
+    offset: Optional[Number] = Field(None, description="Sensor offset added after the gain, in unit 'from' [from]")
+    raw_unit: Optional[str] = Field(None, description="What the raw column holds (V, mA) [-]")
 
 
 class MissingCells(BaseModel):
@@ -413,6 +425,7 @@ class ExperimentComparison(BaseModel):
     model_config = ConfigDict(extra="allow")
     name: str = Field(..., description="Experiment label")
     dataset_id: Optional[str] = Field(None, description="Stored dataset, if used")
+    command_source: Optional[str] = Field(None, description="Where the replayed valve command came from: measured (the record's u) or scenario (given with the experiment) [-]")
     errors: dict[str, Optional[float]] = Field(..., description=FRACTION)
     overall: Optional[float] = Field(..., description=FRACTION)
     status: str = Field(..., description="Solver status of the replay")
@@ -474,6 +487,7 @@ class DiagnoseResponse(BaseModel):
     noise_floor: dict[str, Optional[float]] = Field(..., description="Noise floor per signal: " + FRACTION)
     base_model: dict[str, Any] = Field(..., description="The null model (uncertain parameters refitted)")
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along [-]")
+    known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
 
 
 class CalibrationParametersRequest(_Strict):

@@ -218,7 +218,7 @@ def residual_tests(replays, lags=20):
     dependent = False
     coloured = False
     for rp in replays:
-        u = rp.experiment.measurement.signals["u"][:len(rp.t)]
+        u = rp.experiment.command_samples[:len(rp.t)]
         for s in rp.measured:
             d = rp.measured[s] - rp.simulated[s]
             q, p = ljung_box(d, lags)

@@ -755,7 +755,7 @@ def fit_initial_state(model, experiments, replay, max_nfev=25, visible=VISIBLE):
         obj = Objective(model, [e], [])
         # the record before the command first changes: what the initial state alone drives
         # (afterwards the valve's flows take over and the base parameters matter more)
-        u = e.measurement.signals["u"]
+        u = e.command_samples
         ch = np.flatnonzero(np.diff(u) != 0)
         n_quiet = int(ch[0]) + 1 if ch.size else u.shape[0]
         sig = obj.sigma[0]
