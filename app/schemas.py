@@ -507,6 +507,23 @@ class HeatModelsResponse(BaseModel):
     runs: dict[str, SimulateResponse] = Field(..., description="One simulation per heat model")
 
 
+class CommandProposalRequest(_Strict):
+    signal: Optional[Literal["p_a", "p_b"]] = Field(None, description="Chamber pressure the edges are read from; null = p_a if measured, else p_b [-]")
+    open_level: Number = Field(1.0, ge=-1.0, le=1.0, description="Command while the pressure is held up, from a rise to the next fall [-]")
+    closed_level: Number = Field(0.0, ge=-1.0, le=1.0, description="Command before the first rise and after each fall [-]")
+    min_rate: Optional[Number] = Field(None, gt=0, description="Smallest pressure rate that is an edge; null = the measured range per second [Pa/s]")
+
+
+class CommandProposal(BaseModel):
+    command: list[list[Optional[float]]] = Field(..., description="Held command breakpoints [[t [s], u [-]], ...] on the record's time axis: give it back as the experiment's scenario.command once confirmed or edited")
+    pulses: list[list[Optional[float]]] = Field(..., description="[[t_open [s], t_close [s] or null], ...]")
+    signal: str = Field(..., description="The pressure the edges were read from [-]")
+    threshold: float = Field(..., description="Pressure rate that made an edge [Pa/s]")
+    source: str = Field(..., description="'proposed': read from the data, not measured; the user confirms it [-]")
+    note: str = Field(..., description="How it was found, in words")
+    has_command: bool = Field(..., description="The record has its own command column u (then it is used unless a scenario command is given) [-]")
+
+
 class DatasetWithData(DatasetInfo):
     measurement: dict[str, Any] = Field(..., description="t [s], u [-], p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K]; null = missing sample")
 

@@ -220,12 +220,17 @@ def check_calibrate(req: CalibrateRequest, store, limits):
     model = parse_model(req.model)
     params = {k: v.model_dump(exclude_none=True) for k, v in req.parameters.items()}
     parse_parameters(model, params)
+    check_request(model, [], (), req.known)
+    for path, p in params.items():
+        if path in req.known and p.get("vary", True):
+            raise FieldError(f"parameters.{path}", "declared known (in known): a known value is never "
+                                                   "fitted; drop it from parameters or from known")
     return model, parse_experiments(req.experiments, model, store, limits), params
 
 
 def check_diagnose(req: DiagnoseRequest, store, limits):
     model = parse_model(req.model)
-    check_request(model, req.candidates, req.uncertain)
+    check_request(model, req.candidates, req.uncertain, req.known)
     return model, parse_experiments(req.experiments, model, store, limits)
 
 
@@ -248,13 +253,13 @@ def run_diagnose(req: DiagnoseRequest, store, limits, progress=None, checked=Non
     """The diagnosis; ``checked`` as for :func:`run_compare` (from :func:`check_diagnose`)."""
     model, exps = checked or check_diagnose(req, store, limits)
     return diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
-                    progress=progress, validated=True).to_dict()   # checked above
+                    progress=progress, validated=True, known=req.known).to_dict()   # checked above
 
 
 def check_refine(req: RefineRequest, store, limits):
     """Everything a refine request can get wrong, checked before any work."""
     model = parse_model(req.model)
-    check_request(model, None, req.uncertain)
+    check_request(model, None, req.uncertain, req.known)
     return model, parse_experiments(req.experiments, model, store, limits)
 
 
@@ -275,7 +280,7 @@ def run_refine(req: RefineRequest, store, limits, progress=None, checked=None):
                      f"round {state['round'] + 1}: {step}")
     final, history, diagnoses = refine(model, exps, max_rounds=req.max_rounds,
                                        uncertain=req.uncertain, progress=each_round,
-                                       validated=True)   # check_refine checked it
+                                       validated=True, known=req.known)   # check_refine checked it
     last = diagnoses[-1] if diagnoses else None
     return {"model": final.to_dict(), "versions": history.to_dict()["versions"],
             "diagnoses": [d.to_dict() for d in diagnoses],
@@ -317,7 +322,7 @@ def diagnosis_report(req: DiagnoseRequest, store, limits, progress=None):
     from pneucore.analysis.report import diagnosis_report as html_report
     model, exps = check_diagnose(req, store, limits)
     d = diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
-                 progress=progress, validated=True).to_dict()   # checked above
+                 progress=progress, validated=True, known=req.known).to_dict()   # checked above
     c = compare(model, exps)
     refined = None
     best = next((r for r in d.get("ranking", []) if r.get("effect") == d.get("verdict")), None)
@@ -691,6 +696,23 @@ def store_json(store, payload):
     info = store.add_dataset(meas, scen, name=payload.name or meas.name,
                              description=payload.description)
     return {**info, "import": meas.meta.get("import")}
+
+
+def propose_dataset_command(store, dataset_id, req):
+    """POST /api/datasets/{id}/propose-command: a held valve command read from a stored record's
+    pressure edges (:func:`pneucore.data.command.propose_command`), for the user to confirm;
+    None for an unknown dataset."""
+    from pneucore.data.command import propose_command
+    data = store.dataset_data(dataset_id)
+    if data is None:
+        return None
+    meas = Measurement.from_dict(data)
+    try:
+        out = propose_command(meas, req.signal, open_level=req.open_level,
+                              closed_level=req.closed_level, min_rate=req.min_rate)
+    except ValueError as exc:
+        raise FieldError("signal", str(exc)) from None
+    return {**out, "has_command": "u" in meas.signals}
 
 
 def inspect_rig_file(data, filename):

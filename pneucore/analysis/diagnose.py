@@ -178,6 +178,7 @@ class Diagnosis:
     initial_state: list = field(default_factory=list)
     error_start: object = None
     dropped: list = field(default_factory=list)
+    known: list = field(default_factory=list)
 
     def best(self):
         return self.ranking[0] if self.ranking else None
@@ -192,7 +193,7 @@ class Diagnosis:
                              "phases": self.error_before.phases},
             "failure_windows": self.failure_windows, "residual_tests": self.residual_tests,
             "noise_floor": self.noise_floor, "base_model": self.base_model.to_dict(),
-            "uncertain": self.uncertain,
+            "uncertain": self.uncertain, "known": self.known,
             "recalibrate": self.recalibrate, "refitted": self.refitted,
             "model": self.model.to_dict() if self.model is not None else None,
             "alternatives": self.alternatives, "remaining": self.remaining,
@@ -278,8 +279,29 @@ def _candidate_names(model, candidates):
     return [n for n in EFFECTS if n not in model.effects] if candidates is None else list(candidates)
 
 
-def check_request(model, candidates=None, uncertain=()):
-    """Validate ``candidates`` and ``uncertain`` before any work; returns the candidate names."""
+def _check_paths(model, paths, where):
+    """Each of ``paths`` must be a writable model parameter; the error names ``where[i]``."""
+    from pneucore.spec.validation import FieldError
+    for i, p in enumerate(paths):
+        if not isinstance(p, str):
+            raise FieldError(f"{where}[{i}]", f"{p!r} is not a parameter path")
+        try:
+            (spec,) = parse_parameters(model, [p])
+            # the path must also be writable and read back (a property such as jack.area_a,
+            # or an attribute of a number such as supply.pressure.real, is not a parameter)
+            trial = set_values(model, {p: spec.value})
+            if get_value(trial, p) != spec.value:
+                raise ValueError("does not read back what was written")
+        except FieldError as exc:
+            raise FieldError(f"{where}[{i}]", f"{p!r}: {exc.detail}") from None
+        except Exception as exc:  # noqa: BLE001 - any failure means: not a model parameter
+            raise FieldError(f"{where}[{i}]", f"{p!r} is not a fittable model parameter "
+                                              f"({exc})") from None
+
+
+def check_request(model, candidates=None, uncertain=(), known=()):
+    """Validate ``candidates``, ``uncertain`` and ``known`` before any work; returns the
+    candidate names. A path both uncertain and known is refused (naming it)."""
     from pneucore.spec.validation import FieldError
     if candidates is None:
         names = _candidate_names(model, None)
@@ -290,28 +312,20 @@ def check_request(model, candidates=None, uncertain=()):
                 raise FieldError(f"candidates[{i}]", f"unknown effect {n!r}; the catalog has "
                                                      f"{sorted(EFFECTS)}")
     paths = list(uncertain) if isinstance(uncertain, (list, tuple)) else list(dict(uncertain))
+    _check_paths(model, paths, "uncertain")
+    known = list(known or ())
+    _check_paths(model, known, "known")
     for i, p in enumerate(paths):
-        if not isinstance(p, str):
-            raise FieldError(f"uncertain[{i}]", f"{p!r} is not a parameter path")
-        try:
-            (spec,) = parse_parameters(model, [p])
-            # the path must also be writable and read back (a property such as jack.area_a,
-            # or an attribute of a number such as supply.pressure.real, is not a parameter)
-            trial = set_values(model, {p: spec.value})
-            if get_value(trial, p) != spec.value:
-                raise ValueError("does not read back what was written")
-        except FieldError as exc:
-            raise FieldError(f"uncertain[{i}]", f"{p!r}: {exc.detail}") from None
-        except Exception as exc:  # noqa: BLE001 - any failure means: not a model parameter
-            raise FieldError(f"uncertain[{i}]", f"{p!r} is not a fittable model parameter "
-                                                f"({exc})") from None
+        if p in known:
+            raise FieldError(f"uncertain[{i}]", f"{p!r} is declared known: a known value is never "
+                                                "fitted (drop it from uncertain or from known)")
     return names
 
 
 @single_threaded_blas
 def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT, alpha=ALPHA,
              datasets=None, progress=None, max_nfev=30, refit_existing=True, base_hypotheses=True,
-             validated=False):
+             validated=False, known=()):
     """Which base parameters are mis-set, which catalog effect is missing, what remains.
 
     Parameters
@@ -340,9 +354,13 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         With no ``uncertain`` given, choose the base parameters to
         recalibrate from what the experiments identify (:mod:`pneucore.analysis.hypotheses`)
     validated : bool
-        ``candidates`` and ``uncertain`` were already checked on this model by
+        ``candidates``, ``uncertain`` and ``known`` were already checked on this model by
         :func:`check_request` (the API does so at its boundary, before any work): they are
         not checked again
+    known : list of str
+        Parameter paths whose values the user declared (a weighed mass, a load from
+        gravity): never fitted, never offered as a base hypothesis; where the data would
+        need one far off, ``remaining["known_disagree"]`` and the message say so
 
     Returns
     -------
@@ -358,7 +376,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
 
     # -- candidates --------------------------------------------------------------
     names = _candidate_names(model, candidates) if validated else \
-        check_request(model, candidates, uncertain)
+        check_request(model, candidates, uncertain, known)
+    known = tuple(known or ())
     cands = []
     skipped = []
     for n in names:
@@ -393,7 +412,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         rps_id = [replay(model, e) for e in exps] if initial_state else rps_start
         obj_s = Objective(model, exps, [])
         chosen, base_report, id_cols = H.identifiable(
-            model, exps, obj_s, obj_s.weighted(rps_id), H.offered(model, cands), replay)
+            model, exps, obj_s, obj_s.weighted(rps_id), H.offered(model, cands, exclude=known),
+            replay)
         identifiability = base_report + identifiability
         auto_specs = [H.spec_for(model, h) for h in chosen]
     else:
@@ -403,7 +423,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     if refit_existing:
         for name in model.effects:
             for p in EFFECTS[name].diagnosis_params:
-                unc.setdefault(f"effects.{name}.{p}", {})
+                if f"effects.{name}.{p}" not in known:
+                    unc.setdefault(f"effects.{name}.{p}", {})
     u_specs = auto_specs + (parse_parameters(model, unc) if unc else [])
     base_paths = [s.path for s in u_specs if not s.path.startswith("effects.")]
     u_specs_start = list(u_specs)
@@ -689,6 +710,13 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
             alternatives.append(alt)
     err_final = chosen.error_after.overall if chosen is not None else comp0.overall
     remaining = _remaining(err_final, floor_overall, final_tests, best_rps, verdict)
+    if remaining.get("outside_catalog"):
+        # a remainder a sensor's zero or gain accounts for: a finding about the rig's sensors
+        remaining["sensor"] = H.sensor_findings(best_rps, model.ambient.pressure)
+    if known:
+        m_final = chosen.model if chosen is not None else model
+        remaining["known_disagree"] = H.known_disagreements(
+            m_final, exps, known, best_rps, Objective(m_final, exps, []))
     message = _message(message, recal, remaining, verdict, initial_state)
     for name in dropped:
         message += (f" Dropped {name}: its refitted strength is indistinguishable from off and "
@@ -712,7 +740,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                      recalibrate=recal, refitted=refitted, model=next_model,
                      alternatives=alternatives, remaining=remaining,
                      identifiability=identifiability, error_start=comp_start, dropped=dropped,
-                     initial_state=initial_state)
+                     initial_state=initial_state, known=list(known))
 
 
 def _undetermined(cand):
@@ -1077,8 +1105,10 @@ def _message(message, recal, remaining, verdict, initial_state=()):
             + ("it" if len(odd) == 1 else "them"))
     if remaining.get("outside_catalog"):
         parts.append("outside the catalog: " + remaining.get("description", ""))
+        parts += [f["description"] for f in remaining.get("sensor", [])]
     elif remaining.get("at_floor"):
         parts.append(remaining["description"])
+    parts += [f["description"] for f in remaining.get("known_disagree", [])]
     parts = [q[:1].upper() + q[1:] for q in parts]
     return message + (" " + ". ".join(parts) + "." if parts else "")
 

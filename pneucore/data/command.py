@@ -6,13 +6,16 @@ fall. :func:`propose_command` finds those edges and returns a held command
 (``[[t, u], ...]``, the scenario's form) for the user to confirm or edit; it is
 never used without being given back as ``scenario.command``.
 
-The edges: the pressure is smoothed over a short window, differentiated, and a
-rate beyond a threshold opens (rising) or closes (falling) the valve. The
-threshold is the larger of six times the derivative's noise (its median absolute
-deviation, a robust standard deviation for Gaussian noise, Hampel 1974) and the
-full measured range per second (``min_rate``), so that a slow leak or a quantised
-flat signal opens nothing. Each edge's time is taken back to where the rate first
-exceeded a quarter of the threshold: the valve moved before the rate peaked.
+The edges: the pressure is smoothed over a short window (:data:`SMOOTH_WINDOW`) and
+differentiated. A rise faster than a threshold opens the valve: the larger of six times
+the derivative's noise (its median absolute deviation, a robust standard deviation for
+Gaussian noise, Hampel 1974) and :data:`OPEN_SHARE` of the record's fastest rise (the
+supply filling a chamber; a piston compressing the closed chamber rises slower), so that
+a slow leak, a bounce or a quantised flat signal opens nothing. The opening's time goes
+back to where the rate first exceeded a quarter of the threshold. The valve closes when
+the pressure falls below half its rise (from the level before the opening to the peak
+since): the vent, not the dip of a piston starting to move; the closing's time goes back
+to the start of that fall.
 """
 from __future__ import annotations
 
@@ -29,6 +32,13 @@ SMOOTH_WINDOW = 0.005
 NOISE_SIGMAS = 6.0
 #: An edge's time goes back to where the rate first exceeded this share of the threshold [-]
 ONSET_SHARE = 0.25
+#: An opening is a rise at least this share of the record's fastest: the supply filling a
+#: chamber through an open valve is the fastest rise a record holds; a piston compressing the
+#: closed chamber (a load pushing it back, a bounce) rises several times slower [-]
+OPEN_SHARE = 0.3
+#: A closing's time goes back along the fall to where the rate was last above this share of
+#: the opening threshold (the fall's start: the vent's first milliseconds are slow) [-]
+CLOSE_SHARE = 0.025
 
 
 def propose_command(measurement: Measurement, signal: str | None = None, open_level: float = 1.0,
@@ -97,35 +107,41 @@ def propose_command(measurement: Measurement, signal: str | None = None, open_le
     rate = np.gradient(ps, t)
     dev = np.abs(rate - np.median(rate))
     sigma = 1.4826 * float(np.median(dev))
-    span = float(np.ptp(p))
-    floor = span / 1.0 if min_rate is None else float(min_rate)
+    fastest = float(np.max(rate)) if rate.size else 0.0
+    floor = OPEN_SHARE * fastest if min_rate is None else float(min_rate)
     thr = max(NOISE_SIGMAS * sigma, floor)
-    if thr <= 0:
-        return _result([], [[float(t[0]), closed_level]], signal, thr,
-                       "the pressure never changes: no edge, the valve held closed")
+    if not thr > 0:
+        return _result([], [[float(t[0]), closed_level]], signal, 0.0,
+                       "the pressure never rises: no edge, the valve held closed")
     pulses = []
-    state_open = False
     i, n = 0, len(t)
     while i < n:
-        if not state_open and rate[i] > thr:
-            j = i
-            while j > 0 and rate[j - 1] > ONSET_SHARE * thr:
-                j -= 1
-            pulses.append([float(t[j]), None])
-            state_open = True
-            while i < n and rate[i] > ONSET_SHARE * thr:
-                i += 1
+        if rate[i] <= thr:
+            i += 1
             continue
-        if state_open and rate[i] < -thr:
-            j = i
-            while j > 0 and rate[j - 1] < -ONSET_SHARE * thr:
-                j -= 1
-            pulses[-1][1] = float(max(t[j], pulses[-1][0]))
-            state_open = False
-            while i < n and rate[i] < -ONSET_SHARE * thr:
-                i += 1
-            continue
-        i += 1
+        j = i
+        while j > 0 and rate[j - 1] > ONSET_SHARE * thr:
+            j -= 1
+        low = float(ps[max(j - 1, 0)])
+        # the centred window spreads a step over h samples before it: the edge is h later
+        pulses.append([float(t[min(j + h, n - 1)]), None])
+        # open while the pressure stays above half its rise: a fall below it is the vent
+        peak = low
+        k = i
+        while k < n:
+            peak = max(peak, float(ps[k]))
+            if ps[k] < 0.5 * (low + peak) and peak - low > 0:
+                break
+            k += 1
+        if k >= n:
+            break
+        c = k
+        while c > j and rate[c - 1] < -CLOSE_SHARE * thr:
+            c -= 1
+        pulses[-1][1] = float(max(t[min(c + h, n - 1)], pulses[-1][0]))
+        i = k
+        while i < n and rate[i] > ONSET_SHARE * thr:
+            i += 1
     cmd = [[float(t[0]), float(closed_level)]]
     for a, b in pulses:
         if a > cmd[-1][0] or not cmd:
@@ -136,7 +152,7 @@ def propose_command(measurement: Measurement, signal: str | None = None, open_le
             cmd.append([b, float(closed_level)])
     cmd = [c for k, c in enumerate(cmd) if k == 0 or c[0] > cmd[k - 1][0]]
     note = (f"{len(pulses)} opening(s) read from {signal}: a rise faster than {thr:.3g} Pa/s "
-            f"opens the valve ({open_level:g}), a fall as fast closes it ({closed_level:g}); "
+            f"opens the valve ({open_level:g}), a fall below half the rise closes it ({closed_level:g}); "
             "confirm or edit, then give it as scenario.command")
     return _result([[round(a, 9), None if b is None else round(b, 9)] for a, b in pulses],
                    [[round(a, 9), u] for a, u in cmd], signal, thr, note)
