@@ -450,13 +450,21 @@ def test_error_duplicate_column():
     assert "'p_a[bar]'" in str(exc.value) and "'p_a[Pa]'" in str(exc.value)
 
 
-@pytest.mark.parametrize("missing", ["t", "u"])
-def test_error_required_column(missing):
+def test_error_required_column():
     cols = basic()
-    del cols[missing]
+    del cols["t"]
     with pytest.raises(MeasurementError, match="required column") as exc:
         read_csv(make_csv(cols))
-    assert_points_at(exc, missing, None)
+    assert_points_at(exc, "t", None)
+
+
+def test_a_record_without_a_command_column_is_read():
+    # rigs often log no command: the experiment's scenario gives it (issue 28)
+    cols = basic()
+    del cols["u"]
+    m = read_csv(make_csv(cols))
+    assert "u" not in m.signals and m.measured_signals
+    assert m.command_breakpoints() == []
 
 
 def test_error_no_measured_signal():
