@@ -525,7 +525,7 @@ class CommandProposal(BaseModel):
 
 
 class DatasetWithData(DatasetInfo):
-    measurement: dict[str, Any] = Field(..., description="t [s], u [-], p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K]; null = missing sample")
+    measurement: dict[str, Any] = Field(..., description="t [s], u [-] (absent when the record has no command), p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K]; null = missing sample; meta.sensors: how each column was read on upload (unit, gain, offset, raw unit, gauge ambient [Pa])")
 
 
 class StudyResultsResponse(BaseModel):

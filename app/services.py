@@ -303,8 +303,14 @@ def calibration_parameters(req):
 
 # ------------------------------------------------------------------------------ reports
 def _provenance(store, exps):
-    return [{"dataset_id": e.dataset_id, **(store.dataset_info(e.dataset_id) or {})}
-            for e in exps if e.dataset_id]
+    out = []
+    for e in exps:
+        if not e.dataset_id:
+            continue
+        meta = (store.dataset_data(e.dataset_id) or {}).get("meta") or {}
+        out.append({"dataset_id": e.dataset_id, **(store.dataset_info(e.dataset_id) or {}),
+                    "sensors": meta.get("sensors", []), "command_source": e.command_source})
+    return out
 
 
 def comparison_report(req: CompareRequest, store, limits, progress=None):
