@@ -405,6 +405,33 @@ class FilePreview(BaseModel):
 FRACTION = "Eq. 25 normalised RMS error as a fraction, not percent (0.05 = 5 %) [-]"
 
 
+class ShownCandidate(BaseModel):
+    model_config = ConfigDict(extra="ignore")
+    effect: str = Field(..., max_length=200, description="Effect name [-]")
+    error_before: Optional[float] = Field(None, description=FRACTION)
+    error_after_overall: Optional[float] = Field(None, description=FRACTION)
+    lr_statistic: Optional[float] = Field(None, description="Likelihood-ratio statistic [-]")
+    p_value: Optional[float] = Field(None, description="Its p-value [-]")
+    delta_bic: Optional[float] = Field(None, description="Change of BIC [-]")
+    params: dict[str, Any] = Field(default_factory=dict, description="Fitted parameters (units of the effect's parameters)")
+    explanation: str = Field("", max_length=20_000, description="In words")
+    model: Optional[dict[str, Any]] = Field(None, description="The model with the effect added (ModelIn)")
+
+
+class ShownDiagnosis(BaseModel):
+    """The parts of a diagnosis (POST /api/diagnose's answer) a report prints."""
+    model_config = ConfigDict(extra="ignore")
+    verdict: Optional[str] = Field(None, max_length=200, description="The effect named, or null [-]")
+    message: str = Field("", max_length=50_000, description="The verdict in words")
+    ranking: list[ShownCandidate] = Field(default_factory=list, description="Refitted candidates, best first")
+    residual_tests: Optional[dict[str, Any]] = Field(None, description="Residual tests (their summary is printed)")
+
+
+class DiagnoseReportRequest(DiagnoseRequest):
+    diagnosis: Optional[ShownDiagnosis] = Field(None, description="The diagnosis on screen (POST /api/diagnose's answer for this model and these experiments): exported as it is, no new diagnosis is run; null = run one")
+
+
+
 class ErrorSet(BaseModel):
     errors: dict[str, Optional[float]] = Field(..., description="Per signal (p_a, p_b, x, ...): " + FRACTION)
     overall: Optional[float] = Field(..., description="RMS of the per-signal errors: " + FRACTION)

@@ -49,6 +49,7 @@ from .config import STUDY_CLUSTERS, Limits
 from .deps import parse_experiments, parse_model, parse_scenario
 from .responses import dumps
 from .schemas import (FRICTION_DEFAULT_VELOCITIES, CalibrateRequest, CompareRequest, DiagnoseRequest,
+                      DiagnoseReportRequest,
                       ExperimentIn, RefineRequest)
 
 # Besides the services, the routers and the express lane read four of the names imported
@@ -321,19 +322,32 @@ def comparison_report(req: CompareRequest, store, limits, progress=None):
     return html_report(model, c, _provenance(store, exps))
 
 
-def diagnosis_report(req: DiagnoseRequest, store, limits, progress=None):
+def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None):
     """POST /api/reports/diagnose: the diagnosis (with the comparisons of the model and of the
     verdict's refined model) as one self-contained HTML text; ``progress`` follows the
     diagnosis."""
     from pneucore.analysis.report import diagnosis_report as html_report
     model, exps = check_diagnose(req, store, limits)
-    d = diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
-                 progress=progress, validated=True, known=req.known).to_dict()   # checked above
+    shown = getattr(req, "diagnosis", None)
+    if shown is not None:   # the diagnosis on screen, exported as it is
+        d = shown.model_dump()
+        if d.get("residual_tests") is not None and not isinstance(d["residual_tests"].get("summary"), str):
+            d["residual_tests"] = None
+        for r in d["ranking"]:
+            for k in ("error_before", "error_after_overall", "lr_statistic", "p_value", "delta_bic"):
+                if r.get(k) is None:
+                    r[k] = float("nan")
+            r["params"] = {str(k): v for k, v in r["params"].items()
+                           if isinstance(v, (int, float, str)) and not isinstance(v, bool)}
+    else:
+        d = diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
+                     progress=progress, validated=True, known=req.known).to_dict()   # checked above
     c = compare(model, exps)
     refined = None
     best = next((r for r in d.get("ranking", []) if r.get("effect") == d.get("verdict")), None)
     if best is not None and best.get("model"):
-        refined = compare(Model.from_dict(best["model"]), exps)
+        refined = compare(parse_model(best["model"], "diagnosis.ranking.model") if shown is not None
+                          else Model.from_dict(best["model"]), exps)
     return html_report(model, d, c, _provenance(store, exps), refined)
 
 

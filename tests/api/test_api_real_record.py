@@ -176,3 +176,22 @@ def test_known_and_uncertain_or_fitted_is_a_422(client):
     r = client.post("/api/refine", json={"model": model, "experiments": exps,
                                          "known": ["jack.no_such_thing"]})
     assert r.status_code == 422 and "known[0]" in r.text
+
+
+def test_the_report_exports_the_diagnosis_on_screen(client):
+    # what the page shows is printed as it is: a message no diagnosis would write comes back
+    model = model_preset("paper-4way")
+    exps = [{"dataset_id": "sample-clean-free-pulses"}]
+    shown = {"verdict": None, "message": "the diagnosis on screen, 12:00", "ranking": [
+        {"effect": "dead_volume", "error_before": 0.02, "error_after_overall": 0.01,
+         "lr_statistic": None, "p_value": 0.5, "delta_bic": "not a number",
+         "params": {"volume": 1e-5, "odd": [1, 2]}}]}
+    r = client.post("/api/reports/diagnose", json={"model": model, "experiments": exps,
+                                                   "diagnosis": shown})
+    assert r.status_code == 422 and "delta_bic" in r.text      # a number or null, as answered
+    shown["ranking"][0]["delta_bic"] = -3.0
+    r = client.post("/api/reports/diagnose", json={"model": model, "experiments": exps,
+                                                   "diagnosis": shown})
+    assert r.status_code == 200, r.text
+    assert "the diagnosis on screen, 12:00" in r.text and "dead_volume" in r.text
+    assert "valve command" in r.text and "measured (u)" in r.text    # the provenance's command
