@@ -11,10 +11,10 @@ const IMPORT = { preview: null, file: null };
 
 /** Fields of a sensor object (the service's SENSOR_FIELDS besides signal): label, input kind */
 const SENSOR_INPUTS = [
-  ['unit', 'unit of gain × raw + offset (bar, mm; empty = the file\'s)', 'text'],
+  ['unit', 'unit of gain × raw + offset (bar, mm; empty = the file\'s) [-]', 'text'],
   ['gain', 'gain: unit per raw unit (1 bar/V) [unit/raw]', 'number'],
   ['offset', 'offset, in unit (the sensor\'s zero) [unit]', 'number'],
-  ['reference', 'pressures: gauge or absolute', 'select'],
+  ['reference', 'pressures: gauge or absolute [-]', 'select'],
   ['raw_unit', 'what the column holds (V, mA) [-]', 'text'],
 ];
 
@@ -94,8 +94,12 @@ function renderMapping() {
       el.dataset.sensorFor = c.name;
       el.dataset.key = key;
       el.title = title;
-      el.setAttribute('aria-label', `${key} of column ${c.name}: ${title}`);
-      tr.insertCell().appendChild(el);
+      const l = document.createElement('label');
+      const t = document.createElement('span');
+      t.className = 'sr-only';
+      t.textContent = `${key} of column ${c.name}: ${title}`;
+      l.append(t, el);
+      tr.insertCell().appendChild(l);
     }
     tr.insertCell().textContent = pv.rows.slice(0, 3).map((r) => r[j]).join(', ');
   });
