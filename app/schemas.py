@@ -242,7 +242,7 @@ class ParamBounds(_Strict):
 class CalibrateRequest(_Strict):
     model: ModelIn = Field(..., description="Starting model")
     experiments: list[ExperimentIn] = Field(..., description="Experiments fitted jointly")
-    parameters: dict[str, ParamBounds] = Field(..., description="Parameter paths (e.g. heat.coefficient, friction.extend.fc0, effects.piston_leakage.conductance, valve.ports.P-A.C as a scale) with bounds")
+    parameters: dict[str, ParamBounds] = Field(..., description="Parameter paths (e.g. heat.coefficient, friction.extend.fc0, effects.piston_leakage.conductance, valve.ports.P-A.C as a scale) with bounds; sensors.<signal>.offset (the signal's SI unit: Pa, m, K) and sensors.<signal>.gain [-] fit a measured signal's sensor zero and gain error (a sensor finding, not physics)")
     max_nfev: int = Field(40, ge=1, le=_Limits.max_nfev,
                           description=f"Budget of residual evaluations (at most {_Limits.max_nfev}) [-]")
     known: list[str] = Field(default_factory=list, description=KNOWN_DOC)

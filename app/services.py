@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from pneucore.analysis.calibrate import calibrate
+from pneucore.analysis.calibrate import calibrate, check_parameters
 from pneucore.analysis.calibration_options import calibration_options
 from pneucore.analysis.compare import check_heat_models, compare, errors as model_errors, with_heat_model
 from pneucore.analysis.diagnose import check_request, diagnose
@@ -36,7 +36,6 @@ from pneucore.progress import Cancelled
 from pneucore.simulate import SimulationError, simulate
 from pneucore.spec.effects import EFFECTS
 from pneucore.spec.model import Model
-from pneucore.spec.paths import parse_parameters
 from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
 from pneucore.spec.scenario import Scenario
 from pneucore.spec.units import unit_systems
@@ -220,13 +219,14 @@ def check_compare(req: CompareRequest, store, limits):
 def check_calibrate(req: CalibrateRequest, store, limits):
     model = parse_model(req.model)
     params = {k: v.model_dump(exclude_none=True) for k, v in req.parameters.items()}
-    parse_parameters(model, params)
+    exps = parse_experiments(req.experiments, model, store, limits)
+    check_parameters(model, exps, params)   # model paths and sensors.<signal>.offset / .gain
     check_request(model, [], (), req.known)
     for path, p in params.items():
         if path in req.known and p.get("vary", True):
             raise FieldError(f"parameters.{path}", "declared known (in known): a known value is never "
                                                    "fitted; drop it from parameters or from known")
-    return model, parse_experiments(req.experiments, model, store, limits), params
+    return model, exps, params
 
 
 def check_diagnose(req: DiagnoseRequest, store, limits):

@@ -711,8 +711,17 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     err_final = chosen.error_after.overall if chosen is not None else comp0.overall
     remaining = _remaining(err_final, floor_overall, final_tests, best_rps, verdict)
     if remaining.get("outside_catalog"):
-        # a remainder a sensor's zero or gain accounts for: a finding about the rig's sensors
-        remaining["sensor"] = H.sensor_findings(best_rps, model.ambient.pressure)
+        # a remainder a sensor's zero or gain accounts for: a finding about the rig's sensors,
+        # fitted jointly with the base parameters (what the sensor error made them take up)
+        report(0.98, "sensor offsets and gains")
+        sensed = _sensor_refit(model, exps, verdict, refits, u_specs_start, prior,
+                               (best_rps, rps_start), err_final, floor_overall, max_nfev)
+        if sensed is not None:
+            cal_s, remaining["sensor"], remaining["sensor_fit"] = sensed
+            recal, refitted = _recalibration(model, cal_s, base_paths)
+            next_model = cal_s.model.copy()
+            for name in dropped:
+                next_model.effects.pop(name, None)
     if known:
         m_final = chosen.model if chosen is not None else model
         remaining["known_disagree"] = H.known_disagreements(
@@ -741,6 +750,69 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                      alternatives=alternatives, remaining=remaining,
                      identifiability=identifiability, error_start=comp_start, dropped=dropped,
                      initial_state=initial_state, known=list(known))
+
+
+#: A joint sensor refit is kept when it removes at least this share of the misfit in excess of
+#: the noise floor (the rule a named effect must meet, :data:`EXCESS_MAJOR`)
+SENSOR_EXCESS = EXCESS_MAJOR
+
+
+def _sensor_refit(model, exps, verdict, refits, u_specs, prior, replays, err, floor, max_nfev):
+    """The base parameters (and the verdict's effect) refitted with the sensor offsets and gains
+    the residual asks for (:func:`pneucore.analysis.hypotheses.sensor_findings`), from the model
+    as given; ``(calibration, findings, summary)`` when it removes at least
+    :data:`SENSOR_EXCESS` of the misfit in excess of the floor, else None. ``replays``: the
+    fitted model's and the model's as given, each screened (a recalibration may have taken up
+    part of a sensor's error: a load for a pressure offset)."""
+    fields = {}
+    for rps in replays:
+        for f in H.sensor_findings(rps, model.ambient.pressure, H.SENSOR_SCREEN):
+            fields.setdefault(f["signal"], set()).update(
+                {"offset": ("offset",), "gain": ("gain",)}.get(f["kind"], ("offset", "gain")))
+    if not fields:
+        return None
+    specs = []
+    for sig, fs in fields.items():
+        specs += _calibrate.sensor_specs(exps, [sig], [f for f in ("offset", "gain") if f in fs])
+    m0 = model
+    if verdict is not None:
+        eff = EFFECTS[verdict]
+        start = refits[verdict].model.effects[verdict]
+        m0 = _with_effect(model, verdict, start)
+        specs += [ParameterSpec(f"effects.{verdict}.{p}", start[p], eff.param(p).min, eff.param(p).max,
+                                True, eff.param(p).unit) for p in eff.diagnosis_params]
+    cal = fit(m0, exps, list(u_specs) + specs, max_nfev=max_nfev, compute_before=False,
+              reweight=True, prior=prior)
+    e1 = cal.error_after.overall
+    if not _excess_drop(err, e1, floor) >= SENSOR_EXCESS:
+        return None
+    out = []
+    for sp in specs:
+        if not sp.path.startswith(_calibrate.SENSOR_PREFIX):
+            continue
+        sig, what = _calibrate.sensor_path(sp.path)
+        v = cal.values[sp.path]
+        if not abs(v["value"]) > 3.0 * v["stderr"]:
+            continue   # not told apart from a right sensor (3 standard errors)
+        unit, k = H.SENSOR_WORDS.get(sig, ("", 1.0))
+        if what == "offset":
+            words = (f"sensor {sig} reads {abs(v['value']) * k:.3g} {unit} "
+                     f"{'more' if v['value'] > 0 else 'less'} than the model (its zero; "
+                     f"± {v['stderr'] * k:.2g} {unit})")
+        else:
+            words = f"sensor {sig}'s gain is {100 * v['value']:+.3g} % off (± {100 * v['stderr']:.2g} %)"
+        out.append({"path": sp.path, "signal": sig, "field": what, "value": v["value"],
+                    "stderr": v["stderr"], "unit": v["unit"], "at_bound": v["at_bound"],
+                    "description": words})
+    if not out:
+        return None
+    summary = {"error": e1, "error_without": err,
+               "description": "; ".join(f["description"] for f in out) + (
+                   f": fitted with the base parameters, the error falls from {100 * err:.2f} % to "
+                   f"{100 * e1:.2f} % (noise floor {100 * floor:.2f} %). A sensor finding, not "
+                   "physics: correct the sensor, or give its offset and gain in the upload's "
+                   "column mapping")}
+    return cal, out, summary
 
 
 def _undetermined(cand):
@@ -1105,7 +1177,8 @@ def _message(message, recal, remaining, verdict, initial_state=()):
             + ("it" if len(odd) == 1 else "them"))
     if remaining.get("outside_catalog"):
         parts.append("outside the catalog: " + remaining.get("description", ""))
-        parts += [f["description"] for f in remaining.get("sensor", [])]
+        if remaining.get("sensor_fit"):
+            parts.append(remaining["sensor_fit"]["description"])
     elif remaining.get("at_floor"):
         parts.append(remaining["description"])
     parts += [f["description"] for f in remaining.get("known_disagree", [])]

@@ -499,14 +499,17 @@ def calibrated_error(replays):
 
 
 #: Units in which a sensor finding is worded (SI -> unit, factor), per signal
-_SENSOR_WORDS = {"p_a": ("bar", 1e-5), "p_b": ("bar", 1e-5), "x": ("mm", 1e3), "v": ("mm/s", 1e3),
+SENSOR_WORDS = {"p_a": ("bar", 1e-5), "p_b": ("bar", 1e-5), "x": ("mm", 1e3), "v": ("mm/s", 1e3),
                  "T_a": ("K", 1.0), "T_b": ("K", 1.0)}
 #: A sensor correction is named when it removes at least this share of the signal's misfit
 #: energy in excess of nothing (its Eq. 25 error squared): half, the rule an effect must meet
 SENSOR_SHARE = 0.5
+#: Share a sensor correction must remove to be tried in a joint refit (a screen: the refit
+#: decides, and a recalibration may have taken up part of the sensor's error)
+SENSOR_SCREEN = 0.2
 
 
-def sensor_findings(replays, ambient=0.0):
+def sensor_findings(replays, ambient=0.0, share=None):
     """Sensor offsets and gains the residuals ask for, per signal: findings about the rig's
     sensors, not about the physics.
 
@@ -522,6 +525,8 @@ def sensor_findings(replays, ambient=0.0):
         Replayed experiments
     ambient : float
         Ambient pressure, the zero of a pressure sensor's gain [Pa]
+    share : float or None
+        Share of the misfit a correction must remove; None: :data:`SENSOR_SHARE` [-]
 
     Returns
     -------
@@ -561,11 +566,11 @@ def sensor_findings(replays, ambient=0.0):
         kind = next(k for k in ("offset", "gain", "gain and offset")
                     if fits[k][0] <= 1.1 * best_e + 1e-300)
         e1, coef = fits[kind]
-        if e1 > (1.0 - SENSOR_SHARE) * e0:
+        if e1 > (1.0 - (SENSOR_SHARE if share is None else share)) * e0:
             continue
         off = float(coef[0]) if kind != "gain" else 0.0
         gain = float(coef[-1]) if kind != "offset" else 0.0
-        unit, f = _SENSOR_WORDS.get(s, ("", 1.0))
+        unit, f = SENSOR_WORDS.get(s, ("", 1.0))
         words = []
         if kind != "gain":
             words.append(f"reads {abs(off) * f:.3g} {unit} {'more' if off > 0 else 'less'} than "

@@ -155,11 +155,13 @@ def test_the_diagnosis_names_the_position_zero_and_keeps_known_values(client, re
         assert d["known"] == known
         assert not any(q["path"] in known for q in d["recalibrate"])
     first = out["diagnoses"][0]
-    sensors = {f["signal"]: f for f in first["remaining"].get("sensor", [])}
-    assert "x" in sensors, first["message"]
-    # the 3 mm zero comes back within 0.3 mm (the fitted gain shares the constant a little)
-    assert abs(sensors["x"]["offset"] - X_OFFSET_MM / 1e3) < 3e-4
+    sensors = {f["path"]: f for f in first["remaining"].get("sensor", [])}
+    assert "sensors.x.offset" in sensors, first["message"]
+    # the 3 mm zero, fitted with the base parameters, comes back within 0.1 mm (about two
+    # steps of the 12-bit position; a fitted gain or a base parameter shares the constant a little)
+    assert abs(sensors["sensors.x.offset"]["value"] - X_OFFSET_MM / 1e3) < 1e-4
     assert "sensor finding, not physics" in first["message"]
+    assert first["remaining"]["sensor_fit"]["error"] < first["remaining"]["error"]
 
 
 def test_known_and_uncertain_or_fitted_is_a_422(client):
@@ -195,3 +197,21 @@ def test_the_report_exports_the_diagnosis_on_screen(client):
     assert r.status_code == 200, r.text
     assert "the diagnosis on screen, 12:00" in r.text and "dead_volume" in r.text
     assert "valve command" in r.text and "measured (u)" in r.text    # the provenance's command
+
+
+def test_calibrate_fits_the_position_sensors_zero(client, record):
+    did = _upload(client, record).json()["id"]
+    prop = client.post(f"/api/datasets/{did}/propose-command").json()
+    exps = [{"dataset_id": did, "scenario": {"command": prop["command"]}}]
+    r = client.post("/api/calibrate", json={"model": _truth(), "experiments": exps, "max_nfev": 10,
+                                            "parameters": {"sensors.x.offset": {}}})
+    assert r.status_code == 200, r.text
+    v = r.json()["values"]["sensors.x.offset"]
+    # the truth model replays the position exactly but for its noise (5e-5 m) and 12-bit steps
+    # (61 um): the mean of 1300 samples finds the 3 mm zero within one step
+    assert abs(v["value"] - X_OFFSET_MM / 1e3) < 6.1e-5 and v["unit"] == "m"
+    assert r.json()["model"]["jack"] == _truth()["jack"] or "sensors" not in r.json()["model"]
+    for bad in ("sensors.p_b.offset", "sensors.x.zero", "sensors.x"):
+        r = client.post("/api/calibrate", json={"model": _truth(), "experiments": exps,
+                                                "parameters": {bad: {}}})
+        assert r.status_code == 422 and f"parameters.{bad}" in r.text, r.text
