@@ -484,6 +484,7 @@ class CalibrateResponse(BaseModel):
     bic_before: Optional[float] = Field(None, description="BIC of the starting model [-]")
     n_data: int = Field(..., description="Number of residuals [-]")
     n_params: int = Field(..., description="Number of fitted parameters [-]")
+    known_disagree: Optional[list[dict[str, Any]]] = Field(None, description="With known: the declared values the data would move far (path, declared and data_suggest in the parameter's unit, residual_share [-], description); they are held")
     success: bool = Field(..., description="The optimiser converged")
     message: str = Field(..., description="The optimiser's message")
     nfev: int = Field(..., description="Residual evaluations used [-]")

@@ -246,8 +246,17 @@ def run_compare(req: CompareRequest, store, limits, progress=None, checked=None)
 def run_calibrate(req: CalibrateRequest, store, limits, progress=None, checked=None):
     """The calibration; ``checked`` as for :func:`run_compare` (from :func:`check_calibrate`)."""
     model, exps, params = checked or check_calibrate(req, store, limits)
-    return calibrate(model, exps, params, max_nfev=req.max_nfev,
-                     progress=progress).summary()
+    cal = calibrate(model, exps, params, max_nfev=req.max_nfev, progress=progress)
+    out = cal.summary()
+    if req.known:
+        # the declared values, held: where the data would move one far, a finding says so
+        from pneucore.analysis import hypotheses as H
+        from pneucore.analysis.calibrate import Objective
+        from pneucore.analysis.compare import replay
+        out["known_disagree"] = H.known_disagreements(
+            cal.model, exps, req.known, [replay(cal.model, e) for e in exps],
+            Objective(cal.model, exps, []))
+    return out
 
 
 def run_diagnose(req: DiagnoseRequest, store, limits, progress=None, checked=None):

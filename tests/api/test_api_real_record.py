@@ -215,3 +215,20 @@ def test_calibrate_fits_the_position_sensors_zero(client, record):
         r = client.post("/api/calibrate", json={"model": _truth(), "experiments": exps,
                                                 "parameters": {bad: {}}})
         assert r.status_code == 422 and f"parameters.{bad}" in r.text, r.text
+
+
+def test_a_calibration_holds_a_known_value_and_says_where_the_data_disagree(client):
+    # the clean sample is the paper's jack with its 2 kg; declared 0.8 kg and known, the mass
+    # stays 0.8 kg while the heat coefficient is fitted, and the answer says the data disagree
+    model = model_preset("paper-4way")
+    model["jack"]["moving_mass"] = 0.8
+    r = client.post("/api/calibrate", json={
+        "model": model, "experiments": [{"dataset_id": "sample-clean-free-pulses"}],
+        "parameters": {"heat.coefficient": {}}, "known": ["jack.moving_mass"], "max_nfev": 5})
+    assert r.status_code == 200, r.text
+    out = r.json()
+    assert out["model"]["jack"]["moving_mass"] == 0.8
+    found = {f["path"]: f for f in out["known_disagree"]}
+    assert "jack.moving_mass" in found
+    # towards the truth (2 kg), to first order: at least 30 % above the declaration
+    assert found["jack.moving_mass"]["data_suggest"] > 1.3 * 0.8
