@@ -535,11 +535,14 @@ class HeatModelsResponse(BaseModel):
     runs: dict[str, SimulateResponse] = Field(..., description="One simulation per heat model")
 
 
+from pneucore.data.command import OPEN_SHARE as _OPEN_SHARE  # noqa: E402
+
+
 class CommandProposalRequest(_Strict):
     signal: Optional[Literal["p_a", "p_b"]] = Field(None, description="Chamber pressure the edges are read from; null = p_a if measured, else p_b [-]")
     open_level: Number = Field(1.0, ge=-1.0, le=1.0, description="Command while the pressure is held up, from a rise to the next fall [-]")
     closed_level: Number = Field(0.0, ge=-1.0, le=1.0, description="Command before the first rise and after each fall [-]")
-    min_rate: Optional[Number] = Field(None, gt=0, description="Smallest pressure rate that is an edge; null = the measured range per second [Pa/s]")
+    min_rate: Optional[Number] = Field(None, gt=0, description=f"Smallest pressure rate that opens the valve; null = {100 * _OPEN_SHARE:g} % of the record's fastest rise [Pa/s]")
 
 
 class CommandProposal(BaseModel):

@@ -57,7 +57,8 @@ def propose_command(measurement: Measurement, signal: str | None = None, open_le
     closed_level : float
         Command before the first rise and after each fall [-]
     min_rate : float or None
-        Smallest pressure rate that is an edge [Pa/s]; None: the measured range per second
+        Smallest pressure rate that opens the valve [Pa/s]; None: :data:`OPEN_SHARE` of the
+        record's fastest rise
 
     Returns
     -------
