@@ -339,7 +339,7 @@ def test_axes_have_units_and_screenshot(page, page_errors):
         return Object.keys(l).filter(k => /^[xy]axis\\d*$/.test(k))
             .map(k => [div.id, k, (l[k].title && l[k].title.text) || '']);
     })""")
-    assert len({t[0] for t in titles}) == 12, titles   # 10 + the two of the heat-model panel
+    assert len({t[0] for t in titles}) == 13, titles   # 10 + the two of the heat-model panel + the dataset plot
     no_unit = [t for t in titles if "[" not in t[2]]
     assert no_unit == [], f"plot axes without units: {no_unit}"
     ARTIFACTS.mkdir(exist_ok=True)
