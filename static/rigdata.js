@@ -24,11 +24,14 @@ function parseCommandText(text) {
   return out;
 }
 
-/** The experiments with the command of each record that has none. */
+/** The experiments with the command of each record that has none (beside the context stored
+ * with the dataset: an experiment's own scenario replaces the stored one). */
 function applyCommands() {
   for (const e of S.experiments) {
     const cmd = RIG.commands[e.dataset_id];
-    if (cmd) e.scenario = Object.assign({}, e.scenario || {}, { command: cmd });
+    if (!cmd) continue;
+    const info = (S.datasets || []).find((d) => d.id === e.dataset_id);
+    e.scenario = Object.assign({}, (info && info.scenario) || {}, e.scenario || {}, { command: cmd });
   }
 }
 
