@@ -208,18 +208,24 @@ class HeatModelsSimulateRequest(SimulateRequest):
 class MeasurementIn(BaseModel):
     model_config = ConfigDict(extra="allow")
     t: list[Optional[Number]] = Field(..., description="Sample times [s]")
-    u: list[Optional[Number]] = Field(..., description="Valve command [-]")
+    u: Optional[list[Optional[Number]]] = Field(None, description="Valve command [-]; a record without it needs the experiment's scenario.command (POST /api/datasets/{id}/propose-command proposes one)")
     name: Optional[Name] = Field(None, description="Label")
 
 
 class ExperimentIn(_Strict):
     name: Optional[Name] = Field(None, description="Label")
-    scenario: Optional[dict[str, Any]] = Field(None, description="Scenario context (locked, x0, ...); command and duration default to the measurement's")
+    scenario: Optional[dict[str, Any]] = Field(None, description="Scenario context (locked, x0, ...); command ([[t [s], u [-]], ...], held) and duration [s] default to the measurement's; a record without a u column needs the command here")
     measurement: Optional[MeasurementIn] = Field(None, description="Inline measurement: t [s], u [-], p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K]; null marks a missing sample")
     dataset_id: Optional[str] = Field(None, description="Stored dataset to use instead of an inline measurement")
     load_force: Optional[Number] = Field(None, description="Load during this experiment [N]")
     supply_pressure: Optional[Number] = Field(None, description="Supply pressure during this experiment [Pa abs]")
     time_offset: Optional[Number] = Field(None, description="Measurement time at which the model starts (model t = measurement t - offset); null = the measurement's own t = 0, where an initial state given in the scenario applies; at most the first sample's time [s]")
+
+
+#: What a request's ``known`` list means (one text for calibrate, diagnose and refine)
+KNOWN_DOC = ("Parameter paths whose values are known (a weighed mass jack.moving_mass, the bore, a load "
+             "from gravity jack.load_force): never moved by any fit; a fit that would need one far off "
+             "says so as a finding [-]")
 
 
 class CompareRequest(_Strict):
@@ -239,9 +245,10 @@ class ParamBounds(_Strict):
 class CalibrateRequest(_Strict):
     model: ModelIn = Field(..., description="Starting model")
     experiments: list[ExperimentIn] = Field(..., description="Experiments fitted jointly")
-    parameters: dict[str, ParamBounds] = Field(..., description="Parameter paths (e.g. heat.coefficient, friction.extend.fc0, effects.piston_leakage.conductance, valve.ports.P-A.C as a scale) with bounds")
+    parameters: dict[str, ParamBounds] = Field(..., description="Parameter paths (e.g. heat.coefficient, friction.extend.fc0, effects.piston_leakage.conductance, valve.ports.P-A.C as a scale) with bounds; sensors.<signal>.offset (the signal's SI unit: Pa, m, K) and sensors.<signal>.gain [-] fit a measured signal's sensor zero and gain error (a sensor finding, not physics)")
     max_nfev: int = Field(40, ge=1, le=_Limits.max_nfev,
                           description=f"Budget of residual evaluations (at most {_Limits.max_nfev}) [-]")
+    known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
 
 
 class DiagnoseRequest(_Strict):
@@ -249,6 +256,7 @@ class DiagnoseRequest(_Strict):
     experiments: list[ExperimentIn] = Field(..., description="Experiments")
     candidates: Optional[list[str]] = Field(None, description="Effects to consider; null = all applicable [-]")
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along [-]")
+    known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
 
 
 def _refine_default(name):
@@ -263,6 +271,7 @@ class RefineRequest(_Strict):
     model: ModelIn = Field(..., description="Starting model")
     experiments: list[ExperimentIn] = Field(..., description="Experiments")
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along; given, they replace the automatic choice [-]")
+    known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
     max_rounds: int = Field(_refine_default("max_rounds"), ge=1, le=8, description="Most rounds (diagnose, apply the findings) [-]")
 
 
@@ -336,6 +345,9 @@ class ImportConversion(BaseModel):
     to: str = Field(..., description="SI unit stored")
     ambient_pressure: Optional[Number] = Field(None, description="Ambient pressure added for a gauge unit [Pa]; null = absolute")
     how: str = Field(..., description="name, alias (Zeit, Time, p_A...) or mapping (the request's columns)")
+    gain: Optional[Number] = Field(None, description="Sensor gain of a mapped sensor: unit 'from' per raw unit (1 bar/V) [from/raw]")
+    offset: Optional[Number] = Field(None, description="Sensor offset added after the gain, in unit 'from' [from]")
+    raw_unit: Optional[str] = Field(None, description="What the raw column holds (V, mA) [-]")
 
 
 class MissingCells(BaseModel):
@@ -398,6 +410,33 @@ class FilePreview(BaseModel):
 FRACTION = "Eq. 25 normalised RMS error as a fraction, not percent (0.05 = 5 %) [-]"
 
 
+class ShownCandidate(BaseModel):
+    model_config = ConfigDict(extra="ignore")
+    effect: str = Field(..., max_length=200, description="Effect name [-]")
+    error_before: Optional[float] = Field(None, description=FRACTION)
+    error_after_overall: Optional[float] = Field(None, description=FRACTION)
+    lr_statistic: Optional[float] = Field(None, description="Likelihood-ratio statistic [-]")
+    p_value: Optional[float] = Field(None, description="Its p-value [-]")
+    delta_bic: Optional[float] = Field(None, description="Change of BIC [-]")
+    params: dict[str, Any] = Field(default_factory=dict, description="Fitted parameters (units of the effect's parameters)")
+    explanation: str = Field("", max_length=20_000, description="In words")
+    model: Optional[dict[str, Any]] = Field(None, description="The model with the effect added (ModelIn)")
+
+
+class ShownDiagnosis(BaseModel):
+    """The parts of a diagnosis (POST /api/diagnose's answer) a report prints."""
+    model_config = ConfigDict(extra="ignore")
+    verdict: Optional[str] = Field(None, max_length=200, description="The effect named, or null [-]")
+    message: str = Field("", max_length=50_000, description="The verdict in words")
+    ranking: list[ShownCandidate] = Field(default_factory=list, description="Refitted candidates, best first")
+    residual_tests: Optional[dict[str, Any]] = Field(None, description="Residual tests (their summary is printed)")
+
+
+class DiagnoseReportRequest(DiagnoseRequest):
+    diagnosis: Optional[ShownDiagnosis] = Field(None, description="The diagnosis on screen (POST /api/diagnose's answer for this model and these experiments): exported as it is, no new diagnosis is run; null = run one")
+
+
+
 class ErrorSet(BaseModel):
     errors: dict[str, Optional[float]] = Field(..., description="Per signal (p_a, p_b, x, ...): " + FRACTION)
     overall: Optional[float] = Field(..., description="RMS of the per-signal errors: " + FRACTION)
@@ -418,6 +457,7 @@ class ExperimentComparison(BaseModel):
     model_config = ConfigDict(extra="allow")
     name: str = Field(..., description="Experiment label")
     dataset_id: Optional[str] = Field(None, description="Stored dataset, if used")
+    command_source: Optional[str] = Field(None, description="Where the replayed valve command came from: measured (the record's u) or scenario (given with the experiment) [-]")
     errors: dict[str, Optional[float]] = Field(..., description=FRACTION)
     overall: Optional[float] = Field(..., description=FRACTION)
     status: str = Field(..., description="Solver status of the replay")
@@ -456,6 +496,7 @@ class CalibrateResponse(BaseModel):
     bic_before: Optional[float] = Field(None, description="BIC of the starting model [-]")
     n_data: int = Field(..., description="Number of residuals [-]")
     n_params: int = Field(..., description="Number of fitted parameters [-]")
+    known_disagree: Optional[list[dict[str, Any]]] = Field(None, description="With known: the declared values the data would move far (path, declared and data_suggest in the parameter's unit, residual_share [-], description); they are held")
     success: bool = Field(..., description="The optimiser converged")
     message: str = Field(..., description="The optimiser's message")
     nfev: int = Field(..., description="Residual evaluations used [-]")
@@ -502,6 +543,7 @@ class DiagnoseResponse(BaseModel):
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along [-]")
     hints: list[ContextHint] = Field(default_factory=list, description="Where a record contradicts the context declared with it; also at the end of the message")
     changes: list[ModelChange] = Field(default_factory=list, description="Every value of the model that 'model' (the verdict applied) changes")
+    known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
 
 
 class CalibrationParametersRequest(_Strict):
@@ -521,8 +563,28 @@ class HeatModelsResponse(BaseModel):
     runs: dict[str, SimulateResponse] = Field(..., description="One simulation per heat model")
 
 
+from pneucore.data.command import OPEN_SHARE as _OPEN_SHARE  # noqa: E402
+
+
+class CommandProposalRequest(_Strict):
+    signal: Optional[Literal["p_a", "p_b"]] = Field(None, description="Chamber pressure the edges are read from; null = p_a if measured, else p_b [-]")
+    open_level: Number = Field(1.0, ge=-1.0, le=1.0, description="Command while the pressure is held up, from a rise to the next fall [-]")
+    closed_level: Number = Field(0.0, ge=-1.0, le=1.0, description="Command before the first rise and after each fall [-]")
+    min_rate: Optional[Number] = Field(None, gt=0, description=f"Smallest pressure rate that opens the valve; null = {100 * _OPEN_SHARE:g} % of the record's fastest rise [Pa/s]")
+
+
+class CommandProposal(BaseModel):
+    command: list[list[Optional[float]]] = Field(..., description="Held command breakpoints [[t [s], u [-]], ...] on the record's time axis: give it back as the experiment's scenario.command once confirmed or edited")
+    pulses: list[list[Optional[float]]] = Field(..., description="[[t_open [s], t_close [s] or null], ...]")
+    signal: str = Field(..., description="The pressure the edges were read from [-]")
+    threshold: float = Field(..., description="Pressure rate that made an edge [Pa/s]")
+    source: str = Field(..., description="'proposed': read from the data, not measured; the user confirms it [-]")
+    note: str = Field(..., description="How it was found, in words")
+    has_command: bool = Field(..., description="The record has its own command column u (then it is used unless a scenario command is given) [-]")
+
+
 class DatasetWithData(DatasetInfo):
-    measurement: dict[str, Any] = Field(..., description="t [s], u [-], p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K]; null = missing sample")
+    measurement: dict[str, Any] = Field(..., description="t [s], u [-] (absent when the record has no command), p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K]; null = missing sample; meta.sensors: how each column was read on upload (unit, gain, offset, raw unit, gauge ambient [Pa])")
 
 
 class StudyResultsResponse(BaseModel):

@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from pneucore.analysis.calibrate import calibrate
+from pneucore.analysis.calibrate import calibrate, check_parameters
 from pneucore.analysis.calibration_options import calibration_options
 from pneucore.analysis.compare import check_heat_models, compare, errors as model_errors, with_heat_model
 from pneucore.analysis.diagnose import check_request, diagnose
@@ -36,7 +36,6 @@ from pneucore.progress import Cancelled
 from pneucore.simulate import SimulationError, simulate
 from pneucore.spec.effects import EFFECTS
 from pneucore.spec.model import Model
-from pneucore.spec.paths import parse_parameters
 from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
 from pneucore.spec.scenario import Scenario
 from pneucore.spec.units import unit_systems
@@ -50,6 +49,7 @@ from .deps import parse_experiments, parse_model, parse_scenario
 from .request_memory import check_file
 from .responses import dumps
 from .schemas import (FRICTION_DEFAULT_VELOCITIES, CalibrateRequest, CompareRequest, DiagnoseRequest,
+                      DiagnoseReportRequest,
                       ExperimentIn, RefineRequest)
 
 # Besides the services, the routers and the express lane read four of the names imported
@@ -231,13 +231,19 @@ def check_compare(req: CompareRequest, store, limits):
 def check_calibrate(req: CalibrateRequest, store, limits):
     model = parse_model(req.model)
     params = {k: v.model_dump(exclude_none=True) for k, v in req.parameters.items()}
-    parse_parameters(model, params)
-    return model, parse_experiments(req.experiments, model, store, limits), params
+    exps = parse_experiments(req.experiments, model, store, limits)
+    check_parameters(model, exps, params)   # model paths and sensors.<signal>.offset / .gain
+    check_request(model, [], (), req.known)
+    for path, p in params.items():
+        if path in req.known and p.get("vary", True):
+            raise FieldError(f"parameters.{path}", "declared known (in known): a known value is never "
+                                                   "fitted; drop it from parameters or from known")
+    return model, exps, params
 
 
 def check_diagnose(req: DiagnoseRequest, store, limits):
     model = parse_model(req.model)
-    check_request(model, req.candidates, req.uncertain)
+    check_request(model, req.candidates, req.uncertain, req.known)
     return model, parse_experiments(req.experiments, model, store, limits)
 
 
@@ -252,21 +258,30 @@ def run_compare(req: CompareRequest, store, limits, progress=None, checked=None)
 def run_calibrate(req: CalibrateRequest, store, limits, progress=None, checked=None):
     """The calibration; ``checked`` as for :func:`run_compare` (from :func:`check_calibrate`)."""
     model, exps, params = checked or check_calibrate(req, store, limits)
-    return calibrate(model, exps, params, max_nfev=req.max_nfev,
-                     progress=progress).summary()
+    cal = calibrate(model, exps, params, max_nfev=req.max_nfev, progress=progress)
+    out = cal.summary()
+    if req.known:
+        # the declared values, held: where the data would move one far, a finding says so
+        from pneucore.analysis import hypotheses as H
+        from pneucore.analysis.calibrate import Objective
+        from pneucore.analysis.compare import replay
+        out["known_disagree"] = H.known_disagreements(
+            cal.model, exps, req.known, [replay(cal.model, e) for e in exps],
+            Objective(cal.model, exps, []))
+    return out
 
 
 def run_diagnose(req: DiagnoseRequest, store, limits, progress=None, checked=None):
     """The diagnosis; ``checked`` as for :func:`run_compare` (from :func:`check_diagnose`)."""
     model, exps = checked or check_diagnose(req, store, limits)
     return diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
-                    progress=progress, validated=True).to_dict()   # checked above
+                    progress=progress, validated=True, known=req.known).to_dict()   # checked above
 
 
 def check_refine(req: RefineRequest, store, limits):
     """Everything a refine request can get wrong, checked before any work."""
     model = parse_model(req.model)
-    check_request(model, None, req.uncertain)
+    check_request(model, None, req.uncertain, req.known)
     return model, parse_experiments(req.experiments, model, store, limits)
 
 
@@ -287,7 +302,7 @@ def run_refine(req: RefineRequest, store, limits, progress=None, checked=None):
                      f"round {state['round'] + 1}: {step}")
     final, history, diagnoses = refine(model, exps, max_rounds=req.max_rounds,
                                        uncertain=req.uncertain, progress=each_round,
-                                       validated=True)   # check_refine checked it
+                                       validated=True, known=req.known)   # check_refine checked it
     return refinement_answer(final, history, diagnoses)
 
 
@@ -313,8 +328,14 @@ def model_diff(req):
 
 # ------------------------------------------------------------------------------ reports
 def _provenance(store, exps):
-    return [{"dataset_id": e.dataset_id, **(store.dataset_info(e.dataset_id) or {})}
-            for e in exps if e.dataset_id]
+    out = []
+    for e in exps:
+        if not e.dataset_id:
+            continue
+        meta = (store.dataset_data(e.dataset_id) or {}).get("meta") or {}
+        out.append({"dataset_id": e.dataset_id, **(store.dataset_info(e.dataset_id) or {}),
+                    "sensors": meta.get("sensors", []), "command_source": e.command_source})
+    return out
 
 
 def comparison_report(req: CompareRequest, store, limits, progress=None):
@@ -325,15 +346,33 @@ def comparison_report(req: CompareRequest, store, limits, progress=None):
     return html_report(model, c, _provenance(store, exps))
 
 
-def diagnosis_report(req: DiagnoseRequest, store, limits, progress=None):
+def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None):
     """POST /api/reports/diagnose: the diagnosis (with the comparisons of the model and of the
     verdict's refined model) as one self-contained HTML text; ``progress`` follows the
     diagnosis."""
-    from pneucore.analysis.report import diagnosis_report_on
+    from pneucore.analysis.report import diagnosis_report as html_report
     model, exps = check_diagnose(req, store, limits)
-    d = diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
-                 progress=progress, validated=True).to_dict()   # checked above
-    return diagnosis_report_on(model, exps, d, _provenance(store, exps))
+    shown = getattr(req, "diagnosis", None)
+    if shown is not None:   # the diagnosis on screen, exported as it is
+        d = shown.model_dump()
+        if d.get("residual_tests") is not None and not isinstance(d["residual_tests"].get("summary"), str):
+            d["residual_tests"] = None
+        for r in d["ranking"]:
+            for k in ("error_before", "error_after_overall", "lr_statistic", "p_value", "delta_bic"):
+                if r.get(k) is None:
+                    r[k] = float("nan")
+            r["params"] = {str(k): v for k, v in r["params"].items()
+                           if isinstance(v, (int, float, str)) and not isinstance(v, bool)}
+    else:
+        d = diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
+                     progress=progress, validated=True, known=req.known).to_dict()   # checked above
+    c = compare(model, exps)
+    refined = None
+    best = next((r for r in d.get("ranking", []) if r.get("effect") == d.get("verdict")), None)
+    if best is not None and best.get("model"):
+        refined = compare(parse_model(best["model"], "diagnosis.ranking.model") if shown is not None
+                          else Model.from_dict(best["model"]), exps)
+    return html_report(model, d, c, _provenance(store, exps), refined)
 
 
 def refinement_report(req: RefineRequest, store, limits, progress=None):
@@ -713,6 +752,23 @@ def store_json(store, payload):
     info = store.add_dataset(meas, scen, name=payload.name or meas.name,
                              description=payload.description)
     return {**info, "import": meas.meta.get("import")}
+
+
+def propose_dataset_command(store, dataset_id, req):
+    """POST /api/datasets/{id}/propose-command: a held valve command read from a stored record's
+    pressure edges (:func:`pneucore.data.command.propose_command`), for the user to confirm;
+    None for an unknown dataset."""
+    from pneucore.data.command import propose_command
+    data = store.dataset_data(dataset_id)
+    if data is None:
+        return None
+    meas = Measurement.from_dict(data)
+    try:
+        out = propose_command(meas, req.signal, open_level=req.open_level,
+                              closed_level=req.closed_level, min_rate=req.min_rate)
+    except ValueError as exc:
+        raise FieldError("signal", str(exc)) from None
+    return {**out, "has_command": "u" in meas.signals}
 
 
 def inspect_rig_file(data, filename, limits=None):

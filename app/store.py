@@ -396,6 +396,9 @@ class Store:
                  for k in SIGNALS if k in meas.signals)
         if meas.name:
             d["name"] = meas.name
+        sensors = (meas.meta.get("import") or {}).get("conversions")
+        if sensors:   # how each column was read (unit, gain, offset): the record's provenance
+            d["meta"] = {"sensors": sensors}
         data = orjson.dumps(d, option=orjson.OPT_SERIALIZE_NUMPY)
         del d
         rec = (did, name or meas.name or did, time.time(), int(meas.n),

@@ -848,6 +848,8 @@ function onDatasetSelect() {
     if (k && k.time_offset != null) e.time_offset = k.time_offset;
     return e;
   });
+  // a record without a command: the command proposed or entered (static/rigdata.js), plotted
+  if (typeof showDatasetData === 'function') { applyCommands(); showDatasetData(list); }
   $('#dataset-info').innerHTML = list.map((d) => {
     const sc = d.scenario || {};
     return `<div><b>${esc(d.name)}</b>: ${d.n_samples} samples, signals ${esc(d.signals.join(', '))}, ` +
@@ -1212,7 +1214,8 @@ async function runDiagnosis() {
       setStatus('Diagnosis running…', 'busy');
       $('#diag-step').textContent = 'submitting';
       const exps = clone(S.experiments);
-      const job = await api('POST', '/api/jobs/diagnose', { model: S.model, experiments: exps });
+      const known = typeof knownPaths === 'function' ? knownPaths() : [];
+      const job = await api('POST', '/api/jobs/diagnose', { model: S.model, experiments: exps, known });
       let j = job;
       while (j.status === 'queued' || j.status === 'running') {
         prog.value = j.progress || 0;
@@ -1228,7 +1231,7 @@ async function runDiagnosis() {
       prog.value = 1;
       prog.dataset.done = 'true';
       $('#diag-step').textContent = 'done (100 %)';
-      S.diag = { result: j.result, experiments: exps };
+      S.diag = { result: j.result, experiments: exps, model: clone(S.model) };
       renderDiagnosis();
       setStatus(`Diagnosis done: ${j.result.message}`, 'ok');
     } catch (e) {

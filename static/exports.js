@@ -50,7 +50,11 @@ function wireExports() {
   }));
   $('#btn-diag-report').addEventListener('click', (ev) => busy(ev.target, async () => {
     if (!needExperiments()) return;
-    try { await download('/api/reports/diagnose', { model: S.model, experiments: clone(S.experiments) }, 'text/html', 'diagnosis-report.html', 'Diagnosis report'); } catch (e) { showApiError(e, 'Diagnosis report'); }
+    // the diagnosis on screen is exported as it is; a new one runs only when none is shown
+    const shown = S.diag && sameExperiments(S.diag.experiments, S.experiments) ? S.diag : null;
+    const body = shown ? { model: shown.model || S.model, experiments: clone(shown.experiments), diagnosis: shown.result }
+      : { model: S.model, experiments: clone(S.experiments), known: typeof knownPaths === 'function' ? knownPaths() : [] };
+    try { await download('/api/reports/diagnose', body, 'text/html', 'diagnosis-report.html', 'Diagnosis report'); } catch (e) { showApiError(e, 'Diagnosis report'); }
   }));
   $('#btn-cal-download').addEventListener('click', () => {
     if (typeof CAL === 'undefined' || !CAL.result) return;

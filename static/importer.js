@@ -9,10 +9,30 @@
 
 const IMPORT = { preview: null, file: null };
 
+/** Fields of a sensor object (the service's SENSOR_FIELDS besides signal): label, input kind */
+const SENSOR_INPUTS = [
+  ['unit', 'unit of gain × raw + offset (bar, mm; empty = the file\'s) [-]', 'text'],
+  ['gain', 'gain: unit per raw unit (1 bar/V) [unit/raw]', 'number'],
+  ['offset', 'offset, in unit (the sensor\'s zero) [unit]', 'number'],
+  ['reference', 'pressures: gauge or absolute [-]', 'select'],
+  ['raw_unit', 'what the column holds (V, mA) [-]', 'text'],
+];
+
 function importMapping() {
   if (!IMPORT.preview) return null;
   const out = {};
-  for (const sel of $$('#upload-mapping select[data-column]')) out[sel.dataset.column] = sel.value || null;
+  for (const sel of $$('#upload-mapping select[data-column]')) {
+    const col = sel.dataset.column;
+    out[col] = sel.value || null;
+    if (!sel.value) continue;
+    // a sensor: unit, gain, offset, gauge or absolute, raw unit (volts to bar or mm)
+    const sensor = {};
+    for (const el of $$('#upload-mapping [data-sensor-for]')) {
+      if (el.dataset.sensorFor !== col || el.value.trim() === '') continue;
+      sensor[el.dataset.key] = el.type === 'number' ? Number(el.value) : el.value.trim();
+    }
+    if (Object.keys(sensor).length) out[col] = Object.assign({ signal: sel.value }, sensor);
+  }
   return out;
 }
 
@@ -33,7 +53,7 @@ function renderMapping() {
   const table = document.createElement('table');
   table.className = 'mapping';
   const head = table.insertRow();
-  for (const h of ['column', 'unit in file', 'signal (SI unit)', 'first values']) {
+  for (const h of ['column', 'unit in file', 'signal (SI unit)', 'unit', 'gain [unit/raw]', 'offset [unit]', 'gauge / absolute', 'raw unit', 'first values']) {
     const th = document.createElement('th'); th.textContent = h; head.appendChild(th);
   }
   pv.columns.forEach((c, j) => {
@@ -58,6 +78,29 @@ function renderMapping() {
     }
     sel.value = c.signal || '';
     tr.insertCell().appendChild(lab);
+    for (const [key, title, kind] of SENSOR_INPUTS) {
+      let el;
+      if (kind === 'select') {
+        el = document.createElement('select');
+        for (const [v, t] of [['', '(as the unit says)'], ['gauge', 'gauge'], ['absolute', 'absolute']]) {
+          const o = document.createElement('option'); o.value = v; o.textContent = t; el.appendChild(o);
+        }
+      } else {
+        el = document.createElement('input');
+        el.type = kind;
+        if (kind === 'number') el.step = 'any';
+        el.size = 6;
+      }
+      el.dataset.sensorFor = c.name;
+      el.dataset.key = key;
+      el.title = title;
+      const l = document.createElement('label');
+      const t = document.createElement('span');
+      t.className = 'sr-only';
+      t.textContent = `${key} of column ${c.name}: ${title}`;
+      l.append(t, el);
+      tr.insertCell().appendChild(l);
+    }
     tr.insertCell().textContent = pv.rows.slice(0, 3).map((r) => r[j]).join(', ');
   });
   box.appendChild(table);
@@ -88,7 +131,9 @@ function showImportReport(rep) {
   const ul = add('ul', '');
   for (const c of rep.conversions || []) {
     const li = document.createElement('li');
-    li.textContent = `${c.column} → ${c.signal}: ${c.from} → ${c.to}` +
+    li.textContent = `${c.column} → ${c.signal}: ` +
+      (c.gain != null ? `${c.gain} ${c.from} per ${c.raw_unit || 'raw unit'}, offset ${c.offset} ${c.from}, ` : '') +
+      `${c.from} → ${c.to}` +
       (c.ambient_pressure != null ? ` (gauge: + ambient ${c.ambient_pressure} Pa)` : '') +
       (c.how !== 'name' ? ` [${c.how}]` : '');
     ul.appendChild(li);

@@ -29,7 +29,7 @@ LAYOUT = {
     "physics": {"chamber", "flow", "friction", "gas", "heat", "jack", "valve", "vessel"},
     "core": {"cache", "integrator", "layout", "rhs"},
     "spec": {"docstrings", "effects", "model", "paths", "presets", "scenario", "units", "validation"},
-    "data": {"experiment", "export", "fileformats", "matfile", "measurement", "npz", "samples", "synthetic"},
+    "data": {"command", "experiment", "export", "fileformats", "matfile", "measurement", "npz", "samples", "synthetic"},
     "analysis": {"autocorrelation", "blas_threads", "calibrate", "calibration_options", "compare", "diagnose",
                  "command_line", "engineering", "heat_compare", "history", "hypotheses", "metrics", "report"},
     "study": {"__main__", "_warm", "_worker", "definition", "execute", "metrics", "results", "store"},

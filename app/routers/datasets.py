@@ -4,6 +4,8 @@ Every stored field is validated before the one transaction that stores it;
 parsing and validation run in a worker thread, off the event loop. The shipped
 sample datasets are read-only (DELETE answers 403).
 """
+from typing import Optional
+
 from fastapi import APIRouter, HTTPException, Request
 from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
@@ -12,8 +14,9 @@ from ..bodies import RAW_FILE_TYPES, OffLoopRoute, read_file_upload
 from ..request_memory import check_json
 from ..deps import LimitsDep, StoreDep, not_found
 from ..responses import JSON
-from ..schemas import DatasetCreated, DatasetInfo, DatasetJsonIn, DatasetWithData
-from ..services import DEFAULT_AMBIENT_PRESSURE, store_json, store_upload
+from ..schemas import (CommandProposal, CommandProposalRequest, DatasetCreated, DatasetInfo,
+                       DatasetJsonIn, DatasetWithData)
+from ..services import DEFAULT_AMBIENT_PRESSURE, propose_dataset_command, store_json, store_upload
 from ..store import ReadOnly
 
 router = APIRouter(prefix="/api/datasets", tags=["datasets"], route_class=OffLoopRoute)
@@ -91,6 +94,16 @@ def get_dataset(dataset_id: str, store: StoreDep):
     if data is None:   # deleted meanwhile
         raise not_found("dataset", dataset_id)
     return JSON({**info, "measurement": data})
+
+
+@router.post("/{dataset_id}/propose-command", response_model=CommandProposal,
+             summary="Propose a valve command from a stored record's pressure edges (to confirm)")
+def propose_command_endpoint(dataset_id: str, store: StoreDep,
+                             req: Optional[CommandProposalRequest] = None):
+    out = propose_dataset_command(store, dataset_id, req or CommandProposalRequest())
+    if out is None:
+        raise not_found("dataset", dataset_id)
+    return out
 
 
 @router.delete("/{dataset_id}", status_code=204, summary="Delete a dataset")

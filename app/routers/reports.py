@@ -5,7 +5,7 @@ from fastapi.responses import Response
 
 from ..deps import LimitsDep, StoreDep
 from ..sync_pool import sync_slot
-from ..schemas import CompareRequest, DiagnoseRequest, RefineRequest
+from ..schemas import CompareRequest, DiagnoseReportRequest, RefineRequest
 from ..services import comparison_report, deadline_progress, diagnosis_report, refinement_report
 
 router = APIRouter(prefix="/api/reports", tags=["reports"])
@@ -31,7 +31,7 @@ def compare_report(req: CompareRequest, store: StoreDep, limits: LimitsDep):
 @router.post("/diagnose", dependencies=[sync_slot("/api/jobs/diagnose")],
              response_class=Response, responses=_HTML,
              summary="HTML report of a diagnosis (verdict, ranking, residual tests, plots, model)")
-def diagnose_report(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep):
+def diagnose_report(req: DiagnoseReportRequest, store: StoreDep, limits: LimitsDep):
     progress = deadline_progress(limits, "diagnosis", "/api/jobs/diagnose")
     return _html(diagnosis_report(req, store, limits, progress=progress), "diagnosis-report.html")
 

@@ -50,6 +50,98 @@ SIGMA_FLOOR = {"p_a": 1.0, "p_b": 1.0, "x": 1e-7, "v": 1e-6, "T_a": 1e-3, "T_b":
 #: Residual given to samples a failed simulation never reached (keeps the cost finite)
 FAILED_RESIDUAL = 1e3
 
+#: Sensor parameters a fit may hold beside the model's: ``sensors.<signal>.offset`` (added to
+#: what the sensor reads, in the signal's SI unit) and ``sensors.<signal>.gain`` (relative error
+#: of its gain [-], about ambient pressure for a pressure: a gauge sensor's span). They belong
+#: to the rig's sensors, not to the model: a fit applies them to the simulated signal, as the
+#: sensor would to the true one (``read = zero + (1 + gain) (true - zero) + offset``)
+SENSOR_PREFIX = "sensors."
+#: The fields of a sensor parameter, with their default half-range as a share of the signal's
+#: measured span (offset) or as a relative error (gain)
+SENSOR_FIELDS = {"offset": 0.2, "gain": 0.2}
+
+
+def sensor_path(path):
+    """``(signal, field)`` of a sensor parameter path ``sensors.x.offset``, or None."""
+    if not isinstance(path, str) or not path.startswith(SENSOR_PREFIX):
+        return None
+    parts = path.split(".")
+    if len(parts) != 3 or parts[2] not in SENSOR_FIELDS:
+        return None
+    return parts[1], parts[2]
+
+
+def _sensed(e, sensors, ambient, stroke):
+    """``e`` with the initial state its record gives read through corrected sensors: the first
+    samples of a sensor with an offset or a gain error start the model where the true signal
+    was (a position zero of 3 mm starts the piston 3 mm lower), not where the sensor read."""
+    from pneucore.data.experiment import Experiment
+    scen = dict(e.scenario)
+    ini = dict(scen.get("initial") or {})
+    changed = False
+    for sig, sv in sensors.items():
+        zero = ambient if sig in ("p_a", "p_b") else 0.0
+        given = scen.get("x0") if sig == "x" else ini.get(sig)
+        if given is not None or sig not in ("x", "p_a", "p_b", "T_a", "T_b"):
+            continue
+        first = e._first(sig)
+        if first is None:
+            continue
+        true = zero + (first - sv.get("offset", 0.0) - zero) / (1.0 + sv.get("gain", 0.0))
+        if sig == "x":
+            scen["x0"] = min(max(true, 0.0), stroke)
+        elif true > 0:
+            ini[sig] = true
+        changed = True
+    if not changed:
+        return e
+    if ini:
+        scen["initial"] = ini
+    return Experiment(e.measurement, scen, e.name, e.load_force, e.supply_pressure, e.dataset_id,
+                      e.time_offset)
+
+
+def sensor_specs(experiments, signals, fields=("offset", "gain"), parameters=None):
+    """Specs of sensor parameters (:data:`SENSOR_PREFIX`) for ``signals``, starting at 0.
+
+    Parameters
+    ----------
+    experiments : list of Experiment
+        The experiments (their measured spans set the offsets' default bounds)
+    signals : iterable of str
+        Signals whose sensors are fitted
+    fields : iterable of str
+        ``offset`` and / or ``gain``
+    parameters : dict or None
+        ``{path: {"min", "max", "value"?, "vary"?}}`` overriding the defaults
+
+    Returns
+    -------
+    specs : list of ParameterSpec
+        Offsets in the signal's SI unit, gains relative [-]
+    """
+    from pneucore.data.measurement import SIGNAL_UNITS
+    from pneucore.spec.paths import ParameterSpec
+    from pneucore.spec.validation import FieldError, number
+    out = []
+    parameters = parameters or {}
+    for sig in signals:
+        span = max((float(np.nanmax(e.measurement.signals[sig]) - np.nanmin(e.measurement.signals[sig]))
+                    for e in experiments if sig in e.measurement.signals), default=0.0)
+        for f in fields:
+            path = f"{SENSOR_PREFIX}{sig}.{f}"
+            half = SENSOR_FIELDS[f] * (span if f == "offset" else 1.0) or 1.0
+            opts = parameters.get(path) or {}
+            lo = number(opts.get("min", -half), f"parameters.{path}.min")
+            hi = number(opts.get("max", half), f"parameters.{path}.max")
+            v = number(opts.get("value", 0.0), f"parameters.{path}.value")
+            if not lo <= v <= hi or not lo < hi:
+                raise FieldError(f"parameters.{path}", f"bounds [{lo:g}, {hi:g}] must hold the "
+                                                       f"starting value {v:g}")
+            out.append(ParameterSpec(path, v, lo, hi, bool(opts.get("vary", True)),
+                                     SIGNAL_UNITS[sig] if f == "offset" else "-"))
+    return out
+
 
 class Objective:
     """Weighted residuals of a set of experiments as a function of parameter values.
@@ -108,13 +200,31 @@ class Objective:
         return d
 
     def model_at(self, theta):
-        return set_values(self.model, self.values(theta))
+        return set_values(self.model, {p: v for p, v in self.values(theta).items()
+                                       if sensor_path(p) is None})
 
     def replays(self, theta):
         if self.check is not None:
             self.check()
         m = self.model_at(theta)
-        return [replay(m, e) for e in self.experiments]
+        sensors = {}
+        for p, v in self.values(theta).items():
+            sp = sensor_path(p)
+            if sp is not None:
+                sensors.setdefault(sp[0], {})[sp[1]] = v
+        if not sensors:
+            return [replay(m, e) for e in self.experiments]
+        amb = self.model.ambient.pressure
+        rps = [replay(m, _sensed(e, sensors, amb, m.jack.stroke)) for e in self.experiments]
+        if sensors:
+            # what the rig's sensors would read of the simulated signals
+            for rp in rps:
+                for sig, sv in sensors.items():
+                    if sig in rp.simulated:
+                        zero = amb if sig in ("p_a", "p_b") else 0.0
+                        g = rp.simulated[sig]
+                        rp.simulated[sig] = g + sv.get("offset", 0.0) + sv.get("gain", 0.0) * (g - zero)
+        return rps
 
     def weighted(self, replays):
         parts = []
@@ -502,5 +612,27 @@ def calibrate(model, experiments, parameters, max_nfev=40, datasets=None, progre
     """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     exps = as_experiments(experiments, model.ambient.pressure, datasets)
-    specs = parse_parameters(model, parameters)
+    specs = check_parameters(model, exps, parameters)
     return fit(model, exps, specs, max_nfev=max_nfev, progress=progress, step="calibrating")
+
+
+def check_parameters(model, experiments, parameters):
+    """The specs of a calibration's ``parameters``: model paths (:func:`parse_parameters`) and
+    sensor paths (:data:`SENSOR_PREFIX`: ``sensors.x.offset``, ``sensors.p_a.gain``) of a signal
+    the experiments measure; each error names its ``parameters.<path>``."""
+    from pneucore.spec.validation import FieldError
+    if isinstance(parameters, (list, tuple)):
+        parameters = {p: {} for p in parameters}
+    sensor = {p: o for p, o in (parameters or {}).items() if str(p).startswith(SENSOR_PREFIX)}
+    rest = {p: o for p, o in (parameters or {}).items() if p not in sensor}
+    specs = parse_parameters(model, rest) if rest or not sensor else []
+    measured = {s for e in experiments for s in e.signals}
+    for p, opts in sensor.items():
+        sp = sensor_path(p)
+        if sp is None or sp[0] not in measured:
+            raise FieldError(f"parameters.{p}", "a sensor parameter is sensors.<signal>.offset or "
+                                                f".gain of a measured signal ({', '.join(sorted(measured))})")
+        if opts is not None and not isinstance(opts, dict):
+            raise FieldError(f"parameters.{p}", "must be an object with min/max/value/vary")
+        specs += sensor_specs(experiments, [sp[0]], [sp[1]], {p: opts})
+    return specs

@@ -61,7 +61,7 @@ def replay(model, experiment):
     n = len(res.t)
     meas = {s: experiment.measurement.signals[s][:n] for s in experiment.signals}
     sim = {s: np.asarray(res.observed(s), float) for s in experiment.signals}
-    u = experiment.measurement.signals["u"][:n]
+    u = experiment.command_samples[:n]
     return Replay(experiment, res, res.t, meas, sim, u)
 
 
@@ -266,6 +266,7 @@ def summarise(replays, n_windows=5):
         windows += win
         exps.append({
             "name": rp.experiment.name, "dataset_id": rp.experiment.dataset_id,
+            "command_source": rp.experiment.command_source,
             "errors": errs, "overall": _overall(errs),
             "status": rp.result.message,
             "phases": {s: phase_errors(rp.measured[s], rp.simulated[s], rp.cmd_labels)

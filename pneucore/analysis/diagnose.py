@@ -181,6 +181,7 @@ class Diagnosis:
     dropped: list = field(default_factory=list)
     hints: list = field(default_factory=list)
     given: object = field(default=None, repr=False)
+    known: list = field(default_factory=list)
 
     def best(self):
         return self.ranking[0] if self.ranking else None
@@ -195,7 +196,7 @@ class Diagnosis:
                              "phases": self.error_before.phases},
             "failure_windows": self.failure_windows, "residual_tests": self.residual_tests,
             "noise_floor": self.noise_floor, "base_model": self.base_model.to_dict(),
-            "uncertain": self.uncertain,
+            "uncertain": self.uncertain, "known": self.known,
             "recalibrate": self.recalibrate, "refitted": self.refitted,
             "model": self.model.to_dict() if self.model is not None else None,
             "changes": (model_changes(self.given, self.model) if self.model is not None
@@ -223,7 +224,7 @@ def residual_tests(replays, lags=20):
     dependent = False
     coloured = False
     for rp in replays:
-        u = rp.experiment.measurement.signals["u"][:len(rp.t)]
+        u = rp.experiment.command_samples[:len(rp.t)]
         for s in rp.measured:
             d = rp.measured[s] - rp.simulated[s]
             q, p = ljung_box(d, lags)
@@ -283,8 +284,29 @@ def _candidate_names(model, candidates):
     return [n for n in EFFECTS if n not in model.effects] if candidates is None else list(candidates)
 
 
-def check_request(model, candidates=None, uncertain=()):
-    """Validate ``candidates`` and ``uncertain`` before any work; returns the candidate names."""
+def _check_paths(model, paths, where):
+    """Each of ``paths`` must be a writable model parameter; the error names ``where[i]``."""
+    from pneucore.spec.validation import FieldError
+    for i, p in enumerate(paths):
+        if not isinstance(p, str):
+            raise FieldError(f"{where}[{i}]", f"{p!r} is not a parameter path")
+        try:
+            (spec,) = parse_parameters(model, [p])
+            # the path must also be writable and read back (a property such as jack.area_a,
+            # or an attribute of a number such as supply.pressure.real, is not a parameter)
+            trial = set_values(model, {p: spec.value})
+            if get_value(trial, p) != spec.value:
+                raise ValueError("does not read back what was written")
+        except FieldError as exc:
+            raise FieldError(f"{where}[{i}]", f"{p!r}: {exc.detail}") from None
+        except Exception as exc:  # noqa: BLE001 - any failure means: not a model parameter
+            raise FieldError(f"{where}[{i}]", f"{p!r} is not a fittable model parameter "
+                                              f"({exc})") from None
+
+
+def check_request(model, candidates=None, uncertain=(), known=()):
+    """Validate ``candidates``, ``uncertain`` and ``known`` before any work; returns the
+    candidate names. A path both uncertain and known is refused (naming it)."""
     from pneucore.spec.validation import FieldError
     if candidates is None:
         names = _candidate_names(model, None)
@@ -295,28 +317,20 @@ def check_request(model, candidates=None, uncertain=()):
                 raise FieldError(f"candidates[{i}]", f"unknown effect {n!r}; the catalog has "
                                                      f"{sorted(EFFECTS)}")
     paths = list(uncertain) if isinstance(uncertain, (list, tuple)) else list(dict(uncertain))
+    _check_paths(model, paths, "uncertain")
+    known = list(known or ())
+    _check_paths(model, known, "known")
     for i, p in enumerate(paths):
-        if not isinstance(p, str):
-            raise FieldError(f"uncertain[{i}]", f"{p!r} is not a parameter path")
-        try:
-            (spec,) = parse_parameters(model, [p])
-            # the path must also be writable and read back (a property such as jack.area_a,
-            # or an attribute of a number such as supply.pressure.real, is not a parameter)
-            trial = set_values(model, {p: spec.value})
-            if get_value(trial, p) != spec.value:
-                raise ValueError("does not read back what was written")
-        except FieldError as exc:
-            raise FieldError(f"uncertain[{i}]", f"{p!r}: {exc.detail}") from None
-        except Exception as exc:  # noqa: BLE001 - any failure means: not a model parameter
-            raise FieldError(f"uncertain[{i}]", f"{p!r} is not a fittable model parameter "
-                                                f"({exc})") from None
+        if p in known:
+            raise FieldError(f"uncertain[{i}]", f"{p!r} is declared known: a known value is never "
+                                                "fitted (drop it from uncertain or from known)")
     return names
 
 
 @single_threaded_blas
 def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT, alpha=ALPHA,
              datasets=None, progress=None, max_nfev=30, refit_existing=True, base_hypotheses=True,
-             validated=False):
+             validated=False, known=()):
     """Which base parameters are mis-set, which catalog effect is missing, what remains.
 
     Parameters
@@ -345,9 +359,13 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         With no ``uncertain`` given, choose the base parameters to
         recalibrate from what the experiments identify (:mod:`pneucore.analysis.hypotheses`)
     validated : bool
-        ``candidates`` and ``uncertain`` were already checked on this model by
+        ``candidates``, ``uncertain`` and ``known`` were already checked on this model by
         :func:`check_request` (the API does so at its boundary, before any work): they are
         not checked again
+    known : list of str
+        Parameter paths whose values the user declared (a weighed mass, a load from
+        gravity): never fitted, never offered as a base hypothesis; where the data would
+        need one far off, ``remaining["known_disagree"]`` and the message say so
 
     Returns
     -------
@@ -363,7 +381,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
 
     # -- candidates --------------------------------------------------------------
     names = _candidate_names(model, candidates) if validated else \
-        check_request(model, candidates, uncertain)
+        check_request(model, candidates, uncertain, known)
+    known = tuple(known or ())
     cands = []
     skipped = []
     for n in names:
@@ -398,7 +417,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         rps_id = [replay(model, e) for e in exps] if initial_state else rps_start
         obj_s = Objective(model, exps, [])
         chosen, base_report, id_cols = H.identifiable(
-            model, exps, obj_s, obj_s.weighted(rps_id), H.offered(model, cands), replay)
+            model, exps, obj_s, obj_s.weighted(rps_id), H.offered(model, cands, exclude=known),
+            replay)
         identifiability = base_report + identifiability
         auto_specs = [H.spec_for(model, h) for h in chosen]
     else:
@@ -408,7 +428,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     if refit_existing:
         for name in model.effects:
             for p in EFFECTS[name].diagnosis_params:
-                unc.setdefault(f"effects.{name}.{p}", {})
+                if f"effects.{name}.{p}" not in known:
+                    unc.setdefault(f"effects.{name}.{p}", {})
     u_specs = auto_specs + (parse_parameters(model, unc) if unc else [])
     base_paths = [s.path for s in u_specs if not s.path.startswith("effects.")]
     u_specs_start = list(u_specs)
@@ -694,6 +715,22 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
             alternatives.append(alt)
     err_final = chosen.error_after.overall if chosen is not None else comp0.overall
     remaining = _remaining(err_final, floor_overall, final_tests, best_rps, verdict)
+    if remaining.get("outside_catalog"):
+        # a remainder a sensor's zero or gain accounts for: a finding about the rig's sensors,
+        # fitted jointly with the base parameters (what the sensor error made them take up)
+        report(0.98, "sensor offsets and gains")
+        sensed = _sensor_refit(model, exps, verdict, refits, u_specs_start, prior,
+                               (best_rps, rps_start), err_final, floor_overall, max_nfev)
+        if sensed is not None:
+            cal_s, remaining["sensor"], remaining["sensor_fit"] = sensed
+            recal, refitted = _recalibration(model, cal_s, base_paths)
+            next_model = cal_s.model.copy()
+            for name in dropped:
+                next_model.effects.pop(name, None)
+    if known:
+        m_final = chosen.model if chosen is not None else model
+        remaining["known_disagree"] = H.known_disagreements(
+            m_final, exps, known, best_rps, Objective(m_final, exps, []))
     message = _message(message, recal, remaining, verdict, initial_state)
     for name in dropped:
         message += (f" Dropped {name}: its refitted strength is indistinguishable from off and "
@@ -730,7 +767,71 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                      recalibrate=recal, refitted=refitted, model=next_model,
                      alternatives=alternatives, remaining=remaining,
                      identifiability=identifiability, error_start=comp_start, dropped=dropped,
-                     initial_state=initial_state, hints=comp_start.hints, given=given)
+                     initial_state=initial_state, hints=comp_start.hints, given=given,
+                     known=list(known))
+
+
+#: A joint sensor refit is kept when it removes at least this share of the misfit in excess of
+#: the noise floor (the rule a named effect must meet, :data:`EXCESS_MAJOR`)
+SENSOR_EXCESS = EXCESS_MAJOR
+
+
+def _sensor_refit(model, exps, verdict, refits, u_specs, prior, replays, err, floor, max_nfev):
+    """The base parameters (and the verdict's effect) refitted with the sensor offsets and gains
+    the residual asks for (:func:`pneucore.analysis.hypotheses.sensor_findings`), from the model
+    as given; ``(calibration, findings, summary)`` when it removes at least
+    :data:`SENSOR_EXCESS` of the misfit in excess of the floor, else None. ``replays``: the
+    fitted model's and the model's as given, each screened (a recalibration may have taken up
+    part of a sensor's error: a load for a pressure offset)."""
+    fields = {}
+    for rps in replays:
+        for f in H.sensor_findings(rps, model.ambient.pressure, H.SENSOR_SCREEN):
+            fields.setdefault(f["signal"], set()).update(
+                {"offset": ("offset",), "gain": ("gain",)}.get(f["kind"], ("offset", "gain")))
+    if not fields:
+        return None
+    specs = []
+    for sig, fs in fields.items():
+        specs += _calibrate.sensor_specs(exps, [sig], [f for f in ("offset", "gain") if f in fs])
+    m0 = model
+    if verdict is not None:
+        eff = EFFECTS[verdict]
+        start = refits[verdict].model.effects[verdict]
+        m0 = _with_effect(model, verdict, start)
+        specs += [ParameterSpec(f"effects.{verdict}.{p}", start[p], eff.param(p).min, eff.param(p).max,
+                                True, eff.param(p).unit) for p in eff.diagnosis_params]
+    cal = fit(m0, exps, list(u_specs) + specs, max_nfev=max_nfev, compute_before=False,
+              reweight=True, prior=prior)
+    e1 = cal.error_after.overall
+    if not _excess_drop(err, e1, floor) >= SENSOR_EXCESS:
+        return None
+    out = []
+    for sp in specs:
+        if not sp.path.startswith(_calibrate.SENSOR_PREFIX):
+            continue
+        sig, what = _calibrate.sensor_path(sp.path)
+        v = cal.values[sp.path]
+        if not abs(v["value"]) > 3.0 * v["stderr"]:
+            continue   # not told apart from a right sensor (3 standard errors)
+        unit, k = H.SENSOR_WORDS.get(sig, ("", 1.0))
+        if what == "offset":
+            words = (f"sensor {sig} reads {abs(v['value']) * k:.3g} {unit} "
+                     f"{'more' if v['value'] > 0 else 'less'} than the model (its zero; "
+                     f"± {v['stderr'] * k:.2g} {unit})")
+        else:
+            words = f"sensor {sig}'s gain is {100 * v['value']:+.3g} % off (± {100 * v['stderr']:.2g} %)"
+        out.append({"path": sp.path, "signal": sig, "field": what, "value": v["value"],
+                    "stderr": v["stderr"], "unit": v["unit"], "at_bound": v["at_bound"],
+                    "description": words})
+    if not out:
+        return None
+    summary = {"error": e1, "error_without": err,
+               "description": "; ".join(f["description"] for f in out) + (
+                   f": fitted with the base parameters, the error falls from {100 * err:.2f} % to "
+                   f"{100 * e1:.2f} % (noise floor {100 * floor:.2f} %). A sensor finding, not "
+                   "physics: correct the sensor, or give its offset and gain in the upload's "
+                   "column mapping")}
+    return cal, out, summary
 
 
 def _undetermined(cand):
@@ -1095,8 +1196,11 @@ def _message(message, recal, remaining, verdict, initial_state=()):
             + ("it" if len(odd) == 1 else "them"))
     if remaining.get("outside_catalog"):
         parts.append("outside the catalog: " + remaining.get("description", ""))
+        if remaining.get("sensor_fit"):
+            parts.append(remaining["sensor_fit"]["description"])
     elif remaining.get("at_floor"):
         parts.append(remaining["description"])
+    parts += [f["description"] for f in remaining.get("known_disagree", [])]
     parts = [q[:1].upper() + q[1:] for q in parts]
     return message + (" " + ". ".join(parts) + "." if parts else "")
 

@@ -162,7 +162,7 @@ WORSE_TOLERANCE = 0.01
 
 
 def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progress=None,
-           validated=False):
+           validated=False, known=()):
     """Stepwise to the noise floor: diagnose, apply the findings, repeat.
 
     Each round recalibrates the base parameters the experiments identify and
@@ -186,8 +186,11 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
         choice (see :func:`pneucore.analysis.diagnose.diagnose`)
     history : RefinementHistory or None
         Continue an existing history
+    known : list of str
+        Parameter paths the user declared (never fitted in any round: the final model holds
+        them as given; see :func:`pneucore.analysis.diagnose.diagnose`)
     validated : bool
-        ``uncertain`` was already checked on ``model`` by
+        ``uncertain`` and ``known`` were already checked on ``model`` by
         :func:`pneucore.analysis.diagnose.check_request` (the API does at its boundary); otherwise
         it is checked once here, before the first round, and not again in each round
 
@@ -204,7 +207,7 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
     """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     if not validated:
-        check_request(model, None, uncertain)
+        check_request(model, None, uncertain, known)
     exps = as_experiments(experiments, model.ambient.pressure)
     history = history or RefinementHistory()
     if not history.versions:
@@ -212,7 +215,8 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
     diagnoses = []
     dropped_in = {}        # effect -> round in which the data dropped it
     for k in range(max_rounds):
-        d = diagnose(model, exps, uncertain=uncertain, progress=progress, validated=True)
+        d = diagnose(model, exps, uncertain=uncertain, progress=progress, validated=True,
+                     known=known)
         diagnoses.append(d)
         if d.initial_state:
             # the records imply an initial state their context does not declare (a rig left

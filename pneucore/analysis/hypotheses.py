@@ -237,7 +237,8 @@ def prior_for(model, paths, scale=None):
 
 
 def offered(model, candidates=(), exclude=()):
-    """Base hypotheses that apply to ``model`` (and are not carried by a candidate effect)."""
+    """Base hypotheses that apply to ``model`` (and are not carried by a candidate effect);
+    ``exclude``: paths never offered (the values the user declared known)."""
     out = []
     for h in BASE_HYPOTHESES.values():
         if h.path in exclude:
@@ -495,6 +496,171 @@ def calibrated_error(replays):
     if not out:
         return float("nan"), out
     return float(math.sqrt(np.mean([v["error"] ** 2 for v in out.values()]))), out
+
+
+#: Units in which a sensor finding is worded (SI -> unit, factor), per signal
+SENSOR_WORDS = {"p_a": ("bar", 1e-5), "p_b": ("bar", 1e-5), "x": ("mm", 1e3), "v": ("mm/s", 1e3),
+                 "T_a": ("K", 1.0), "T_b": ("K", 1.0)}
+#: A sensor correction is named when it removes at least this share of the signal's misfit
+#: energy in excess of nothing (its Eq. 25 error squared): half, the rule an effect must meet
+SENSOR_SHARE = 0.5
+#: Share a sensor correction must remove to be tried in a joint refit (a screen: the refit
+#: decides, and a recalibration may have taken up part of the sensor's error)
+SENSOR_SCREEN = 0.2
+
+
+def sensor_findings(replays, ambient=0.0, share=None):
+    """Sensor offsets and gains the residuals ask for, per signal: findings about the rig's
+    sensors, not about the physics.
+
+    For each signal, the residual (measured - simulated, pooled over the experiments) is
+    fitted by an offset alone, a gain alone (about ``ambient`` for pressures: a gauge
+    sensor's gain acts on the pressure above ambient) and both (least squares). The
+    simplest correction that comes within 10 % of both's residual energy, and removes at
+    least :data:`SENSOR_SHARE` of the signal's misfit, is reported.
+
+    Parameters
+    ----------
+    replays : iterable of Replay
+        Replayed experiments
+    ambient : float
+        Ambient pressure, the zero of a pressure sensor's gain [Pa]
+    share : float or None
+        Share of the misfit a correction must remove; None: :data:`SENSOR_SHARE` [-]
+
+    Returns
+    -------
+    findings : list of dict
+        ``signal``, ``kind`` (``offset``, ``gain`` or ``gain and offset``), ``offset``
+        (signal's SI unit), ``gain`` (relative, [-]), ``error_before`` and ``error_after``
+        (Eq. 25 [-]) and ``description`` in words
+    """
+    acc = {}
+    for rp in replays:
+        for s in rp.measured:
+            m, g = np.asarray(rp.measured[s], float), np.asarray(rp.simulated[s], float)
+            n = min(m.shape[0], g.shape[0])
+            ok = np.isfinite(m[:n]) & np.isfinite(g[:n])
+            a = acc.setdefault(s, ([], []))
+            a[0].append(m[:n][ok])
+            a[1].append(g[:n][ok])
+    out = []
+    for s, (ms, gs) in acc.items():
+        m, g = np.concatenate(ms), np.concatenate(gs)
+        den = float(m @ m)
+        if m.size < 3 or den <= 0.0:
+            continue
+        zero = ambient if s in ("p_a", "p_b") else 0.0
+        d = m - g
+        e0 = float(d @ d)
+        if e0 <= 0.0:
+            continue
+        cols = {"offset": np.ones_like(g)[:, None], "gain": (g - zero)[:, None],
+                "gain and offset": np.column_stack([np.ones_like(g), g - zero])}
+        fits = {}
+        for kind, A in cols.items():
+            coef, *_ = np.linalg.lstsq(A, d, rcond=None)
+            r = d - A @ coef
+            fits[kind] = (float(r @ r), coef)
+        best_e = fits["gain and offset"][0]
+        kind = next(k for k in ("offset", "gain", "gain and offset")
+                    if fits[k][0] <= 1.1 * best_e + 1e-300)
+        e1, coef = fits[kind]
+        if e1 > (1.0 - (SENSOR_SHARE if share is None else share)) * e0:
+            continue
+        off = float(coef[0]) if kind != "gain" else 0.0
+        gain = float(coef[-1]) if kind != "offset" else 0.0
+        unit, f = SENSOR_WORDS.get(s, ("", 1.0))
+        words = []
+        if kind != "gain":
+            words.append(f"reads {abs(off) * f:.3g} {unit} {'more' if off > 0 else 'less'} than "
+                         "simulated (the sensor's zero)")
+        if kind != "offset":
+            words.append(f"a gain {100 * gain:+.2g} % off")
+        out.append({"signal": s, "kind": kind, "offset": off, "gain": gain,
+                    "error_before": math.sqrt(e0 / den), "error_after": math.sqrt(e1 / den),
+                    "description": f"sensor {s}: " + " and ".join(words) + (
+                        f"; corrected, the error of {s} falls from {100 * math.sqrt(e0 / den):.2f} % "
+                        f"to {100 * math.sqrt(e1 / den):.2f} %: a sensor finding, not physics (give it "
+                        "as the column's offset or gain in the upload's mapping)")})
+    return out
+
+
+#: A declared (known) value is said to disagree with the data when a fit of it alone would move
+#: it by more than this many typical catalogue errors (or 10 % of it for a parameter with no
+#: registered typical error) ...
+KNOWN_FAR = 3.0
+#: ... and remove at least this share of the residual energy
+KNOWN_SHARE = 0.05
+
+
+def known_disagreements(model, experiments, known, replays, objective):
+    """Declared values the data disagree with: findings, never moved.
+
+    For each known parameter, one Gauss-Newton step of it alone on the weighted residual
+    of ``replays`` (one finite-difference simulation per experiment) gives where the data
+    would put it and how much of the residual energy that would remove (to first order).
+    A step beyond :data:`KNOWN_FAR` typical errors that removes at least
+    :data:`KNOWN_SHARE` of the residual is reported: "the data disagree with the declared
+    moving mass".
+
+    Parameters
+    ----------
+    model : Model
+        The model the replays ran (the known values as declared)
+    experiments : list of Experiment
+        The experiments
+    known : iterable of str
+        Declared parameter paths
+    replays : list of Replay
+        ``replay(model, e)`` for each experiment
+    objective : Objective
+        Weighting of the residuals (:class:`pneucore.analysis.calibrate.Objective`)
+
+    Returns
+    -------
+    findings : list of dict
+        ``path``, ``label``, ``declared``, ``data_suggest`` (SI; a scale for valve
+        tables), ``unit``, ``residual_share`` [-] and ``description``
+    """
+    from pneucore.analysis.compare import replay as _replay
+    r = objective.weighted(replays)
+    rr = float(r @ r)
+    out = []
+    for path in known:
+        try:
+            v = get_value(model, path)
+        except Exception:   # noqa: BLE001 - a path that no longer reads (an effect dropped)
+            continue
+        h = BASE_HYPOTHESES.get(path)
+        step = _step(model, h) if h is not None else 0.1 * abs(v)
+        if not step > 0 or not rr > 0:
+            continue
+        dv = 0.1 * step
+        try:
+            mp = set_values(model, {path: v + dv})
+            rh = objective.weighted([_replay(mp, e) for e in experiments])
+        except Exception:   # noqa: BLE001 - a value the model refuses: no finding
+            continue
+        if rh.shape != r.shape:
+            continue
+        J = (rh - r) / dv
+        jj = float(J @ J)
+        if not jj > 0:
+            continue
+        delta = -float(J @ r) / jj
+        share = float(J @ r) ** 2 / jj / rr
+        if abs(delta) > KNOWN_FAR * step and share >= KNOWN_SHARE:
+            label = label_of(path)
+            unit = unit_of(path)
+            out.append({"path": path, "label": label, "declared": v, "data_suggest": v + delta,
+                        "unit": unit, "residual_share": share,
+                        "description": (
+                            f"the data disagree with the declared {label} ({v:.3g} {unit}): "
+                            f"fitted alone it would move to about {v + delta:.3g} {unit} "
+                            f"(removing {100 * share:.0f} % of the residual, to first order); "
+                            "it is held as declared: check the value, or what the model lacks")})
+    return out
 
 
 # ------------------------------------------------------------------ which experiment separates
@@ -755,7 +921,7 @@ def fit_initial_state(model, experiments, replay, max_nfev=25, visible=VISIBLE):
         obj = Objective(model, [e], [])
         # the record before the command first changes: what the initial state alone drives
         # (afterwards the valve's flows take over and the base parameters matter more)
-        u = e.measurement.signals["u"]
+        u = e.command_samples
         ch = np.flatnonzero(np.diff(u) != 0)
         n_quiet = int(ch[0]) + 1 if ch.size else u.shape[0]
         sig = obj.sigma[0]

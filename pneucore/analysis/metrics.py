@@ -43,6 +43,28 @@ def eq25_error(measured, simulated):
     return float(math.sqrt(np.sum((s[ok] - m[ok]) ** 2) / den))
 
 
+#: A run of this many equal successive samples is a sensor that does not move (clipped at its
+#: zero, saturated, a quantised hold): left out of the noise estimate. A sensor whose noise is
+#: one converter step or more repeats a value with odds below 1/2 per sample, 20 times in a row
+#: below 1 in a million
+STILL_RUN = 20
+
+
+def _moving(y):
+    """Mask of the samples outside runs of :data:`STILL_RUN` or more equal values."""
+    n = y.size
+    keep = np.ones(n, bool)
+    if n < STILL_RUN:
+        return keep
+    change = np.flatnonzero(y[1:] != y[:-1]) + 1
+    starts = np.concatenate(([0], change))
+    ends = np.concatenate((change, [n]))
+    for a, b in zip(starts, ends):
+        if b - a >= STILL_RUN:
+            keep[a:b] = False
+    return keep
+
+
 def noise_sigma(y, lsb=0.0):
     """Robust estimate of white measurement noise from second differences.
 
@@ -53,6 +75,14 @@ def noise_sigma(y, lsb=0.0):
     from the RMS of what remains. The RMS step matters for quantised data:
     there the MAD itself only takes a few discrete values, while the RMS
     adds quantisation and noise variances correctly.
+
+    A quantised or clipped signal (a pressure reading exactly 0 between pulses, a
+    sensor at a stop) holds one value for long runs: there the second differences
+    are 0 and say nothing of the noise. The estimate comes from where the signal
+    moves (runs of :data:`STILL_RUN` equal samples left out), and is never below
+    the quantisation floor ``q / sqrt(12)`` of a quantised signal's smallest step
+    ``q`` (repeated values, every step a multiple of ``q``: the converter's
+    resolution), so it is never 0 for a quantised signal that changes at all.
 
     Parameters
     ----------
@@ -65,13 +95,38 @@ def noise_sigma(y, lsb=0.0):
     -------
     sigma : float
         Noise standard deviation (unit of y), at least ``lsb / sqrt(12)``
+
+    Examples
+    --------
+    A 12-bit pressure of 0 to 10 bar, clipped at 0 bar gauge for half the record: the
+    noise comes from the half that moves (300 Pa), not from the zeros
+
+    >>> rng = np.random.default_rng(0)
+    >>> lsb = 10e5 / 4095
+    >>> y = np.round(np.maximum(np.r_[np.full(2000, -1e4), np.full(2000, 3e5)]
+    ...                         + rng.normal(0, 300, 4000), 0) / lsb) * lsb
+    >>> 250 < noise_sigma(y) < 350
+    True
     """
     y = np.asarray(y, float)
     y = y[np.isfinite(y)]
     floor = lsb / math.sqrt(12.0)
     if y.size < 5:
         return max(floor, 0.0)
+    diffs = np.abs(np.diff(y))
+    steps = diffs[diffs > 0]
+    if steps.size and diffs.size - steps.size >= 0.01 * diffs.size:
+        # a quantised signal (repeated values, every step a multiple of the smallest): the
+        # converter's resolution bounds its noise from below
+        q = float(np.min(steps))
+        k = steps / q
+        if np.all(np.abs(k - np.round(k)) <= 1e-3 * np.maximum(k, 1.0)):
+            floor = max(floor, q / math.sqrt(12.0))
+    moving = _moving(y)
     d2 = y[2:] - 2.0 * y[1:-1] + y[:-2]
+    ok = moving[1:-1] & moving[2:] & moving[:-2]
+    if ok.sum() >= 5:
+        d2 = d2[ok]
     med = np.median(d2)
     dev = np.abs(d2 - med)
     s0 = 1.4826 * np.median(dev)

@@ -149,6 +149,18 @@ def _page(title, sections) -> str:
             + "".join(sections) + "</body></html>")
 
 
+def _conversion_words(c) -> str:
+    """One column's reading in words: ``pressure_V: 2 bar per V, offset -0.5 bar, barg → Pa``."""
+    out = f"{c.get('column')}: "
+    if c.get("gain") is not None:
+        out += (f"{c['gain']:g} {c['from']} per {c.get('raw_unit') or 'raw unit'}, offset "
+                f"{c.get('offset', 0.0):g} {c['from']}, ")
+    out += f"{c.get('from')} → {c.get('to')}"
+    if c.get("ambient_pressure"):
+        out += f" (+{c['ambient_pressure']:g} Pa ambient)"
+    return out
+
+
 def _provenance(comparison, provenance) -> str:
     rows = []
     prov = {p.get("dataset_id"): p for p in (provenance or []) if p.get("dataset_id")}
@@ -157,15 +169,18 @@ def _provenance(comparison, provenance) -> str:
         m = exp.measurement
         info = prov.get(exp.dataset_id, {})
         imp = m.meta.get("import") or {}
-        conv = "; ".join(f"{c['column']}: {c['from']} → {c['to']}"
-                         + (f" (+{c['ambient_pressure']:g} Pa ambient)" if c.get("ambient_pressure") else "")
-                         for c in imp.get("conversions", []) if c["from"] != c["to"])
+        # how the columns were read on upload (stored with the dataset), else by this reader
+        convs = info.get("sensors") or m.meta.get("sensors") or imp.get("conversions", [])
+        conv = "; ".join(_conversion_words(c) for c in convs
+                         if c.get("from") != c.get("to") or c.get("gain") is not None)
         rows.append([exp.name, exp.dataset_id or "inline", info.get("name", ""), m.n,
                      f"{m.t[0]:.6g} – {m.t[-1]:.6g} s", ", ".join(m.measured_signals),
-                     m.meta.get("source", info.get("description", "")), conv or "none (SI)"])
+                     m.meta.get("source", info.get("description", "")), conv or "none (SI)",
+                     "given with the experiment" if exp.command_source == "scenario"
+                     else "measured (u)"])
     return ("<h2>Data provenance</h2>" + _table(
         ["experiment", "dataset", "dataset name", "samples", "time span", "signals", "source",
-         "unit conversions"], rows, left=3)
+         "unit conversions and sensors", "valve command"], rows, left=3)
         + '<p class="note">The model\'s t = 0 is the measurement\'s t = 0.</p>')
 
 

@@ -47,6 +47,11 @@ _SCENARIO_CACHE_SIZE = 8
 #: Signals that can be compared with the model
 COMPARABLE = ("p_a", "p_b", "x", "v", "T_a", "T_b")
 
+#: What a record without a command column needs
+NO_COMMAND = ("the record has no valve command column 'u': give the command as scenario.command "
+              "(breakpoints [[t [s], u [-]], ...], held between them), or have one proposed from a "
+              "measured pressure's edges (POST /api/datasets/{id}/propose-command) and confirm it")
+
 
 @dataclass
 class Experiment:
@@ -103,6 +108,13 @@ class Experiment:
         load = number(d.get("load_force"), f"{path}.load_force", allow_none=True)
         sup = number(d.get("supply_pressure"), f"{path}.supply_pressure", positive=True, allow_none=True)
         offset = number(d.get("time_offset"), f"{path}.time_offset", allow_none=True)
+        if "u" not in meas.signals and scen.get("command") is None:
+            raise FieldError(f"{path}.scenario.command", NO_COMMAND)
+        if scen.get("command") is not None:   # read as breakpoints before anything samples it
+            try:
+                Scenario.from_dict({"command": scen["command"]})
+            except FieldError as exc:
+                raise FieldError(f"{path}.{exc.path}", exc.detail) from None
         if offset is not None and offset > float(meas.t[0]):
             raise FieldError(f"{path}.time_offset",
                              f"{offset:g} s is after the first sample ({float(meas.t[0]):g} s); the "
@@ -134,6 +146,22 @@ class Experiment:
     def times(self):
         """Sample times on the model's time axis, ``t - t0`` [s]."""
         return self.measurement.t - self.t0
+
+    @property
+    def command_source(self):
+        """Where the command replayed comes from: ``"scenario"`` (given with the experiment) or
+        ``"measured"`` (the record's ``u`` column) [-]."""
+        return "scenario" if self.scenario.get("command") is not None else "measured"
+
+    @property
+    def command_samples(self):
+        """The valve command at each sample [-]: the measured ``u``, or the scenario's command
+        held between its breakpoints (on the model's time axis) when it gives one."""
+        if self.command_source == "measured":
+            return self.measurement.signals["u"]
+        cmd = np.asarray(self.scenario["command"], dtype=float).reshape(-1, 2)
+        idx = np.searchsorted(cmd[:, 0], self.times, side="right") - 1
+        return cmd[np.clip(idx, 0, None), 1]
 
     @property
     def signals(self):
@@ -177,7 +205,7 @@ class Experiment:
             return None
         v = self.measurement.signals[name]
         t = self.measurement.t
-        u = self.measurement.signals["u"]
+        u = self.command_samples
         changes = np.flatnonzero(np.diff(u) != 0)
         end = min(changes[0] + 1 if changes.size else len(u), max_window)
         ok = np.flatnonzero(np.isfinite(v[:end]))
@@ -228,6 +256,8 @@ class Experiment:
                 f"(e.g. {float(meas.t[0]):g} s) to start the model at the first sample"))
         d = dict(self.scenario)
         if "command" not in d:
+            if "u" not in meas.signals:
+                raise FieldError("scenario.command", NO_COMMAND)
             lo, hi = model.valve.opening_range
             u = meas.signals["u"]
             bad = np.flatnonzero((u < lo - 1e-12) | (u > hi + 1e-12))

@@ -140,7 +140,7 @@ def comparison_csv(comparison) -> str:
         exp = rp.experiment
         nan = np.full(n, np.nan)
         parts = [[spreadsheet_safe(str(exp.name))] * n, _cells(np.asarray(rp.t) + exp.t0),
-                 _cells(exp.measurement.signals["u"][:n])]
+                 _cells(exp.command_samples[:n])]
         for s in signals:
             meas = np.asarray(rp.measured.get(s, nan), float)
             sim = np.asarray(rp.simulated.get(s, nan), float)

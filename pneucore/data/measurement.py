@@ -302,7 +302,7 @@ def _check_ambient(ambient_pressure: float) -> float:
             f"ambient_pressure must be a number in Pa, got {ambient_pressure!r}") from None
     if not math.isfinite(p) or p <= 0.0:
         raise MeasurementError(
-            f"ambient_pressure must be a finite positive absolute pressure in Pa, got {p!r}")
+            f"ambient_pressure must be a finite positive absolute pressure in Pa, got {p:g}")
     return p
 
 
@@ -325,6 +325,12 @@ class Conversion:
     how : str
         ``"name"`` (the column is named for the signal), ``"alias"`` (a known
         alias such as ``Zeit``) or ``"mapping"`` (the caller's mapping) [-]
+    gain : float
+        Sensor gain: :attr:`unit` per unit of the raw column (1 bar/V) [unit/raw unit]
+    offset : float
+        Sensor offset added after the gain, in :attr:`unit` [unit]
+    raw_unit : str or None
+        What the raw column holds (``"V"``, ``"mA"``), for the record [-]
     """
     source: str
     signal: str
@@ -332,13 +338,27 @@ class Conversion:
     si_unit: str
     ambient_pressure: float | None = None
     how: str = "name"
+    gain: float = 1.0
+    offset: float = 0.0
+    raw_unit: str | None = None
 
     def to_dict(self) -> dict:
-        return {"column": self.source, "signal": self.signal, "from": self.unit,
-                "to": self.si_unit, "ambient_pressure": self.ambient_pressure, "how": self.how}
+        d = {"column": self.source, "signal": self.signal, "from": self.unit,
+             "to": self.si_unit, "ambient_pressure": self.ambient_pressure, "how": self.how}
+        if self.gain != 1.0 or self.offset != 0.0 or self.raw_unit:
+            d.update(gain=self.gain, offset=self.offset, raw_unit=self.raw_unit)
+        return d
 
     def converter(self) -> Callable[[Any], np.ndarray]:
-        """Function from values in :attr:`unit` to float64 in :attr:`si_unit`."""
+        """Function from raw values (``gain * raw + offset`` in :attr:`unit`) to float64 in
+        :attr:`si_unit`."""
+        unit_conv = self._unit_converter()
+        if self.gain == 1.0 and self.offset == 0.0:
+            return unit_conv
+        gain, offset = self.gain, self.offset
+        return lambda values: unit_conv(np.asarray(values, dtype=np.float64) * gain + offset)
+
+    def _unit_converter(self) -> Callable[[Any], np.ndarray]:
         signal, unit = self.signal, self.unit
         if signal in _PRESSURES:
             spec, gauge = _PRESSURE_UNITS[unit]
@@ -517,11 +537,82 @@ def propose_mapping(labels: Iterable[str]) -> dict[str, str | None]:
     return out
 
 
+#: The fields of a sensor object in a column mapping, with what each means (and its unit)
+SENSOR_FIELDS: dict[str, str] = {
+    "signal": "the signal the column gives (t, u, p_a, p_b, x, v, T_a, T_b) [-]",
+    "unit": "unit of gain * raw + offset (bar, mm, degC...; default: the file's, else SI) [-]",
+    "gain": "sensor gain: unit per raw unit (1 bar/V, 25 mm/V); default 1, non-zero [unit/raw]",
+    "offset": "added after the gain (the sensor's zero), in unit; default 0 [unit]",
+    "reference": "pressures only: 'gauge' (ambient added) or 'absolute' [-]",
+    "raw_unit": "what the column holds (V, mA), recorded with the dataset [-]",
+}
+
+#: Longest ``raw_unit`` label of a sensor object [characters]
+_RAW_UNIT_MAX = 16
+
+
+def _check_sensor(target: Mapping, where: str) -> dict:
+    """A sensor object of a column mapping, checked; each error names its field."""
+    unknown = [k for k in target if k not in SENSOR_FIELDS]
+    if unknown:
+        raise MeasurementError(f"unknown field {unknown[0]!r}; a sensor has "
+                               f"{', '.join(SENSOR_FIELDS)}", column=where)
+    sig = target.get("signal")
+    if not isinstance(sig, str) or sig not in _COLUMNS:
+        raise MeasurementError(f"signal must be one of {', '.join(_COLUMNS)}, got {sig!r}",
+                               column=f"{where}.signal")
+    out: dict[str, Any] = {"signal": sig}
+    unit = target.get("unit")
+    if unit not in (None, ""):
+        if not isinstance(unit, str):
+            raise MeasurementError(f"unit must be a string, got {unit!r}", column=f"{where}.unit")
+        _unit_of(sig, unit, f"{where}.unit", DEFAULT_AMBIENT_PRESSURE)
+        out["unit"] = unit
+    for k, default in (("gain", 1.0), ("offset", 0.0)):
+        v = target.get(k, default)
+        v = default if v is None else v
+        if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(float(v)):
+            raise MeasurementError(f"{k} must be a finite number, got {v!r}", column=f"{where}.{k}")
+        out[k] = float(v)
+    if out["gain"] == 0.0:
+        raise MeasurementError("gain must not be 0 (it would make every sample the offset)",
+                               column=f"{where}.gain")
+    ref = target.get("reference")
+    if ref not in (None, ""):
+        if ref not in ("gauge", "absolute"):
+            raise MeasurementError(f"reference must be 'gauge' or 'absolute', got {ref!r}",
+                                   column=f"{where}.reference")
+        if sig not in _PRESSURES:
+            raise MeasurementError(f"reference applies to pressures only, not {sig!r}",
+                                   column=f"{where}.reference")
+        out["reference"] = ref
+    raw = target.get("raw_unit")
+    if raw not in (None, ""):
+        if not isinstance(raw, str) or len(raw) > _RAW_UNIT_MAX:
+            raise MeasurementError(f"raw_unit must be a label of at most {_RAW_UNIT_MAX} "
+                                   "characters", column=f"{where}.raw_unit")
+        out["raw_unit"] = raw
+    return out
+
+
+def _with_reference(canon: str, reference: str | None) -> str:
+    """A pressure unit made gauge (``bar`` -> ``barg``) or absolute (``barg`` -> ``bar``)."""
+    gauge = _PRESSURE_UNITS[canon][1]
+    if reference == "gauge" and not gauge:
+        return canon + "g"
+    if reference == "absolute" and gauge:
+        return canon[:-1]
+    return canon
+
+
 def check_mapping(mapping: Any) -> dict[str, str | None]:
     """Validate a column mapping ``{"Zeit": "t", "pA": "p_a[bar(g)]", "Kraft": null}``.
 
     Values are a signal name, optionally with a unit in brackets that
-    overrides the file's, or None to ignore the column.
+    overrides the file's, None to ignore the column, or a sensor object
+    (:data:`SENSOR_FIELDS`): ``{"signal": "p_a", "unit": "bar", "gain": 1.0,
+    "offset": 0.0, "reference": "absolute", "raw_unit": "V"}`` for a
+    column of raw sensor volts at 1 bar/V.
 
     Raises
     ------
@@ -542,9 +633,12 @@ def check_mapping(mapping: Any) -> dict[str, str | None]:
         if target is None or target == "":
             out[key] = None
             continue
+        if isinstance(target, Mapping):
+            out[key] = _check_sensor(target, f"columns.{key}")
+            continue
         if not isinstance(target, str):
-            raise MeasurementError(f"target must be a signal name or null, got {target!r}",
-                                   column=f"columns.{key}")
+            raise MeasurementError(f"target must be a signal name, a sensor object or null, got "
+                                   f"{target!r}", column=f"columns.{key}")
         m = _HEADER_RE.match(target)
         if m is None or m.group(1) not in _COLUMNS:
             raise MeasurementError(
@@ -580,6 +674,18 @@ def _resolve(label: str, unit_row: str | None, mapping: Mapping[str, Any],
     if found:
         if target is None:
             return None
+        if isinstance(target, Mapping):   # a sensor object (checked by check_mapping)
+            sig = target["signal"]
+            conv = _unit_of(sig, target.get("unit") or unit, label, DEFAULT_AMBIENT_PRESSURE,
+                            "mapping")
+            canon = conv.unit
+            if sig in _PRESSURES:
+                canon = _with_reference(canon, target.get("reference"))
+            gauge = sig in _PRESSURES and _PRESSURE_UNITS[canon][1]
+            return Conversion(label, sig, canon, _si_unit(sig),
+                              _check_ambient(ambient_pressure) if gauge else None, "mapping",
+                              target.get("gain", 1.0), target.get("offset", 0.0),
+                              target.get("raw_unit"))
         m = _HEADER_RE.match(target)
         return _unit_of(m.group(1), m.group(2) or unit, label, ambient_pressure, "mapping")
     if name in _COLUMNS:
@@ -723,7 +829,9 @@ def measurement_from_columns(columns: list[tuple[str, list]], ambient_pressure: 
                 column=label)
         parsed[conv.signal] = (conv, values)
     found = ", ".join(repr(label) for label, _ in columns) or "none"
-    for required in ("t", "u"):
+    # no command column: the experiment's scenario gives the command (or one is proposed from a
+    # measured pressure's edges, :func:`pneucore.data.command.propose_command`)
+    for required in ("t",):
         if required not in parsed:
             raise MeasurementError(
                 f"required column {required!r} is missing (columns found: {found})",
@@ -877,13 +985,14 @@ class Measurement:
     def validate(self) -> "Measurement":
         """Check the data and fill missing commands; raise on any problem.
 
-        Checks, in order: array shapes and signal names; presence of ``u``;
+        Checks, in order: array shapes and signal names;
         ``MIN_SAMPLES <= n <= MAX_SAMPLES``; ``t`` finite and strictly
         increasing; no infinite values; no signal entirely missing; a first
         command sample present; ``u`` within [-1, 1]; pressures > 0 Pa
         absolute; temperatures > 0 K; at least one measured signal besides
         ``u``. Missing ``u`` samples are then filled in place by holding the
-        previous value (zero-order hold).
+        previous value (zero-order hold). A record without ``u`` (a rig that logs no
+        command) is valid: its experiment's scenario gives the command.
 
         Returns
         -------
@@ -905,9 +1014,6 @@ class Measurement:
                     f"unknown signal {sig!r}; known names: {', '.join(SIGNALS)}", column=sig)
             if arr.shape != (n,):
                 raise self._err(f"has shape {arr.shape} but 't' has {n} samples", sig)
-        if "u" not in self.signals:
-            raise MeasurementError("required column 'u' (valve command) is missing",
-                                   column="u")
         if n > MAX_SAMPLES:
             raise MeasurementError(
                 f"too many samples: {n} rows found, at most MAX_SAMPLES = {MAX_SAMPLES} "
@@ -921,7 +1027,7 @@ class Measurement:
         bad = np.flatnonzero(~np.isfinite(t))
         if bad.size:
             i = int(bad[0])
-            what = "missing" if np.isnan(t[i]) else f"infinite ({t[i]})"
+            what = "missing" if np.isnan(t[i]) else f"infinite ({float(t[i]):g})"
             raise self._err(f"time is {what}; 't' must be finite in every row", "t", i)
         dt = np.diff(t)
         bad = np.flatnonzero(~(dt > 0.0))
@@ -938,7 +1044,7 @@ class Measurement:
             bad = np.flatnonzero(np.isinf(arr))
             if bad.size:
                 i = int(bad[0])
-                raise self._err(f"infinite value ({arr[i]}) after conversion to "
+                raise self._err(f"infinite value ({float(arr[i]):g}) after conversion to "
                                 f"{SIGNAL_UNITS[sig]}", sig, i)
             finite = np.isfinite(arr)
             if sig == "u" and not finite[0]:
@@ -961,11 +1067,11 @@ class Measurement:
                 if bad.size:
                     i = int(bad[0])
                     if sig in _PRESSURES:
-                        msg = (f"absolute pressure {arr[i]!r} Pa is not positive (gauge "
+                        msg = (f"absolute pressure {float(arr[i]):g} Pa is not positive (gauge "
                                "columns such as 'p_a[barg]' are converted by adding "
                                "the ambient pressure)")
                     else:
-                        msg = f"temperature {arr[i]!r} K is not positive"
+                        msg = f"temperature {float(arr[i]):g} K is not positive"
                     raise self._err(msg, sig, i)
 
         if not self.measured_signals:
@@ -973,8 +1079,8 @@ class Measurement:
                 "no measured signal besides 'u'; provide at least one of "
                 + ", ".join(s for s in SIGNALS if s != "u"))
 
-        u = self.signals["u"]
-        missing = np.isnan(u)
+        u = self.signals.get("u")
+        missing = np.isnan(u) if u is not None else np.zeros(0, bool)
         if missing.any():
             idx = np.where(missing, 0, np.arange(n))
             np.maximum.accumulate(idx, out=idx)
@@ -1078,8 +1184,8 @@ class Measurement:
             is always kept, then only samples where ``u`` differs from the
             previous sample. ``u`` holds its value until the next breakpoint.
         """
-        u = self.signals["u"]
-        if self.n == 0:
+        u = self.signals.get("u")
+        if self.n == 0 or u is None:
             return []
         keep = np.ones(self.n, dtype=bool)
         keep[1:] = u[1:] != u[:-1]

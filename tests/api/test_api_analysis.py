@@ -238,10 +238,9 @@ def test_inline_bad_columns(client):
                        "experiments[0].measurement", msg_contains="p_a")
     e = inline_experiment("clean", "free-pulses")
     del e["measurement"]["u"]
-    r = client.post("/api/compare", json={"model": model(), "experiments": [e]})
-    assert r.status_code == 422
-    err = r.json()["detail"][0]
-    assert err["type"] == "missing" and err["loc"] == ["body", "experiments", 0, "measurement", "u"]
+    # a record without a command needs the scenario's (issue 28): the 422 names where it goes
+    assert_field_error(client.post("/api/compare", json={"model": model(), "experiments": [e]}),
+                       "experiments[0].scenario.command", msg_contains="propose-command")
 
 
 def test_inline_command_outside_4way_range(client):

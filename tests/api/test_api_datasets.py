@@ -135,8 +135,11 @@ def test_json_body_errors(client):
     n0 = n_datasets(client)
     r = client.post("/api/datasets", json={"measurement": _json_meas(name="x", u=[0, "x"] + [0] * 10)})
     assert r.status_code == 422 and r.json()["detail"][0]["loc"] == ["body", "measurement", "u", 1]
-    r = client.post("/api/datasets", json={"measurement": {"t": [0.0, 0.001], "name": "x"}})
+    r = client.post("/api/datasets", json={"measurement": {"u": [0.0, 0.0], "name": "x"}})
     assert r.status_code == 422 and r.json()["detail"][0]["type"] == "missing"
+    # a record without u is accepted (issue 28), but not one with nothing measured
+    r = client.post("/api/datasets", json={"measurement": {"t": [0.0, 0.001], "name": "x"}})
+    assert_field_error(r, "measurement")
     r = client.post("/api/datasets", json={"measurement": _json_meas(name="x"), "colour": "red"})
     assert r.status_code == 422 and r.json()["detail"][0]["type"] == "extra_forbidden"
     bad_t = _json_meas(name="x")

@@ -450,13 +450,21 @@ def test_error_duplicate_column():
     assert "'p_a[bar]'" in str(exc.value) and "'p_a[Pa]'" in str(exc.value)
 
 
-@pytest.mark.parametrize("missing", ["t", "u"])
-def test_error_required_column(missing):
+def test_error_required_column():
     cols = basic()
-    del cols[missing]
+    del cols["t"]
     with pytest.raises(MeasurementError, match="required column") as exc:
         read_csv(make_csv(cols))
-    assert_points_at(exc, missing, None)
+    assert_points_at(exc, "t", None)
+
+
+def test_a_record_without_a_command_column_is_read():
+    # rigs often log no command: the experiment's scenario gives it (issue 28)
+    cols = basic()
+    del cols["u"]
+    m = read_csv(make_csv(cols))
+    assert "u" not in m.signals and m.measured_signals
+    assert m.command_breakpoints() == []
 
 
 def test_error_no_measured_signal():
@@ -551,3 +559,54 @@ def test_exported_simulation_reads_back():
         # 10 significant digits written: relative rounding at most 5e-10
         np.testing.assert_allclose(m.signals[s], res.series[s], rtol=1e-9)
     assert "m_a[kg]" in m.meta["import"]["ignored_columns"]
+
+
+# ------------------------------------------------------------------ sensors (issue 28, item 2)
+def test_a_sensor_in_raw_volts_with_gain_offset_and_gauge_reference():
+    # 1.5 V at 2 bar/V with a -0.5 bar zero is 2.5 bar gauge: 2.5e5 Pa + the rig's ambient
+    text = make_csv({"t": lambda i: f"{0.01 * i:.2f}", "pV": 1.5, "pos": 10.0})
+    m = read_csv(text, ambient_pressure=95000.0, columns={
+        "pV": {"signal": "p_a", "unit": "bar", "gain": 2.0, "offset": -0.5, "reference": "gauge",
+               "raw_unit": "V"},
+        "pos": {"signal": "x", "unit": "mm", "offset": -3.0}})
+    # exact in binary up to the last bit of 2.5e5 + 95000 and 7 mm / 1000
+    np.testing.assert_allclose(m["p_a"], 345000.0, rtol=1e-15)
+    np.testing.assert_allclose(m["x"], 0.007, rtol=1e-15)
+    conv = {c["signal"]: c for c in m.meta["import"]["conversions"]}
+    assert conv["p_a"] == {"column": "pV", "signal": "p_a", "from": "barg", "to": "Pa",
+                           "ambient_pressure": 95000.0, "how": "mapping", "gain": 2.0,
+                           "offset": -0.5, "raw_unit": "V"}
+    assert conv["x"]["offset"] == -3.0 and conv["x"]["from"] == "mm"
+
+
+def test_a_sensor_reference_overrides_the_units_gauge_mark():
+    text = make_csv({"t": lambda i: f"{0.01 * i:.2f}", "p_a[barg]": 3.0})
+    m = read_csv(text, columns={"p_a[barg]": {"signal": "p_a", "reference": "absolute"}})
+    assert m["p_a"][0] == 3e5     # 3 bar absolute, no ambient added
+
+
+@pytest.mark.parametrize("sensor, where", [
+    ({"signal": "p_a", "gain": 0}, "columns.pV.gain"),
+    ({"signal": "p_a", "offset": float("nan")}, "columns.pV.offset"),
+    ({"signal": "p_a", "gain": True}, "columns.pV.gain"),
+    ({"signal": "p_a", "bias": 1}, "columns.pV"),
+    ({"signal": "T_a", "reference": "gauge"}, "columns.pV.reference"),
+    ({"signal": "p_a", "raw_unit": "V" * 40}, "columns.pV.raw_unit"),
+    ({"unit": "bar"}, "columns.pV.signal"),
+])
+def test_a_bad_sensor_names_its_field(sensor, where):
+    text = make_csv({"t": lambda i: f"{0.01 * i:.2f}", "pV": 1.5})
+    with pytest.raises(MeasurementError) as exc:
+        read_csv(text, columns={"pV": sensor})
+    assert exc.value.column == where
+
+
+def test_messages_carry_numbers_not_numpy_reprs():
+    # a pressure sensor at its zero read as absolute: 0 Pa is refused, written as a number
+    with pytest.raises(MeasurementError) as exc:
+        read_csv(make_csv(basic(p_a=0.0)))
+    assert "absolute pressure 0 Pa is not positive" in str(exc.value)
+    assert "np." not in str(exc.value)
+    with pytest.raises(MeasurementError) as exc:
+        read_csv(make_csv(basic(**{"T_a": -1.0})))
+    assert "temperature -1 K" in str(exc.value) and "np." not in str(exc.value)

@@ -1,0 +1,121 @@
+'use strict';
+/* A rig's record as it comes (panel 4): the chosen dataset plotted as soon as it is chosen or
+ * uploaded; for a record without a valve command (no u column), a command proposed from its
+ * pressure's edges (POST /api/datasets/{id}/propose-command) drawn over the data in an editable
+ * box: what the box holds is the experiment's scenario.command, sent with every analysis, and
+ * the page says where it came from. Known values (panel 5): parameter paths the fits never move.
+ * User text is inserted with textContent / esc(). */
+
+const RIG = { commands: {}, sources: {} };   // dataset id -> [[t, u], ...] / 'proposed' | 'edited'
+
+function commandText(cmd) { return cmd.map(([t, u]) => `${t} ${u}`).join('\n'); }
+
+function parseCommandText(text) {
+  const out = [];
+  const lines = text.split('\n');
+  for (let i = 0; i < lines.length; i++) {
+    const s = lines[i].trim();
+    if (!s) continue;
+    const parts = s.split(/[\s,;]+/).map(Number);
+    if (parts.length !== 2 || !parts.every(Number.isFinite)) throw new Error(`line ${i + 1}: expected "t u" (time [s], command [-])`);
+    out.push(parts);
+  }
+  if (!out.length) throw new Error('the command is empty: give at least one "t u" line');
+  return out;
+}
+
+/** The experiments with the command of each record that has none (beside the context stored
+ * with the dataset: an experiment's own scenario replaces the stored one). */
+function applyCommands() {
+  for (const e of S.experiments) {
+    const cmd = RIG.commands[e.dataset_id];
+    if (!cmd) continue;
+    const info = (S.datasets || []).find((d) => d.id === e.dataset_id);
+    e.scenario = Object.assign({}, (info && info.scenario) || {}, e.scenario || {}, { command: cmd });
+  }
+}
+
+function plotDataset(id, meas, cmd) {
+  const traces = [];
+  for (const sig of ['p_a', 'p_b', 'x', 'v', 'T_a', 'T_b']) {
+    if (!meas[sig]) continue;
+    const row = sig.startsWith('p') ? 'y' : (sig === 'x' || sig === 'v' ? 'y2' : 'y3');
+    traces.push({ x: meas.t, y: toDisplay(sig, meas[sig]), yaxis: row, mode: 'lines', name: `${sig} measured`,
+      line: { color: SIG_COLORS[sig] || '#555', width: 1.2 } });
+  }
+  const u = cmd ? null : meas.u;
+  if (cmd) {
+    const tEnd = meas.t[meas.t.length - 1];
+    const xs = [], ys = [];
+    cmd.forEach(([t, v], k) => { const t1 = k + 1 < cmd.length ? cmd[k + 1][0] : tEnd; xs.push(t, t1); ys.push(v, v); });
+    traces.push({ x: xs, y: ys, yaxis: 'y3', mode: 'lines', name: `u ${RIG.sources[id] || 'proposed'}`, line: { color: '#ff7f0e', width: 1.6 } });
+  } else if (u) {
+    traces.push({ x: meas.t, y: u, yaxis: 'y3', mode: 'lines', name: 'u measured', line: { color: '#ff7f0e', width: 1.2 } });
+  }
+  const layout = baseLayout({ height: 360, margin: { l: 64, r: 20, t: 30, b: 46 } });
+  layout.xaxis = axis('time t [s]', { anchor: 'y3' });
+  layout.yaxis = axis(`pressure [${plotUnit('Pa').label}]`, { domain: [0.68, 1] });
+  layout.yaxis2 = axis(`position [${plotUnit('m').label}]`, { domain: [0.36, 0.64] });
+  layout.yaxis3 = axis('command u [-]', { domain: [0, 0.3] });
+  plot('dataset-plot', traces, layout);
+}
+
+async function showDatasetData(list) {
+  const box = $('#dataset-command-box');
+  const plotEl = $('#dataset-plot');
+  box.hidden = true;
+  if (list.length !== 1) { plotEl.hidden = true; return; }
+  const d = list[0];
+  let meas;
+  try { meas = await measured(d.id); } catch (e) { return; }
+  if (($('#dataset-select').value || '') !== `ds:${d.id}` && !($('#dataset-select').value || '').startsWith('sample:')) return;
+  plotEl.hidden = false;
+  if (meas.u) { plotDataset(d.id, meas, null); return; }
+  if (!RIG.commands[d.id]) {
+    try {
+      const p = await api('POST', `/api/datasets/${encodeURIComponent(d.id)}/propose-command`, {});
+      RIG.commands[d.id] = p.command;
+      RIG.sources[d.id] = 'proposed';
+      $('#dataset-command-note').textContent = `The record has no valve command (u). Proposed from ${p.signal}: ${p.note}.`;
+    } catch (e) {
+      RIG.commands[d.id] = [[0, 0]];
+      RIG.sources[d.id] = 'edited';
+      $('#dataset-command-note').textContent = 'The record has no valve command (u) and none could be proposed: enter it below.';
+    }
+  }
+  $('#dataset-command').value = commandText(RIG.commands[d.id]);
+  $('#dataset-command').dataset.datasetId = d.id;
+  $('#dataset-command-source').textContent = RIG.sources[d.id] === 'proposed'
+    ? 'command source: proposed from the pressure edges (edit to correct it)' : 'command source: entered on this page';
+  box.hidden = false;
+  applyCommands();
+  plotDataset(d.id, meas, RIG.commands[d.id]);
+}
+
+function onCommandEdit() {
+  const ta = $('#dataset-command');
+  const id = ta.dataset.datasetId;
+  if (!id) return;
+  clearFieldError(ta);
+  try {
+    RIG.commands[id] = parseCommandText(ta.value);
+    RIG.sources[id] = 'edited';
+    $('#dataset-command-source').textContent = 'command source: entered on this page';
+    applyCommands();
+    if (S.measured[id]) plotDataset(id, S.measured[id], RIG.commands[id]);
+  } catch (e) {
+    fieldError('experiments.command', e.message, ta);
+  }
+}
+
+/** Known values of panel 5: parameter paths, comma- or space-separated. */
+function knownPaths() {
+  const el = $('#diag-known');
+  return el ? el.value.split(/[\s,;]+/).filter(Boolean) : [];
+}
+
+function wireRigData() {
+  $('#dataset-command').addEventListener('change', onCommandEdit);
+}
+
+if (document.readyState === 'loading') document.addEventListener('DOMContentLoaded', wireRigData); else wireRigData();
