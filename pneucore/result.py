@@ -73,7 +73,7 @@ class SimulationResult:
         s["T_b"] = y_out[:, L.Y_TB]
         s["m_a"] = y_out[:, L.Y_MA]
         V_b = aux_out[:, L.AUX_VB]
-        if eff.valve.kind == "3/2":
+        if eff.b_chamber_pressure is not None:
             s["m_b"] = s["p_b"] * V_b / (eff.gas.r * s["T_b"])
         else:
             s["m_b"] = y_out[:, L.Y_MB]
