@@ -209,7 +209,10 @@ def validate_effects(effects, model):
         vals = {}
         for p in eff.parameters:
             v = params.get(p.name, p.default)
-            vals[p.name] = number(v, f"{path}.{p.name}", low=p.min, high=p.max)
+            try:
+                vals[p.name] = number(v, f"{path}.{p.name}", low=p.min, high=p.max)
+            except FieldError as e:
+                raise FieldError(e.path, f"{e.detail} [{p.unit}]") from None
         ok, why = eff.applicable(model)
         if not ok:
             raise FieldError(path, f"cannot be added to this model: {why}")
