@@ -34,7 +34,7 @@ LAYOUT = {
                  "heat_compare", "history", "hypotheses", "metrics", "report"},
     "study": {"__main__", "_warm", "_worker", "definition", "execute", "metrics", "results", "store"},
 }
-TOP_LEVEL = {"__main__", "_moved", "cli", "progress", "result", "simulate"}
+TOP_LEVEL = {"__main__", "_moved", "cli", "progress", "result", "simulate", "strokes"}
 
 
 def test_public_api_is_unchanged():
