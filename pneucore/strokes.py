@@ -86,18 +86,23 @@ def stroke_metrics(res, model):
         of the first full stroke each way [s]; ``end_speed_max``: the largest stroke end
         velocity [m/s]
     """
-    t = np.asarray(res.t, float)
-    v = np.asarray(res.v, float)
+    # a run stopped early (status != 0) has NaN samples after the last time reached
+    ok = np.isfinite(np.asarray(res.x, float))
+    n = int(np.argmin(ok)) if not ok.all() else len(ok)
+    t = np.asarray(res.t, float)[:n]
+    v = np.asarray(res.v, float)[:n]
     j = model.jack
     p_atm = model.ambient.pressure
     dp_s = model.supply.pressure - p_atm
-    out_ext = (res.p_a - p_atm) * j.area_a - (res.p_b - p_atm) * j.area_b
-    n = len(t)
+    out_ext = (res.p_a[:n] - p_atm) * j.area_a - (res.p_b[:n] - p_atm) * j.area_b
     # cumulative supply draw (trapezoid) [kg], to difference between commands
-    q = np.asarray(res.q_supply, float)
+    q = np.asarray(res.q_supply, float)[:n]
     cum = np.concatenate(([0.0], np.cumsum(0.5 * (q[1:] + q[:-1]) * np.diff(t))))
 
-    cmd = [e["t"] for e in res.events if e["kind"] == "command"]
+    if n < 2:
+        return {"strokes": [], "full_stroke_time_extend": None, "full_stroke_time_retract": None,
+                "end_speed_max": None, "air_per_cycle_NL": None}
+    cmd = [e["t"] for e in res.events if e["kind"] == "command" and e["t"] <= t[-1]]
     strokes = []
     for k, tc in enumerate(cmd):
         t_next = cmd[k + 1] if k + 1 < len(cmd) else math.inf
@@ -135,7 +140,8 @@ def stroke_metrics(res, model):
             s["force_90_time"] = None if t90 is None else max(t90 - tc, 0.0)
         if i1 > i0:
             s["air_NL"] = float((cum[min(i1, n) - 1] - cum[i0]) / RHO_REF * 1000.0)
-        strokes.append(s)
+        strokes.append({k: (None if isinstance(val, float) and not math.isfinite(val) else val)
+                        for k, val in s.items()})
 
     def first(direction, key):
         vals = [s[key] for s in strokes if s["direction"] == direction and s[key] is not None]
