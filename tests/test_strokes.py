@@ -91,3 +91,16 @@ def test_meter_out_throttle_slows_the_stroke_and_the_end_speed():
         ends.append(ext["end_speed"])
     assert times[0] < times[1] < times[2]
     assert ends[0] > ends[1] > ends[2]
+
+
+def test_csv_export_carries_the_stroke_metrics_and_still_reads_back():
+    from pneucore.data.export import simulation_csv
+    from pneucore.data.measurement import read_csv
+    res = simulate(_model(), _cycle())
+    text = simulation_csv(res, series=["t", "u", "p_a", "x"])
+    first = text.splitlines()[0]
+    sm = res.stroke_metrics()
+    assert f"full stroke time extending {sm['full_stroke_time_extend']:.4g} s" in first
+    assert f"air per cycle {sm['air_per_cycle_NL']:.4g} NL" in first
+    meas = read_csv(text)
+    assert len(meas.t) == len(res.t)
