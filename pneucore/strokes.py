@@ -15,8 +15,8 @@ valve is switched:
    chamber (here: the output ``(p_drive - p_atm) A_drive - (p_other - p_atm)
    A_other`` from the sampled pressures, linear interpolation between samples);
 4. **stroke end velocity**: the piston's speed on arriving at the stroke end
-   (here: ``|v|`` at the last output sample before the stop event, within one
-   sample period of the impact);
+   (here: ``|v + a (t_stop - t_k)|`` from the last output sample ``k`` before the
+   stop event, its speed carried to the located impact time with its acceleration);
 
 and its charts give the **average speed** as the stroke over the full stroke
 time. Besides those: the **maximum speed** over the stroke (sampled), and the
@@ -50,7 +50,8 @@ STROKE_FIELDS = {
     "force_90_time": ("s", "valve switching to 90 % of the theoretical output (SMC 3)"),
     "mean_speed": ("m/s", "stroke / full stroke time (SMC's average speed)"),
     "max_speed": ("m/s", "largest |v| between the switching and the stroke end (sampled)"),
-    "end_speed": ("m/s", "|v| on arriving at the stroke end (last sample before the stop)"),
+    "end_speed": ("m/s", "|v| on arriving at the stroke end (last sample before the stop, "
+                         "carried to the impact with its acceleration)"),
     "air_NL": ("NL", "air drawn from the supply from this command to the next, ANR"),
 }
 
@@ -91,6 +92,7 @@ def stroke_metrics(res, model):
     n = int(np.argmin(ok)) if not ok.all() else len(ok)
     t = np.asarray(res.t, float)[:n]
     v = np.asarray(res.v, float)[:n]
+    acc = np.asarray(res.a, float)[:n]
     j = model.jack
     p_atm = model.ambient.pressure
     dp_s = model.supply.pressure - p_atm
@@ -124,7 +126,9 @@ def stroke_metrics(res, model):
             s["mean_speed"] = j.stroke / s["full_stroke_time"] if t_stop > tc else None
             i_stop = int(np.searchsorted(t, t_stop, side="left"))
             if i_stop > i0:
-                s["end_speed"] = float(abs(v[i_stop - 1]))
+                # the last sample's speed carried to the stop with its acceleration
+                k = i_stop - 1
+                s["end_speed"] = float(abs(v[k] + acc[k] * (t_stop - t[k])))
                 s["max_speed"] = float(np.max(np.abs(v[i0:i_stop])))
         if slips:
             s["start_up_time"] = float(slips[0]["t"] - tc)
