@@ -26,7 +26,8 @@ PUBLIC = [
 
 #: The subpackages and the modules each holds (a new module is added here on purpose)
 LAYOUT = {
-    "physics": {"chamber", "flow", "friction", "gas", "heat", "jack", "series", "valve", "vessel"},
+    "physics": {"chamber", "flow", "friction", "gas", "heat", "jack", "series", "tube", "valve",
+                "vessel"},
     "core": {"cache", "integrator", "layout", "rhs"},
     "spec": {"docstrings", "effects", "model", "paths", "presets", "scenario", "units", "validation"},
     "data": {"experiment", "export", "fileformats", "matfile", "measurement", "npz", "samples", "synthetic"},

@@ -36,6 +36,7 @@ import functools
 from pneucore.core import layout as L
 from pneucore.physics.heat import HEAT_PARAMETERS, add_wall
 from pneucore.physics.series import combine_table
+from pneucore.physics.tube import line_volume, tube_characteristic
 from pneucore.spec.validation import FieldError, mapping, number, optional_mapping
 
 
@@ -440,6 +441,37 @@ def _silencer_series(p, model):
     return {edge: ([], [(p["C"], p["b"])]) for edge in ("A-R", "B-R")}
 
 
+def _check_line_ports(p, model, path):
+    for sfx, (port, exhaust, _) in _FLOW_CONTROL_PORTS.items():
+        if p[f"length_{sfx}"] > 0.0 and exhaust not in model.valve.ports:
+            raise FieldError(f"{path}.length_{sfx}",
+                             f"the {model.valve.kind} valve has no port {port}: set length_{sfx} "
+                             f"to 0 (no line) [m]")
+
+
+def _tubing_transform(m, p):
+    m.jack.dead_volume_a += line_volume(p["diameter_a"], p["length_a"])
+    m.jack.dead_volume_b += line_volume(p["diameter_b"], p["length_b"])
+
+
+@functools.lru_cache(maxsize=1024)
+def _line(diameter, length, p0, T0):
+    return tube_characteristic(diameter, length, p0, T0)
+
+
+def _tubing_series(p, model):
+    # the line's resistance sits between the valve and the chamber: downstream of the supply
+    # edge, upstream of the exhaust edge; its friction evaluated at the supply pressure
+    out = {}
+    for sfx, (_, exhaust, supply) in _FLOW_CONTROL_PORTS.items():
+        if p[f"length_{sfx}"] > 0.0:
+            cb = _line(p[f"diameter_{sfx}"], p[f"length_{sfx}"], model.supply.pressure,
+                       model.supply.temperature)
+            out[supply] = ([], [cb])
+            out[exhaust] = ([cb], [])
+    return out
+
+
 def _flow_control_parameters(what):
     return [Parameter("C_a", _C_UNIT, 3e-9, 0.0, 1e-6, 0.0,
                       f"sonic conductance of the {what} throttle on port A (0 = none)"),
@@ -619,6 +651,21 @@ for _e in [
            _flow_control_parameters("meter-in"),
            strength="C_a", series=_meter_in_series, check=_check_ports,
            fit_params=("C_a", "C_b"), probe={"C_a": 3e-9, "C_b": 3e-9}),
+    Effect("tubing",
+           "the line between valve and chamber on each port, lumped: its volume pi d^2 L / 4 "
+           "joins the dead volume, its resistance (Fanno flow with wall friction) is in series "
+           "with the port's valve edges (ISO 6358-3); no transport delay",
+           "both filling and exhausting slower than the model, most at the small-volume end of "
+           "stroke, and a flow limit the valve alone does not have: a dead volume fits the "
+           "pressure rise, not the flow",
+           "Shapiro (1953) Fanno flow; Haaland (1983) friction; ISO 6358-3:2014 series combination",
+           [Parameter("length_a", "m", 2.0, 0.0, 50.0, 0.0, "line length on port A (0 = none)"),
+            Parameter("diameter_a", "m", 4e-3, 5e-4, 0.05, None, "inner diameter on port A"),
+            Parameter("length_b", "m", 2.0, 0.0, 50.0, 0.0, "line length on port B (0 = none)"),
+            Parameter("diameter_b", "m", 4e-3, 5e-4, 0.05, None, "inner diameter on port B")],
+           strength="length_a", transform=_tubing_transform, series=_tubing_series,
+           check=_check_line_ports, fit_params=("length_a", "length_b"),
+           probe={"length_a": 1.0, "length_b": 1.0}),
     Effect("exhaust_silencer",
            "a silencer on the valve's exhaust ports: an ISO 6358 restriction in series with "
            "each exhaust edge, with no volume between (ISO 6358-3)",
