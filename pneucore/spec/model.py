@@ -285,7 +285,7 @@ class Valve:
         law = choice(d.get("flow_law", "iso6358"), FLOW_LAWS, f"{path}.flow_law")
         r_lam = number(d.get("laminar_ratio", R_LAMINAR), f"{path}.laminar_ratio", low=0.9,
                        high=1.0, high_open=True)
-        dflt = cls()
+        dflt = cls          # the defaults are the dataclass's class attributes
         mode = choice(d.get("b_chamber", dflt.b_chamber), B_CHAMBER_MODES, f"{path}.b_chamber")
         b_C = number(d.get("b_chamber_conductance", dflt.b_chamber_conductance),
                      f"{path}.b_chamber_conductance", nonnegative=True)
@@ -312,9 +312,8 @@ class Valve:
         d = {"kind": self.kind, "ports": {k: p.to_dict() for k, p in self.ports.items()},
              "b_chamber_pressure": self.b_chamber_pressure, "flow_law": self.flow_law,
              "laminar_ratio": self.laminar_ratio}
-        dflt = Valve()
         for key in ("b_chamber", "b_chamber_conductance", "b_chamber_critical_ratio"):
-            if getattr(self, key) != getattr(dflt, key):
+            if getattr(self, key) != getattr(Valve, key):
                 d[key] = getattr(self, key)
         return d
 
