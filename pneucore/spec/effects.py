@@ -675,6 +675,6 @@ for _e in [
            [Parameter("C", _C_UNIT, 1e-8, 0.0, 1e-6, 0.0,
                       "sonic conductance of the silencer (0 = none)"),
             Parameter("b", "-", 0.4, 0.0, 0.99, None, "its critical pressure ratio")],
-           strength="C", series=_silencer_series, fit_params=("C",), probe={"C": 1e-8}),
+           strength="C", series=_silencer_series, fit_params=("C",), probe={"C": 5e-9}),
 ]:
     register_effect(_e)
