@@ -15,7 +15,7 @@ from pydantic.fields import FieldInfo
 
 from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
 from pneucore.spec.docstrings import api_description
-from pneucore.spec.model import (VALVE_KINDS, Friction, FrictionSet, Gas, Heat, Jack, Model,
+from pneucore.spec.model import (B_CHAMBER_MODES, VALVE_KINDS, Friction, FrictionSet, Gas, Heat, Jack, Model,
                                  PortTable, Source, Valve)
 from pneucore.spec.scenario import COMMAND_INTERPOLATIONS, Initial, Scenario, Solver
 from pneucore.study.definition import DISTRIBUTIONS
@@ -69,6 +69,7 @@ _JACK, _VALVE, _FRICTION_SET, _GAS, _MODEL = Jack(), Valve(), FrictionSet(), Gas
 _SCENARIO, _SOLVER = Scenario(), Solver()
 #: the choices of the pneucore registries, as pydantic literals
 _VALVE_KIND = Literal[tuple(VALVE_KINDS)]
+_B_CHAMBER = Literal[tuple(B_CHAMBER_MODES)]
 _INTERPOLATION = Literal[tuple(COMMAND_INTERPOLATIONS)]
 _DISTRIBUTION_FIELDS = "; ".join(f"{name}: {', '.join(d.required + d.optional)}"
                                  for name, d in DISTRIBUTIONS.items())
@@ -86,6 +87,7 @@ class JackIn(_Strict):
     load_force: Number = from_lib(_JACK, "load_force")
     wall_area_a: Optional[Number] = from_lib(_JACK, "wall_area_a")
     wall_area_b: Optional[Number] = from_lib(_JACK, "wall_area_b")
+    mounting_angle: Number = from_lib(_JACK, "mounting_angle")
 
 
 class PortTableIn(_Strict):
@@ -101,6 +103,9 @@ class ValveIn(_Strict):
     b_chamber_pressure: Optional[Number] = Field(None, description=described(Valve, "b_chamber_pressure"))
     flow_law: str = from_lib(_VALVE, "flow_law")
     laminar_ratio: Number = from_lib(_VALVE, "laminar_ratio")
+    b_chamber: _B_CHAMBER = from_lib(_VALVE, "b_chamber")
+    b_chamber_conductance: Number = from_lib(_VALVE, "b_chamber_conductance")
+    b_chamber_critical_ratio: Number = from_lib(_VALVE, "b_chamber_critical_ratio")
 
 
 class SourceIn(_Strict):

@@ -46,7 +46,8 @@ class SimulationResult:
     events : list of dict
         ``{"t": [s], "kind": "command|slip|stick|stop|reverse", "mode": ...}``
     stats : dict
-        Solver statistics (steps, rejected, rhs evaluations, jacobians, events, back-steps)
+        Solver statistics (steps, rejected, rhs evaluations, jacobians, events, back-steps);
+        :meth:`summary` adds ``stroke``, the stroke metrics (:meth:`stroke_metrics`)
     series : dict
         Every sampled series by name, including effect states (e.g. ``p_a_sensor``)
     """
@@ -59,8 +60,18 @@ class SimulationResult:
         self.scenario = scenario
         self.status = status
         self.message = message
+        self._strokes = None
         for k, v in series.items():
             setattr(self, k, v)
+
+    def stroke_metrics(self):
+        """Start-up time, full stroke time, 90 % force time, mean, maximum and stroke end
+        speed per stroke, and the air used per cycle [NL] (:func:`pneucore.strokes.stroke_metrics`,
+        SMC's definitions); computed on first use."""
+        if self._strokes is None:
+            from pneucore.strokes import stroke_metrics
+            self._strokes = stroke_metrics(self, self.model)
+        return self._strokes
 
     @classmethod
     def from_core(cls, model, scenario, core, t_out, y_out, aux_out, mode_out, u_out,
@@ -73,7 +84,7 @@ class SimulationResult:
         s["T_b"] = y_out[:, L.Y_TB]
         s["m_a"] = y_out[:, L.Y_MA]
         V_b = aux_out[:, L.AUX_VB]
-        if eff.valve.kind == "3/2":
+        if eff.b_chamber_pressure is not None:
             s["m_b"] = s["p_b"] * V_b / (eff.gas.r * s["T_b"])
         else:
             s["m_b"] = y_out[:, L.Y_MB]
@@ -151,8 +162,11 @@ class SimulationResult:
             Series whose units are listed (default: all)
         """
         names = series or list(self.series)
+        stats = dict(self.stats)
+        if "t" in self.series and "q_supply" in self.series and len(self.t):
+            stats["stroke"] = self.stroke_metrics()
         return {"units": {k: SERIES_UNITS.get(k, _state_unit(k)) for k in names},
-                "events": list(self.events), "stats": dict(self.stats), "status": self.status,
+                "events": list(self.events), "stats": stats, "status": self.status,
                 "message": self.message}
 
     def to_pandas(self):

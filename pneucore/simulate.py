@@ -112,7 +112,7 @@ def build_core(model, scenario):
     prm[P["V0_A"]] = j.dead_volume_a
     prm[P["V0_B"]] = j.dead_volume_b
     prm[P["MASS"]] = j.moving_mass
-    prm[P["LOAD"]] = j.load_force
+    prm[P["LOAD"]] = j.total_load
     prm[P["BORE"]] = j.bore
     prm[P["ROD_A"]] = j.rod_a
     prm[P["ROD_B"]] = j.rod_b
@@ -132,14 +132,14 @@ def build_core(model, scenario):
     prm[P["FLOW_LAW"]] = flow_law.code
     prm[P["FRICTION_LAW"]] = friction_law.code
     prm[P["R_LAM"]] = eff.valve.laminar_ratio
-    if eff.valve.kind == "3/2":
+    if eff.b_chamber_pressure is not None:
         prm[P["B_CONST"]] = eff.b_chamber_pressure
     for k, name in enumerate(L.PORT_NAMES):
         port = eff.valve.ports.get(name)
         if port is not None:
             prm[P["CMAX_PA"] + k] = port.C_max
             prm[P["BMAX_PA"] + k] = port.b_at_C_max
-    tx, tC, tb, tm, toff = pack_tables(eff.valve.ports)
+    tx, tC, tb, tm, toff = pack_tables(eff.valve.core_ports())
 
     # initial state (Eq. 22-24): m = p V / (r T)
     ini = scenario.initial
@@ -150,7 +150,7 @@ def build_core(model, scenario):
     T_a = T_amb if isothermal or ini.T_a is None else ini.T_a
     T_b = T_amb if isothermal or ini.T_b is None else ini.T_b
     p_a = ini.p_a if ini.p_a is not None else eff.ambient.pressure
-    if eff.valve.kind == "3/2":
+    if eff.b_chamber_pressure is not None:
         p_b = eff.b_chamber_pressure
         T_b = T_amb
     else:

@@ -703,10 +703,22 @@ async function simulate(btn, note = '') {
       const st = res.stats || {};
       const msg = `${res.series.t.length} samples, ${st.steps ?? '?'} steps, ${(res.events || []).length} events, ` +
         `${((performance.now() - t0) / 1000).toFixed(2)} s round trip (${st.method || ''})`;
-      $('#sim-summary').textContent = msg;
+      $('#sim-summary').textContent = msg + strokeSummary(st.stroke);
       setStatus(`${note}Simulation done: ${msg}.${res.status ? ' Solver: ' + res.message : ''}`, res.status ? 'error' : 'ok');
     } catch (e) { showApiError(e, 'Simulation'); }
   });
+}
+/** The stroke metrics of a simulation in words (pneucore/strokes.py, SMC's definitions), '' if none. */
+function strokeSummary(sm) {
+  if (!sm) return '';
+  const f = (v, unit, digits = 3) => (typeof v === 'number' ? `${v.toPrecision(digits)} ${unit}` : null);
+  const parts = [
+    ['full stroke extending', f(sm.full_stroke_time_extend, 's')],
+    ['full stroke retracting', f(sm.full_stroke_time_retract, 's')],
+    ['stroke end speed', f(sm.end_speed_max, 'm/s')],
+    ['air per cycle', f(sm.air_per_cycle_NL, 'NL')],
+  ].filter(([, v]) => v !== null).map(([k, v]) => `${k} ${v}`);
+  return parts.length ? ` · ${parts.join(', ')}` : '';
 }
 function plotSimulation() {
   const r = S.sim;

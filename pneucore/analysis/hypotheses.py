@@ -700,7 +700,7 @@ def experiment_variants(model, experiment):
     m = m0.copy()
     m.supply.pressure = amb + 0.6 * (ps - amb)
     out.append(("supply", f"the {name} test at 60 % of the supply pressure (gauge)", m, dict(scen)))
-    if m0.valve.kind == "3/2":
+    if m0.valve.kind == "3/2" and m0.valve.b_chamber == "held":
         bcp = m0.valve.b_chamber_pressure if m0.valve.b_chamber_pressure is not None else 0.5 * ps
         m = m0.copy()
         m.valve.b_chamber_pressure = amb + 0.5 * (bcp - amb)
@@ -845,7 +845,7 @@ def initial_unknowns(model, experiment):
     ini = experiment.scenario.get("initial") or {}
     out = []
     for key in ("p_a", "p_b"):
-        if key == "p_b" and model.valve.kind == "3/2":
+        if key == "p_b" and model.b_chamber_pressure is not None:
             continue
         if key not in sigs and ini.get(key) is None:
             out.append(key)

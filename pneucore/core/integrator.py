@@ -61,7 +61,7 @@ from numba import jit, njit, types
 from pneucore.core import layout as L
 from pneucore.physics.chamber import chamber_pressure
 from pneucore.physics.friction import coulomb_level
-from pneucore.physics.jack import chamber_volumes, net_pressure_force
+from pneucore.physics.jack import chamber_volumes, net_pressure_force, spring_force
 from pneucore.core.rhs import rhs, static_friction
 from numba.core.registry import CPUDispatcher
 
@@ -116,10 +116,10 @@ def _strip_wrappers(value, memo):
 
 
 _COPIES = {}
-rhs, static_friction, chamber_pressure, coulomb_level, chamber_volumes, net_pressure_force = (
-    _without_wrappers(d, _COPIES)
-    for d in (rhs, static_friction, chamber_pressure, coulomb_level, chamber_volumes,
-              net_pressure_force))
+rhs, static_friction, chamber_pressure, coulomb_level, chamber_volumes, net_pressure_force, \
+    spring_force = (_without_wrappers(d, _COPIES)
+                    for d in (rhs, static_friction, chamber_pressure, coulomb_level,
+                              chamber_volumes, net_pressure_force, spring_force))
 
 #: Event location tolerance on time [s] (the contract is 1e-6 s)
 EVENT_TOL = 1e-9
@@ -395,6 +395,10 @@ def _rest_forces(y, prm, aux):
         p_b = chamber_pressure(y[L.Y_MB], y[L.Y_TB], V_b, r)
     aux[L.AUX_FNET] = net_pressure_force(p_a, p_b, p_atm, prm[L.P_A_A], prm[L.P_A_B],
                                          prm[L.P_A_ROD_A], prm[L.P_A_ROD_B], prm[L.P_LOAD])
+    k_s = prm[L.P_SPRING_K]
+    f_s = prm[L.P_SPRING_F0]
+    if k_s != 0.0 or f_s != 0.0:
+        aux[L.AUX_FNET] -= spring_force(y[L.Y_X], k_s, f_s)
     ratio = prm[L.P_STRIBECK_RATIO]
     v_s = prm[L.P_STRIBECK_V]
     law = int(prm[L.P_FRICTION_LAW])

@@ -118,6 +118,9 @@ P_BMAX_PB = 63
 P_BMAX_BR = 64
 # friction law code (FRICTION_LAWS[...].code)
 P_FRICTION_LAW = 65
+# return spring (effect ``return_spring``): rate [N/m], force at x = 0 [N]; both 0 = none
+P_SPRING_K = 66
+P_SPRING_F0 = 67
 
 #: Slot of each parameter by name (without the ``P_`` prefix), read from the constants above
 PRM_INDEX = dict(sorted(((name[2:], i) for name, i in globals().items()

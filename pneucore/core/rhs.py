@@ -34,7 +34,7 @@ from pneucore.physics.chamber import chamber_pressure, chamber_rates, enthalpy_f
 from pneucore.physics.flow import FLOW_LAWS, iso6358_mass_flow, laminar_mass_flow
 from pneucore.physics.heat import convective_heat_flow, exchange_coefficient, wall_rate
 from pneucore.physics.friction import FRICTION_LAWS, coulomb_level, viscous_coefficient
-from pneucore.physics.jack import chamber_volumes, net_pressure_force, wall_area
+from pneucore.physics.jack import chamber_volumes, net_pressure_force, spring_force, wall_area
 from pneucore.physics.valve import table_segment
 
 
@@ -384,6 +384,10 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
     # --- piston (Eq. 17-20) -----------------------------------------------------------
     F_net = net_pressure_force(p_a, p_b, p_atm, A_a, A_b, prm[L.P_A_ROD_A], prm[L.P_A_ROD_B],
                                prm[L.P_LOAD]) + t_force
+    k_s = prm[L.P_SPRING_K]
+    f_s = prm[L.P_SPRING_F0]
+    if k_s != 0.0 or f_s != 0.0:   # return spring: a load growing with x (Eq. 17)
+        F_net -= spring_force(x, k_s, f_s)
     fc_e = coulomb_level(prm[L.P_FE_FC0], prm[L.P_FE_FCA], prm[L.P_FE_FCB], p_a, p_b, p_atm)
     fc_r = coulomb_level(prm[L.P_FR_FC0], prm[L.P_FR_FCA], prm[L.P_FR_FCB], p_a, p_b, p_atm)
     ratio = prm[L.P_STRIBECK_RATIO]

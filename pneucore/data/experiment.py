@@ -272,7 +272,7 @@ class Experiment:
         d.setdefault("sample_period", float(np.min(np.diff(meas.t))))
         ini = dict(d.get("initial") or {})
         for key in ("p_a", "p_b", "T_a", "T_b"):
-            if ini.get(key) is None and not (key == "p_b" and model.valve.kind == "3/2"):
+            if ini.get(key) is None and not (key == "p_b" and model.b_chamber_pressure is not None):
                 if key.startswith("T") and model.heat.model == "isothermal" and \
                         "heat_exchange" not in model.effects:
                     continue

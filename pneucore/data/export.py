@@ -98,16 +98,35 @@ def simulation_csv(result, series=None, units=None) -> str:
     """
     if isinstance(result, dict):
         data, units = result["series"], result.get("units", units or {})
+        stroke = (result.get("stats") or {}).get("stroke")
     else:
         d = result.to_dict(series=series, arrays=True)
         data, units = d["series"], d["units"]
+        stroke = d["stats"].get("stroke")
     names = [s for s in (series or list(data)) if s in data]
     if "t" in names:
         names.remove("t")
     names.insert(0, "t")
     header = [f"{n}[{units.get(n, '-')}]" for n in names]
     return _table(header, [_cells(data[n]) for n in names],
-                  "simulation; SI units, absolute pressures; the measured signals read back on upload")
+                  "simulation; SI units, absolute pressures; the measured signals read back on upload"
+                  + _stroke_note(stroke))
+
+
+#: Stroke metrics written on a simulation CSV's comment line: key, label, unit
+_STROKE_NOTE = (("full_stroke_time_extend", "full stroke time extending", "s"),
+                ("full_stroke_time_retract", "full stroke time retracting", "s"),
+                ("end_speed_max", "stroke end speed", "m/s"),
+                ("air_per_cycle_NL", "air per cycle", "NL"))
+
+
+def _stroke_note(stroke):
+    """``; full stroke time extending 0.112 s, ...`` from the stroke metrics (those defined)."""
+    if not isinstance(stroke, dict):
+        return ""
+    parts = [f"{label} {stroke[key]:.4g} {unit}" for key, label, unit in _STROKE_NOTE
+             if isinstance(stroke.get(key), (int, float))]
+    return "; " + ", ".join(parts) if parts else ""
 
 
 def comparison_csv(comparison) -> str:

@@ -398,3 +398,136 @@ def anr_volume_flow(q):
         Volume flow at 20 degC, 100 kPa, 65 % RH [m^3/s] (ANR)
     """
     return q / RHO_REF
+
+
+# --- valve data as catalogues give them -> C [m^3/(s Pa)] ------------------------------
+# The model keeps C and b (ISO 6358) as the one source; these convert what a catalogue
+# prints into them. Pressures absolute [Pa], flows at ANR (ISO 8778: 20 degC, 100 kPa).
+
+#: Reference atmosphere of ISO 8778 (ANR) to which catalogue gauge pressures are added [Pa]
+P_ANR = 1e5
+#: Nominal-flow test conditions of VDI 3290 / ISO 6358 catalogue data: 6 bar gauge
+#: upstream, 1 bar pressure drop (5 bar gauge downstream) [Pa]
+QN_P1_GAUGE = 6e5
+QN_DP = 1e5
+#: Kv [m^3/h of water at 1 bar] per Cv [US gal/min of water at 1 psi]: (3.785411784 L x 60)
+#: x sqrt(1e5 Pa / 6894.757 Pa), from the units' definitions (IEC 60534-1: Kv = 0.865 Cv) [-]
+KV_PER_CV = 3.785411784e-3 * 60.0 * math.sqrt(1e5 / 6894.757293168)
+
+
+def conductance_from_flow(Q, p1, p2, b, T1=T_REF):
+    """Sonic conductance from one measured flow point (ISO 6358, paper Eq. 4-5 inverted).
+
+    ``C = Q / (p1 sqrt(T0 / T1) phi(p2/p1, b))``, with ``phi`` the flow function of Eq. 4
+    (``m = 0.5``).
+
+    Parameters
+    ----------
+    Q : float
+        Volume flow at ANR (ISO 8778) [m^3/s]
+    p1 : float
+        Upstream absolute pressure [Pa]
+    p2 : float
+        Downstream absolute pressure [Pa]
+    b : float
+        Critical pressure ratio [-]
+    T1 : float
+        Upstream temperature [K]
+
+    Returns
+    -------
+    C : float
+        Sonic conductance [m^3/(s Pa)]
+
+    Examples
+    --------
+    SMC's worked example (VX solenoid valve datasheet, "Flow-rate characteristics"): a valve
+    of C = 2 dm^3/(s bar), b = 0.3 passes 420 dm^3/min (ANR) from 0.4 to 0.3 MPa gauge at
+    20 degC; back from that flow:
+
+    >>> C = conductance_from_flow(420e-3 / 60, 5e5, 4e5, 0.3)
+    >>> round(C / 1e-8, 2)     # dm^3/(s bar)
+    2.0
+    """
+    phi = iso6358_ratio_function(p2 / p1, b, 0.5)
+    return Q / (p1 * math.sqrt(T_REF / T1) * phi)
+
+
+def conductance_from_qn(qn, b):
+    """Sonic conductance from a catalogue's nominal flow Qn [NL/min] and critical ratio b.
+
+    Qn is the flow at ANR with 6 bar gauge upstream and a 1 bar drop (VDI 3290, the
+    "standard nominal flow rate" of catalogues; ISO 6358-1 conditions), gauge pressures
+    over the ANR atmosphere (100 kPa): :func:`conductance_from_flow` at 7 and 6 bar absolute.
+
+    Parameters
+    ----------
+    qn : float
+        Nominal flow [NL/min] (litres per minute at ANR)
+    b : float
+        Critical pressure ratio, which Qn alone does not give (0.3 when the catalogue is
+        silent, a common spool-valve value) [-]
+
+    Returns
+    -------
+    C : float
+        Sonic conductance [m^3/(s Pa)]
+
+    Examples
+    --------
+    A valve of C = 1 dm^3/(s bar), b = 0.3 has a nominal flow of 254 NL/min:
+
+    >>> round(conductance_from_qn(254.27, 0.3) / 1e-8, 3)
+    1.0
+    """
+    p1 = P_ANR + QN_P1_GAUGE
+    return conductance_from_flow(qn * 1e-3 / 60.0, p1, p1 - QN_DP, b)
+
+
+def conductance_from_area(S, r=R_AIR, gamma=GAMMA_AIR):
+    """Sonic conductance of an effective area S (JIS B 8390), the inverse of
+    :func:`saint_venant_area`: the ideal nozzle's choked flow (paper Eq. 2) equated to
+    Eq. 5; catalogues round it to ``S [mm^2] = 5.0 C [dm^3/(s bar)]``.
+
+    Parameters
+    ----------
+    S : float
+        Effective area [m^2]
+    r : float
+        Specific gas constant [J/(kg K)]
+    gamma : float
+        Ratio of specific heats [-]
+
+    Returns
+    -------
+    C : float
+        Sonic conductance [m^3/(s Pa)]
+
+    Examples
+    --------
+    >>> round(conductance_from_area(5e-6) / 1e-8, 3)    # 5 mm^2: about 1 dm^3/(s bar)
+    0.996
+    """
+    return S / saint_venant_area(1.0, r, gamma)
+
+
+def kv_from_cv(cv):
+    """Kv [m^3/h of water, 1 bar drop] of a valve rated Cv [US gal/min of water, 1 psi drop]
+    (:data:`KV_PER_CV`, from the units' definitions; IEC 60534-1).
+
+    Parameters
+    ----------
+    cv : float
+        Flow coefficient Cv [US gal/min]
+
+    Returns
+    -------
+    kv : float
+        Flow coefficient Kv [m^3/h]
+
+    Examples
+    --------
+    >>> round(kv_from_cv(1.0), 4)
+    0.865
+    """
+    return KV_PER_CV * cv

@@ -109,3 +109,68 @@ def net_pressure_force(p_a, p_b, p_atm, A_a, A_b, A_rod_a, A_rod_b, load):
         Force towards +x before friction [N]
     """
     return p_a * A_a - p_b * A_b + p_atm * (A_rod_a - A_rod_b) - load
+
+
+#: Standard acceleration of gravity [m/s^2] (CGPM 1901, ISO 80000-3)
+G_STANDARD = 9.80665
+#: Bound of the mounting angle: vertical, rod up (+90) or rod down (-90) [deg]
+ANGLE_MAX = 90.0
+
+
+def gravity_load(mass, angle):
+    """Weight of the moving mass along the rod, pushing towards x = 0 [N].
+
+    ``F_g = m g sin(alpha)``: with the jack horizontal (``alpha = 0``) gravity
+    takes no part in the piston's balance (paper Eq. 17); with the rod pointing
+    up (``alpha = 90 deg``) extension lifts the whole weight, with the rod
+    pointing down (``alpha = -90 deg``) the weight pulls the rod out. It adds
+    to the load of Eq. 17.
+
+    Parameters
+    ----------
+    mass : float
+        Moving mass: piston, rod and load [kg]
+    angle : float
+        Mounting angle of the rod over the horizontal, -90 to 90 [deg]
+
+    Returns
+    -------
+    F : float
+        Force towards x = 0 [N]
+
+    Examples
+    --------
+    A 1.47 kg mass lifted by a vertical jack weighs 14.4 N:
+
+    >>> round(gravity_load(1.47, 90.0), 2)
+    14.42
+    >>> gravity_load(2.0, 0.0)
+    0.0
+    """
+    return mass * G_STANDARD * math.sin(math.radians(angle))
+
+
+@njit(cache=True, error_model="numpy")
+def spring_force(x, rate, preload):
+    """Force of a return spring on the piston, pushing towards x = 0 [N].
+
+    A linear (Hooke) spring compressed by the stroke: ``F_s = F_0 + k x``, the
+    preload ``F_0`` at x = 0 (the spring-return single-acting cylinder's
+    retracted position) growing by the rate ``k`` over the stroke. It enters
+    Eq. 17 as a position-dependent load.
+
+    Parameters
+    ----------
+    x : float
+        Piston position [m]
+    rate : float
+        Spring rate k [N/m]
+    preload : float
+        Spring force at x = 0 [N]
+
+    Returns
+    -------
+    F : float
+        Force towards x = 0 [N]
+    """
+    return preload + rate * x

@@ -10,7 +10,16 @@ editing the base equations:
   model (e.g. ``dead_volume`` adds tubing volume to the jack's dead volumes);
 * ``pack(params, build)`` writes its own slots of the compiled core's
   parameter vector and declares its own states (e.g. ``valve_spool_dynamics``
-  adds the effective spool opening as a state).
+  adds the effective spool opening as a state);
+* ``series(params, model)`` puts fixed restrictions in series with the valve's
+  edges, with no volume between them (a flow control in a port, a silencer on
+  an exhaust): ``{edge: (upstream, downstream)}``, lists of ``(C, b)``. The
+  restrictions of every such effect in the model are combined with each edge
+  table once, by ISO 6358-3 (:mod:`pneucore.physics.series`).
+
+An effect may also give ``check(params, model, path)``, raising a
+:class:`~pneucore.spec.validation.FieldError` for parameters this model
+cannot take (a throttle on a port the valve does not have).
 
 With its parameters at their ``off`` values every effect reproduces the base
 model exactly. Users register their own with :func:`register_effect`, giving
@@ -22,8 +31,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable, Optional
 
+import functools
+
 from pneucore.core import layout as L
 from pneucore.physics.heat import HEAT_PARAMETERS, add_wall
+from pneucore.physics.series import combine_table
+from pneucore.physics.tube import line_volume, tube_characteristic
 from pneucore.spec.validation import FieldError, mapping, number, optional_mapping
 
 
@@ -83,6 +96,11 @@ class Effect:
     #: base retract set equal to the extend set; the effect carries their difference), so that
     #: a recalibration of one never produces a model the effect cannot be part of
     ties: dict = field(default_factory=dict)
+    #: ``series(params, model) -> {edge: (upstream, downstream)}``: fixed restrictions in
+    #: series with the valve's edges (see the module docstring)
+    series: Optional[Callable] = None
+    #: ``check(params, model, path)``: raises a FieldError for parameters this model cannot take
+    check: Optional[Callable] = None
 
     @property
     def diagnosis_params(self):
@@ -192,10 +210,15 @@ def validate_effects(effects, model):
         vals = {}
         for p in eff.parameters:
             v = params.get(p.name, p.default)
-            vals[p.name] = number(v, f"{path}.{p.name}", low=p.min, high=p.max)
+            try:
+                vals[p.name] = number(v, f"{path}.{p.name}", low=p.min, high=p.max)
+            except FieldError as e:
+                raise FieldError(e.path, f"{e.detail} [{p.unit}]") from None
         ok, why = eff.applicable(model)
         if not ok:
             raise FieldError(path, f"cannot be added to this model: {why}")
+        if eff.check is not None:
+            eff.check(vals, model, path)
         out[name] = vals
     return out
 
@@ -205,14 +228,35 @@ def effective_model(model):
 
     Returns ``model`` itself (not a copy) when no effect transforms it.
     """
-    if not any(EFFECTS[name].transform is not None for name in model.effects):
+    if not any(EFFECTS[name].transform is not None or EFFECTS[name].series is not None
+               for name in model.effects):
         return model
     m = model.copy()
+    chains = {}
     for name, params in model.effects.items():
         eff = EFFECTS[name]
         if eff.transform is not None:
             eff.transform(m, params)
+        if eff.series is not None:
+            for edge, (up, down) in eff.series(params, model).items():
+                u, d = chains.setdefault(edge, ([], []))
+                u.extend(up)
+                d.extend(down)
+    for edge, (up, down) in chains.items():
+        port = m.valve.ports.get(edge)
+        if port is None or not (up or down):
+            continue
+        C, b, mm = _combined(tuple(port.C), tuple(port.b), None if port.m is None else tuple(port.m),
+                             tuple(up), tuple(down))
+        port.C, port.b, port.m = list(C), list(b), list(mm)
     return m
+
+
+@functools.lru_cache(maxsize=4096)
+def _combined(C, b, m, up, down):
+    """:func:`pneucore.physics.series.combine_table`, memoised (a fit simulates the same
+    circuit many times)."""
+    return tuple(map(tuple, combine_table(C, b, m, up, down)))
 
 
 # ---------------------------------------------------------------------------
@@ -357,6 +401,86 @@ def _pack_sensor(p, build):
     build.iy[L.IY_SENSOR_B] = build.add_state("p_b_sensor", pb, 1e-6 * build.model.supply.pressure)
 
 
+def _pack_spring(p, build):
+    build.prm[L.P_SPRING_K] = p["rate"]
+    build.prm[L.P_SPRING_F0] = p["preload"]
+
+
+#: Ports of a flow control: the parameter suffix, the port's exhaust edge and supply edge
+_FLOW_CONTROL_PORTS = {"a": ("A", "A-R", "P-A"), "b": ("B", "B-R", "P-B")}
+#: Unit of a sonic conductance, for the messages
+_C_UNIT = "m^3/(s Pa)"
+
+
+def _check_ports(p, model, path):
+    """A flow control on a port the valve does not drive is refused, naming the parameter."""
+    for sfx, (port, exhaust, supply) in _FLOW_CONTROL_PORTS.items():
+        if p[f"C_{sfx}"] > 0.0 and exhaust not in model.valve.ports:
+            raise FieldError(f"{path}.C_{sfx}",
+                             f"the {model.valve.kind} valve has no port {port} (edges "
+                             f"{sorted(model.valve.ports)}): set C_{sfx} to 0 (no throttle) "
+                             f"[{_C_UNIT}]")
+
+
+def _meter_out_series(p, model):
+    # chamber -> throttle (check valve closed) -> exhaust edge; the check valve opens for
+    # the flow into the chamber, which passes freely (its conductance taken as large)
+    return {exhaust: ([(p[f"C_{sfx}"], p[f"b_{sfx}"])], [])
+            for sfx, (_, exhaust, _) in _FLOW_CONTROL_PORTS.items() if p[f"C_{sfx}"] > 0.0}
+
+
+def _meter_in_series(p, model):
+    # supply edge -> throttle (check valve closed) -> chamber; the exhaust passes freely
+    return {supply: ([], [(p[f"C_{sfx}"], p[f"b_{sfx}"])])
+            for sfx, (_, _, supply) in _FLOW_CONTROL_PORTS.items() if p[f"C_{sfx}"] > 0.0}
+
+
+def _silencer_series(p, model):
+    if p["C"] <= 0.0:
+        return {}
+    return {edge: ([], [(p["C"], p["b"])]) for edge in ("A-R", "B-R")}
+
+
+def _check_line_ports(p, model, path):
+    for sfx, (port, exhaust, _) in _FLOW_CONTROL_PORTS.items():
+        if p[f"length_{sfx}"] > 0.0 and exhaust not in model.valve.ports:
+            raise FieldError(f"{path}.length_{sfx}",
+                             f"the {model.valve.kind} valve has no port {port}: set length_{sfx} "
+                             f"to 0 (no line) [m]")
+
+
+def _tubing_transform(m, p):
+    m.jack.dead_volume_a += line_volume(p["diameter_a"], p["length_a"])
+    m.jack.dead_volume_b += line_volume(p["diameter_b"], p["length_b"])
+
+
+@functools.lru_cache(maxsize=1024)
+def _line(diameter, length, p0, T0):
+    return tube_characteristic(diameter, length, p0, T0)
+
+
+def _tubing_series(p, model):
+    # the line's resistance sits between the valve and the chamber: downstream of the supply
+    # edge, upstream of the exhaust edge; its friction evaluated at the supply pressure
+    out = {}
+    for sfx, (_, exhaust, supply) in _FLOW_CONTROL_PORTS.items():
+        if p[f"length_{sfx}"] > 0.0:
+            cb = _line(p[f"diameter_{sfx}"], p[f"length_{sfx}"], model.supply.pressure,
+                       model.supply.temperature)
+            out[supply] = ([], [cb])
+            out[exhaust] = ([cb], [])
+    return out
+
+
+def _flow_control_parameters(what):
+    return [Parameter("C_a", _C_UNIT, 3e-9, 0.0, 1e-6, 0.0,
+                      f"sonic conductance of the {what} throttle on port A (0 = none)"),
+            Parameter("b_a", "-", 0.3, 0.0, 0.99, None, "its critical pressure ratio"),
+            Parameter("C_b", _C_UNIT, 3e-9, 0.0, 1e-6, 0.0,
+                      f"sonic conductance of the {what} throttle on port B (0 = none)"),
+            Parameter("b_b", "-", 0.3, 0.0, 0.99, None, "its critical pressure ratio")]
+
+
 for _e in [
     Effect("heat_exchange",
            "convective heat exchange with the walls (Eq. 9) on an isothermal or adiabatic model",
@@ -495,5 +619,62 @@ for _e in [
            "paper Sect. 4 (phase lags of the acquisition chain)",
            [Parameter("time_constant", "s", 0.002, 0.0, 0.1, 0.0, "transducer time constant")],
            strength="time_constant", pack=_pack_sensor, probe={"time_constant": 0.002}),
+    Effect("return_spring",
+           "a return spring on the piston, F = F0 + k x towards x = 0 (spring-return "
+           "single-acting cylinder, or a spring on any jack)",
+           "the net force falls linearly along the stroke: the piston slows as it extends, "
+           "retracts with the valve exhausting, and stops short under a weak supply; a constant "
+           "load fits one end of the stroke only",
+           "Hooke's law in paper Eq. 17; Beater, Pneumatic Drives (2007), single-acting cylinders",
+           [Parameter("rate", "N/m", 300.0, 0.0, 1e5, 0.0, "spring rate k"),
+            Parameter("preload", "N", 20.0, 0.0, 5000.0, 0.0, "spring force F0 at x = 0")],
+           strength="preload", pack=_pack_spring, observable_in=("free",),
+           probe={"rate": 300.0, "preload": 20.0}),
+    Effect("meter_out_throttle",
+           "one-way flow control on a cylinder port, throttling the air leaving the chamber: an "
+           "ISO 6358 throttle in parallel with a check valve that lets the inflow pass freely, "
+           "in series with the valve's exhaust edge with no volume between (ISO 6358-3)",
+           "the exhausting chamber's pressure stays high while the piston moves (back pressure), "
+           "speed held low and steady, the exhausting chamber empties slowly after each stroke; "
+           "the filling side is as the model says",
+           "ISO 6358-3:2014 (series combination); SMC speed controllers (meter-out)",
+           _flow_control_parameters("meter-out"),
+           strength="C_a", series=_meter_out_series, check=_check_ports,
+           fit_params=("C_a", "C_b"), probe={"C_a": 3e-9, "C_b": 3e-9}),
+    Effect("meter_in_throttle",
+           "one-way flow control on a cylinder port, throttling the air entering the chamber: an "
+           "ISO 6358 throttle in parallel with a check valve that lets the outflow pass freely, "
+           "in series with the valve's supply edge with no volume between (ISO 6358-3)",
+           "the filling chamber's pressure rises slower than the model while the exhaust is as "
+           "the model says; a slow, stick-slip prone start",
+           "ISO 6358-3:2014 (series combination); SMC speed controllers (meter-in)",
+           _flow_control_parameters("meter-in"),
+           strength="C_a", series=_meter_in_series, check=_check_ports,
+           fit_params=("C_a", "C_b"), probe={"C_a": 3e-9, "C_b": 3e-9}),
+    Effect("tubing",
+           "the line between valve and chamber on each port, lumped: its volume pi d^2 L / 4 "
+           "joins the dead volume, its resistance (Fanno flow with wall friction) is in series "
+           "with the port's valve edges (ISO 6358-3); no transport delay",
+           "both filling and exhausting slower than the model, most at the small-volume end of "
+           "stroke, and a flow limit the valve alone does not have: a dead volume fits the "
+           "pressure rise, not the flow",
+           "Shapiro (1953) Fanno flow; Haaland (1983) friction; ISO 6358-3:2014 series combination",
+           [Parameter("length_a", "m", 2.0, 0.0, 50.0, 0.0, "line length on port A (0 = none)"),
+            Parameter("diameter_a", "m", 4e-3, 5e-4, 0.05, None, "inner diameter on port A"),
+            Parameter("length_b", "m", 2.0, 0.0, 50.0, 0.0, "line length on port B (0 = none)"),
+            Parameter("diameter_b", "m", 4e-3, 5e-4, 0.05, None, "inner diameter on port B")],
+           strength="length_a", transform=_tubing_transform, series=_tubing_series,
+           check=_check_line_ports, fit_params=("length_a", "length_b"),
+           probe={"length_a": 1.0, "length_b": 1.0}),
+    Effect("exhaust_silencer",
+           "a silencer on the valve's exhaust ports: an ISO 6358 restriction in series with "
+           "each exhaust edge, with no volume between (ISO 6358-3)",
+           "every exhausting chamber empties slower than the model, on both ports alike; the "
+           "filling is as the model says",
+           "ISO 6358-3:2014 (series combination); silencer flow data per ISO 6358-1",
+           [Parameter("C", _C_UNIT, 1e-8, 0.0, 1e-6, 0.0,
+                      "sonic conductance of the silencer (0 = none)"),
+            Parameter("b", "-", 0.4, 0.0, 0.99, None, "its critical pressure ratio")],
+           strength="C", series=_silencer_series, fit_params=("C",), probe={"C": 5e-9}),
 ]:
     register_effect(_e)

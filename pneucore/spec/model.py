@@ -15,13 +15,32 @@ from pneucore.physics.flow import FLOW_LAWS, R_LAMINAR
 from pneucore.physics.friction import FRICTION_LAWS
 from pneucore.physics.gas import GAMMA_AIR, P_ATM, P_CONTINUUM_MIN, R_AIR, T_REF
 from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
-from pneucore.physics.jack import annulus_area, chamber_volumes, rod_area
+from pneucore.physics.jack import ANGLE_MAX, annulus_area, chamber_volumes, gravity_load, rod_area
 from pneucore.spec.validation import FieldError, choice, known_keys, mapping, number, number_list, optional_mapping
 
 #: Edges of each valve kind and the opening range of their tables
 VALVE_KINDS = {
     "4/2": {"ports": ("P-A", "A-R", "P-B", "B-R"), "range": (-1.0, 1.0)},
     "3/2": {"ports": ("P-A", "A-R"), "range": (0.0, 1.0)},
+}
+
+#: What is on chamber B of a 3/2 valve (``valve.b_chamber``): ``dynamic`` says whether
+#: chamber B is a gas volume with its own mass and energy balance (Eq. 14-15) or a node
+#: held at a constant pressure
+B_CHAMBER_MODES = {
+    "held": {"dynamic": False,
+             "description": "held at valve.b_chamber_pressure (half the supply by default, as in "
+                            "the paper): a pressure regulator or a large reservoir on port B"},
+    "vented": {"dynamic": False,
+               "description": "open to the ambient (a single-acting cylinder's vent): held at "
+                              "ambient.pressure"},
+    "closed": {"dynamic": True,
+               "description": "a closed volume of gas (an air spring) compressed and expanded "
+                              "by the piston, Eq. 14-15 with no flow"},
+    "restriction": {"dynamic": True,
+                    "description": "vented to the ambient through an ISO 6358 restriction "
+                                   "(valve.b_chamber_conductance, valve.b_chamber_critical_ratio): "
+                                   "a breather, filter or throttle on port B"},
 }
 
 
@@ -53,6 +72,9 @@ class Jack:
     wall_area_b : float or None
         Heat-exchange area of chamber B; None = lateral area of the gas column plus both
         end faces, following the piston [m^2]
+    mounting_angle : float
+        Angle of the rod over the horizontal, -90 to 90: 0 horizontal, 90 vertical with the rod
+        up (extension lifts the moving mass: m g sin(angle) adds to the load), -90 rod down [deg]
     """
     bore: float = 0.032
     rod_a: float = 0.012
@@ -64,6 +86,21 @@ class Jack:
     load_force: float = 0.0
     wall_area_a: Optional[float] = None
     wall_area_b: Optional[float] = None
+    mounting_angle: float = 0.0
+
+    @property
+    def gravity_force(self):
+        """Weight of the moving mass along the rod, towards x = 0 [N]
+        (:func:`pneucore.physics.jack.gravity_load`)."""
+        return gravity_load(self.moving_mass, self.mounting_angle)
+
+    @property
+    def total_load(self):
+        """Load of Eq. 17: ``load_force`` plus the weight along the rod [N] (the load
+        itself, bit for bit, on a horizontal jack)."""
+        if self.mounting_angle == 0.0:
+            return self.load_force
+        return self.load_force + self.gravity_force
 
     @property
     def area_a(self):
@@ -110,10 +147,21 @@ class Jack:
         j.load_force = number(j.load_force, f"{path}.load_force")
         j.wall_area_a = number(j.wall_area_a, f"{path}.wall_area_a", positive=True, allow_none=True)
         j.wall_area_b = number(j.wall_area_b, f"{path}.wall_area_b", positive=True, allow_none=True)
+        try:
+            j.mounting_angle = number(j.mounting_angle, f"{path}.mounting_angle", low=-ANGLE_MAX,
+                                      high=ANGLE_MAX)
+        except FieldError as e:
+            raise FieldError(e.path, f"{e.detail} [deg] (0 horizontal, 90 vertical rod up, "
+                                     f"-90 rod down)") from None
         return j
 
     def to_dict(self):
-        return dict(self.__dict__)
+        """Plain JSON; ``mounting_angle`` only when the jack is not horizontal (the JSON of
+        earlier versions round-trips unchanged)."""
+        d = dict(self.__dict__)
+        if d["mounting_angle"] == 0.0:
+            del d["mounting_angle"]
+        return d
 
 
 @dataclass
@@ -200,12 +248,24 @@ class Valve:
         core computes its mass flow with it [-]
     laminar_ratio : float
         Pressure ratio above which edge flows are linearised [-]
+    b_chamber : str
+        3/2 mode: what is on chamber B, a name in :data:`B_CHAMBER_MODES`: ``held`` (at
+        b_chamber_pressure), ``vented`` (at the ambient pressure), ``closed`` (an air spring) or
+        ``restriction`` (vented through b_chamber_conductance) [-]
+    b_chamber_conductance : float
+        3/2 mode ``restriction``: sonic conductance C of the restriction between chamber B and
+        the ambient (ISO 6358) [m^3/(s Pa)]
+    b_chamber_critical_ratio : float
+        3/2 mode ``restriction``: critical pressure ratio b of that restriction [-]
     """
     kind: str = "4/2"
     ports: dict = field(default_factory=dict)
     b_chamber_pressure: Optional[float] = None
     flow_law: str = "iso6358"
     laminar_ratio: float = R_LAMINAR
+    b_chamber: str = "held"
+    b_chamber_conductance: float = 0.0
+    b_chamber_critical_ratio: float = 0.5
 
     @classmethod
     def from_dict(cls, d, path="valve"):
@@ -225,12 +285,53 @@ class Valve:
         law = choice(d.get("flow_law", "iso6358"), FLOW_LAWS, f"{path}.flow_law")
         r_lam = number(d.get("laminar_ratio", R_LAMINAR), f"{path}.laminar_ratio", low=0.9,
                        high=1.0, high_open=True)
-        return cls(kind, ports, bcp, law, r_lam)
+        dflt = cls          # the defaults are the dataclass's class attributes
+        mode = choice(d.get("b_chamber", dflt.b_chamber), B_CHAMBER_MODES, f"{path}.b_chamber")
+        b_C = number(d.get("b_chamber_conductance", dflt.b_chamber_conductance),
+                     f"{path}.b_chamber_conductance", nonnegative=True)
+        b_b = number(d.get("b_chamber_critical_ratio", dflt.b_chamber_critical_ratio),
+                     f"{path}.b_chamber_critical_ratio", low=0.0, high=1.0, high_open=True)
+        if mode != dflt.b_chamber and kind != "3/2":
+            raise FieldError(f"{path}.b_chamber", f"{mode!r} only applies to a 3/2 valve (a "
+                                                  f"{kind} valve drives chamber B itself)")
+        if bcp is not None and mode != "held":
+            raise FieldError(f"{path}.b_chamber_pressure",
+                             f"chamber B is {mode}, not held at a pressure: leave it null [Pa]")
+        if mode == "restriction" and b_C <= 0.0:
+            raise FieldError(f"{path}.b_chamber_conductance",
+                             "a restriction on chamber B needs its sonic conductance > 0 "
+                             "[m^3/(s Pa)]")
+        if mode != "restriction" and b_C != dflt.b_chamber_conductance:
+            raise FieldError(f"{path}.b_chamber_conductance",
+                             f"only with b_chamber 'restriction' (chamber B is {mode}) [m^3/(s Pa)]")
+        return cls(kind, ports, bcp, law, r_lam, mode, b_C, b_b)
 
     def to_dict(self):
-        return {"kind": self.kind, "ports": {k: p.to_dict() for k, p in self.ports.items()},
-                "b_chamber_pressure": self.b_chamber_pressure, "flow_law": self.flow_law,
-                "laminar_ratio": self.laminar_ratio}
+        """Plain JSON; the chamber-B fields only when not at their defaults (the JSON of
+        earlier versions round-trips unchanged)."""
+        d = {"kind": self.kind, "ports": {k: p.to_dict() for k, p in self.ports.items()},
+             "b_chamber_pressure": self.b_chamber_pressure, "flow_law": self.flow_law,
+             "laminar_ratio": self.laminar_ratio}
+        for key in ("b_chamber", "b_chamber_conductance", "b_chamber_critical_ratio"):
+            if getattr(self, key) != getattr(Valve, key):
+                d[key] = getattr(self, key)
+        return d
+
+    def core_ports(self):
+        """The edge tables the compiled core integrates: :attr:`ports`, and on a 3/2 valve
+        whose chamber B is vented through a restriction, a ``B-R`` edge of that constant
+        conductance over the whole opening range (ISO 6358, Eq. 4-5)."""
+        if self.kind != "3/2" or self.b_chamber != "restriction":
+            return self.ports
+        lo, hi = self.opening_range
+        C, b = self.b_chamber_conductance, self.b_chamber_critical_ratio
+        return {**self.ports, "B-R": PortTable([lo, hi], [C, C], [b, b])}
+
+    @property
+    def b_dynamic(self):
+        """Chamber B has its own mass and energy balance (a 4/2 valve, or a 3/2 valve whose
+        chamber B is closed or vented through a restriction) [-]."""
+        return self.kind != "3/2" or B_CHAMBER_MODES[self.b_chamber]["dynamic"]
 
     @property
     def opening_range(self):
@@ -505,8 +606,8 @@ class Model:
                 raise FieldError(f"{key}.pressure",
                                  f"{src.pressure:g} Pa is below {P_CONTINUUM_MIN:g} Pa, where air "
                                  f"through a valve is no longer a continuum (Knudsen number > 0.01)")
-        if m.valve.kind == "3/2" and m.valve.b_chamber_pressure is None \
-                and m.supply.pressure <= m.ambient.pressure:
+        if m.valve.kind == "3/2" and m.valve.b_chamber == "held" \
+                and m.valve.b_chamber_pressure is None and m.supply.pressure <= m.ambient.pressure:
             raise FieldError("valve.b_chamber_pressure",
                              f"with a supply ({m.supply.pressure:g} Pa) at or below the ambient "
                              f"pressure ({m.ambient.pressure:g} Pa) the default chamber-B pressure "
@@ -536,7 +637,8 @@ class Model:
         f = self.friction
         return Model(
             jack=Jack(**self.jack.__dict__),
-            valve=Valve(v.kind, ports, v.b_chamber_pressure, v.flow_law, v.laminar_ratio),
+            valve=Valve(v.kind, ports, v.b_chamber_pressure, v.flow_law, v.laminar_ratio,
+                        v.b_chamber, v.b_chamber_conductance, v.b_chamber_critical_ratio),
             supply=Source(**self.supply.__dict__), ambient=Source(**self.ambient.__dict__),
             heat=self.heat.copy(),
             friction=Friction(FrictionSet(**f.extend.__dict__), FrictionSet(**f.retract.__dict__), f.law),
@@ -546,9 +648,13 @@ class Model:
 
     @property
     def b_chamber_pressure(self):
-        """Constant chamber-B pressure in 3/2 mode [Pa] (half the supply by default), else None."""
-        if self.valve.kind != "3/2":
+        """Constant chamber-B pressure in 3/2 mode [Pa] (half the supply by default, the ambient
+        pressure when vented), else None (a 4/2 valve, or a 3/2 valve whose chamber B is a gas
+        volume: closed or vented through a restriction)."""
+        if self.valve.b_dynamic:
             return None
+        if self.valve.b_chamber == "vented":
+            return self.ambient.pressure
         if self.valve.b_chamber_pressure is not None:
             return self.valve.b_chamber_pressure
         return 0.5 * self.supply.pressure

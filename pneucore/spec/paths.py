@@ -71,7 +71,7 @@ def unit_of(path):
 def _unit(path):
     units = {"bore": "m", "rod_a": "m", "rod_b": "m", "stroke": "m", "dead_volume_a": "m^3",
              "dead_volume_b": "m^3", "moving_mass": "kg", "load_force": "N", "wall_area_a": "m^2",
-             "wall_area_b": "m^2", "pressure": "Pa", "temperature": "K", "coefficient": "W/(m^2 K)",
+             "wall_area_b": "m^2", "mounting_angle": "deg", "pressure": "Pa", "temperature": "K", "coefficient": "W/(m^2 K)",
              "fc0": "N", "fc_a": "N/Pa", "fc_b": "N/Pa", "kv0": "N s/m", "kv_a": "N s/(m Pa)",
              "kv_b": "N s/(m Pa)", "r": "J/(kg K)", "gamma": "-"}
     parts = path.split(".")

@@ -203,9 +203,11 @@ class Scenario:
                     raise FieldError(f"scenario.command[{i}][1]",
                                      f"command {u:g} is outside the {model.valve.kind} valve's range "
                                      f"[{lo:g}, {hi:g}]")
-        if model.valve.kind == "3/2" and self.initial.p_b is not None:
-            raise FieldError("scenario.initial.p_b", "chamber B is held at valve.b_chamber_pressure "
-                                                     "with a 3/2 valve; leave initial.p_b null")
+        if model.b_chamber_pressure is not None and self.initial.p_b is not None:
+            raise FieldError("scenario.initial.p_b", "chamber B of this 3/2 valve is held at a "
+                                                     "constant pressure (valve.b_chamber "
+                                                     f"{model.valve.b_chamber!r}); leave "
+                                                     "initial.p_b null [Pa]")
         if model.heat.model == "isothermal" and "heat_exchange" not in model.effects:
             for k in ("T_a", "T_b"):
                 T = getattr(self.initial, k)

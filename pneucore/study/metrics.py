@@ -140,9 +140,37 @@ for _name, _unit, _definition, _compute in (
     ("air_consumption", "NL", "air drawn from the supply in normal litres (ANR): the time "
                               "integral (trapezoidal) of q_supply [kg/s] / 1.185 kg/m^3 x 1000",
      lambda r: air_consumption(r.t, r.res.q_supply)),
+    # stroke metrics (pneucore.strokes: SMC's definitions, from the valve switching)
+    ("start_up_time", "s", "valve switching to the piston starting to travel, first full stroke "
+                           "(SMC); null without one",
+     lambda r: _first_stroke(r, "start_up_time")),
+    ("full_stroke_time_extend", "s", "valve switching to the far stroke end, first extension "
+                                     "(SMC); null without one",
+     lambda r: r.res.stroke_metrics()["full_stroke_time_extend"]),
+    ("full_stroke_time_retract", "s", "valve switching to x = 0, first retraction (SMC); null "
+                                      "without one",
+     lambda r: r.res.stroke_metrics()["full_stroke_time_retract"]),
+    ("mean_speed", "m/s", "stroke / full stroke time of the first full stroke (SMC's average "
+                          "speed); null without one",
+     lambda r: _first_stroke(r, "mean_speed")),
+    ("max_speed", "m/s", "largest |v| over the run (sampled)",
+     lambda r: float(np.max(np.abs(r.res.v)))),
+    ("end_speed_max", "m/s", "largest stroke end velocity (|v| arriving at an end stop); null "
+                             "without a full stroke",
+     lambda r: r.res.stroke_metrics()["end_speed_max"]),
+    ("air_per_cycle", "NL", "air drawn from the supply per extension + retraction (ANR), mean "
+                            "over the full strokes each way; null without one each way",
+     lambda r: r.res.stroke_metrics()["air_per_cycle_NL"]),
 ):
     register_metric(_name, _unit, _definition, _compute)
 del _name, _unit, _definition, _compute
+
+
+def _first_stroke(r, key):
+    for s in r.res.stroke_metrics()["strokes"]:
+        if s["direction"] != "partial" and s[key] is not None:
+            return s[key]
+    return None
 
 
 def run_metrics(res, names=None):

@@ -78,6 +78,17 @@ HIDDEN = {
     # 5 g of wall per chamber (a thin liner, the part of the wall the gas warms within a second;
     # probe 50 g), steel, 10 W/(m^2 K) outside: heavier walls act over minutes, not in this 1 s test
     "wall_heat_capacity": {"mass": 0.005, "specific_heat": 500.0, "outer_coefficient": 10.0},
+    # a return spring of 500 N/m preloaded to 40 N (probe 300 N/m, 20 N)
+    "return_spring": {"rate": 500.0, "preload": 40.0},
+    # meter-out flow controls half / 40 % of the valve's full C on A / B (probe 3e-9 each);
+    # b at the catalog default (not refitted)
+    "meter_out_throttle": {"C_a": 5e-9, "b_a": 0.3, "C_b": 4e-9, "b_b": 0.3},
+    # meter-in flow controls, same sizes
+    "meter_in_throttle": {"C_a": 5e-9, "b_a": 0.3, "C_b": 4e-9, "b_b": 0.3},
+    # 2 m and 1.5 m of 4 mm line on A / B (probe 1 m each; the diameter is held)
+    "tubing": {"length_a": 2.0, "diameter_a": 4e-3, "length_b": 1.5, "diameter_b": 4e-3},
+    # a silencer of 0.6 dm^3/(s bar) on both exhausts (probe 0.5 dm^3/(s bar))
+    "exhaust_silencer": {"C": 6e-9, "b": 0.4},
 }
 
 BUILTIN = sorted(n for n, e in EFFECTS.items() if not e.user)
