@@ -61,7 +61,7 @@ from pneucore.data.experiment import as_experiments
 from pneucore.analysis.metrics import cross_correlation_test, ljung_box
 from pneucore.spec.model import Model
 from pneucore.analysis import hypotheses as H
-from pneucore.analysis.engineering import in_words
+from pneucore.analysis.engineering import impossible, in_words
 from pneucore.spec.paths import ParameterSpec, get_value, model_changes, parse_parameters, set_values
 
 #: Significance level of the likelihood-ratio test, before the Bonferroni split
@@ -624,7 +624,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     for c in ranking:
         # physical plausibility: a strength at its fit bound, or not distinguishable from off by
         # its own standard error, is no evidence of the effect however much the fit improves
-        c["undetermined"] = _undetermined(c)
+        c["undetermined"] = _undetermined(c) or impossible(
+            c["effect"], (c["model"].get("effects") or {}).get(c["effect"]) or c["params"], model)
         c["significant"] = c["p_value"] < alpha / n_tests and not c["undetermined"]
         c["strong"] = c["delta_bic"] < DELTA_BIC
         c["material"] = c["relative_drop"] >= MATERIAL and c["excess_drop"] >= EXCESS_MATERIAL

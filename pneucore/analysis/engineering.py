@@ -140,3 +140,83 @@ def in_words(effect, params, model):
         return fn(values, model)
     except (KeyError, TypeError, ZeroDivisionError):
         return None   # a parameter set the wording does not cover: the parameters speak alone
+
+
+def _chamber_volumes(model):
+    """Swept volumes of chambers A and B over the stroke [m^3]."""
+    import math
+    j = model.jack
+    a_a = math.pi / 4.0 * (j.bore ** 2 - j.rod_a ** 2)
+    a_b = math.pi / 4.0 * (j.bore ** 2 - j.rod_b ** 2)
+    return a_a * j.stroke, a_b * j.stroke
+
+
+def _valve_choked_flow(model):
+    """The valve's largest edge flow, choked, from the supply [kg/s] (ISO 6358 Eq. 4:
+    q = C p_s rho_ref at the reference temperature)."""
+    ports = model.to_dict()["valve"]["ports"]
+    c_max = max((max(e["C"]) for e in ports.values() if e.get("C")), default=0.0)
+    return c_max * model.supply.pressure * RHO_REF
+
+
+def _leak_impossible(flow, model, where):
+    q_valve = _valve_choked_flow(model)
+    if q_valve > 0.0 and flow > q_valve:
+        return (f"{where} of {_nl_min(flow):.3g} L/min ANR would exceed what the valve itself "
+                f"passes fully open ({_nl_min(q_valve):.3g} L/min ANR)")
+    return ""
+
+
+#: Effect name -> ``f(params, model) -> str``: why the fitted values are physically impossible
+#: for this jack and valve ("" when they are not)
+IMPOSSIBLE = {
+    "dead_volume": lambda p, m: "; ".join(
+        f"an extra volume on {side} of {1e6 * v:.3g} cm³ exceeds the chamber's own swept volume "
+        f"({1e6 * swept:.3g} cm³)"
+        for side, v, swept in zip(("A", "B"), (p.get("volume_a", 0.0), p.get("volume_b", 0.0)),
+                                  _chamber_volumes(m)) if v > swept),
+    "piston_leakage": lambda p, m: _leak_impossible(
+        p["conductance"] * (m.supply.pressure - m.ambient.pressure), m, "a piston-seal leak"),
+    "external_leakage": lambda p, m: "; ".join(filter(None, (
+        _leak_impossible(p.get(k, 0.0) * (m.supply.pressure - m.ambient.pressure), m,
+                         f"a leak of chamber {side}")
+        for k, side in (("conductance_a", "A"), ("conductance_b", "B"))))),
+}
+
+
+def impossible(effect, params, model):
+    """Why an effect's fitted values are physically impossible for this jack and valve, or "".
+
+    A dead volume larger than the chamber it is added to, a leak that passes more than the
+    valve does fully open: such a fit stands in for something else, whatever its evidence
+    (issue 28, physical plausibility as a rule of the verdict).
+
+    Parameters
+    ----------
+    effect : str
+        Catalog effect name [-]
+    params : dict
+        Its parameters: plain values or ``{"value", ...}`` entries (SI) [-]
+    model : Model
+        The model it was fitted on [-]
+
+    Returns
+    -------
+    reason : str
+        Empty when the values are possible [-]
+
+    Examples
+    --------
+    >>> from pneucore import Model, model_preset
+    >>> m = Model.from_dict(model_preset("paper-4way"))   # chambers of about 173 cm³
+    >>> impossible("dead_volume", {"volume_a": 4.84e-4, "volume_b": 0.0}, m)
+    "an extra volume on A of 484 cm³ exceeds the chamber's own swept volume (173 cm³)"
+    """
+    fn = IMPOSSIBLE.get(effect)
+    if fn is None:
+        return ""
+    values = {k: (v["value"] if isinstance(v, dict) else v) for k, v in (params or {}).items()}
+    try:
+        return fn(values, model)
+    except (KeyError, TypeError, ValueError):
+        return ""

@@ -42,3 +42,22 @@ def test_the_diagnosis_says_it_in_engineering_terms():
     assert d.verdict == "piston_leakage"
     assert "In engineering terms: a leak across the piston seal" in d.message
     assert d.ranking[0]["in_words"] in d.ranking[0]["explanation"]
+
+
+def test_impossible_values_are_named_and_possible_ones_are_not():
+    """Issue 28: a dead volume larger than the chamber, a leak larger than the valve's flow is
+    not evidence of the effect (the diagnosis marks such a candidate undetermined)."""
+    from pneucore.analysis.engineering import impossible
+    import math
+    j = MODEL.jack
+    swept_a = math.pi / 4 * (j.bore ** 2 - j.rod_a ** 2) * j.stroke
+    assert impossible("dead_volume", {"volume_a": 1.01 * swept_a, "volume_b": 0.0}, MODEL)
+    assert impossible("dead_volume", {"volume_a": 0.5 * swept_a, "volume_b": 0.0}, MODEL) == ""
+    # the valve's choked flow at full opening: C_max p_s rho_ref (ISO 6358 Eq. 4)
+    c_max = max(max(e["C"]) for e in MODEL.to_dict()["valve"]["ports"].values())
+    q_valve = c_max * MODEL.supply.pressure * RHO_REF
+    dp = MODEL.supply.pressure - MODEL.ambient.pressure
+    assert "exceed what the valve" in impossible("piston_leakage", {"conductance": 1.1 * q_valve / dp}, MODEL)
+    assert impossible("piston_leakage", {"conductance": 8e-11}, MODEL) == ""
+    assert "chamber B" in impossible("external_leakage",
+                                     {"conductance_a": 0.0, "conductance_b": 2 * q_valve / dp}, MODEL)
