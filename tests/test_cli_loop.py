@@ -133,3 +133,15 @@ def test_a_rig_file_with_gauge_bar_and_german_headers_through_columns(tmp_path, 
     # the paper's model on data hiding a leak: wrong, but by percent, not by the 1 bar an
     # unconverted gauge reading would cost (that would be about 20 % of 5 bar)
     assert 0.0 < errors["p_a"] < 0.05
+
+
+def test_known_values_stay_as_declared(tmp_path, capsys):
+    """``--known`` (issue 28's known values) from the shell: the refined model keeps them."""
+    out = tmp_path / "r.json"
+    assert main(["refine", "--sample", "leak-and-lag", "--known", "jack.moving_mass,heat.coefficient",
+                 "--max-rounds", "2", "--json", str(out)]) == 0, capsys.readouterr().err
+    m = json.loads(out.read_text())["model"]
+    assert m["jack"]["moving_mass"] == model()["jack"]["moving_mass"]
+    assert m["heat"]["coefficient"] == model()["heat"]["coefficient"]
+    assert main(["diagnose", "--sample", LEAK, "--known", "jack.no_such"]) == 2
+    assert "jack.no_such" in capsys.readouterr().err

@@ -62,6 +62,9 @@ def add_loop_commands(sub):
         if name in ("diagnose", "refine"):
             p.add_argument("--uncertain", help="base parameter paths refitted along, comma "
                                                "separated (default: chosen automatically)")
+            p.add_argument("--known", help="parameter paths whose values are known (a weighed "
+                                           "mass, a measured bore), comma separated: never "
+                                           "fitted; a disagreement is said as a finding")
             p.add_argument("--model-out", help="write the refined model (verdict applied) as "
                                                "JSON to this file")
         if name == "diagnose":
@@ -207,8 +210,10 @@ def run_loop(args):
         from pneucore.analysis.diagnose import check_request, diagnose
         uncertain = _paths(args.uncertain) or ()
         candidates = _paths(args.candidates)
-        check_request(model, candidates, uncertain)
-        d = diagnose(model, exps, candidates=candidates, uncertain=uncertain, validated=True)
+        known = _paths(args.known) or ()
+        check_request(model, candidates, uncertain, known)
+        d = diagnose(model, exps, candidates=candidates, uncertain=uncertain, validated=True,
+                     known=known)
         answer = d.to_dict()
         html = diagnosis_report_on(model, exps, answer) if args.report else None
         lines.append(f"verdict: {d.verdict or 'none'}")
@@ -220,9 +225,10 @@ def run_loop(args):
         if not 1 <= args.max_rounds <= 10:
             raise LoopArgumentError(f"--max-rounds {args.max_rounds}: between 1 and 10")
         uncertain = _paths(args.uncertain) or ()
-        check_request(model, None, uncertain)
+        known = _paths(args.known) or ()
+        check_request(model, None, uncertain, known)
         final, history, diagnoses = refine(model, exps, max_rounds=args.max_rounds,
-                                           uncertain=uncertain, validated=True)
+                                           uncertain=uncertain, validated=True, known=known)
         answer = refinement_answer(final, history, diagnoses)
         html = refinement_report(answer, compare(final, exps)) if args.report else None
         for v in answer["versions"]:
