@@ -206,6 +206,12 @@ RIG_EFFECTS = {
     "dead_volume": {"volume_a": 1.2e-5, "volume_b": 8e-6},
     "supply_pressure_drop": {"C": 3e-8, "b": 0.3, "volume": 1e-4},
     "sensor_lag": {"time_constant": 0.004},
+    # the user's circuit (issue 23): 2 m of 4 mm tube on each port, meter-out flow controls at
+    # about a third of the valve's edge conductance, a silencer, a return spring
+    "tubing": {"length_a": 2.0, "diameter_a": 4e-3, "length_b": 2.0, "diameter_b": 4e-3},
+    "meter_out_throttle": {"C_a": 3e-9, "b_a": 0.3, "C_b": 3e-9, "b_b": 0.3},
+    "exhaust_silencer": {"C": 6e-9, "b": 0.4},
+    "return_spring": {"rate": 400.0, "preload": 30.0},
 }
 
 #: Base parameters a catalogue model gets wrong, with the relative error range drawn for a
@@ -393,4 +399,11 @@ RIG_CASES = [
                                            effects=("dead_volume",))),
     ("effect/leak+dead", dict(seed=28, effects=("piston_leakage", "dead_volume"))),
     ("effect/dead+supply_drop", dict(seed=29, effects=("dead_volume", "supply_pressure_drop"))),
+    # the user's circuit (issue 23), each component alone behind undeclared base errors, and a
+    # tube with meter-out flow controls together
+    ("effect/circuit/tubing", dict(seed=30, effects=("tubing",))),
+    ("effect/circuit/meter_out", dict(seed=31, effects=("meter_out_throttle",))),
+    ("effect/circuit/silencer", dict(seed=32, effects=("exhaust_silencer",))),
+    ("effect/circuit/spring", dict(seed=33, effects=("return_spring",))),
+    ("effect/circuit/tubing+meter_out", dict(seed=34, effects=("tubing", "meter_out_throttle"))),
 ]
