@@ -488,13 +488,13 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     def probe(name):
         eff = EFFECTS[name]
         sp = eff.score_params
-        vals_off = eff.probe_values()
+        vals_off = eff.probe_values(model)
         for p in sp:
             vals_off[p] = eff.param(p).off
         cols, one_sided = [], []
         for p in sp:
             v = dict(vals_off)
-            v[p] = eff.probe_values()[p]
+            v[p] = eff.probe_values(model)[p]
             mp = _with_effect(base, name, v)
             yp = _stack([replay(mp, e) for e in exps], keys)
             cols.append(yp - y0)
@@ -525,11 +525,12 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
 
     def refit(name):
         eff = EFFECTS[name]
-        start = eff.probe_values()
+        start = eff.probe_values(model)
         # from the model as given: the null's values are biased by what is missing
         m = _with_effect(model, name, start)
         specs = [ParameterSpec(f"effects.{name}.{p}", start[p], eff.param(p).min, eff.param(p).max,
-                               True, eff.param(p).unit) for p in eff.diagnosis_params]
+                               True, eff.param(p).unit) for p in eff.diagnosis_params
+                 if p not in eff.unused_in(model)]
         specs += u_specs_start
         # the refit checks the time limit at each evaluation (progress stays at its level)
         cal = fit(m, exps, specs, max_nfev=max_nfev, compute_before=False,
@@ -800,7 +801,8 @@ def _sensor_refit(model, exps, verdict, refits, u_specs, prior, replays, err, fl
         start = refits[verdict].model.effects[verdict]
         m0 = _with_effect(model, verdict, start)
         specs += [ParameterSpec(f"effects.{verdict}.{p}", start[p], eff.param(p).min, eff.param(p).max,
-                                True, eff.param(p).unit) for p in eff.diagnosis_params]
+                                True, eff.param(p).unit) for p in eff.diagnosis_params
+                  if p not in eff.unused_in(model)]
     cal = fit(m0, exps, list(u_specs) + specs, max_nfev=max_nfev, compute_before=False,
               reweight=True, prior=prior)
     e1 = cal.error_after.overall
@@ -919,7 +921,8 @@ def _pair(model, exps, lead, ranking, refits, u_specs, e0, floor, max_nfev, repo
         vals = refits[name].model.effects[name]
         m.effects[name] = dict(vals)
         specs += [ParameterSpec(f"effects.{name}.{p}", vals[p], eff.param(p).min, eff.param(p).max,
-                                True, eff.param(p).unit) for p in eff.diagnosis_params]
+                                True, eff.param(p).unit) for p in eff.diagnosis_params
+                  if p not in eff.unused_in(model)]
     cal = fit(m, exps, specs + list(u_specs), max_nfev=max_nfev, compute_before=False,
               reweight=True, prior=H.prior_for(model, [s.path for s in u_specs]))
     e1 = cal.error_after.overall

@@ -101,6 +101,14 @@ class Effect:
     series: Optional[Callable] = None
     #: ``check(params, model, path)``: raises a FieldError for parameters this model cannot take
     check: Optional[Callable] = None
+    #: ``unused(model) -> names``: parameters this model has no place for (a port the valve does
+    #: not drive); a candidate built for it holds them off and the diagnosis does not fit them,
+    #: so it never proposes a model ``check`` refuses
+    unused: Optional[Callable] = None
+
+    def unused_in(self, model):
+        """Parameters ``model`` has no place for (held at their ``off`` value)."""
+        return tuple(self.unused(model)) if self.unused is not None else ()
 
     @property
     def diagnosis_params(self):
@@ -112,10 +120,14 @@ class Effect:
         """Parameters that carry the effect's strength (they have an ``off`` value)."""
         return tuple(n for n in self.diagnosis_params if self.param(n).off is not None)
 
-    def probe_values(self):
-        """A moderate strength used to probe the outputs' sensitivity to the effect."""
+    def probe_values(self, model=None):
+        """A moderate strength used to probe the outputs' sensitivity to the effect; with a
+        ``model``, the parameters it has no place for held off (:meth:`unused_in`)."""
         vals = self.defaults()
         vals.update(self.probe)
+        if model is not None:
+            for name in self.unused_in(model):
+                vals[name] = self.param(name).off
         return vals
 
     def param(self, name):
@@ -441,6 +453,13 @@ def _silencer_series(p, model):
     return {edge: ([], [(p["C"], p["b"])]) for edge in ("A-R", "B-R")}
 
 
+def _missing_ports(prefix):
+    """``unused`` of a per-port effect: its ``<prefix>_<port>`` strengths on ports the valve
+    does not drive (port B of a 3/2 valve)."""
+    return lambda model: tuple(f"{prefix}_{sfx}" for sfx, (_, exhaust, _) in _FLOW_CONTROL_PORTS.items()
+                               if exhaust not in model.valve.ports)
+
+
 def _check_line_ports(p, model, path):
     for sfx, (port, exhaust, _) in _FLOW_CONTROL_PORTS.items():
         if p[f"length_{sfx}"] > 0.0 and exhaust not in model.valve.ports:
@@ -639,7 +658,7 @@ for _e in [
            "the filling side is as the model says",
            "ISO 6358-3:2014 (series combination); SMC speed controllers (meter-out)",
            _flow_control_parameters("meter-out"),
-           strength="C_a", series=_meter_out_series, check=_check_ports,
+           strength="C_a", series=_meter_out_series, check=_check_ports, unused=_missing_ports("C"),
            fit_params=("C_a", "C_b"), probe={"C_a": 3e-9, "C_b": 3e-9}),
     Effect("meter_in_throttle",
            "one-way flow control on a cylinder port, throttling the air entering the chamber: an "
@@ -649,7 +668,7 @@ for _e in [
            "the model says; a slow, stick-slip prone start",
            "ISO 6358-3:2014 (series combination); SMC speed controllers (meter-in)",
            _flow_control_parameters("meter-in"),
-           strength="C_a", series=_meter_in_series, check=_check_ports,
+           strength="C_a", series=_meter_in_series, check=_check_ports, unused=_missing_ports("C"),
            fit_params=("C_a", "C_b"), probe={"C_a": 3e-9, "C_b": 3e-9}),
     Effect("tubing",
            "the line between valve and chamber on each port, lumped: its volume pi d^2 L / 4 "
@@ -664,7 +683,7 @@ for _e in [
             Parameter("length_b", "m", 2.0, 0.0, 50.0, 0.0, "line length on port B (0 = none)"),
             Parameter("diameter_b", "m", 4e-3, 5e-4, 0.05, None, "inner diameter on port B")],
            strength="length_a", transform=_tubing_transform, series=_tubing_series,
-           check=_check_line_ports, fit_params=("length_a", "length_b"),
+           check=_check_line_ports, unused=_missing_ports("length"), fit_params=("length_a", "length_b"),
            probe={"length_a": 1.0, "length_b": 1.0}),
     Effect("exhaust_silencer",
            "a silencer on the valve's exhaust ports: an ISO 6358 restriction in series with "

@@ -117,3 +117,21 @@ def test_a_throttle_on_a_port_the_valve_does_not_have():
     assert e.value.path == "effects.meter_out_throttle.C_b" and "no port B" in str(e.value)
     d["effects"] = {"meter_out_throttle": {"C_a": 3e-9, "C_b": 0.0}}
     Model.from_dict(d)      # port A only: accepted
+
+
+def test_candidates_on_a_3_2_valve_hold_port_b_off():
+    """A diagnosis candidate built for a 3/2 valve never carries a line or a throttle on the port
+    the valve does not drive (the API would refuse the model it proposes: issue 28's 3/2 rig)."""
+    from pneucore import Model, model_preset
+    from pneucore.spec.effects import EFFECTS
+    m3 = Model.from_dict(model_preset("paper-3way"))
+    for name, port_b in (("tubing", "length_b"), ("meter_out_throttle", "C_b"),
+                         ("meter_in_throttle", "C_b")):
+        eff = EFFECTS[name]
+        assert eff.unused_in(m3) == (port_b,)
+        vals = eff.probe_values(m3)
+        assert vals[port_b] == eff.param(port_b).off
+        d = model_preset("paper-3way")
+        d["effects"] = {name: vals}
+        Model.from_dict(d)   # accepted as it is
+        assert eff.unused_in(Model.from_dict(model_preset("paper-4way"))) == ()
