@@ -137,10 +137,11 @@ def test_the_meter_out_throttle_solved_is_the_hand_one():
     assert math.sqrt(1.0 - ((r - b_chain) / (1.0 - b_chain)) ** 2) > 0.998
     # the path the throttle leaves is C* within the hand calculation's 1.5 % (above): 3 %
     assert d["settings"]["extend_exhaust_C"] == pytest.approx(c_star, rel=0.03)
-    # the throttle itself (port B, exhausting while extending): the chain's conductance
-    # moves about half as fast as the throttle's near C*, so 3 % on the path is 6 % on it
+    # the throttle itself (port B, exhausting while extending): near C* the throttle moves
+    # about 1.2 times as much as the path (measured: path 1.3 %, throttle 1.6 % off the hand
+    # values), so the path's 3 % is 4 % on it
     assert d["settings"]["extend_meter_out_C"] == throttle["C_b"]
-    assert throttle["C_b"] == pytest.approx(_hand_throttle(2 * c_star, c_star, b), rel=0.06)
+    assert throttle["C_b"] == pytest.approx(_hand_throttle(2 * c_star, c_star, b), rel=0.04)
     # the root meets the required time (brentq's xtol 1e-3 on the log conductance: 0.2 %)
     assert d["metrics"]["extend"]["full_stroke_time"] == pytest.approx(T_REQ, rel=2e-3)
     assert d["metrics"]["extend"]["full_stroke_time"] <= T_REQ
