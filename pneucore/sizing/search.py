@@ -46,6 +46,7 @@ from pneucore.spec.effects import EFFECTS, effective_model
 from pneucore.spec.model import Model
 from pneucore.spec.presets import model_preset
 from pneucore.spec.scenario import Scenario
+from pneucore.spec.valve_data import C_UNIT
 from pneucore.spec.validation import FieldError
 
 #: The model every design is built on (its heat model, friction, gas)
@@ -77,8 +78,6 @@ REASONS = {
 DIRECTIONS = ("extend", "retract")
 #: The valve edge each direction exhausts through
 EXHAUST_EDGE = {"extend": "B-R", "retract": "A-R"}
-#: Unit of a sonic conductance: the meter-out throttle's, as the effect states it
-C_UNIT = EFFECTS["meter_out_throttle"].param("C_b").unit
 #: Most families one sizing tries (cylinders x valves x tubes): the shipped series make 390
 #: with a tube; beyond this a request is refused before any work [-]
 MAX_FAMILIES = 5000
