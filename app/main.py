@@ -40,6 +40,7 @@ from .routers import friction
 from .routers import models
 from .routers import identify
 from .routers import sizing
+from .routers import valve
 from .schemas import LimitsResponse, SampleInfo
 from .security import Guard
 from .store import DamagedRecord, ServerLock, Store, StoreUnavailable, disk_full, storage_fault
@@ -241,6 +242,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(identify.router)
     app.include_router(identify.jobs_router)
     app.include_router(sizing.router)
+    app.include_router(valve.router)
 
     @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits",
              response_model=LimitsResponse)

@@ -40,6 +40,7 @@ from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset,
 from pneucore.spec.scenario import Scenario
 from pneucore.spec.units import unit_systems
 from pneucore.spec.validation import FieldError, choice, finite_json, mapping, number
+from pneucore.spec.valve_data import convert_valve_data
 from pneucore.study import (Study, check_run_options, delete_study, list_studies, queue_study,
                             requeue_study, run_study, runs_csv, runs_npz, set_study_status,
                             study_results, study_status)
@@ -1073,3 +1074,8 @@ def run_identify_friction(req, progress=None, checked=None):
         out["validation"].append(predict_rod_force(res.model, rec, window=req.window, v_min=res.v_min,
                                                    **extra))
     return out
+
+
+def convert_valve(req):
+    """POST /api/valve/convert: catalogue valve data to C and b (a bad field: 422 naming it)."""
+    return convert_valve_data(req.model_dump(exclude_unset=True), path="body")

@@ -154,9 +154,11 @@ class DesignOut(BaseModel):
     valve: ValveOut
     tube: Optional[TubeOut] = Field(None, description="Tube on each port; null = no tube")
     settings: dict[str, float] = Field(..., description=(
-        "Meter-out setting of each direction (extend_meter_out, retract_meter_out: fraction "
-        "of the valve's exhaust conductance open [-]) and the exhaust conductance it leaves "
-        "(extend_exhaust_C, retract_exhaust_C [m^3/(s Pa)])"))
+        "Sonic conductance of each direction's meter-out throttle, the model's "
+        "meter_out_throttle on the exhausting port (extend_meter_out_C: port B, "
+        "retract_meter_out_C: port A; 0 = none) [m^3/(s Pa)], and the conductance of the whole "
+        "exhaust path it leaves: throttle, tube and valve edge in series, ISO 6358-3 "
+        "(extend_exhaust_C, retract_exhaust_C) [m^3/(s Pa)]"))
     model: dict[str, Any] = Field(..., description="The design's model, as POST /api/simulate "
                                                    "accepts it")
     metrics: DesignMetricsOut

@@ -264,7 +264,7 @@ def sizing_lines(ans, top=10):
     """Human-readable table of a sizing answer (list of lines)."""
     lines = [ans["summary"],
              f"{'rank':>4}  {'cylinder':<14} {'valve':<16} {'tube':<16} {'air NL':>8} "
-             f"{'t_ext s':>8} {'t_ret s':>8} {'v_end m/s':>10} {'meter-out':>12}"]
+             f"{'t_ext s':>8} {'t_ret s':>8} {'v_end m/s':>10} {'meter-out C ' + ans['units']['settings.*_meter_out_C']:>23}"]
     for d in ans["designs"][:top]:
         m = d["metrics"]
         fmt = lambda v, f: format(v, f) if v is not None else "-"   # noqa: E731
@@ -273,7 +273,7 @@ def sizing_lines(ans, top=10):
             f"{(d['tube'] or {}).get('name', '-'):<16} {d['air_per_cycle']:8.3f} "
             f"{fmt(m['extend']['full_stroke_time'], '8.3f')} {fmt(m['retract']['full_stroke_time'], '8.3f')} "
             f"{fmt(max(m['extend']['end_speed'] or 0, m['retract']['end_speed'] or 0), '10.3f')} "
-            f"{d['settings']['extend_meter_out']:5.3f}/{d['settings']['retract_meter_out']:5.3f}"
+            f"{d['settings']['extend_meter_out_C']:11.3g}/{d['settings']['retract_meter_out_C']:<9.3g}"
             + ("" if d["feasible"] else "  (not feasible)"))
     if ans["reasons"]:
         lines.append("infeasible families: " + ", ".join(f"{n} {r}" for r, n in sorted(ans["reasons"].items())))

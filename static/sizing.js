@@ -77,12 +77,12 @@ function renderSizing() {
     <td>${esc(d.tube ? d.tube.name : '–')}</td><td>${num(d.air_per_cycle, 3)}</td>
     <td>${metric(d, 'extend', 'full_stroke_time')}</td><td>${metric(d, 'retract', 'full_stroke_time')}</td>
     <td>${metric(d, 'extend', 'end_speed')}</td><td>${metric(d, 'retract', 'end_speed')}</td>
-    <td>${num(d.settings.extend_meter_out, 3)} / ${num(d.settings.retract_meter_out, 3)}</td>
+    <td>${num(d.settings.extend_meter_out_C, 3)} / ${num(d.settings.retract_meter_out_C, 3)}</td>
     <td>${d.feasible ? 'yes' : 'no'}</td></tr>`).join('');
   const reasons = Object.entries(ans.reasons).map(([r, n]) => `${n} ${esc(r)} (${esc(ans.reason_meanings[r] || '')})`).join('; ');
   document.getElementById('sizing-table').innerHTML = `<table id="sizing-designs"><thead><tr><th></th><th>rank</th>
     <th>cylinder</th><th>valve</th><th>tube</th><th>air per cycle [NL]</th><th>extend [s]</th><th>retract [s]</th>
-    <th>end speed out [m/s]</th><th>end speed in [m/s]</th><th>meter-out ext / ret [-]</th><th>feasible</th></tr></thead>
+    <th>end speed out [m/s]</th><th>end speed in [m/s]</th><th>meter-out throttle C ext / ret [${esc(ans.units['settings.*_meter_out_C'])}] (0: none)</th><th>feasible</th></tr></thead>
     <tbody>${rows}</tbody></table>
     <p class="muted small">${ans.families} families; failing: ${reasons || 'none'}.</p>
     <ul class="muted small">${ans.notes.map((n) => `<li>${esc(n)}</li>`).join('')}</ul>`;

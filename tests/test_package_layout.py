@@ -29,7 +29,7 @@ LAYOUT = {
     "physics": {"chamber", "flow", "friction", "gas", "heat", "jack", "series", "tube", "valve",
                 "vessel"},
     "core": {"cache", "integrator", "layout", "rhs"},
-    "spec": {"docstrings", "effects", "model", "paths", "presets", "scenario", "units", "validation"},
+    "spec": {"docstrings", "effects", "model", "paths", "presets", "scenario", "units", "validation", "valve_data"},
     "data": {"command", "experiment", "export", "fileformats", "matfile", "measurement", "npz", "samples", "synthetic"},
     "analysis": {"autocorrelation", "blas_threads", "calibrate", "calibration_options", "compare", "diagnose",
                  "command_line", "engineering", "heat_compare", "history", "hypotheses", "metrics", "report"},

@@ -7,15 +7,16 @@ comes back with its reason. Every design carries a model that :func:`pneucore.si
 and the REST API accept as it is.
 
 The series (ISO 15552 and ISO 6432 cylinders, tubes, valves by C and b) are data with their
-sources (:mod:`pneucore.sizing.series`); the stroke metrics are
-:func:`pneucore.sizing.stroke.stroke_metrics`.
+sources (:mod:`pneucore.sizing.series`); the circuit is the model's own (``jack.mounting_angle``,
+the ``tubing`` and ``meter_out_throttle`` effects) and the stroke metrics are
+:mod:`pneucore.strokes`' (:func:`pneucore.sizing.stroke.direction_metrics`).
 """
-from pneucore.sizing.requirement import Choices, Requirement, gravity_load, tube_volume
+from pneucore.sizing.requirement import Choices, Requirement
 from pneucore.sizing.search import (REASONS, build_model, check, evaluate_family, families,
-                                     robustness_studies, size)
+                                     meter_out_throttles, robustness_studies, size)
 from pneucore.sizing.series import load_series, nominal_flow
-from pneucore.sizing.stroke import STROKE_METRIC_UNITS, stroke_metrics
+from pneucore.sizing.stroke import STROKE_METRIC_UNITS, direction_metrics
 
-__all__ = ["Choices", "Requirement", "gravity_load", "tube_volume", "REASONS", "build_model", "check",
-           "evaluate_family", "families", "robustness_studies", "size", "load_series", "nominal_flow",
-           "STROKE_METRIC_UNITS", "stroke_metrics"]
+__all__ = ["Choices", "Requirement", "REASONS", "build_model", "check", "evaluate_family",
+           "families", "meter_out_throttles", "robustness_studies", "size", "load_series",
+           "nominal_flow", "STROKE_METRIC_UNITS", "direction_metrics"]

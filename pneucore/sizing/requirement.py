@@ -2,24 +2,18 @@
 (:class:`Choices`), both from plain JSON with every field checked.
 
 A bad field raises one :class:`~pneucore.spec.validation.FieldError` naming its path
-(``requirement.stroke``) and its unit. Two small functions hold the circuit approximations
-that stand in for the components the model does not have yet (issue 23): gravity as a load
-force (:func:`gravity_load`) and a tube as dead volume (:func:`tube_volume`); each is the one
-place to switch to the model's own mounting angle and tubing once they exist.
+(``requirement.stroke``) and its unit. The angle becomes the model's ``jack.mounting_angle``
+and the tube its ``tubing`` effect (:func:`pneucore.sizing.search.build_model`).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, fields
 from typing import Optional
 
 from pneucore.physics.gas import P_ATM
+from pneucore.physics.jack import ANGLE_MAX
 from pneucore.spec.validation import FieldError, known_keys, mapping, number
 
-#: Standard gravity [m/s^2] (CGPM 1901, the conventional value)
-G_STANDARD = 9.80665
-#: The largest |mounting angle|: 90 degrees is vertical [deg]
-MAX_ANGLE = 90.0
 #: Upper bounds of the requirement's fields, in their units: well beyond any pneumatic drive
 #: (ISO 15552 cylinders are rated 10 bar, strokes of a few metres), they keep a mistyped
 #: number from asking the simulator for nonsense
@@ -122,8 +116,8 @@ class Requirement:
                                  positive=True)
         r.load_force = _checked(d.get("load_force", r.load_force), f"{path}.load_force",
                                 u("load_force"))
-        r.angle = _checked(d.get("angle", r.angle), f"{path}.angle", u("angle"), low=-MAX_ANGLE,
-                           high=MAX_ANGLE)
+        r.angle = _checked(d.get("angle", r.angle), f"{path}.angle", u("angle"), low=-ANGLE_MAX,
+                           high=ANGLE_MAX)
         r.ambient_pressure = _checked(d.get("ambient_pressure", r.ambient_pressure),
                                       f"{path}.ambient_pressure", u("ambient_pressure"),
                                       positive=True)
@@ -155,63 +149,6 @@ class Requirement:
         return cls.UNITS[name]
 
 
-def gravity_load(requirement):
-    """The load force the model's jack gets: the external force plus gravity along the rod [N].
-
-    ``load_force + m g sin(angle)``, positive towards x = 0 (the model's
-    ``jack.load_force`` convention): at 90 degrees (rod up) the extension lifts the whole
-    weight, at -90 degrees (rod down) the weight pulls the rod out. The one place the
-    mounting angle enters the model, until the model has its own angle (issue 23).
-
-    Parameters
-    ----------
-    requirement : Requirement
-        The requirement
-
-    Returns
-    -------
-    force : float
-        Constant force pushing the rod in [N]
-
-    Examples
-    --------
-    A 10 kg load lifted vertically with no other force: its weight.
-
-    >>> round(gravity_load(Requirement(moving_mass=10.0, angle=90.0)), 4)
-    98.0665
-    """
-    return requirement.load_force + requirement.moving_mass * G_STANDARD \
-        * math.sin(math.radians(requirement.angle))
-
-
-def tube_volume(inner_diameter, length):
-    """Inner volume of a tube, ``pi d^2 L / 4`` [m^3].
-
-    The tube enters the model as dead volume only (its flow resistance is not modelled
-    until the model has tubing, issue 23): the one place to switch.
-
-    Parameters
-    ----------
-    inner_diameter : float
-        Tube inner diameter [m]
-    length : float
-        Tube length [m]
-
-    Returns
-    -------
-    volume : float
-        Inner volume [m^3]
-
-    Examples
-    --------
-    Two metres of 4 mm bore hold 25.1 cm^3 (issue 23's tube example):
-
-    >>> round(tube_volume(0.004, 2.0) * 1e6, 1)
-    25.1
-    """
-    return math.pi * inner_diameter ** 2 * length / 4.0
-
-
 @dataclass
 class Choices:
     """What the search may vary; each list holds series names, member names or values.
@@ -230,9 +167,10 @@ class Choices:
         member (``pu-tube:TU0604``) or a value [m]; empty = the shipped tube series [-]
     meter_out : bool
         Whether a meter-out flow control may slow each direction down to its required time
-        (its setting solved for); false = valves fully open only [-]
+        (its throttle's conductance solved for); false = valves fully open only [-]
     min_meter_out : float
-        Smallest meter-out setting tried, as a fraction of the valve's exhaust conductance [-]
+        Smallest meter-out throttle tried: its sonic conductance as a fraction of the valve's
+        exhaust conductance [-]
     """
     bore: list = field(default_factory=list)
     valve: list = field(default_factory=list)

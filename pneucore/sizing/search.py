@@ -8,10 +8,11 @@ inner diameter. For each family :func:`size`
 2. simulates each direction fully open (a full stroke from rest at one end stop, the valve
    commanded at t = 0, the chamber to be exhausted starting at the supply pressure): a
    full-stroke time above the required one is the reason ``too_slow``;
-3. with ``choices.meter_out``, solves the meter-out setting of each direction (the fraction
-   of the valve's exhaust conductance left open) for the full-stroke time to equal the
-   required one, by a 1-D root (:func:`scipy.optimize.brentq` on the logarithms; the time
-   falls monotonically as the setting opens). The slowest motion that meets the time is the
+3. with ``choices.meter_out``, solves the sonic conductance of each direction's meter-out
+   throttle (the model's ``meter_out_throttle`` on the exhausting port, in series with the
+   valve's exhaust edge) for the full-stroke time to equal the required one, by a 1-D root
+   (:func:`scipy.optimize.brentq`; the time falls monotonically as the throttle opens,
+   towards the valve's own time as the throttle's conductance grows past the valve's). The slowest motion that meets the time is the
    gentlest: its stroke-end speed is the smallest this family reaches;
 4. checks the stroke-end speed against ``max_end_speed`` and its kinetic energy against
    ``max_end_energy`` (the cushion's capacity): above is the reason ``end_speed`` or
@@ -21,11 +22,10 @@ The feasible designs are ranked by air per cycle, then size (bore, valve conduct
 Families run in parallel on a thread pool (the compiled integrator releases the GIL), with
 ``progress(fraction, step)`` called after each family.
 
-Until the model has the circuit components of issue 23, three stand-ins are used, each in
-one function and reported in the answer's ``notes``: gravity as load force
-(:func:`pneucore.sizing.requirement.gravity_load`), a tube as dead volume
-(:func:`pneucore.sizing.requirement.tube_volume`) and the meter-out throttle as a scale on
-the valve's exhaust edge (:func:`meter_out_edge`).
+The circuit is the model's own (issue 23): the mounting angle is ``jack.mounting_angle``,
+the tube the ``tubing`` effect on both ports (its volume and its Fanno-flow resistance), the
+flow controls the ``meter_out_throttle`` effect, and the stroke metrics those of
+:mod:`pneucore.strokes` (:func:`pneucore.sizing.stroke.direction_metrics`).
 """
 from __future__ import annotations
 
@@ -39,12 +39,14 @@ from scipy.optimize import brentq
 from pneucore.physics.jack import annulus_area, net_pressure_force, rod_area
 from pneucore.progress import no_progress
 from pneucore.simulate import simulate
-from pneucore.sizing.requirement import Choices, Requirement, gravity_load, tube_volume
+from pneucore.sizing.requirement import Choices, Requirement
 from pneucore.sizing.series import dead_length, resolve_cylinders, resolve_tubes, resolve_valves
-from pneucore.sizing.stroke import STROKE_METRIC_UNITS, stroke_metrics
+from pneucore.sizing.stroke import STROKE_METRIC_UNITS, direction_metrics
+from pneucore.spec.effects import EFFECTS, effective_model
 from pneucore.spec.model import Model
 from pneucore.spec.presets import model_preset
 from pneucore.spec.scenario import Scenario
+from pneucore.spec.valve_data import C_UNIT
 from pneucore.spec.validation import FieldError
 
 #: The model every design is built on (its heat model, friction, gas)
@@ -54,7 +56,13 @@ BASE_PRESET = "paper-4way"
 DURATION_FACTOR = 3.0
 #: Output samples of a run [-]
 RUN_SAMPLES = 1500
-#: Tolerance of the meter-out root, on the logarithm of the setting (0.1 %) [-]
+#: Longest sample period of a run: the air per stroke is :mod:`pneucore.strokes`' trapezoidal
+#: integral of the sampled supply flow, which a chamber's first filling after the command (a
+#: few ms) needs samples this close for: on the hand case's retraction (tests/sizing) 5 % too
+#: much air at 6 ms, 0.04 % at 2 ms [s]
+MAX_SAMPLE_PERIOD = 2e-3
+#: Tolerance of the meter-out root, on the logarithm of the exhaust path's conductance
+#: (0.1 %; :meth:`_Direction.solve`) [-]
 SETTING_XTOL = 1e-3
 #: Designs shown, feasible false, when no family is feasible: the closest ones [-]
 N_CLOSEST = 3
@@ -68,39 +76,48 @@ REASONS = {
     "simulation": "the simulation of this family failed",
 }
 DIRECTIONS = ("extend", "retract")
+#: The valve edge each direction exhausts through
+EXHAUST_EDGE = {"extend": "B-R", "retract": "A-R"}
 #: Most families one sizing tries (cylinders x valves x tubes): the shipped series make 390
 #: with a tube; beyond this a request is refused before any work [-]
 MAX_FAMILIES = 5000
 
 
-def meter_out_edge(valve, setting):
-    """Exhaust edge of a valve behind a meter-out flow control: conductance times ``setting``.
+def meter_out_throttles(settings):
+    """The ``meter_out_throttle`` effect of a design: one throttle per exhausting port.
 
-    A stand-in for the model's ``meter_out_throttle`` (issue 23): the throttle and the
-    valve's exhaust edge in series are lumped into one ISO 6358 edge whose conductance is
-    the valve's scaled by the setting, its critical ratio the valve's.
+    While extending chamber B exhausts (port B, edge B-R), while retracting chamber A (port A,
+    edge A-R); each throttle is in series with its exhaust edge (ISO 6358-3, in the model's
+    effect), its critical ratio the effect's default.
 
     Parameters
     ----------
-    valve : dict
-        ``C_exhaust`` [m^3/(s Pa)] and ``b_exhaust`` [-] of the valve
-    setting : float
-        Fraction of the exhaust conductance left open, in (0, 1] [-]
+    settings : tuple of float
+        Throttle conductances ``(extend, retract)``; 0 = no throttle on that port
+        [m^3/(s Pa)]
 
     Returns
     -------
-    C, b : float
-        Conductance [m^3/(s Pa)] and critical ratio [-] of the lumped exhaust edge
+    params : dict or None
+        The effect's parameters (``C_a``, ``b_a``, ``C_b``, ``b_b``); None when neither port
+        has a throttle
     """
-    return valve["C_exhaust"] * setting, valve["b_exhaust"]
+    c_ext, c_ret = settings
+    if c_ext <= 0.0 and c_ret <= 0.0:
+        return None
+    b = EFFECTS["meter_out_throttle"].param("b_b").default
+    return {"C_a": float(c_ret), "b_a": b, "C_b": float(c_ext), "b_b": b}
 
 
 def _edge(opening, C, b):
     return {"opening": list(opening), "C": list(C), "b": [b, b]}
 
 
-def build_model(requirement, cylinder, valve, tube=None, settings=(1.0, 1.0), base=None):
+def build_model(requirement, cylinder, valve, tube=None, settings=(0.0, 0.0), base=None):
     """The model of one design: a single-rod cylinder driven by a 4/2 (5/2) on/off valve.
+
+    The mounting angle is the jack's ``mounting_angle``, the tube the ``tubing`` effect on
+    both ports (volume and resistance), the flow controls the ``meter_out_throttle`` effect.
 
     Parameters
     ----------
@@ -114,8 +131,8 @@ def build_model(requirement, cylinder, valve, tube=None, settings=(1.0, 1.0), ba
     tube : dict or None
         ``inner_diameter`` [m] of the tube on each port (its length is the requirement's)
     settings : tuple of float
-        Meter-out settings ``(extend, retract)``: the fraction of the exhaust conductance
-        open while extending (edge B-R) and retracting (edge A-R) [-]
+        Meter-out throttle conductances ``(extend, retract)``: on port B (exhausting while
+        extending) and port A (exhausting while retracting); 0 = none [m^3/(s Pa)]
     base : dict or None
         Model to build on (heat, friction, gas); None = the ``paper-4way`` preset
 
@@ -127,38 +144,42 @@ def build_model(requirement, cylinder, valve, tube=None, settings=(1.0, 1.0), ba
     d = copy.deepcopy(base) if base is not None else model_preset(BASE_PRESET)
     ref_bore = d["jack"]["bore"]
     bore, rod = cylinder["bore"], cylinder["rod"]
-    A_a, A_b = annulus_area(bore, 0.0), annulus_area(bore, rod)
-    extra = 0.0
-    if tube is not None and requirement.tube_length is not None:
-        extra = tube_volume(tube["inner_diameter"], requirement.tube_length)
     L0 = dead_length()
     d["jack"] = {"bore": bore, "rod_a": 0.0, "rod_b": rod, "stroke": requirement.stroke,
-                 "dead_volume_a": A_a * L0 + extra, "dead_volume_b": A_b * L0 + extra,
-                 "moving_mass": requirement.moving_mass, "load_force": gravity_load(requirement),
-                 "wall_area_a": None, "wall_area_b": None}
+                 "dead_volume_a": annulus_area(bore, 0.0) * L0,
+                 "dead_volume_b": annulus_area(bore, rod) * L0,
+                 "moving_mass": requirement.moving_mass, "load_force": requirement.load_force,
+                 "mounting_angle": requirement.angle, "wall_area_a": None, "wall_area_b": None}
     # seal friction scales with the seal's perimeter: the base cylinder's, times bore ratio
     ratio = bore / ref_bore
     for side in ("extend", "retract"):
         fs = d["friction"].get(side) or d["friction"]["extend"]
         d["friction"][side] = {k: v * ratio for k, v in fs.items()}
-    s_ext, s_ret = settings
-    C_e, b_e = meter_out_edge(valve, s_ext)
-    C_r, b_r = meter_out_edge(valve, s_ret)
     # on/off valve: u = +1 pressurises A and exhausts B, u = -1 the reverse (paper's 4/2 axis)
+    C_x, b_x = valve["C_exhaust"], valve["b_exhaust"]
     d["valve"] = {"kind": "4/2", "b_chamber_pressure": None,
                   "flow_law": d["valve"].get("flow_law", "iso6358"),
                   "ports": {"P-A": _edge((0.0, 1.0), (0.0, valve["C"]), valve["b"]),
-                            "B-R": _edge((0.0, 1.0), (0.0, C_e), b_e),
+                            "B-R": _edge((0.0, 1.0), (0.0, C_x), b_x),
                             "P-B": _edge((-1.0, 0.0), (valve["C"], 0.0), valve["b"]),
-                            "A-R": _edge((-1.0, 0.0), (C_r, 0.0), b_r)}}
+                            "A-R": _edge((-1.0, 0.0), (C_x, 0.0), b_x)}}
     d["supply"] = {**d.get("supply", {}), "pressure": requirement.supply_pressure}
     d["ambient"] = {**d.get("ambient", {}), "pressure": requirement.ambient_pressure}
+    # the throttle first: screwed into the cylinder port, upstream of the tube on the exhaust
     d["effects"] = {}
+    throttles = meter_out_throttles(settings)
+    if throttles is not None:
+        d["effects"]["meter_out_throttle"] = throttles
+    if tube is not None and requirement.tube_length is not None:
+        L, di = requirement.tube_length, tube["inner_diameter"]
+        d["effects"]["tubing"] = {"length_a": L, "diameter_a": di, "length_b": L, "diameter_b": di}
+    s_ext, s_ret = settings
     d["name"] = f"sizing: {cylinder['name']} + {valve['name']}" + \
         (f" + {tube['name']}" if tube is not None and requirement.tube_length else "")
     d["description"] = (f"Designed by pneucore.sizing: bore {bore * 1e3:g} mm, rod {rod * 1e3:g} mm, "
                         f"stroke {requirement.stroke * 1e3:g} mm, valve C {valve['C']:.3g} "
-                        f"m^3/(s Pa), meter-out {s_ext:.3g} (extend) / {s_ret:.3g} (retract)")
+                        f"m^3/(s Pa), meter-out throttle C {s_ext:.3g} (extend, port B) / "
+                        f"{s_ret:.3g} (retract, port A) m^3/(s Pa), 0 = none")
     d["notes"] = " ".join(model_notes(requirement, tube))
     return d
 
@@ -177,22 +198,22 @@ def model_notes(requirement, tube=None):
     -------
     notes : list of str
     """
-    g = gravity_load(requirement) - requirement.load_force
     notes = [
-        f"Mounting angle {requirement.angle:g} deg: the weight along the rod, m g sin(angle) = "
-        f"{g:.4g} N, is added to the model's load force (positive pushes the rod in: at 90 deg, "
-        f"rod up, the extension lifts the load) until the model has a mounting angle (issue 23).",
-        "Meter-out flow control: the setting scales the valve's exhaust-edge conductance (throttle "
-        "and edge lumped into one ISO 6358 edge) until the model has meter_out_throttle (issue 23).",
+        f"Mounting angle {requirement.angle:g} deg: the model's jack.mounting_angle (the weight "
+        "along the rod, m g sin(angle), adds to the load: at 90 deg, rod up, the extension lifts "
+        "the load).",
+        "Meter-out flow control: the model's meter_out_throttle effect, a throttle on the "
+        "exhausting port in series with the valve's exhaust edge (ISO 6358-3); its conductance "
+        "is solved for the required time, its critical ratio the effect's default.",
         f"Dead volume of each chamber: {dead_length() * 1e3:g} mm of bore (the paper's 32 mm jack, "
         "5 cm^3; not in the standards). Seal friction: the base model's, scaled with the bore.",
         "Valve switching time is not modelled: the valve opens fully at the command.",
     ]
     if requirement.tube_length is not None:
-        notes.append(f"Tube of {requirement.tube_length:g} m on each port: its volume pi d^2 L / 4 "
-                     "is added to each chamber's dead volume; its flow resistance is not modelled "
-                     "(times are optimistic for long, thin tubes) until the model has tubing "
-                     "(issue 23).")
+        notes.append(f"Tube of {requirement.tube_length:g} m on each port: the model's tubing "
+                     "effect, its volume pi d^2 L / 4 added to each chamber's dead volume and its "
+                     "resistance (Fanno flow, friction at the supply pressure) in series with the "
+                     "port's valve edges (ISO 6358-3); lumped, no transport delay.")
     return notes
 
 
@@ -200,7 +221,7 @@ def _force_reason(requirement, cylinder, model):
     """``(direction, detail)`` when the static force cannot move the load, else None."""
     j, f = model.jack, model.friction
     p_s, p_0 = requirement.supply_pressure, requirement.ambient_pressure
-    load = j.load_force
+    load = j.total_load
     dp = p_s - p_0
     A_a, A_b, Ar = j.area_a, j.area_b, rod_area(cylinder["rod"])
     fc_ext = f.extend.fc0 + f.extend.fc_a * dp
@@ -222,55 +243,79 @@ def _force_reason(requirement, cylinder, model):
 
 
 class _Direction:
-    """One direction of one family: the model, its scenario, runs cached by setting."""
+    """One direction of one family: the model, its scenario, runs cached by throttle."""
+
+    #: the port of this direction's meter-out throttle (the exhausting chamber's)
+    PORT = {"extend": "C_b", "retract": "C_a"}
 
     def __init__(self, model, requirement, direction):
         self.model = model
         self.direction = direction
         self.t_req = requirement.extend_time if direction == "extend" else requirement.retract_time
-        duration = DURATION_FACTOR * self.t_req
-        p_s, p_0 = requirement.supply_pressure, requirement.ambient_pressure
-        ext = direction == "extend"
-        self.scenario = Scenario.from_dict({
-            "duration": duration, "sample_period": duration / RUN_SAMPLES,
-            "command": [[0.0, 1.0 if ext else -1.0]], "command_interpolation": "hold",
-            "locked": False, "x0": 0.0 if ext else requirement.stroke,
-            "initial": {"p_a": p_0 if ext else p_s, "p_b": p_s if ext else p_0}}, model)
-        # the exhaust edge of this direction: B-R while extending, A-R while retracting
-        self.edge = model.valve.ports["B-R" if ext else "A-R"]
-        self.C_open = list(self.edge.C)
+        self.scenario = Scenario.from_dict(_stroke_scenario(requirement, direction), model)
         self.runs = {}
 
-    def run(self, setting):
-        """Stroke metrics at ``setting`` (cached); the full-stroke time is inf if not reached."""
-        if setting not in self.runs:
-            self.edge.C = [c * setting for c in self.C_open]
+    def run(self, C):
+        """Stroke metrics with a throttle of conductance ``C`` [m^3/(s Pa)] (0 = none), cached;
+        the full-stroke time is None when the end stop is not reached."""
+        if C not in self.runs:
+            effects = {k: v for k, v in self.model.effects.items() if k != "meter_out_throttle"}
+            throttles = meter_out_throttles((C, 0.0) if self.direction == "extend" else (0.0, C))
+            self.model.effects = ({"meter_out_throttle": throttles} if throttles else {}) | effects
             res = simulate(self.model, self.scenario, raise_on_error=False)
-            m = stroke_metrics(res, self.direction)
+            m = direction_metrics(res, self.direction)
             if res.status != 0:
                 m["full_stroke_time"] = None
                 m["failure"] = res.message
-            self.runs[setting] = m
-        return self.runs[setting]
+            self.runs[C] = m
+        return self.runs[C]
 
-    def time(self, setting):
-        t = self.run(setting)["full_stroke_time"]
+    def time(self, C):
+        t = self.run(C)["full_stroke_time"]
         return math.inf if t is None else t
 
-    def solve(self, s_min):
-        """The setting whose full-stroke time is the required one (or ``s_min`` if faster)."""
-        if self.time(s_min) <= self.t_req:
-            return s_min
+    def solve(self, C_min, C_edge):
+        """The throttle whose full-stroke time is the required one [m^3/(s Pa)]: ``C_min`` if
+        even that is fast enough, 0 (none) when only the valve alone meets the time.
+
+        The root is sought on ``y = ln(C_path / C_edge)`` in ``[ln(C_path(C_min) / C_edge),
+        0]``, ``C_path`` the conductance of throttle and edge in series by the effective
+        areas' rule ``1 / C_path^2 = 1 / C^2 + 1 / C_edge^2`` (JIS B 8390): a change of
+        variable only (the runs use the model's ISO 6358-3 chain), which makes the time
+        nearly proportional to ``exp(-y)``, so the root takes few runs; ``y = 0`` is no
+        throttle (the fully open run).
+        """
+        if self.time(C_min) <= self.t_req:
+            return C_min
         cap = DURATION_FACTOR * self.t_req
 
+        def throttle(y):
+            return 0.0 if y >= 0.0 else C_edge / math.sqrt(math.expm1(-2.0 * y))
+
         def g(y):
-            return math.log(min(self.time(math.exp(y)), cap) / self.t_req)
-        y = brentq(g, math.log(s_min), 0.0, xtol=SETTING_XTOL)
-        s = math.exp(y)
-        if self.time(s) > self.t_req:
+            return math.log(min(self.time(throttle(y)), cap) / self.t_req)
+        y_min = -0.5 * math.log1p((C_edge / C_min) ** 2)
+        C = throttle(brentq(g, y_min, 0.0, xtol=SETTING_XTOL))
+        if self.time(C) > self.t_req:
             # the root's bracket end on the fast side meets the time for sure
-            s = min((k for k in self.runs if self.time(k) <= self.t_req), default=1.0)
-        return s
+            C = min((k for k in self.runs if k > 0.0 and self.time(k) <= self.t_req),
+                    default=0.0)
+        return C
+
+
+def _stroke_scenario(requirement, direction):
+    """The scenario of one full stroke: at rest at one end stop, the chamber to be exhausted
+    at the supply pressure (where the previous stroke left it), the valve switched at the
+    first sample after t = 0 (the ``command`` event :mod:`pneucore.strokes` times from)."""
+    t_req = requirement.extend_time if direction == "extend" else requirement.retract_time
+    period = min(DURATION_FACTOR * t_req / RUN_SAMPLES, MAX_SAMPLE_PERIOD)
+    p_s, p_0 = requirement.supply_pressure, requirement.ambient_pressure
+    ext = direction == "extend"
+    return {"duration": period + DURATION_FACTOR * t_req, "sample_period": period,
+            "command": [[0.0, 0.0], [period, 1.0 if ext else -1.0]],
+            "command_interpolation": "hold", "locked": False,
+            "x0": 0.0 if ext else requirement.stroke,
+            "initial": {"p_a": p_0 if ext else p_s, "p_b": p_s if ext else p_0}}
 
 
 #: Spread of the robustness studies: seal friction from half to twice the design's (it
@@ -382,25 +427,26 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
                 "detail": weak[1]}
     try:
         dirs = {k: _Direction(model.copy(), requirement, k) for k in DIRECTIONS}
-        full = {k: dr.run(1.0) for k, dr in dirs.items()}
+        full = {k: dr.run(0.0) for k, dr in dirs.items()}
         for k, m in full.items():
             if "failure" in m:
                 return {**family, "feasible": False, "reason": "simulation", "direction": k,
                         "detail": f"{k}: {m['failure']}"}
-        slow = [k for k, dr in dirs.items() if dr.time(1.0) > dr.t_req]
+        slow = [k for k, dr in dirs.items() if dr.time(0.0) > dr.t_req]
         if slow:
-            k = max(slow, key=lambda k: dirs[k].time(1.0) / dirs[k].t_req)
+            k = max(slow, key=lambda k: dirs[k].time(0.0) / dirs[k].t_req)
             t = full[k]["full_stroke_time"]
             took = f"{t:.4g} s" if t is not None else \
                 f"not at the end stop after {DURATION_FACTOR * dirs[k].t_req:.4g} s"
-            design = _design(requirement, cylinder, valve, tube, {k: 1.0 for k in DIRECTIONS},
+            design = _design(requirement, cylinder, valve, tube, {k: 0.0 for k in DIRECTIONS},
                              full, base)
             return {**family, "feasible": False, "reason": "too_slow", "direction": k,
                     "detail": f"{k}: full-stroke time fully open {took}, required "
                               f"{dirs[k].t_req:.4g} s",
-                    "shortfall": dirs[k].time(1.0) / dirs[k].t_req,
+                    "shortfall": dirs[k].time(0.0) / dirs[k].t_req,
                     "design": {**design, "feasible": False}}
-        settings = {k: dr.solve(choices.min_meter_out) if choices.meter_out else 1.0
+        C_min = choices.min_meter_out * valve["C_exhaust"]
+        settings = {k: dr.solve(C_min, valve["C_exhaust"]) if choices.meter_out else 0.0
                     for k, dr in dirs.items()}
         metrics = {k: dirs[k].run(settings[k]) for k in DIRECTIONS}
     except FieldError as exc:
@@ -417,7 +463,8 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
             if value is not None and value > limit:
                 return {**family, "feasible": False, "reason": reason, "direction": k,
                         "detail": f"{k}: {what} {value:.3g} {unit} at the slowest setting that "
-                                  f"meets {dirs[k].t_req:.4g} s (meter-out {settings[k]:.3g}), "
+                                  f"meets {dirs[k].t_req:.4g} s (meter-out throttle C "
+                                  f"{settings[k]:.3g} m^3/(s Pa), 0 = none), "
                                   f"limit {limit:.3g} {unit}",
                         "shortfall": value / limit, "design": {**design, "feasible": False}}
     return {**family, "feasible": True, "design": design}
@@ -427,11 +474,13 @@ def _design(requirement, cylinder, valve, tube, settings, metrics, base):
     model = build_model(requirement, cylinder, valve, tube,
                         (settings["extend"], settings["retract"]), base=base)
     air = metrics["extend"]["air"] + metrics["retract"]["air"]
+    # the exhaust path each way as the model sees it: throttle, tube and valve edge in series
+    ports = effective_model(Model.from_dict(model)).valve.ports
     return {
         "cylinder": cylinder, "valve": valve,
         "tube": tube if requirement.tube_length is not None else None,
-        "settings": {f"{k}_meter_out": settings[k] for k in DIRECTIONS}
-        | {f"{k}_exhaust_C": meter_out_edge(valve, settings[k])[0] for k in DIRECTIONS},
+        "settings": {f"{k}_meter_out_C": settings[k] for k in DIRECTIONS}
+        | {f"{k}_exhaust_C": max(ports[EXHAUST_EDGE[k]].C) for k in DIRECTIONS},
         "model": model,
         "metrics": {k: {n: metrics[k][n] for n in STROKE_METRIC_UNITS} for k in DIRECTIONS}
         | {"units": dict(STROKE_METRIC_UNITS)},
@@ -612,4 +661,4 @@ def _answer(req, ch, outcomes):
             "requirement": req.to_dict(), "choices": ch.to_dict(),
             "units": {"air_per_cycle": "NL", **{f"metrics.*.{k}": u
                                                   for k, u in STROKE_METRIC_UNITS.items()},
-                      "settings.*_meter_out": "-", "settings.*_exhaust_C": "m^3/(s Pa)"}}
+                      "settings.*_meter_out_C": C_UNIT, "settings.*_exhaust_C": C_UNIT}}

@@ -1,0 +1,14 @@
+"""POST /api/valve/convert: valve data as catalogues give them (nominal flow Qn, effective
+area, one flow point) converted to the model's sonic conductance C and critical ratio b
+(issue 23, item 7; :mod:`pneucore.spec.valve_data`)."""
+from fastapi import APIRouter
+
+from ..services import convert_valve
+from ..valve_schemas import SUMMARY, ValveConvertRequest, ValveConvertResponse
+
+router = APIRouter(prefix="/api", tags=["valve"])
+
+
+@router.post("/valve/convert", response_model=ValveConvertResponse, summary=SUMMARY)
+def valve_convert(req: ValveConvertRequest):
+    return convert_valve(req)

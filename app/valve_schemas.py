@@ -1,0 +1,36 @@
+"""Schemas of POST /api/valve/convert: the request and the answer, from the library's registry
+(:mod:`pneucore.spec.valve_data`)."""
+from typing import Optional
+
+from pydantic import BaseModel, ConfigDict, Field, create_model
+
+from pneucore.spec.valve_data import C_UNIT, CONVERSIONS, FIELDS
+
+
+def _description(name, text, unit, default):
+    readers = ", ".join(c for c, conv in CONVERSIONS.items() if name in conv.fields)
+    need = f"required by {readers}" if default is None else f"read by {readers}, default {default:g}"
+    return f"{text}; {need} [{unit}]"
+
+
+#: The request: every field of the library's registry, its unit and description from there
+ValveConvertRequest = create_model(
+    "ValveConvertRequest", __config__=ConfigDict(extra="forbid"),
+    **{name: (Optional[float], Field(default, description=_description(name, text, u, default)))
+       for name, (u, text, _, default) in FIELDS.items()})
+
+
+class ValveConvertResponse(BaseModel):
+    C: float = Field(..., description="Sonic conductance, as the model's valve edges take it "
+                                      f"(valve.ports.*.C) [{C_UNIT}]")
+    b: float = Field(..., description="Critical pressure ratio (the catalogue's, as given) [-]")
+    conversion: str = Field(..., description="The conversion used: "
+                                             + ", ".join(sorted(CONVERSIONS)) + " [-]")
+    source: str = Field(..., description="The law used and its source")
+    units: dict[str, str] = Field(..., description="Unit of each number of the answer")
+
+
+#: The route's summary
+SUMMARY = ("Valve data as catalogues give them (Qn, effective area, a flow point) to the "
+           "model's C and b; exactly one of " + ", ".join(sorted(CONVERSIONS)))
+
