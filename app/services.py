@@ -351,7 +351,7 @@ def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None):
     """POST /api/reports/diagnose: the diagnosis (with the comparisons of the model and of the
     verdict's refined model) as one self-contained HTML text; ``progress`` follows the
     diagnosis."""
-    from pneucore.analysis.report import diagnosis_report as html_report
+    from pneucore.analysis.report import diagnosis_report_on
     model, exps = check_diagnose(req, store, limits)
     shown = getattr(req, "diagnosis", None)
     if shown is not None:   # the diagnosis on screen, exported as it is
@@ -364,16 +364,13 @@ def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None):
                     r[k] = float("nan")
             r["params"] = {str(k): v for k, v in r["params"].items()
                            if isinstance(v, (int, float, str)) and not isinstance(v, bool)}
+        best = next((r for r in d["ranking"] if r.get("effect") == d.get("verdict")), None)
+        if best is not None and best.get("model"):
+            parse_model(best["model"], "diagnosis.ranking.model")   # a 422 naming it, not a 500
     else:
         d = diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
                      progress=progress, validated=True, known=req.known).to_dict()   # checked above
-    c = compare(model, exps)
-    refined = None
-    best = next((r for r in d.get("ranking", []) if r.get("effect") == d.get("verdict")), None)
-    if best is not None and best.get("model"):
-        refined = compare(parse_model(best["model"], "diagnosis.ranking.model") if shown is not None
-                          else Model.from_dict(best["model"]), exps)
-    return html_report(model, d, c, _provenance(store, exps), refined)
+    return diagnosis_report_on(model, exps, d, _provenance(store, exps))
 
 
 def refinement_report(req: RefineRequest, store, limits, progress=None):
