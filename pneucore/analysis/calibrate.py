@@ -55,6 +55,10 @@ FAILED_RESIDUAL = 1e3
 #: the last few, near it, a full one. The diagnosis's usual tests (two or three 1 s records)
 #: stay below it and are fitted exactly as before
 PREFIT_SECONDS = 4.0
+#: Residual evaluations of each pass on the full records after the window's fit [-]: the
+#: first differenced Jacobian gives a Gauss-Newton step from near the optimum, and the
+#: Broyden updates a few more, one replay each
+POLISH_NFEV = 4
 
 
 class Objective:
@@ -404,8 +408,7 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
             return Jz
 
         try:
-            # a step costs one replay with the updated Jacobian: twice the evaluations
-            budget = max_nfev if broyden is None else 2 * max_nfev
+            budget = max_nfev if broyden is None else min(POLISH_NFEV, max_nfev)
             sol = least_squares(fun, z_first, jac=jac, bounds=(lo / sc, hi / sc), method="trf",
                                 x_scale=1.0, max_nfev=budget, ftol=1e-8, xtol=1e-8, gtol=1e-10)
             sigma_before = [dict(d) for d in obj.sigma]
@@ -422,11 +425,16 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
                 obj.best = (float(r_start @ r_start), theta0.copy())
                 sol = least_squares(fun, np.clip(sol.x, lo / sc, hi / sc), jac=jac,
                                     bounds=(lo / sc, hi / sc), method="trf", x_scale=1.0,
-                                    max_nfev=max(budget // 2, 5), ftol=1e-8, xtol=1e-8,
+                                    max_nfev=(max(max_nfev // 2, 5) if broyden is None
+                                              else budget), ftol=1e-8, xtol=1e-8,
                                     gtol=1e-10)
             theta = np.clip(sol.x * sc, lo, hi)
             success = sol.status > 0
             message = sol.message if success else f"did not converge: {sol.message}"
+            if broyden is not None and sol.status == 0:   # the polish's budget, by design
+                success = pre.success
+                message = (f"{pre.message} (on the records' first {PREFIT_SECONDS:g} s in all), "
+                           f"then {budget} evaluations a pass on the full records")
         except Cancelled:
             raise
         except Exception as exc:  # keep the best point found, never NaN
