@@ -52,8 +52,8 @@ FAILED_RESIDUAL = 1e3
 #: Simulated time over all experiments [s] beyond which a fit first runs on the records' first
 #: seconds (:func:`window`, this much in all) and then goes on from that point on the full
 #: records: the optimiser's iterations far from the optimum cost a short replay, and only
-#: the last few, near it, a full one. The diagnosis's usual tests (two or three 1 s records)
-#: stay below it and are fitted exactly as before
+#: the last few, near it, a full one. The diagnosis's usual tests (two 1 s records, the
+#: confusion set's at most 2 s in all) stay below it and are fitted exactly as before
 PREFIT_SECONDS = 4.0
 #: Residual evaluations of each pass on the full records after the window's fit [-]: the
 #: first differenced Jacobian gives a Gauss-Newton step from near the optimum, and the
@@ -340,9 +340,12 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     user's values along what the data do not resolve.
 
     Records longer than :data:`PREFIT_SECONDS` in all are first fitted on their first
-    seconds (:func:`window`); the fit on the full records starts from that point. The
-    statistics, the reference "before" and the guard against ending worse than the model as
-    given are the full records' and the given model's.
+    seconds (:func:`window`); the fit on the full records goes on from that point for
+    :data:`POLISH_NFEV` evaluations a pass (a differenced Jacobian, then Broyden updates: one
+    replay a step), so that a round costs a few replays of the full records whatever their
+    length. The statistics (differenced afresh at the end point), the reference "before" and
+    the guard against ending worse than the model as given are the full records' and the
+    given model's.
     """
     def check():
         if progress is not None:
