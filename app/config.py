@@ -74,8 +74,15 @@ class Limits:
     max_duration: float = 120.0          # simulated time per request [s]
     max_samples: int = 200_001           # output samples per simulation
     max_command_points: int = 100_000
-    max_experiments: int = 8
+    #: experiments of one analysis [-]: what an analysis costs is its samples and simulated
+    #: seconds (capped below); the count itself only adds per-experiment work (the consistency
+    #: fits, the tables), so that ten tests of a rig, or twenty, fit in one request
+    max_experiments: int = 24
     max_analysis_samples: int = 200_000  # measured samples over all experiments of one analysis
+    #: simulated seconds over all experiments of one analysis [s]: each residual evaluation
+    #: replays them all (200 s: the samples' cap at 1 kHz; a record sampled slower would
+    #: otherwise cost more simulation for the same samples)
+    max_analysis_seconds: float = 200.0
     max_steps: int = 2_000_000           # solver step budget (about 10 s of compute)
     job_time_limit: float = 300.0        # wall time of one job [s]
     request_time_limit: float = 60.0     # wall time of a synchronous analysis [s]

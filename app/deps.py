@@ -104,6 +104,7 @@ def parse_experiments(exps_in, model: Model, store: Store, limits: Limits):
     if total > limits.max_analysis_samples:
         raise FieldError("experiments", f"{total} measured samples exceed the API limit of "
                                         f"{limits.max_analysis_samples}")
+    seconds = 0.0
     for i, e in enumerate(exps):
         try:
             m = e.model_for(model)   # with this experiment's load and supply pressure
@@ -115,6 +116,11 @@ def parse_experiments(exps_in, model: Model, store: Store, limits: Limits):
             raise
         check_scenario_limits(scen, limits, f"experiments[{i}].scenario")
         check_resolvable(m, scen.solver.rtol, scen.solver.max_step, "model.jack.moving_mass")
+        seconds += scen.duration
+        if seconds > limits.max_analysis_seconds:
+            raise FieldError("experiments", f"{seconds:g} s of records (simulated time over all "
+                                            f"experiments) exceed the API limit of "
+                                            f"{limits.max_analysis_seconds:g} s")
     return exps
 
 

@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pneucore.data.experiment import as_experiments
-from pneucore.analysis.metrics import (command_phases, eq25_error, noise_sigma, phase_errors, piston_phases,
-                      worst_windows)
+from pneucore.analysis.metrics import (command_phases, eq25_error, noise_sigma, ordered_labels,
+                                       phase_errors, piston_phases, worst_windows)
 from pneucore.spec.model import Model
 
 
@@ -144,9 +144,9 @@ def _phase_table(replays, which):
         labels = rp.cmd_labels if which == "command" else (
             rp.piston_labels if which == "piston" else
             np.char.add(np.char.add(rp.cmd_labels.astype(str), ", "), rp.piston_labels.astype(str)))
-        for s in rp.measured:
-            for lab in dict.fromkeys(labels):
-                sel = labels == lab
+        for lab in ordered_labels(labels):
+            sel = labels == lab
+            for s in rp.measured:
                 d = acc.setdefault(str(lab), {}).setdefault(s, ([], []))
                 d[0].append(rp.measured[s][sel])
                 d[1].append(rp.simulated[s][sel])

@@ -950,16 +950,21 @@ def consistency(cal, exps, name, max_nfev=30):
     """
     eff = EFFECTS[name]
     per = {}
-    for e in exps:
-        kind = "locked" if e.scenario.get("locked") else "free"
-        if kind not in eff.observable_in:
-            continue
-        specs = [ParameterSpec(f"effects.{name}.{p}", cal.model.effects[name][p], eff.param(p).min,
-                               eff.param(p).max, True, eff.param(p).unit)
-                 for p in eff.score_params]
-        if not specs:
-            continue
-        c1 = fit(cal.model, [e], specs, max_nfev=max(max_nfev // 2, 8), compute_before=False)
+    specs = [ParameterSpec(f"effects.{name}.{p}", cal.model.effects[name][p], eff.param(p).min,
+                           eff.param(p).max, True, eff.param(p).unit)
+             for p in eff.score_params]
+    acting = [e for e in exps
+              if ("locked" if e.scenario.get("locked") else "free") in eff.observable_in]
+    if not specs:
+        acting = []
+
+    def one(e):
+        # each experiment's fit is independent of the others': in parallel on the cores
+        return fit(cal.model, [e], specs, max_nfev=max(max_nfev // 2, 8), compute_before=False)
+
+    with ThreadPoolExecutor(_calibrate.THREADS) as pool:
+        fits = list(pool.map(one, acting))
+    for e, c1 in zip(acting, fits):
         est = {}
         for sp in specs:
             v = c1.values[sp.path]

@@ -190,6 +190,29 @@ def piston_phases(mode):
     return np.array([_PISTON.get(k, k) for k in keys.tolist()])[inv.reshape(-1)]
 
 
+def ordered_labels(labels):
+    """Distinct labels of a per-sample label array, in order of first appearance.
+
+    What ``dict.fromkeys(labels)`` gives, without its Python loop over every sample
+    (21,000 a signal on a 20 s record at 1 kHz).
+
+    Parameters
+    ----------
+    labels : ndarray
+        One label per sample [-]
+
+    Returns
+    -------
+    labels : list
+        The distinct labels, first seen first [-]
+    """
+    labels = np.asarray(labels)
+    if labels.size == 0:
+        return []
+    _, first = np.unique(labels, return_index=True)
+    return list(labels[np.sort(first)])
+
+
 def phase_errors(measured, simulated, labels):
     """Eq. 25 error of one signal within each phase label.
 
@@ -199,7 +222,7 @@ def phase_errors(measured, simulated, labels):
         label -> {"error": float, "n": samples}
     """
     out = {}
-    for lab in dict.fromkeys(labels):
+    for lab in ordered_labels(labels):
         sel = labels == lab
         n = int(np.sum(sel & np.isfinite(measured) & np.isfinite(simulated)))
         if n:

@@ -290,3 +290,46 @@ def test_tiny_budget_reports_failure_but_finite_values():
     assert s["success"] is False
     for path in TRUE:
         assert s["values"][path]["value"] is not None and s["values"][path]["stderr"] is not None
+
+
+# ----------------------------------------------------------------- long records
+
+def long_records(seconds=8.0, seed=3):
+    """The locked hold plus a free record of a machine cycling once a second for ``seconds``."""
+    from pneucore.data.synthetic import diagnostic_scenarios, synthesize
+    from pneucore.spec.scenario import pulse_train
+    true = truth_model()
+    hold = diagnostic_scenarios(true)["locked-hold"]
+    events = [e for k in range(int(seconds)) for e in ((k + 0.1, 0.7), (k + 0.55, -0.7))]
+    cyc = {"duration": seconds, "sample_period": 0.001, "command": pulse_train(events, 0.06),
+           "locked": False, "x0": 0.05}
+    return [{"name": "hold", "scenario": {"locked": True, "x0": hold["x0"]},
+             "measurement": synthesize(true, hold, ("p_a", "p_b"), None, 12, seed, "hold")},
+            {"name": "cycling", "scenario": {"locked": False, "x0": 0.05},
+             "measurement": synthesize(true, cyc, ("p_a", "p_b", "x"), None, 12, seed + 1, "cyc")}]
+
+
+def test_long_records_are_fitted_from_a_window_to_the_same_optimum(monkeypatch):
+    """9 s of records (over PREFIT_SECONDS): fitted first on their first seconds, then on the
+    full records with Broyden-updated Jacobians; the truth is recovered as with short records,
+    and the result is the optimum the plain fit finds on the full records."""
+    from pneucore.analysis import calibrate as C
+    from pneucore.data.experiment import as_experiments
+    exps = long_records()
+    assert C.window(as_experiments(exps)) is not None   # the windowed path is taken
+    cal = calibrate(model_preset("paper-4way"), exps, BOUNDS)
+    assert cal.success, cal.message
+    for path, want in TRUE.items():
+        v = cal.values[path]
+        # within a few standard errors (REL_TOL assumes errors below 0.1 %; here the one hold
+        # test leaves h a standard error of 1.6 %)
+        assert abs(v["value"] - want) <= N_SIGMA * v["stderr"], (path, v, want)
+    monkeypatch.setattr(C, "PREFIT_SECONDS", math.inf)
+    plain = calibrate(model_preset("paper-4way"), exps, BOUNDS)
+    for path in TRUE:
+        a, b = cal.values[path], plain.values[path]
+        # the same optimum: within a tenth of a standard error (the optimisers stop at
+        # xtol = 1e-8 in scaled units, far inside it; a different optimum is many errors away)
+        assert abs(a["value"] - b["value"]) <= 0.1 * b["stderr"], (path, a, b)
+        # the covariance is differenced afresh at the end point either way
+        assert a["stderr"] == pytest.approx(b["stderr"], rel=0.05), (path, a, b)

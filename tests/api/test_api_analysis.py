@@ -206,6 +206,16 @@ def test_too_many_samples(db_path):
         assert c.post("/api/compare", json={"model": model(), "experiments": CLEAN[:1]}).status_code == 200
 
 
+def test_too_many_simulated_seconds(db_path):
+    with api(db_path, max_analysis_seconds=1.5) as c:
+        # two 1 s experiments: 2 s of records to replay > 1.5 s, refused before any simulation
+        for ep, extra in ENDPOINTS.items():
+            body = {"model": model(), "experiments": CLEAN, **extra}
+            assert_field_error(c.post(f"/api/{ep}", json=body), "experiments",
+                               msg_contains=["2 s", "1.5 s"])
+        assert c.post("/api/compare", json={"model": model(), "experiments": CLEAN[:1]}).status_code == 200
+
+
 def test_experiment_needs_measurement_or_dataset(client):
     assert_field_error(client.post("/api/compare", json={"model": model(), "experiments": [{"name": "x"}]}),
                        "experiments[0].measurement")
