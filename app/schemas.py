@@ -17,6 +17,7 @@ from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
 from pneucore.spec.docstrings import api_description
 from pneucore.spec.model import (B_CHAMBER_MODES, VALVE_KINDS, Friction, FrictionSet, Gas, Heat, Jack, Model,
                                  PortTable, Source, Valve)
+from pneucore.spec.provenance import PROVENANCE_FIELDS
 from pneucore.spec.scenario import COMMAND_INTERPOLATIONS, Initial, Scenario, Solver
 from pneucore.study.definition import DISTRIBUTIONS
 
@@ -159,6 +160,7 @@ class ModelIn(_Strict):
     name: Name = Field("", description=described(Model, "name"))
     description: Text = Field("", description=described(Model, "description"))
     notes: str = Field("", description=described(Model, "notes"))
+    provenance: dict[str, dict[str, Any]] = Field(default_factory=dict, description="Where each identified value came from, by parameter path (friction.extend.fc0, jack.moving_mass, valve.ports.P-A.C for an edge's table): " + "; ".join(f"{k}: {v}" for k, v in PROVENANCE_FIELDS.items()) + ". Written by POST /api/identify/valve and /friction (source bench); a bench value is known to later fits unless bench_known is false")
 
 
 # ---------------------------------------------------------------------------- scenario
@@ -231,6 +233,11 @@ class ExperimentIn(_Strict):
 KNOWN_DOC = ("Parameter paths whose values are known (a weighed mass jack.moving_mass, the bore, a load "
              "from gravity jack.load_force): never moved by any fit; a fit that would need one far off "
              "says so as a finding [-]")
+#: What a request's ``bench_known`` flag means (one text for calibrate, diagnose and refine)
+BENCH_KNOWN_DOC = ("true (default): the values the model's provenance says were identified on a bench "
+                   "(source bench) are known: held at the bench's value even when listed to be fitted "
+                   "(in parameters or uncertain; the answer's bench_held names them), and a fit that "
+                   "would need one far off says so (known_disagree); false: fitted like any other [-]")
 
 
 class CompareRequest(_Strict):
@@ -254,6 +261,7 @@ class CalibrateRequest(_Strict):
     max_nfev: int = Field(40, ge=1, le=_Limits.max_nfev,
                           description=f"Budget of residual evaluations (at most {_Limits.max_nfev}) [-]")
     known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
+    bench_known: bool = Field(True, description=BENCH_KNOWN_DOC)
 
 
 class DiagnoseRequest(_Strict):
@@ -262,6 +270,7 @@ class DiagnoseRequest(_Strict):
     candidates: Optional[list[str]] = Field(None, description="Effects to consider; null = all applicable [-]")
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along [-]")
     known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
+    bench_known: bool = Field(True, description=BENCH_KNOWN_DOC)
 
 
 def _refine_default(name):
@@ -277,6 +286,7 @@ class RefineRequest(_Strict):
     experiments: list[ExperimentIn] = Field(..., description="Experiments")
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along; given, they replace the automatic choice [-]")
     known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
+    bench_known: bool = Field(True, description=BENCH_KNOWN_DOC)
     max_rounds: int = Field(_refine_default("max_rounds"), ge=1, le=8, description="Most rounds (diagnose, apply the findings) [-]")
 
 
@@ -502,6 +512,7 @@ class CalibrateResponse(BaseModel):
     n_data: int = Field(..., description="Number of residuals [-]")
     n_params: int = Field(..., description="Number of fitted parameters [-]")
     known_disagree: Optional[list[dict[str, Any]]] = Field(None, description="With known: the declared values the data would move far (path, declared and data_suggest in the parameter's unit, residual_share [-], description); they are held")
+    bench_held: list[str] = Field(default_factory=list, description="The bench-identified paths (model provenance) that the request listed in parameters, held at their bench value (vary false) [-]")
     success: bool = Field(..., description="The optimiser converged")
     message: str = Field(..., description="The optimiser's message")
     nfev: int = Field(..., description="Residual evaluations used [-]")
@@ -549,6 +560,7 @@ class DiagnoseResponse(BaseModel):
     hints: list[ContextHint] = Field(default_factory=list, description="Where a record contradicts the context declared with it; also at the end of the message")
     changes: list[ModelChange] = Field(default_factory=list, description="Every value of the model that 'model' (the verdict applied) changes")
     known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
+    bench_held: list[str] = Field(default_factory=list, description="The bench-identified paths (model provenance) that the request listed in uncertain, held at their bench value [-]")
 
 
 class CalibrationParametersRequest(_Strict):
