@@ -481,7 +481,9 @@ def _header_conversion(name: str, ambient_pressure: float) -> Conversion:
     signal, unit = match.group(1), match.group(2)
     if signal not in _COLUMNS:
         msg = f"unknown column name {signal!r}; known names: {', '.join(_COLUMNS)}"
-        close = difflib.get_close_matches(signal, _COLUMNS, n=1, cutoff=0.5)
+        # the same name in another case first ('P_a' is p_a, not q_a), then the closest spelling
+        close = [c for c in _COLUMNS if c.lower() == signal.lower()][:1] or \
+            difflib.get_close_matches(signal, _COLUMNS, n=1, cutoff=0.5)
         if close:
             msg += f" (did you mean {close[0]!r}?)"
         raise MeasurementError(msg, column=name)
