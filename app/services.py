@@ -262,7 +262,7 @@ def check_calibrate(req: CalibrateRequest, store, limits):
     check_parameters(model, exps, params)   # model paths and sensors.<signal>.offset / .gain
     known, held = fit_known(req, model, [k for k, p in params.items() if p.get("vary", True)])
     for path in held:   # bench-identified: held at the bench's value
-        params[path] = dict(params[path], vary=False)
+        params[path] = {**{k: v for k, v in params[path].items() if k != "value"}, "vary": False}
     check_request(model, [], (), known)
     for path, p in params.items():
         if path in known and p.get("vary", True):
