@@ -222,7 +222,7 @@ class MeasurementIn(BaseModel):
 class ExperimentIn(_Strict):
     name: Optional[Name] = Field(None, description="Label")
     scenario: Optional[dict[str, Any]] = Field(None, description="Scenario context (locked, x0, ...); command ([[t [s], u [-]], ...], held) and duration [s] default to the measurement's; a record without a u column needs the command here")
-    measurement: Optional[MeasurementIn] = Field(None, description="Inline measurement: t [s], u [-], p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K]; null marks a missing sample")
+    measurement: Optional[MeasurementIn] = Field(None, description="Inline measurement: t [s], u [-], p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K], F rod force on the load, positive outward [N], q_a/q_b mass flow into A/B and q_s from the supply [kg/s], p_s supply pressure [Pa abs]; null marks a missing sample")
     dataset_id: Optional[str] = Field(None, description="Stored dataset to use instead of an inline measurement")
     load_force: Optional[Number] = Field(None, description="Load during this experiment [N]")
     supply_pressure: Optional[Number] = Field(None, description="Supply pressure during this experiment [Pa abs]")
@@ -355,7 +355,7 @@ class HeatModelsCompareRequest(_Strict):
 # ---------------------------------------------------------------------------- file import
 class ImportConversion(BaseModel):
     column: str = Field(..., description="Column as written in the file")
-    signal: str = Field(..., description="Signal it was read as (t, u, p_a, p_b, x, v, T_a, T_b)")
+    signal: str = Field(..., description="Signal it was read as (t, u, p_a, p_b, x, v, T_a, T_b, F, q_a, q_b, q_s, p_s) [-]")
     from_: str = Field(..., alias="from", description="Unit in the file (canonical spelling: barg for bar(g))")
     to: str = Field(..., description="SI unit stored")
     ambient_pressure: Optional[Number] = Field(None, description="Ambient pressure added for a gauge unit [Pa]; null = absolute")
@@ -601,7 +601,7 @@ class CommandProposal(BaseModel):
 
 
 class DatasetWithData(DatasetInfo):
-    measurement: dict[str, Any] = Field(..., description="t [s], u [-] (absent when the record has no command), p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K]; null = missing sample; meta.sensors: how each column was read on upload (unit, gain, offset, raw unit, gauge ambient [Pa])")
+    measurement: dict[str, Any] = Field(..., description="t [s], u [-] (absent when the record has no command), p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K], F [N], q_a/q_b/q_s [kg/s], p_s [Pa abs]; null = missing sample; meta.sensors: how each column was read on upload (unit, gain, offset, raw unit, gauge ambient [Pa])")
 
 
 class StudyResultsResponse(BaseModel):
