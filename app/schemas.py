@@ -17,7 +17,6 @@ from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
 from pneucore.spec.docstrings import api_description
 from pneucore.spec.model import (B_CHAMBER_MODES, VALVE_KINDS, Friction, FrictionSet, Gas, Heat, Jack, Model,
                                  PortTable, Source, Valve)
-from pneucore.spec.provenance import PROVENANCE_FIELDS
 from pneucore.spec.scenario import COMMAND_INTERPOLATIONS, Initial, Scenario, Solver
 from pneucore.study.definition import DISTRIBUTIONS
 
@@ -160,7 +159,7 @@ class ModelIn(_Strict):
     name: Name = Field("", description=described(Model, "name"))
     description: Text = Field("", description=described(Model, "description"))
     notes: str = Field("", description=described(Model, "notes"))
-    provenance: dict[str, dict[str, Any]] = Field(default_factory=dict, description="Where each identified value came from, by parameter path (friction.extend.fc0, jack.moving_mass, valve.ports.P-A.C for an edge's table): " + "; ".join(f"{k}: {v}" for k, v in PROVENANCE_FIELDS.items()) + ". Written by POST /api/identify/valve and /friction (source bench); a bench value is known to later fits unless bench_known is false")
+    provenance: dict[str, dict[str, Any]] = Field(default_factory=dict, description=described(Model, "provenance"))
 
 
 # ---------------------------------------------------------------------------- scenario

@@ -562,9 +562,12 @@ class Model:
     notes : str
         Free text
     provenance : dict
-        Where each identified value came from, by parameter path: ``{"source": "catalogue",
-        "bench", "calibration" or "diagnosis", "stderr", "unit", "method", "note"}``
-        (:mod:`pneucore.spec.provenance`); a bench value is known to a later fit [-]
+        Where each identified value came from, by parameter path (``friction.extend.fc0``,
+        ``valve.ports.P-A.C`` for an edge's table): ``{"source": "catalogue", "bench",
+        "calibration" or "diagnosis", "stderr" (the parameter's unit, null when not known),
+        "unit", "method", "note"}`` (:mod:`pneucore.spec.provenance`); the valve and friction
+        benches write theirs; a bench value is known to later fits unless a request's
+        ``bench_known`` is false [-]
     """
     jack: Jack = field(default_factory=Jack)
     valve: Valve = field(default_factory=Valve)
