@@ -1087,25 +1087,39 @@ def run_identify_valve(req, progress=None, checked=None):
     return out
 
 
-def check_identify_friction(req):
-    """POST /api/identify/friction, validated: the model and every record (422 naming it)."""
+def _bench_record(r, path, store):
+    """A friction-bench record's fields, a ``dataset_id`` read from the store (its measurement
+    in SI units, the rod force ``F`` among its signals)."""
+    d = r.model_dump(exclude_none=True)
+    did = d.pop("dataset_id", None)
+    if did is None:
+        return d
+    meas = store.measurement(did) if store is not None else None
+    if meas is None:
+        raise FieldError(f"{path}.dataset_id", f"unknown dataset {did!r}")
+    return {"name": d.get("name") or meas.name or did, "measurement": meas.to_dict()}
+
+
+def check_identify_friction(req, store=None):
+    """POST /api/identify/friction, validated: the model and every record (422 naming it); a
+    record may be a stored dataset (``dataset_id``, read from ``store``)."""
     from pneucore.identify.friction_bench import FrictionRecord
 
     model = parse_model(req.model)
-    fit = [FrictionRecord.from_dict(r.model_dump(exclude_none=True), f"experiments[{i}]")
+    fit = [FrictionRecord.from_dict(_bench_record(r, f"experiments[{i}]", store), f"experiments[{i}]")
            for i, r in enumerate(req.experiments)]
-    val = [FrictionRecord.from_dict(r.model_dump(exclude_none=True), f"validate[{i}]")
+    val = [FrictionRecord.from_dict(_bench_record(r, f"validate[{i}]", store), f"validate[{i}]")
            for i, r in enumerate(req.validate_)]
     return {"model": model, "fit": fit, "validate": val}
 
 
-def run_identify_friction(req, progress=None, checked=None):
+def run_identify_friction(req, progress=None, checked=None, store=None):
     """The model's friction law from the bench records
     (:func:`pneucore.identify.identify_friction`) and the rod force it predicts on the
     validation records (:func:`pneucore.identify.predict_rod_force`)."""
     from pneucore.identify import identify_friction, predict_rod_force
 
-    c = checked or check_identify_friction(req)
+    c = checked or check_identify_friction(req, store)
     progress = progress or (lambda f, s: None)
     res = identify_friction(c["model"], c["fit"], extras=req.extras, stribeck=req.stribeck,
                             quadrant=req.quadrant, v_min=req.v_min, window=req.window,
