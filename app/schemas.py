@@ -159,6 +159,7 @@ class ModelIn(_Strict):
     name: Name = Field("", description=described(Model, "name"))
     description: Text = Field("", description=described(Model, "description"))
     notes: str = Field("", description=described(Model, "notes"))
+    provenance: dict[str, dict[str, Any]] = Field(default_factory=dict, description=described(Model, "provenance"))
 
 
 # ---------------------------------------------------------------------------- scenario
@@ -220,7 +221,7 @@ class MeasurementIn(BaseModel):
 class ExperimentIn(_Strict):
     name: Optional[Name] = Field(None, description="Label")
     scenario: Optional[dict[str, Any]] = Field(None, description="Scenario context (locked, x0, ...); command ([[t [s], u [-]], ...], held) and duration [s] default to the measurement's; a record without a u column needs the command here")
-    measurement: Optional[MeasurementIn] = Field(None, description="Inline measurement: t [s], u [-], p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K]; null marks a missing sample")
+    measurement: Optional[MeasurementIn] = Field(None, description="Inline measurement: t [s], u [-], p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K], F rod force on the load, positive outward [N], q_a/q_b mass flow into A/B and q_s from the supply [kg/s], p_s supply pressure [Pa abs]; null marks a missing sample")
     dataset_id: Optional[str] = Field(None, description="Stored dataset to use instead of an inline measurement")
     load_force: Optional[Number] = Field(None, description="Load during this experiment [N]")
     supply_pressure: Optional[Number] = Field(None, description="Supply pressure during this experiment [Pa abs]")
@@ -231,6 +232,11 @@ class ExperimentIn(_Strict):
 KNOWN_DOC = ("Parameter paths whose values are known (a weighed mass jack.moving_mass, the bore, a load "
              "from gravity jack.load_force): never moved by any fit; a fit that would need one far off "
              "says so as a finding [-]")
+#: What a request's ``bench_known`` flag means (one text for calibrate, diagnose and refine)
+BENCH_KNOWN_DOC = ("true (default): the values the model's provenance says were identified on a bench "
+                   "(source bench) are known: held at the bench's value even when listed to be fitted "
+                   "(in parameters or uncertain; the answer's bench_held names them), and a fit that "
+                   "would need one far off says so (known_disagree); false: fitted like any other [-]")
 
 
 class CompareRequest(_Strict):
@@ -254,6 +260,7 @@ class CalibrateRequest(_Strict):
     max_nfev: int = Field(40, ge=1, le=_Limits.max_nfev,
                           description=f"Budget of residual evaluations (at most {_Limits.max_nfev}) [-]")
     known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
+    bench_known: bool = Field(True, description=BENCH_KNOWN_DOC)
 
 
 class DiagnoseRequest(_Strict):
@@ -262,6 +269,7 @@ class DiagnoseRequest(_Strict):
     candidates: Optional[list[str]] = Field(None, description="Effects to consider; null = all applicable [-]")
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along [-]")
     known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
+    bench_known: bool = Field(True, description=BENCH_KNOWN_DOC)
 
 
 def _refine_default(name):
@@ -277,6 +285,7 @@ class RefineRequest(_Strict):
     experiments: list[ExperimentIn] = Field(..., description="Experiments")
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along; given, they replace the automatic choice [-]")
     known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
+    bench_known: bool = Field(True, description=BENCH_KNOWN_DOC)
     max_rounds: int = Field(_refine_default("max_rounds"), ge=1, le=8, description="Most rounds (diagnose, apply the findings) [-]")
 
 
@@ -345,7 +354,7 @@ class HeatModelsCompareRequest(_Strict):
 # ---------------------------------------------------------------------------- file import
 class ImportConversion(BaseModel):
     column: str = Field(..., description="Column as written in the file")
-    signal: str = Field(..., description="Signal it was read as (t, u, p_a, p_b, x, v, T_a, T_b)")
+    signal: str = Field(..., description="Signal it was read as (t, u, p_a, p_b, x, v, T_a, T_b, F, q_a, q_b, q_s, p_s) [-]")
     from_: str = Field(..., alias="from", description="Unit in the file (canonical spelling: barg for bar(g))")
     to: str = Field(..., description="SI unit stored")
     ambient_pressure: Optional[Number] = Field(None, description="Ambient pressure added for a gauge unit [Pa]; null = absolute")
@@ -502,6 +511,7 @@ class CalibrateResponse(BaseModel):
     n_data: int = Field(..., description="Number of residuals [-]")
     n_params: int = Field(..., description="Number of fitted parameters [-]")
     known_disagree: Optional[list[dict[str, Any]]] = Field(None, description="With known: the declared values the data would move far (path, declared and data_suggest in the parameter's unit, residual_share [-], description); they are held")
+    bench_held: list[str] = Field(default_factory=list, description="The bench-identified paths (model provenance) that the request listed in parameters, held at their bench value (vary false) [-]")
     success: bool = Field(..., description="The optimiser converged")
     message: str = Field(..., description="The optimiser's message")
     nfev: int = Field(..., description="Residual evaluations used [-]")
@@ -549,6 +559,7 @@ class DiagnoseResponse(BaseModel):
     hints: list[ContextHint] = Field(default_factory=list, description="Where a record contradicts the context declared with it; also at the end of the message")
     changes: list[ModelChange] = Field(default_factory=list, description="Every value of the model that 'model' (the verdict applied) changes")
     known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
+    bench_held: list[str] = Field(default_factory=list, description="The bench-identified paths (model provenance) that the request listed in uncertain, held at their bench value [-]")
 
 
 class CalibrationParametersRequest(_Strict):
@@ -589,7 +600,7 @@ class CommandProposal(BaseModel):
 
 
 class DatasetWithData(DatasetInfo):
-    measurement: dict[str, Any] = Field(..., description="t [s], u [-] (absent when the record has no command), p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K]; null = missing sample; meta.sensors: how each column was read on upload (unit, gain, offset, raw unit, gauge ambient [Pa])")
+    measurement: dict[str, Any] = Field(..., description="t [s], u [-] (absent when the record has no command), p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K], F [N], q_a/q_b/q_s [kg/s], p_s [Pa abs]; null = missing sample; meta.sensors: how each column was read on upload (unit, gain, offset, raw unit, gauge ambient [Pa])")
 
 
 class StudyResultsResponse(BaseModel):

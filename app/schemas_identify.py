@@ -88,6 +88,7 @@ class FrictionRecordIn(_Open):
     p_b: Optional[list[Optional[float]]] = Field(None, max_length=MAX_RECORD_SAMPLES, description="Chamber B absolute pressure [Pa]")
     F: Optional[list[Optional[float]]] = Field(None, max_length=MAX_RECORD_SAMPLES, description="Rod force on its load, positive outward (towards +x) [N]; required")
     measurement: Optional[dict[str, Any]] = Field(None, description="The same signals (t [s], x [m], p_a, p_b [Pa abs], F [N]) nested, as a measurement object, instead of beside name [-]")
+    dataset_id: Optional[str] = Field(None, description="A stored dataset (POST /api/datasets: a rig file with t, x, p_a, p_b and the rod force F mapped, in any unit the importer reads: N, kN, daN, lbf) instead of the signals inline [-]")
 
 
 class FrictionIdentifyRequest(_Strict):

@@ -36,6 +36,7 @@ from pneucore.progress import Cancelled
 from pneucore.simulate import SimulationError, simulate
 from pneucore.spec.effects import EFFECTS
 from pneucore.spec.model import Model
+from pneucore.spec.provenance import bench_known
 from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
 from pneucore.spec.scenario import Scenario
 from pneucore.spec.units import unit_systems
@@ -229,22 +230,59 @@ def check_compare(req: CompareRequest, store, limits):
     return model, parse_experiments(req.experiments, model, store, limits)
 
 
+def fit_known(req, model, listed=()):
+    """What a fit request holds: ``(known, held)``.
+
+    ``known`` is the request's ``known`` plus, unless ``bench_known`` is false, every path the
+    model's ``provenance`` says was identified on a bench (a flow bench, a friction bench:
+    :func:`pneucore.spec.provenance.bench_known`) and that is a parameter of this model;
+    ``held`` are those bench paths that the request lists to be fitted (``listed``: a
+    calibration's varied parameters, a diagnosis's ``uncertain``): they are held at their bench
+    value, and the answer names them (``bench_held``). ``bench_known: false`` fits them like any
+    other value.
+    """
+    known = list(req.known)
+    if not req.bench_known:
+        return known, []
+    for p in bench_known(model):
+        if p in known:
+            continue
+        try:
+            check_request(model, [], (), [p])   # a bench path this model has (edge, effect)
+        except FieldError:
+            continue
+        known.append(p)
+    held = [p for p in known if p not in req.known and p in listed]
+    return known, held
+
+
 def check_calibrate(req: CalibrateRequest, store, limits):
     model = parse_model(req.model)
     params = {k: v.model_dump(exclude_none=True) for k, v in req.parameters.items()}
     exps = parse_experiments(req.experiments, model, store, limits)
     check_parameters(model, exps, params)   # model paths and sensors.<signal>.offset / .gain
-    check_request(model, [], (), req.known)
+    known, held = fit_known(req, model, [k for k, p in params.items() if p.get("vary", True)])
+    for path in held:   # bench-identified: held at the bench's value
+        params[path] = {**{k: v for k, v in params[path].items() if k != "value"}, "vary": False}
+    check_request(model, [], (), known)
     for path, p in params.items():
-        if path in req.known and p.get("vary", True):
+        if path in known and p.get("vary", True):
             raise FieldError(f"parameters.{path}", "declared known (in known): a known value is never "
                                                    "fitted; drop it from parameters or from known")
     return model, exps, params
 
 
+def _uncertain_known(req, model):
+    """A diagnosis's or refinement's ``(uncertain, known, held)`` after :func:`fit_known`:
+    the bench paths listed in ``uncertain`` leave it, held."""
+    known, held = fit_known(req, model, req.uncertain)
+    return [p for p in req.uncertain if p not in held], known, held
+
+
 def check_diagnose(req: DiagnoseRequest, store, limits):
     model = parse_model(req.model)
-    check_request(model, req.candidates, req.uncertain, req.known)
+    uncertain, known, _ = _uncertain_known(req, model)
+    check_request(model, req.candidates, uncertain, known)
     return model, parse_experiments(req.experiments, model, store, limits)
 
 
@@ -259,15 +297,17 @@ def run_compare(req: CompareRequest, store, limits, progress=None, checked=None)
 def run_calibrate(req: CalibrateRequest, store, limits, progress=None, checked=None):
     """The calibration; ``checked`` as for :func:`run_compare` (from :func:`check_calibrate`)."""
     model, exps, params = checked or check_calibrate(req, store, limits)
+    known, held = fit_known(req, model, [k for k, p in req.parameters.items() if p.vary])
     cal = calibrate(model, exps, params, max_nfev=req.max_nfev, progress=progress)
     out = cal.summary()
-    if req.known:
+    out["bench_held"] = held
+    if known:
         # the declared values, held: where the data would move one far, a finding says so
         from pneucore.analysis import hypotheses as H
         from pneucore.analysis.calibrate import Objective
         from pneucore.analysis.compare import replay
         out["known_disagree"] = H.known_disagreements(
-            cal.model, exps, req.known, [replay(cal.model, e) for e in exps],
+            cal.model, exps, known, [replay(cal.model, e) for e in exps],
             Objective(cal.model, exps, []))
     return out
 
@@ -275,14 +315,18 @@ def run_calibrate(req: CalibrateRequest, store, limits, progress=None, checked=N
 def run_diagnose(req: DiagnoseRequest, store, limits, progress=None, checked=None):
     """The diagnosis; ``checked`` as for :func:`run_compare` (from :func:`check_diagnose`)."""
     model, exps = checked or check_diagnose(req, store, limits)
-    return diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
-                    progress=progress, validated=True, known=req.known).to_dict()   # checked above
+    uncertain, known, held = _uncertain_known(req, model)
+    out = diagnose(model, exps, candidates=req.candidates, uncertain=uncertain,
+                   progress=progress, validated=True, known=known).to_dict()   # checked above
+    out["bench_held"] = held
+    return out
 
 
 def check_refine(req: RefineRequest, store, limits):
     """Everything a refine request can get wrong, checked before any work."""
     model = parse_model(req.model)
-    check_request(model, None, req.uncertain, req.known)
+    uncertain, known, _ = _uncertain_known(req, model)
+    check_request(model, None, uncertain, known)
     return model, parse_experiments(req.experiments, model, store, limits)
 
 
@@ -292,6 +336,7 @@ def run_refine(req: RefineRequest, store, limits, progress=None, checked=None):
     :func:`check_refine`)."""
     from pneucore.analysis.history import refine, refinement_answer
     model, exps = checked or check_refine(req, store, limits)
+    uncertain, known, _ = _uncertain_known(req, model)
     state = {"round": 0, "last": 0.0}
 
     def each_round(fraction, step):   # one progress over the rounds: a new round starts low again
@@ -302,8 +347,8 @@ def run_refine(req: RefineRequest, store, limits, progress=None, checked=None):
             progress((state["round"] + min(fraction, 1.0)) / req.max_rounds,
                      f"round {state['round'] + 1}: {step}")
     final, history, diagnoses = refine(model, exps, max_rounds=req.max_rounds,
-                                       uncertain=req.uncertain, progress=each_round,
-                                       validated=True, known=req.known)   # check_refine checked it
+                                       uncertain=uncertain, progress=each_round,
+                                       validated=True, known=known)   # check_refine checked it
     return refinement_answer(final, history, diagnoses)
 
 
@@ -368,8 +413,9 @@ def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None):
         if best is not None and best.get("model"):
             parse_model(best["model"], "diagnosis.ranking.model")   # a 422 naming it, not a 500
     else:
-        d = diagnose(model, exps, candidates=req.candidates, uncertain=req.uncertain,
-                     progress=progress, validated=True, known=req.known).to_dict()   # checked above
+        uncertain, known, _ = _uncertain_known(req, model)
+        d = diagnose(model, exps, candidates=req.candidates, uncertain=uncertain,
+                     progress=progress, validated=True, known=known).to_dict()   # checked above
     return diagnosis_report_on(model, exps, d, _provenance(store, exps))
 
 
@@ -1039,25 +1085,39 @@ def run_identify_valve(req, progress=None, checked=None):
     return out
 
 
-def check_identify_friction(req):
-    """POST /api/identify/friction, validated: the model and every record (422 naming it)."""
+def _bench_record(r, path, store):
+    """A friction-bench record's fields, a ``dataset_id`` read from the store (its measurement
+    in SI units, the rod force ``F`` among its signals)."""
+    d = r.model_dump(exclude_none=True)
+    did = d.pop("dataset_id", None)
+    if did is None:
+        return d
+    meas = store.measurement(did) if store is not None else None
+    if meas is None:
+        raise FieldError(f"{path}.dataset_id", f"unknown dataset {did!r}")
+    return {"name": d.get("name") or meas.name or did, "measurement": meas.to_dict()}
+
+
+def check_identify_friction(req, store=None):
+    """POST /api/identify/friction, validated: the model and every record (422 naming it); a
+    record may be a stored dataset (``dataset_id``, read from ``store``)."""
     from pneucore.identify.friction_bench import FrictionRecord
 
     model = parse_model(req.model)
-    fit = [FrictionRecord.from_dict(r.model_dump(exclude_none=True), f"experiments[{i}]")
+    fit = [FrictionRecord.from_dict(_bench_record(r, f"experiments[{i}]", store), f"experiments[{i}]")
            for i, r in enumerate(req.experiments)]
-    val = [FrictionRecord.from_dict(r.model_dump(exclude_none=True), f"validate[{i}]")
+    val = [FrictionRecord.from_dict(_bench_record(r, f"validate[{i}]", store), f"validate[{i}]")
            for i, r in enumerate(req.validate_)]
     return {"model": model, "fit": fit, "validate": val}
 
 
-def run_identify_friction(req, progress=None, checked=None):
+def run_identify_friction(req, progress=None, checked=None, store=None):
     """The model's friction law from the bench records
     (:func:`pneucore.identify.identify_friction`) and the rod force it predicts on the
     validation records (:func:`pneucore.identify.predict_rod_force`)."""
     from pneucore.identify import identify_friction, predict_rod_force
 
-    c = checked or check_identify_friction(req)
+    c = checked or check_identify_friction(req, store)
     progress = progress or (lambda f, s: None)
     res = identify_friction(c["model"], c["fit"], extras=req.extras, stribeck=req.stribeck,
                             quadrant=req.quadrant, v_min=req.v_min, window=req.window,

@@ -12,8 +12,12 @@ SERIES_UNITS = {
     "t": "s", "u": "-", "p_a": "Pa", "p_b": "Pa", "T_a": "K", "T_b": "K", "m_a": "kg", "m_b": "kg",
     "x": "m", "v": "m/s", "a": "m/s^2", "q_a": "kg/s", "q_b": "kg/s", "friction": "N",
     "mode": "-", "u_eff": "-", "p_supply": "Pa", "q_supply": "kg/s", "net_force": "N",
-    "heat_a": "W", "heat_b": "W", "V_a": "m^3", "V_b": "m^3",
+    "heat_a": "W", "heat_b": "W", "V_a": "m^3", "V_b": "m^3", "rod_force": "N",
 }
+
+#: Measured signal (:data:`pneucore.data.measurement.SIGNALS`) -> the series that models it,
+#: where the names differ: the rod force, the supply flow and the supply pressure
+OBSERVED_SERIES = {"F": "rod_force", "q_s": "q_supply", "p_s": "p_supply"}
 
 #: Text of each piston mode code (``layout.MODE_*``), then "" for code -1 (sample not
 #: reached): a lookup table indexed by the codes, built once
@@ -41,6 +45,19 @@ class SimulationResult:
         Net valve mass flow into each chamber [kg/s]
     friction : ndarray
         Friction force, positive towards -x [N] (holding force while stuck, 0 at a stop)
+    rod_force : ndarray
+        Force the rod exerts on its load, positive outward (what a load cell between rod and
+        load reads, the measured signal ``F``) [N]. From the force balance of Eq. 17 with the
+        moving mass ``M`` lumped on the load's side: ``F = M a + F_load``, ``F_load`` the load of
+        Eq. 17 (``load_force`` plus the weight along the rod). While sliding this is
+        ``p_a A_a - p_b A_b + p_atm (A_rod,a - A_rod,b) - F_friction - F_spring`` (+ a user
+        effect's force), the jack's side of the same balance; stuck it is the load; at an end
+        stop the end cap takes the pressure force and the rod still carries only the load;
+        locked (the clamp is the rod's load) it is the net pressure force less the spring
+        (``net_force + F_load``)
+    q_supply, p_supply : ndarray
+        Mass flow drawn from the supply [kg/s] and the supply pressure (the supply-line state
+        with ``supply_pressure_drop``, else the supply's own) [Pa abs]
     mode : ndarray of str
         ``slide``, ``stick``, ``stop`` or ``locked``
     events : list of dict
@@ -103,6 +120,10 @@ class SimulationResult:
         s["heat_b"] = aux_out[:, L.AUX_HEAT_B]
         s["V_a"] = aux_out[:, L.AUX_VA]
         s["V_b"] = V_b
+        # Eq. 17 with the moving mass on the load's side (see the class docstring)
+        load = eff.jack.total_load
+        s["rod_force"] = np.where(mode_out == L.MODE_LOCKED, s["net_force"] + load,
+                                  eff.jack.moving_mass * s["a"] + load)
         for i, name in enumerate(core["state_names"][L.N_BASE_STATES:]):
             s[name] = y_out[:, L.N_BASE_STATES + i]
         events = [{"t": float(t), "kind": L.EVENT_NAMES[k], "mode": L.MODE_DETAIL[m]}
@@ -116,7 +137,11 @@ class SimulationResult:
 
     # -- views -------------------------------------------------------------------
     def observed(self, name):
-        """The series a sensor would report: ``p_a``/``p_b`` through the transducer lag if modelled."""
+        """The series a sensor would report for the measured signal ``name``: ``p_a``/``p_b``
+        through the transducer lag if modelled; ``F`` the rod force (``rod_force``), ``q_s`` the
+        supply flow (``q_supply``), ``p_s`` the supply pressure (``p_supply``)
+        (:data:`OBSERVED_SERIES`); ``q_a``/``q_b`` the valve's net mass flow into each chamber."""
+        name = OBSERVED_SERIES.get(name, name)
         lagged = f"{name}_sensor"
         if lagged in self.series:
             return self.series[lagged]

@@ -20,6 +20,7 @@ const EDGE_COLORS = { 'P-A': '#1f77b4', 'A-R': '#ff7f0e', 'P-B': '#2ca02c', 'B-R
 const HEAT_COLORS = { isothermal: '#1f77b4', adiabatic: '#d62728', convective: '#2ca02c' };
 const SIGNAL_LABELS = {
   p_a: 'p_a', p_b: 'p_b', x: 'x', v: 'v', T_a: 'T_a', T_b: 'T_b', overall: 'overall',
+  F: 'F (rod force)', q_a: 'q_a (flow into A)', q_b: 'q_b (flow into B)', q_s: 'q_s (supply flow)', p_s: 'p_s (supply)',
 };
 // the friction coefficients with their labels; units come from GET /api/units (paramUnit)
 const FRICTION_COEFFS = [
@@ -1036,7 +1037,10 @@ function stackedLayout(n, left, right, titles, extra = {}) {
   return { layout, rows };
 }
 const SIG_COLORS = { p_a: '#1f77b4', p_b: '#d62728', x: '#2ca02c', v: '#9467bd', T_a: '#17becf', T_b: '#e377c2' };
-const SIG_SI = { p_a: 'Pa', p_b: 'Pa', x: 'm', v: 'm/s' };
+const SIG_SI = { p_a: 'Pa', p_b: 'Pa', p_s: 'Pa', x: 'm', v: 'm/s' };
+/** Signals the comparison's two axes hold (pressures; position, velocity, temperatures): the rod
+ * force F [N] and the flows q_a, q_b, q_s [kg/s] have their errors in the tables, not these axes */
+const onCompareAxes = (sig) => sig in SIG_SI || sig.startsWith('T');
 /** A measured or simulated signal as the plots show it; `diff` for residuals (no gauge offset). */
 function toDisplay(sig, arr, diff = false) {
   if (sig.startsWith('T')) return diff ? arr : arr.map((v) => (v == null ? null : v - 273.15));
@@ -1057,7 +1061,7 @@ function plotCompare(c, exps) {
   const first = (g) => (seen.has(g) ? false : (seen.add(g), true));
   c.experiments.forEach((e, i) => {
     const meas = S.measured[exps[i] && exps[i].dataset_id] || {};
-    for (const sig of Object.keys(e.simulated || {})) {
+    for (const sig of Object.keys(e.simulated || {}).filter(onCompareAxes)) {
       const axisRef = sig.startsWith('p') ? rows[i].y : rows[i].y2;
       const color = SIG_COLORS[sig] || '#555';
       if (meas[sig]) {
@@ -1080,7 +1084,7 @@ function plotResiduals(c, windows) {
   const seen = new Set();
   layout.shapes = [];
   c.experiments.forEach((e, i) => {
-    for (const [sig, arr] of Object.entries(e.residuals || {})) {
+    for (const [sig, arr] of Object.entries(e.residuals || {}).filter(([sig]) => onCompareAxes(sig))) {
       traces.push({ x: e.t, y: toDisplay(sig, arr, true), xaxis: rows[i].x, yaxis: sig.startsWith('p') ? rows[i].y : rows[i].y2, mode: 'lines',
         name: `${sig} residual`, legendgroup: sig, showlegend: !seen.has(sig) && !!seen.add(sig), line: { color: SIG_COLORS[sig] || '#555', width: 1.2 } });
     }

@@ -44,7 +44,10 @@ _UPLOAD_DOC = {
                      "description": "CSV (any delimiter, decimal comma, UTF-8/16 or latin-1, optional "
                                     "units row), NI TDMS or MATLAB .mat: t[s|ms], u[-|%], "
                                     "p_a[Pa|kPa|bar|bar(g)|psi(g)...], p_b, x[m|mm|in], v, "
-                                    "T_a[K|degC], T_b, or aliases (Zeit, Time, p_A...)"},
+                                    "T_a[K|degC], T_b, F[N|kN|daN|lbf] (rod force, outward), "
+                                    "q_a, q_b, q_s[kg/s|g/s|L/min ANR|NL/min|m^3/h ANR] (mass "
+                                    "flows, ANR at RHO_REF 1.185 kg/m^3), p_s[Pa|bar|bar(g)...] "
+                                    "(supply), or aliases (Zeit, Time, p_A...)"},
             "ambient_pressure": {"type": "number", "description": _AMBIENT_DOC},
             "columns": {"type": "string", "description": _COLUMNS_DOC},
             "name": {"type": "string"}, "description": {"type": "string"},

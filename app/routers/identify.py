@@ -3,7 +3,7 @@ benches (paper section 2), and the same as jobs (POST /api/jobs/identify/...).""
 from fastapi import APIRouter, HTTPException
 
 from ..bodies import OffLoopRoute
-from ..deps import JobsDep
+from ..deps import JobsDep, StoreDep
 from ..responses import JSON
 from ..schemas import JobResponse
 from ..schemas_identify import (FrictionIdentifyRequest, FrictionIdentifyResponse, ValveIdentifyRequest,
@@ -25,8 +25,8 @@ def identify_valve(req: ValveIdentifyRequest):
 @router.post("/friction", response_class=JSON, response_model=FrictionIdentifyResponse,
              summary="The friction law (Eq. 18-20) from friction-bench records by the force balance "
                      "(Eq. 17), validated on records not fitted on (paper Fig. 4)")
-def identify_friction(req: FrictionIdentifyRequest):
-    return JSON(run_identify_friction(req))
+def identify_friction(req: FrictionIdentifyRequest, store: StoreDep):
+    return JSON(run_identify_friction(req, store=store))
 
 
 def _submit(jobs, kind, fn):
@@ -47,7 +47,7 @@ def identify_valve_job(req: ValveIdentifyRequest, jobs: JobsDep):
 
 @jobs_router.post("/friction", status_code=202, response_model=JobResponse,
                   summary="The friction bench as a job (progress and result at GET /api/jobs/{id})")
-def identify_friction_job(req: FrictionIdentifyRequest, jobs: JobsDep):
-    checked = check_identify_friction(req)
+def identify_friction_job(req: FrictionIdentifyRequest, jobs: JobsDep, store: StoreDep):
+    checked = check_identify_friction(req, store)
     return _submit(jobs, "identify-friction",
                    lambda job: run_identify_friction(req, progress=job.report, checked=checked))

@@ -44,8 +44,10 @@ LEAD_LIMIT = 10.0
 #: Scenarios an experiment keeps built and validated, one per model shape (Experiment.scenario_for)
 _SCENARIO_CACHE_SIZE = 8
 
-#: Signals that can be compared with the model
-COMPARABLE = ("p_a", "p_b", "x", "v", "T_a", "T_b")
+#: Signals that can be compared with the model (:meth:`pneucore.result.SimulationResult.observed`
+#: gives the model's: the rod force ``F`` [N], the flows ``q_a``, ``q_b``, ``q_s`` [kg/s] and the
+#: supply pressure ``p_s`` [Pa] besides the chamber states)
+COMPARABLE = ("p_a", "p_b", "x", "v", "T_a", "T_b", "F", "q_a", "q_b", "q_s", "p_s")
 
 #: What a record without a command column needs
 NO_COMMAND = ("the record has no valve command column 'u': give the command as scenario.command "

@@ -56,7 +56,8 @@ NPZ_MAX_META_BYTES = 1 << 20
 NPY_MAX_HEADER = 10_000
 #: Memory the decoded columns of one file may take by default [bytes]: the time and every signal
 #: at MAX_SAMPLES samples, as stored (at most 8 bytes a value) and as float64 (8 more), what the
-#: largest measurement needs (256 MB); the service passes its own ``max_request_memory``
+#: largest measurement needs (416 MB with the twelve signals of SIGNALS); the service passes its
+#: own ``max_request_memory``
 DECODE_BUDGET = (1 + len(SIGNALS)) * MAX_SAMPLES * 16
 #: Largest ``.npz`` member read [bytes]: a vector of MAX_SAMPLES doubles and its header; a
 #: larger one (text, a matrix) is skipped unread

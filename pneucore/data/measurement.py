@@ -3,7 +3,12 @@
 A :class:`Measurement` is a time series sampled on a test rig: the time
 ``t`` [s], the valve command ``u`` [-] and any of the chamber pressures
 ``p_a``, ``p_b`` [Pa], the rod position ``x`` [m], and optionally the rod
-velocity ``v`` [m/s] and chamber temperatures ``T_a``, ``T_b`` [K].
+velocity ``v`` [m/s], chamber temperatures ``T_a``, ``T_b`` [K], the rod force
+``F`` [N] (the force the rod exerts on its load, positive outward: a load
+cell), the mass flows ``q_a``, ``q_b`` into each chamber and ``q_s`` drawn
+from the supply [kg/s] (flow meters; accepted in L/min ANR, NL/min, m³/h ANR,
+g/s and kg/s, converted with the one ANR density
+:data:`pneucore.physics.gas.RHO_REF`) and the supply pressure ``p_s`` [Pa].
 
 All quantities are stored in SI units; pressures are absolute. Measurements
 are read from CSV files (:func:`read_csv`) or from plain JSON-like
@@ -41,7 +46,7 @@ from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
 
-from pneucore.physics.gas import P_ATM
+from pneucore.physics.gas import P_ATM, RHO_REF
 
 __all__ = [
     "MeasurementError",
@@ -65,7 +70,8 @@ __all__ = [
     "DEFAULT_AMBIENT_PRESSURE",
 ]
 
-SIGNALS: tuple[str, ...] = ("u", "p_a", "p_b", "x", "v", "T_a", "T_b")
+SIGNALS: tuple[str, ...] = ("u", "p_a", "p_b", "x", "v", "T_a", "T_b", "F", "q_a", "q_b", "q_s",
+                             "p_s")
 """Known signal names (the time column ``t`` is not a signal)."""
 
 SIGNAL_UNITS: dict[str, str] = {
@@ -76,6 +82,11 @@ SIGNAL_UNITS: dict[str, str] = {
     "v": "m/s",
     "T_a": "K",
     "T_b": "K",
+    "F": "N",
+    "q_a": "kg/s",
+    "q_b": "kg/s",
+    "q_s": "kg/s",
+    "p_s": "Pa",
 }
 """SI unit of each signal as stored in a :class:`Measurement`."""
 
@@ -96,7 +107,7 @@ DEFAULT_AMBIENT_PRESSURE: float = P_ATM
 PSI: float = 6894.757293168361
 """One pound-force per square inch [Pa] (0.45359237 kg * 9.80665 m/s^2 / 0.0254^2 m^2)."""
 
-_PRESSURES = ("p_a", "p_b")
+_PRESSURES = ("p_a", "p_b", "p_s")
 _TEMPERATURES = ("T_a", "T_b")
 _COLUMNS = ("t",) + SIGNALS
 #: Cells read as a missing sample (compared without case); each one is listed in the import report
@@ -211,6 +222,15 @@ _LENGTH_UNITS = {"m": {}, "mm": {"div": 1e3}, "cm": {"div": 1e2},
 _VELOCITY_UNITS = {"m/s": {}, "mm/s": {"div": 1e3}, "in/s": {"mul": 0.0254}}
 _TIME_UNITS = {"s": {}, "ms": {"div": 1e3}, "us": {"div": 1e6}, "\u00b5s": {"div": 1e6}}
 _COMMAND_UNITS = {"-": {}, "%": {"div": 1e2}}
+#: One pound-force [N] (0.45359237 kg * 9.80665 m/s^2)
+LBF: float = 4.4482216152605
+_FORCE_UNITS = {"N": {}, "kN": {"mul": 1e3}, "daN": {"mul": 10.0}, "lbf": {"mul": LBF}}
+#: Mass flows: a volume flow at the ISO 8778 reference atmosphere (ANR, "normal" litres) times
+#: the one reference density RHO_REF [kg/m^3]: 1 L/min ANR = RHO_REF / 60000 kg/s
+_FLOW_UNITS = {"kg/s": {}, "g/s": {"div": 1e3}, "kg/h": {"div": 3600.0},
+               "L/min ANR": {"mul": RHO_REF, "div": 6e4}, "NL/min": {"mul": RHO_REF, "div": 6e4},
+               "m^3/h ANR": {"mul": RHO_REF, "div": 3600.0}, "Nm^3/h": {"mul": RHO_REF, "div": 3600.0},
+               "L/s ANR": {"mul": RHO_REF, "div": 1e3}}
 _TEMPERATURE_UNITS = {"K": "K", "degC": "C", "C": "C", "\u00b0C": "C",
                       "degF": "F", "\u00b0F": "F"}
 
@@ -223,6 +243,11 @@ UNITS: dict[str, tuple[str, ...]] = {
     "v": tuple(_VELOCITY_UNITS),
     "T_a": tuple(_TEMPERATURE_UNITS),
     "T_b": tuple(_TEMPERATURE_UNITS),
+    "F": tuple(_FORCE_UNITS),
+    "q_a": tuple(_FLOW_UNITS),
+    "q_b": tuple(_FLOW_UNITS),
+    "q_s": tuple(_FLOW_UNITS),
+    "p_s": tuple(_PRESSURE_UNITS),
 }
 """Accepted unit suffixes for each column name (``t`` included), in canonical
 spelling; see :func:`canonical_unit` for the other spellings accepted."""
@@ -230,7 +255,13 @@ spelling; see :func:`canonical_unit` for the other spellings accepted."""
 #: Other spellings of units, mapped to the canonical ones of :data:`UNITS`
 _UNIT_SPELLINGS = {"sec": "s", "msec": "ms", "1": "-", "": "-", "percent": "%",
                    "inch": "in", "mu": "um", "deg C": "degC", "deg F": "degF",
-                   "kelvin": "K", "millibar": "mbar"}
+                   "kelvin": "K", "millibar": "mbar",
+                   # flows: ANR is the ISO 8778 reference atmosphere, also written (ANR) or "Nl"
+                   "l/min ANR": "L/min ANR", "L/min (ANR)": "L/min ANR", "l/min (ANR)": "L/min ANR",
+                   "Nl/min": "NL/min", "nl/min": "NL/min", "NLPM": "NL/min", "SLPM": "NL/min",
+                   "m\u00b3/h ANR": "m^3/h ANR", "m3/h ANR": "m^3/h ANR", "m\u00b3/h (ANR)": "m^3/h ANR",
+                   "m3/h (ANR)": "m^3/h ANR", "Nm\u00b3/h": "Nm^3/h", "Nm3/h": "Nm^3/h",
+                   "l/s ANR": "L/s ANR", "dm3/s ANR": "L/s ANR", "dm\u00b3/s ANR": "L/s ANR"}
 _GAUGE_RE = re.compile(r"^(.*?)\s*(?:\(\s*g(?:auge)?\s*\)|\s+g(?:auge)?|g)$", re.IGNORECASE)
 _ABS_RE = re.compile(r"^(.*?)\s*(?:\(\s*a(?:bs)?\s*\)|\s+a(?:bs)?|a)$", re.IGNORECASE)
 
@@ -373,7 +404,8 @@ class Conversion:
                 return _scale(add=273.15)
             return _fahrenheit
         table = {"t": _TIME_UNITS, "u": _COMMAND_UNITS, "x": _LENGTH_UNITS,
-                 "v": _VELOCITY_UNITS}[signal]
+                 "v": _VELOCITY_UNITS, "F": _FORCE_UNITS, "q_a": _FLOW_UNITS, "q_b": _FLOW_UNITS,
+                 "q_s": _FLOW_UNITS}[signal]
         return _scale(**table[unit])
 
 
@@ -449,7 +481,9 @@ def _header_conversion(name: str, ambient_pressure: float) -> Conversion:
     signal, unit = match.group(1), match.group(2)
     if signal not in _COLUMNS:
         msg = f"unknown column name {signal!r}; known names: {', '.join(_COLUMNS)}"
-        close = difflib.get_close_matches(signal, _COLUMNS, n=1, cutoff=0.5)
+        # the same name in another case first ('P_a' is p_a, not q_a), then the closest spelling
+        close = [c for c in _COLUMNS if c.lower() == signal.lower()][:1] or \
+            difflib.get_close_matches(signal, _COLUMNS, n=1, cutoff=0.5)
         if close:
             msg += f" (did you mean {close[0]!r}?)"
         raise MeasurementError(msg, column=name)
@@ -472,6 +506,12 @@ ALIASES: dict[str, tuple[str, ...]] = {
     "v": ("v", "velocity", "speed", "geschwindigkeit", "vitesse"),
     "T_a": ("t_a", "temperature_a", "temp_a", "ta"),
     "T_b": ("t_b", "temperature_b", "temp_b", "tb"),
+    "F": ("force", "rod_force", "rod force", "load_cell", "loadcell", "load cell"),
+    "q_a": ("q_a", "qa", "flow_a", "flow a", "mass_flow_a"),
+    "q_b": ("q_b", "qb", "flow_b", "flow b", "mass_flow_b"),
+    "q_s": ("q_s", "qs", "supply_flow", "supply flow", "flow_supply", "q_supply",
+            "air_consumption"),
+    "p_s": ("p_s", "ps", "p_supply", "supply_pressure", "supply pressure"),
 }
 """Column names of rig exports recognised for each signal (compared without case,
 surrounding whitespace and units). ``"t"`` is time; ``T_a`` / ``T_b`` are
@@ -539,7 +579,7 @@ def propose_mapping(labels: Iterable[str]) -> dict[str, str | None]:
 
 #: The fields of a sensor object in a column mapping, with what each means (and its unit)
 SENSOR_FIELDS: dict[str, str] = {
-    "signal": "the signal the column gives (t, u, p_a, p_b, x, v, T_a, T_b) [-]",
+    "signal": f"the signal the column gives ({', '.join(_COLUMNS)}) [-]",
     "unit": "unit of gain * raw + offset (bar, mm, degC...; default: the file's, else SI) [-]",
     "gain": "sensor gain: unit per raw unit (1 bar/V, 25 mm/V); default 1, non-zero [unit/raw]",
     "offset": "added after the gain (the sensor's zero), in unit; default 0 [unit]",
@@ -903,7 +943,9 @@ class Measurement:
         NaN marks a missing sample. ``u`` is the valve command in [-1, 1]
         [-], ``p_a``/``p_b`` absolute chamber pressures [Pa], ``x`` rod
         position [m], ``v`` rod velocity [m/s], ``T_a``/``T_b`` chamber
-        temperatures [K]
+        temperatures [K], ``F`` rod force on the load, positive outward [N],
+        ``q_a``/``q_b``/``q_s`` mass flows into A, into B and from the supply
+        [kg/s], ``p_s`` absolute supply pressure [Pa]
     name : str, optional
         Label of the measurement, e.g. the CSV file stem [-]
     meta : dict, optional

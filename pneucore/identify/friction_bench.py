@@ -43,6 +43,7 @@ from pneucore.physics.friction import FRICTION_LAWS, coulomb_level, stribeck_fac
 from pneucore.physics.gas import P_ATM
 from pneucore.spec.effects import EFFECTS
 from pneucore.spec.model import Model
+from pneucore.spec.provenance import TEXT_MAX, record
 from pneucore.spec.validation import FieldError
 
 #: Fewest samples of a record [-]: the velocity filter's default window spans 15 samples at
@@ -620,8 +621,9 @@ def identify_friction(model, records, *, extras=(), stribeck="auto", quadrant=Tr
     if not quadrant:
         for key in _KEYS:
             values[f"friction.retract.{key}"] = values[f"friction.extend.{key}"]
+    names_used = ', '.join(r.name or str(i) for i, r in enumerate(recs))
     out = _write_model(model, values, strib, "friction identified on a friction bench (Eq. 17-20) "
-                       f"from {', '.join(r.name or str(i) for i, r in enumerate(recs))}")
+                       f"from {names_used}", _bench_provenance(params, quadrant), names_used)
     levels, linear, warns = _levels(s, res, s.y - res, tau)
     warns += _sign_warnings(s, values)
     for n, why in dropped.items():
@@ -747,12 +749,32 @@ def _fit_stribeck(s, base, names, held, theta0, v_min):
     return theta, (float(p[-2]), float(p[-1])), res, cov, at_bound
 
 
-def _write_model(model, values, strib, note=""):
+def _bench_provenance(params, quadrant):
+    """``{model path: (stderr, unit)}`` of the identified parameters that are model values (the
+    load-cell offset and the effective areas are the bench's, not the model's); without the
+    quadrant effect the retraction set is the extension's, with its standard errors."""
+    out = {}
+    for n, p in params.items():
+        if not p.get("identified") or (n == "mass" and not p["value"] > 0.0):
+            continue   # a moving mass at or below 0 is not written into the model
+        path = "jack.moving_mass" if n == "mass" else n
+        if path.startswith(("friction.", "effects.", "jack.")):
+            out[path] = (p.get("se"), p.get("unit"))
+        if not quadrant and n.startswith("friction.extend."):
+            out[n.replace(".extend.", ".retract.")] = (p.get("se"), p.get("unit"))
+    return out
+
+
+def _write_model(model, values, strib, note="", provenance=None, records=""):
     """The input model with the identified friction sets (and mass, Stribeck) written in, and
-    where they came from appended to its notes."""
+    where they came from appended to its notes and recorded in its ``provenance`` (source
+    ``bench``, :mod:`pneucore.spec.provenance`)."""
     d = model.to_dict()
     if note:
         d["notes"] = (d.get("notes") or "") + ("\n" if d.get("notes") else "") + note
+    if provenance:
+        d["provenance"] = record(d.get("provenance"), provenance, "bench",
+                                 "friction bench (Eq. 17-20)", f"records: {records}"[:TEXT_MAX])
     for side in ("extend", "retract"):
         for key in _KEYS:
             d["friction"][side][key] = float(values[f"friction.{side}.{key}"])

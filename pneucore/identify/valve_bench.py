@@ -41,6 +41,7 @@ from scipy.optimize import least_squares
 from pneucore.physics.flow import FLOW_LAWS, R_LAMINAR
 from pneucore.physics.gas import RHO_REF, T_REF
 from pneucore.spec.model import VALVE_KINDS, Model, PortTable
+from pneucore.spec.provenance import record
 from pneucore.spec.validation import FieldError, number
 
 #: An opening is closed (null / overlap band) when its fitted C is at most this fraction of the
@@ -121,6 +122,15 @@ class BenchPoint:
             raise FieldError(f"{path}.flow", f"negative mass flow {flow:g} kg/s: the flow runs "
                                              f"from upstream to downstream [kg/s]")
         return cls(u, p_up, p_down, T_up, flow)
+
+
+def _scale_se(values, ses):
+    """Relative standard error of a scale factor on a table whose points have standard errors
+    ``ses``: ``1 / sqrt(sum (value / se)^2)`` over the points with a value and a positive se;
+    None when no point has one [-]."""
+    w = sum((v / se) ** 2 for v, se in zip(values, ses or ())
+            if se is not None and se > 0 and v is not None and math.isfinite(v) and v != 0)
+    return 1.0 / math.sqrt(w) if w > 0 else None
 
 
 @dataclass
@@ -207,6 +217,13 @@ class ValveBenchResult:
         note = f"valve.ports.{self.edge} identified on a flow bench (ISO 6358, Eq. 4-5), " \
                f"{len(self.points)} points"
         d["notes"] = (d.get("notes") or "") + ("\n" if d.get("notes") else "") + note
+        # provenance: the edge's table as its scale paths (pneucore.spec.paths), with the scale's
+        # relative standard error, 1 / sqrt(sum (value / se)^2) over the table's fitted points
+        # (the inverse-variance combination of independent estimates of one common factor)
+        d["provenance"] = record(d.get("provenance"), {
+            f"valve.ports.{self.edge}.C": (_scale_se(self.C, self.C_se), "-"),
+            f"valve.ports.{self.edge}.b": (_scale_se(self.b, self.b_se), "-")},
+            "bench", "valve flow bench (ISO 6358, Eq. 4-5)", f"{len(self.points)} points")
         return Model.from_dict(d)
 
     def to_dict(self):

@@ -17,6 +17,7 @@ from pneucore.physics.gas import GAMMA_AIR, P_ATM, P_CONTINUUM_MIN, R_AIR, T_REF
 from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
 from pneucore.physics.jack import ANGLE_MAX, annulus_area, chamber_volumes, gravity_load, rod_area
 from pneucore.spec.validation import FieldError, choice, known_keys, mapping, number, number_list, optional_mapping
+from pneucore.spec.provenance import check_provenance
 
 #: Edges of each valve kind and the opening range of their tables
 VALVE_KINDS = {
@@ -560,6 +561,13 @@ class Model:
         Free text
     notes : str
         Free text
+    provenance : dict
+        Where each identified value came from, by parameter path (``friction.extend.fc0``,
+        ``valve.ports.P-A.C`` for an edge's table): ``{"source": "catalogue", "bench",
+        "calibration" or "diagnosis", "stderr" (the parameter's unit, null when not known),
+        "unit", "method", "note"}`` (:mod:`pneucore.spec.provenance`); the valve and friction
+        benches write theirs; a bench value is known to later fits unless a request's
+        ``bench_known`` is false [-]
     """
     jack: Jack = field(default_factory=Jack)
     valve: Valve = field(default_factory=Valve)
@@ -572,6 +580,7 @@ class Model:
     name: str = ""
     description: str = ""
     notes: str = ""
+    provenance: dict = field(default_factory=dict)
 
     @classmethod
     def from_dict(cls, d):
@@ -580,7 +589,7 @@ class Model:
             return d.copy()
         mapping(d, "model")
         known_keys(d, ("jack", "valve", "supply", "ambient", "heat", "friction", "effects", "gas",
-                       "name", "description", "notes"), "")
+                       "name", "description", "notes", "provenance"), "")
         for key in ("jack", "valve"):
             if key not in d:
                 raise FieldError(key, "is required")
@@ -596,6 +605,7 @@ class Model:
             name=str(d.get("name", "")),
             description=str(d.get("description", "")),
             notes=str(d.get("notes", "")),
+            provenance=check_provenance(d.get("provenance")),
         )
         # A supply at or below the ambient pressure (a vessel filled from the atmosphere, a
         # vacuum line) is physics the flow laws hold for, in either direction; what they do not
@@ -627,6 +637,8 @@ class Model:
         for key in ("name", "description", "notes"):
             if getattr(self, key):
                 d[key] = getattr(self, key)
+        if self.provenance:
+            d["provenance"] = {k: dict(v) for k, v in self.provenance.items()}
         return d
 
     def copy(self):
@@ -644,7 +656,7 @@ class Model:
             friction=Friction(FrictionSet(**f.extend.__dict__), FrictionSet(**f.retract.__dict__), f.law),
             effects={k: dict(p) for k, p in self.effects.items()},
             gas=Gas(**self.gas.__dict__), name=self.name, description=self.description,
-            notes=self.notes)
+            notes=self.notes, provenance={k: dict(v) for k, v in self.provenance.items()})
 
     @property
     def b_chamber_pressure(self):

@@ -168,3 +168,34 @@ def test_both_as_jobs_with_progress(client, truth):
     # bad input is refused now, not as a failed job
     bad = client.post("/api/jobs/identify/valve", json={"edge": "P-A", "points": [{**_points()[0], "flow": -1.0}]})
     assert bad.status_code == 422
+
+
+def test_friction_records_uploaded_as_datasets_with_F_in_kN(client, truth):
+    """Issue 29: a friction-bench file (no command, the load cell in kN, pressures in bar(g))
+    is uploaded as a dataset and identified by its id, as the same records sent inline are."""
+    start = truth.to_dict()
+    start["friction"] = {"extend": {}, "retract": {}}
+    recs = [_record(truth, p, i) for i, p in enumerate((1, 3, 7))]
+    ids = []
+    for rec in recs:
+        # 17 significant digits: the text holds the float; kN -> N and bar(g) -> Pa abs round once
+        rows = [f"{t!r},{x!r},{(pa - P_ATM) / 1e5!r},{(pb - P_ATM) / 1e5!r},{F / 1e3!r}"
+                for t, x, pa, pb, F in zip(rec["t"], rec["x"], rec["p_a"], rec["p_b"], rec["F"])]
+        text = "t[s],x[m],p_a[bar(g)],p_b[bar(g)],F[kN]\n" + "\n".join(rows)
+        up = client.post(f"/api/datasets?ambient_pressure={P_ATM}",
+                         files={"file": (f"bench {rec['name']}.csv", text.encode(), "text/csv")})
+        assert up.status_code in (200, 201), up.text[:500]
+        ids.append(up.json()["id"])
+    by_id = client.post("/api/identify/friction", json={
+        "model": start, "experiments": [{"dataset_id": i} for i in ids]})
+    inline = client.post("/api/identify/friction", json={"model": start, "experiments": recs})
+    assert by_id.status_code == 200, by_id.text[:800]
+    a, b = by_id.json()["parameters"], inline.json()["parameters"]
+    for path in ("friction.extend.fc0", "friction.retract.fc0", "friction.extend.kv0"):
+        # the unit round trips differ from the inline floats by ~1e-16 relative: a 1e-9 match
+        assert a[path]["value"] == pytest.approx(b[path]["value"], rel=1e-9), path
+    # and the model records the bench
+    assert by_id.json()["model"]["provenance"]["friction.extend.fc0"]["source"] == "bench"
+    bad = client.post("/api/identify/friction", json={"model": start,
+                                                      "experiments": [{"dataset_id": "nope"}]})
+    assert bad.status_code == 422 and "experiments[0].dataset_id" in bad.text

@@ -65,9 +65,10 @@ def assert_points_at(exc, column, row):
 # ------------------------------------------------------------- constants
 
 def test_signal_tables():
-    assert SIGNALS == ("u", "p_a", "p_b", "x", "v", "T_a", "T_b")
+    assert SIGNALS == ("u", "p_a", "p_b", "x", "v", "T_a", "T_b", "F", "q_a", "q_b", "q_s", "p_s")
     assert SIGNAL_UNITS == {"u": "-", "p_a": "Pa", "p_b": "Pa", "x": "m",
-                            "v": "m/s", "T_a": "K", "T_b": "K"}
+                            "v": "m/s", "T_a": "K", "T_b": "K", "F": "N", "q_a": "kg/s",
+                            "q_b": "kg/s", "q_s": "kg/s", "p_s": "Pa"}
     assert MIN_SAMPLES == 10
     assert MAX_SAMPLES == 2_000_000
 

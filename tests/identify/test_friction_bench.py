@@ -199,3 +199,18 @@ def test_one_direction_only_is_refused_naming_what_cannot_be_identified():
     with pytest.raises(FieldError) as e:
         identify_friction(model, [push], stribeck=False)
     assert e.value.path == "experiments" and "friction.retract" in str(e.value)
+
+
+def test_the_model_records_the_friction_came_from_the_bench(quadrant_fit):
+    """Issue 29, step by step: every identified friction coefficient carries source 'bench'
+    and its standard error; the load-cell offset, a bench fact, is no model value."""
+    model, recs, r = quadrant_fit
+    prov = r.model.provenance
+    for side in TRUE:
+        for key in TRUE[side]:
+            path = f"friction.{side}.{key}"
+            assert prov[path]["source"] == "bench", path
+            assert prov[path]["stderr"] == r.parameters[path]["se"], path
+            assert "Eq. 17-20" in prov[path]["method"]
+    assert not any(p.startswith(("offset", "area")) for p in prov)
+    assert Model.from_dict(r.model.to_dict()).provenance == prov

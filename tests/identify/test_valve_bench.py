@@ -1,5 +1,6 @@
 """The valve flow bench (ISO 6358-1, paper Eq. 4-5, Fig. 2): SMC's catalogue example and a
 synthetic bench with known C(u), b(u) tables recovered."""
+import math
 import numpy as np
 import pytest
 
@@ -124,3 +125,20 @@ def test_a_scattered_opening_reading_is_one_opening():
     assert len(r.opening) == 2 and abs(r.opening[1] - 0.6) < 0.002
     # C(u) varies by 0.15 dm^3/(s bar) per 0.1 of opening: +-0.002 moves C by at most 0.3 %
     assert r.C[1] == pytest.approx(0.85 * DM3_S_BAR, rel=0.005)
+
+
+def test_the_model_records_the_tables_came_from_the_bench():
+    """Issue 29, step by step: the edge's table paths carry source 'bench', with the table
+    scale's relative standard error, the inverse-variance combination of its points' errors."""
+    r = identify_valve(_bench(), "P-A")
+    new = r.write_into(Model.from_dict(model_preset("paper-4way")))
+    entry = new.provenance["valve.ports.P-A.C"]
+    assert entry["source"] == "bench" and "ISO 6358" in entry["method"]
+    want = 1.0 / math.sqrt(sum((c / s) ** 2 for c, s in zip(r.C, r.C_se) if s and c))
+    assert entry["stderr"] == pytest.approx(want, rel=1e-12)   # the same sum, rounding only
+    # 1 % noise on many points: the whole table's scale is known far better than 1 %
+    assert 0.0 < entry["stderr"] < 0.01
+    assert new.provenance["valve.ports.P-A.b"]["source"] == "bench"
+    assert set(new.provenance) == {"valve.ports.P-A.C", "valve.ports.P-A.b"}
+    back = Model.from_dict(new.to_dict())
+    assert back.provenance == new.provenance and back.to_dict() == new.to_dict()

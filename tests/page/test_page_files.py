@@ -249,3 +249,28 @@ def test_docs_render_without_the_internet(browser, server, path, selector):  # n
         assert [u for kind, u in outside if kind != "image"] == []
     finally:
         ctx.close()
+
+
+def test_rig_signals_in_the_mapping_table(page, tmp_path):
+    """Issue 29: the mapping table offers the load cell, the flow meters and the supply gauge
+    with their SI units, and the upload reads them in the rig's units."""
+    lines = ["Zeit;Ventil;Kraft;Durchfluss;Versorgung", "ms;%;kN;L/min ANR;bar(g)"]
+    lines += [f"{10 * i};0;0,2;100;6" for i in range(20)]
+    path = tmp_path / "lastzelle.csv"
+    path.write_bytes("\r\n".join(lines).encode("cp1252"))
+    page.evaluate("document.getElementById('upload-file').closest('details').open = true")
+    page.set_input_files("#upload-file", str(path))
+    sel = "#upload-mapping select[data-column='Kraft']"
+    page.wait_for_selector(sel)
+    options = page.eval_on_selector(sel, "s => [...s.options].map(o => o.textContent)")
+    for text in ("F [N]", "q_a [kg/s]", "q_b [kg/s]", "q_s [kg/s]", "p_s [Pa]"):
+        assert text in options, options
+    page.select_option(sel, "F")
+    page.select_option("#upload-mapping select[data-column='Durchfluss']", "q_s")
+    page.select_option("#upload-mapping select[data-column='Versorgung']", "p_s")
+    page.fill("#upload-name", "lastzelle")
+    page.click("#btn-upload")
+    _wait_status(page, "Dataset lastzelle stored")
+    report = page.inner_text("#upload-report")
+    assert "Kraft → F: kN → N" in report and "Durchfluss → q_s: L/min ANR → kg/s" in report
+    assert "Versorgung → p_s: barg → Pa" in report
