@@ -19,9 +19,9 @@ const SIZING_FIELDS = [
   ['tube_length', 'Tube length per port [m] (blank: no tube)', ''],
 ];
 const SIZING_CHOICES = [
-  ['bore', 'Cylinders (series or series:member, comma-separated; blank: all)', 'iso15552, iso6432'],
-  ['valve', 'Valves (blank: all)', 'ckd-4ga'],
-  ['tube_inner_diameter', 'Tubes (blank: all)', ''],
+  ['bore', 'Cylinders (series or series:member, comma-separated; blank: all) [-]', 'iso15552, iso6432'],
+  ['valve', 'Valves (blank: all) [-]', 'ckd-4ga'],
+  ['tube_inner_diameter', 'Tubes (blank: all) [-]', ''],
 ];
 
 function buildSizingForm() {

@@ -432,6 +432,9 @@ def test_local_pool_small_study(tmp_path, reference):
     for name, d in r["metrics"].items():
         p = [d["percentiles"][k] for k in ("5", "25", "50", "75", "95")]
         assert d["count"] + d["undefined"] + d["failed"] == 40
+        if d["count"] == 0:   # undefined in every run (a stroke metric of pulses reaching no end)
+            assert p == [None] * 5 and d["min"] is None and d["max"] is None, name
+            continue
         assert d["min"] <= p[0] <= p[1] <= p[2] <= p[3] <= p[4] <= d["max"], name
     rank = r["sensitivity"]["ranking"]
     assert rank["t95"]["method"] == "prcc"
