@@ -477,6 +477,9 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     theta = theta0
     z_first = theta0 / sc
     short = window(experiments) if vs else None
+    if short is not None and not (sum(_duration(e) for e in short)
+                                  < sum(_duration(e) for e in experiments)):
+        short = None   # nothing could be cut (too few samples in a window): fit the records whole
     if short is not None:
         pre = fit(model, short, specs, max_nfev=max_nfev, compute_before=False, progress=progress,
                   span=span, step=step, reweight=reweight, prior=prior)

@@ -74,7 +74,8 @@ def test_invalid_body_is_422_not_a_failed_job(client, kind):
     r = client.post(f"/api/jobs/{kind}", json=b)
     assert r.status_code == 422 and r.json()["detail"][0]["type"] == "missing"
     b = BODIES[kind]()
-    b["experiments"] = CLEAN[:1] * 9
+    from app.config import Limits
+    b["experiments"] = CLEAN[:1] * (Limits().max_experiments + 1)   # one past the limit
     assert_field_error(client.post(f"/api/jobs/{kind}", json=b), "experiments")
 
 
