@@ -19,8 +19,9 @@ import json
 import sys
 import time
 
-from pneucore.analysis.command_line import COMMANDS, LoopArgumentError, add_loop_commands, run_loop
-from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
+from pneucore.analysis.command_line import (COMMANDS, LoopArgumentError, add_loop_commands, load_model,
+                                            load_scenario, run_loop)
+from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS
 from pneucore.simulate import SimulationError, simulate
 from pneucore.spec.validation import FieldError
 
@@ -31,20 +32,6 @@ COMPILE_NOTE_S = 2.0
 
 class CliError(Exception):
     """A bad command-line argument, with the message to print."""
-
-
-def _load(arg, presets, loader, what):
-    """A preset by name, or a JSON file; a clear message listing the presets otherwise."""
-    if arg in presets:
-        return loader(arg)
-    try:
-        with open(arg) as fh:
-            return json.load(fh)
-    except FileNotFoundError:
-        raise CliError(f"--{what} {arg!r} is neither a preset ({', '.join(presets)}) nor an "
-                       "existing JSON file") from None
-    except json.JSONDecodeError as exc:
-        raise CliError(f"--{what} {arg!r}: not valid JSON ({exc})") from None
 
 
 def summary_lines(res):
@@ -141,8 +128,8 @@ def main(argv=None):
             print(f"error: {exc}", file=sys.stderr)
             return 2
     try:
-        model = _load(args.model, MODEL_PRESETS, model_preset, "model")
-        scenario = _load(args.scenario, SCENARIO_PRESETS, scenario_preset, "scenario")
+        model = load_model(args.model)
+        scenario = load_scenario(args.scenario)
         t0 = time.perf_counter()
         res = simulate(model, scenario)
         wall = time.perf_counter() - t0
@@ -201,7 +188,7 @@ def _identify(args):
     from pneucore.spec.model import Model
 
     if args.bench == "valve":
-        model = Model.from_dict(_load(args.model, MODEL_PRESETS, model_preset, "model")) if args.model else None
+        model = Model.from_dict(load_model(args.model)) if args.model else None
         kw = {"u_range": model.valve.opening_range, "laminar_ratio": model.valve.laminar_ratio} if model else {}
         res = identify_valve(_bench_points(args.points), args.edge, **kw)
         print(res.report())
@@ -211,7 +198,7 @@ def _identify(args):
         if model is not None:
             out["model"] = res.write_into(model).to_dict()
     else:
-        model = Model.from_dict(_load(args.model, MODEL_PRESETS, model_preset, "model"))
+        model = Model.from_dict(load_model(args.model))
         res = identify_friction(model, [_bench_record(p) for p in args.fit], extras=args.extras)
         print(res.report())
         out = res.to_dict()

@@ -74,8 +74,9 @@ def add_loop_commands(sub):
             p.add_argument("--max-rounds", type=int, default=4, help="most effects to add (1-10)")
 
 
-def _json_arg(text, what):
-    """Inline JSON, or a JSON file's content."""
+def _json_arg(text, what, presets=()):
+    """Inline JSON, or a JSON file's content; ``presets``: the names that were also possible,
+    listed when ``text`` is none of them."""
     stripped = text.strip()
     if stripped.startswith(("{", "[")):
         try:
@@ -85,7 +86,8 @@ def _json_arg(text, what):
     try:
         return json.loads(Path(text).read_text())
     except FileNotFoundError:
-        raise LoopArgumentError(f"{what} {text!r} is neither inline JSON nor an existing "
+        named = f"a preset ({', '.join(presets)}), " if presets else ""
+        raise LoopArgumentError(f"{what} {text!r} is neither {named}inline JSON nor an existing "
                                 "JSON file") from None
     except json.JSONDecodeError as exc:
         raise LoopArgumentError(f"{what} {text!r}: not valid JSON ({exc})") from None
@@ -106,7 +108,7 @@ def load_model(arg):
     """
     if arg in MODEL_PRESETS:
         return model_preset(arg)
-    d = _json_arg(arg, "--model")
+    d = _json_arg(arg, "--model", MODEL_PRESETS)
     if isinstance(d, dict) and isinstance(d.get("model"), dict) and "jack" not in d:
         d = d["model"]   # a refine/diagnose answer saved with --json, or a fitted-model export
     if not isinstance(d, dict):
@@ -114,10 +116,22 @@ def load_model(arg):
     return d
 
 
-def _scenario(arg):
+def load_scenario(arg):
+    """A scenario dict: a preset by name, a scenario JSON file, or inline JSON.
+
+    Parameters
+    ----------
+    arg : str
+        Preset name, path or JSON text [-]
+
+    Returns
+    -------
+    scenario : dict
+        The scenario's JSON [-]
+    """
     if arg in SCENARIO_PRESETS:
         return scenario_preset(arg)
-    d = _json_arg(arg, "--scenario")
+    d = _json_arg(arg, "--scenario", SCENARIO_PRESETS)
     if not isinstance(d, dict):
         raise LoopArgumentError(f"--scenario {arg!r}: a JSON object is expected")
     return d
@@ -164,7 +178,7 @@ def load_experiments(args, ambient_pressure):
             raise LoopArgumentError(f"--data {f!r}: {exc.strerror or exc}") from None
         meas = read_measurement(data, filename=path.name, ambient_pressure=ambient_pressure,
                                 columns=columns, isolated=False)   # the user's own files
-        s = _scenario(scen[0] if len(scen) == 1 else scen[i]) if scen else {}
+        s = load_scenario(scen[0] if len(scen) == 1 else scen[i]) if scen else {}
         out.append({"name": path.stem, "scenario": s, "measurement": meas})
     return out
 
