@@ -65,6 +65,17 @@ def context(browser):
     ctx.close()
 
 
+def workbench_page(browser, url, errors, **context):
+    """A page of its own at the 1366x768 of a laptop (the issue on the workbench's target), in
+    a context of its own (``context``: more Playwright context options); a generator for a
+    module fixture: yields the page, closes it and its context after."""
+    ctx = browser.new_context(viewport={"width": 1366, "height": 768}, **context)
+    p = _open(ctx, url, errors)
+    yield p
+    p.close()
+    ctx.close()
+
+
 def _open(ctx, url, errors):
     page = ctx.new_page()
     page.set_default_timeout(TIMEOUT_MS)

@@ -8,16 +8,12 @@ import json
 import pytest
 
 from pneucore import model_preset
-from test_page import TIMEOUT_MS, _open, browser, page_errors, server  # noqa: F401
+from test_page import TIMEOUT_MS, browser, page_errors, server, workbench_page  # noqa: F401
 
 
 @pytest.fixture(scope="module")
 def page(browser, server, page_errors):  # noqa: F811
-    ctx = browser.new_context(viewport={"width": 1366, "height": 768}, accept_downloads=True)
-    p = _open(ctx, server, page_errors)
-    yield p
-    p.close()
-    ctx.close()
+    yield from workbench_page(browser, server, page_errors, accept_downloads=True)
 
 
 def _catalogue_model():

@@ -5,16 +5,12 @@ from __future__ import annotations
 
 import pytest
 
-from test_page import _open, browser, page_errors, server  # noqa: F401
+from test_page import browser, page_errors, server, workbench_page  # noqa: F401
 
 
 @pytest.fixture(scope="module")
 def page(browser, server, page_errors):  # noqa: F811
-    ctx = browser.new_context(viewport={"width": 1366, "height": 768})
-    p = _open(ctx, server, page_errors)
-    yield p
-    p.close()
-    ctx.close()
+    yield from workbench_page(browser, server, page_errors)
 
 
 def test_a_stored_session_opens_with_its_model_experiments_and_history(page):
