@@ -1261,7 +1261,8 @@ function renderDiagnosis() {
   const before = d.error_before ? d.error_before.overall : null;
   const verdict = d.verdict ? esc(d.verdict) : 'none (no catalog effect explains the residual)';
   $('#diag-verdict').innerHTML = `<div class="verdict-name">Verdict: <b id="diag-verdict-name">${verdict}</b></div><div>${esc(d.message)}</div>` +
-    `<div class="muted small">Error before: ${pct(before)} % · noise floor ${pct(d.remaining && d.remaining.noise_floor != null ? d.remaining.noise_floor : floorOf(d.noise_floor))} %</div>`;
+    `<div class="muted small">Error before: ${pct(before)} % · noise floor ${pct(d.remaining && d.remaining.noise_floor != null ? d.remaining.noise_floor : floorOf(d.noise_floor))} %</div>` +
+    `<div class="small" id="diag-error-explained">${esc(explainErrorBefore(d))}</div>`;
   $('#diag-residual-summary').textContent = d.residual_tests && d.residual_tests.summary ? `Residual tests: ${d.residual_tests.summary}` : '';
   const score = d.score_pass || [];
   $('#diag-score').innerHTML = score.length ? '<h3>Score test of every candidate (before refitting)</h3>' +
@@ -1299,6 +1300,28 @@ function renderDiagnosis() {
       `${r.model ? '' : ' disabled'} title="Take the refitted model (current model + ${esc(r.effect)}) as the new current model">Add ${esc(r.effect)} to the model</button>`;
     cards.appendChild(card);
   });
+}
+/** Why the diagnosis's "error before" is not the comparison's error: the diagnosis first refits
+ * the uncertain base parameters (the null model), and every candidate is weighed against that.
+ * The line names the refitted values that moved, and says they come with whatever is added. */
+function explainErrorBefore(d) {
+  const start = d.error_start ? d.error_start.overall : null;
+  const before = d.error_before ? d.error_before.overall : null;
+  if (start == null || before == null) return '';
+  const moved = (d.refitted || []).filter((q) => typeof q.before === 'number' && typeof q.after === 'number' &&
+    Math.abs(q.after - q.before) > (q.stderr || 0) && q.after !== q.before);
+  if (!moved.length || Math.abs(start - before) <= 1e-4 * Math.max(start, 1e-12)) {
+    return `Error before is your model's own error (${pct(start)} %): no base parameter was refitted.`;
+  }
+  const show = (q) => {
+    const u = typeof unitShow === 'function' ? unitShow(q.unit) : { unit: q.unit, scale: 1, offset: 0 };
+    const v = (x) => num((x - u.offset) / u.scale);
+    return `${q.label || q.path} ${v(q.before)} → ${v(q.after)}${u.unit && u.unit !== '-' ? ` ${prettyUnit(u.unit)}` : ''}`;
+  };
+  return `Your model as given: ${pct(start)} % (the comparison's error). The diagnosis first refits the base parameters ` +
+    `you left uncertain (${moved.map(show).join('; ')}), which alone gives ${pct(before)} %: that is "error before", ` +
+    'against which each effect is weighed. Adding a finding takes these refitted values with it (listed in its changes)' +
+    ((d.recalibrate || []).length ? '; "Apply the recalibration" takes them alone.' : '.');
 }
 /** Every parameter taking a candidate would change, before it is taken: the effect's own and
  * the base parameters recalibrated with it (before → after, in the page's units). */
