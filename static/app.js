@@ -755,7 +755,7 @@ function plotSimulation() {
   plot('plot-velocity', [
     { x: t, y: V.val(s.v), name: 'v', line: { color: '#9467bd', width: 1.8 } },
   ], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`velocity v [${V.label}]`), shapes, showlegend: true }));
-  const C = (a) => a.map((v) => (v == null ? null : v - 273.15));
+  const TK = plotUnit('K'), C = TK.val;
   const tTraces = [];
   if (S.heatRuns) {
     for (const [hm, run] of Object.entries(S.heatRuns)) {
@@ -768,7 +768,7 @@ function plotSimulation() {
   }
   plot('plot-temperature', tTraces, baseLayout({
     title: { text: 'Gas temperatures (paper Fig. 11)', font: { size: 12 }, x: 0.5, xanchor: 'center', y: 0.995 },
-    xaxis: axis('time t [s]'), yaxis: axis('temperature [°C]'), shapes, margin: { l: 64, r: 64, t: 48, b: 46 },
+    xaxis: axis('time t [s]'), yaxis: axis(`temperature [${TK.label}]`), shapes, margin: { l: 64, r: 64, t: 48, b: 46 },
   }));
   plot('plot-flow', [
     { x: t, y: Q.val(s.q_a), name: 'q_a (into A)', line: { color: '#1f77b4', width: 1.6 } },
@@ -778,7 +778,7 @@ function plotSimulation() {
 function plotEmptySimulation() {
   const specs = [
     ['plot-pressure', `pressure [${plotUnit('Pa').label}]`], ['plot-position', `position x [${plotUnit('m').label}]`],
-    ['plot-velocity', `velocity v [${plotUnit('m/s').label}]`], ['plot-temperature', 'temperature [°C]'],
+    ['plot-velocity', `velocity v [${plotUnit('m/s').label}]`], ['plot-temperature', `temperature [${plotUnit('K').label}]`],
     ['plot-flow', `valve flow [${plotUnit('kg/s').label}]`],
   ];
   for (const [id, y] of specs) {
@@ -804,7 +804,8 @@ async function overlayHeatModels() {
       S.sim = res.runs[S.model.heat && S.model.heat.model] || S.sim;
       plotSimulation();
       $('#panel-plots').dataset.runs = String(++S.runs);
-      const peaks = Object.entries(res.runs).map(([k, r]) => `${k}: T_a ${num(Math.max(...r.series.T_a) - 273.15, 3)} °C max`).join(', ');
+      const TK = plotUnit('K');
+      const peaks = Object.entries(res.runs).map(([k, r]) => `${k}: T_a ${num(Math.max(...TK.val(r.series.T_a)), 3)} ${TK.label} max`).join(', ');
       setStatus(`Heat models overlaid on the pressure and temperature plots (${peaks}).`, 'ok');
     } catch (e) { showApiError(e, 'Heat-model overlay'); }
   });
@@ -1043,7 +1044,7 @@ const SIG_SI = { p_a: 'Pa', p_b: 'Pa', p_s: 'Pa', x: 'm', v: 'm/s' };
 const onCompareAxes = (sig) => sig in SIG_SI || sig.startsWith('T');
 /** A measured or simulated signal as the plots show it; `diff` for residuals (no gauge offset). */
 function toDisplay(sig, arr, diff = false) {
-  if (sig.startsWith('T')) return diff ? arr : arr.map((v) => (v == null ? null : v - 273.15));
+  if (sig.startsWith('T')) return diff ? plotUnit('K').diff(arr) : plotUnit('K').val(arr);
   if (!SIG_SI[sig]) return arr;
   const u = plotUnit(SIG_SI[sig]);
   return diff ? u.diff(arr) : u.val(arr);
@@ -1394,11 +1395,8 @@ const STUDY_FIELDS = {
   normal: [['mean', 'mean', true], ['std', 'std', true], ['min', 'min', false], ['max', 'max', false]],
   lognormal: [['median', 'median', true], ['sigma', 'sigma of ln x', true, '-'], ['min', 'min', false], ['max', 'max', false]],
 };
-// metrics come in SI; lengths and pressures shown in the header's unit system (plotUnit),
-// temperatures in °C; `diff` converts spreads (std)
-const METRIC_DISPLAY = {
-  K: { label: '°C', val: (v) => v - 273.15, diff: (v) => v },
-};
+// metrics come in SI; lengths, pressures and temperatures shown in the header's unit system
+// (plotUnit); `diff` converts spreads (std)
 const METHOD_NAMES = {
   prcc: 'partial rank correlation (PRCC) with Spearman',
   factorial_variance: 'variance decomposition of the full factorial (S_i, S_Ti)',
@@ -1414,8 +1412,7 @@ function plotUnit(si) {
   return { label: prettyUnit(d.unit), val: conv(d.offset || 0), diff: conv(0) };
 }
 function metricDisplay(unit) {
-  if (METRIC_DISPLAY[unit]) return METRIC_DISPLAY[unit];
-  if (unit === 'm' || unit === 'Pa') {
+  if (unit === 'm' || unit === 'Pa' || unit === 'K') {
     const u = plotUnit(unit);
     return { label: u.label, val: (v) => u.val([v])[0], diff: (v) => u.diff([v])[0] };
   }

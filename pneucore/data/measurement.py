@@ -46,7 +46,7 @@ from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
 
-from pneucore.physics.gas import P_ATM, RHO_REF
+from pneucore.physics.gas import P_ATM, RHO_REF, T_ZERO_CELSIUS
 
 __all__ = [
     "MeasurementError",
@@ -196,7 +196,7 @@ def _scale(mul: float = 1.0, div: float = 1.0, add: float = 0.0) -> Callable:
 
 def _fahrenheit(values):
     out = np.asarray(values, dtype=np.float64)
-    return (out - 32.0) * 5.0 / 9.0 + 273.15
+    return (out - 32.0) * 5.0 / 9.0 + T_ZERO_CELSIUS
 
 
 # unit -> (factor spec, is_gauge). Gauge units get ambient pressure added.
@@ -401,7 +401,7 @@ class Conversion:
             if kind == "K":
                 return _scale()
             if kind == "C":
-                return _scale(add=273.15)
+                return _scale(add=T_ZERO_CELSIUS)
             return _fahrenheit
         table = {"t": _TIME_UNITS, "u": _COMMAND_UNITS, "x": _LENGTH_UNITS,
                  "v": _VELOCITY_UNITS, "F": _FORCE_UNITS, "q_a": _FLOW_UNITS, "q_b": _FLOW_UNITS,
