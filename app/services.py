@@ -850,13 +850,18 @@ def add_session_version(session_id, req, store, limits):
     if req.added is not None:
         choice(req.added, EFFECTS, "added")
     params = finite_json(req.params, "params")
-    try:
-        exps = [ExperimentIn(**e) for e in s["experiments"]]
-    except (TypeError, ValueError):
-        raise FieldError("session", f"session {session_id!r} has unreadable experiments; "
-                                    f"start a new session") from None
+    if req.experiments is not None:
+        exps = req.experiments
+        new_set = finite_json([e.model_dump(exclude_none=True) for e in exps], "experiments")
+    else:
+        new_set = None
+        try:
+            exps = [ExperimentIn(**e) for e in s["experiments"]]
+        except (TypeError, ValueError):
+            raise FieldError("session", f"session {session_id!r} has unreadable experiments; "
+                                        f"start a new session") from None
     store.add_version(session_id, model, _session_errors(model, exps, store, limits), req.added,
-                      params, req.note)
+                      params, req.note, experiments=new_set)
     return store.session(session_id)
 
 

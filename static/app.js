@@ -1103,6 +1103,19 @@ function plotResiduals(c, windows) {
 /* ------------------------------------------------------------------ sessions and history */
 async function ensureSession() {
   if (S.session && sameExperiments(S.session.experiments, S.experiments)) return S.session;
+  if (S.session) {
+    // the data changed: the same session goes on (a new one only from "New session"), with a
+    // version of the current model on the new experiments; the history marks the change
+    const names = S.experiments.map((e) => e.dataset_id || e.name || 'inline').join(', ');
+    try {
+      const s = await api('POST', `/api/sessions/${encodeURIComponent(S.session.id)}/versions`,
+        { model: S.model, experiments: clone(S.experiments), note: `experiments changed to ${names}` });
+      setSession(s);
+      return s;
+    } catch (e) {
+      if (!(e instanceof ApiError && e.status === 404)) throw e;   // deleted meanwhile: start one
+    }
+  }
   const name = $('#dataset-select').selectedOptions[0] ? $('#dataset-select').selectedOptions[0].textContent.split(':')[0] : 'session';
   const s = await api('POST', '/api/sessions', { name, model: S.model, experiments: clone(S.experiments) });
   setSession(s);
@@ -1118,6 +1131,12 @@ async function recordVersion(added, params) {
   const s = await api('POST', `/api/sessions/${S.session.id}/versions`, { model: S.model, added: added || null, params: params || {} });
   setSession(s);
   return s;
+}
+/** Whether version `i` was compared on other experiments than version i - 1 (sessions stored
+ * before versions recorded their experiments say nothing: null). */
+function dataChangedAt(v, i) {
+  if (i === 0 || !v[i].experiments || !v[i - 1].experiments) return false;
+  return !sameExperiments(v[i].experiments, v[i - 1].experiments);
 }
 function renderHistory() {
   const s = S.session;
@@ -1139,11 +1158,15 @@ function renderHistory() {
     xaxis: axis('model version [-]', { tickvals: v.map((q) => q.version), ticktext: v.map((q) => q.label), range: [-0.4, Math.max(v.length - 1, 1) + 0.6] }),
     yaxis: axis('overall error [%]', { range: [0, 1.22 * Math.max(1e-9, ...v.map((q) => (q.overall || 0) * 100))] }),
     showlegend: false, hovermode: 'closest', margin: { l: 64, r: 30, t: 40, b: 56 },
+    // a dashed line where the experiments changed: errors either side are on other data
+    shapes: v.map((q, i) => (dataChangedAt(v, i) ? { type: 'line', xref: 'x', yref: 'paper', x0: q.version - 0.5, x1: q.version - 0.5,
+      y0: 0, y1: 1, line: { color: '#a35a00', width: 1.5, dash: 'dash' } } : null)).filter(Boolean),
   }));
   const sigs = [...new Set(v.flatMap((q) => Object.keys(q.errors || {})))];
   $('#history-table').innerHTML = '<table class="data"><thead><tr><th scope="col">version</th><th scope="col">change</th>' +
     sigs.map((q) => `<th scope="col">${esc(q)} [%]</th>`).join('') + '<th scope="col">overall [%]</th></tr></thead><tbody>' +
-    v.map((q, i) => `<tr data-version="${q.version}"><td class="num">${q.version}${i > 0 && q.model && v[i - 1].model ? ` <button type="button" class="icon version-diff" data-index="${i}" title="What changed from version ${v[i - 1].version}">diff</button>` : ''}</td><td>${esc(q.label)}${q.params && Object.keys(q.params).length ? ` <span class="muted small">(${esc(Object.entries(q.params).map(([k, x]) => `${k} = ${num(typeof x === 'object' && x ? x.value : x)}`).join(', '))})</span>` : ''}</td>` +
+    v.map((q, i) => `<tr data-version="${q.version}"><td class="num">${q.version}${i > 0 && q.model && v[i - 1].model ? ` <button type="button" class="icon version-diff" data-index="${i}" title="What changed from version ${v[i - 1].version}">diff</button>` : ''}</td><td>${esc(q.label)}` +
+      (dataChangedAt(v, i) ? ` <span class="badge data-changed" title="${esc(q.note || 'the experiments changed')}: the errors from here on are on other data">data changed</span>` : '') + `${q.params && Object.keys(q.params).length ? ` <span class="muted small">(${esc(Object.entries(q.params).map(([k, x]) => `${k} = ${num(typeof x === 'object' && x ? x.value : x)}`).join(', '))})</span>` : ''}</td>` +
       sigs.map((g) => `<td class="num">${pct(q.errors && q.errors[g])}</td>`).join('') + `<td class="num"><b>${pct(q.overall)}</b></td></tr>`).join('') +
     '</tbody></table>';
 }
