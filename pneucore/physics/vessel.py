@@ -451,3 +451,57 @@ def reference_records(h_inner, sensor_time_constant, p_discharge=7.9e5, filling_
         T = run["T_sensor"] + noise[1] * rng.standard_normal(t.size)
         out.append(vessel_experiment(f"reference {name}", t, p, T, p0, g["T_atm"]))
     return out[0], out[1]
+
+
+def reference_inner_coefficient(D, d_in, natural="churchill_chu", natural_multiplier=1.0,
+                                jet_multiplier=1.0, r=R_AIR, gamma=GAMMA_AIR):
+    """An inner-coefficient law ``h(p, T, T_w, q_in)`` for :func:`reference_vessel_run`.
+
+    ``natural_multiplier`` times a natural-convection correlation plus ``jet_multiplier``
+    times Woodfield's jet term (:func:`pneucore.physics.heat.jet_convection_coefficient`).
+    The natural correlation is either Churchill & Chu's for a horizontal cylinder
+    (``"churchill_chu"``, :func:`pneucore.physics.heat.natural_convection_coefficient`, the
+    simulator's own) or Woodfield, Monde & Mitsutake's natural term ``Nu_D = 0.104
+    Ra_D^0.352`` (``"woodfield"``, J. Thermal Sci. Tech. 2 (2007) 180, measured inside a
+    charged vessel): a law of another form than the simulator's, for testing whether a
+    fitted multiplier transfers across a misspecified correlation.
+
+    Parameters
+    ----------
+    D : float
+        Vessel inner diameter [m]
+    d_in : float
+        Inlet diameter [m]
+    natural : str
+        ``"churchill_chu"`` or ``"woodfield"``
+    natural_multiplier, jet_multiplier : float
+        Factors on the correlations [-]
+    r : float
+        Specific gas constant [J/(kg K)]
+    gamma : float
+        Ratio of specific heats [-]
+
+    Returns
+    -------
+    h_inner : callable
+        ``h_inner(p [Pa], T [K], T_wall [K], q_in [kg/s])`` -> [W/(m^2 K)]
+    """
+    from pneucore.physics.gas import air_conductivity, air_viscosity
+    from pneucore.physics.heat import (G_STANDARD, jet_convection_coefficient,
+                                       natural_convection_coefficient)
+    cp = gamma * r / (gamma - 1.0)
+    if natural not in ("churchill_chu", "woodfield"):
+        raise ValueError(f"unknown natural-convection law {natural!r}")
+
+    def h_nat(p, T, Tw):
+        if natural == "churchill_chu":
+            return natural_convection_coefficient(p, T, Tw, D, r, cp)
+        T_f = 0.5 * (T + Tw)
+        rho, mu, k = p / (r * T_f), air_viscosity(T_f), air_conductivity(T_f)
+        Ra = G_STANDARD * abs(Tw - T) / T_f * D ** 3 * rho * rho * cp / (mu * k)
+        return 0.104 * Ra ** 0.352 * k / D
+
+    def h_inner(p, T, Tw, q_in):
+        return (natural_multiplier * h_nat(p, T, Tw)
+                + jet_multiplier * jet_convection_coefficient(q_in, d_in, T, D))
+    return h_inner
