@@ -166,6 +166,8 @@ SIGNAL_ACCURACY = {"p_a": 300.0, "T_a": 1.0}
 #: 0.01 s (a bare fine-wire couple) and a multiplier from 1e-3 of its correlation
 TRANSFER_BOUNDS = {"natural_multiplier": (1e-3, 20.0), "jet_multiplier": (1e-3, 20.0),
                    "coefficient": (1e-2, 1e3), "sensor_time_constant": (1e-2, 100.0)}
+#: A fitted value within this distance of a bound in logarithm (1 %) ran to it [-]
+AT_BOUND_LOG = 0.01
 
 
 def _residuals(model, exps, accuracy, t_min=None, t_max=None):
@@ -294,8 +296,9 @@ def transfer(model, fit_on, predict, parameters, accuracy=None, t_split=None, na
     Returns
     -------
     row : dict
-        ``name``, ``values`` (fitted), ``fit`` and ``predicted`` errors (:func:`record_errors`),
-        ``model`` (the fitted model)
+        ``name``, ``values`` (fitted), ``at_bound`` (fitted parameters that ran to a bound of
+        :data:`TRANSFER_BOUNDS`: a symptom, not a measurement), ``fit`` and ``predicted``
+        errors (:func:`record_errors`), ``model`` (the fitted model)
     """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     fitted, values = fit_heat(model, [fit_on], parameters, accuracy, t_max=t_split)
@@ -304,8 +307,10 @@ def transfer(model, fit_on, predict, parameters, accuracy=None, t_split=None, na
         pred = record_errors(fitted, fit_on, t_min=t_split)
     else:
         pred = record_errors(fitted, predict)
-    return {"name": name or model.heat.model, "values": values, "fit": fit_err,
-            "predicted": pred, "model": fitted}
+    at_bound = [p for p, v in values.items()
+                if any(abs(math.log(v / b)) < AT_BOUND_LOG for b in TRANSFER_BOUNDS[p])]
+    return {"name": name or model.heat.model, "values": values, "at_bound": at_bound,
+            "fit": fit_err, "predicted": pred, "model": fitted}
 
 
 def transfer_table(rows, fit_label="fitted on", predict_label="predicted"):
