@@ -18,7 +18,9 @@ the fit and of the prediction. Every fit weighs each sample by its signal's stat
   discharge predicted. Two truths: the simulator's own correlations at multipliers 2 / 0.5
   (tau 2 s, six-slab wall), and Woodfield's natural law Nu = 0.104 Ra^0.352 at 1 / 0.5 (tau 4 s,
   eight slabs of a 15 W/(m K) wall); and a control, a fixed coefficient of 15 W/(m^2 K) (no
-  physical law behind it: a physical model is not expected to transfer there).
+  physical law behind it: a physical model is not expected to transfer there); and thin walls
+  (1 mm steel, a 3 mm polymer liner), whose temperature moves: the model with its lumped wall
+  of the known mass against the same model with the wall held at ambient.
 * **The published filling** (Thorncroft, Patton & Gordon 2007): fitted on t <= 20 s (the
   filling proper), the relaxation t > 20 s predicted; and the published correlations unfitted.
 
@@ -116,6 +118,22 @@ def main():
         rows = [transfer(vessel(h), fill, dis, fit, name=n) for n, h, fit in MODELS]
         show(title + " (fitted on the filling, discharge predicted)", rows,
              ("filling", "discharge"))
+    V, S, _ = vessel_dimensions()
+    walls = [("1 mm steel (3.0 kg)", {"wall_mass": 7800.0 * S * 1e-3, "wall_thickness": 1e-3}),
+             ("3 mm HDPE liner (1.1 kg, k 0.40 W/(m K), 10 slabs)",
+              {"wall_mass": 950.0 * S * 3e-3, "wall_thickness": 3e-3, "wall_specific_heat": 1900.0,
+               "wall_conductivity": 0.40, "layers": 10})]
+    name, heat, fit = MODELS[0]
+    for title, wall in walls:
+        fill, dis = reference_records(
+            reference_inner_coefficient(D, D_IN, "churchill_chu", 2.0, 0.5), 2.0, seed=3, **wall)
+        c = wall.get("wall_specific_heat", 500.0)
+        rows = [transfer(vessel({**heat, "wall_mass": m, "wall_specific_heat": c}), fill, dis, fit,
+                         name=label)
+                for label, m in ((f"{name}, lumped wall {wall['wall_mass']:.2g} kg",
+                                  wall["wall_mass"]), (f"{name}, wall at ambient", 0.0))]
+        show(f"reference D: a thin wall, {title}; the law of A (fitted on the filling, discharge "
+             f"predicted)", rows, ("filling", "discharge"))
     if os.path.exists(os.path.join(args.data, "pressure.csv")):
         _, real = filling_test(args.data)
         rows = [transfer(vessel(h), real, None, fit, t_split=20.0, name=n) for n, h, fit in MODELS]
