@@ -4,6 +4,7 @@ not fitted.
 Run from the repository root::
 
     python benchmarks/bench_heat_transfer.py [--data ../shared/data/vessel-filling]
+                                             [--discharge DIR [--discharge-p0 7.9e5]]
 
 Prints the transfer table: per heat model the fitted multipliers (a multiplier is the ratio to
 the published correlation: Churchill & Chu 1975 for natural convection, Woodfield, Monde &
@@ -39,8 +40,9 @@ sys.path.insert(0, os.path.dirname(HERE))
 
 from pneucore.analysis.heat_compare import record_errors, transfer  # noqa: E402
 from pneucore.physics.vessel import (FILLING_TEST, VESSEL_WALL, filling_test,  # noqa: E402
-                                     reference_inner_coefficient, reference_records,
-                                     vessel_dimensions, vessel_model)
+                                     read_vessel_record, reference_inner_coefficient,
+                                     reference_records, vessel_dimensions, vessel_experiment,
+                                     vessel_model)
 
 D, D_IN = FILLING_TEST["diameter"], FILLING_TEST["orifice"]
 SENSOR = {"sensor_time_constant": 1.0}
@@ -134,6 +136,12 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", default=os.path.join(os.path.dirname(HERE), "..", "shared", "data",
                                                    "vessel-filling"))
+    ap.add_argument("--discharge", default=None,
+                    help="folder of a recorded discharge of the same vessel, in the filling's "
+                         "format (pressure.csv in bar, gas_temperature.csv in K): predicted by "
+                         "each model fitted on the whole filling")
+    ap.add_argument("--discharge-p0", type=float, default=7.9e5,
+                    help="initial absolute pressure of that discharge [Pa]")
     args = ap.parse_args()
     t0 = time.perf_counter()
     truths = [
@@ -176,6 +184,13 @@ def main():
         show("published filling (Thorncroft et al. 2007): fitted on t <= 20 s, t > 20 s held out",
              rows, ("t<=20s", "t>20s"))
         spread(rows[0]["values"])
+        if args.discharge:
+            t, p, T = read_vessel_record(args.discharge)
+            dis = vessel_experiment("recorded discharge", t, p, T, args.discharge_p0,
+                                    FILLING_TEST["T_atm"])
+            rows = [transfer(vessel(h), real, dis, fit, name=n) for n, h, fit in MODELS]
+            show("recorded discharge predicted by the models fitted on the whole filling", rows,
+                 ("filling", "discharge"))
     else:
         print(f"\n(published filling not found at {args.data}: skipped)")
     print(f"\ngoal: predicted p <= {100 * GOAL_P:.1f} %, T rms <= {GOAL_T:g} K, multipliers within "

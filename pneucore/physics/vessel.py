@@ -145,6 +145,34 @@ def _read_csv(path):
     return rows[0], np.array([[float(v) for v in r] for r in rows[1:] if r], float)
 
 
+def read_vessel_record(data_dir):
+    """A vessel record in the published data's format, on one merged time base.
+
+    ``pressure.csv`` (``t [s], p [bar]`` absolute) and ``gas_temperature.csv``
+    (``t [s], T [K]``), each with a header line, sampled at their own times.
+
+    Parameters
+    ----------
+    data_dir : str
+        Folder holding the two files
+
+    Returns
+    -------
+    t : numpy.ndarray
+        Merged sample times from 0 [s]
+    p, T : numpy.ndarray
+        Pressure [Pa] and temperature [K] (NaN where the other signal was sampled)
+    """
+    _, p = _read_csv(os.path.join(data_dir, "pressure.csv"))
+    _, T = _read_csv(os.path.join(data_dir, "gas_temperature.csv"))
+    t = np.unique(np.concatenate([[0.0], p[:, 0], T[:, 0]]))
+    p_col = np.full(t.shape, np.nan)
+    T_col = np.full(t.shape, np.nan)
+    p_col[np.searchsorted(t, p[:, 0])] = p[:, 1] * 1e5
+    T_col[np.searchsorted(t, T[:, 0])] = T[:, 1]
+    return t, p_col, T_col
+
+
 def filling_test(data_dir, heat=None):
     """The published vessel-filling test (``shared/data/vessel-filling``) as a model and experiment.
 
@@ -174,13 +202,7 @@ def filling_test(data_dir, heat=None):
     area = math.pi * D * L + 2.0 * math.pi * D * D / 4.0
     model = vessel_model(volume, D, area, g["orifice"], g["Cd"], g["p_atm"], g["T_atm"], heat,
                          name="vessel-filling (Thorncroft et al. 2007)")
-    _, p = _read_csv(os.path.join(data_dir, "pressure.csv"))
-    _, T = _read_csv(os.path.join(data_dir, "gas_temperature.csv"))
-    t = np.unique(np.concatenate([[0.0], p[:, 0], T[:, 0]]))
-    p_col = np.full(t.shape, np.nan)
-    T_col = np.full(t.shape, np.nan)
-    p_col[np.searchsorted(t, p[:, 0])] = p[:, 1] * 1e5
-    T_col[np.searchsorted(t, T[:, 0])] = T[:, 1]
+    t, p_col, T_col = read_vessel_record(data_dir)
     meas = {"name": "vessel-filling", "t": t.tolist(), "u": [1.0] * len(t),
             "p_a": [None if math.isnan(v) else v for v in p_col],
             "T_a": [None if math.isnan(v) else v for v in T_col]}
