@@ -42,7 +42,7 @@ from pneucore.analysis.heat_compare import record_errors, transfer  # noqa: E402
 from pneucore.physics.vessel import (FILLING_TEST, VESSEL_WALL, filling_test,  # noqa: E402
                                      read_vessel_record, reference_inner_coefficient,
                                      reference_records, vessel_dimensions, vessel_experiment,
-                                     vessel_model)
+                                     published_vessel)
 
 D, D_IN = FILLING_TEST["diameter"], FILLING_TEST["orifice"]
 SENSOR = {"sensor_time_constant": 1.0}
@@ -63,12 +63,6 @@ MODELS = [
 ]
 #: The goal of issue 22
 GOAL_P, GOAL_T, GOAL_FACTOR = 1.0e-2, 8.0, 3.0
-
-
-def vessel(heat):
-    V, S, _ = vessel_dimensions()
-    g = FILLING_TEST
-    return vessel_model(V, g["diameter"], S, g["orifice"], g["Cd"], g["p_atm"], g["T_atm"], heat)
 
 
 def verdict(row):
@@ -109,7 +103,7 @@ def discharge(natural, jet, end=60.0, n=241):
             "sensor_time_constant": 0.0}
     sc = {"locked": True, "x0": 0.0, "duration": end, "command": [[0.0, 1.0]],
           "initial": {"p_a": 7.9e5, "T_a": FILLING_TEST["T_atm"]}, "solver": {"max_step": 0.5}}
-    r = simulate(Model.from_dict(vessel(heat)), sc, t_out=np.linspace(0.0, end, n))
+    r = simulate(Model.from_dict(published_vessel(heat)), sc, t_out=np.linspace(0.0, end, n))
     return np.asarray(r.observed("p_a")), np.asarray(r.observed("T_a"))
 
 
@@ -155,7 +149,7 @@ def main():
          reference_records(lambda p, T, Tw, q: 15.0, 1.0, seed=2)),
     ]
     for title, (fill, dis) in truths:
-        rows = [transfer(vessel(h), fill, dis, fit, name=n) for n, h, fit in MODELS]
+        rows = [transfer(published_vessel(h), fill, dis, fit, name=n) for n, h, fit in MODELS]
         show(title + " (fitted on the filling, discharge predicted)", rows,
              ("filling", "discharge"))
     V, S, _ = vessel_dimensions()
@@ -168,7 +162,7 @@ def main():
         fill, dis = reference_records(
             reference_inner_coefficient(D, D_IN, "churchill_chu", 2.0, 0.5), 2.0, seed=3, **wall)
         c = wall.get("wall_specific_heat", 500.0)
-        rows = [transfer(vessel({**heat, "wall_mass": m, "wall_specific_heat": c}), fill, dis, fit,
+        rows = [transfer(published_vessel({**heat, "wall_mass": m, "wall_specific_heat": c}), fill, dis, fit,
                          name=label)
                 for label, m in ((f"{name}, lumped wall {wall['wall_mass']:.2g} kg",
                                   wall["wall_mass"]), (f"{name}, wall at ambient", 0.0))]
@@ -176,11 +170,11 @@ def main():
              f"predicted)", rows, ("filling", "discharge"))
     if os.path.exists(os.path.join(args.data, "pressure.csv")):
         _, real = filling_test(args.data)
-        rows = [transfer(vessel(h), real, None, fit, t_split=20.0, name=n) for n, h, fit in MODELS]
+        rows = [transfer(published_vessel(h), real, None, fit, t_split=20.0, name=n) for n, h, fit in MODELS]
         pub_heat = {**MODELS[0][1], "sensor_time_constant": 0.0}
         rows.append({"name": "published correlations, no fit", "values": {},
-                     "fit": record_errors(vessel(pub_heat), real, t_max=20.0),
-                     "predicted": record_errors(vessel(pub_heat), real, t_min=20.0)})
+                     "fit": record_errors(published_vessel(pub_heat), real, t_max=20.0),
+                     "predicted": record_errors(published_vessel(pub_heat), real, t_min=20.0)})
         show("published filling (Thorncroft et al. 2007): fitted on t <= 20 s, t > 20 s held out",
              rows, ("t<=20s", "t>20s"))
         spread(rows[0]["values"])
@@ -188,7 +182,7 @@ def main():
             t, p, T = read_vessel_record(args.discharge)
             dis = vessel_experiment("recorded discharge", t, p, T, args.discharge_p0,
                                     FILLING_TEST["T_atm"])
-            rows = [transfer(vessel(h), real, dis, fit, name=n) for n, h, fit in MODELS]
+            rows = [transfer(published_vessel(h), real, dis, fit, name=n) for n, h, fit in MODELS]
             show("recorded discharge predicted by the models fitted on the whole filling", rows,
                  ("filling", "discharge"))
     else:

@@ -161,11 +161,15 @@ def table(rows):
 #: record's digitisation scatter (shared/data/vessel-filling/README.md: "a few tenths of a percent
 #: on pressure and about 1 K on temperature": 0.3 % of one bar, 1 K)
 SIGNAL_ACCURACY = {"p_a": 300.0, "T_a": 1.0}
-#: Bounds of the parameters a transfer fit may move (fitted in logarithm: multipliers and a
-#: time constant are scale quantities): the registry's bounds, a sensor's time constant from
-#: 0.01 s (a bare fine-wire couple) and a multiplier from 1e-3 of its correlation
-TRANSFER_BOUNDS = {"natural_multiplier": (1e-3, 20.0), "jet_multiplier": (1e-3, 20.0),
-                   "coefficient": (1e-2, 1e3), "sensor_time_constant": (1e-2, 100.0)}
+#: Bounds of the parameters a transfer fit may move (fitted in logarithm: multipliers, a
+#: coefficient and a time constant are scale quantities, so the registry's lower bound of 0
+#: becomes a floor): a multiplier from 1e-3 of its correlation, h from 0.01 W/(m^2 K), a
+#: sensor's time constant from 0.01 s (a bare fine-wire couple); the upper bounds are the
+#: registry's (:data:`HEAT_PARAMETERS`), h capped at 1e3 W/(m^2 K) as in
+#: :func:`compare_heat_models`
+TRANSFER_BOUNDS = {p: (floor, min(HEAT_PARAMETERS[p].max, 1e3)) for p, floor in (
+    ("natural_multiplier", 1e-3), ("jet_multiplier", 1e-3), ("coefficient", 1e-2),
+    ("sensor_time_constant", 1e-2))}
 #: A fitted value within this distance of a bound in logarithm (1 %) ran to it [-]
 AT_BOUND_LOG = 0.01
 

@@ -145,6 +145,28 @@ def _read_csv(path):
     return rows[0], np.array([[float(v) for v in r] for r in rows[1:] if r], float)
 
 
+def published_vessel(heat=None):
+    """Model JSON of the published vessel (:data:`FILLING_TEST`), open to the 1.00 bar atmosphere.
+
+    The same model fills (from a vacuum) and discharges (from a pressure): only the
+    experiment's initial state differs.
+
+    Parameters
+    ----------
+    heat : dict or None
+        The model's ``heat`` section
+
+    Returns
+    -------
+    model : dict
+        Model JSON (:func:`vessel_model`)
+    """
+    g = FILLING_TEST
+    volume, area, D = vessel_dimensions()
+    return vessel_model(volume, D, area, g["orifice"], g["Cd"], g["p_atm"], g["T_atm"], heat,
+                        name="vessel-filling (Thorncroft et al. 2007)")
+
+
 def read_vessel_record(data_dir):
     """A vessel record in the published data's format, on one merged time base.
 
@@ -197,11 +219,7 @@ def filling_test(data_dir, heat=None):
         Experiment JSON (measurement inline, locked scenario, initial state)
     """
     g = FILLING_TEST
-    D, L = g["diameter"], g["length"]
-    volume = math.pi * D * D / 4.0 * L
-    area = math.pi * D * L + 2.0 * math.pi * D * D / 4.0
-    model = vessel_model(volume, D, area, g["orifice"], g["Cd"], g["p_atm"], g["T_atm"], heat,
-                         name="vessel-filling (Thorncroft et al. 2007)")
+    model = published_vessel(heat)
     t, p_col, T_col = read_vessel_record(data_dir)
     meas = {"name": "vessel-filling", "t": t.tolist(), "u": [1.0] * len(t),
             "p_a": [None if math.isnan(v) else v for v in p_col],
