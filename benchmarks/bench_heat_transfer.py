@@ -38,6 +38,7 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
+from machine import machine_info, save_figures  # noqa: E402
 from pneucore.analysis.heat_compare import record_errors, transfer  # noqa: E402
 from pneucore.physics.vessel import (FILLING_TEST, VESSEL_WALL, filling_test,  # noqa: E402
                                      read_vessel_record, reference_inner_coefficient,
@@ -81,7 +82,13 @@ def verdict(row):
                   if row.get("at_bound") else "")
 
 
+#: Every table shown, for ``--json``: {title: [{model, fitted, fit errors, predicted errors}]}
+FIGURES = {}
+
+
 def show(title, rows, labels):
+    FIGURES[title] = [{"model": r["name"], "fitted": r["values"], labels[0]: r["fit"],
+                       labels[1]: r["predicted"]} for r in rows]
     print(f"\n{title}")
     print(f"{'model':<32} {labels[0] + ' p':>10} {'T':>8}  {labels[1] + ' p':>11} {'T':>8}  "
           f"{'goal':<34} fitted (multiplier = x published correlation)")
@@ -177,6 +184,9 @@ def main():
                          "each model fitted on the whole filling")
     ap.add_argument("--discharge-p0", type=float, default=7.9e5,
                     help="initial absolute pressure of that discharge [Pa]")
+    ap.add_argument("--quick", action="store_true",
+                    help="reference A and the real filling only (the suite's run)")
+    ap.add_argument("--json", default=None, help="write the tables to this file")
     args = ap.parse_args()
     t0 = time.perf_counter()
     truths = [
@@ -189,6 +199,8 @@ def main():
         ("reference C: a fixed h = 15 W/(m^2 K), tau 1 s (no physical law: transfer not expected)",
          reference_records(lambda p, T, Tw, q: 15.0, 1.0, seed=2)),
     ]
+    if args.quick:
+        truths = truths[:1]
     for title, (fill, dis) in truths:
         rows = [transfer(published_vessel(h), fill, dis, fit, name=n) for n, h, fit in MODELS]
         show(title + " (fitted on the filling, discharge predicted)", rows,
@@ -199,7 +211,7 @@ def main():
               {"wall_mass": 950.0 * S * 3e-3, "wall_thickness": 3e-3, "wall_specific_heat": 1900.0,
                "wall_conductivity": 0.40, "layers": 10})]
     name, heat, fit = MODELS[0]
-    for title, wall in walls:
+    for title, wall in ([] if args.quick else walls):
         fill, dis = reference_records(
             reference_inner_coefficient(D, D_IN, "churchill_chu", 2.0, 0.5), 2.0, seed=3, **wall)
         c = wall.get("wall_specific_heat", 500.0)
@@ -218,8 +230,9 @@ def main():
                      "predicted": record_errors(published_vessel(pub_heat), real, t_min=20.0)})
         show("published filling (Thorncroft et al. 2007): fitted on t <= 20 s, t > 20 s held out",
              rows, ("t<=20s", "t>20s"))
-        spread(rows[0]["values"])
-        slow_sensor(args.data)
+        if not args.quick:
+            spread(rows[0]["values"])
+            slow_sensor(args.data)
         if args.discharge:
             t, p, T = read_vessel_record(args.discharge)
             dis = vessel_experiment("recorded discharge", t, p, T, args.discharge_p0,
@@ -231,6 +244,7 @@ def main():
         print(f"\n(published filling not found at {args.data}: skipped)")
     print(f"\ngoal: predicted p <= {100 * GOAL_P:.1f} %, T rms <= {GOAL_T:g} K, multipliers within "
           f"x{GOAL_FACTOR:g} of the correlations; {time.perf_counter() - t0:.0f} s in all")
+    save_figures(args.json, {"machine": machine_info("scipy"), "tables": FIGURES})
 
 
 if __name__ == "__main__":
