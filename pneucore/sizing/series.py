@@ -19,6 +19,7 @@ import os
 
 from pneucore.physics.flow import R_LAMINAR, anr_volume_flow, iso6358_mass_flow
 from pneucore.physics.gas import GAMMA_AIR, R_AIR, T_REF
+from pneucore.spec.model import Jack
 from pneucore.spec.validation import FieldError, known_keys, number
 
 #: File holding the series (beside this module)
@@ -101,22 +102,84 @@ def nominal_flow(C, b):
     return anr_volume_flow(q) * 60e3
 
 
-def _series_or_member(item, registry, path, what):
-    """Members named by ``item`` (a series name or ``series:member``), or None if not a name."""
-    if not isinstance(item, str):
-        return None
-    series_name, _, member = item.partition(":")
-    if series_name not in registry:
-        raise FieldError(path, f"unknown {what} series {series_name!r}; expected one of "
-                               f"{sorted(registry)} (or {what} values)")
-    members = registry[series_name]["members"]
-    if member:
-        found = [m for m in members if m["name"] == member]
-        if not found:
-            raise FieldError(path, f"no {what} {member!r} in series {series_name!r}; expected one "
-                                   f"of {[m['name'] for m in members]}")
-        members = found
-    return [{**m, "series": series_name} for m in members]
+def _resolve(kind, items, path, what, member_record, given_record):
+    """The one walk over a request's choices of one kind: series names, ``series:member``
+    names, or the user's own values.
+
+    Parameters
+    ----------
+    kind : str
+        Registry in the series file: ``cylinders``, ``valves`` or ``tubes``
+    items : list
+        The request's choices; empty = every shipped series of that kind
+    path : str
+        Field path named in errors
+    what : str
+        The component's name in messages (``cylinder``, ``valve``, ``tube``)
+    member_record : callable
+        ``member_record(member)``: the SI record of a shipped series member (its ``series``
+        and ``name`` are added here)
+    given_record : callable
+        ``given_record(item, path)``: the SI record of a value the user gives, or a
+        :class:`FieldError` naming ``path``
+
+    Returns
+    -------
+    records : list of dict
+        One per component, each with ``series`` (None for the user's own) and ``name``
+    """
+    registry = _load()[kind]
+    out = []
+    for i, item in enumerate(items or list(registry)):
+        p = f"{path}[{i}]"
+        if not isinstance(item, str):
+            out.append({"series": None, **given_record(item, p)})
+            continue
+        series_name, _, member = item.partition(":")
+        if series_name not in registry:
+            raise FieldError(p, f"unknown {what} series {series_name!r}; expected one of "
+                                f"{sorted(registry)} (or {what} values)")
+        members = registry[series_name]["members"]
+        if member:
+            members = [m for m in members if m["name"] == member]
+            if not members:
+                raise FieldError(p, f"no {what} {member!r} in series {series_name!r}; expected "
+                                    f"one of {[m['name'] for m in registry[series_name]['members']]}")
+        out += [{"series": series_name, "name": f"{series_name}:{m['name']}", **member_record(m)}
+                for m in members]
+    return out
+
+
+def _given_cylinder(item, p):
+    if isinstance(item, (int, float)) and not isinstance(item, bool):
+        raise FieldError(p, "a cylinder needs its rod too: give {\"bore\": [m], \"rod\": [m]} "
+                            "or a series name")
+    if not isinstance(item, dict):
+        raise FieldError(p, f"must be a series name or {{\"bore\": [m], \"rod\": [m]}}, got "
+                            f"{type(item).__name__}")
+    known_keys(item, ("bore", "rod", "name"), p)
+    bore = number(item.get("bore"), f"{p}.bore", positive=True)
+    # the jack's own rule (one source): non-negative and smaller than the bore
+    rod = Jack.checked_rod(item.get("rod", 0.0), bore, f"{p}.rod")
+    return {"name": str(item.get("name") or f"bore {bore * 1e3:g} mm"), "bore": bore, "rod": rod}
+
+
+def _given_valve(item, p):
+    if not isinstance(item, dict):
+        raise FieldError(p, f"must be a series name or {{\"C\": [m^3/(s Pa)], \"b\": [-]}}, "
+                            f"got {type(item).__name__}")
+    known_keys(item, ("C", "b", "C_exhaust", "b_exhaust", "name"), p)
+    C = number(item.get("C"), f"{p}.C", positive=True)
+    b = number(item.get("b"), f"{p}.b", low=0.0, high=1.0, high_open=True)
+    Ce = number(item.get("C_exhaust", C), f"{p}.C_exhaust", positive=True)
+    be = number(item.get("b_exhaust", b), f"{p}.b_exhaust", low=0.0, high=1.0, high_open=True)
+    return {"name": str(item.get("name") or f"C {C:.3g} m^3/(s Pa)"), "C": C, "b": b,
+            "C_exhaust": Ce, "b_exhaust": be}
+
+
+def _given_tube(item, p):
+    d = number(item, p, positive=True)
+    return {"name": f"ID {d * 1e3:g} mm", "inner_diameter": d}
 
 
 def resolve_cylinders(items, path="choices.bore"):
@@ -134,31 +197,8 @@ def resolve_cylinders(items, path="choices.bore"):
     cylinders : list of dict
         ``{"series", "name", "bore" [m], "rod" [m]}``
     """
-    registry = _load()["cylinders"]
-    items = items or list(registry)
-    out = []
-    for i, item in enumerate(items):
-        p = f"{path}[{i}]"
-        named = _series_or_member(item, registry, p, "cylinder")
-        if named is not None:
-            out += [{"series": m["series"], "name": f"{m['series']}:{m['name']}", "bore": m["bore"],
-                     "rod": m["rod"]} for m in named]
-            continue
-        if isinstance(item, (int, float)) and not isinstance(item, bool):
-            raise FieldError(p, "a cylinder needs its rod too: give {\"bore\": [m], \"rod\": [m]} "
-                                "or a series name")
-        if not isinstance(item, dict):
-            raise FieldError(p, f"must be a series name or {{\"bore\": [m], \"rod\": [m]}}, got "
-                                f"{type(item).__name__}")
-        known_keys(item, ("bore", "rod", "name"), p)
-        bore = number(item.get("bore"), f"{p}.bore", positive=True)
-        rod = number(item.get("rod", 0.0), f"{p}.rod", nonnegative=True)
-        if rod >= bore:
-            raise FieldError(f"{p}.rod", f"rod diameter {rod:g} m must be smaller than the bore "
-                                         f"{bore:g} m")
-        out.append({"series": None, "name": str(item.get("name") or f"bore {bore * 1e3:g} mm"),
-                    "bore": bore, "rod": rod})
-    return out
+    return _resolve("cylinders", items, path, "cylinder",
+                    lambda m: {"bore": m["bore"], "rod": m["rod"]}, _given_cylinder)
 
 
 def resolve_valves(items, path="choices.valve"):
@@ -175,29 +215,11 @@ def resolve_valves(items, path="choices.valve"):
     Returns
     -------
     valves : list of dict
-        ``{"series", "name", "C", "b", "C_exhaust", "b_exhaust"}`` (C in m^3/(s Pa))
+        ``{"series", "name", "C", "b", "C_exhaust", "b_exhaust", "qn"}`` (C in m^3/(s Pa),
+        qn in NL/min)
     """
-    registry = _load()["valves"]
-    items = items or list(registry)
-    out = []
-    for i, item in enumerate(items):
-        p = f"{path}[{i}]"
-        named = _series_or_member(item, registry, p, "valve")
-        if named is not None:
-            out += [{"series": m["series"], "name": f"{m['series']}:{m['name']}", "C": m["C"],
-                     "b": m["b"], "C_exhaust": m["C_exhaust"], "b_exhaust": m["b_exhaust"]}
-                    for m in named]
-            continue
-        if not isinstance(item, dict):
-            raise FieldError(p, f"must be a series name or {{\"C\": [m^3/(s Pa)], \"b\": [-]}}, "
-                                f"got {type(item).__name__}")
-        known_keys(item, ("C", "b", "C_exhaust", "b_exhaust", "name"), p)
-        C = number(item.get("C"), f"{p}.C", positive=True)
-        b = number(item.get("b"), f"{p}.b", low=0.0, high=1.0, high_open=True)
-        Ce = number(item.get("C_exhaust", C), f"{p}.C_exhaust", positive=True)
-        be = number(item.get("b_exhaust", b), f"{p}.b_exhaust", low=0.0, high=1.0, high_open=True)
-        out.append({"series": None, "name": str(item.get("name") or f"C {C:.3g} m^3/(s Pa)"),
-                    "C": C, "b": b, "C_exhaust": Ce, "b_exhaust": be})
+    out = _resolve("valves", items, path, "valve",
+                   lambda m: {k: m[k] for k in ("C", "b", "C_exhaust", "b_exhaust")}, _given_valve)
     for v in out:
         v["qn"] = nominal_flow(v["C"], v["b"])
     return out
@@ -218,16 +240,5 @@ def resolve_tubes(items, path="choices.tube_inner_diameter"):
     tubes : list of dict
         ``{"series", "name", "inner_diameter" [m]}``
     """
-    registry = _load()["tubes"]
-    items = items or list(registry)
-    out = []
-    for i, item in enumerate(items):
-        p = f"{path}[{i}]"
-        named = _series_or_member(item, registry, p, "tube")
-        if named is not None:
-            out += [{"series": m["series"], "name": f"{m['series']}:{m['name']}",
-                     "inner_diameter": m["inner"]} for m in named]
-            continue
-        d = number(item, p, positive=True)
-        out.append({"series": None, "name": f"ID {d * 1e3:g} mm", "inner_diameter": d})
-    return out
+    return _resolve("tubes", items, path, "tube", lambda m: {"inner_diameter": m["inner"]},
+                    _given_tube)

@@ -36,9 +36,10 @@ from pneucore.physics.series import series_characteristic
 from pneucore.physics.tube import line_volume
 from pneucore.sizing import (Choices, Requirement, build_model, direction_metrics, load_series,
                              size)
-from pneucore.sizing.series import dead_length, nominal_flow
+from pneucore.sizing.series import (dead_length, nominal_flow, resolve_cylinders, resolve_tubes,
+                                     resolve_valves)
 from pneucore.spec.effects import effective_model
-from pneucore.spec.model import Model
+from pneucore.spec.model import Jack, Model
 from pneucore.spec.validation import FieldError
 
 BORE, ROD, STROKE, LOAD, P_S, P_ATM, T_REQ = 0.032, 0.012, 0.2, 100.0, 6e5, 1.013e5, 0.5
@@ -361,3 +362,34 @@ def test_the_command_line_sizes_a_requirement_file(tmp_path, capsys):
     req.write_text(json.dumps({**_requirement(), "angle": 120}))
     assert main(["size", str(req)]) == 2
     assert "requirement.angle" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("rod", [0.05, 0.06, -0.001])
+def test_a_given_cylinder_gets_the_jacks_own_rod_rule(rod):
+    # the sizing's cylinder and the model's jack refuse the same rods with the same words:
+    # one rule (Jack.checked_rod), the field path the request's
+    with pytest.raises(FieldError) as sized:
+        resolve_cylinders([{"bore": 0.05, "rod": rod}])
+    with pytest.raises(FieldError) as jack:
+        Jack.from_dict({"bore": 0.05, "rod_a": rod})
+    assert sized.value.path == "choices.bore[0].rod" and jack.value.path == "jack.rod_a"
+    assert sized.value.detail == jack.value.detail
+
+
+def test_the_three_resolvers_walk_the_registry_alike():
+    # a series name gives every member, "series:member" one, with the same naming and the
+    # same errors for each kind; the user's own value has series None
+    s = load_series()
+    for resolve, kind, own in ((resolve_cylinders, "cylinders", {"bore": 0.05, "rod": 0.02}),
+                               (resolve_valves, "valves", {"C": 1e-8, "b": 0.3}),
+                               (resolve_tubes, "tubes", 0.004)):
+        name, series = next(iter(s[kind].items()))
+        every = resolve([name])
+        assert [r["name"] for r in every] == [f"{name}:{m['name']}" for m in series["members"]]
+        first = series["members"][0]["name"]
+        assert resolve([f"{name}:{first}"]) == every[:1]
+        assert resolve([own])[0]["series"] is None
+        assert len(resolve([])) == sum(len(x["members"]) for x in s[kind].values())
+        with pytest.raises(FieldError) as e:
+            resolve([f"{name}:nope"])
+        assert e.value.path.endswith("[0]") and first in e.value.detail
