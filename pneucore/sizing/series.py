@@ -17,7 +17,8 @@ import functools
 import json
 import os
 
-from pneucore.physics.flow import R_LAMINAR, anr_volume_flow, iso6358_mass_flow
+from pneucore.physics.flow import (P_ANR, QN_DP, QN_P1_GAUGE, R_LAMINAR, anr_volume_flow,
+                                   iso6358_mass_flow)
 from pneucore.physics.gas import GAMMA_AIR, R_AIR, T_REF
 from pneucore.spec.model import Jack
 from pneucore.spec.validation import FieldError, known_keys, number
@@ -26,9 +27,6 @@ from pneucore.spec.validation import FieldError, known_keys, number
 SERIES_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "series.json")
 #: SI factor of each unit the series file uses
 _UNIT_FACTORS = {"mm": 1e-3, "m": 1.0, "dm^3/(s bar)": 1e-8}
-#: ISO 6358 nominal flow conditions: 6 bar gauge upstream, 1 bar pressure drop [Pa]
-QN_UPSTREAM_GAUGE = 6e5
-QN_DROP = 1e5
 
 
 @functools.lru_cache(maxsize=None)
@@ -73,7 +71,10 @@ def dead_length():
 def nominal_flow(C, b):
     """ISO 6358 nominal flow Qn of a valve edge: 6 bar gauge in, 5 bar gauge out, 20 degC.
 
-    Derived from the edge's C and b (the model's one source) with the paper's Eq. 4-5.
+    Derived from the edge's C and b (the model's one source) with the paper's Eq. 4-5, at
+    the nominal-flow conditions of :mod:`pneucore.physics.flow` (``QN_P1_GAUGE``, ``QN_DP``
+    over the ANR atmosphere ``P_ANR``): the inverse of
+    :func:`pneucore.physics.flow.conductance_from_qn`, the way in from a catalogue's Qn.
 
     Parameters
     ----------
@@ -89,16 +90,16 @@ def nominal_flow(C, b):
 
     Examples
     --------
-    A 1 dm^3/(s bar) edge with b = 0.3. Choked at 7.013 bar abs it would pass SMC's worked
-    figure 600 x C x (P1 + 0.1) = 600 x 1 x 0.7013 = 421 NL/min (P1 in MPa gauge; SMC's
-    "Solenoid valves flow characteristics"); at the nominal ratio 6.013 / 7.013 = 0.857 the
-    subsonic law leaves sqrt(1 - ((0.857 - 0.3) / 0.7)^2) = 0.606 of it:
+    A 1 dm^3/(s bar) edge with b = 0.3. Choked at 7 bar abs it would pass SMC's worked
+    figure 600 x C x (P1 + 0.1) = 600 x 1 x 0.7 = 420 NL/min (P1 in MPa gauge; SMC's
+    "Solenoid valves flow characteristics"); at the nominal ratio 6 / 7 = 0.857 the
+    subsonic law leaves sqrt(1 - ((0.857 - 0.3) / 0.7)^2) = 0.605 of it:
 
-    >>> round(nominal_flow(1e-8, 0.3))
-    255
+    >>> round(nominal_flow(1e-8, 0.3), 1)
+    254.3
     """
-    p1 = 1.013e5 + QN_UPSTREAM_GAUGE
-    q = iso6358_mass_flow(p1, T_REF, p1 - QN_DROP, T_REF, C, b, 0.5, R_LAMINAR, R_AIR, GAMMA_AIR)
+    p1 = P_ANR + QN_P1_GAUGE
+    q = iso6358_mass_flow(p1, T_REF, p1 - QN_DP, T_REF, C, b, 0.5, R_LAMINAR, R_AIR, GAMMA_AIR)
     return anr_volume_flow(q) * 60e3
 
 
