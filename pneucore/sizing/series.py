@@ -21,6 +21,10 @@ from pneucore.physics.flow import (P_ANR, QN_DP, QN_P1_GAUGE, R_LAMINAR, anr_vol
                                    iso6358_mass_flow)
 from pneucore.physics.gas import GAMMA_AIR, R_AIR, T_REF
 from pneucore.spec.model import Jack
+from pneucore.spec.valve_data import CONVERSIONS as VALVE_CONVERSIONS
+from pneucore.spec.valve_data import FIELDS as VALVE_FIELDS
+from pneucore.spec.valve_data import convert_valve_data
+from pneucore.spec.valve_data import unit as valve_unit
 from pneucore.spec.validation import FieldError, known_keys, number
 
 #: File holding the series (beside this module)
@@ -169,13 +173,25 @@ def _given_valve(item, p):
     if not isinstance(item, dict):
         raise FieldError(p, f"must be a series name or {{\"C\": [m^3/(s Pa)], \"b\": [-]}}, "
                             f"got {type(item).__name__}")
-    known_keys(item, ("C", "b", "C_exhaust", "b_exhaust", "name"), p)
-    C = number(item.get("C"), f"{p}.C", positive=True)
-    b = number(item.get("b"), f"{p}.b", low=0.0, high=1.0, high_open=True)
+    known_keys(item, ("C", "b", "C_exhaust", "b_exhaust", "name", *VALVE_FIELDS), p)
+    figures = [k for k in VALVE_CONVERSIONS if item.get(k) is not None]
+    if figures:
+        # a catalogue's figure (Qn, effective area, one flow point): the valve converter's
+        # registry turns it into C, the one way in (POST /api/valve/convert answers the same)
+        if item.get("C") is not None:
+            raise FieldError(f"{p}.C", f"give C or a catalogue figure ({figures[0]}), not both")
+        conv = convert_valve_data({k: v for k, v in item.items() if k in VALVE_FIELDS}, p)
+        C, b = conv["C"], conv["b"]
+        fig = figures[0]
+        label = f"{fig} {item[fig]:g} {valve_unit(fig)}"
+    else:
+        C = number(item.get("C"), f"{p}.C", positive=True)
+        b = number(item.get("b"), f"{p}.b", low=0.0, high=1.0, high_open=True)
+        label = f"C {C:.3g} m^3/(s Pa)"
     Ce = number(item.get("C_exhaust", C), f"{p}.C_exhaust", positive=True)
     be = number(item.get("b_exhaust", b), f"{p}.b_exhaust", low=0.0, high=1.0, high_open=True)
-    return {"name": str(item.get("name") or f"C {C:.3g} m^3/(s Pa)"), "C": C, "b": b,
-            "C_exhaust": Ce, "b_exhaust": be}
+    return {"name": str(item.get("name") or label), "C": C, "b": b, "C_exhaust": Ce,
+            "b_exhaust": be}
 
 
 def _given_tube(item, p):
@@ -209,7 +225,10 @@ def resolve_valves(items, path="choices.valve"):
     ----------
     items : list
         Series names, ``series:member`` names or ``{"C": [m^3/(s Pa)], "b": [-]}`` with
-        optional ``C_exhaust``, ``b_exhaust`` (default: as the supply edge) and ``name``
+        optional ``C_exhaust``, ``b_exhaust`` (default: as the supply edge) and ``name``;
+        instead of ``C``, a catalogue's figure that :func:`pneucore.spec.valve_data.convert_valve_data`
+        converts: ``{"qn": [NL/min], "b": [-]}``, ``{"effective_area": [m^2], "b": [-]}`` or
+        one flow point ``{"flow_rate": [m^3/s], "p1": [Pa], "p2": [Pa], "b": [-]}``
     path : str
         Field path named in errors
 

@@ -404,3 +404,34 @@ def test_the_three_resolvers_walk_the_registry_alike():
         with pytest.raises(FieldError) as e:
             resolve([f"{name}:nope"])
         assert e.value.path.endswith("[0]") and first in e.value.detail
+
+
+def test_a_valve_given_by_its_catalogue_qn_sizes_as_the_same_valve_given_by_c():
+    # a catalogue prints Qn (and b); the valve converter's law turns it into C: the design is
+    # the one the same valve given by C gives (the round trip is exact to 1e-12 above, so the
+    # metrics agree to the integrator's tolerance; 1e-6 is far below any physical effect)
+    c_star, _, _, _ = _hand()
+    by_c = {"C": 1.15 * c_star, "b": 0.3}
+    by_qn = {"qn": nominal_flow(by_c["C"], 0.3), "b": 0.3}
+    runs = [size(_requirement(), {"bore": [{"bore": BORE, "rod": ROD}], "valve": [v],
+                                  "meter_out": False}, workers=1, base=_base())
+            for v in (by_c, by_qn)]
+    (a,), (b,) = (r["designs"] for r in runs)
+    assert b["valve"]["name"].startswith("qn ") and b["valve"]["series"] is None
+    assert b["valve"]["C"] == pytest.approx(a["valve"]["C"], rel=1e-12)
+    for direction in ("extend", "retract"):
+        assert b["metrics"][direction]["full_stroke_time"] == pytest.approx(
+            a["metrics"][direction]["full_stroke_time"], rel=1e-6)
+
+
+@pytest.mark.parametrize("valve,path", [
+    ({"qn": 300.0, "b": 0.3, "C": 1e-8}, "choices.valve[0].C"),        # both ways at once
+    ({"qn": -300.0, "b": 0.3}, "choices.valve[0].qn"),
+    ({"qn": 300.0}, "choices.valve[0].b"),                              # Qn does not give b
+    ({"flow_rate": 5e-3, "p1": 5e5, "b": 0.3}, "choices.valve[0].p2"),
+    ({"b": 0.3}, "choices.valve[0].C"),                                 # neither
+])
+def test_a_malformed_catalogue_figure_names_its_field(valve, path):
+    with pytest.raises(FieldError) as e:
+        resolve_valves([valve])
+    assert e.value.path == path
