@@ -160,8 +160,10 @@ class Choices:
         ``{"bore": [m], "rod": [m]}``; empty = every shipped cylinder series [-]
     valve : list
         Valves: a series name (``ckd-4ga``, ``ckd-4gb``), a member (``ckd-4ga:M4GA2``) or
-        ``{"C": [m^3/(s Pa)], "b": [-]}`` (optionally ``C_exhaust``, ``b_exhaust``, ``name``);
-        empty = every shipped valve series [-]
+        ``{"C": [m^3/(s Pa)], "b": [-]}`` (optionally ``C_exhaust``, ``b_exhaust``, ``name``),
+        or instead of C a catalogue's figure with its b: ``{"qn": [NL/min], "b": [-]}``,
+        ``{"effective_area": [m^2], "b": [-]}`` or one flow point (``flow_rate`` [m^3/s],
+        ``p1``, ``p2`` [Pa]); empty = every shipped valve series [-]
     tube_inner_diameter : list
         Tube inner diameters when a tube length is given: a series name (``pu-tube``), a
         member (``pu-tube:TU0604``) or a value [m]; empty = the shipped tube series [-]
