@@ -49,8 +49,10 @@ class RequirementSpec(_Strict):
     load_force: float = _lib(Requirement, _REQ, "load_force")
     angle: float = _lib(Requirement, _REQ, "angle")
     supply_pressure: float = _lib(Requirement, _REQ, "supply_pressure", required=True)
-    extend_time: float = _lib(Requirement, _REQ, "extend_time", required=True)
-    retract_time: float = _lib(Requirement, _REQ, "retract_time", required=True)
+    extend_time: Optional[float] = _lib(Requirement, _REQ, "extend_time")
+    retract_time: Optional[float] = _lib(Requirement, _REQ, "retract_time")
+    cycle_time: Optional[float] = _lib(Requirement, _REQ, "cycle_time")
+    dwell: float = _lib(Requirement, _REQ, "dwell")
     max_end_speed: Optional[float] = _lib(Requirement, _REQ, "max_end_speed")
     max_end_energy: Optional[float] = _lib(Requirement, _REQ, "max_end_energy")
     tube_length: Optional[float] = _lib(Requirement, _REQ, "tube_length")
@@ -182,6 +184,9 @@ class DesignOut(BaseModel):
     metrics: DesignMetricsOut
     air_per_cycle: float = Field(..., description="Air drawn from the supply per cycle (extension "
                                                   "and retraction), ANR [NL]")
+    required_times: dict[str, float] = Field(..., description=(
+        "Full-stroke time each direction was sized for (extend, retract): the requirement's, or "
+        "with a cycle_time each direction's share of the time to move [s]"))
     feasible: bool = Field(..., description="Meets the requirement (false: one of the closest "
                                             "families, shown when none meets it) [-]")
 
