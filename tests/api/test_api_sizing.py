@@ -154,3 +154,20 @@ def test_a_valve_given_by_its_catalogue_qn(client):
     # 1e-12: the same function on the same numbers, floating point only
     assert designs[0]["valve"]["C"] == pytest.approx(conv.json()["C"], rel=1e-12)
     assert designs[0]["valve"]["qn"] == pytest.approx(600.0, rel=1e-9)
+
+
+def test_a_cycle_time_with_dwell_instead_of_the_two_times(client):
+    req = {k: v for k, v in REQ.items() if k not in ("extend_time", "retract_time")}
+    body = {"requirement": {**req, "cycle_time": 1.6, "dwell": 0.2},
+            "choices": {"bore": ["iso15552:32"], "valve": ["ckd-4ga:M4GA1"]}}
+    r = client.post("/api/sizing", json=body)
+    assert r.status_code == 200, r.text[:800]
+    (d,) = r.json()["designs"]
+    # the shares fill the 1.2 s to move (cycle less two dwells; 1e-9: arithmetic only), and
+    # each stroke meets its share
+    assert sum(d["required_times"].values()) == pytest.approx(1.2, rel=1e-9)
+    for k in ("extend", "retract"):
+        assert d["metrics"][k]["full_stroke_time"] <= d["required_times"][k]
+    body["requirement"]["extend_time"] = 0.6
+    assert_field_error(client.post("/api/sizing", json=body), "requirement.extend_time",
+                       msg_contains="not both")

@@ -435,3 +435,65 @@ def test_a_malformed_catalogue_figure_names_its_field(valve, path):
     with pytest.raises(FieldError) as e:
         resolve_valves([valve])
     assert e.value.path == path
+
+
+def _cycle_requirement(cycle_time, dwell):
+    d = _requirement()
+    del d["extend_time"], d["retract_time"]
+    return {**d, "cycle_time": cycle_time, "dwell": dwell}
+
+
+def test_a_cycle_time_is_shared_in_proportion_to_the_fully_open_strokes():
+    c_star, _, _, _ = _hand()
+    family = {"bore": [{"bore": BORE, "rod": ROD}], "valve": [_valve(2.0, c_star)]}
+    # the fully open strokes, each direction given ample time
+    (open_,) = size(_requirement(extend_time=3.0, retract_time=3.0), {**family, "meter_out": False},
+                    workers=1, base=_base())["designs"]
+    t0 = {k: open_["metrics"][k]["full_stroke_time"] for k in ("extend", "retract")}
+    dwell = 0.25
+    motion = 1.5 * (t0["extend"] + t0["retract"])
+    ans = size(_cycle_requirement(motion + 2 * dwell, dwell), family, workers=1, base=_base())
+    (d,) = ans["designs"]
+    share = d["required_times"]
+    # the shares fill the time to move, in the ratio of the fully open times (1e-3: the same
+    # runs, the scenario only longer, so the integrator's steps may differ slightly)
+    assert share["extend"] + share["retract"] == pytest.approx(motion, rel=1e-12)
+    assert share["extend"] / share["retract"] == pytest.approx(t0["extend"] / t0["retract"],
+                                                               rel=1e-3)
+    for k in ("extend", "retract"):
+        t = d["metrics"][k]["full_stroke_time"]
+        # each stroke's meter-out root lands at or under its share, within 1 %: the root's
+        # tolerance on the exhaust conductance is 0.1 % (SETTING_XTOL), the time nearly
+        # proportional to its inverse
+        assert share[k] * 0.99 <= t <= share[k]
+        assert d["settings"][f"{k}_meter_out_C"] > 0.0       # both strokes were slowed down
+    assert any("Cycle time" in n for n in ans["notes"])
+    # a cycle shorter than the two fully open strokes (plus the dwells) is too slow, and says so
+    short = size(_cycle_requirement(0.9 * (t0["extend"] + t0["retract"]) + 2 * dwell, dwell),
+                 family, workers=1, base=_base())
+    (bad,) = short["infeasible"]
+    assert bad["reason"] == "too_slow" and bad["detail"].startswith("cycle: fully open")
+    assert bad["direction"] == max(t0, key=t0.get)
+
+
+@pytest.mark.parametrize("change,path", [
+    ({"cycle_time": 2.0}, "requirement.extend_time"),               # both ways at once
+    ({"extend_time": None}, "requirement.extend_time"),             # neither way
+    ({"dwell": 0.1}, "requirement.dwell"),                          # a dwell needs a cycle time
+])
+def test_the_times_are_given_one_way(change, path):
+    d = {**_requirement(), **change}
+    with pytest.raises(FieldError) as e:
+        Requirement.from_dict(d)
+    assert e.value.path == path and "(unit: s)" in e.value.detail
+
+
+def test_two_dwells_must_leave_time_to_move():
+    with pytest.raises(FieldError) as e:
+        Requirement.from_dict(_cycle_requirement(1.0, 0.5))
+    assert e.value.path == "requirement.dwell" and "no time to move" in e.value.detail
+    r = Requirement.from_dict(_cycle_requirement(1.0, 0.2))
+    # the time to move bounds each stroke (0.6 s, exact arithmetic); the round trip holds
+    assert r.motion_time == pytest.approx(0.6, rel=1e-12)
+    assert r.time_bound("extend") == r.time_bound("retract") == r.motion_time
+    assert Requirement.from_dict(r.to_dict()) == r
