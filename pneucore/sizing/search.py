@@ -7,7 +7,10 @@ inner diameter. For each family :func:`size`
    both ways (no simulation): too weak is the reason ``force``;
 2. simulates each direction fully open (a full stroke from rest at one end stop, the valve
    commanded at t = 0, the chamber to be exhausted starting at the supply pressure): a
-   full-stroke time above the required one is the reason ``too_slow``;
+   full-stroke time above the required one is the reason ``too_slow``; with a cycle time
+   instead of the two times, the time to move (the cycle less both dwells) is first shared
+   between the strokes in proportion to these fully open times, and the family is too slow
+   when their sum exceeds it;
 3. with ``choices.meter_out``, solves the sonic conductance of each direction's meter-out
    throttle (the model's ``meter_out_throttle`` on the exhausting port, in series with the
    valve's exhaust edge) for the full-stroke time to equal the required one, by a 1-D root
