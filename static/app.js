@@ -725,6 +725,7 @@ function strokeSummary(sm) {
 }
 function plotSimulation() {
   const r = S.sim;
+  if (typeof renderStrokeTable === 'function') renderStrokeTable(r && r.stats ? r.stats.stroke : null);   // static/strokes.js
   if (!r) { plotEmptySimulation(); return; }
   const s = r.series;
   const t = s.t;

@@ -204,7 +204,7 @@ function drawSchematic(model, opts = {}) {
     const p = effects.return_spring || {};
     const g = schemGroup(svg, 'schem-spring', `Return spring: rate ${show(p.rate, 'N/m')}, preload ${show(p.preload, 'N')}`);
     schemZigzag(g, pistonX + 10, axis, cx1 - 2, 18, 10);
-    schemText(g, pistonX + 14, cy1 + 14, `spring ${show(p.rate, 'N/m')}`);
+    schemText(g, pistonX + 30, cy0 - 6, `spring ${show(p.rate, 'N/m')}`);
   }
   for (const end of schemCushionEnds(effects.end_cushion)) {
     const p = effects.end_cushion;
@@ -277,8 +277,8 @@ function drawSchematic(model, opts = {}) {
       const g = schemGroup(svg, `schem-tube-${end}`, `Tube on port ${end.toUpperCase()}: length ${show(L, 'm')}, ` +
         `inner diameter ${show(tube[`diameter_${end}`], 'm')}`, 'schem-tube');
       schemLine(g, px, y, px, y + 50, { class: 'schem-tube-line' });
-      schemText(g, px + 8, y + 22, `tube ${show(L, 'm')}`);
-      schemText(g, px + 8, y + 36, `⌀ ${show(tube[`diameter_${end}`], 'm')}`);
+      schemText(g, px + 8, y + 26, `tube ${show(L, 'm')}`);
+      schemText(g, px + 8, y + 40, `⌀ ${show(tube[`diameter_${end}`], 'm')}`);
     } else schemLine(line, px, y, px, y + 50);
     y += 50;
     for (let i = 0; i < 2; i++) {

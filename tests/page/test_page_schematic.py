@@ -213,3 +213,31 @@ def test_hostile_text_in_the_model_never_becomes_markup(page):
     assert res["pwned"] is None
     assert "<img" in _title(page, "schem-valve")  # the unknown kind is named as text
     _load_preset(page, "paper-4way")
+
+
+def test_the_stroke_metrics_table_next_to_the_plots(page):
+    """A full extension then a full retraction: a row per valve switching in the plots panel,
+    each metric of stats.stroke.strokes in its column, in the page's units (speeds in mm/s in
+    the engineering system), the columns and units as GET /api/units gives them."""
+    _load_preset(page, "paper-4way")
+    page.click("#btn-fig10")
+    page.wait_for_function("() => S.scenario && S.scenario.name === 'paper-fig10-pulses'")
+    page.fill("#scn-command", "0, 0\n0.05, 1\n0.5, -1")
+    before = int(page.get_attribute("#panel-plots", "data-runs") or 0)
+    page.click("#btn-simulate")
+    page.wait_for_function(f"() => Number(document.getElementById('panel-plots').dataset.runs || 0) > {before}")
+    strokes = page.evaluate("() => S.sim.stats.stroke.strokes")
+    units = page.evaluate("() => S.units.stroke")
+    table = page.locator("#stroke-table #stroke-metrics")
+    assert table.locator("tbody tr").count() == len(strokes) >= 2
+    heads = table.locator("thead th").all_inner_texts()
+    assert len(heads) == len(units)
+    assert "full stroke time [s]" in heads and "end speed [mm/s]" in heads and "air NL [NL]" in heads
+    ext = next(i for i, s in enumerate(strokes) if s["direction"] == "extend")
+    row = table.locator("tbody tr").nth(ext)
+    assert row.get_attribute("data-direction") == "extend"
+    cell = lambda m: row.locator(f"td[data-metric='{m}']").inner_text()  # noqa: E731
+    # shown to 4 significant digits: the relative tolerance is half a unit of the 4th digit
+    assert float(cell("full_stroke_time")) == pytest.approx(strokes[ext]["full_stroke_time"], rel=5e-4)
+    assert float(cell("end_speed")) == pytest.approx(strokes[ext]["end_speed"] / 1e-3, rel=5e-4)   # m/s -> mm/s
+    assert float(cell("air_NL")) == pytest.approx(strokes[ext]["air_NL"], rel=5e-4)
