@@ -79,6 +79,11 @@ function buildCircuitPanel() {
     const cat = catalog(name);
     if (cat) for (const p of cat.parameters) circuitField(grid, name, label, p, p.name);
   }
+  // a per-port effect's parameter of neither port (e.g. a cushion's capacity) goes here too
+  for (const [name, label] of CIRCUIT_PORT_EFFECTS) {
+    const cat = catalog(name);
+    if (cat) for (const p of cat.parameters) if (!/_[ab]$/.test(p.name)) circuitField(grid, name, label, p, p.name);
+  }
   CIRCUIT.built = `${typeof UNITS !== 'undefined' ? UNITS.system : 'si'}|${S.effects.map((e) => e.name).join(',')}`;
 }
 
