@@ -106,7 +106,11 @@ function refreshCircuit() {
 function drawCircuitSchematic() {
   const holder = document.getElementById('schematic');
   if (!holder || !S.model) return;
-  const show = (v, si) => {
+  // the SI unit of a parameter path, as the service gives it (GET /api/units)
+  const unitOf = (path) => (S.units && ((S.units.parameters || {})[path] || (S.units.fields || {})[`model.${path}`])) || '';
+  const show = (v, path) => {
+    const si = unitOf(path);
+    if (!si || si === '-') return String(+v.toPrecision(3));
     const d = circuitShow(si);
     return `${+((v - (d.offset || 0)) / d.scale).toPrecision(3)} ${prettyUnit(d.unit)}`;
   };

@@ -31,8 +31,10 @@
  * effect whose parameters are not the expected ones, is listed by name and never breaks the
  * drawing.
  *
- * opts.show(value, siUnit) -> text formats a value given in SI (the page passes its unit system,
- * static/units.js); the default writes SI.
+ * opts.show(value, path) -> text formats a value in SI of the model's parameter `path` (e.g.
+ * 'effects.tubing.length_a', 'supply.pressure'); the page gives it the unit of that path from
+ * GET /api/units and shows it in its unit system (static/circuit.js). The default writes the
+ * SI number alone: this module holds no unit.
  */
 
 const SVG_NS = 'http://www.w3.org/2000/svg';
@@ -78,7 +80,7 @@ function schemLine(parent, x1, y1, x2, y2, attrs = {}) {
 }
 function schemPath(parent, d, attrs = {}) { return schemEl('path', Object.assign({ d }, attrs), parent); }
 function schemNum(x) { return typeof x === 'number' && Number.isFinite(x) ? x : null; }
-function schemDefaultShow(v, unit) { return `${+v.toPrecision(3)} ${unit}`; }
+function schemDefaultShow(v) { return String(+v.toPrecision(3)); }
 
 /** An arrow head at (x, y) pointing along (dx, dy) (unit vector), filled. */
 function schemArrowHead(parent, x, y, dx, dy, size = 5) {
@@ -160,11 +162,11 @@ function schemPortOn(p, key) { return !!p && typeof p === 'object' && (schemNum(
  * The model's circuit as an ISO 1219-1 schematic.
  *
  * @param {object} model  the model as the API takes it (jack, valve, supply, effects, ...)
- * @param {object} [opts] {show(value, siUnit) -> text}
+ * @param {object} [opts] {show(value, parameterPath) -> text}
  * @returns {SVGSVGElement} the drawing, with data-valve, data-cylinder and data-effects set
  */
 function drawSchematic(model, opts = {}) {
-  const show = (v, unit) => (schemNum(v) === null ? '?' : (opts.show || schemDefaultShow)(v, unit));
+  const show = (v, path) => (schemNum(v) === null ? '?' : (opts.show || schemDefaultShow)(v, path));
   const m = model && typeof model === 'object' ? model : {};
   const jack = m.jack || {};
   const valve = m.valve || {};
@@ -187,7 +189,7 @@ function drawSchematic(model, opts = {}) {
   const pistonX = cx0 + 0.35 * (cx1 - cx0);
   const portA = 130; const portB = 310;
   const cyl = schemGroup(svg, 'schem-cylinder', `${singleActing ? 'Single' : 'Double'}-acting cylinder (ISO 1219-1), ` +
-    `bore ${show(jack.bore, 'm')}, stroke ${show(jack.stroke, 'm')}`, singleActing ? 'single-acting' : 'double-acting');
+    `bore ${show(jack.bore, 'jack.bore')}, stroke ${show(jack.stroke, 'jack.stroke')}`, singleActing ? 'single-acting' : 'double-acting');
   schemEl('rect', { x: cx0, y: cy0, width: cx1 - cx0, height: cy1 - cy0, class: 'schem-open' }, cyl);
   schemEl('rect', { x: pistonX, y: cy0, width: 8, height: cy1 - cy0, class: 'schem-fill' }, cyl);
   schemEl('rect', { x: pistonX + 8, y: axis - 4, width: cx1 + 50 - pistonX - 8, height: 8, class: 'schem-open' }, cyl);
@@ -197,19 +199,19 @@ function drawSchematic(model, opts = {}) {
   const mass = schemNum(jack.moving_mass);
   if (mass !== null) {
     schemEl('rect', { x: cx1 + 50, y: axis - 12, width: 24, height: 24, class: 'schem-open' }, cyl);
-    schemText(cyl, cx1 + 50, axis + 28, `m ${show(mass, 'kg')}`);
+    schemText(cyl, cx1 + 50, axis + 28, `m ${show(mass, 'jack.moving_mass')}`);
   }
 
   if (Object.prototype.hasOwnProperty.call(effects, 'return_spring')) {
     const p = effects.return_spring || {};
-    const g = schemGroup(svg, 'schem-spring', `Return spring: rate ${show(p.rate, 'N/m')}, preload ${show(p.preload, 'N')}`);
+    const g = schemGroup(svg, 'schem-spring', `Return spring: rate ${show(p.rate, 'effects.return_spring.rate')}, preload ${show(p.preload, 'effects.return_spring.preload')}`);
     schemZigzag(g, pistonX + 10, axis, cx1 - 2, 18, 10);
-    schemText(g, pistonX + 30, cy0 - 6, `spring ${show(p.rate, 'N/m')}`);
+    schemText(g, pistonX + 30, cy0 - 6, `spring ${show(p.rate, 'effects.return_spring.rate')}`);
   }
   for (const end of schemCushionEnds(effects.end_cushion)) {
     const p = effects.end_cushion;
     const g = schemGroup(svg, `schem-cushion-${end}`, `Adjustable end cushion at ${end === 'a' ? 'x = 0 (A)' : 'x = stroke (B)'}` +
-      (schemNum(p[`length_${end}`]) !== null ? `, length ${show(p[`length_${end}`], 'm')}` : ''));
+      (schemNum(p[`length_${end}`]) !== null ? `, length ${show(p[`length_${end}`], `effects.end_cushion.length_${end}`)}` : ''));
     const x = end === 'a' ? cx0 + 2 : cx1 - 14;
     schemEl('rect', { x, y: axis - 10, width: 12, height: 20, class: 'schem-open schem-cushion' }, g);
     schemLine(g, x - 4, axis + 14, x + 14, axis - 14);
@@ -246,19 +248,19 @@ function drawSchematic(model, opts = {}) {
   schemText(vg, rB + 3, vy1 + 12, 'R', { class: 'schem-label schem-port' });
 
   // supply on P, exhaust (and silencer) on R
-  const sup = schemGroup(svg, 'schem-supply', `Pneumatic pressure source (ISO 1219-1), ${show((m.supply || {}).pressure, 'Pa')} absolute`);
+  const sup = schemGroup(svg, 'schem-supply', `Pneumatic pressure source (ISO 1219-1), ${show((m.supply || {}).pressure, 'supply.pressure')} absolute`);
   schemLine(sup, rA, vy1, rA, vy1 + 24);
   schemEl('circle', { cx: rA, cy: vy1 + 36, r: 12, class: 'schem-open' }, sup);
   schemPath(sup, `M${rA},${vy1 + 26} L${rA + 6},${vy1 + 36} L${rA - 6},${vy1 + 36} Z`, { class: 'schem-open' });
-  schemText(sup, rA - 90, vy1 + 40, `p_s ${show((m.supply || {}).pressure, 'Pa')}`);
+  schemText(sup, rA - 90, vy1 + 40, `p_s ${show((m.supply || {}).pressure, 'supply.pressure')}`);
   const sil = effects.exhaust_silencer;
   const exh = schemGroup(svg, 'schem-exhaust', 'Exhaust to atmosphere (ISO 1219-1)');
   schemLine(exh, rB, vy1, rB, vy1 + 18);
   if (schemPortOn(sil, 'C')) {
-    const g = schemGroup(svg, 'schem-silencer', `Silencer (ISO 1219-1): C ${show(sil.C, 'm^3/(s Pa)')}, b ${show(sil.b, '-')}`);
+    const g = schemGroup(svg, 'schem-silencer', `Silencer (ISO 1219-1): C ${show(sil.C, 'effects.exhaust_silencer.C')}, b ${show(sil.b, 'effects.exhaust_silencer.b')}`);
     schemEl('rect', { x: rB - 8, y: vy1 + 18, width: 16, height: 22, class: 'schem-open' }, g);
     for (const dy of [24, 29, 34]) schemLine(g, rB - 5, vy1 + dy, rB + 5, vy1 + dy);
-    schemText(g, rB + 14, vy1 + 34, `silencer ${show(sil.C, 'm^3/(s Pa)')}`);
+    schemText(g, rB + 14, vy1 + 34, `silencer ${show(sil.C, 'effects.exhaust_silencer.C')}`);
   } else schemExhaustTriangle(exh, rB, vy1 + 18);
 
   // ---------------------------------------------------------------- the lines from the ports
@@ -274,11 +276,11 @@ function drawSchematic(model, opts = {}) {
     if (schemPortOn(mi, `C_${end}`)) slots.push(['in', mi[`C_${end}`]]);
     let y = cy1;
     if (tubeOn) {
-      const g = schemGroup(svg, `schem-tube-${end}`, `Tube on port ${end.toUpperCase()}: length ${show(L, 'm')}, ` +
-        `inner diameter ${show(tube[`diameter_${end}`], 'm')}`, 'schem-tube');
+      const g = schemGroup(svg, `schem-tube-${end}`, `Tube on port ${end.toUpperCase()}: length ${show(L, `effects.tubing.length_${end}`)}, ` +
+        `inner diameter ${show(tube[`diameter_${end}`], `effects.tubing.diameter_${end}`)}`, 'schem-tube');
       schemLine(g, px, y, px, y + 50, { class: 'schem-tube-line' });
-      schemText(g, px + 8, y + 26, `tube ${show(L, 'm')}`);
-      schemText(g, px + 8, y + 40, `⌀ ${show(tube[`diameter_${end}`], 'm')}`);
+      schemText(g, px + 8, y + 26, `tube ${show(L, `effects.tubing.length_${end}`)}`);
+      schemText(g, px + 8, y + 40, `⌀ ${show(tube[`diameter_${end}`], `effects.tubing.diameter_${end}`)}`);
     } else schemLine(line, px, y, px, y + 50);
     y += 50;
     for (let i = 0; i < 2; i++) {
@@ -287,11 +289,11 @@ function drawSchematic(model, opts = {}) {
       if (!slot) { schemLine(line, px, y, px, y + 60); y += 60; continue; }
       const out = slot[0] === 'out';
       const g = schemGroup(svg, `schem-meter-${slot[0]}-${end}`, `One-way flow control (ISO 1219-1), meter-${slot[0]} on port ` +
-        `${end.toUpperCase()}: throttle C ${show(slot[1], 'm^3/(s Pa)')} in parallel with a check valve`, 'schem-flow-control');
+        `${end.toUpperCase()}: throttle C ${show(slot[1], `effects.meter_${slot[0]}_throttle.C_${end}`)} in parallel with a check valve`, 'schem-flow-control');
       schemLine(g, px, y, px, y + 6);
       schemLine(g, px, y + 54, px, y + 60);
       schemFlowControl(g, px, yc, out);   // meter-out: free flow into the chamber (upward)
-      schemText(g, px + 24, yc + 4, `meter-${slot[0]} ${show(slot[1], 'm^3/(s Pa)')}`);
+      schemText(g, px + 24, yc + 4, `meter-${slot[0]} ${show(slot[1], `effects.meter_${slot[0]}_throttle.C_${end}`)}`);
       y += 60;
     }
     // to the valve port
@@ -304,7 +306,7 @@ function drawSchematic(model, opts = {}) {
     const id = { vented: 'schem-b-vent', closed: 'schem-b-closed', held: 'schem-b-held', restriction: 'schem-b-restriction' }[bMode] || 'schem-b-other';
     const what = {
       vented: 'Chamber B vented to atmosphere (single-acting)', closed: 'Chamber B closed (an air spring)',
-      held: `Chamber B held at ${show(valve.b_chamber_pressure, 'Pa')}`, restriction: 'Chamber B vented through a fixed restriction',
+      held: `Chamber B held at ${show(valve.b_chamber_pressure, 'valve.b_chamber_pressure')}`, restriction: 'Chamber B vented through a fixed restriction',
     }[bMode] || `Chamber B: ${bMode}`;
     const g = schemGroup(svg, id, what);
     schemLine(g, portB, cy1, portB, cy1 + 20);
