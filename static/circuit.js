@@ -9,7 +9,8 @@
  * (GET /api/effects: names, units, defaults, "off" values), so a parameter added there shows up
  * here. Typing a value into an effect the model lacks adds it, every other parameter at its
  * "off" value (its default where it has none): the model is the base model but for that value;
- * when every parameter with an "off" value is back at it, the effect is removed. Each value
+ * when every parameter with an "off" value is back at it, the effect is removed (a parameter
+ * with no "off" value, a bore or a critical ratio, is disabled while its effect is absent). Each value
  * shows in the page's unit system (static/units.js).
  *
  * The schematic (static/schematic.js) is redrawn from S.model on every change of the model
@@ -99,6 +100,8 @@ function refreshCircuit() {
     const [name, param] = el.dataset.circuit.split('.');
     const v = effs[name] ? effs[name][param] : undefined;
     el.value = v === undefined ? '' : displayValue(v, Number(el.dataset.scale));
+    // a parameter with no "off" value (a bore, a critical ratio) alone cannot add its effect
+    el.disabled = !effs[name] && !el.placeholder;
   }
   drawCircuitSchematic();
 }

@@ -115,6 +115,7 @@ def test_every_component_of_the_model_is_drawn(page):
 def test_a_tube_typed_into_the_circuit_panel_changes_the_schematic(page):
     _load_preset(page, "paper-4way")
     assert "schem-tube-a" not in _ids(page)
+    assert page.is_disabled("#circ-tubing-diameter_a")   # a bore alone is no tube
     before = page.inner_html("#schematic")
     page.fill("#circ-tubing-length_a", "1500")       # mm (engineering units)
     tube = page.evaluate("() => S.model.effects.tubing")
@@ -125,6 +126,7 @@ def test_a_tube_typed_into_the_circuit_panel_changes_the_schematic(page):
     ids = _ids(page)
     assert "schem-tube-a" in ids and "schem-tube-b" not in ids
     assert page.inner_html("#schematic") != before
+    assert page.is_enabled("#circ-tubing-diameter_a")
     assert "1500 mm" in page.text_content("#schem-tube-a")
     # a new bore redraws the label
     page.fill("#circ-tubing-diameter_a", "6")
