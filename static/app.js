@@ -317,6 +317,7 @@ function onModelInput(ev) {
   plotValve();
   plotFriction();
   markStaleComparison();
+  if (typeof refreshCircuit === 'function') refreshCircuit();   // static/circuit.js: fields and schematic
 }
 /** A comparison on screen that was made with another model says so (it is kept for reference,
  * not silently taken for the current model's). */
@@ -527,6 +528,7 @@ function renderEffects() {
   if ([...sel.options].some((o) => o.value === keep)) sel.value = keep;
   describeEffect();
   refreshStudyHints();
+  if (typeof refreshCircuit === 'function') refreshCircuit();   // static/circuit.js: fields and schematic
 }
 function describeEffect() {
   const e = catalog($('#effect-add-select').value);
@@ -723,6 +725,7 @@ function strokeSummary(sm) {
 }
 function plotSimulation() {
   const r = S.sim;
+  if (typeof renderStrokeTable === 'function') renderStrokeTable(r && r.stats ? r.stats.stroke : null);   // static/strokes.js
   if (!r) { plotEmptySimulation(); return; }
   const s = r.series;
   const t = s.t;
