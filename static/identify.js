@@ -188,6 +188,7 @@ async function identifyValve(btn) {
   await busy(btn, async () => {
     try {
       IDF.valve = await api('POST', '/api/identify/valve', { edge, points, model: S.model });
+      IDF.valvePoints = points;
       renderValve();
       document.getElementById('btn-id-valve-use').disabled = false;
       setStatus(`Edge ${edge} identified on ${points.length} points (rms residual ${num(IDF.valve.rms_residual * 1e3, 3)} g/s).`, 'ok');
@@ -228,21 +229,31 @@ function plotValveBench(r) {
     mode: 'lines+markers', name: `C(u) [${C_UNITS.dm3.label}]`, xaxis: 'x', yaxis: 'y', line: { color: '#1f77b4' } });
   traces.push({ x: u, y: r.edge.b, error_y: { type: 'data', array: r.b_se.map((s) => (s == null ? 0 : s)), visible: true },
     mode: 'lines+markers', name: 'b(u) [-]', xaxis: 'x', yaxis: 'y2', line: { color: '#d62728', dash: 'dot' } });
+  // one curve per opening and upstream pressure (the points answer in the request's order;
+  // upstream pressures within 0.1 bar are one curve: a regulator's setting)
+  const sent = IDF.valvePoints || [];
   const groups = new Map();
-  for (const p of r.points) {
+  r.points.forEach((p, i) => {
     const k = p.opening == null ? 'fixed' : String(p.opening);
-    if (!groups.has(k)) groups.set(k, []);
-    groups.get(k).push(p);
-  }
+    const pu = sent[i] ? Math.round(sent[i].p_up / 1e4) : 0;
+    if (!groups.has(k)) groups.set(k, new Map());
+    const byP = groups.get(k);
+    if (!byP.has(pu)) byP.set(pu, []);
+    byP.get(pu).push(p);
+  });
   let i = 0;
-  for (const [k, pts] of groups) {
+  for (const [k, byP] of groups) {
     const color = LEVEL_COLORS[i++ % LEVEL_COLORS.length];
-    const s = pts.slice().sort((a, b) => a.ratio - b.ratio);
     const label = k === 'fixed' ? 'orifice' : `u = ${num(Number(k), 3)}`;
-    traces.push({ x: s.map((p) => p.ratio), y: s.map((p) => p.flow * 1e3), mode: 'markers', name: `${label} measured`,
-      legendgroup: k, xaxis: 'x3', yaxis: 'y3', marker: { color, size: 5 } });
-    traces.push({ x: s.map((p) => p.ratio), y: s.map((p) => p.flow_model * 1e3), mode: 'lines', name: `${label} ISO 6358`,
-      legendgroup: k, showlegend: false, xaxis: 'x3', yaxis: 'y3', line: { color, width: 1.2 } });
+    let first = true;
+    for (const pts of byP.values()) {
+      const s = pts.slice().sort((a, b) => a.ratio - b.ratio);
+      traces.push({ x: s.map((p) => p.ratio), y: s.map((p) => p.flow * 1e3), mode: 'markers', name: `${label} measured`,
+        legendgroup: k, showlegend: first, xaxis: 'x3', yaxis: 'y3', marker: { color, size: 5 } });
+      traces.push({ x: s.map((p) => p.ratio), y: s.map((p) => p.flow_model * 1e3), mode: 'lines', name: `${label} ISO 6358`,
+        legendgroup: k, showlegend: false, xaxis: 'x3', yaxis: 'y3', line: { color, width: 1.2 } });
+      first = false;
+    }
   }
   const layout = baseLayout({ height: 340, hovermode: 'closest', margin: { l: 64, r: 64, t: 40, b: 46 } });
   layout.xaxis = axis('opening u [-]', { domain: [0, 0.42] });
@@ -329,7 +340,9 @@ function renderFrictionBench() {
   const rows = Object.entries(r.parameters).map(([name, p]) => ({
     dataset: { name },
     cells: [name, p.identified === false ? `${num(p.value, 4)} (held)` : pm(p.value, p.se), prettyUnit(p.unit || '-'),
-      p.identified === false ? (p.reason || 'held at the model\'s value') : (p.at_bound ? 'identified, at a bound' : 'identified')],
+      p.identified === false ? (p.reason || 'held at the model\'s value')
+        : p.at_bound ? 'identified, at a bound'
+          : p.se != null && Math.abs(p.se) > Math.abs(p.value) ? 'not determined: its standard error exceeds its value' : 'identified'],
   }));
   const box = document.getElementById('id-fric-params');
   box.textContent = '';
@@ -358,7 +371,8 @@ function renderFrictionBench() {
 function plotFrictionMap(r) {
   // one level per record, named by its held gauge pressures (0.1 bar: a regulator's wander)
   const names = IDF.frictionNames || [];
-  const key = (m) => `${names[m.record] || `record ${m.record + 1}`}: ${(m.p_a / BAR).toFixed(1)} / ${(m.p_b / BAR).toFixed(1)}`;
+  const bar = (p) => (Math.abs(p / BAR) < 0.05 ? '0.0' : (p / BAR).toFixed(1));
+  const key = (m) => `${names[m.record] || `record ${m.record + 1}`}: ${bar(m.p_a)} / ${bar(m.p_b)}`;
   const levels = [...new Set(r.friction_map.map(key))];
   const traces = [];
   const seen = new Set();
@@ -397,7 +411,8 @@ function renderProvenance() {
   const prov = (S.model && S.model.provenance) || {};
   const rows = Object.entries(prov).map(([path, p]) => ({
     dataset: { path, source: String(p.source || '') },
-    cells: [path, String(p.source || '–'), p.stderr == null ? '–' : `${num(p.stderr, 3)}${p.unit ? ' ' + prettyUnit(p.unit) : ''}`,
+    cells: [path, String(p.source || '–'), p.stderr == null ? '–'
+      : `${num(p.stderr, 3)}${p.unit && p.unit !== '-' ? ' ' + prettyUnit(p.unit) : p.unit === '-' ? ' (relative)' : ''}`,
       String(p.method || ''), p.source === 'bench' ? 'yes (bench)' : 'no'],
   }));
   if (!rows.length) { box.append(h('p', { class: 'muted small', text: 'No value of this model has a recorded source yet.' })); return; }
