@@ -226,3 +226,24 @@ def test_the_calibration_takes_known_values(page):
     assert "Held as known: jack.moving_mass" in page.inner_text("#cal-known-report")
     page.click("#btn-cal-apply")
     assert page.evaluate("S.model.jack.moving_mass") == mass
+
+
+def test_hostile_text_from_a_file_or_a_name_stays_text(page, tmp_path):
+    hostile = '<img src=x onerror="window.__pwned=1">'
+    # a bench file whose column is markup: refused, the name shown as text
+    bad = tmp_path / "hostile.csv"
+    bad.write_text(f"opening,{hostile},p_down,T_up,flow\n0.5,1,1,293,0\n")
+    page.set_input_files("#id-valve-file", str(bad))
+    page.click("#btn-id-valve")
+    err = page.locator(".field-error[data-error-for='identify.valve.points']")
+    err.wait_for()
+    assert hostile in err.inner_text()
+    # a record named with markup: listed in the friction step as text
+    lines = ["t[s],x[mm],p_a[Pa],p_b[Pa],F[N]"] + [f"{i / 100},{i / 10},3e5,1e5,{50 + i % 3}" for i in range(50)]
+    rec = tmp_path / "rec.csv"
+    rec.write_text("\n".join(lines))
+    _upload(page, rec, hostile)
+    texts = page.eval_on_selector_all("#id-fric-fit option", "os => os.map(o => o.textContent)")
+    assert any(t.startswith(hostile) for t in texts)
+    assert page.locator("#panel-identify img").count() == 0
+    assert page.evaluate("window.__pwned") is None
