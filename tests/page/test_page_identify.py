@@ -216,16 +216,18 @@ def test_the_calibration_takes_known_values(page):
     err = page.locator("#panel-calibrate .field-error[data-error-for='calibrate.known']")
     err.wait_for()
     assert "unknown parameter path" in err.inner_text()
-    # the mass declared known is held while the heat coefficient is fitted
-    mass = page.evaluate("S.model.jack.moving_mass")
+    # the mass declared known is held while the heat coefficient is fitted; the Coulomb level
+    # the friction bench identified (carried in above) is ticked too, and held as a bench value
+    mass, fc0 = page.evaluate("[S.model.jack.moving_mass, S.model.friction.extend.fc0]")
     page.fill("#cal-known", "jack.moving_mass")
     page.evaluate("""() => { for (const cb of document.querySelectorAll('#cal-params input[type=checkbox]'))
-                       if (cb.checked !== (cb.dataset.path === 'heat.coefficient')) cb.click(); }""")
+                       if (cb.checked !== ['heat.coefficient', 'friction.extend.fc0'].includes(cb.dataset.path)) cb.click(); }""")
     page.click("#btn-cal-fit")
     _wait_status(page, "Fit done")
-    assert "Held as known: jack.moving_mass" in page.inner_text("#cal-known-report")
+    report = page.inner_text("#cal-known-report")
+    assert "Held as known: jack.moving_mass" in report and "(bench: friction.extend.fc0)" in report, report
     page.click("#btn-cal-apply")
-    assert page.evaluate("S.model.jack.moving_mass") == mass
+    assert page.evaluate("[S.model.jack.moving_mass, S.model.friction.extend.fc0]") == [mass, fc0]
 
 
 def test_hostile_text_from_a_file_or_a_name_stays_text(page, tmp_path):
