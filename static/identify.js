@@ -191,7 +191,7 @@ async function identifyValve(btn) {
       IDF.valvePoints = points;
       renderValve();
       document.getElementById('btn-id-valve-use').disabled = false;
-      setStatus(`Edge ${edge} identified on ${points.length} points (rms residual ${num(IDF.valve.rms_residual * 1e3, 3)} g/s).`, 'ok');
+      setStatus(`Edge ${edge} identified on ${points.length} points.`, 'ok');
     } catch (e) {
       const onEdge = e.detail && JSON.stringify(e.detail).includes('"edge');
       showIdentifyError(e, 'Valve bench', onEdge ? 'identify.valve.edge' : 'identify.valve.points', benchPlace);
@@ -211,8 +211,9 @@ function renderValve() {
   box.textContent = '';
   box.append(textTable('id-valve-values', ['opening [-]', `C ± se [${C_UNITS.dm3.label}]`, 'b ± se [-]', 'edge'], rows));
   const nb = r.null_band;
+  const qu = plotUnit('kg/s');
   document.getElementById('id-valve-summary').textContent = `Edge ${r.name}: ${r.points.length} points, rms residual `
-    + `${num(r.rms_residual * 1e3, 3)} g/s; ` + (r.fixed_orifice ? 'a fixed orifice: one C and one b. '
+    + `${num(qu.diff([r.rms_residual])[0], 3)} ${qu.label}; ` + (r.fixed_orifice ? 'a fixed orifice: one C and one b. '
       : nb ? `null / overlap band from u = ${num(nb.low, 3)} to ${num(nb.high, 3)} (C reaches zero at ${num(nb.onset_low, 3)} and ${num(nb.onset_high, 3)}). `
         : 'no closed opening. ') + `Law linearised above p_down/p_up = ${num(r.laminar_ratio, 3)}, as in the model.`;
   plotValveBench(r);
@@ -241,6 +242,7 @@ function plotValveBench(r) {
     if (!byP.has(pu)) byP.set(pu, []);
     byP.get(pu).push(p);
   });
+  const qu = plotUnit('kg/s');   // the header's unit switch (units.js)
   let i = 0;
   for (const [k, byP] of groups) {
     const color = LEVEL_COLORS[i++ % LEVEL_COLORS.length];
@@ -248,9 +250,9 @@ function plotValveBench(r) {
     let first = true;
     for (const pts of byP.values()) {
       const s = pts.slice().sort((a, b) => a.ratio - b.ratio);
-      traces.push({ x: s.map((p) => p.ratio), y: s.map((p) => p.flow * 1e3), mode: 'markers', name: `${label} measured`,
+      traces.push({ x: s.map((p) => p.ratio), y: qu.val(s.map((p) => p.flow)), mode: 'markers', name: `${label} measured`,
         legendgroup: k, showlegend: first, xaxis: 'x3', yaxis: 'y3', marker: { color, size: 5 } });
-      traces.push({ x: s.map((p) => p.ratio), y: s.map((p) => p.flow_model * 1e3), mode: 'lines', name: `${label} ISO 6358`,
+      traces.push({ x: s.map((p) => p.ratio), y: qu.val(s.map((p) => p.flow_model)), mode: 'lines', name: `${label} ISO 6358`,
         legendgroup: k, showlegend: false, xaxis: 'x3', yaxis: 'y3', line: { color, width: 1.2 } });
       first = false;
     }
@@ -260,7 +262,7 @@ function plotValveBench(r) {
   layout.yaxis = axis(`C [${C_UNITS.dm3.label}]`);
   layout.yaxis2 = axis('b [-]', { overlaying: 'y', side: 'right', showgrid: false, mirror: false });
   layout.xaxis3 = axis('pressure ratio p_down / p_up [-]', { domain: [0.58, 1], anchor: 'y3' });
-  layout.yaxis3 = axis('mass flow [g/s]', { anchor: 'x3' });
+  layout.yaxis3 = axis(`mass flow [${qu.label}]`, { anchor: 'x3' });
   layout.legend = { orientation: 'h', x: 0, y: -0.25, yanchor: 'top', font: { size: 10 } };
   layout.height = 420;
   layout.shapes = [];
@@ -374,6 +376,7 @@ function plotFrictionMap(r) {
   const bar = (p) => (Math.abs(p / BAR) < 0.05 ? '0.0' : (p / BAR).toFixed(1));
   const key = (m) => `${names[m.record] || `record ${m.record + 1}`}: ${bar(m.p_a)} / ${bar(m.p_b)}`;
   const levels = [...new Set(r.friction_map.map(key))];
+  const vu = plotUnit('m/s'), fu = plotUnit('N');   // the header's unit switch (units.js)
   const traces = [];
   const seen = new Set();
   for (const m of r.friction_map) {
@@ -381,15 +384,15 @@ function plotFrictionMap(r) {
     const color = LEVEL_COLORS[levels.indexOf(k) % LEVEL_COLORS.length];
     const first = !seen.has(k);
     seen.add(k);
-    const v = m.velocity.map((x) => x * 1e3);
-    traces.push({ x: v, y: m.measured, mode: 'markers', name: `${k} bar g, measured`, legendgroup: k, showlegend: first,
+    const v = vu.val(m.velocity);
+    traces.push({ x: v, y: fu.val(m.measured), mode: 'markers', name: `${k} bar g, measured`, legendgroup: k, showlegend: first,
       marker: { color, size: 6 } });
-    traces.push({ x: v, y: m.model, mode: 'lines', name: `${k} bar g, law`, legendgroup: k, showlegend: first,
+    traces.push({ x: v, y: fu.val(m.model), mode: 'lines', name: `${k} bar g, law`, legendgroup: k, showlegend: first,
       line: { color, width: 1.5 } });
   }
   const layout = baseLayout({ height: 360, hovermode: 'closest' });
-  layout.xaxis = axis('velocity v [mm/s]', { zeroline: true, zerolinecolor: '#9aa5b1' });
-  layout.yaxis = axis('friction force [N]', { zeroline: true, zerolinecolor: '#9aa5b1' });
+  layout.xaxis = axis(`velocity v [${vu.label}]`, { zeroline: true, zerolinecolor: '#9aa5b1' });
+  layout.yaxis = axis(`friction force [${fu.label}]`, { zeroline: true, zerolinecolor: '#9aa5b1' });
   layout.annotations = [{ text: 'p_a / p_b gauge [bar]', xref: 'paper', yref: 'paper', x: 1, y: 0, xanchor: 'right', showarrow: false, font: { size: 10, color: '#8a94a0' } }];
   plot('id-fric-plot', traces, layout);
   document.getElementById('id-fric-plot').dataset.levels = String(levels.length);
