@@ -86,8 +86,12 @@ function buildIdentifyPanel() {
   panel.append(h('section', { id: 'id-step-friction', class: 'id-step' },
     h('h3', { text: '2. Friction bench (paper Eq. 17-20, Fig. 4)' }),
     h('p', { class: 'muted small', text: 'Records of a prescribed motion with each chamber held at a pressure and the '
-      + 'rod force measured: upload them in panel 4 with the rod force mapped to F (N, kN, daN, lbf), then choose '
+      + 'rod force measured: store them here (files with named columns: t, x, p_a, p_b, F with their units) or through '
+      + 'panel 4\'s upload (any rig file, its columns mapped, the rod force to F in N, kN, daN or lbf), then choose '
       + 'which records to fit on and which to predict (records not fitted on validate the law).' }),
+    h('div', { class: 'row' }, fieldBox('Records to store and fit on: CSV, TDMS, .mat, .npz with named columns (t, x, p_a, p_b, F) [-]',
+      h('input', { id: 'id-fric-files', type: 'file', multiple: '', accept: '.csv,.txt,.tsv,.dat,.tdms,.mat,.npz' }), 'identify.friction.files'),
+    h('button', { id: 'btn-id-fric-upload', type: 'button', text: 'Store the records' })),
     h('div', { class: 'grid' }, fieldBox('Fit on (records with F) [-]', fit, 'identify.friction.experiments'),
       fieldBox('Predict (validation) [-]', val, 'identify.friction.validate')),
     h('div', { id: 'id-fric-extras', class: 'row' }),
@@ -295,6 +299,34 @@ function fillDatasetLists() {
   }
 }
 
+/** Friction-bench files stored as datasets (POST /api/datasets, the importer's own column
+ * mapping from the names and units) and chosen to fit on; a file whose rod force the importer
+ * cannot find is named (its columns are mapped in panel 4's upload). */
+async function uploadFrictionRecords(btn) {
+  clearErrors();
+  const files = Array.from(document.getElementById('id-fric-files').files);
+  if (!files.length) { fieldError('identify.friction.files', 'choose one or more record files first'); return; }
+  await busy(btn, async () => {
+    const stored = [];
+    for (const f of files) {
+      setStatus(`Storing ${f.name}…`, 'busy');
+      const fd = new FormData();
+      fd.append('file', f);
+      fd.append('name', f.name.replace(/\.[^.]*$/, '').slice(0, 200));
+      fd.append('ambient_pressure', String(pAtm()));
+      try {
+        const info = await api('POST', '/api/datasets', fd);
+        if (!info.signals.includes('F')) fieldError('identify.friction.files', `${f.name}: stored, but no rod force column was found (signals ${info.signals.join(', ')}): map it to F in panel 4's upload`);
+        else stored.push(info.id);
+      } catch (e) { showIdentifyError(e, `Storing ${f.name}`, 'identify.friction.files', (loc) => `${f.name}${loc ? ' ' + loc : ''}`); return; }
+    }
+    await loadDatasets();
+    fillDatasetLists();
+    for (const o of document.getElementById('id-fric-fit').options) if (stored.includes(o.value)) o.selected = true;
+    setStatus(`${stored.length} record(s) with a rod force stored and chosen to fit on.`, stored.length === files.length ? 'ok' : 'error');
+  });
+}
+
 async function loadExtras() {
   // the extras the service can identify, from its own schema (pneucore.identify.friction_bench.EXTRAS)
   try {
@@ -482,6 +514,7 @@ function initIdentify() {
   document.getElementById('btn-id-valve').addEventListener('click', (ev) => identifyValve(ev.target));
   document.getElementById('btn-id-valve-use').addEventListener('click', () => IDF.valve && IDF.valve.model && carry(IDF.valve.model, `Edge ${IDF.valve.name}'s table`));
   document.getElementById('btn-id-friction').addEventListener('click', (ev) => identifyFriction(ev.target));
+  document.getElementById('btn-id-fric-upload').addEventListener('click', (ev) => uploadFrictionRecords(ev.target));
   document.getElementById('btn-id-friction-use').addEventListener('click', () => IDF.friction && carry(IDF.friction.model, 'The identified friction'));
   for (const key of ['locked', 'free']) document.getElementById(`btn-id-${key}`).addEventListener('click', (ev) => validateOn(key, ev.target));
   // the lists follow panel 4's datasets (an upload there adds a record here)
