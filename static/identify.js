@@ -517,6 +517,11 @@ function initIdentify() {
   document.getElementById('btn-id-fric-upload').addEventListener('click', (ev) => uploadFrictionRecords(ev.target));
   document.getElementById('btn-id-friction-use').addEventListener('click', () => IDF.friction && carry(IDF.friction.model, 'The identified friction'));
   for (const key of ['locked', 'free']) document.getElementById(`btn-id-${key}`).addEventListener('click', (ev) => validateOn(key, ev.target));
+  // the plots follow the header's unit switch (after units.js has taken the new system)
+  document.getElementById('unit-system').addEventListener('change', () => setTimeout(() => {
+    if (IDF.valve) renderValve();
+    if (IDF.friction) plotFrictionMap(IDF.friction);
+  }, 0));
   // the lists follow panel 4's datasets (an upload there adds a record here)
   new MutationObserver(fillDatasetLists).observe(document.getElementById('dataset-select'), { childList: true });
   const wait = setInterval(() => {

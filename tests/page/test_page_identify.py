@@ -104,6 +104,13 @@ def test_a_valve_bench_file_gives_the_edge_table_with_errors_and_fig2(page, tmp_
     curves = [t for t in plot_data(page, "id-valve-plot") if t["name"] == "u = 1 measured"]
     assert [len(c["x"]) for c in curves] == [7, 7, 7] and all(c["x"] == sorted(c["x"]) for c in curves)
     assert "u = 1 ISO 6358" in traces
+    # the flow axis follows the header's unit switch
+    title = "() => document.getElementById('id-valve-plot').layout.yaxis3.title.text"
+    shown = page.evaluate(title)
+    page.select_option("#unit-system", "si")
+    page.wait_for_function(f"() => ({title})() === 'mass flow [kg/s]'")
+    page.select_option("#unit-system", "engineering")
+    page.wait_for_function(f"(t) => ({title})() === t", arg=shown)
 
 
 def test_the_identified_edge_is_carried_into_the_model_marked_known(page):
