@@ -98,7 +98,8 @@ def test_a_valve_bench_file_gives_the_edge_table_with_errors_and_fig2(page, tmp_
     traces = {t["name"]: t for t in plot_data(page, "id-valve-plot")}
     # Fig. 2: C and b against the opening, in dm^3/(s bar), the table's values
     assert traces["C(u) [dm³/(s bar)]"]["x"] == pytest.approx(U)
-    assert traces["b(u) [-]"]["y"][-1] == pytest.approx(B_TRUE[-1], abs=0.01)
+    # b at full opening: its standard error is about 0.006 (table above), 0.02 the bench test's bound
+    assert traces["b(u) [-]"]["y"][-1] == pytest.approx(B_TRUE[-1], abs=0.02)
     # the bench's own view: each opening's measured flow and the law at the same ratios
     # one curve per upstream pressure: 7 ratios each at 3, 5 and 8 bar abs
     curves = [t for t in plot_data(page, "id-valve-plot") if t["name"] == "u = 1 measured"]
@@ -186,15 +187,18 @@ def test_friction_records_give_the_law_the_fig4_map_and_a_prediction(page, tmp_p
     assert cells[0] == f"seal {VALIDATE_LEVEL:g} bar"
     for col in (1, 2, 3):
         mean, rms = (float(s) for s in cells[col].split(" / "))
-        # white 0.3 N noise plus the differentiated position's: rms about 0.3-0.5 N
+        # the rms is the load cell's white 0.3 N noise plus the differentiated position's (about
+        # 0.31 N measured), 1 N leaves room for a seed; a mean off by the 0.3 N noise level would be
+        # a bias about 30 standard errors of the mean (0.3 N / sqrt(~400 samples a direction))
         assert abs(mean) < 0.3 and rms < 1.0, cells
 
 
 def test_the_friction_law_is_carried_into_the_model_marked_known(page):
     page.click("#btn-id-friction-use")
     _wait_status(page, "carried into the model")
-    fc0 = page.evaluate("S.model.friction.retract.fc0")
-    assert fc0 == pytest.approx(TRUE["retract"]["fc0"], rel=0.1)   # the bench's value, 10 %: its 4 se
+    # the model holds exactly the value the step identified and showed
+    fc0, identified = page.evaluate("[S.model.friction.retract.fc0, IDF.friction.parameters['friction.retract.fc0'].value]")
+    assert fc0 == identified
     sources = page.eval_on_selector_all("#id-provenance-table tbody tr", "rs => rs.map(r => [r.dataset.path, r.dataset.source])")
     assert ["friction.retract.fc0", "bench"] in sources
     assert ["valve.ports.P-A.C", "bench"] in sources            # the valve step's stays
