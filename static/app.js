@@ -1015,6 +1015,7 @@ function renderCompare() {
     '<li class="muted">No window stands out.</li>';
   plotCompare(c, exps);
   plotResiduals(c);
+  if (typeof plotCompareBench === 'function') plotCompareBench(c, exps);   // F and q (static/identify.js)
   markStaleComparison();
 }
 /** A stacked layout with one row per experiment, each with a left and an overlaying right axis. */
@@ -1043,7 +1044,7 @@ function stackedLayout(n, left, right, titles, extra = {}) {
 const SIG_COLORS = { p_a: '#1f77b4', p_b: '#d62728', x: '#2ca02c', v: '#9467bd', T_a: '#17becf', T_b: '#e377c2' };
 const SIG_SI = { p_a: 'Pa', p_b: 'Pa', p_s: 'Pa', x: 'm', v: 'm/s' };
 /** Signals the comparison's two axes hold (pressures; position, velocity, temperatures): the rod
- * force F [N] and the flows q_a, q_b, q_s [kg/s] have their errors in the tables, not these axes */
+ * force F [N] and the flows q_a, q_b, q_s [kg/s] have a plot of their own (identify.js) */
 const onCompareAxes = (sig) => sig in SIG_SI || sig.startsWith('T');
 /** A measured or simulated signal as the plots show it; `diff` for residuals (no gauge offset). */
 function toDisplay(sig, arr, diff = false) {

@@ -64,6 +64,7 @@ __all__ = [
     "EXPORT_MARKER",
     "SIGNALS",
     "SIGNAL_UNITS",
+    "sensor_zero",
     "UNITS",
     "MIN_SAMPLES",
     "MAX_SAMPLES",
@@ -89,6 +90,29 @@ SIGNAL_UNITS: dict[str, str] = {
     "p_s": "Pa",
 }
 """SI unit of each signal as stored in a :class:`Measurement`."""
+
+
+def sensor_zero(signal, ambient):
+    """The value a sensor's gain error scales about: ambient pressure for a pressure (a gauge
+    sensor's span starts at the atmosphere, so a gain error leaves ambient read right), zero
+    for every other signal.
+
+    Parameters
+    ----------
+    signal : str
+        Signal name (:data:`SIGNALS`) [-]
+    ambient : float
+        Ambient pressure [Pa]
+
+    Returns
+    -------
+    float
+        The zero of the gain, in the signal's SI unit (:data:`SIGNAL_UNITS`)
+
+    >>> sensor_zero("p_s", 101300.0), sensor_zero("x", 101300.0)
+    (101300.0, 0.0)
+    """
+    return float(ambient) if SIGNAL_UNITS.get(signal) == "Pa" else 0.0
 
 MIN_SAMPLES: int = 10
 """Minimum number of samples (data rows) of a measurement."""
