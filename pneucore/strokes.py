@@ -98,7 +98,7 @@ def stroke_metrics(res, model):
         undefined); ``air_per_cycle_NL``: air per extension + retraction [NL] (None without a
         full stroke each way); ``full_stroke_time_extend`` and ``full_stroke_time_retract``:
         of the first full stroke each way [s]; ``end_speed_max``: the largest stroke end
-        velocity [m/s]; ``impacts``: every ``stop`` event's ``t`` [s], ``end``, ``speed``
+        velocity [m/s], ``end_energy_max`` its kinetic energy [J]; ``impacts``: every ``stop`` event's ``t`` [s], ``end``, ``speed``
         [m/s], kinetic ``energy`` [J], the cushion's ``capacity`` [J] and ``energy_ratio``
     """
     # a run stopped early (status != 0) has NaN samples after the last time reached
@@ -123,7 +123,8 @@ def stroke_metrics(res, model):
                if e["kind"] == "stop" and e["t"] <= (t[-1] if n else -math.inf)]
     if n < 2:
         return {"strokes": [], "full_stroke_time_extend": None, "full_stroke_time_retract": None,
-                "end_speed_max": None, "air_per_cycle_NL": None, "impacts": impacts}
+                "end_speed_max": None, "end_energy_max": None, "air_per_cycle_NL": None,
+                "impacts": impacts}
     cmd = [e["t"] for e in res.events if e["kind"] == "command" and e["t"] <= t[-1]]
     strokes = []
     for k, tc in enumerate(cmd):
@@ -192,6 +193,7 @@ def stroke_metrics(res, model):
             "full_stroke_time_extend": first("extend", "full_stroke_time"),
             "full_stroke_time_retract": first("retract", "full_stroke_time"),
             "end_speed_max": max(ends) if ends else None,
+            "end_energy_max": kinetic_energy(mass, max(ends)) if ends else None,
             "air_per_cycle_NL": ext + ret if ext is not None and ret is not None else None,
             "impacts": impacts}
 

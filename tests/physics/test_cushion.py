@@ -96,6 +96,8 @@ def test_every_stop_event_reports_its_impact_speed_and_kinetic_energy():
         assert imp["energy"] == pytest.approx(0.5 * mass * e["v"] ** 2, rel=1e-15)
         assert imp["capacity"] == 0.2
         assert imp["energy_ratio"] == pytest.approx(imp["energy"] / 0.2, rel=1e-15)
+    assert sm["end_speed_max"] == max(abs(e["v"]) for e in stops)
+    assert sm["end_energy_max"] == pytest.approx(0.5 * mass * sm["end_speed_max"] ** 2, rel=1e-15)
     for s in sm["strokes"]:
         assert s["direction"] in ("extend", "retract")
         assert s["end_energy"] == pytest.approx(kinetic_energy(mass, s["end_speed"]), rel=1e-15)
