@@ -327,7 +327,7 @@ class StudyRequest(_Strict):
 class SimulateResponse(BaseModel):
     series: dict[str, list[Any]] = Field(..., description="Sampled series by name (SI units, see units)")
     units: dict[str, str] = Field(..., description="Unit of each series")
-    events: list[dict[str, Any]] = Field(..., description="Events: t [s], kind (command/slip/stick/stop/reverse), mode")
+    events: list[dict[str, Any]] = Field(..., description="Events: t [s], kind (command/slip/stick/stop/reverse), mode; a stop also v, the piston velocity at the impact [m/s]")
     stats: dict[str, Any] = Field(..., description="Solver statistics")
     status: int = Field(..., description="0 = ok")
     message: str = Field(..., description="Solver status message")

@@ -719,6 +719,7 @@ function strokeSummary(sm) {
     ['full stroke extending', f(sm.full_stroke_time_extend, 's')],
     ['full stroke retracting', f(sm.full_stroke_time_retract, 's')],
     ['stroke end speed', f(sm.end_speed_max, 'm/s')],
+    ['impact energy', f(sm.end_energy_max, 'J')],
     ['air per cycle', f(sm.air_per_cycle_NL, 'NL')],
   ].filter(([, v]) => v !== null).map(([k, v]) => `${k} ${v}`);
   return parts.length ? ` · ${parts.join(', ')}` : '';
