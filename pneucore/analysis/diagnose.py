@@ -40,6 +40,14 @@
    next; the first that passes is named (and ranked first). Otherwise
    the verdict is ``None``: "no catalog effect explains the remaining
    residual".
+4b. **A recalibration that is a symptom.** With no verdict, a base parameter
+   the null left at a fit bound or beyond ``IMPLAUSIBLE`` typical catalogue errors
+   (:func:`pneucore.analysis.hypotheses.plausibility`) is held at its catalogue
+   value (those at a bound first, then all) and steps 1-4 run again against that
+   null; an effect named there that fits at least as well as the implausible
+   recalibration is the verdict (the other implausible values beside it stay at
+   the catalogue in the next model), else the recalibration stands and is called
+   implausible (``remaining["held_at_catalogue"]``).
 5. **Findings.** ``recalibrate`` (mis-set base parameters, before/after),
    ``model`` (the next version), ``alternatives`` (what the data cannot tell
    apart from the verdict), ``remaining`` (error, noise floor, whether the
@@ -236,13 +244,50 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     report(0.02, "fitting the base model")
     unc = S.uncertain_paths(model, hyp, known, refit_existing)
     null = S.null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report)
-    score = S.candidate_scores(model, exps, null, cands, report)
-    lead = S.leading(score, n_refit)
-    refits = S.joint_refits(model, exps, null, lead, max_nfev, report)
-    ranking = S.evidence(null, refits)
-    verdict, message = S.verdict(model, exps, ranking, refits, null, alpha, max_nfev, report)
+
+    def weigh(null):
+        score = S.candidate_scores(model, exps, null, cands, report)
+        lead = S.leading(score, n_refit)
+        refits = S.joint_refits(model, exps, null, lead, max_nfev, report)
+        ranking = S.evidence(null, refits)
+        return (score, lead, refits, ranking) + S.verdict(model, exps, ranking, refits, null,
+                                                          alpha, max_nfev, report)
+
+    weighed = weigh(null)
+    # a recalibration at a bound, or far beyond a catalogue error, is a symptom: the catalog
+    # effects are weighed again against a null with it held at the catalogue value
+    odd = S.implausible(model, null) if weighed[4] is None else []
+    held = None
+    for hold in S.holdings(odd):
+        report(0.5, "weighing the effects with " + ", ".join(o["label"] for o in hold)
+               + " held at the catalogue value")
+        null_h = S.null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report,
+                            held={o["path"] for o in hold})
+        weighed_h = weigh(null_h)
+        e_held = (weighed_h[2][weighed_h[4]].error_after.overall if weighed_h[4] is not None
+                  else null_h.error)
+        taken = S.takes_over(weighed_h, null)
+        held = {"parameters": hold, "verdict": weighed_h[4], "error_held": e_held,
+                "error_recalibrated": null.error, "taken": taken,
+                "description": S.held_words(odd, hold, weighed_h[4] if taken else None,
+                                            e_held, null.error)}
+        if taken:
+            null, weighed = null_h, weighed_h
+            break
+    score, lead, refits, ranking, verdict, message = weighed
     f = findings(model, exps, verdict, message, ranking, refits, null, hyp, comp_start,
                  rps_start, known, lead, max_nfev, report)
+    if held is not None:
+        f.remaining["held_at_catalogue"] = held
+        f.message += " " + held["description"] + "."
+        if held["taken"]:
+            f.model, back = S.withheld(model, f.model, f.recalibrate,
+                                       {s.path for s in null.auto_specs})
+            held["withheld"] = [r["path"] for r in back]
+            if back:
+                f.message += (" Not taken into the next model, the same symptom beside it: "
+                              + "; ".join(f"{r['label']} stays at {r['before']:.3g} "
+                                          f"{r['unit']}".rstrip() for r in back) + ".")
     report(1.0, "done")
     return Diagnosis(verdict, f.message, ranking,
                      score + [{"effect": s["effect"], "skipped": s["reason"]} for s in skipped],

@@ -509,3 +509,75 @@ def why_not(b):
         why.append(f"best candidate {b['effect']} removes only {100 * b['relative_drop']:.1f} % of the error and "
                    f"{100 * b['excess_drop']:.0f} % of its excess over the noise floor")
     return why
+
+
+# -- 3b. a recalibration that is a symptom ----------------------------------------------------
+
+def implausible(model, null):
+    """The base parameters the null fit chose itself (not the caller's) that it left at a fit
+    bound or beyond :data:`pneucore.analysis.hypotheses.IMPLAUSIBLE` typical catalogue errors:
+    ``[{path, label, before, after, unit, reason}]``. Such a value is a symptom: something
+    the recalibration stands in for (an effect the base model lacks)."""
+    if null.fit is None:
+        return []
+    out = []
+    for s in null.auto_specs:
+        v = null.fit.values.get(s.path)
+        if v is None:
+            continue
+        before = get_value(model, s.path)
+        why = H.plausibility(model, s.path, v["value"], v.get("at_bound", False))
+        if why and abs(v["value"] - before) > RECAL_MIN * max(abs(before), 1e-300):
+            out.append({"path": s.path, "label": H.label_of(s.path), "before": before,
+                        "after": v["value"], "unit": v.get("unit", ""), "reason": why})
+    return out
+
+
+def takes_over(weighed, null):
+    """Does a verdict found with the implausible parameters held at their catalogue values
+    explain the records at least as well as the implausible recalibration (the null)?
+    ``weighed``: ``(score, lead, refits, ranking, verdict, message)`` of that run."""
+    verdict_h, refits_h = weighed[4], weighed[2]
+    return verdict_h is not None and refits_h[verdict_h].error_after.overall <= null.error
+
+
+def holdings(odd):
+    """The sets of implausible parameters to hold, in turn: those at a fit bound (the data push
+    them further than the fit allows: the plainest symptom) alone, then every one."""
+    out = []
+    bound = [o for o in odd if "bound" in o["reason"]]
+    for hold in (bound, odd):
+        if hold and hold not in out:
+            out.append(hold)
+    return out
+
+
+def held_words(odd, hold, verdict_h, e_held, e_null):
+    """The reweighing in words: the implausible values (``odd``), those held at the catalogue
+    (``hold``), and what then."""
+    def vals(group):
+        return "; ".join(f"{o['label']} {o['before']:.3g} -> {o['after']:.3g} {o['unit']}".rstrip()
+                         + f" ({o['reason']})" for o in group)
+    it = "it" if len(hold) == 1 else "them"
+    if verdict_h is not None:
+        return (f"The recalibration {vals(hold)} was a stand-in: with {it} held at the catalogue "
+                f"value, {verdict_h} explains the records better (error {100 * e_held:.2f} % "
+                f"against {100 * e_null:.2f} % with the implausible value)")
+    it = "it" if len(odd) == 1 else "them"
+    return (f"Implausible: {vals(odd)}; with {it} held at the catalogue value no catalog effect "
+            f"explains the records as well, so the recalibration stands, but a missing effect or "
+            f"a wrong declaration may stand behind {it}")
+
+
+def withheld(model, next_model, recal, auto_paths):
+    """The next model with the implausible recalibrations among ``auto_paths`` put back at
+    ``model``'s values, and those entries: once an effect was found to stand behind one
+    implausible value, the others left beside it are the same symptom, weighed again in the
+    next round from the catalogue value, not taken as its new centre."""
+    back = [r for r in recal if r.get("implausible") and r["path"] in auto_paths]
+    if not back:
+        return next_model, []
+    # a valve path is a scale factor on the model's tables: 1 reads back whatever the fit
+    # found, so its table is scaled back by before / after
+    return set_values(next_model, {r["path"]: (r["before"] / r["after"] if r["path"].startswith("valve.")
+                                              else get_value(model, r["path"])) for r in back}), back
