@@ -83,15 +83,19 @@ def profile_round(start, exps):
     of the fits (SVD, QR) and the Python around them."""
     from pneucore.analysis import diagnose as D
     from pneucore.analysis import hypotheses as H
-    saved = (D.ThreadPoolExecutor, calibrate.ThreadPoolExecutor, H.ThreadPoolExecutor)
-    D.ThreadPoolExecutor = calibrate.ThreadPoolExecutor = H.ThreadPoolExecutor = _Inline
+    from pneucore.analysis.diagnosis import evidence as E, stages as S
+    saved = (S.ThreadPoolExecutor, E.ThreadPoolExecutor, calibrate.ThreadPoolExecutor,
+             H.ThreadPoolExecutor)
+    S.ThreadPoolExecutor = E.ThreadPoolExecutor = calibrate.ThreadPoolExecutor = \
+        H.ThreadPoolExecutor = _Inline
     try:
         pr = cProfile.Profile()
         pr.enable()
         D.diagnose(start, exps)
         pr.disable()
     finally:
-        D.ThreadPoolExecutor, calibrate.ThreadPoolExecutor, H.ThreadPoolExecutor = saved
+        (S.ThreadPoolExecutor, E.ThreadPoolExecutor, calibrate.ThreadPoolExecutor,
+         H.ThreadPoolExecutor) = saved
     st = pstats.Stats(pr)
     total = max(v[3] for v in st.stats.values())   # the outermost cumulative time
     integ = sum(v[2] for k, v in st.stats.items() if k[2] == "integrate" and "integrator" in k[0])

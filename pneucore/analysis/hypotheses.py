@@ -161,7 +161,9 @@ def _step(model, hyp):
 
 #: Change of a recalibrated base parameter, in typical catalogue errors, beyond which it is
 #: implausible as a catalogue error (a heat coefficient x10, a load of tens of newtons nobody
-#: declared): 5 typical errors, where a Gaussian catalogue error has odds of 1 in 3.5 million
+#: declared): 5 typical errors, where a Gaussian catalogue error has odds of 1 in 3.5 million;
+#: counted on the logarithm of the factor for a nonzero value (a relative error is a factor,
+#: ``ln(1 + typical)`` wide), on the span for a value of 0
 IMPLAUSIBLE = 5.0
 
 
@@ -189,8 +191,14 @@ def plausibility(model, path, after, at_bound=False):
     h = BASE_HYPOTHESES.get(path)
     if h is None:
         return ""
-    sg = _step(model, h)
-    z = abs(after - get_value(model, path)) / sg if sg > 0 else 0.0
+    v = get_value(model, path)
+    if v != 0.0 and after / v > 0.0:
+        # a relative catalogue error is a factor: x 1/2.8 is as far from the catalogue as x 2.8
+        # (a valve's conductance at 0.35 of its catalogue value is 7 typical errors of 15 %)
+        z = abs(math.log(after / v)) / math.log1p(h.typical)
+    else:
+        sg = _step(model, h)
+        z = abs(after - v) / sg if sg > 0 else 0.0
     if z > IMPLAUSIBLE:
         return f"{z:.0f} times the typical catalogue error of {h.label}"
     return ""

@@ -1,0 +1,154 @@
+"""The acceptance rules of a diagnosis: when is a refitted catalog effect named?
+
+:data:`RULES` is the one list. A candidate is named when every rule passes, judged in
+the order listed; a rule marked ``deferred`` costs refits (a pair refit, a fit per
+experiment) and is judged only on a contender that passed every rule before it. The
+verdict stage (:func:`pneucore.analysis.diagnosis.stages.verdict`) walks this list and
+nothing else. The thresholds each rule reads are the module's constants.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+#: Significance level of the likelihood-ratio test, before the Bonferroni split
+ALPHA = 1e-3
+#: BIC decrease required to name an effect (Kass & Raftery 1995: > 10 is "very strong")
+DELTA_BIC = -10.0
+#: Fraction of the overall Eq. 25 error an effect must remove to be material
+MATERIAL = 0.05
+#: Number of candidates refitted after the score pass
+N_REFIT = 3
+#: Share of the misfit in excess of the noise floor an effect must remove to be material
+EXCESS_MATERIAL = 0.2
+#: Relative difference of an effect parameter fitted on two experiments beyond which they
+#: disagree: 50 %; a physical effect, refitted with 1-2 parameters on ~2000 samples per
+#: experiment, comes back within a few percent (tests/analysis/test_diagnosis.py: within 20 % of the truth)
+CONSISTENT_RTOL = 0.5
+#: Share of that excess the named effect must remove, alone or with the next candidate (two
+#: missing effects of similar size): a stand-in for something outside the catalog removes less
+EXCESS_MAJOR = 0.5
+
+
+@dataclass(frozen=True)
+class Rule:
+    """One acceptance rule.
+
+    Parameters
+    ----------
+    name : str
+        Short name (the key of the candidate's ``rules`` record)
+    reason : str
+        Why the rule is there, in one line
+    test : callable
+        ``test(candidate, context) -> bool``; ``context`` is a :class:`Judging`
+    deferred : bool
+        The test costs refits: judged only once every rule before it passed
+    """
+    name: str
+    reason: str
+    test: Callable
+    deferred: bool = False
+
+
+@dataclass
+class Judging:
+    """What the rules read beside the candidate.
+
+    Parameters
+    ----------
+    alpha : float
+        Significance level before the Bonferroni split [-]
+    n_tests : int
+        Number of refitted candidates (the Bonferroni split)
+    pair : callable
+        ``pair(candidate) -> dict or None``: the candidate refitted with the next
+        significant, material one (``excess_drop`` of the two together)
+    consistency : callable
+        ``consistency(candidate) -> dict``: its parameters fitted on each experiment alone
+    """
+    alpha: float
+    n_tests: int
+    pair: Callable = None
+    consistency: Callable = None
+
+
+def _determined(c, ctx):
+    return not c["undetermined"]
+
+
+def _significant(c, ctx):
+    return c["p_value"] < ctx.alpha / ctx.n_tests
+
+
+def _strong(c, ctx):
+    return c["delta_bic"] < DELTA_BIC
+
+
+def _material(c, ctx):
+    return c["relative_drop"] >= MATERIAL and c["excess_drop"] >= EXCESS_MATERIAL
+
+
+def _major(c, ctx):
+    if c["excess_drop"] >= EXCESS_MAJOR or c["excess_drop_calibrated"] >= EXCESS_MAJOR:
+        return True
+    c["with_next"] = ctx.pair(c)
+    return bool(c["with_next"] and c["with_next"]["excess_drop"] >= EXCESS_MAJOR)
+
+
+def _consistent(c, ctx):
+    c["consistency"] = ctx.consistency(c)
+    return bool(c["consistency"]["consistent"])
+
+
+#: The acceptance rules, in the order they are judged (every one must pass)
+RULES = (
+    Rule("determined", "a strength at its fit bound, or within one standard error of off, or "
+         "physically impossible, is no evidence of the effect", _determined),
+    Rule("significant", "likelihood-ratio p-value below alpha / number of refitted candidates "
+         "(counted on n / tau effective samples)", _significant),
+    Rule("strong", f"delta BIC below {DELTA_BIC:g} (Kass & Raftery: very strong)", _strong),
+    Rule("material", f"removes at least {100 * MATERIAL:g} % of the error and "
+         f"{100 * EXCESS_MATERIAL:g} % of its excess over the noise floor", _material),
+    Rule("major", f"removes at least {100 * EXCESS_MAJOR:g} % of the excess: alone, once the "
+         "sensors' gains and offsets are removed, or with the next candidate (else a stand-in)",
+         _major, deferred=True),
+    Rule("consistent", "its parameters fitted on each experiment alone agree (a stand-in takes "
+         "whatever helps each)", _consistent, deferred=True),
+)
+
+#: The rules judged on every candidate before any is chosen (no refits)
+CHEAP = tuple(r for r in RULES if not r.deferred)
+
+
+def flags(c, ctx):
+    """Judge the cheap rules on candidate ``c``; sets its ``significant``, ``strong`` and
+    ``material`` fields (``significant`` includes ``determined``) and ``rules``."""
+    c["rules"] = {r.name: bool(r.test(c, ctx)) for r in CHEAP}
+    c["significant"] = c["rules"]["determined"] and c["rules"]["significant"]
+    c["strong"] = c["rules"]["strong"]
+    c["material"] = c["rules"]["material"]
+    c["consistent"] = None
+    c["named"] = False
+
+
+def judge(c, ctx):
+    """Is candidate ``c`` named? Every rule of :data:`RULES` in order, stopping at the first
+    that fails; a deferred rule updates the candidate's fields (``material`` after ``major``,
+    ``consistent`` after ``consistent``). Returns and sets ``named``; ``failed`` names the
+    first rule that failed (None when named)."""
+    c["failed"] = None
+    for r in RULES:
+        rec = c.setdefault("rules", {})
+        if r.name not in rec:
+            rec[r.name] = bool(r.test(c, ctx))
+        ok = rec[r.name]
+        if r.name == "major":
+            c["material"] = ok
+        elif r.name == "consistent":
+            c["consistent"] = ok
+        if not ok:
+            c["failed"] = r.name
+            break
+    c["named"] = c["failed"] is None
+    return c["named"]

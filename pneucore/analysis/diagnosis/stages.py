@@ -1,0 +1,583 @@
+"""The stages of a diagnosis, each a function of what the stages before it found.
+
+:func:`pneucore.analysis.diagnose.diagnose` runs them in this order:
+
+1. :func:`candidate_effects` - the catalog effects worth testing on this model;
+2. :func:`base_hypotheses` - the base parameters the experiments identify (and the
+   initial state a record does not give);
+3. :func:`null_fit` - those parameters refitted: the null model, a :class:`Null`;
+4. :func:`candidate_scores` - the cheap score (Lagrange-multiplier) test of every candidate;
+5. :func:`joint_refits` - the leading candidates fitted with the base parameters;
+6. :func:`evidence` - LR, BIC, error drops of each refit against the null: the ranking;
+7. :func:`verdict` - the rules of :mod:`pneucore.analysis.diagnosis.rules` on the ranking;
+8. :func:`pneucore.analysis.diagnosis.findings.findings` - what is mis-set, the next model,
+   alternatives, what remains.
+"""
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from pneucore.analysis import calibrate as _calibrate
+from pneucore.analysis import hypotheses as H
+from pneucore.analysis.autocorrelation import effective_lr, residual_times, times_report
+from pneucore.analysis.calibrate import Objective, fit, information_criteria
+from pneucore.analysis.compare import replay
+from pneucore.analysis.diagnosis import rules as R
+from pneucore.analysis.diagnosis.evidence import (consistency, excess_drop, given_prior, improvement,
+                                                  explain, pair, undetermined)
+from pneucore.analysis.engineering import impossible
+from pneucore.spec.effects import EFFECTS
+from pneucore.spec.paths import ParameterSpec, get_value, parse_parameters, set_values
+
+#: Relative change below which a refitted base parameter is not reported as mis-set
+RECAL_MIN = 0.02
+
+NO_EFFECT = "no catalog effect explains the remaining residual"
+
+
+def with_effect(model, name, values):
+    """A copy of ``model`` with effect ``name`` set to ``values``."""
+    m = model.copy()
+    m.effects[name] = dict(values)
+    return m
+
+
+def unit_residuals(replays):
+    """Residuals (measured - simulated) scaled to unit RMS per (experiment, signal), stacked."""
+    parts, keys = [], []
+    for rp in replays:
+        for s in rp.measured:
+            m = rp.experiment.measurement.signals[s]
+            ok = np.isfinite(m)
+            g = np.full(m.shape[0], np.nan)
+            g[:rp.simulated[s].shape[0]] = rp.simulated[s]
+            d = np.where(np.isfinite(g), m - g, 0.0)[ok]
+            rms = math.sqrt(np.mean(d ** 2)) if d.size else 1.0
+            parts.append(d / max(rms, 1e-300))
+            keys.append((rp.experiment.name, s, ok, max(rms, 1e-300)))
+    return np.concatenate(parts), keys
+
+
+def stack(replays, keys):
+    """Simulated outputs stacked in the order of ``keys``, scaled like the residuals."""
+    parts = []
+    by = {(rp.experiment.name, s): rp for rp in replays for s in rp.measured}
+    for name, s, ok, rms in keys:
+        rp = by[(name, s)]
+        g = np.full(ok.shape[0], np.nan)
+        g[:rp.simulated[s].shape[0]] = rp.simulated[s]
+        g = g[ok]
+        parts.append(np.where(np.isfinite(g), g, 0.0) / rms)
+    return np.concatenate(parts)
+
+
+def lm_statistic(r, J, one_sided):
+    """LM statistic of residual ``r`` on columns ``J`` with a crude active set for one-sided strengths."""
+    cols = list(range(J.shape[1]))
+    for _ in range(J.shape[1] + 1):
+        if not cols:
+            return 0.0, []
+        Jc = J[:, cols]
+        coef, *_ = np.linalg.lstsq(Jc, r, rcond=None)
+        bad = [c for c, b in zip(cols, coef) if one_sided[c] and b < 0]
+        if not bad:
+            fitted = Jc @ coef
+            return float(fitted @ fitted), cols
+        cols = [c for c in cols if c not in bad]
+    return 0.0, []
+
+
+def project_out(J, Ju):
+    """``J`` with the column space of ``Ju`` projected out (``J`` itself when ``Ju`` is empty)."""
+    if Ju is None or Ju.shape[1] == 0:
+        return J
+    Q, _ = np.linalg.qr(Ju)
+    return J - Q @ (Q.T @ J)
+
+
+# -- 1. candidates ------------------------------------------------------------------------
+
+def candidate_effects(model, names):
+    """``(candidates, skipped)``: the effects of ``names`` not in the model and applicable to
+    it; ``skipped`` lists the others with the reason."""
+    cands, skipped = [], []
+    for n in names:
+        if n in model.effects:
+            skipped.append({"effect": n, "reason": "already in the model"})
+            continue
+        ok, why = EFFECTS[n].applicable(model)
+        if not ok:
+            skipped.append({"effect": n, "reason": why})
+            continue
+        cands.append(n)
+    return cands, skipped
+
+
+# -- 2. base hypotheses -------------------------------------------------------------------
+
+@dataclass
+class Hypotheses:
+    """The base parameters a diagnosis refits, and how they were chosen.
+
+    ``exps`` are the experiments replayed from the initial state found (``initial_state``);
+    ``auto`` tells whether the choice was automatic; ``auto_specs`` the chosen parameters;
+    ``unc`` the ``uncertain`` ones given by the caller; ``id_cols`` their sensitivities.
+    """
+    exps: list
+    unc: dict
+    auto: bool
+    auto_specs: list = field(default_factory=list)
+    identifiability: list = field(default_factory=list)
+    id_cols: dict = field(default_factory=dict)
+    initial_state: list = field(default_factory=list)
+
+
+def base_hypotheses(model, exps, cands, uncertain, known, automatic, rps_start, report):
+    """Which base parameters can the experiments identify? (and the initial state a record
+    does not give, where the record identifies it: the rest of the diagnosis replays the
+    experiments from it). With ``uncertain`` given, or ``automatic`` false, nothing is chosen.
+    """
+    unc = {p: {} for p in uncertain} if isinstance(uncertain, (list, tuple)) else dict(uncertain)
+    hyp = Hypotheses(exps, unc, bool(not unc and automatic))
+    if not hyp.auto:
+        return hyp
+    report(0.015, "initial state")
+    hyp.exps, hyp.initial_state, init_report = H.fit_initial_state(model, exps, replay)
+    hyp.identifiability += [{**h, "label": f"{h['path']} of {h['experiment']}",
+                             "sensitivity": None} for h in init_report]
+    rps_id = [replay(model, e) for e in hyp.exps] if hyp.initial_state else rps_start
+    obj_s = Objective(model, hyp.exps, [])
+    chosen, base_report, hyp.id_cols = H.identifiable(
+        model, hyp.exps, obj_s, obj_s.weighted(rps_id), H.offered(model, cands, exclude=known),
+        replay)
+    hyp.identifiability = base_report + hyp.identifiability
+    hyp.auto_specs = [H.spec_for(model, h) for h in chosen]
+    return hyp
+
+
+# -- 3. null fit ---------------------------------------------------------------------------
+
+@dataclass
+class Null:
+    """The null model (uncertain base parameters refitted) and what the later stages read.
+
+    ``specs``: the fitted parameters at the null's values; ``specs_start``: the same from
+    the model as given (the joint refits start there); ``prior``: the catalogue prior;
+    ``comp``/``replays``/``rss``: its comparison, replays and residual sums;
+    ``r``/``keys``/``y``: unit-scaled residual, its layout and the scaled outputs.
+    """
+    base: object
+    fit: object
+    specs: list
+    specs_start: list
+    auto_specs: list
+    base_paths: list
+    prior: dict
+    comp: object
+    replays: list
+    rss: object
+    m2ll: float
+    n_all: int
+    r: object
+    keys: list
+    y: object
+    floor_overall: float
+
+    @property
+    def error(self):
+        """Its overall Eq. 25 error [-]."""
+        return self.comp.overall
+
+
+def uncertain_paths(model, hyp, known, refit_existing):
+    """The caller's uncertain paths, with the parameters of effects already in the model
+    (``refit_existing``: fitted on a model that lacked what is sought now) unless known."""
+    unc = dict(hyp.unc)
+    if refit_existing:
+        for name in model.effects:
+            for p in EFFECTS[name].diagnosis_params:
+                if f"effects.{name}.{p}" not in known:
+                    unc.setdefault(f"effects.{name}.{p}", {})
+    return unc
+
+
+def null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report, held=()):
+    """The null model: the chosen base parameters and ``unc`` refitted, reweighted by each
+    series' own residual, under the catalogue prior (a direction the data do not resolve
+    stays where the user put it, :func:`pneucore.analysis.hypotheses.prior_for`).
+
+    ``held``: base paths held at the model's values (not fitted) although chosen.
+    """
+    auto_specs = [s for s in hyp.auto_specs if s.path not in held]
+    u_specs = auto_specs + (parse_parameters(model, unc) if unc else [])
+    base_paths = [s.path for s in u_specs if not s.path.startswith("effects.")]
+    u_specs_start = list(u_specs)
+    prior = H.prior_for(model, base_paths)
+    if u_specs:
+        nf = fit(model, exps, u_specs, max_nfev=max_nfev, progress=report, span=(0.02, 0.05),
+                 step="fitting the base model", reweight=True, prior=prior)
+        # a hypothesis confounded in the small with parameters the fit drove to a bound (a
+        # load taken up by a Coulomb level that cannot go below 0) is needed after all
+        freed = [p for p in (H.freed_by_bounds(hyp.identifiability, nf.values) if hyp.auto else [])
+                 if p not in held]
+        if freed:
+            report(0.04, "refitting the base model with " + ", ".join(H.label_of(p) for p in freed))
+            auto_specs = auto_specs + [H.spec_for(model, H.BASE_HYPOTHESES[p]) for p in freed]
+            u_specs = auto_specs + (parse_parameters(model, unc) if unc else [])
+            base_paths = [s.path for s in u_specs if not s.path.startswith("effects.")]
+            u_specs_start = list(u_specs)
+            prior = H.prior_for(model, base_paths)
+            nf = fit(model, exps, u_specs, max_nfev=max_nfev, compute_before=False,
+                     reweight=True, prior=prior)
+        base = nf.model
+        u_specs = [ParameterSpec(s.path, nf.values[s.path]["value"], s.min, s.max, s.vary, s.unit)
+                   for s in u_specs]
+        # the fit's end point is already simulated: its comparison is the null's
+        comp0 = nf.error_after
+        rps0 = comp0.replays
+    else:
+        nf, base, rps0, comp0 = None, model, rps_start, comp_start
+    rss0 = Objective(base, exps, []).rss(rps0)
+    m2ll0, _, _, n_all = information_criteria(rss0, len(u_specs))
+    r0, keys = unit_residuals(rps0)
+    floor = comp0.noise_floor
+    floor_overall = float(math.sqrt(np.mean(np.square([v for v in floor.values() if v == v])))) \
+        if floor else float("nan")
+    return Null(base, nf, u_specs, u_specs_start, auto_specs, base_paths, prior, comp0, rps0,
+                rss0, m2ll0, n_all, r0, keys, stack(rps0, keys), floor_overall)
+
+
+# -- 4. candidate scores ------------------------------------------------------------------
+
+def uncertain_sensitivities(exps, null):
+    """Sensitivities of the null's fitted parameters (columns), scaled like its residual."""
+    if not null.specs:
+        return None
+    base, keys, y0 = null.base, null.keys, null.y
+
+    def ucol(s):
+        # around the null model (a valve scale reads 1 there, whatever the fit found)
+        v = get_value(base, s.path)
+        h = 1e-3 * (abs(v) or (s.max - s.min) / 100)
+        mp = set_values(base, {s.path: v + h})
+        return (stack([replay(mp, e) for e in exps], keys) - y0) / h
+
+    with ThreadPoolExecutor(_calibrate.THREADS) as pool:
+        return np.column_stack(list(pool.map(ucol, null.specs)))
+
+
+def candidate_scores(model, exps, null, cands, report):
+    """The score pass: for every candidate, the outputs' change under a moderate dose of the
+    effect (one simulation per strength parameter), the base parameters' sensitivities
+    projected out, and the LM statistic on the null's unit residual; a strength that may
+    only be positive is dropped when the data ask for a negative one (one-sided test).
+    Returns the candidates' scores, best first, each with its ``rank``."""
+    Ju = uncertain_sensitivities(exps, null)
+
+    def probe(name):
+        eff = EFFECTS[name]
+        sp = eff.score_params
+        vals_off = eff.probe_values(model)
+        for p in sp:
+            vals_off[p] = eff.param(p).off
+        cols, one_sided = [], []
+        for p in sp:
+            v = dict(vals_off)
+            v[p] = eff.probe_values(model)[p]
+            mp = with_effect(null.base, name, v)
+            yp = stack([replay(mp, e) for e in exps], null.keys)
+            cols.append(yp - null.y)
+            par = eff.param(p)
+            one_sided.append(par.off is not None and par.min >= par.off
+                             and v[p] > par.off)
+        J = project_out(np.column_stack(cols), Ju)
+        lm, used = lm_statistic(null.r, J, one_sided)
+        dof = max(len(used), 1)
+        p_lm = float(stats.chi2.sf(lm, dof)) if used else 1.0
+        return {"effect": name, "lm": lm, "dof": len(used), "p_value": p_lm,
+                "score_params": list(sp)}
+
+    score = []
+    with ThreadPoolExecutor(_calibrate.THREADS) as pool:
+        for k, res in enumerate(pool.map(probe, cands)):
+            score.append(res)
+            report(0.05 + 0.35 * (k + 1) / max(len(cands), 1), f"score test: {res['effect']}")
+    score.sort(key=lambda d: (-d["lm"] if d["dof"] else 0.0))
+    for i, s in enumerate(score):
+        s["rank"] = i + 1
+    return score
+
+
+def leading(score, n_refit):
+    """The ``n_refit`` best-scored candidates with a testable strength."""
+    return [s["effect"] for s in score if s["dof"] > 0][:n_refit]
+
+
+# -- 5. joint refits ----------------------------------------------------------------------
+
+def effect_specs(model, name, values):
+    """The fit parameters of effect ``name`` (its diagnosis parameters that act on ``model``)
+    starting at ``values``."""
+    eff = EFFECTS[name]
+    return [ParameterSpec(f"effects.{name}.{p}", values[p], eff.param(p).min, eff.param(p).max,
+                          True, eff.param(p).unit) for p in eff.diagnosis_params
+            if p not in eff.unused_in(model)]
+
+
+def moved_back(model, cal, paths):
+    """Of ``paths``, those the fit ``cal`` left within :data:`RECAL_MIN` of the model's values."""
+    out = set()
+    for p in sorted(paths):
+        v = cal.values.get(p)
+        if v is None:
+            continue
+        before = get_value(model, p)
+        if abs(v["value"] - before) <= RECAL_MIN * max(abs(before), 1e-300):
+            out.add(p)
+    return out
+
+
+def joint_refit(model, exps, null, name, max_nfev, report):
+    """Candidate ``name`` fitted with the null's base parameters, from the model as given
+    (the null's values are biased by what is missing). Base parameters the joint fit leaves
+    at their catalogue values (within :data:`RECAL_MIN`) are not mis-set: they are held
+    there and the rest refitted from this point, so that they do not blur the effect's
+    parameters (kept unless the fit gets materially worse)."""
+    eff = EFFECTS[name]
+    start = eff.probe_values(model)
+    m = with_effect(model, name, start)
+    specs = effect_specs(model, name, start) + null.specs_start
+    # the refit checks the time limit at each evaluation (progress stays at its level)
+    cal = fit(m, exps, specs, max_nfev=max_nfev, compute_before=False,
+              progress=lambda f, s: report(0.4, f"refit: {name}"), reweight=True, prior=null.prior)
+    back = moved_back(model, cal, {q.path for q in null.auto_specs})
+    if back:
+        m2 = with_effect(model, name, {**start, **cal.model.effects[name]})
+        vals = {q.path: cal.values[q.path]["value"] for q in specs
+                if not q.path.startswith(f"effects.{name}.") and q.path not in back}
+        m2 = set_values(m2, vals)
+        specs2 = []
+        for q in specs:
+            if q.path in back:
+                continue
+            v = get_value(m2, q.path)
+            if q.path.startswith("valve."):   # a scale factor: bounds relative to m2's table
+                f = vals[q.path]
+                specs2.append(ParameterSpec(q.path, 1.0, q.min / f, q.max / f, True, q.unit))
+            else:
+                specs2.append(ParameterSpec(q.path, v, q.min, q.max, True, q.unit))
+        scale = {q: vals[q] for q in vals if q.startswith("valve.")}
+        cal2 = fit(m2, exps, specs2, max_nfev=max_nfev, compute_before=False, reweight=True,
+                   prior=H.prior_for(model, [q.path for q in specs2], scale))
+        # kept unless materially worse (2 % of the residual energy: 1 % of the Eq. 25 error)
+        if sum(r for _, _, r, _ in cal2.rss_after) <= 1.02 * sum(r for _, _, r, _ in cal.rss_after):
+            cal = cal2
+    return cal
+
+
+def joint_refits(model, exps, null, lead, max_nfev, report):
+    """``{name: calibration}`` of :func:`joint_refit` for each leading candidate (in parallel)."""
+    refits = {}
+    with ThreadPoolExecutor(_calibrate.THREADS) as pool:
+        for done, (name, cal) in enumerate(pool.map(
+                lambda n: (n, joint_refit(model, exps, null, n, max_nfev, report)), lead), 1):
+            refits[name] = cal
+            report(0.4 + 0.55 * done / max(len(lead), 1), f"refit: {name}")
+    return refits
+
+
+# -- 6. evidence ----------------------------------------------------------------------------
+
+def common_times(refits, null):
+    """One common effective sample size for every comparison: the autocorrelation times of the
+    residual of the most complete model fitted (the best refit, else the null); counted per
+    candidate, a worse fit would get a longer tau, fewer samples, and a milder penalty."""
+    if refits:
+        ref = min(refits.values(), key=lambda c: sum(r for _, _, r, _ in c.rss_after))
+        return ref.residual_times
+    return null.fit.residual_times if null.fit is not None else residual_times(null.replays)
+
+
+def candidate_evidence(name, cal, null, taus, e0_cal):
+    """The evidence of one refit against the null: error drop, share of the excess over the
+    floor (also once the sensors' gains and offsets are removed), LR with its p-value,
+    delta BIC / AIC on the common effective samples, fitted parameters, explanation."""
+    eff = EFFECTS[name]
+    k_eff = len(eff.diagnosis_params)
+    lr_eff, n_eff = effective_lr(null.rss, cal.rss_after, taus)
+    lr = max(lr_eff, 0.0)
+    p = float(stats.chi2.sf(lr, k_eff))
+    params = {p_: v for p_, v in cal.values.items() if p_.startswith(f"effects.{name}.")}
+    # an effect's parameter given the user's values along what the records do not resolve
+    # (the catalogue prior; a quadrant level beside an undeclared load and the extend level)
+    params = {k.split(".")[-1]: given_prior(v) for k, v in params.items()}
+    e0, e1 = null.comp.overall, cal.error_after.overall
+    floor = null.floor_overall
+    cand = {"effect": name, "error_before": e0, "error_after": cal.error_after.errors,
+            "error_after_overall": e1,
+            "error_after_phases": cal.error_after.phases,
+            "relative_drop": (e0 - e1) / e0 if e0 else 0.0,
+            "excess_drop": excess_drop(e0, e1, floor),
+            "excess_drop_calibrated": excess_drop(
+                e0_cal, H.calibrated_error(cal.error_after.replays)[0], floor),
+            "lr_statistic": lr, "p_value": p, "delta_bic": -lr_eff + k_eff * math.log(max(n_eff, 1.0)),
+            "delta_aic": -lr_eff + 2 * k_eff,
+            "lr_statistic_white": max(null.m2ll - cal.neg2_loglik, 0.0),
+            "effective_samples": n_eff, "n_samples": null.n_all,
+            "autocorrelation_time": times_report(taus),
+            "params": params,
+            "uncertain_params": {k: v for k, v in cal.values.items() if not k.startswith("effects.")},
+            "improvement": improvement(null.comp, cal.error_after),
+            "fit_success": cal.success, "fit_message": cal.message,
+            "description": eff.description, "signature": eff.signature,
+            "reference": eff.reference, "model_obj": cal.model}
+    cand["explanation"] = explain(eff, cand, floor)
+    cand["model"] = cal.model.to_dict()
+    return cand
+
+
+def evidence(null, refits):
+    """The ranking: :func:`candidate_evidence` of every refit, by delta BIC (same null, same
+    effective samples: delta BIC is monotone in the evidence shown)."""
+    taus = common_times(refits, null)
+    # the null's error once each signal's best transducer gain and offset are removed: what a
+    # catalog effect must explain when a sensor calibration error is also present
+    e0_cal = H.calibrated_error(null.replays)[0]
+    ranking = [candidate_evidence(name, cal, null, taus, e0_cal) for name, cal in refits.items()]
+    ranking.sort(key=lambda c: c["delta_bic"])
+    return ranking
+
+
+# -- 7. verdict ------------------------------------------------------------------------------
+
+def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
+    """Judge the ranking by :data:`pneucore.analysis.diagnosis.rules.RULES`; ``(verdict,
+    message)``. Candidates are judged in evidence order; one that fails (a stand-in: it
+    explains too little of the excess, or its parameters disagree between experiments) does
+    not hide the next, which is judged on its own evidence (each test at alpha / number of
+    refits) and, if it passes, named and ranked first."""
+    ctx = R.Judging(alpha, max(len(ranking), 1))
+    ctx.pair = lambda c: pair(model, exps, c, ranking, refits, null.specs_start, null.error,
+                              null.floor_overall, max_nfev, report)
+
+    def consistent(c):
+        report(0.96, f"consistency across experiments: {c['effect']}")
+        return consistency(refits[c["effect"]], exps, c["effect"], max_nfev)
+    ctx.consistency = consistent
+    for c in ranking:
+        # physical plausibility: a strength at its fit bound, or not distinguishable from off by
+        # its own standard error, is no evidence of the effect however much the fit improves
+        c["undetermined"] = undetermined(c) or impossible(
+            c["effect"], (c["model"].get("effects") or {}).get(c["effect"]) or c["params"], model)
+        R.flags(c, ctx)
+    if not ranking:
+        return None, NO_EFFECT
+    contenders = [c for c in ranking if c["significant"] and c["strong"]] or ranking[:1]
+    for b in contenders:
+        if R.judge(b, ctx):
+            ranking.remove(b)
+            ranking.insert(0, b)
+            return b["effect"], (f"{b['effect']}: {b['description']}. Error "
+                                 f"{100 * b['error_before']:.2f} % -> "
+                                 f"{100 * b['error_after_overall']:.2f} %.")
+    return None, NO_EFFECT + " (" + "; ".join(why_not(ranking[0])) + ")"
+
+
+def why_not(b):
+    """Why the best candidate ``b`` is not named, in words."""
+    why = []
+    if b["undetermined"]:
+        why.append(f"best candidate {b['effect']} is not determined by these records "
+                   f"({b['undetermined']})")
+    elif not b["significant"]:
+        why.append(f"best candidate {b['effect']} not significant (p = {b['p_value']:.2g})")
+    if not b["strong"]:
+        why.append(f"delta BIC {b['delta_bic']:.1f} not below {R.DELTA_BIC:g}")
+    if b["material"] and b["significant"] and b["strong"] and not b["consistent"]:
+        why.append(f"best candidate {b['effect']} fitted separately on each experiment "
+                   f"gives parameters that disagree ({b['consistency']['summary']}): "
+                   f"a stand-in, not a physical effect")
+    if not b["material"] and b["relative_drop"] < 0:
+        why.append(f"best candidate {b['effect']} raises the error by "
+                   f"{-100 * b['relative_drop']:.1f} %")
+    elif not b["material"]:
+        why.append(f"best candidate {b['effect']} removes only {100 * b['relative_drop']:.1f} % of the error and "
+                   f"{100 * b['excess_drop']:.0f} % of its excess over the noise floor")
+    return why
+
+
+# -- 3b. a recalibration that is a symptom ----------------------------------------------------
+
+def implausible(model, null):
+    """The base parameters the null fit chose itself (not the caller's) that it left at a fit
+    bound or beyond :data:`pneucore.analysis.hypotheses.IMPLAUSIBLE` typical catalogue errors:
+    ``[{path, label, before, after, unit, reason}]``. Such a value is a symptom: something
+    the recalibration stands in for (an effect the base model lacks)."""
+    if null.fit is None:
+        return []
+    out = []
+    for s in null.auto_specs:
+        v = null.fit.values.get(s.path)
+        if v is None:
+            continue
+        before = get_value(model, s.path)
+        why = H.plausibility(model, s.path, v["value"], v.get("at_bound", False))
+        if why and abs(v["value"] - before) > RECAL_MIN * max(abs(before), 1e-300):
+            out.append({"path": s.path, "label": H.label_of(s.path), "before": before,
+                        "after": v["value"], "unit": v.get("unit", ""), "reason": why})
+    return out
+
+
+def takes_over(weighed, null):
+    """Does a verdict found with the implausible parameters held at their catalogue values
+    explain the records at least as well as the implausible recalibration (the null)?
+    ``weighed``: ``(score, lead, refits, ranking, verdict, message)`` of that run."""
+    verdict_h, refits_h = weighed[4], weighed[2]
+    return verdict_h is not None and refits_h[verdict_h].error_after.overall <= null.error
+
+
+def holdings(odd):
+    """The sets of implausible parameters to hold, in turn: those at a fit bound (the data push
+    them further than the fit allows: the plainest symptom) alone, then every one."""
+    out = []
+    bound = [o for o in odd if "bound" in o["reason"]]
+    for hold in (bound, odd):
+        if hold and hold not in out:
+            out.append(hold)
+    return out
+
+
+def held_words(odd, hold, verdict_h, e_held, e_null):
+    """The reweighing in words: the implausible values (``odd``), those held at the catalogue
+    (``hold``), and what then."""
+    def vals(group):
+        return "; ".join(f"{o['label']} {o['before']:.3g} -> {o['after']:.3g} {o['unit']}".rstrip()
+                         + f" ({o['reason']})" for o in group)
+    it = "it" if len(hold) == 1 else "them"
+    if verdict_h is not None:
+        return (f"The recalibration {vals(hold)} was a stand-in: with {it} held at the catalogue "
+                f"value, {verdict_h} explains the records better (error {100 * e_held:.2f} % "
+                f"against {100 * e_null:.2f} % with the implausible value)")
+    it = "it" if len(odd) == 1 else "them"
+    return (f"Implausible: {vals(odd)}; with {it} held at the catalogue value no catalog effect "
+            f"explains the records as well, so the recalibration stands, but a missing effect or "
+            f"a wrong declaration may stand behind {it}")
+
+
+def withheld(model, next_model, recal, auto_paths):
+    """The next model with the implausible recalibrations among ``auto_paths`` put back at
+    ``model``'s values, and those entries: once an effect was found to stand behind one
+    implausible value, the others left beside it are the same symptom, weighed again in the
+    next round from the catalogue value, not taken as its new centre."""
+    back = [r for r in recal if r.get("implausible") and r["path"] in auto_paths]
+    if not back:
+        return next_model, []
+    # a valve path is a scale factor on the model's tables: 1 reads back whatever the fit
+    # found, so its table is scaled back by before / after
+    return set_values(next_model, {r["path"]: (r["before"] / r["after"] if r["path"].startswith("valve.")
+                                              else get_value(model, r["path"])) for r in back}), back
