@@ -26,7 +26,7 @@ PUBLIC = [
 
 #: The subpackages and the modules each holds (a new module is added here on purpose)
 LAYOUT = {
-    "physics": {"chamber", "flow", "friction", "gas", "heat", "jack", "series", "tube", "valve",
+    "physics": {"chamber", "flow", "friction", "gas", "heat", "jack", "line", "series", "tube", "valve",
                 "vessel"},
     "core": {"cache", "integrator", "layout", "rhs"},
     "spec": {"docstrings", "effects", "model", "paths", "presets", "provenance", "scenario", "units",
