@@ -228,22 +228,21 @@ class _Line:
 
     # primitive <-> conservative ------------------------------------------------------
     def primitive(self, y):
-        N, k = self.N, self.k
+        N = self.N
         rho = y[0:N]
         u = y[N:2 * N] / rho
         if self.adiabatic:
             p = (self.gamma - 1.0) * (y[2 * N:3 * N] - 0.5 * rho * u * u)
         else:
             p = rho * self.r * self.T0
-        del k
         return rho, u, p
 
-    def flux(self, rho, u, p, c):
+    def flux(self, rho, u, p):
         F = [rho * u, rho * u * u + p]
         if self.adiabatic:
             E = p / (self.gamma - 1.0) + 0.5 * rho * u * u
             F.append(u * (E + p))
-        return F, c
+        return F
 
     def sound(self, rho, p):
         return np.sqrt((self.gamma if self.adiabatic else 1.0) * p / rho)
@@ -328,8 +327,7 @@ class _Line:
             if wall:
                 WR[:, N] = W[0, N], -W[1, N], W[2, N]
         cL, cR = self.sound(WL[0], WL[2]), self.sound(WR[0], WR[2])
-        FL, _ = self.flux(*WL, cL)
-        FR, _ = self.flux(*WR, cR)
+        FL, FR = self.flux(*WL), self.flux(*WR)
         UL, UR = self.conserved(*WL), self.conserved(*WR)
         a = np.maximum(np.abs(WL[1]) + cL, np.abs(WR[1]) + cR)
         F = [0.5 * (fl + fr) - 0.5 * a * (ur - ul) for fl, fr, ul, ur in zip(FL, FR, UL, UR)]
