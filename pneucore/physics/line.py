@@ -55,17 +55,16 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.sparse import csr_matrix
 
 from pneucore.physics.gas import GAMMA_AIR, R_AIR, T_REF
 from pneucore.physics.tube import RE_LAMINAR, air_viscosity_sutherland, darcy_friction
 
 #: Ratio of the signal's time scale to the line's quarter-wave period ``4 L / c`` above which
 #: the lumped line is adequate [-]. Measured (tests/physics/test_tube_line.py, a volume filled
-#: through 2 m of 4 mm line from 1 to 7 bar): the lumped line's half-fill time is off the
-#: finite-volume line's by 4.4 % at 3.4 quarter-wave periods (3 % of it the 25-cell grid),
-#: 13 % at 1.1, 29 % at 0.5 and 51 % at 0.28: from 3 periods on, lumping costs under about 5 %
+#: through 2 m of 4 mm line from 1 to 7 bar, 25 cells): the lumped line's half-fill time is off
+#: the finite-volume line's by 0.31 % at 32 quarter-wave periods, 1.4 % at 9.8, 4.4 % at 3.4,
+#: 13 % at 1.1, 29 % at 0.50 and 51 % at 0.28, about 0.15 / ratio: from 3 periods on,
+#: lumping costs under about 5 %
 LUMPED_MARGIN = 3.0
 
 #: Cells per quarter wave of the signal a finite-volume line needs to carry it [-]
@@ -360,6 +359,7 @@ class _Line:
     def sparsity(self):
         """Jacobian sparsity: a cell's fluxes see two cells each side; the boundary cells,
         the volume and the counters are coupled densely (a few rows)."""
+        from scipy.sparse import csr_matrix        # here: importing the module stays light
         N, k, n = self.N, self.k, self.n
         S = np.zeros((n, n), dtype=np.int8)
         idx = np.arange(N)
@@ -433,6 +433,7 @@ def simulate_line(diameter, length, p_in, t_end, n_cells=50, T0=T_REF, end="clos
     >>> float(abs(res.p_end[-1] - 3e5) / 3e5) < 1e-9
     True
     """
+    from scipy.integrate import solve_ivp   # here: simulate imports this module for line_regime
     if thermo not in _THERMO:
         raise ValueError(f"thermo: one of {_THERMO}, not {thermo!r}")
     if end not in ("closed", "volume", "outlet"):
