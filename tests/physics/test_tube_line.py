@@ -32,8 +32,17 @@ def _crossing(t, y, level):
 
 
 def _mass_drift(res):
+    """Largest change of (mass in line and volume - mass in + mass out), over the larger of
+    the initial mass and the mass that came in [-]."""
     total = res.m_line + res.m_volume - res.m_in + res.m_out
-    return float(np.max(np.abs(total - total[0])) / total[0])
+    return float(np.max(np.abs(total - total[0])) / max(total[0], res.m_in[-1]))
+
+
+#: Mass balance under BDF [-]: its Newton iterations stop at a tolerance, with a finite-
+#: difference Jacobian, so the balance holds to that, not to round-off (measured 7e-16 and
+#: 1.5e-12 in the tests below); 1e-9 is still far below a flux that one face lost or counted
+#: twice, which would show at the size of the flow through the line (1e-3 to 1 of the mass)
+BDF_BALANCE = 1e-9
 
 
 @pytest.fixture(scope="module")
@@ -93,7 +102,7 @@ def test_a_volume_charged_through_a_long_thin_tube_follows_hagen_poiseuille():
     # first mode by about V_line / (3 V) = 1.3 % (3.9 cm^3 against 100 cm^3), and the grid
     # moves the fitted tau by 0.9 %. Measured: +0.80 %, +1.69 %, +1.49 % at 10, 20, 40 cells
     assert -1.0 / slope == pytest.approx(tau, rel=0.03)
-    assert _mass_drift(res) < 1e-12                   # as above (BDF keeps linear invariants)
+    assert _mass_drift(res) < BDF_BALANCE
 
 
 # -- the lumped line against the finite-volume line -----------------------------------
@@ -114,7 +123,7 @@ def test_steady_choked_flow_of_the_lumped_line_is_the_finite_volume_lines():
         # tolerance of steady state)
         assert res.q_out[-1] == pytest.approx(res.q_in[-1], rel=1e-3)
         errs.append(res.q_in[-1] / q_lumped - 1.0)
-        assert _mass_drift(res) < 1e-12
+        assert _mass_drift(res) < BDF_BALANCE
     # 3 %: the Fanno profile's gradient is infinite at the sonic exit, where the limiter
     # drops the scheme to first order; the finite-volume flow converges to the lumped one
     # from above at about first order: measured +2.9 % at 25 cells, +1.7 % at 50
