@@ -41,8 +41,8 @@ Boundaries: the inlet face meets a reservoir at a stagnation pressure history ``
 and temperature ``T0`` (inflow: isentropic, or isothermal, expansion to the first cell's
 velocity; outflow: the reservoir's pressure); the far face is a closed end (a wall), a
 closed volume ``V`` [m^3] (the face's mass and energy fluxes enter it; its momentum is
-taken by its walls), or an outlet at a given static pressure (extrapolated when the last
-cell is sonic). Cumulative inlet and outlet masses are integrated alongside, so the mass
+taken by its walls), or an outlet at a given static pressure (the ghost state keeps the last
+cell's outgoing Riemann invariant and entropy; it is the sonic state when the line chokes). Cumulative inlet and outlet masses are integrated alongside, so the mass
 balance can be checked to round-off.
 
 The line's transport delay and wave behaviour follow the pipeline models of Krus,
@@ -285,15 +285,29 @@ class _Line:
         if self.end == "volume":
             rho_v, p_v = self.volume_state(y)
             return rho_v, uN, p_v
-        # given outlet pressure: subsonic outflow takes it, sonic outflow is extrapolated
-        cN = np.sqrt((self.gamma if self.adiabatic else 1.0) * pN / rhoN)   # NaN on a bad trial
-        if uN >= cN:
-            return rhoN, uN, pN
-        if self.adiabatic:
-            T = pN / (rhoN * self.r) if uN >= 0.0 else self.T0
-        else:
+        # given outlet pressure, by the outgoing characteristic (Hirsch, Numerical Computation
+        # of Internal and External Flows, vol. 2, 1990, ch. 19): the ghost keeps the last
+        # cell's Riemann invariant J+ and entropy and takes p_out, unless p_out is below the
+        # pressure at which that state is sonic: then the ghost is the sonic state (choked)
+        g = self.gamma if self.adiabatic else 1.0
+        cN = np.sqrt(g * pN / rhoN)                  # NaN on a bad trial step
+        if not uN > 0.0:                             # inflow from the outlet: its own gas
             T = self.T0
-        return self.p_out / (self.r * T), uN, self.p_out
+            return self.p_out / (self.r * T), uN, self.p_out
+        if self.adiabatic:
+            k = self.gamma - 1.0
+            J = uN + 2.0 * cN / k
+            c_star = k * J / (self.gamma + 1.0)
+            p_star = pN * (c_star / cN) ** (2.0 * self.gamma / k)
+            p = max(self.p_out, p_star)
+            rho = rhoN * (p / pN) ** (1.0 / self.gamma)
+            u = J - 2.0 * np.sqrt(self.gamma * p / rho) / k
+        else:
+            J = uN + cN * np.log(rhoN)
+            rho = max(self.p_out / (self.r * self.T0), np.exp((J - cN) / cN))
+            u = J - cN * np.log(rho)
+            p = rho * self.r * self.T0
+        return rho, u, p
 
     # right-hand side ---------------------------------------------------------------------
     def rhs(self, t, y):

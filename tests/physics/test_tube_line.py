@@ -124,11 +124,14 @@ def test_steady_choked_flow_of_the_lumped_line_is_the_finite_volume_lines():
         assert res.q_out[-1] == pytest.approx(res.q_in[-1], rel=1e-3)
         errs.append(res.q_in[-1] / q_lumped - 1.0)
         assert _mass_drift(res) < BDF_BALANCE
-    # 3 %: the Fanno profile's gradient is infinite at the sonic exit, where the limiter
-    # drops the scheme to first order; the finite-volume flow converges to the lumped one
-    # from above at about first order: measured +2.9 % at 25 cells, +1.7 % at 50
-    assert abs(errs[1]) < 0.03
-    assert abs(errs[1]) < abs(errs[0])
+    # the Fanno profile's gradient is infinite at the sonic exit, where the limiter drops the
+    # scheme to first order: the finite-volume flow converges to the lumped one from above,
+    # errors halving with the cells (measured +2.05 %, +1.11 %, +0.62 % at 25, 50, 100).
+    # 2 % at 50 cells: the measured 1.1 % and room for another machine's integrator path
+    assert 0.0 < errs[1] < 0.02 and errs[1] < errs[0]
+    # Richardson's limit for a first-order scheme, 2 e(50) - e(25): measured 0.17 %; 0.5 %
+    # holds for an observed order between 0.9 and 1.1 (the limit then spans -0.03..0.28 %)
+    assert abs(2.0 * errs[1] - errs[0]) < 0.005
 
 
 def _lumped_fill(V, t_end):
