@@ -328,7 +328,10 @@ class SimulateResponse(BaseModel):
     series: dict[str, list[Any]] = Field(..., description="Sampled series by name (SI units, see units)")
     units: dict[str, str] = Field(..., description="Unit of each series")
     events: list[dict[str, Any]] = Field(..., description="Events: t [s], kind (command/slip/stick/stop/reverse), mode; a stop also v, the piston velocity at the impact [m/s]")
-    stats: dict[str, Any] = Field(..., description="Solver statistics")
+    stats: dict[str, Any] = Field(..., description="Solver statistics; `stroke` the stroke metrics; "
+                                  "`warnings` (list of text, only when there are any) where a "
+                                  "part of the model is not adequate for the command, e.g. a "
+                                  "tube long against its changes (delay in ms)")
     status: int = Field(..., description="0 = ok")
     message: str = Field(..., description="Solver status message")
 

@@ -9,7 +9,7 @@ import numpy as np
 from numba import njit
 
 from pneucore.core import layout as L
-from pneucore.spec.effects import EFFECTS, CoreBuild, effective_model
+from pneucore.spec.effects import EFFECTS, CoreBuild, effect_warnings, effective_model
 from pneucore.physics.flow import FLOW_LAWS
 from pneucore.physics.friction import FRICTION_LAWS
 from pneucore.physics.gas import density
@@ -210,6 +210,43 @@ def _command_at_zero(scenario):
     return u
 
 
+def command_time_scale(scenario):
+    """The shortest interval over which the command changes: between successive changes of a
+    held command (a pulse's width), over a linear ramp, or from the last change to the end.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario
+
+    Returns
+    -------
+    time_scale : float or None
+        Shortest interval [s]; None when the command never changes
+
+    Examples
+    --------
+    A 30 ms pulse at 0.1 s in a 1 s run:
+
+    >>> from pneucore.spec.scenario import Scenario
+    >>> command_time_scale(Scenario.from_dict({"command": [[0, 0], [0.1, 1], [0.13, 0]]}))
+    0.03
+    """
+    cmd = np.asarray(scenario.command, float)
+    t, u = cmd[:, 0], cmd[:, 1]
+    moved = np.flatnonzero(np.diff(u) != 0.0) + 1          # breakpoints where u changes
+    if moved.size == 0:
+        return None
+    if scenario.command_interpolation == "linear":
+        spans = t[moved] - t[moved - 1]                     # the ramps
+        ends = np.append(t[moved], scenario.duration)
+        spans = np.concatenate([spans[spans > 0.0], np.diff(ends)])
+    else:
+        spans = np.diff(np.append(t[moved], scenario.duration))
+    spans = spans[spans > 0.0]
+    return float(round(spans.min(), 12)) if spans.size else None
+
+
 def simulate(model, scenario, raise_on_error=True, t_out=None):
     """Simulate the actuator.
 
@@ -297,6 +334,10 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
     res = SimulationResult.from_core(model, scenario, core, t_out, y_out, aux_out, mode_out, u_out,
                                      ev_t[:n_ev], ev_kind[:n_ev], ev_mode[:n_ev], stats,
                                      status, t_reached)
+    time_scale = command_time_scale(scenario)
+    warnings = [] if time_scale is None else effect_warnings(model, time_scale)
+    if warnings:
+        res.stats["warnings"] = warnings
     if status != OK and raise_on_error:
         raise SimulationError(f"simulation stopped at t = {t_reached:.6g} s: {STATUS_MESSAGES[status]}",
                               res)

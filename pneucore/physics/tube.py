@@ -7,7 +7,7 @@ line neglects the transport delay ``L / c`` (6 ms for 2 m of line at
 c = 343 m/s) against the stroke times of a second or less that the model
 resolves, and the pressure waves a distributed line carries; beyond a few
 metres, or for signals faster than ``c / (4 L)``, a line of finite volumes is the
-model to use.
+model to use (:mod:`pneucore.physics.line`, whose ``line_regime`` says which).
 
 The characteristic is that of adiabatic flow with wall friction from a reservoir
 through the tube (Fanno flow; Shapiro, *The Dynamics and Thermodynamics of

@@ -36,6 +36,7 @@ import functools
 from pneucore.core import layout as L
 from pneucore.physics.heat import HEAT_PARAMETERS, add_wall
 from pneucore.physics.sensors import PRESSURE_SENSOR
+from pneucore.physics.line import LUMPED_MARGIN, line_regime
 from pneucore.physics.series import combine_table
 from pneucore.physics.tube import line_volume, tube_characteristic
 from pneucore.spec.validation import FieldError, mapping, number, optional_mapping
@@ -106,6 +107,9 @@ class Effect:
     #: not drive); a candidate built for it holds them off and the diagnosis does not fit them,
     #: so it never proposes a model ``check`` refuses
     unused: Optional[Callable] = None
+    #: ``warn(params, model, time_scale) -> [message, ...]``: where the effect's model is not
+    #: adequate for a command that changes on ``time_scale`` [s] (:func:`effect_warnings`)
+    warn: Optional[Callable] = None
 
     def unused_in(self, model):
         """Parameters ``model`` has no place for (held at their ``off`` value)."""
@@ -539,6 +543,44 @@ def _check_cushion(p, model, path):
             raise FieldError(f"{path}.length_{sfx}",
                              f"the {model.valve.kind} valve has no port {port}: set length_{sfx} "
                              f"to 0 (no cushion) [m]")
+def _tubing_warn(p, model, time_scale):
+    # the lumped line against the command's time scale (physics.line.line_regime)
+    out = []
+    for sfx, (port, _, _) in _FLOW_CONTROL_PORTS.items():
+        if p[f"length_{sfx}"] > 0.0:
+            r = line_regime(p[f"diameter_{sfx}"], p[f"length_{sfx}"], time_scale,
+                            model.supply.temperature)
+            if not r["lumped"]:
+                out.append(f"tubing on port {port} ({p[f'length_{sfx}']:g} m): transport delay "
+                           f"{r['delay'] * 1e3:.3g} ms, quarter-wave period "
+                           f"{r['quarter_wave_period'] * 1e3:.3g} ms, against command changes "
+                           f"{time_scale * 1e3:.3g} ms apart; the lumped line (no delay) is "
+                           f"adequate from {LUMPED_MARGIN:g} quarter-wave periods on, a "
+                           f"finite-volume line of {r['cells']} cells would resolve it")
+    return out
+
+
+def effect_warnings(model, time_scale):
+    """Messages of the model's effects whose model is not adequate for the command.
+
+    Parameters
+    ----------
+    model : Model
+        The actuator with its effects
+    time_scale : float
+        Shortest interval between command changes [s]
+
+    Returns
+    -------
+    messages : list of str
+        One message per inadequate effect and port (empty when all are adequate)
+    """
+    out = []
+    for name, params in model.effects.items():
+        eff = EFFECTS[name]
+        if eff.warn is not None:
+            out.extend(eff.warn(params, model, time_scale))
+    return out
 
 
 def _flow_control_parameters(what):
@@ -723,7 +765,8 @@ for _e in [
     Effect("tubing",
            "the line between valve and chamber on each port, lumped: its volume pi d^2 L / 4 "
            "joins the dead volume, its resistance (Fanno flow with wall friction) is in series "
-           "with the port's valve edges (ISO 6358-3); no transport delay",
+           "with the port's valve edges (ISO 6358-3); no transport delay (a simulation warns "
+           "where the line is long against the command's changes: physics.line)",
            "both filling and exhausting slower than the model, most at the small-volume end of "
            "stroke, and a flow limit the valve alone does not have: a dead volume fits the "
            "pressure rise, not the flow",
@@ -734,7 +777,7 @@ for _e in [
             Parameter("diameter_b", "m", 4e-3, 5e-4, 0.05, None, "inner diameter on port B")],
            strength="length_a", transform=_tubing_transform, series=_tubing_series,
            check=_check_line_ports, unused=_missing_ports("length"), fit_params=("length_a", "length_b"),
-           probe={"length_a": 1.0, "length_b": 1.0}),
+           probe={"length_a": 1.0, "length_b": 1.0}, warn=_tubing_warn),
     Effect("exhaust_silencer",
            "a silencer on the valve's exhaust ports: an ISO 6358 restriction in series with "
            "each exhaust edge, with no volume between (ISO 6358-3)",
