@@ -139,3 +139,29 @@ class FrictionIdentifyResponse(_Open):
     quadrant: bool = Field(..., description="One friction set per direction [-]")
     report: str = Field(..., description="Plain-text report [-]")
     validation: list[FrictionValidation] = Field(..., description="One entry per validate record, in order: predicted rod force and its errors [N]")
+
+
+class BenchFileOut(_Open):
+    name: str = Field(..., description="The record's label: the file name without its extension [-]")
+    samples: int = Field(..., description="Samples read [-]")
+    duration: float = Field(..., description="Last minus first sample time [s]")
+    p_a_median: float = Field(..., description="Median chamber A absolute pressure [Pa]")
+    p_b_median: float = Field(..., description="Median chamber B absolute pressure (the ambient when the file has no p_b) [Pa]")
+    stroke: float = Field(..., description="Range of the position [m]")
+
+
+class FrictionRecordOut(_Open):
+    name: str = Field(..., description="Label [-]")
+    t: list[float] = Field(..., description="Sample times [s]")
+    x: list[float] = Field(..., description="Piston position, extension positive [m]")
+    p_a: list[float] = Field(..., description="Chamber A absolute pressure [Pa]")
+    p_b: list[float] = Field(..., description="Chamber B absolute pressure [Pa]")
+    F: list[float] = Field(..., description="Rod force on its load, positive outward [N]")
+
+
+class FrictionRecordsResponse(_Open):
+    records: list[FrictionRecordOut] = Field(..., description="One record per file, in order, in SI units: POST /api/identify/friction takes them as they are (experiments or validate) [-]")
+    files: list[BenchFileOut] = Field(..., description="What was read from each file [-]")
+    columns: list[Optional[str]] = Field(..., description="The layout read: one label per column (signal[unit], a leading - negates; null: not read) [-]")
+    ambient_pressure: float = Field(..., description="Ambient pressure added to gauge readings, and chamber B's when not measured [Pa]")
+    warnings: list[str] = Field(..., description="What was assumed: chamber B at ambient when the files have no p_b, the default layout [-]")

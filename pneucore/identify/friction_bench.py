@@ -339,6 +339,9 @@ def read_bench_file(source, p_atm=P_ATM, name=None, columns=RIG_COLUMNS, *, fiel
     """
     import io
     import os
+    if not (isinstance(p_atm, (int, float)) and 0.0 < p_atm <= LIMITS["p_b"]):
+        raise FieldError("ambient_pressure", f"must be an absolute pressure in (0, {LIMITS['p_b']:g}] "
+                                             f"[Pa], got {p_atm!r}")
     layout = bench_columns(columns, p_atm)
     rows, numbers = _bench_rows(source, field, max_rows)
     ncol = len(columns)
@@ -352,13 +355,13 @@ def read_bench_file(source, p_atm=P_ATM, name=None, columns=RIG_COLUMNS, *, fiel
         for line, row in zip(numbers, rows):   # name the first bad line
             cells = row.split()
             if len(cells) != ncol:
-                raise FieldError(f"{field} line {line}", f"{len(cells)} values, the layout has {ncol} "
+                raise FieldError(f"{field}.line[{line}]", f"{len(cells)} values, the layout has {ncol} "
                                                          f"columns ({', '.join(str(c) for c in columns)})")
             for j, c in enumerate(cells):
                 try:
                     float(c)
                 except ValueError:
-                    raise FieldError(f"{field} line {line}", f"column {j + 1}: {c[:40]!r} is not a "
+                    raise FieldError(f"{field}.line[{line}]", f"column {j + 1}: {c[:40]!r} is not a "
                                                              f"number") from None
         raise FieldError(field, "could not be read as a table of numbers")
     cols = {}
@@ -367,26 +370,26 @@ def read_bench_file(source, p_atm=P_ATM, name=None, columns=RIG_COLUMNS, *, fiel
         bad = ~np.isfinite(raw)
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
-            raise FieldError(f"{field} line {numbers[k]}", f"column {j + 1} ({signal}): {raw[k]} is "
+            raise FieldError(f"{field}.line[{numbers[k]}]", f"column {j + 1} ({signal}): {raw[k]} is "
                                                            f"not a finite number")
         vals = conv(-raw if sign < 0 else raw)
         big = np.abs(vals) > LIMITS[signal]
         if big.any():
             k = int(np.flatnonzero(big)[0])
-            raise FieldError(f"{field} line {numbers[k]}", f"column {j + 1} ({signal}): {vals[k]:g} "
+            raise FieldError(f"{field}.line[{numbers[k]}]", f"column {j + 1} ({signal}): {vals[k]:g} "
                                                            f"beyond +-{LIMITS[signal]:g} in SI units "
                                                            f"(check the column's unit)")
         cols[signal] = vals
     dt = np.diff(cols["t"])
     if (dt <= 0).any():
         k = int(np.flatnonzero(dt <= 0)[0]) + 1
-        raise FieldError(f"{field} line {numbers[k]}", "sample times must increase [s]")
+        raise FieldError(f"{field}.line[{numbers[k]}]", "sample times must increase [s]")
     if "p_b" not in cols:
         cols["p_b"] = np.full_like(cols["t"], p_atm)
     for key in ("p_a", "p_b"):
         if (cols[key] <= 0).any():
             k = int(np.flatnonzero(cols[key] <= 0)[0])
-            raise FieldError(f"{field} line {numbers[k]}", f"{key}: absolute pressures must be > 0 "
+            raise FieldError(f"{field}.line[{numbers[k]}]", f"{key}: absolute pressures must be > 0 "
                                                            f"[Pa] (a gauge reading below -1 atm)")
     if name is None:
         name = "" if isinstance(source, (bytes, bytearray, memoryview)) else os.path.basename(str(source))
