@@ -10,7 +10,7 @@ from typing import Any, Literal, Optional, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from pneucore.identify.friction_bench import EXTRAS, WINDOW
+from pneucore.identify.friction_bench import EXTRAS, RIG_COLUMNS, WINDOW
 
 from .schemas import ModelIn, Name
 
@@ -165,3 +165,25 @@ class FrictionRecordsResponse(_Open):
     columns: list[Optional[str]] = Field(..., description="The layout read: one label per column (signal[unit], a leading - negates; null: not read) [-]")
     ambient_pressure: float = Field(..., description="Ambient pressure added to gauge readings, and chamber B's when not measured [Pa]")
     warnings: list[str] = Field(..., description="What was assumed: chamber B at ambient when the files have no p_b, the default layout [-]")
+
+
+_RIG = ", ".join("-" if c is None else c for c in RIG_COLUMNS)
+_COLUMNS_DOC = (f"The files' columns in order, comma-separated or a JSON list: signal[unit] with the "
+                f"importer's units (t[s|ms], x[m|mm], p_a, p_b[Pa|kPa|bar|bar(g)...], F[N|kN|daN|lbf]), "
+                f"a leading - to negate x or F, - for a column not read; t, x, p_a and F are needed, "
+                f"without p_b chamber B is at ambient. Default: the TU Delft friction bench's "
+                f"({_RIG}). Form field or query parameter")
+#: The upload's form in the OpenAPI document (POST /api/identify/friction/records reads its body itself)
+RECORDS_UPLOAD_DOC = {
+    "requestBody": {"content": {
+        "multipart/form-data": {"schema": {"type": "object", "required": ["file"], "properties": {
+            "file": {"type": "array", "items": {"type": "string", "format": "binary"},
+                     "description": f"One to {MAX_FRICTION_RECORDS} bench files as the rig writes them: "
+                                    f"no header, one sample a line (at most {MAX_RECORD_SAMPLES}), "
+                                    "values separated by blanks, tabs, commas or semicolons"},
+            "columns": {"type": "string", "description": _COLUMNS_DOC},
+            "ambient_pressure": {"type": "number", "description": "Ambient pressure, added to gauge "
+                                 "readings and chamber B's when not measured [Pa]"}}}},
+        "text/plain": {"schema": {"type": "string", "description": "One bench file as the body "
+                                                                   "(columns, ambient_pressure, filename "
+                                                                   "in the query)"}}}}}

@@ -3,18 +3,14 @@ benches (paper section 2), and the same as jobs (POST /api/jobs/identify/...).""
 from fastapi import APIRouter, HTTPException, Request
 from starlette.concurrency import run_in_threadpool
 
-from pneucore.identify.friction_bench import RIG_COLUMNS
-from pneucore.spec.validation import FieldError
-
 from ..bodies import RAW_FILE_TYPES, OffLoopRoute, read_multipart
 from ..deps import JobsDep, LimitsDep, StoreDep
 from ..responses import JSON
 from ..schemas import JobResponse
-from ..schemas_identify import (MAX_FRICTION_RECORDS, MAX_RECORD_SAMPLES, FrictionIdentifyRequest,
-                                FrictionIdentifyResponse, FrictionRecordsResponse, ValveIdentifyRequest,
-                                ValveIdentifyResponse)
-from ..services import (check_identify_friction, check_identify_valve, read_friction_files, run_identify_friction,
-                        run_identify_valve)
+from ..schemas_identify import (RECORDS_UPLOAD_DOC, FrictionIdentifyRequest, FrictionIdentifyResponse,
+                                FrictionRecordsResponse, ValveIdentifyRequest, ValveIdentifyResponse)
+from ..services import (FieldError, check_identify_friction, check_identify_valve, read_friction_files,
+                        run_identify_friction, run_identify_valve)
 
 # long records are large bodies: parsed off the event loop (app.bodies.OffLoopRoute)
 router = APIRouter(prefix="/api/identify", tags=["identify"], route_class=OffLoopRoute)
@@ -35,29 +31,8 @@ def identify_friction(req: FrictionIdentifyRequest, store: StoreDep):
     return JSON(run_identify_friction(req, store=store))
 
 
-_RIG = ", ".join("-" if c is None else c for c in RIG_COLUMNS)
-_COLUMNS_DOC = (f"The files' columns in order, comma-separated or a JSON list: signal[unit] with the "
-                f"importer's units (t[s|ms], x[m|mm], p_a, p_b[Pa|kPa|bar|bar(g)...], F[N|kN|daN|lbf]), "
-                f"a leading - to negate x or F, - for a column not read; t, x, p_a and F are needed, "
-                f"without p_b chamber B is at ambient. Default: the TU Delft friction bench's "
-                f"({_RIG}). Form field or query parameter")
-_RECORDS_DOC = {
-    "requestBody": {"content": {
-        "multipart/form-data": {"schema": {"type": "object", "required": ["file"], "properties": {
-            "file": {"type": "array", "items": {"type": "string", "format": "binary"},
-                     "description": f"One to {MAX_FRICTION_RECORDS} bench files as the rig writes them: "
-                                    f"no header, one sample a line (at most {MAX_RECORD_SAMPLES}), "
-                                    "values separated by blanks, tabs, commas or semicolons"},
-            "columns": {"type": "string", "description": _COLUMNS_DOC},
-            "ambient_pressure": {"type": "number", "description": "Ambient pressure, added to gauge "
-                                 "readings and chamber B's when not measured [Pa]"}}}},
-        "text/plain": {"schema": {"type": "string", "description": "One bench file as the body "
-                                                                   "(columns, ambient_pressure, filename "
-                                                                   "in the query)"}}}}}
-
-
 @router.post("/friction/records", response_class=JSON, response_model=FrictionRecordsResponse,
-             openapi_extra=_RECORDS_DOC,
+             openapi_extra=RECORDS_UPLOAD_DOC,
              summary="Friction-bench files as the rig writes them (no header, declared columns and "
                      "units) read into records that POST /api/identify/friction takes")
 async def friction_records(request: Request, limits: LimitsDep):
