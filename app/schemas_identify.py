@@ -10,7 +10,7 @@ from typing import Any, Literal, Optional, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from pneucore.identify.friction_bench import EXTRAS, WINDOW
+from pneucore.identify.friction_bench import EXTRAS, RIG_COLUMNS, WINDOW
 
 from .schemas import ModelIn, Name
 
@@ -139,3 +139,51 @@ class FrictionIdentifyResponse(_Open):
     quadrant: bool = Field(..., description="One friction set per direction [-]")
     report: str = Field(..., description="Plain-text report [-]")
     validation: list[FrictionValidation] = Field(..., description="One entry per validate record, in order: predicted rod force and its errors [N]")
+
+
+class BenchFileOut(_Open):
+    name: str = Field(..., description="The record's label: the file name without its extension [-]")
+    samples: int = Field(..., description="Samples read [-]")
+    duration: float = Field(..., description="Last minus first sample time [s]")
+    p_a_median: float = Field(..., description="Median chamber A absolute pressure [Pa]")
+    p_b_median: float = Field(..., description="Median chamber B absolute pressure (the ambient when the file has no p_b) [Pa]")
+    stroke: float = Field(..., description="Range of the position [m]")
+
+
+class FrictionRecordOut(_Open):
+    name: str = Field(..., description="Label [-]")
+    t: list[float] = Field(..., description="Sample times [s]")
+    x: list[float] = Field(..., description="Piston position, extension positive [m]")
+    p_a: list[float] = Field(..., description="Chamber A absolute pressure [Pa]")
+    p_b: list[float] = Field(..., description="Chamber B absolute pressure [Pa]")
+    F: list[float] = Field(..., description="Rod force on its load, positive outward [N]")
+
+
+class FrictionRecordsResponse(_Open):
+    records: list[FrictionRecordOut] = Field(..., description="One record per file, in order, in SI units: POST /api/identify/friction takes them as they are (experiments or validate) [-]")
+    files: list[BenchFileOut] = Field(..., description="What was read from each file [-]")
+    columns: list[Optional[str]] = Field(..., description="The layout read: one label per column (signal[unit], a leading - negates; null: not read) [-]")
+    ambient_pressure: float = Field(..., description="Ambient pressure added to gauge readings, and chamber B's when not measured [Pa]")
+    warnings: list[str] = Field(..., description="What was assumed: chamber B at ambient when the files have no p_b, the default layout [-]")
+
+
+_RIG = ", ".join("-" if c is None else c for c in RIG_COLUMNS)
+_COLUMNS_DOC = (f"The files' columns in order, comma-separated or a JSON list: signal[unit] with the "
+                f"importer's units (t[s|ms], x[m|mm], p_a, p_b[Pa|kPa|bar|bar(g)...], F[N|kN|daN|lbf]), "
+                f"a leading - to negate x or F, - for a column not read; t, x, p_a and F are needed, "
+                f"without p_b chamber B is at ambient. Default: the TU Delft friction bench's "
+                f"({_RIG}). Form field or query parameter")
+#: The upload's form in the OpenAPI document (POST /api/identify/friction/records reads its body itself)
+RECORDS_UPLOAD_DOC = {
+    "requestBody": {"content": {
+        "multipart/form-data": {"schema": {"type": "object", "required": ["file"], "properties": {
+            "file": {"type": "array", "items": {"type": "string", "format": "binary"},
+                     "description": f"One to {MAX_FRICTION_RECORDS} bench files as the rig writes them: "
+                                    f"no header, one sample a line (at most {MAX_RECORD_SAMPLES}), "
+                                    "values separated by blanks, tabs, commas or semicolons"},
+            "columns": {"type": "string", "description": _COLUMNS_DOC},
+            "ambient_pressure": {"type": "number", "description": "Ambient pressure, added to gauge "
+                                 "readings and chamber B's when not measured [Pa]"}}}},
+        "text/plain": {"schema": {"type": "string", "description": "One bench file as the body "
+                                                                   "(columns, ambient_pressure, filename "
+                                                                   "in the query)"}}}}}

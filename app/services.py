@@ -1141,6 +1141,75 @@ def run_identify_friction(req, progress=None, checked=None, store=None):
     return out
 
 
+def read_friction_files(files, fields, limits):
+    """POST /api/identify/friction/records: friction-bench files as the rig writes them (no
+    header; the layout declared in ``columns``, the TU Delft rig's by default) read by
+    :func:`pneucore.identify.read_bench_file`, the reader the CLI uses, into records that POST
+    /api/identify/friction takes as they are.
+
+    Parameters
+    ----------
+    files : list of tuple
+        ``(filename, bytes)`` of each uploaded file [-]
+    fields : dict
+        The form's (or query's) other fields: ``columns`` (labels in file order, comma-separated
+        or a JSON list), ``ambient_pressure`` [Pa]
+    limits : Limits
+        The documented limits (file count, rows, the memory budget of a file)
+    """
+    from pneucore.identify.friction_bench import RIG_COLUMNS, bench_columns, read_bench_file
+
+    from .schemas_identify import MAX_FRICTION_RECORDS, MAX_RECORD_SAMPLES
+
+    if not files:
+        raise FieldError("file", "at least one bench file is required (multipart field 'file', once "
+                                 "per file)")
+    if len(files) > MAX_FRICTION_RECORDS:
+        raise FieldError("file", f"{len(files)} files, at most {MAX_FRICTION_RECORDS} a request")
+    p_atm = _ambient(fields)
+    raw = fields.get("columns")
+    if raw in (None, ""):
+        columns, declared = list(RIG_COLUMNS), False
+    else:
+        if len(raw.encode()) > limits.max_form_field_bytes:
+            raise FieldError("columns", f"longer than {limits.max_form_field_bytes} bytes")
+        text = raw.strip()
+        if text.startswith("["):
+            try:
+                columns = json.loads(text)
+            except ValueError as exc:
+                raise FieldError("columns", f"is not a JSON list: {exc}") from None
+        else:
+            columns = [c.strip() for c in text.split(",")]
+        declared = True
+    layout = bench_columns(columns, p_atm)
+    records, summary = [], []
+    for i, (filename, data) in enumerate(files):
+        check_file(data, "bench.csv", limits.max_request_memory)   # 422 before any is decoded
+        name = "".join(ch for ch in str(filename or f"file {i + 1}") if ch.isprintable())
+        name = name.rsplit(".", 1)[0][:limits.max_name_length] or f"file {i + 1}"
+        rec = read_bench_file(data, p_atm, name, columns, field=f"file[{i}]",
+                              max_rows=MAX_RECORD_SAMPLES)
+        records.append(rec.to_dict())
+        summary.append({"name": name, "samples": int(rec.t.size), "duration": float(rec.t[-1] - rec.t[0]),
+                        "p_a_median": float(np.median(rec.p_a)), "p_b_median": float(np.median(rec.p_b)),
+                        "stroke": float(np.ptp(rec.x))})
+    signals = {sig for _, sig, _, _ in layout}
+    warnings = []
+    if "p_b" not in signals:
+        warnings.append(f"the files have no p_b column: chamber B is taken at ambient, p_b = "
+                        f"{p_atm:g} Pa abs in every record; its pressure coefficients (fc_b, kv_b) "
+                        f"cannot be identified from these records and keep the model's values")
+    if not declared:
+        warnings.append("read with the TU Delft friction bench's layout (no columns given): "
+                        + ", ".join("-" if c is None else c for c in RIG_COLUMNS)
+                        + "; x = -position (the position grows as the piston moves into the "
+                          "pressurised chamber A)")
+    return {"records": records, "files": summary, "columns": [None if c in (None, "", "-", "_") else c
+                                                              for c in columns],
+            "ambient_pressure": p_atm, "warnings": warnings}
+
+
 def convert_valve(req):
     """POST /api/valve/convert: catalogue valve data to C and b (a bad field: 422 naming it)."""
     return convert_valve_data(req.model_dump(exclude_unset=True), path="body")

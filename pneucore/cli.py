@@ -97,6 +97,9 @@ def main(argv=None):
     ifr.add_argument("--fit", nargs="+", required=True, help="records to fit on")
     ifr.add_argument("--validate", nargs="*", default=[], help="records to predict")
     ifr.add_argument("--extras", nargs="*", default=[], help="also identify: offset, area_a, area_b, mass")
+    ifr.add_argument("--columns", default=None,
+                     help="a headerless file's columns in order, e.g. 't[s],x[mm],p_a[bar(g)],F[N]' "
+                          "(- for a column not read, -x negates); default: the TU Delft friction bench's")
     ifr.add_argument("--json", help="write the result (with the model) to this JSON file")
     sz = sub.add_parser("size", help="size a drive from a requirement JSON file "
                                      "({\"requirement\": {...}, \"choices\": {...}})")
@@ -174,13 +177,14 @@ def _bench_points(path):
     return [{k: (None if v in ("", None) else float(v)) for k, v in row.items()} for row in rows]
 
 
-def _bench_record(path):
-    """A friction-bench record: JSON ``{t, x, p_a, p_b, F}`` or the TU Delft bench's file."""
-    from pneucore.identify.friction_bench import FrictionRecord, read_bench_file
+def _bench_record(path, columns=None):
+    """A friction-bench record: JSON ``{t, x, p_a, p_b, F}`` or a headerless file as the rig
+    writes it (``columns``: its layout, comma-separated; None = the TU Delft bench's)."""
+    from pneucore.identify.friction_bench import RIG_COLUMNS, FrictionRecord, read_bench_file
     if str(path).endswith(".json"):
         with open(path) as fh:
             return FrictionRecord.from_dict(json.load(fh), str(path))
-    return read_bench_file(path)
+    return read_bench_file(path, columns=columns or RIG_COLUMNS, field=str(path))
 
 
 def _identify(args):
@@ -200,12 +204,12 @@ def _identify(args):
             out["model"] = res.write_into(model).to_dict()
     else:
         model = Model.from_dict(load_model(args.model))
-        res = identify_friction(model, [_bench_record(p) for p in args.fit], extras=args.extras)
+        res = identify_friction(model, [_bench_record(p, args.columns) for p in args.fit], extras=args.extras)
         print(res.report())
         out = res.to_dict()
         out["validation"] = []
         for path in args.validate:
-            pred = predict_rod_force(res.model, _bench_record(path), v_min=res.v_min)
+            pred = predict_rod_force(res.model, _bench_record(path, args.columns), v_min=res.v_min)
             print(f"validation {pred['name']}: rms {pred['rms']:.3g} N, mean {pred['mean']:+.3g} N; "
                   f"extend {pred['extend']['mean']:+.3g} / {pred['extend']['rms']:.3g} N, "
                   f"retract {pred['retract']['mean']:+.3g} / {pred['retract']['rms']:.3g} N")

@@ -8,7 +8,9 @@
  * 2. friction bench (section 2.3, Fig. 4): stored records with the rod force F -> POST
  *    /api/identify/friction -> the law with standard errors, the friction map (force against
  *    velocity, both quadrants, one colour per pressure level) and the prediction of records not
- *    fitted on;
+ *    fitted on; or the rig's own files as they come (no header, the columns declared, the TU Delft
+ *    bench's layout by default) read by POST /api/identify/friction/records into records sent
+ *    inline (chamber B at ambient when the files have no p_b: the answer's warnings say so);
  * 3. locked-chamber tests (Figs. 6-7) and 4. free motion (Figs. 9-10): the model, with the bench
  *    values in it, compared on its own tests (panel 4 shows the plots).
  * "Carry into the model" puts the answer's model in the model panel: its provenance marks the
@@ -18,7 +20,7 @@
  */
 'use strict';
 
-const IDF = { valve: null, friction: null, extras: [] };
+const IDF = { valve: null, friction: null, extras: [], rig: [] };
 
 /** Bench file columns, SI units (the CLI's `pneucore identify valve` reads the same CSV). */
 const BENCH_COLUMNS = { opening: '-', p_up: 'Pa', p_down: 'Pa', T_up: 'K', flow: 'kg/s' };
@@ -92,6 +94,12 @@ function buildIdentifyPanel() {
     h('div', { class: 'row' }, fieldBox('Records to store and fit on: CSV, TDMS, .mat, .npz with named columns (t, x, p_a, p_b, F) [-]',
       h('input', { id: 'id-fric-files', type: 'file', multiple: '', accept: '.csv,.txt,.tsv,.dat,.tdms,.mat,.npz' }), 'identify.friction.files'),
     h('button', { id: 'btn-id-fric-upload', type: 'button', text: 'Store the records' })),
+    h('div', { class: 'row' }, fieldBox('Rig files as the rig writes them: no header, one sample a line [-]',
+      h('input', { id: 'id-fric-rig-files', type: 'file', multiple: '', accept: '.csv,.txt,.tsv,.dat,text/plain,text/csv' }), 'identify.friction.rig'),
+    fieldBox('Their columns in order: signal[unit], - for a column not read, a leading - negates x or F; empty = the TU Delft friction bench [-]',
+      h('input', { id: 'id-fric-rig-columns', type: 'text', placeholder: 't[ms], -, -, -, -x[mm], p_a[bar(g)], F[N]', size: '48' }), 'identify.friction.columns'),
+    h('button', { id: 'btn-id-fric-rig', type: 'button', text: 'Read the rig files' })),
+    h('ul', { id: 'id-fric-rig-warnings', class: 'small' }),
     h('div', { class: 'grid' }, fieldBox('Fit on (records with F) [-]', fit, 'identify.friction.experiments'),
       fieldBox('Predict (validation) [-]', val, 'identify.friction.validate')),
     h('div', { id: 'id-fric-extras', class: 'row' }),
@@ -281,9 +289,11 @@ function plotValveBench(r) {
 /* ------------------------------------------------------------------ step 2: friction bench */
 function fillDatasetLists() {
   const ds = S.datasets || [];
+  // the rig's files read in this step (records held here, sent inline) beside the stored datasets
+  const rig = IDF.rig.map((r, i) => ({ id: `rig:${i}`, name: r.name, signals: ['t', 'x', 'p_a', 'p_b', 'F'], rig: true }));
   const lists = {
-    'id-fric-fit': ds.filter((d) => d.signals.includes('F')),
-    'id-fric-validate': ds.filter((d) => d.signals.includes('F')),
+    'id-fric-fit': rig.concat(ds.filter((d) => d.signals.includes('F'))),
+    'id-fric-validate': rig.concat(ds.filter((d) => d.signals.includes('F'))),
     'id-locked-select': ds.filter((d) => d.scenario && d.scenario.locked),
     'id-free-select': ds.filter((d) => !(d.scenario && d.scenario.locked)),
   };
@@ -292,7 +302,7 @@ function fillDatasetLists() {
     const was = new Set(Array.from(sel.selectedOptions).map((o) => o.value));
     sel.textContent = '';
     for (const d of list) {
-      const o = h('option', { value: d.id, text: `${d.name} (${d.signals.join(', ')})` });
+      const o = h('option', { value: d.id, text: `${d.name} (${d.rig ? 'rig file: ' : ''}${d.signals.join(', ')})` });
       o.selected = was.has(d.id);
       sel.append(o);
     }
@@ -327,6 +337,44 @@ async function uploadFrictionRecords(btn) {
   });
 }
 
+/** The rig's files as they come (no header): POST /api/identify/friction/records reads them with
+ * the declared columns (empty: the TU Delft bench's layout) into records held here and chosen to
+ * fit on; its warnings (chamber B taken at ambient) are listed under the files. A refused file is
+ * named with its line and column. */
+async function readRigFiles(btn) {
+  clearErrors();
+  const files = Array.from(document.getElementById('id-fric-rig-files').files);
+  if (!files.length) { fieldError('identify.friction.rig', 'choose one or more rig files first'); return; }
+  const fd = new FormData();
+  for (const f of files) fd.append('file', f);
+  const cols = document.getElementById('id-fric-rig-columns').value.trim();
+  if (cols) fd.append('columns', cols);
+  fd.append('ambient_pressure', String(pAtm()));
+  setStatus(`Reading ${files.length} rig file(s)…`, 'busy');
+  await busy(btn, async () => {
+    let out;
+    try { out = await api('POST', '/api/identify/friction/records', fd); } catch (e) {
+      const onCols = e.detail && JSON.stringify(e.detail).includes('"columns');
+      showIdentifyError(e, 'Reading the rig files', onCols ? 'identify.friction.columns' : 'identify.friction.rig', (loc) => {
+        const m = /^file\[(\d+)\](?:\.line\[(\d+)\])?/.exec(loc);
+        return m && files[Number(m[1])] ? `${files[Number(m[1])].name}${m[2] ? `, line ${m[2]}` : ''}` : loc;
+      });
+      return;
+    }
+    const first = IDF.rig.length;
+    IDF.rig = IDF.rig.concat(out.records);
+    const ul = document.getElementById('id-fric-rig-warnings');
+    ul.textContent = '';
+    for (const w of out.warnings) ul.append(h('li', { class: 'warn', text: w }));
+    for (const f of out.files) ul.append(h('li', { text: `${f.name}: ${f.samples} samples over ${num(f.duration, 4)} s, `
+      + `p_a ${num((f.p_a_median - out.ambient_pressure) / BAR, 3)} bar g, stroke ${num(f.stroke * 1e3, 3)} mm` }));
+    fillDatasetLists();
+    const fresh = out.records.map((r, i) => `rig:${first + i}`);
+    for (const o of document.getElementById('id-fric-fit').options) if (fresh.includes(o.value)) o.selected = true;
+    setStatus(`${out.records.length} rig file(s) read and chosen to fit on.`, 'ok');
+  });
+}
+
 async function loadExtras() {
   // the extras the service can identify, from its own schema (pneucore.identify.friction_bench.EXTRAS)
   try {
@@ -345,7 +393,8 @@ async function loadExtras() {
 
 async function identifyFriction(btn) {
   clearErrors();
-  const chosen = (id) => Array.from(document.getElementById(id).selectedOptions).map((o) => ({ dataset_id: o.value, name: o.textContent.replace(/ \(.*$/, '') }));
+  const chosen = (id) => Array.from(document.getElementById(id).selectedOptions).map((o) => (o.value.startsWith('rig:')
+    ? IDF.rig[Number(o.value.slice(4))] : { dataset_id: o.value, name: o.textContent.replace(/ \(.*$/, '') }));
   const experiments = chosen('id-fric-fit');
   const validate = chosen('id-fric-validate');
   if (!experiments.length) {
@@ -374,7 +423,7 @@ function renderFrictionBench() {
   const rows = Object.entries(r.parameters).map(([name, p]) => ({
     dataset: { name },
     cells: [name, p.identified === false ? `${num(p.value, 4)} (held)` : pm(p.value, p.se), prettyUnit(p.unit || '-'),
-      p.identified === false ? (p.reason || 'held at the model\'s value')
+      p.identified === false ? (p.reason || 'not determined: held at the model\'s value')
         : p.at_bound ? 'identified, at a bound'
           : p.se != null && Math.abs(p.se) > Math.abs(p.value) ? 'not determined: its standard error exceeds its value' : 'identified'],
   }));
@@ -515,6 +564,7 @@ function initIdentify() {
   document.getElementById('btn-id-valve-use').addEventListener('click', () => IDF.valve && IDF.valve.model && carry(IDF.valve.model, `Edge ${IDF.valve.name}'s table`));
   document.getElementById('btn-id-friction').addEventListener('click', (ev) => identifyFriction(ev.target));
   document.getElementById('btn-id-fric-upload').addEventListener('click', (ev) => uploadFrictionRecords(ev.target));
+  document.getElementById('btn-id-fric-rig').addEventListener('click', (ev) => readRigFiles(ev.target));
   document.getElementById('btn-id-friction-use').addEventListener('click', () => IDF.friction && carry(IDF.friction.model, 'The identified friction'));
   for (const key of ['locked', 'free']) document.getElementById(`btn-id-${key}`).addEventListener('click', (ev) => validateOn(key, ev.target));
   // the plots follow the header's unit switch (after units.js has taken the new system)

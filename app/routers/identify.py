@@ -1,14 +1,16 @@
 """POST /api/identify/valve and /api/identify/friction: the step-by-step identification on
 benches (paper section 2), and the same as jobs (POST /api/jobs/identify/...)."""
-from fastapi import APIRouter, HTTPException
+from fastapi import APIRouter, HTTPException, Request
+from starlette.concurrency import run_in_threadpool
 
-from ..bodies import OffLoopRoute
-from ..deps import JobsDep, StoreDep
+from ..bodies import RAW_FILE_TYPES, OffLoopRoute, read_multipart
+from ..deps import JobsDep, LimitsDep, StoreDep
 from ..responses import JSON
 from ..schemas import JobResponse
-from ..schemas_identify import (FrictionIdentifyRequest, FrictionIdentifyResponse, ValveIdentifyRequest,
-                                ValveIdentifyResponse)
-from ..services import check_identify_friction, check_identify_valve, run_identify_friction, run_identify_valve
+from ..schemas_identify import (RECORDS_UPLOAD_DOC, FrictionIdentifyRequest, FrictionIdentifyResponse,
+                                FrictionRecordsResponse, ValveIdentifyRequest, ValveIdentifyResponse)
+from ..services import (FieldError, check_identify_friction, check_identify_valve, read_friction_files,
+                        run_identify_friction, run_identify_valve)
 
 # long records are large bodies: parsed off the event loop (app.bodies.OffLoopRoute)
 router = APIRouter(prefix="/api/identify", tags=["identify"], route_class=OffLoopRoute)
@@ -27,6 +29,30 @@ def identify_valve(req: ValveIdentifyRequest):
                      "(Eq. 17), validated on records not fitted on (paper Fig. 4)")
 def identify_friction(req: FrictionIdentifyRequest, store: StoreDep):
     return JSON(run_identify_friction(req, store=store))
+
+
+@router.post("/friction/records", response_class=JSON, response_model=FrictionRecordsResponse,
+             openapi_extra=RECORDS_UPLOAD_DOC,
+             summary="Friction-bench files as the rig writes them (no header, declared columns and "
+                     "units) read into records that POST /api/identify/friction takes")
+async def friction_records(request: Request, limits: LimitsDep):
+    from starlette.datastructures import UploadFile
+    # the body is limited by app.bodies.BodyLimit while it is read (413 beyond the limit)
+    ctype = request.headers.get("content-type", "")
+    body = await request.body()
+    fields = dict(request.query_params)
+    if ctype.startswith("multipart/form-data"):
+        form = await read_multipart(request, body, limits.max_upload_bytes)
+        files = [(f.filename, await f.read()) for f in form.getlist("file") if isinstance(f, UploadFile)]
+        if len(files) != len(form.getlist("file")):
+            raise FieldError("file", "must be a file part (a text field named 'file' was sent)")
+        fields.update({k: v for k, v in form.multi_items() if k != "file" and isinstance(v, str)})
+    elif ctype.startswith(RAW_FILE_TYPES):
+        files = [(fields.get("filename") or "file 1", body)] if body else []
+    else:
+        raise FieldError("file", "send the bench files as multipart/form-data (field 'file', once per "
+                                 "file) or one file as a text/plain body")
+    return JSON(await run_in_threadpool(read_friction_files, files, fields, limits))
 
 
 def _submit(jobs, kind, fn):

@@ -64,6 +64,17 @@ MIN_SLIDING_SAMPLES = 30
 #: pressure coefficient fitted on one held pressure whose reading wanders by 3 % [-]
 IDENTIFIABLE = 0.05
 
+#: One pressure level [Pa]: records whose held gauge pressures are within 0.2 bar of one another
+#: are one level (a regulator wanders by about 0.05 bar as the piston moves), and a chamber whose
+#: pressure spans less than this over the fitted samples is held at one level: its pressure
+#: coefficients (fc_a, kv_a or fc_b, kv_b, an effective area) are not determined
+LEVEL_STEP = 2e4
+
+#: Fraction of the fitted samples left out at each end of a chamber's pressure span, so that a
+#: glitch does not make a held pressure look varied [-] (1 %: a level held by 1 % of the
+#: samples, a few hundred at 100 Hz, still counts)
+SPAN_QUANTILE = 0.01
+
 #: Friction is flagged not linear in pressure when, at some pressure level and direction, the
 #: mean residual of the fitted law exceeds this fraction of the friction scale there (the
 #: mean of the two directions' magnitudes) and three times its standard error [-]. 20 %: on
@@ -179,41 +190,210 @@ class FrictionRecord:
                 "p_a": self.p_a.tolist(), "p_b": self.p_b.tolist(), "F": self.F.tolist()}
 
 
-def read_bench_file(source, p_atm=P_ATM, name=None):
-    """Read a record of the TU Delft friction bench (``shared/data/friction-bench``) as it is.
+#: The TU Delft friction bench's file layout (``shared/data/friction-bench``, its README): time
+#: [ms], three raw voltages (not read), piston position [mm] increasing as the piston moves into
+#: the pressurised chamber (a retraction, hence ``-x``), chamber pressure [bar gauge], rod force
+#: [N]. The importer's column labels and units (:func:`pneucore.data.measurement.parse_header`)
+RIG_COLUMNS = ("t[ms]", None, None, None, "-x[mm]", "p_a[bar(g)]", "F[N]")
 
-    Whitespace-separated, no header, seven columns: time [ms], three raw voltages, piston
-    position [mm], chamber pressure [bar gauge], rod force [N]. The pressurised chamber pushes
-    the rod outward, so it is chamber A and its position increasing (the piston moving into
-    the chamber) is a retraction: ``x = -position``. The other side is ambient:
-    ``p_b = p_atm``. The logger's start (about 270 ms between the first two rows) and any
-    later gap are left to :func:`kinematics`, which differentiates each gap-free stretch on
-    its own.
+#: The signals a friction-bench file may hold; ``p_b`` may be left out (chamber B at ambient)
+BENCH_SIGNALS = ("t", "x", "p_a", "p_b", "F")
+#: Signals whose column may be read negated (a leading ``-``: the rig's sign is the opposite)
+_NEGATABLE = ("x", "F")
+#: Most columns of a bench file [-]
+MAX_BENCH_COLUMNS = 64
+
+
+def bench_columns(columns, p_atm=P_ATM, field="columns"):
+    """The column layout of a headerless bench file, checked.
 
     Parameters
     ----------
-    source : str or path-like
-        File path
+    columns : sequence of str or None, or str
+        One label per column in file order: a signal of :data:`BENCH_SIGNALS` with its unit in
+        brackets as the importer reads it (``t[ms]``, ``x[mm]``, ``p_a[bar(g)]``, ``F[kN]``),
+        a leading ``-`` to negate ``x`` or ``F``, and None, ``""``, ``"-"`` or ``"_"`` for a
+        column not read; a string is split at commas [-]
     p_atm : float
-        Ambient pressure, to make the gauge readings absolute [Pa]
+        Ambient pressure added to gauge pressures [Pa]
+    field : str
+        The request's field, for the messages [-]
+
+    Returns
+    -------
+    list of tuple
+        ``(column index, signal, sign, converter)`` of the columns read [-]
+
+    Raises
+    ------
+    pneucore.spec.validation.FieldError
+        An unknown signal or unit, a signal twice, or t, x, p_a or F missing (naming the column)
+
+    Examples
+    --------
+    >>> [(i, sig, sign) for i, sig, sign, _ in bench_columns(RIG_COLUMNS)]
+    [(0, 't', 1.0), (4, 'x', -1.0), (5, 'p_a', 1.0), (6, 'F', 1.0)]
+    """
+    from pneucore.data.measurement import MeasurementError, parse_header
+
+    if isinstance(columns, str):
+        columns = [c.strip() for c in columns.split(",")]
+    if not isinstance(columns, (list, tuple)) or not 0 < len(columns) <= MAX_BENCH_COLUMNS:
+        raise FieldError(field, f"must list 1 to {MAX_BENCH_COLUMNS} column labels in file order")
+    out, seen = [], {}
+    for i, label in enumerate(columns):
+        if label is None or (isinstance(label, str) and label.strip() in ("", "-", "_")):
+            continue
+        if not isinstance(label, str):
+            raise FieldError(f"{field}[{i}]", f"must be a label such as x[mm], got {label!r}")
+        text = label.strip()
+        sign = -1.0 if text.startswith("-") else 1.0
+        text = text.lstrip("-").strip()
+        try:
+            signal, conv = parse_header(text, p_atm)
+        except MeasurementError as exc:
+            raise FieldError(f"{field}[{i}]", f"{label!r}: {exc}") from None
+        if signal not in BENCH_SIGNALS:
+            raise FieldError(f"{field}[{i}]", f"{label!r}: a friction-bench file holds "
+                                              f"{', '.join(BENCH_SIGNALS)}, not {signal}")
+        if sign < 0 and signal not in _NEGATABLE:
+            raise FieldError(f"{field}[{i}]", f"{label!r}: only {' and '.join(_NEGATABLE)} can be "
+                                              f"negated")
+        if signal in seen:
+            raise FieldError(f"{field}[{i}]", f"{signal} is already column {seen[signal] + 1}")
+        seen[signal] = i
+        out.append((i, signal, sign, conv))
+    for need in ("t", "x", "p_a", "F"):
+        if need not in seen:
+            raise FieldError(field, f"no column holds {need} (a friction record needs t, x, p_a "
+                                    f"and F; p_b may be left out: chamber B at ambient)")
+    return out
+
+
+def _bench_rows(source, field, max_rows):
+    """The text lines of a bench file (a path or its bytes) with their line numbers, blank
+    lines and ``#`` comments left out."""
+    if isinstance(source, (bytes, bytearray, memoryview)):
+        raw = bytes(source)
+    else:
+        with open(source, "rb") as fh:
+            raw = fh.read()
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = raw.decode("latin-1")
+    if "\x00" in text:
+        raise FieldError(field, "is not a text file (it holds NUL bytes): a bench file is text")
+    if max_rows is not None and text.count("\n") > 2 * max_rows + 1000:
+        raise FieldError(field, f"has more than {max_rows} rows (at most {max_rows} samples a record)")
+    rows, numbers = [], []
+    for k, line in enumerate(text.splitlines(), start=1):
+        s = line.strip()
+        if s and not s.startswith("#"):
+            rows.append(s.replace(",", " ").replace(";", " "))
+            numbers.append(k)
+    if max_rows is not None and len(rows) > max_rows:
+        raise FieldError(field, f"has {len(rows)} rows, at most {max_rows} samples a record")
+    return rows, numbers
+
+
+def read_bench_file(source, p_atm=P_ATM, name=None, columns=RIG_COLUMNS, *, field="file",
+                    max_rows=None):
+    """Read a friction-bench record as the rig writes it: no header, one sample a line.
+
+    By default the TU Delft friction bench's files (``shared/data/friction-bench``,
+    :data:`RIG_COLUMNS`): whitespace-separated, seven columns, time [ms], three raw voltages,
+    piston position [mm], chamber pressure [bar gauge], rod force [N]. The pressurised chamber
+    pushes the rod outward, so it is chamber A and its position increasing (the piston moving
+    into the chamber) is a retraction: ``x = -position``. Another rig declares its own
+    ``columns`` (:func:`bench_columns`). Values may be separated by blanks, tabs, commas or
+    semicolons. Without a ``p_b`` column chamber B is at ambient: ``p_b = p_atm``. The
+    logger's start (about 270 ms between the first two rows) and any later gap are left to
+    :func:`kinematics`, which differentiates each gap-free stretch on its own.
+
+    Parameters
+    ----------
+    source : str, path-like or bytes
+        File path, or the file's content
+    p_atm : float
+        Ambient pressure, to make gauge readings absolute and chamber B's when not measured [Pa]
     name : str or None
         Label; None = the file name [-]
+    columns : sequence of str or None
+        The column layout (:func:`bench_columns`) [-]
+    field : str
+        The request's field, for the messages [-]
+    max_rows : int or None
+        Most samples; None = no limit [-]
 
     Returns
     -------
     FrictionRecord
+
+    Raises
+    ------
+    pneucore.spec.validation.FieldError
+        A malformed file, naming the line (and column): a row with another number of values, a
+        cell that is no number, a value beyond :data:`LIMITS`, times not increasing, a
+        pressure not positive, fewer than :data:`MIN_RECORD_SAMPLES` rows
     """
+    import io
     import os
-    data = np.loadtxt(source, ndmin=2)
-    if data.shape[1] != 7:
-        raise ValueError(f"{source}: {data.shape[1]} columns, the bench writes 7 (time [ms], three "
-                         f"voltages, position [mm], pressure [bar gauge], force [N])")
-    t = data[:, 0] * 1e-3
-    x = -data[:, 4] * 1e-3
-    p_a = data[:, 5] * 1e5 + p_atm
-    p_b = np.full_like(t, p_atm)
-    return FrictionRecord(t, x, p_a, p_b, data[:, 6].copy(),
-                          name if name is not None else os.path.basename(str(source)))
+    if not (isinstance(p_atm, (int, float)) and 0.0 < p_atm <= LIMITS["p_b"]):
+        raise FieldError("ambient_pressure", f"must be an absolute pressure in (0, {LIMITS['p_b']:g}] "
+                                             f"[Pa], got {p_atm!r}")
+    layout = bench_columns(columns, p_atm)
+    rows, numbers = _bench_rows(source, field, max_rows)
+    ncol = len(columns)
+    if len(rows) < MIN_RECORD_SAMPLES:
+        raise FieldError(field, f"{len(rows)} data rows, at least {MIN_RECORD_SAMPLES} are needed")
+    try:
+        data = np.loadtxt(io.StringIO("\n".join(rows)), ndmin=2, comments=None)
+    except ValueError:
+        data = None
+    if data is None or data.shape[1] != ncol:
+        for line, row in zip(numbers, rows):   # name the first bad line
+            cells = row.split()
+            if len(cells) != ncol:
+                raise FieldError(f"{field}.line[{line}]", f"{len(cells)} values, the layout has {ncol} "
+                                                         f"columns ({', '.join(str(c) for c in columns)})")
+            for j, c in enumerate(cells):
+                try:
+                    float(c)
+                except ValueError:
+                    raise FieldError(f"{field}.line[{line}]", f"column {j + 1}: {c[:40]!r} is not a "
+                                                             f"number") from None
+        raise FieldError(field, "could not be read as a table of numbers")
+    cols = {}
+    for j, signal, sign, conv in layout:
+        raw = data[:, j]
+        bad = ~np.isfinite(raw)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise FieldError(f"{field}.line[{numbers[k]}]", f"column {j + 1} ({signal}): {raw[k]} is "
+                                                           f"not a finite number")
+        vals = conv(-raw if sign < 0 else raw)
+        big = np.abs(vals) > LIMITS[signal]
+        if big.any():
+            k = int(np.flatnonzero(big)[0])
+            raise FieldError(f"{field}.line[{numbers[k]}]", f"column {j + 1} ({signal}): {vals[k]:g} "
+                                                           f"beyond +-{LIMITS[signal]:g} in SI units "
+                                                           f"(check the column's unit)")
+        cols[signal] = vals
+    dt = np.diff(cols["t"])
+    if (dt <= 0).any():
+        k = int(np.flatnonzero(dt <= 0)[0]) + 1
+        raise FieldError(f"{field}.line[{numbers[k]}]", "sample times must increase [s]")
+    if "p_b" not in cols:
+        cols["p_b"] = np.full_like(cols["t"], p_atm)
+    for key in ("p_a", "p_b"):
+        if (cols[key] <= 0).any():
+            k = int(np.flatnonzero(cols[key] <= 0)[0])
+            raise FieldError(f"{field}.line[{numbers[k]}]", f"{key}: absolute pressures must be > 0 "
+                                                           f"[Pa] (a gauge reading below -1 atm)")
+    if name is None:
+        name = "" if isinstance(source, (bytes, bytearray, memoryview)) else os.path.basename(str(source))
+    return FrictionRecord(cols["t"], cols["x"], cols["p_a"], cols["p_b"], cols["F"], name)
 
 
 def kinematics(t, x, window=WINDOW, polyorder=3):
@@ -346,6 +526,32 @@ def _regressors(s, stribeck=None):
     return cols
 
 
+def _not_varied(s, order, quadrant):
+    """``{name: reason}`` of the pressure coefficients (and effective areas) of a chamber whose
+    gauge pressure spans less than :data:`LEVEL_STEP` over the samples its regressor covers
+    (those of its direction, or all): a coefficient of a pressure the records do not vary is
+    not identifiable, however independent the pressure's noise makes its regressor look."""
+    out = {}
+    for name in order:
+        chamber = "a" if name.endswith(("_a", ".fc_a", ".kv_a")) else \
+            "b" if name.endswith(("_b", ".fc_b", ".kv_b")) else None
+        if chamber is None:
+            continue
+        g = s.g_a if chamber == "a" else s.g_b
+        if quadrant and name.startswith("friction."):
+            g = g[s.ext] if ".extend." in name else g[~s.ext]
+        if g.size == 0:
+            continue
+        lo, hi = np.quantile(g, [SPAN_QUANTILE, 1.0 - SPAN_QUANTILE])
+        if hi - lo < LEVEL_STEP:
+            out[name] = (f"not determined: chamber {chamber.upper()}'s gauge pressure spans "
+                         f"{(hi - lo) / 1e5:.3g} bar on these records ({lo / 1e5:+.3g} to "
+                         f"{hi / 1e5:+.3g} bar, {1 - 2 * SPAN_QUANTILE:.0%} of the samples), less "
+                         f"than one level ({LEVEL_STEP / 1e5:g} bar): a coefficient of a pressure "
+                         f"the records do not vary is not identifiable")
+    return out
+
+
 def _identifiable(cols, order):
     """Split ``order`` into the identified names and ``{name: reason}`` of the others."""
     kept, basis, dropped = [], [], {}
@@ -353,7 +559,7 @@ def _identifiable(cols, order):
         c = cols[name]
         norm = float(np.linalg.norm(c))
         if norm == 0.0:
-            dropped[name] = "its regressor is zero on the records (that pressure is ambient, " \
+            dropped[name] = "not determined: its regressor is zero on the records (that pressure is ambient, " \
                             "or that direction or acceleration absent)"
             continue
         r = c / norm
@@ -365,7 +571,7 @@ def _identifiable(cols, order):
             c0 = c / norm
             weights = sorted(((abs(float(cols[k] @ c0) / (np.linalg.norm(cols[k]) or 1.0)), k)
                               for k in kept), reverse=True)[:2]
-            dropped[name] = (f"not separable from {' and '.join(k for _, k in weights)} on these "
+            dropped[name] = (f"not determined: not separable from {' and '.join(k for _, k in weights)} on these "
                              f"records ({sine:.1%} independent; a different pressure or speed "
                              f"would separate it)")
             continue
@@ -479,7 +685,7 @@ class FrictionBenchResult:
                 lines.append(f"  {name} = {p['value']:.5g}{se} {p['unit']}"
                              + (" (at its bound)" if p.get("at_bound") else ""))
             else:
-                lines.append(f"  {name} = {p['value']:.5g} {p['unit']} held: {p['reason']}")
+                lines.append(f"  {name} = {p['value']:.5g} {p['unit']} {p['reason']}")
         for w in self.warnings:
             lines.append(f"  WARNING: {w}")
         return "\n".join(lines)
@@ -558,8 +764,11 @@ def identify_friction(model, records, *, extras=(), stribeck="auto", quadrant=Tr
     if not quadrant:   # one set for both directions: the extend columns carry both
         for key in _KEYS:
             cols[f"friction.extend.{key}"] = cols[f"friction.extend.{key}"] + cols.pop(f"friction.retract.{key}")
-    names, dropped = _identifiable(cols, order)
+    flat = _not_varied(s, order, quadrant)
+    names, dropped = _identifiable(cols, [n for n in order if n not in flat])
+    dropped.update(flat)
     held = {n: _held_value(model, n) for n in order if n not in names}
+    prior = model.to_dict().get("provenance") or {}
     y = s.y - sum((held[n] * cols[n] for n in held), np.zeros_like(s.y))
     progress(0.3, "linear fit (Coulomb + viscous)")
     theta, X = _solve_linear(cols, names, y)
@@ -613,11 +822,16 @@ def identify_friction(model, records, *, extras=(), stribeck="auto", quadrant=Tr
     for i, n in enumerate(all_names):
         values[n] = float(theta[i])
         params[n] = {"value": float(theta[i]), "se": float(se[i]), "unit": _unit(n), "identified": True,
+                     "status": "identified",
                      "at_bound": bool(_lower_bound(n) == 0.0 and theta[i] <= 1e-12)}
     for n, v in held.items():
         values[n] = v
+        # held at the model's value: where that came from (its provenance, else the model as
+        # given: a catalogue value or the default prior)
+        src = (prior.get("jack.moving_mass" if n == "mass" else n) or {}).get("source") or "prior"
         params[n] = {"value": v, "se": None, "unit": _unit(n), "identified": False,
-                     "reason": dropped[n]}
+                     "status": "not determined", "held_from": src,
+                     "reason": f"{dropped[n]}; held at the model's value ({src})"}
     if not quadrant:
         for key in _KEYS:
             values[f"friction.retract.{key}"] = values[f"friction.extend.{key}"]
@@ -799,7 +1013,7 @@ def _levels(s, res, fitted, tau):
     """
     rec_ids = np.unique(s.record)
     med = {k: (np.median(s.g_a[s.record == k]), np.median(s.g_b[s.record == k])) for k in rec_ids}
-    keys = {k: (round(med[k][0] / 2e4), round(med[k][1] / 2e4)) for k in rec_ids}   # 0.2 bar
+    keys = {k: (round(med[k][0] / LEVEL_STEP), round(med[k][1] / LEVEL_STEP)) for k in rec_ids}
     key = np.array([keys[k] for k in s.record.tolist()]) if len(s.record) else np.zeros((0, 2))
     levels, warns, bad = [], [], []
     distinct = sorted(set(keys.values()))

@@ -214,3 +214,29 @@ def test_the_model_records_the_friction_came_from_the_bench(quadrant_fit):
             assert "Eq. 17-20" in prov[path]["method"]
     assert not any(p.startswith(("offset", "area")) for p in prov)
     assert Model.from_dict(r.model.to_dict()).provenance == prov
+
+
+def test_a_chamber_held_at_ambient_is_not_determined_however_noisy_its_reading():
+    """Issue 29: chamber B at ambient with a 200 Pa reading noise made fc_b and kv_b look
+    independent of everything (noise is): they were reported identified, kv_b -0.0006 +- 0.0016.
+    A coefficient of a pressure the records do not vary is not determined: it keeps the model's
+    value and the answer says why, while chamber A's (1, 3 and 7 bar) are identified."""
+    model = _model()
+    recs = [synth(model, TRUE, pa, 0.0, k) for k, pa in enumerate((1.0, 3.0, 7.0))]
+    r = identify_friction(model, recs, stribeck=False)
+    for side in ("extend", "retract"):
+        for key in ("fc_b", "kv_b"):
+            p = r.parameters[f"friction.{side}.{key}"]
+            assert p["identified"] is False and p["status"] == "not determined", p
+            assert "chamber B's gauge pressure spans" in p["reason"] and p["held_from"] == "prior"
+            assert p["value"] == 0.0 and p["se"] is None            # the model's (default) value
+            assert r.model.to_dict()["friction"][side][key] == 0.0
+            assert f"friction.{side}.{key}" not in (r.model.to_dict().get("provenance") or {})
+        for key in ("fc_a", "kv_a"):
+            assert r.parameters[f"friction.{side}.{key}"]["status"] == "identified"
+    # one record: chamber A is held too (its 200 Pa noise and 1 bar level), so fc_a is not
+    # determined either; the Coulomb and viscous levels at that pressure are
+    one = identify_friction(model, recs[1:2], stribeck=False)
+    assert one.parameters["friction.extend.fc_a"]["status"] == "not determined"
+    assert one.parameters["friction.extend.fc0"]["status"] == "identified"
+    assert "not determined" in one.report()
