@@ -35,8 +35,8 @@ import functools
 
 from pneucore.core import layout as L
 from pneucore.physics.heat import HEAT_PARAMETERS, add_wall
-from pneucore.physics.sensors import PRESSURE_SENSOR
 from pneucore.physics.line import LUMPED_MARGIN, line_regime
+from pneucore.physics.sensors import PRESSURE_SENSOR
 from pneucore.physics.series import combine_table
 from pneucore.physics.tube import line_volume, tube_characteristic
 from pneucore.spec.validation import FieldError, mapping, number, optional_mapping
