@@ -357,20 +357,27 @@ class _Direction:
         self.t_req = requirement.time_bound(direction)
         self.scenario = Scenario.from_dict(_stroke_scenario(requirement, direction), model)
         self.cushion = model.effects.get("end_cushion")
+        #: the needle of the other end (None = fully open): the piston leaves that end's
+        #: cushion as the stroke starts, so it is part of this stroke's model
+        self.other = None
         self.runs = {}
 
     def run(self, C, needle=None):
         """Stroke metrics with a throttle of conductance ``C`` [m^3/(s Pa)] (0 = none) and the
         cushion needle of the end this stroke meets ``needle`` [m^3/(s Pa)] (None = the model's,
         fully open), cached; the full-stroke time is None when the end stop is not reached."""
-        key = (C, needle)
+        key = (C, needle, self.other)
         if key not in self.runs:
             effects = {k: v for k, v in self.model.effects.items()
                        if k not in ("meter_out_throttle", "end_cushion")}
             throttles = meter_out_throttles((C, 0.0) if self.direction == "extend" else (0.0, C))
             if self.cushion is not None:
-                effects["end_cushion"] = self.cushion if needle is None else \
-                    {**self.cushion, self.NEEDLE[self.direction]: float(needle)}
+                effects["end_cushion"] = dict(self.cushion)
+                if needle is not None:
+                    effects["end_cushion"][self.NEEDLE[self.direction]] = float(needle)
+                if self.other is not None:
+                    back = "retract" if self.direction == "extend" else "extend"
+                    effects["end_cushion"][self.NEEDLE[back]] = float(self.other)
             self.model.effects = ({"meter_out_throttle": throttles} if throttles else {}) | effects
             res = simulate(self.model, self.scenario, raise_on_error=False)
             m = direction_metrics(res, self.direction)
@@ -428,7 +435,8 @@ class _Direction:
         def best(lo, hi):
             # the most open needle tried in [lo, hi] that meets both: the root's safe side
             return max((k[1] for k in self.runs if k[0] == 0.0 and k[1] is not None
-                        and lo <= k[1] <= hi and fits(k[1])), default=None)
+                        and k[2] == self.other and lo <= k[1] <= hi and fits(k[1])),
+                       default=None)
 
         if fits(C_open):
             return C_open
@@ -443,7 +451,8 @@ class _Direction:
                 C_t = math.exp(brentq(g_time, math.log(C), math.log(prev), xtol=NEEDLE_XTOL))
                 if self.time(0.0, C_t) > t_req:
                     C_t = min(k[1] for k in self.runs if k[0] == 0.0 and k[1] is not None
-                              and C <= k[1] <= prev and self.time(0.0, k[1]) <= t_req)
+                              and k[2] == self.other and C <= k[1] <= prev
+                              and self.time(0.0, k[1]) <= t_req)
                 if self.energy(C_t) > capacity:
                     self.needle_failure = (C_t, self.energy(C_t))
                     return None
@@ -484,7 +493,7 @@ class _Direction:
         C = throttle(brentq(g, y_min, 0.0, xtol=SETTING_XTOL))
         if self.time(C) > self.t_req:
             # the root's bracket end on the fast side meets the time for sure
-            C = min((k for k, n in self.runs if n is None and k > 0.0
+            C = min((k for k, n, o in self.runs if n is None and o == self.other and k > 0.0
                      and self.time(k) <= self.t_req), default=0.0)
         return C
 
@@ -688,20 +697,42 @@ def _solve_needles(requirement, valve, dirs, settings, metrics):
     cap = requirement.cushion_capacity
     C_open = needle_open(valve)
     needles = {k: C_open for k in DIRECTIONS}
-    for k in DIRECTIONS:
-        e = metrics[k]["end_energy"]
-        if e is None or e <= cap:
+    solved = []
+    # the order: extend, retract, then extend again with the retraction's needle in its model
+    # when both were solved (its needle moves the other's stroke by ~1e-3 of its energy, the
+    # second solve's change moves the first by ~1e-7: not solved again)
+    for k in DIRECTIONS + ("extend",):
+        back = "retract" if k == "extend" else "extend"
+        if k in solved and back not in solved:
+            continue
+        dirs[k].other = needles[back] if back in solved else None
+        e = dirs[k].run(settings[k], needles[k] if k in solved else None)["end_energy"]
+        if k not in solved and (e is None or e <= cap):
             continue
         C = dirs[k].solve_needle(cap, C_open)
         if C is None:
             # the design shown is the one that failed: that needle, no throttle
             C_t, energy = dirs[k].needle_failure
             needles[k], settings[k] = C_t, 0.0
-            metrics[k] = dirs[k].run(0.0, C_t)
+            _final_metrics(dirs, settings, needles, solved + [k], metrics)
             return needles, (k, (C_t, energy))
         needles[k], settings[k] = C, 0.0
-        metrics[k] = dirs[k].run(0.0, C)
+        if k not in solved:
+            solved.append(k)
+    _final_metrics(dirs, settings, needles, solved, metrics)
+    for k in solved:
+        e = metrics[k]["end_energy"]
+        if e is not None and e > cap:      # the other end's needle tipped it over
+            return needles, (k, (needles[k], e))
     return needles, None
+
+
+def _final_metrics(dirs, settings, needles, solved, metrics):
+    """Each direction's metrics in the design's own model: both needles as they end."""
+    for k in DIRECTIONS:
+        back = "retract" if k == "extend" else "extend"
+        dirs[k].other = needles[back] if back in solved else None
+        metrics[k] = dirs[k].run(settings[k], needles[k] if k in solved else None)
 
 
 def _share_cycle(requirement, dirs, family, cylinder, valve, tube, full, base):
