@@ -128,3 +128,12 @@ def test_a_bad_cushion_names_the_field_and_its_unit(change, field, text):
         Requirement.from_dict({**req, **change})
     assert e.value.path == field
     assert text in e.value.detail and "unit:" in e.value.detail
+
+
+def test_the_command_lines_table_shows_the_needles():
+    from pneucore.cli import sizing_lines
+    ans = _size(0.05)
+    lines = sizing_lines(ans)
+    assert "needle C ext/ret" in lines[1] and "E_end/capacity" in lines[1]
+    c = ans["designs"][0]["cushion"]
+    assert f"{c['extend']['needle_C']:.3g}/{c['retract']['needle_C']:.3g}" in lines[2]
