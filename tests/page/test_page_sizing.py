@@ -114,6 +114,7 @@ def test_a_cushion_shows_each_ends_solved_needle_and_impact_energy(page):
     # each end's needle as the answer gives it, to the 3 significant digits shown (half a unit
     # of the third digit: 5e-3 relative)
     parts = [p.strip() for p in shown.split("/")]
+    assert len(parts) == 2, shown
     for k, part in zip(("extend", "retract"), parts):
         c = d["cushion"][k]
         assert c["needle_solved"]
