@@ -55,6 +55,8 @@ class RequirementSpec(_Strict):
     dwell: float = _lib(Requirement, _REQ, "dwell")
     max_end_speed: Optional[float] = _lib(Requirement, _REQ, "max_end_speed")
     max_end_energy: Optional[float] = _lib(Requirement, _REQ, "max_end_energy")
+    cushion_length: Optional[float] = _lib(Requirement, _REQ, "cushion_length")
+    cushion_capacity: Optional[float] = _lib(Requirement, _REQ, "cushion_capacity")
     tube_length: Optional[float] = _lib(Requirement, _REQ, "tube_length")
     ambient_pressure: float = _lib(Requirement, _REQ, "ambient_pressure")
 
@@ -168,6 +170,31 @@ class DesignMetricsOut(BaseModel):
     units: dict[str, str] = Field(..., description="Unit of each metric")
 
 
+class CushionStrokeOut(BaseModel):
+    needle_C: float = Field(..., description="Sonic conductance of the needle of the end this "
+                                             "stroke meets [m^3/(s Pa)]")
+    needle_solved: bool = Field(..., description="Whether the needle was solved (false: fully "
+                                                  "open, the stroke meets its end within the "
+                                                  "capacity without it) [-]")
+    end_speed: Optional[float] = Field(None, description="Piston speed at the impact; null = "
+                                                         "not reached [m/s]")
+    end_energy: Optional[float] = Field(None, description="Kinetic energy of the moving mass "
+                                                          "at the impact; null = not reached [J]")
+    energy_ratio: Optional[float] = Field(None, description="end_energy / the cushion's "
+                                                            "capacity (at most 1 when feasible) "
+                                                            "[-]")
+
+
+class CushionOut(BaseModel):
+    length: float = Field(..., description="Cushion length at each end (the requirement's) [m]")
+    capacity: float = Field(..., description="Energy the cushion absorbs at most (the "
+                                             "requirement's) [J]")
+    needle_open_C: float = Field(..., description="The needle fully open: ten times the valve's "
+                                                  "exhaust conductance [m^3/(s Pa)]")
+    extend: CushionStrokeOut = Field(..., description="The x = stroke end (chamber B's needle)")
+    retract: CushionStrokeOut = Field(..., description="The x = 0 end (chamber A's needle)")
+
+
 class DesignOut(BaseModel):
     rank: int = Field(..., description="1 = best: least air per cycle, then smallest [-]")
     cylinder: CylinderOut
@@ -178,7 +205,9 @@ class DesignOut(BaseModel):
         "meter_out_throttle on the exhausting port (extend_meter_out_C: port B, "
         "retract_meter_out_C: port A; 0 = none) [m^3/(s Pa)], and the conductance of the whole "
         "exhaust path it leaves: throttle, tube and valve edge in series, ISO 6358-3 "
-        "(extend_exhaust_C, retract_exhaust_C) [m^3/(s Pa)]"))
+        "(extend_exhaust_C, retract_exhaust_C) [m^3/(s Pa)]; with a cushion in the "
+        "requirement, each end's cushion needle (extend_needle_C: the x = stroke end, chamber "
+        "B; retract_needle_C: the x = 0 end, chamber A) [m^3/(s Pa)]"))
     model: dict[str, Any] = Field(..., description="The design's model, as POST /api/simulate "
                                                    "accepts it")
     metrics: DesignMetricsOut
@@ -187,6 +216,9 @@ class DesignOut(BaseModel):
     required_times: dict[str, float] = Field(..., description=(
         "Full-stroke time each direction was sized for (extend, retract): the requirement's, or "
         "with a cycle_time each direction's share of the time to move [s]"))
+    cushion: Optional[CushionOut] = Field(None, description="The end cushions and their "
+                                                            "needles; null = no cushion in the "
+                                                            "requirement")
     feasible: bool = Field(..., description="Meets the requirement (false: one of the closest "
                                             "families, shown when none meets it) [-]")
 

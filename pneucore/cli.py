@@ -252,11 +252,23 @@ def _size(args):
     return 0 if any(d["feasible"] for d in ans["designs"]) else 1
 
 
+def _cushion_cells(c):
+    """A design's cushion columns: each end's needle (``open`` where not needed) and the larger
+    impact energy over the capacity."""
+    needle = [format(c[k]["needle_C"], ".3g") if c[k]["needle_solved"] else "open"
+              for k in ("extend", "retract")]
+    ratio = max((c[k]["energy_ratio"] or 0.0) for k in ("extend", "retract"))
+    return f" {needle[0] + '/' + needle[1]:>36} {ratio:15.3f}"
+
+
 def sizing_lines(ans, top=10):
     """Human-readable table of a sizing answer (list of lines)."""
+    cushioned = any(d.get("cushion") for d in ans["designs"])
     lines = [ans["summary"],
              f"{'rank':>4}  {'cylinder':<14} {'valve':<16} {'tube':<16} {'air NL':>8} "
-             f"{'t_ext s':>8} {'t_ret s':>8} {'v_end m/s':>10} {'meter-out C ' + ans['units']['settings.*_meter_out_C']:>23}"]
+             f"{'t_ext s':>8} {'t_ret s':>8} {'v_end m/s':>10} {'meter-out C ' + ans['units']['settings.*_meter_out_C']:>23}"
+             + (f" {'needle C ext/ret (open: not needed)':>36} {'E_end/capacity':>15}"
+                if cushioned else "")]
     for d in ans["designs"][:top]:
         m = d["metrics"]
         fmt = lambda v, f: format(v, f) if v is not None else "-"   # noqa: E731
@@ -266,6 +278,7 @@ def sizing_lines(ans, top=10):
             f"{fmt(m['extend']['full_stroke_time'], '8.3f')} {fmt(m['retract']['full_stroke_time'], '8.3f')} "
             f"{fmt(max(m['extend']['end_speed'] or 0, m['retract']['end_speed'] or 0), '10.3f')} "
             f"{d['settings']['extend_meter_out_C']:11.3g}/{d['settings']['retract_meter_out_C']:<9.3g}"
+            + (_cushion_cells(d["cushion"]) if cushioned and d.get("cushion") else "")
             + ("" if d["feasible"] else "  (not feasible)"))
     if ans["reasons"]:
         lines.append("infeasible families: " + ", ".join(f"{n} {r}" for r, n in sorted(ans["reasons"].items())))

@@ -19,7 +19,9 @@ const SIZING_FIELDS = [
   ['cycle_time', 'Cycle time instead of the two times (blank: none) [s]', ''],
   ['dwell', 'Dwell at each end stop, with a cycle time (blank: 0) [s]', ''],
   ['max_end_speed', 'Max stroke-end speed [m/s] (blank: none)', 1.0],
-  ['max_end_energy', 'Cushion capacity at the end stop [J] (blank: none)', ''],
+  ['max_end_energy', 'Max kinetic energy at the end stop [J] (blank: none)', ''],
+  ['cushion_length', 'Cushion length at each end [m] (blank: no cushion)', ''],
+  ['cushion_capacity', 'Cushion capacity, its cushioning energy [J] (with a cushion length)', ''],
   ['tube_length', 'Tube length per port [m] (blank: no tube)', ''],
 ];
 const SIZING_CHOICES = [
@@ -75,6 +77,7 @@ function metric(d, dir, name, digits = 3) {
 function renderSizing() {
   const ans = SZ.ans;
   document.getElementById('sizing-summary').textContent = ans.summary;
+  const cushioned = ans.designs.some((d) => d.cushion);
   const rows = ans.designs.map((d, i) => `<tr data-rank="${d.rank}">
     <td><input type="radio" name="sz-pick" value="${i}" ${i === SZ.chosen ? 'checked' : ''} aria-label="choose design ${d.rank}"></td>
     <td>${d.rank}</td><td>${esc(d.cylinder.name)}</td><td>${esc(d.valve.name)}</td>
@@ -82,11 +85,12 @@ function renderSizing() {
     <td>${metric(d, 'extend', 'full_stroke_time')}</td><td>${metric(d, 'retract', 'full_stroke_time')}</td>
     <td>${metric(d, 'extend', 'end_speed')}</td><td>${metric(d, 'retract', 'end_speed')}</td>
     <td>${num(d.settings.extend_meter_out_C, 3)} / ${num(d.settings.retract_meter_out_C, 3)}</td>
+    ${cushioned ? cushionCells(d) : ''}
     <td>${d.feasible ? 'yes' : 'no'}</td></tr>`).join('');
   const reasons = Object.entries(ans.reasons).map(([r, n]) => `${n} ${esc(r)} (${esc(ans.reason_meanings[r] || '')})`).join('; ');
   document.getElementById('sizing-table').innerHTML = `<table id="sizing-designs"><thead><tr><th></th><th>rank</th>
     <th>cylinder</th><th>valve</th><th>tube</th><th>air per cycle [NL]</th><th>extend [s]</th><th>retract [s]</th>
-    <th>end speed out [m/s]</th><th>end speed in [m/s]</th><th>meter-out throttle C ext / ret [${esc(ans.units['settings.*_meter_out_C'])}] (0: none)</th><th>feasible</th></tr></thead>
+    <th>end speed out [m/s]</th><th>end speed in [m/s]</th><th>meter-out throttle C ext / ret [${esc(ans.units['settings.*_meter_out_C'])}] (0: none)</th>${cushioned ? `<th>cushion needle C ext / ret [${esc(ans.units['settings.*_needle_C'])}] (open: not needed)</th><th>impact energy ext / ret / capacity [J]</th>` : ''}<th>feasible</th></tr></thead>
     <tbody>${rows}</tbody></table>
     <p class="muted small">${ans.families} families; failing: ${reasons || 'none'}.</p>
     <ul class="muted small">${ans.notes.map((n) => `<li>${esc(n)}</li>`).join('')}</ul>`;
@@ -96,6 +100,16 @@ function renderSizing() {
   const none = !ans.designs.length;
   document.getElementById('btn-size-use').disabled = none;
   document.getElementById('btn-size-export').disabled = none;
+}
+
+/** A design's cushion cells: each end's needle (open where not needed), impact energy and capacity. */
+function cushionCells(d) {
+  const c = d.cushion;
+  if (!c) return '<td>–</td><td>–</td>';
+  const needle = (k) => (c[k].needle_solved ? num(c[k].needle_C, 3) : 'open');
+  const energy = (k) => (c[k].end_energy == null ? '–' : num(c[k].end_energy, 3));
+  return `<td class="sz-needle">${needle('extend')} / ${needle('retract')}</td>
+    <td class="sz-impact">${energy('extend')} / ${energy('retract')} / ${num(c.capacity, 3)}</td>`;
 }
 
 /** One cycle of the chosen design: extension from rest, then retraction. */
@@ -119,7 +133,7 @@ async function plotChosenDesign() {
 
 async function runSizing(btn) {
   clearErrors();
-  setStatus('Sizing: every cylinder, valve and tube, meter-out settings solved…', 'busy');
+  setStatus('Sizing: every cylinder, valve and tube, meter-out and cushion settings solved…', 'busy');
   try {
     SZ.ans = await api('POST', '/api/sizing', sizingRequest());
     SZ.chosen = 0;

@@ -12,6 +12,7 @@ from typing import Optional
 
 from pneucore.physics.gas import P_ATM
 from pneucore.physics.jack import ANGLE_MAX
+from pneucore.spec.effects import EFFECTS
 from pneucore.spec.validation import FieldError, known_keys, mapping, number
 
 #: Upper bounds of the requirement's fields, in their units: well beyond any pneumatic drive
@@ -20,7 +21,10 @@ from pneucore.spec.validation import FieldError, known_keys, mapping, number
 BOUNDS = {"stroke": 10.0, "moving_mass": 1e5, "load_force": 1e7, "supply_pressure": 5e6,
           "extend_time": 600.0, "retract_time": 600.0, "cycle_time": 1200.0, "dwell": 600.0,
           "max_end_speed": 100.0, "max_end_energy": 1e6,
-          "tube_length": 100.0, "ambient_pressure": 5e6}
+          "tube_length": 100.0, "ambient_pressure": 5e6,
+          # the cushion's: the end_cushion effect's own bounds (the one source)
+          "cushion_length": EFFECTS["end_cushion"].param("length_a").max,
+          "cushion_capacity": EFFECTS["end_cushion"].param("capacity").max}
 
 
 def _checked(value, path, unit, **bounds):
@@ -72,8 +76,17 @@ class Requirement:
         Largest piston speed allowed at either end stop (what the cushion or the stop absorbs);
         null = no limit [m/s]
     max_end_energy : float or None
-        Largest kinetic energy of the moving mass allowed at either end stop (the cushion's
-        energy capacity, as catalogues state it); null = no limit [J]
+        Largest kinetic energy of the moving mass allowed at either end stop, checked as it is
+        (a cushion's capacity goes in cushion_capacity instead, for which the needles are
+        solved); null = no limit [J]
+    cushion_length : float or None
+        Length of the adjustable end cushion at each end of the cylinder (the spear's travel
+        in the cushion seal, a catalogue figure); with cushion_capacity the search solves each
+        end's cushion needle; null = no cushion [m]
+    cushion_capacity : float or None
+        Kinetic energy the cushion absorbs at most (the catalogue's cushioning energy): each
+        design's needles are solved for the impact energy to be within it; required with
+        cushion_length, null = no cushion [J]
     tube_length : float or None
         Length of the tube between the valve and each cylinder port; null = valve on the
         cylinder [m]
@@ -91,6 +104,8 @@ class Requirement:
     dwell: float = 0.0
     max_end_speed: Optional[float] = None
     max_end_energy: Optional[float] = None
+    cushion_length: Optional[float] = None
+    cushion_capacity: Optional[float] = None
     tube_length: Optional[float] = None
     ambient_pressure: float = P_ATM
 
@@ -165,6 +180,17 @@ class Requirement:
             d["max_end_speed"], f"{path}.max_end_speed", u("max_end_speed"), positive=True)
         r.max_end_energy = None if d.get("max_end_energy") is None else _checked(
             d["max_end_energy"], f"{path}.max_end_energy", u("max_end_energy"), positive=True)
+        for key in ("cushion_length", "cushion_capacity"):
+            setattr(r, key, None if d.get(key) is None else _checked(
+                d[key], f"{path}.{key}", u(key), positive=True))
+        for key, other in (("cushion_length", "cushion_capacity"),
+                           ("cushion_capacity", "cushion_length")):
+            if getattr(r, key) is not None and getattr(r, other) is None:
+                raise FieldError(f"{path}.{other}", f"is required with {key} (unit: {u(other)})")
+        if r.cushion_length is not None and 2.0 * r.cushion_length > r.stroke:
+            raise FieldError(f"{path}.cushion_length",
+                             f"{r.cushion_length:g} m at each end: the two cushions overlap on a "
+                             f"stroke of {r.stroke:g} m (unit: {u('cushion_length')})")
         r.tube_length = None if d.get("tube_length") is None else _checked(
             d["tube_length"], f"{path}.tube_length", u("tube_length"), positive=True)
         return r

@@ -17,9 +17,15 @@ inner diameter. For each family :func:`size`
    (:func:`scipy.optimize.brentq`; the time falls monotonically as the throttle opens,
    towards the valve's own time as the throttle's conductance grows past the valve's). The slowest motion that meets the time is the
    gentlest: its stroke-end speed is the smallest this family reaches;
-4. checks the stroke-end speed against ``max_end_speed`` and its kinetic energy against
-   ``max_end_energy`` (the cushion's capacity): above is the reason ``end_speed`` or
-   ``end_energy``.
+4. with a cushion in the requirement (``cushion_length``, ``cushion_capacity``; the model's
+   ``end_cushion`` at both ends, its needles fully open in the runs above): where the stroke
+   so sized meets its end stop with more kinetic energy than the capacity, solves the needle
+   of that end without the throttle, the most open needle whose impact energy is within the
+   capacity while the stroke still meets its time (:meth:`_Direction.solve_needle`, a 1-D
+   root on the needle bracketed from its open side); the energy at the most closed needle
+   the time allows above the capacity is the reason ``cushion``;
+5. checks the stroke-end speed against ``max_end_speed`` and its kinetic energy against
+   ``max_end_energy``: above is the reason ``end_speed`` or ``end_energy``.
 
 The feasible designs are ranked by air per cycle, then size (bore, valve conductance, tube).
 Families run in parallel on a thread pool (the compiled integrator releases the GIL), with
@@ -76,11 +82,34 @@ REASONS = {
     "end_speed": "stroke-end speed above the limit at the slowest setting that meets the time",
     "end_energy": "kinetic energy at the end stop above the cushion's capacity at the slowest "
                   "setting that meets the time",
+    "cushion": "stroke-end energy above the cushion capacity even with the needle closed as far "
+               "as the time allows",
     "simulation": "the simulation of this family failed",
 }
 DIRECTIONS = ("extend", "retract")
 #: The valve edge each direction exhausts through
 EXHAUST_EDGE = {"extend": "B-R", "retract": "A-R"}
+#: A cushion needle "fully open": this many times the valve's exhaust conductance. The needle's
+#: flow bounds the edge's (:func:`pneucore.physics.cushion.cushioned_outflow`), and an ISO 6358
+#: flow is proportional to C: at 10 times the edge's C the needle passes more than the edge at
+#: every pressure ratio whatever the two critical ratios (their subsonic flows differ by less
+#: than a factor 2 for b in 0.2 - 0.5), so the edge sets the flow and the cushion does not
+#: brake [-]
+NEEDLE_OPEN_FACTOR = 10.0
+#: Smallest needle the search tries: below it the trapped gas holds the piston off the end
+#: (the 2 kg piston of tests/physics/test_cushion.py bounces below about 2e-9) and no setting
+#: meets a time of seconds [m^3/(s Pa)]
+NEEDLE_MIN = 1e-11
+#: The needle is closed from fully open in steps of this factor until the impact energy falls
+#: within the capacity or the stroke exceeds its time: the first step across brackets the root
+#: on the needle's open side, where energy and time move monotonically (tests/physics/
+#: test_cushion.py); below it the piston may bounce off the trapped gas [-]
+NEEDLE_STEP = 4.0
+#: Tolerance of the needle's roots, on the logarithm of its conductance (0.05 %): the impact
+#: energy goes about as C^7 near the root (32 mm bore, 5 kg, tests/sizing), so the needle
+#: returned, at most two tolerances on the root's closed side, leaves 99.3 % of the capacity
+#: or more [-]
+NEEDLE_XTOL = 5e-4
 #: Most families one sizing tries (cylinders x valves x tubes): the shipped series make 390
 #: with a tube; beyond this a request is refused before any work [-]
 MAX_FAMILIES = 5000
@@ -116,7 +145,50 @@ def _edge(opening, C, b):
     return {"opening": list(opening), "C": list(C), "b": [b, b]}
 
 
-def build_model(requirement, cylinder, valve, tube=None, settings=(0.0, 0.0), base=None):
+def needle_open(valve):
+    """The cushion needle fully open for a valve: :data:`NEEDLE_OPEN_FACTOR` times its exhaust
+    conductance, at most the effect's bound [m^3/(s Pa)].
+
+    Parameters
+    ----------
+    valve : dict
+        ``C_exhaust`` [m^3/(s Pa)]
+
+    Returns
+    -------
+    C : float
+        Needle conductance [m^3/(s Pa)]
+    """
+    return min(NEEDLE_OPEN_FACTOR * valve["C_exhaust"], EFFECTS["end_cushion"].param("C_a").max)
+
+
+def end_cushions(requirement, needles):
+    """The ``end_cushion`` effect of a design: the requirement's cushion at both ends.
+
+    Parameters
+    ----------
+    requirement : Requirement
+        ``cushion_length`` [m] and ``cushion_capacity`` [J]
+    needles : tuple of float
+        Needle conductances ``(extend, retract)``: of the x = stroke end (chamber B, met
+        while extending) and of the x = 0 end (chamber A) [m^3/(s Pa)]
+
+    Returns
+    -------
+    params : dict or None
+        The effect's parameters; None without a cushion in the requirement
+    """
+    if requirement.cushion_length is None:
+        return None
+    L = requirement.cushion_length
+    n_ext, n_ret = needles
+    return {"length_a": L, "volume_a": 0.0, "C_a": float(n_ret), "length_b": L, "volume_b": 0.0,
+            "C_b": float(n_ext), "b": EFFECTS["end_cushion"].param("b").default,
+            "capacity": requirement.cushion_capacity}
+
+
+def build_model(requirement, cylinder, valve, tube=None, settings=(0.0, 0.0), base=None,
+                needles=None):
     """The model of one design: a single-rod cylinder driven by a 4/2 (5/2) on/off valve.
 
     The mounting angle is the jack's ``mounting_angle``, the tube the ``tubing`` effect on
@@ -138,6 +210,9 @@ def build_model(requirement, cylinder, valve, tube=None, settings=(0.0, 0.0), ba
         extending) and port A (exhausting while retracting); 0 = none [m^3/(s Pa)]
     base : dict or None
         Model to build on (heat, friction, gas); None = the ``paper-4way`` preset
+    needles : tuple of float or None
+        With a cushion in the requirement, the needle conductances ``(extend, retract)``
+        (:func:`end_cushions`); None = fully open (:func:`needle_open`) [m^3/(s Pa)]
 
     Returns
     -------
@@ -176,13 +251,21 @@ def build_model(requirement, cylinder, valve, tube=None, settings=(0.0, 0.0), ba
     if tube is not None and requirement.tube_length is not None:
         L, di = requirement.tube_length, tube["inner_diameter"]
         d["effects"]["tubing"] = {"length_a": L, "diameter_a": di, "length_b": L, "diameter_b": di}
+    if needles is None:
+        needles = (needle_open(valve),) * 2
+    cushions = end_cushions(requirement, needles)
+    if cushions is not None:
+        d["effects"]["end_cushion"] = cushions
     s_ext, s_ret = settings
     d["name"] = f"sizing: {cylinder['name']} + {valve['name']}" + \
         (f" + {tube['name']}" if tube is not None and requirement.tube_length else "")
     d["description"] = (f"Designed by pneucore.sizing: bore {bore * 1e3:g} mm, rod {rod * 1e3:g} mm, "
                         f"stroke {requirement.stroke * 1e3:g} mm, valve C {valve['C']:.3g} "
                         f"m^3/(s Pa), meter-out throttle C {s_ext:.3g} (extend, port B) / "
-                        f"{s_ret:.3g} (retract, port A) m^3/(s Pa), 0 = none")
+                        f"{s_ret:.3g} (retract, port A) m^3/(s Pa), 0 = none" +
+                        (f"; end cushions {requirement.cushion_length * 1e3:g} mm, needle C "
+                         f"{needles[0]:.3g} (x = stroke end) / {needles[1]:.3g} (x = 0 end) "
+                         f"m^3/(s Pa)" if cushions is not None else ""))
     d["notes"] = " ".join(model_notes(requirement, tube))
     return d
 
@@ -218,6 +301,14 @@ def model_notes(requirement, tube=None):
                      "to move is shared between its strokes in proportion to their fully open "
                      "times (both slowed by the same factor); each design's required_times "
                      "gives its share.")
+    if requirement.cushion_length is not None:
+        notes.append(f"End cushions of {requirement.cushion_length:g} m at both ends, capacity "
+                     f"{requirement.cushion_capacity:g} J (from the requirement: no catalogue "
+                     "series of cushion figures is shipped): the model's end_cushion effect. "
+                     "Where a stroke would meet its end with more energy than the capacity, "
+                     "its needle is solved (no meter-out throttle that way) for the impact "
+                     "energy to be at the capacity; fully open (settings.*_needle_C = "
+                     "cushion.needle_open_C) where it is not needed.")
     if requirement.tube_length is not None:
         notes.append(f"Tube of {requirement.tube_length:g} m on each port: the model's tubing "
                      "effect, its volume pi d^2 L / 4 added to each chamber's dead volume and its "
@@ -257,31 +348,130 @@ class _Direction:
     #: the port of this direction's meter-out throttle (the exhausting chamber's)
     PORT = {"extend": "C_b", "retract": "C_a"}
 
+    #: the needle of the cushion this direction meets (the end it travels to)
+    NEEDLE = {"extend": "C_b", "retract": "C_a"}
+
     def __init__(self, model, requirement, direction):
         self.model = model
         self.direction = direction
         self.t_req = requirement.time_bound(direction)
         self.scenario = Scenario.from_dict(_stroke_scenario(requirement, direction), model)
+        self.cushion = model.effects.get("end_cushion")
+        #: the needle of the other end (None = fully open): the piston leaves that end's
+        #: cushion as the stroke starts, so it is part of this stroke's model
+        self.other = None
         self.runs = {}
 
-    def run(self, C):
-        """Stroke metrics with a throttle of conductance ``C`` [m^3/(s Pa)] (0 = none), cached;
-        the full-stroke time is None when the end stop is not reached."""
-        if C not in self.runs:
-            effects = {k: v for k, v in self.model.effects.items() if k != "meter_out_throttle"}
+    def run(self, C, needle=None):
+        """Stroke metrics with a throttle of conductance ``C`` [m^3/(s Pa)] (0 = none) and the
+        cushion needle of the end this stroke meets ``needle`` [m^3/(s Pa)] (None = the model's,
+        fully open), cached; the full-stroke time is None when the end stop is not reached."""
+        key = (C, needle, self.other)
+        if key not in self.runs:
+            effects = {k: v for k, v in self.model.effects.items()
+                       if k not in ("meter_out_throttle", "end_cushion")}
             throttles = meter_out_throttles((C, 0.0) if self.direction == "extend" else (0.0, C))
+            if self.cushion is not None:
+                effects["end_cushion"] = dict(self.cushion)
+                if needle is not None:
+                    effects["end_cushion"][self.NEEDLE[self.direction]] = float(needle)
+                if self.other is not None:
+                    back = "retract" if self.direction == "extend" else "extend"
+                    effects["end_cushion"][self.NEEDLE[back]] = float(self.other)
             self.model.effects = ({"meter_out_throttle": throttles} if throttles else {}) | effects
             res = simulate(self.model, self.scenario, raise_on_error=False)
             m = direction_metrics(res, self.direction)
             if res.status != 0:
                 m["full_stroke_time"] = None
                 m["failure"] = res.message
-            self.runs[C] = m
-        return self.runs[C]
+            self.runs[key] = m
+        return self.runs[key]
 
-    def time(self, C):
-        t = self.run(C)["full_stroke_time"]
+    def time(self, C, needle=None):
+        t = self.run(C, needle)["full_stroke_time"]
         return math.inf if t is None else t
+
+    def energy(self, needle):
+        """Kinetic energy at the end stop, no throttle, needle ``needle`` [J]; 0 when the
+        piston never reaches the stop (that run fails the time instead)."""
+        e = self.run(0.0, needle)["end_energy"]
+        return 0.0 if e is None else e
+
+    def solve_needle(self, capacity, C_open):
+        """The needle of the end this stroke meets, no meter-out throttle: the most open one
+        whose impact energy is within ``capacity`` [J] while the full-stroke time is within the
+        required one.
+
+        Closing the needle (over the cushion length the trapped gas leaves through it) trades
+        stroke time for impact energy, both monotonic on the needle's open side
+        (tests/physics/test_cushion.py). The needle is closed from ``C_open`` in steps of
+        :data:`NEEDLE_STEP` until the energy falls within the capacity (the root
+        ``E(C) = capacity`` is then bracketed by the last two steps and found by brentq on
+        ``ln C``) or the time exceeds the required one first (the most closed needle the time
+        allows, ``t(C) = t_req``, is then found the same way, and the energy there decides):
+        the first crossing from the open side, so the bouncing region of a nearly closed
+        needle (non-monotonic) is never bracketed. Without a throttle the piston runs fully
+        open and brakes only over the cushion; a combination of both is not searched, and it
+        can leave less energy in the same time (a throttle raises the back pressure the
+        trapped gas starts from): on the 32 mm bore of tests/sizing/test_sizing_cushion.py,
+        5 kg in 0.3 s, 0.185 J without a throttle, 0.10 J with a throttle of the valve's
+        exhaust conductance, 0.37 J with 0.7 of it. A ``cushion`` verdict is therefore
+        for the throttle-free needle.
+
+        Returns
+        -------
+        needle : float or None
+            The needle [m^3/(s Pa)]; None when the energy at the most closed needle the time
+            allows is above the capacity (its ``detail`` in :attr:`needle_failure`)
+        """
+        t_req = self.t_req
+        cap_t = DURATION_FACTOR * t_req
+
+        def fits(C):
+            return self.time(0.0, C) <= t_req and self.energy(C) <= capacity
+
+        def g_time(u):
+            return math.log(min(self.time(0.0, math.exp(u)), cap_t) / t_req)
+
+        def g_energy(u):
+            return math.log(max(self.energy(math.exp(u)), 1e-300) / capacity)
+
+        def best(lo, hi):
+            # the most open needle tried in [lo, hi] that meets both: the root's safe side
+            return max((k[1] for k in self.runs if k[0] == 0.0 and k[1] is not None
+                        and k[2] == self.other and lo <= k[1] <= hi and fits(k[1])),
+                       default=None)
+
+        if fits(C_open):
+            return C_open
+        prev = C_open
+        if self.time(0.0, prev) > t_req:
+            self.needle_failure = (prev, self.energy(prev))
+            return None
+        while prev / NEEDLE_STEP >= NEEDLE_MIN:
+            C = prev / NEEDLE_STEP
+            if self.time(0.0, C) > t_req:
+                # the time bound is crossed first: the most closed needle the time allows
+                C_t = math.exp(brentq(g_time, math.log(C), math.log(prev), xtol=NEEDLE_XTOL))
+                if self.time(0.0, C_t) > t_req:
+                    C_t = min(k[1] for k in self.runs if k[0] == 0.0 and k[1] is not None
+                              and k[2] == self.other and C <= k[1] <= prev
+                              and self.time(0.0, k[1]) <= t_req)
+                if self.energy(C_t) > capacity:
+                    self.needle_failure = (C_t, self.energy(C_t))
+                    return None
+                C = C_t
+            elif self.energy(C) > capacity:
+                prev = C
+                continue
+            u = brentq(g_energy, math.log(C), math.log(prev), xtol=NEEDLE_XTOL)
+            # the root's closed side within the tolerance meets both (both monotonic here)
+            for C_r in (math.exp(u), math.exp(u - NEEDLE_XTOL), math.exp(u - 2 * NEEDLE_XTOL)):
+                if C <= C_r <= prev:
+                    fits(C_r)
+            return best(C, prev)
+        self.needle_failure = (prev, self.energy(prev))
+        return None
 
     def solve(self, C_min, C_edge):
         """The throttle whose full-stroke time is the required one [m^3/(s Pa)]: ``C_min`` if
@@ -307,8 +497,8 @@ class _Direction:
         C = throttle(brentq(g, y_min, 0.0, xtol=SETTING_XTOL))
         if self.time(C) > self.t_req:
             # the root's bracket end on the fast side meets the time for sure
-            C = min((k for k in self.runs if k > 0.0 and self.time(k) <= self.t_req),
-                    default=0.0)
+            C = min((k for k, n, o in self.runs if n is None and o == self.other and k > 0.0
+                     and self.time(k) <= self.t_req), default=0.0)
         return C
 
 
@@ -461,11 +651,25 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
         settings = {k: dr.solve(C_min, valve["C_exhaust"]) if choices.meter_out else 0.0
                     for k, dr in dirs.items()}
         metrics = {k: dirs[k].run(settings[k]) for k in DIRECTIONS}
+        needles = None
+        if requirement.cushion_capacity is not None:
+            needles, failed = _solve_needles(requirement, valve, dirs, settings, metrics)
+            if failed is not None:
+                k, (C_t, energy) = failed
+                cap = requirement.cushion_capacity
+                design = _design(requirement, cylinder, valve, tube, settings, metrics, base,
+                                 {n: dirs[n].t_req for n in DIRECTIONS}, needles)
+                return {**family, "feasible": False, "reason": "cushion", "direction": k,
+                        "detail": f"{k}: kinetic energy at the end stop {energy:.3g} J with the "
+                                  f"needle closed to {C_t:.3g} m^3/(s Pa), as far as "
+                                  f"{dirs[k].t_req:.4g} s allows (no meter-out throttle), "
+                                  f"cushion capacity {cap:.3g} J",
+                        "shortfall": energy / cap, "design": {**design, "feasible": False}}
     except FieldError as exc:
         return {**family, "feasible": False, "reason": "simulation", "direction": None,
                 "detail": str(exc)}
     design = _design(requirement, cylinder, valve, tube, settings, metrics, base,
-                     {k: dirs[k].t_req for k in DIRECTIONS})
+                     {k: dirs[k].t_req for k in DIRECTIONS}, needles)
     checks = (("end_speed", "stroke-end speed", requirement.max_end_speed, "m/s"),
               ("end_energy", "kinetic energy at the end stop", requirement.max_end_energy, "J"))
     for reason, what, limit, unit in checks:
@@ -481,6 +685,58 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
                                   f"limit {limit:.3g} {unit}",
                         "shortfall": value / limit, "design": {**design, "feasible": False}}
     return {**family, "feasible": True, "design": design}
+
+
+def _solve_needles(requirement, valve, dirs, settings, metrics):
+    """Each direction's cushion needle: fully open where the stroke sized by its meter-out
+    throttle already meets the end within the cushion's capacity, else solved without the
+    throttle (:meth:`_Direction.solve_needle`); ``settings`` and ``metrics`` are updated.
+
+    Returns
+    -------
+    needles, failed : dict, tuple or None
+        The needle per direction [m^3/(s Pa)]; ``(direction, (needle, energy))`` of the first
+        direction no needle brings within the capacity in its time, else None
+    """
+    cap = requirement.cushion_capacity
+    C_open = needle_open(valve)
+    needles = {k: C_open for k in DIRECTIONS}
+    solved = []
+    # the order: extend, retract, then extend again with the retraction's needle in its model
+    # when both were solved (its needle moves the other's stroke by ~1e-3 of its energy, the
+    # second solve's change moves the first by ~1e-7: not solved again)
+    for k in DIRECTIONS + ("extend",):
+        back = "retract" if k == "extend" else "extend"
+        if k in solved and back not in solved:
+            continue
+        dirs[k].other = needles[back] if back in solved else None
+        e = dirs[k].run(settings[k], needles[k] if k in solved else None)["end_energy"]
+        if k not in solved and (e is None or e <= cap):
+            continue
+        C = dirs[k].solve_needle(cap, C_open)
+        if C is None:
+            # the design shown is the one that failed: that needle, no throttle
+            C_t, energy = dirs[k].needle_failure
+            needles[k], settings[k] = C_t, 0.0
+            _final_metrics(dirs, settings, needles, solved + [k], metrics)
+            return needles, (k, (C_t, energy))
+        needles[k], settings[k] = C, 0.0
+        if k not in solved:
+            solved.append(k)
+    _final_metrics(dirs, settings, needles, solved, metrics)
+    for k in solved:
+        e = metrics[k]["end_energy"]
+        if e is not None and e > cap:      # the other end's needle tipped it over
+            return needles, (k, (needles[k], e))
+    return needles, None
+
+
+def _final_metrics(dirs, settings, needles, solved, metrics):
+    """Each direction's metrics in the design's own model: both needles as they end."""
+    for k in DIRECTIONS:
+        back = "retract" if k == "extend" else "extend"
+        dirs[k].other = needles[back] if back in solved else None
+        metrics[k] = dirs[k].run(settings[k], needles[k] if k in solved else None)
 
 
 def _share_cycle(requirement, dirs, family, cylinder, valve, tube, full, base):
@@ -505,9 +761,14 @@ def _share_cycle(requirement, dirs, family, cylinder, valve, tube, full, base):
             "shortfall": total / budget, "design": {**design, "feasible": False}}
 
 
-def _design(requirement, cylinder, valve, tube, settings, metrics, base, times=None):
+def _design(requirement, cylinder, valve, tube, settings, metrics, base, times=None,
+            needles=None):
+    if requirement.cushion_capacity is not None and needles is None:
+        needles = {k: needle_open(valve) for k in DIRECTIONS}
     model = build_model(requirement, cylinder, valve, tube,
-                        (settings["extend"], settings["retract"]), base=base)
+                        (settings["extend"], settings["retract"]), base=base,
+                        needles=None if needles is None else
+                        (needles["extend"], needles["retract"]))
     air = metrics["extend"]["air"] + metrics["retract"]["air"]
     # the exhaust path each way as the model sees it: throttle, tube and valve edge in series
     ports = effective_model(Model.from_dict(model)).valve.ports
@@ -515,7 +776,8 @@ def _design(requirement, cylinder, valve, tube, settings, metrics, base, times=N
         "cylinder": cylinder, "valve": valve,
         "tube": tube if requirement.tube_length is not None else None,
         "settings": {f"{k}_meter_out_C": settings[k] for k in DIRECTIONS}
-        | {f"{k}_exhaust_C": max(ports[EXHAUST_EDGE[k]].C) for k in DIRECTIONS},
+        | {f"{k}_exhaust_C": max(ports[EXHAUST_EDGE[k]].C) for k in DIRECTIONS}
+        | ({} if needles is None else {f"{k}_needle_C": needles[k] for k in DIRECTIONS}),
         "model": model,
         "metrics": {k: {n: metrics[k][n] for n in STROKE_METRIC_UNITS} for k in DIRECTIONS}
         | {"units": dict(STROKE_METRIC_UNITS)},
@@ -523,8 +785,24 @@ def _design(requirement, cylinder, valve, tube, settings, metrics, base, times=N
         # the full-stroke time each direction was sized for (with a cycle time, its share)
         "required_times": {k: requirement.time_bound(k) if times is None else times[k]
                            for k in DIRECTIONS},
+        "cushion": None if needles is None else _cushion_out(requirement, valve, needles, metrics),
         "feasible": True,
     }
+
+
+def _cushion_out(requirement, valve, needles, metrics):
+    """A design's cushions: length, capacity and per direction the needle, whether it was
+    solved (false: fully open, the stroke meets the end within the capacity without it), the
+    impact speed and energy, and the energy against the capacity."""
+    cap = requirement.cushion_capacity
+    out = {"length": requirement.cushion_length, "capacity": cap,
+           "needle_open_C": needle_open(valve)}
+    for k in DIRECTIONS:
+        e = metrics[k]["end_energy"]
+        out[k] = {"needle_C": needles[k], "needle_solved": needles[k] != needle_open(valve),
+                  "end_speed": metrics[k]["end_speed"], "end_energy": e,
+                  "energy_ratio": None if e is None else e / cap}
+    return out
 
 
 #: Significant digits to which air per cycle is compared when ranking: closer than that, the
@@ -701,4 +979,8 @@ def _answer(req, ch, outcomes):
             "requirement": req.to_dict(), "choices": ch.to_dict(),
             "units": {"air_per_cycle": "NL", **{f"metrics.*.{k}": u
                                                   for k, u in STROKE_METRIC_UNITS.items()},
-                      "settings.*_meter_out_C": C_UNIT, "settings.*_exhaust_C": C_UNIT}}
+                      "settings.*_meter_out_C": C_UNIT, "settings.*_exhaust_C": C_UNIT,
+                      "settings.*_needle_C": C_UNIT, "cushion.length": "m",
+                      "cushion.capacity": "J", "cushion.needle_open_C": C_UNIT,
+                      "cushion.*.needle_C": C_UNIT, "cushion.*.end_speed": "m/s",
+                      "cushion.*.end_energy": "J", "cushion.*.energy_ratio": "-"}}

@@ -171,3 +171,35 @@ def test_a_cycle_time_with_dwell_instead_of_the_two_times(client):
     body["requirement"]["extend_time"] = 0.6
     assert_field_error(client.post("/api/sizing", json=body), "requirement.extend_time",
                        msg_contains="not both")
+
+
+def test_a_cushion_in_the_requirement_gets_its_needles_solved(client):
+    """The cushion needle is a setting the answer shows: per end its conductance, the impact
+    energy and the energy against the capacity (at most 1 in a feasible design)."""
+    body = {"requirement": {"stroke": 0.2, "moving_mass": 5.0, "load_force": 20.0,
+                            "supply_pressure": 7e5, "extend_time": 0.5, "retract_time": 0.5,
+                            "cushion_length": 0.02, "cushion_capacity": 0.05},
+            "choices": {"bore": ["iso15552:32"], "valve": ["ckd-4ga:M4GA1"], "meter_out": False}}
+    r = client.post("/api/sizing", json=body)
+    assert r.status_code == 200, r.text[:800]
+    ans = r.json()
+    (d,) = ans["designs"]
+    assert d["feasible"] and ans["units"]["cushion.*.end_energy"] == "J"
+    for k in ("extend", "retract"):
+        c = d["cushion"][k]
+        assert c["needle_solved"] and c["needle_C"] == d["settings"][f"{k}_needle_C"] > 0.0
+        # at the capacity from below: 1 % (the root's tolerance, tests/sizing/test_sizing_cushion.py)
+        assert 0.99 <= c["energy_ratio"] <= 1.0
+    ec = d["model"]["effects"]["end_cushion"]
+    assert (ec["C_b"], ec["C_a"]) == (d["settings"]["extend_needle_C"],
+                                      d["settings"]["retract_needle_C"])
+
+
+@pytest.mark.parametrize("change,field,unit", [
+    ({"cushion_length": 0.02}, "requirement.cushion_capacity", "J"),
+    ({"cushion_length": 0.02, "cushion_capacity": -1.0}, "requirement.cushion_capacity", "J"),
+    ({"cushion_length": 0.15, "cushion_capacity": 0.1}, "requirement.cushion_length", "m"),
+])
+def test_a_bad_cushion_is_a_422_naming_the_field_and_unit(client, change, field, unit):
+    r = client.post("/api/sizing", json=_body(**change))
+    assert_field_error(r, field, msg_contains=f"(unit: {unit})")

@@ -95,3 +95,30 @@ def test_a_cycle_time_with_dwell_instead_of_the_two_times(page):
     for field, value in (("extend_time", "0.6"), ("retract_time", "0.6"), ("cycle_time", ""),
                          ("dwell", "")):
         page.fill(f"#sz-{field}", value)
+
+
+def test_a_cushion_shows_each_ends_solved_needle_and_impact_energy(page):
+    for field, unit in (("cushion_length", "[m]"), ("cushion_capacity", "[J]")):
+        assert unit in page.inner_text(f"label[for='sz-{field}']")
+    page.fill("#sz-bore", "iso15552:32")
+    page.fill("#sz-valve", "ckd-4ga:M4GA1")
+    page.fill("#sz-max_end_speed", "")
+    page.fill("#sz-cushion_length", "0.02")
+    page.fill("#sz-cushion_capacity", "0.05")
+    _size(page)
+    assert page.get_attribute("#panel-sizing", "data-sized") == "1", page.inner_text("#status")
+    head = page.inner_text("#sizing-designs thead")
+    assert "cushion needle C" in head and "impact energy" in head
+    d = page.evaluate("SZ.ans.designs[0]")
+    shown = page.inner_text("#sizing-designs tbody tr:nth-child(1) .sz-needle")
+    # each end's needle as the answer gives it, to the 3 significant digits shown (half a unit
+    # of the third digit: 5e-3 relative)
+    parts = [p.strip() for p in shown.split("/")]
+    assert len(parts) == 2, shown
+    for k, part in zip(("extend", "retract"), parts):
+        c = d["cushion"][k]
+        assert c["needle_solved"]
+        assert float(part) == pytest.approx(c["needle_C"], rel=5e-3)
+    assert "0.05" in page.inner_text("#sizing-designs tbody tr:nth-child(1) .sz-impact")
+    for field, value in (("cushion_length", ""), ("cushion_capacity", ""), ("max_end_speed", "1")):
+        page.fill(f"#sz-{field}", value)
