@@ -29,6 +29,7 @@ from pneucore.data.measurement import MeasurementError
 from pneucore.simulate import SimulationError, start_warm_up
 from pneucore.spec.validation import FieldError
 
+from .asgi import TrackedSend, send_json
 from .bodies import BodyLimit
 from .config import LOCAL_HOSTS, Settings
 from .express_lane import SimulateExpressLane
@@ -317,25 +318,16 @@ class CatchAll:
     async def __call__(self, scope, receive, send):
         if scope["type"] != "http":
             return await self.app(scope, receive, send)
-        started = False
-
-        async def tracking_send(message):
-            nonlocal started
-            if message["type"] == "http.response.start":
-                started = True
-            await send(message)
+        tracked = TrackedSend(send)
         try:
-            await self.app(scope, receive, tracking_send)
+            await self.app(scope, receive, tracked)
         except Exception as exc:
-            if started:
+            if tracked.started:
                 raise
             logging.getLogger("uvicorn.error").error(
                 "Exception in ASGI application (answered 500)", exc_info=exc)
             body = dumps({"detail": f"internal error: {type(exc).__name__}: {exc}"})
-            await send({"type": "http.response.start", "status": 500,
-                        "headers": [(b"content-type", b"application/json"),
-                                    (b"content-length", str(len(body)).encode())]})
-            await send({"type": "http.response.body", "body": body})
+            await send_json(send, 500, body)
 
 
 def storage_error_response(exc):

@@ -308,6 +308,7 @@ class VersionCreate(_Strict):
     added: Optional[str] = Field(None, description="Effect added at this step [-]")
     params: dict[str, Any] = Field(default_factory=dict, description="Fitted parameters of the added effect")
     note: str = Field("", description="Free text")
+    experiments: Optional[list[ExperimentIn]] = Field(None, description="The session's experiments from this version on, when the user's data changed (the same session goes on; each version records the set its errors are on); null = the session's current set")
 
 
 class StudyRequest(_Strict):
@@ -326,7 +327,7 @@ class StudyRequest(_Strict):
 class SimulateResponse(BaseModel):
     series: dict[str, list[Any]] = Field(..., description="Sampled series by name (SI units, see units)")
     units: dict[str, str] = Field(..., description="Unit of each series")
-    events: list[dict[str, Any]] = Field(..., description="Events: t [s], kind (command/slip/stick/stop/reverse), mode")
+    events: list[dict[str, Any]] = Field(..., description="Events: t [s], kind (command/slip/stick/stop/reverse), mode; a stop also v, the piston velocity at the impact [m/s]")
     stats: dict[str, Any] = Field(..., description="Solver statistics")
     status: int = Field(..., description="0 = ok")
     message: str = Field(..., description="Solver status message")
@@ -672,6 +673,7 @@ class SessionVersion(_Open):
     added: Optional[str] = Field(None, description="Catalog effect added in this version")
     params: Optional[dict[str, Any]] = Field(None, description="Fitted parameters of the added effect (units in GET /api/effects)")
     note: Optional[str] = Field(None, description="Free text")
+    experiments: Optional[list[dict[str, Any]]] = Field(None, description="The experiments this version's errors were computed on (ExperimentIn); null in sessions stored before versions recorded them")
 
 
 class SessionOut(_Open):

@@ -42,6 +42,7 @@ from pneucore.spec.scenario import Scenario
 from pneucore.spec.units import unit_systems
 from pneucore.spec.validation import FieldError, choice, finite_json, mapping, number
 from pneucore.spec.valve_data import convert_valve_data
+from pneucore.strokes import STROKE_FIELDS
 from pneucore.study import (Study, check_run_options, delete_study, list_studies, queue_study,
                             requeue_study, run_study, runs_csv, runs_npz, set_study_status,
                             study_results, study_status)
@@ -617,10 +618,12 @@ def display_units():
     Returns
     -------
     units : dict
-        ``systems`` (:func:`pneucore.spec.units.unit_systems`) and ``parameters``
-        (:func:`parameter_units`)
+        ``systems`` (:func:`pneucore.spec.units.unit_systems`), ``parameters``
+        (:func:`parameter_units`) and ``stroke``: the unit and definition of each per-stroke
+        metric of a simulation's ``stats.stroke.strokes`` (:data:`pneucore.strokes.STROKE_FIELDS`)
     """
-    return {"systems": unit_systems(), "parameters": parameter_units()}
+    stroke = {name: {"unit": unit, "description": text} for name, (unit, text) in STROKE_FIELDS.items()}
+    return {"systems": unit_systems(), "parameters": parameter_units(), "stroke": stroke}
 
 
 # ------------------------------------------------------------------------------ datasets
@@ -850,13 +853,18 @@ def add_session_version(session_id, req, store, limits):
     if req.added is not None:
         choice(req.added, EFFECTS, "added")
     params = finite_json(req.params, "params")
-    try:
-        exps = [ExperimentIn(**e) for e in s["experiments"]]
-    except (TypeError, ValueError):
-        raise FieldError("session", f"session {session_id!r} has unreadable experiments; "
-                                    f"start a new session") from None
+    if req.experiments is not None:
+        exps = req.experiments
+        new_set = finite_json([e.model_dump(exclude_none=True) for e in exps], "experiments")
+    else:
+        new_set = None
+        try:
+            exps = [ExperimentIn(**e) for e in s["experiments"]]
+        except (TypeError, ValueError):
+            raise FieldError("session", f"session {session_id!r} has unreadable experiments; "
+                                        f"start a new session") from None
     store.add_version(session_id, model, _session_errors(model, exps, store, limits), req.added,
-                      params, req.note)
+                      params, req.note, experiments=new_set)
     return store.session(session_id)
 
 

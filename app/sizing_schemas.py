@@ -17,6 +17,7 @@ from pneucore.sizing.requirement import Choices, Requirement
 from pneucore.sizing.search import REASONS
 from pneucore.sizing.stroke import STROKE_METRIC_UNITS
 from pneucore.spec.docstrings import api_description
+from pneucore.spec.valve_data import FIELDS as VALVE_FIELDS
 
 from .schemas import Name
 
@@ -48,8 +49,10 @@ class RequirementSpec(_Strict):
     load_force: float = _lib(Requirement, _REQ, "load_force")
     angle: float = _lib(Requirement, _REQ, "angle")
     supply_pressure: float = _lib(Requirement, _REQ, "supply_pressure", required=True)
-    extend_time: float = _lib(Requirement, _REQ, "extend_time", required=True)
-    retract_time: float = _lib(Requirement, _REQ, "retract_time", required=True)
+    extend_time: Optional[float] = _lib(Requirement, _REQ, "extend_time")
+    retract_time: Optional[float] = _lib(Requirement, _REQ, "retract_time")
+    cycle_time: Optional[float] = _lib(Requirement, _REQ, "cycle_time")
+    dwell: float = _lib(Requirement, _REQ, "dwell")
     max_end_speed: Optional[float] = _lib(Requirement, _REQ, "max_end_speed")
     max_end_energy: Optional[float] = _lib(Requirement, _REQ, "max_end_energy")
     tube_length: Optional[float] = _lib(Requirement, _REQ, "tube_length")
@@ -62,8 +65,25 @@ class CylinderSpec(_Strict):
     name: Optional[Name] = Field(None, description="Label [-]")
 
 
+def _figure(name):
+    """A catalogue figure's field, described from :mod:`pneucore.spec.valve_data` (the one source)."""
+    unit, desc, _, default = VALVE_FIELDS[name]
+    return Field(None, description=f"Instead of C, for the valve converter: {desc}"
+                                   + ("" if default is None else f"; null = {default:g}")
+                                   + f" [{unit}]")
+
+
 class ValveSpec(_Strict):
-    C: float = Field(..., description="Sonic conductance of the supply edges P-A, P-B [m^3/(s Pa)]")
+    C: Optional[float] = Field(None, description="Sonic conductance of the supply edges P-A, P-B; "
+                                                 "null = from one catalogue figure (qn, "
+                                                 "effective_area or flow_rate with p1, p2) "
+                                                 "[m^3/(s Pa)]")
+    qn: Optional[float] = _figure("qn")
+    effective_area: Optional[float] = _figure("effective_area")
+    flow_rate: Optional[float] = _figure("flow_rate")
+    p1: Optional[float] = _figure("p1")
+    p2: Optional[float] = _figure("p2")
+    T1: Optional[float] = _figure("T1")
     b: float = Field(..., description="Critical pressure ratio of the supply edges [-]")
     C_exhaust: Optional[float] = Field(None, description="Sonic conductance of the exhaust edges "
                                                          "A-R, B-R; null = as C [m^3/(s Pa)]")
@@ -164,6 +184,9 @@ class DesignOut(BaseModel):
     metrics: DesignMetricsOut
     air_per_cycle: float = Field(..., description="Air drawn from the supply per cycle (extension "
                                                   "and retraction), ANR [NL]")
+    required_times: dict[str, float] = Field(..., description=(
+        "Full-stroke time each direction was sized for (extend, retract): the requirement's, or "
+        "with a cycle_time each direction's share of the time to move [s]"))
     feasible: bool = Field(..., description="Meets the requirement (false: one of the closest "
                                             "families, shown when none meets it) [-]")
 

@@ -42,13 +42,26 @@ CREATE TABLE IF NOT EXISTS sessions (
 CREATE TABLE IF NOT EXISTS versions (
     session TEXT NOT NULL, version INTEGER NOT NULL, label TEXT NOT NULL, created REAL NOT NULL,
     model TEXT NOT NULL, errors TEXT NOT NULL, overall REAL, added TEXT, params TEXT NOT NULL,
-    note TEXT NOT NULL DEFAULT '', PRIMARY KEY (session, version));
+    note TEXT NOT NULL DEFAULT '', experiments TEXT, PRIMARY KEY (session, version));
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT);
 CREATE TABLE IF NOT EXISTS jobs (
     id TEXT PRIMARY KEY, kind TEXT NOT NULL, status TEXT NOT NULL, progress REAL NOT NULL,
     step TEXT NOT NULL, error TEXT, created REAL NOT NULL, started REAL, finished REAL,
     result BLOB);
 """
+
+
+#: Columns added to a table after its first release: (table, column, SQL type). A database
+#: written by an older version gets them (NULL in its old rows) when it is opened.
+_ADDED_COLUMNS = (("versions", "experiments", "TEXT"),)
+
+
+def _add_missing_columns(db):
+    """Bring an older database's tables up to :data:`_SCHEMA` (``ALTER TABLE ... ADD COLUMN``)."""
+    for table, column, kind in _ADDED_COLUMNS:
+        have = {r[1] for r in db.execute(f"PRAGMA table_info({table})")}
+        if column not in have:
+            db.execute(f"ALTER TABLE {table} ADD COLUMN {column} {kind}")
 
 
 class ReadOnly(Exception):
@@ -327,6 +340,7 @@ class Store:
         try:
             db.execute("PRAGMA journal_mode=WAL")
             db.executescript(_SCHEMA)
+            _add_missing_columns(db)
         except BaseException:
             db.close()
             raise
@@ -497,7 +511,7 @@ class Store:
         def tx(db):
             db.execute("INSERT INTO sessions VALUES (?,?,?,?)",
                        (sid, name, time.time(), _dumps(experiments)))
-            self._insert_version(db, sid, RefinementHistory().add(model, comparison))
+            self._insert_version(db, sid, RefinementHistory().add(model, comparison), experiments)
         self._tx(tx)
         return sid
 
@@ -512,15 +526,18 @@ class Store:
             for v in rows])
 
     @staticmethod
-    def _insert_version(db, sid, v):
-        """Write a :class:`ModelVersion` (its ISO time stored as Unix epoch seconds)."""
+    def _insert_version(db, sid, v, experiments):
+        """Write a :class:`ModelVersion` (its ISO time stored as Unix epoch seconds) with the
+        experiments its errors were computed on."""
         overall = v.overall if v.overall is None or math.isfinite(v.overall) else None
-        db.execute("INSERT INTO versions VALUES (?,?,?,?,?,?,?,?,?,?)",
+        db.execute("INSERT INTO versions (session, version, label, created, model, errors, overall, added, "
+                   "params, note, experiments) VALUES (?,?,?,?,?,?,?,?,?,?,?)",
                    (sid, v.version, v.label, _dt.datetime.fromisoformat(v.created).timestamp(),
-                    _dumps(v.model), _dumps(v.errors), overall, v.added, _dumps(v.params or {}), v.note))
+                    _dumps(v.model), _dumps(v.errors), overall, v.added, _dumps(v.params or {}), v.note,
+                    _dumps(experiments)))
         return v.version
 
-    def add_version(self, sid, model, comparison=None, added=None, params=None, note=""):
+    def add_version(self, sid, model, comparison=None, added=None, params=None, note="", experiments=None):
         """Record the next version of session ``sid``; returns its number.
 
         The session's history is read and extended by :meth:`RefinementHistory.add` inside
@@ -540,10 +557,20 @@ class Store:
             Its fitted parameters (validated JSON)
         note : str
             Free text
+        experiments : list of dict or None
+            The session's new set of experiments (validated JSON), from this version on; None =
+            the set stays. The session stays one across a change of its data: each version
+            records the set its errors were computed on.
         """
         def tx(db):
+            if experiments is not None:
+                db.execute("UPDATE sessions SET experiments=? WHERE id=?", (_dumps(experiments), sid))
+            exps = experiments
+            if exps is None:
+                row = db.execute("SELECT experiments FROM sessions WHERE id=?", (sid,)).fetchone()
+                exps = _loads(row[0], None) if row else None
             v = self._history(db, sid).add(model, comparison, added, params, note)
-            return self._insert_version(db, sid, v)
+            return self._insert_version(db, sid, v, exps)
         return self._tx(tx)
 
     def session(self, sid):
@@ -553,7 +580,8 @@ class Store:
             if row is None:
                 return None
             vers = self._db.execute("SELECT version, label, created, model, errors, overall, added, params, "
-                                    "note FROM versions WHERE session=? ORDER BY version", (sid,)).fetchall()
+                                    "note, experiments FROM versions WHERE session=? ORDER BY version",
+                                    (sid,)).fetchall()
         experiments = _loads(row[3], None)
         if not isinstance(experiments, list):
             # the session's own row no longer decodes (changed by hand, a faulty disk): answered
@@ -562,7 +590,8 @@ class Store:
         return {"id": row[0], "name": row[1], "created": row[2], "experiments": experiments,
                 "versions": [{"version": v[0], "label": v[1], "created": v[2], "model": _loads(v[3], None),
                               "errors": _loads(v[4], {}), "overall": v[5], "added": v[6],
-                              "params": _loads(v[7], {}), "note": v[8]} for v in vers]}
+                              "params": _loads(v[7], {}), "note": v[8], "experiments": _loads(v[9], None)}
+                             for v in vers]}
 
     def list_sessions(self):
         with self._lock:

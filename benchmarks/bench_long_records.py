@@ -15,7 +15,10 @@ declared:
 * **number of experiments**: ``n`` tests of 2 s each at supply pressures from 5 to 7 bar
   (abs), every other one locked (a hold), the others free and cycling.
 
-For each it prints the wall time of one diagnosis round
+For each it prints the wall time of one diagnosis round (and with ``--memory`` its peak
+memory: the most the round holds above what it started with, traced by :mod:`tracemalloc`,
+which numpy reports its arrays to, against the bytes of the records' series, so that a
+per-candidate copy of every series would show as a ratio growing with the candidates)
 (:func:`pneucore.analysis.diagnose.diagnose`) and, for ``--refine-lengths``, of the
 refinement loop (:func:`pneucore.analysis.history.refine`), with the exponent ``b`` of
 ``time ~ a * size^b`` fitted by least squares on the logarithms (size: simulated seconds
@@ -30,6 +33,7 @@ import math
 import os
 import sys
 import time
+import tracemalloc
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
@@ -108,10 +112,36 @@ def exponent(sizes, times):
     return float(np.polyfit(np.log(sizes), np.log(times), 1)[0])
 
 
+def _memory_text(row):
+    if "peak_mb" not in row:
+        return ""
+    return (f"   peak {row['peak_mb']:.1f} MB for {row['records_mb']:.2f} MB of records "
+            f"({row['peak_mb'] / row['records_mb']:.0f}x)")
+
+
 def timed(fn):
     t0 = time.perf_counter()
     out = fn()
     return time.perf_counter() - t0, out
+
+
+def record_bytes(exps):
+    """Bytes of the records' series as float64: time plus every measured signal [bytes]."""
+    return sum(8 * e.measurement.n * (1 + len(e.measurement.measured_signals)) for e in exps)
+
+
+def peak_memory(fn):
+    """``(peak bytes above the start, result)`` of ``fn()`` under :mod:`tracemalloc` (numpy's
+    arrays included); run apart from the timings, which tracing slows down."""
+    tracemalloc.start()
+    try:
+        base, _ = tracemalloc.get_traced_memory()
+        tracemalloc.reset_peak()
+        out = fn()
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    return peak - base, out
 
 
 def main(argv=None):
@@ -124,6 +154,8 @@ def main(argv=None):
                     help="cyclic lengths whose refinement loop is timed too [s] ('' for none)")
     ap.add_argument("--refine-counts", default="",
                     help="numbers of experiments whose refinement loop is timed too")
+    ap.add_argument("--memory", action="store_true",
+                    help="also trace each round's peak memory (a second, untimed round)")
     ap.add_argument("--json", default=None, help="write the figures to this file")
     a = ap.parse_args(argv)
     lengths = [float(x) for x in a.lengths.split(",") if x]
@@ -147,9 +179,12 @@ def main(argv=None):
                "verdict": d.verdict or "none"}
         if T in ref_len:
             row["refine_s"], _ = timed(lambda: refine(start, exps))
+        if a.memory:
+            peak, _ = peak_memory(lambda: diagnose(start, exps))
+            row["peak_mb"], row["records_mb"] = peak / 1e6, record_bytes(exps) / 1e6
         figures["length"].append(row)
         print(f"{'1 s hold + %g s cyclic' % T:>22} {n:>8} {t_round:>8.2f} {row['verdict']:>18} "
-              f"{row.get('refine_s', float('nan')):>9.2f}")
+              f"{row.get('refine_s', float('nan')):>9.2f}" + _memory_text(row))
     for n_exp in counts:
         exps = count_set(true, n_exp, a.duration)
         n = sum(e.measurement.n for e in exps)
@@ -158,10 +193,19 @@ def main(argv=None):
                "round_s": t_round, "verdict": d.verdict or "none"}
         if n_exp in ref_cnt:
             row["refine_s"], _ = timed(lambda: refine(start, exps))
+        if a.memory:
+            peak, _ = peak_memory(lambda: diagnose(start, exps))
+            row["peak_mb"], row["records_mb"] = peak / 1e6, record_bytes(exps) / 1e6
         figures["count"].append(row)
         print(f"{'%d x %g s' % (n_exp, a.duration):>22} {n:>8} {t_round:>8.2f} "
-              f"{row['verdict']:>18} {row.get('refine_s', float('nan')):>9.2f}")
+              f"{row['verdict']:>18} {row.get('refine_s', float('nan')):>9.2f}" + _memory_text(row))
 
+    for key in ("length", "count"):
+        mem = [r for r in figures[key] if "peak_mb" in r]
+        if len(mem) >= 2:
+            figures[f"memory_exponent_{key}"] = exponent([r["records_mb"] for r in mem],
+                                                         [r["peak_mb"] for r in mem])
+            print(f"peak memory ~ (record bytes)^{figures[f'memory_exponent_{key}']:.2f} ({key})")
     rows = figures["length"]
     b_len = exponent([r["simulated_s"] for r in rows], [r["round_s"] for r in rows])
     rows = figures["count"]

@@ -21,6 +21,7 @@ import time
 
 from pneucore.analysis.command_line import (COMMANDS, LoopArgumentError, add_loop_commands, load_model,
                                             load_scenario, run_loop)
+from pneucore.physics.gas import T_ZERO_CELSIUS
 from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS
 from pneucore.simulate import SimulationError, simulate
 from pneucore.spec.validation import FieldError
@@ -45,8 +46,8 @@ def summary_lines(res):
         f"({res.stats['rejected']} rejected), {res.stats['rhs_evaluations']} rhs evaluations",
         f"p_a  [bar abs]  min {res.p_a.min() / 1e5:7.3f}  max {res.p_a.max() / 1e5:7.3f}  end {res.p_a[-1] / 1e5:7.3f}",
         f"p_b  [bar abs]  min {res.p_b.min() / 1e5:7.3f}  max {res.p_b.max() / 1e5:7.3f}  end {res.p_b[-1] / 1e5:7.3f}",
-        f"T_a  [degC]     min {res.T_a.min() - 273.15:7.1f}  max {res.T_a.max() - 273.15:7.1f}",
-        f"T_b  [degC]     min {res.T_b.min() - 273.15:7.1f}  max {res.T_b.max() - 273.15:7.1f}",
+        f"T_a  [degC]     min {res.T_a.min() - T_ZERO_CELSIUS:7.1f}  max {res.T_a.max() - T_ZERO_CELSIUS:7.1f}",
+        f"T_b  [degC]     min {res.T_b.min() - T_ZERO_CELSIUS:7.1f}  max {res.T_b.max() - T_ZERO_CELSIUS:7.1f}",
         f"x    [mm]       min {res.x.min() * 1e3:7.2f}  max {res.x.max() * 1e3:7.2f}  end {res.x[-1] * 1e3:7.2f}",
         f"v    [m/s]      min {res.v.min():7.3f}  max {res.v.max():7.3f}",
         "events: " + (", ".join(f"{k} x{n}" for k, n in sorted(ev.items())) or "none"),

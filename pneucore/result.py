@@ -61,7 +61,9 @@ class SimulationResult:
     mode : ndarray of str
         ``slide``, ``stick``, ``stop`` or ``locked``
     events : list of dict
-        ``{"t": [s], "kind": "command|slip|stick|stop|reverse", "mode": ...}``
+        ``{"t": [s], "kind": "command|slip|stick|stop|reverse", "mode": ...}``; a ``stop``
+        also has ``"v"``, the piston's velocity at the impact [m/s] (the state at the located
+        event time)
     stats : dict
         Solver statistics (steps, rejected, rhs evaluations, jacobians, events, back-steps);
         :meth:`summary` adds ``stroke``, the stroke metrics (:meth:`stroke_metrics`)
@@ -126,8 +128,11 @@ class SimulationResult:
                                   eff.jack.moving_mass * s["a"] + load)
         for i, name in enumerate(core["state_names"][L.N_BASE_STATES:]):
             s[name] = y_out[:, L.N_BASE_STATES + i]
-        events = [{"t": float(t), "kind": L.EVENT_NAMES[k], "mode": L.MODE_DETAIL[m]}
+        events = [{"t": float(t[0]), "kind": L.EVENT_NAMES[k], "mode": L.MODE_DETAIL[m]}
                   for t, k, m in zip(ev_t, ev_kind, ev_mode)]
+        for e, t in zip(events, ev_t):
+            if e["kind"] == "stop":
+                e["v"] = float(t[1])     # the piston's velocity at the impact [m/s]
         st = {"steps": int(stats[ST_STEPS]), "rejected": int(stats[ST_REJECTED]),
               "rhs_evaluations": int(stats[ST_FEVALS]), "jacobians": int(stats[ST_JACOBIANS]),
               "events": int(stats[ST_EVENTS]), "backsteps": int(stats[ST_BACKSTEPS]),

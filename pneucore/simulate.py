@@ -96,7 +96,7 @@ def build_core(model, scenario):
     """
     eff = effective_model(model)
     j, g = eff.jack, eff.gas
-    prm = np.zeros(L.N_PRM)
+    prm = np.zeros(L.N_PRM_ALL)
     P = L.PRM_INDEX
     prm[P["R"]] = g.r
     prm[P["GAMMA"]] = g.gamma
@@ -119,7 +119,8 @@ def build_core(model, scenario):
     prm[P["WALL_A"]] = j.wall_area_a or 0.0
     prm[P["WALL_B"]] = j.wall_area_b or 0.0
     heat = HEAT_MODELS[eff.heat.model]
-    heat.pack(eff.heat, prm)
+    for slot, value in heat.core_values(eff.heat).items():
+        prm[P[slot]] = value
     for side, fs in (("FE", eff.friction.extend), ("FR", eff.friction.retract)):
         for key in ("fc0", "fc_a", "fc_b", "kv0", "kv_a", "kv_b"):
             prm[P[f"{side}_{key.upper().replace('_', '')}"]] = getattr(fs, key)
@@ -157,10 +158,10 @@ def build_core(model, scenario):
         p_b = ini.p_b if ini.p_b is not None else eff.ambient.pressure
     y_base = [density(p_a, T_a, g.r) * V_a, T_a, density(p_b, T_b, g.r) * V_b, T_b, x0, 0.0]
 
-    iy = -np.ones(L.N_IY, np.int64)
+    iy = -np.ones(L.N_IY_ALL, np.int64)
     iy[L.IY_NUSER] = 0
     u0 = _command_at_zero(scenario)
-    build = CoreBuild(prm, iy, eff, {"u0": u0, "p_a": p_a, "p_b": p_b})
+    build = CoreBuild(prm, iy, eff, {"u0": u0, "p_a": p_a, "p_b": p_b, "T_a": T_a, "T_b": T_b})
     heat.add_states(eff.heat, build, T_a, T_b)
     user_params, hooks = [], []
     for name, params in model.effects.items():
@@ -272,7 +273,7 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
     cap = min(max_ev, 256 + 4 * len(cmd))
     run = core_for(core["hook"], core["flow_laws"], core["friction_laws"])
     while True:
-        ev_t = np.empty(cap)
+        ev_t = np.full((cap, 2), np.nan)    # time [s], impact velocity of a stop [m/s]
         ev_kind = np.empty(cap, np.int64)
         ev_mode = np.empty(cap, np.int64)
         stats = np.zeros(N_STATS, np.int64)

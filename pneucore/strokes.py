@@ -15,8 +15,14 @@ valve is switched:
    chamber (here: the output ``(p_drive - p_atm) A_drive - (p_other - p_atm)
    A_other`` from the sampled pressures, linear interpolation between samples);
 4. **stroke end velocity**: the piston's speed on arriving at the stroke end
-   (here: ``|v + a (t_stop - t_k)|`` from the last output sample ``k`` before the
-   stop event, its speed carried to the located impact time with its acceleration);
+   (here: ``|v|`` of the state at the located ``stop`` event, logged by the integrator
+   at the impact, before the end stop takes the piston's momentum);
+
+Each impact's **kinetic energy** ``m v^2 / 2`` [J] is reported against the end
+cushion's **capacity** where the model gives one (effect ``end_cushion``,
+``capacity``; SMC, *Best Pneumatics*, "Allowable kinetic energy": a cushion
+absorbs at most its catalogue energy; :mod:`pneucore.physics.cushion`), for every
+``stop`` event (``impacts``) and for the stop that ends each stroke.
 
 and its charts give the **average speed** as the stroke over the full stroke
 time. Besides those: the **maximum speed** over the stroke (sampled), and the
@@ -36,6 +42,7 @@ import math
 
 import numpy as np
 
+from pneucore.physics.cushion import kinetic_energy
 from pneucore.physics.gas import RHO_REF
 
 #: Fraction of the theoretical output of the 90 % force time [-]
@@ -49,9 +56,15 @@ STROKE_FIELDS = {
     "full_stroke_time": ("s", "valve switching to the stroke end (SMC 2)"),
     "force_90_time": ("s", "valve switching to 90 % of the theoretical output (SMC 3)"),
     "mean_speed": ("m/s", "stroke / full stroke time (SMC's average speed)"),
-    "max_speed": ("m/s", "largest |v| between the switching and the stroke end (sampled)"),
-    "end_speed": ("m/s", "|v| on arriving at the stroke end (last sample before the stop, "
-                         "carried to the impact with its acceleration)"),
+    "max_speed": ("m/s", "largest |v| between the switching and the stroke end (sampled, and "
+                         "at the impact)"),
+    "end_speed": ("m/s", "|v| on arriving at the stroke end (the state at the located impact; "
+                         "the fastest of the stroke's impacts where the piston bounces)"),
+    "end_energy": ("J", "kinetic energy of the moving mass at the impact, m v^2 / 2"),
+    "cushion_capacity": ("J", "the end cushion's capacity (effect end_cushion; null when "
+                              "not given)"),
+    "energy_ratio": ("-", "end_energy / cushion_capacity (above 1: the cushion is too weak; "
+                          "null without a capacity)"),
     "air_NL": ("NL", "air drawn from the supply from this command to the next, ANR"),
 }
 
@@ -85,7 +98,8 @@ def stroke_metrics(res, model):
         undefined); ``air_per_cycle_NL``: air per extension + retraction [NL] (None without a
         full stroke each way); ``full_stroke_time_extend`` and ``full_stroke_time_retract``:
         of the first full stroke each way [s]; ``end_speed_max``: the largest stroke end
-        velocity [m/s]
+        velocity [m/s], ``end_energy_max`` its kinetic energy [J]; ``impacts``: every ``stop`` event's ``t`` [s], ``end``, ``speed``
+        [m/s], kinetic ``energy`` [J], the cushion's ``capacity`` [J] and ``energy_ratio``
     """
     # a run stopped early (status != 0) has NaN samples after the last time reached
     ok = np.isfinite(np.asarray(res.x, float))
@@ -101,9 +115,16 @@ def stroke_metrics(res, model):
     q = np.asarray(res.q_supply, float)[:n]
     cum = np.concatenate(([0.0], np.cumsum(0.5 * (q[1:] + q[:-1]) * np.diff(t))))
 
+    mass = j.moving_mass
+    cushion = getattr(model, "effects", {}).get("end_cushion")
+    capacity = cushion.get("capacity") if cushion else None
+    capacity = capacity if capacity else None
+    impacts = [_impact(e, mass, capacity) for e in res.events
+               if e["kind"] == "stop" and e["t"] <= (t[-1] if n else -math.inf)]
     if n < 2:
         return {"strokes": [], "full_stroke_time_extend": None, "full_stroke_time_retract": None,
-                "end_speed_max": None, "air_per_cycle_NL": None}
+                "end_speed_max": None, "end_energy_max": None, "air_per_cycle_NL": None,
+                "impacts": impacts}
     cmd = [e["t"] for e in res.events if e["kind"] == "command" and e["t"] <= t[-1]]
     strokes = []
     for k, tc in enumerate(cmd):
@@ -125,11 +146,21 @@ def stroke_metrics(res, model):
             s["full_stroke_time"] = float(t_stop - tc)
             s["mean_speed"] = j.stroke / s["full_stroke_time"] if t_stop > tc else None
             i_stop = int(np.searchsorted(t, t_stop, side="left"))
+            # the hardest impact of the stroke (a cushioned piston may bounce off the
+            # trapped air and meet the end again, slower)
+            impact = max((_impact(e, mass, capacity) for e in stops),
+                         key=lambda i: -1.0 if i["speed"] is None else i["speed"])
+            s["end_speed"] = impact["speed"]
+            s["end_energy"] = impact["energy"]
+            s["cushion_capacity"] = impact["capacity"]
+            s["energy_ratio"] = impact["energy_ratio"]
             if i_stop > i0:
-                # the last sample's speed carried to the stop with its acceleration
-                k = i_stop - 1
-                s["end_speed"] = float(abs(v[k] + acc[k] * (t_stop - t[k])))
-                s["max_speed"] = float(np.max(np.abs(v[i0:i_stop])))
+                if impact["speed"] is None:
+                    # a log without the impact velocity (a result stored before it was
+                    # logged): the last sample's speed carried to the stop with its acceleration
+                    k = i_stop - 1
+                    s["end_speed"] = float(abs(v[k] + acc[k] * (t_stop - t[k])))
+                s["max_speed"] = float(max(np.max(np.abs(v[i0:i_stop])), s["end_speed"]))
         if slips:
             s["start_up_time"] = float(slips[0]["t"] - tc)
         if dp_s > 0.0 and i1 > i0:
@@ -162,4 +193,17 @@ def stroke_metrics(res, model):
             "full_stroke_time_extend": first("extend", "full_stroke_time"),
             "full_stroke_time_retract": first("retract", "full_stroke_time"),
             "end_speed_max": max(ends) if ends else None,
-            "air_per_cycle_NL": ext + ret if ext is not None and ret is not None else None}
+            "end_energy_max": kinetic_energy(mass, max(ends)) if ends else None,
+            "air_per_cycle_NL": ext + ret if ext is not None and ret is not None else None,
+            "impacts": impacts}
+
+
+def _impact(stop, mass, capacity):
+    """Speed [m/s], kinetic energy [J] and the energy against the capacity [J] of one ``stop``
+    event (its logged impact velocity ``v``)."""
+    v = stop.get("v")
+    speed = abs(float(v)) if v is not None and math.isfinite(v) else None
+    energy = kinetic_energy(mass, speed) if speed is not None else None
+    return {"t": float(stop["t"]), "end": "x = stroke" if stop["mode"] == "stop@stroke" else "x = 0",
+            "speed": speed, "energy": energy, "capacity": capacity,
+            "energy_ratio": energy / capacity if capacity and energy is not None else None}

@@ -317,6 +317,7 @@ function onModelInput(ev) {
   plotValve();
   plotFriction();
   markStaleComparison();
+  if (typeof refreshCircuit === 'function') refreshCircuit();   // static/circuit.js: fields and schematic
 }
 /** A comparison on screen that was made with another model says so (it is kept for reference,
  * not silently taken for the current model's). */
@@ -527,6 +528,7 @@ function renderEffects() {
   if ([...sel.options].some((o) => o.value === keep)) sel.value = keep;
   describeEffect();
   refreshStudyHints();
+  if (typeof refreshCircuit === 'function') refreshCircuit();   // static/circuit.js: fields and schematic
 }
 function describeEffect() {
   const e = catalog($('#effect-add-select').value);
@@ -717,12 +719,14 @@ function strokeSummary(sm) {
     ['full stroke extending', f(sm.full_stroke_time_extend, 's')],
     ['full stroke retracting', f(sm.full_stroke_time_retract, 's')],
     ['stroke end speed', f(sm.end_speed_max, 'm/s')],
+    ['impact energy', f(sm.end_energy_max, 'J')],
     ['air per cycle', f(sm.air_per_cycle_NL, 'NL')],
   ].filter(([, v]) => v !== null).map(([k, v]) => `${k} ${v}`);
   return parts.length ? ` · ${parts.join(', ')}` : '';
 }
 function plotSimulation() {
   const r = S.sim;
+  if (typeof renderStrokeTable === 'function') renderStrokeTable(r && r.stats ? r.stats.stroke : null);   // static/strokes.js
   if (!r) { plotEmptySimulation(); return; }
   const s = r.series;
   const t = s.t;
@@ -755,7 +759,7 @@ function plotSimulation() {
   plot('plot-velocity', [
     { x: t, y: V.val(s.v), name: 'v', line: { color: '#9467bd', width: 1.8 } },
   ], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`velocity v [${V.label}]`), shapes, showlegend: true }));
-  const C = (a) => a.map((v) => (v == null ? null : v - 273.15));
+  const TK = plotUnit('K'), C = TK.val;
   const tTraces = [];
   if (S.heatRuns) {
     for (const [hm, run] of Object.entries(S.heatRuns)) {
@@ -768,7 +772,7 @@ function plotSimulation() {
   }
   plot('plot-temperature', tTraces, baseLayout({
     title: { text: 'Gas temperatures (paper Fig. 11)', font: { size: 12 }, x: 0.5, xanchor: 'center', y: 0.995 },
-    xaxis: axis('time t [s]'), yaxis: axis('temperature [°C]'), shapes, margin: { l: 64, r: 64, t: 48, b: 46 },
+    xaxis: axis('time t [s]'), yaxis: axis(`temperature [${TK.label}]`), shapes, margin: { l: 64, r: 64, t: 48, b: 46 },
   }));
   plot('plot-flow', [
     { x: t, y: Q.val(s.q_a), name: 'q_a (into A)', line: { color: '#1f77b4', width: 1.6 } },
@@ -778,7 +782,7 @@ function plotSimulation() {
 function plotEmptySimulation() {
   const specs = [
     ['plot-pressure', `pressure [${plotUnit('Pa').label}]`], ['plot-position', `position x [${plotUnit('m').label}]`],
-    ['plot-velocity', `velocity v [${plotUnit('m/s').label}]`], ['plot-temperature', 'temperature [°C]'],
+    ['plot-velocity', `velocity v [${plotUnit('m/s').label}]`], ['plot-temperature', `temperature [${plotUnit('K').label}]`],
     ['plot-flow', `valve flow [${plotUnit('kg/s').label}]`],
   ];
   for (const [id, y] of specs) {
@@ -804,7 +808,8 @@ async function overlayHeatModels() {
       S.sim = res.runs[S.model.heat && S.model.heat.model] || S.sim;
       plotSimulation();
       $('#panel-plots').dataset.runs = String(++S.runs);
-      const peaks = Object.entries(res.runs).map(([k, r]) => `${k}: T_a ${num(Math.max(...r.series.T_a) - 273.15, 3)} °C max`).join(', ');
+      const TK = plotUnit('K');
+      const peaks = Object.entries(res.runs).map(([k, r]) => `${k}: T_a ${num(Math.max(...TK.val(r.series.T_a)), 3)} ${TK.label} max`).join(', ');
       setStatus(`Heat models overlaid on the pressure and temperature plots (${peaks}).`, 'ok');
     } catch (e) { showApiError(e, 'Heat-model overlay'); }
   });
@@ -1011,6 +1016,7 @@ function renderCompare() {
     '<li class="muted">No window stands out.</li>';
   plotCompare(c, exps);
   plotResiduals(c);
+  if (typeof plotCompareBench === 'function') plotCompareBench(c, exps);   // F and q (static/identify.js)
   markStaleComparison();
 }
 /** A stacked layout with one row per experiment, each with a left and an overlaying right axis. */
@@ -1039,11 +1045,11 @@ function stackedLayout(n, left, right, titles, extra = {}) {
 const SIG_COLORS = { p_a: '#1f77b4', p_b: '#d62728', x: '#2ca02c', v: '#9467bd', T_a: '#17becf', T_b: '#e377c2' };
 const SIG_SI = { p_a: 'Pa', p_b: 'Pa', p_s: 'Pa', x: 'm', v: 'm/s' };
 /** Signals the comparison's two axes hold (pressures; position, velocity, temperatures): the rod
- * force F [N] and the flows q_a, q_b, q_s [kg/s] have their errors in the tables, not these axes */
+ * force F [N] and the flows q_a, q_b, q_s [kg/s] have a plot of their own (identify.js) */
 const onCompareAxes = (sig) => sig in SIG_SI || sig.startsWith('T');
 /** A measured or simulated signal as the plots show it; `diff` for residuals (no gauge offset). */
 function toDisplay(sig, arr, diff = false) {
-  if (sig.startsWith('T')) return diff ? arr : arr.map((v) => (v == null ? null : v - 273.15));
+  if (sig.startsWith('T')) return diff ? plotUnit('K').diff(arr) : plotUnit('K').val(arr);
   if (!SIG_SI[sig]) return arr;
   const u = plotUnit(SIG_SI[sig]);
   return diff ? u.diff(arr) : u.val(arr);
@@ -1102,6 +1108,19 @@ function plotResiduals(c, windows) {
 /* ------------------------------------------------------------------ sessions and history */
 async function ensureSession() {
   if (S.session && sameExperiments(S.session.experiments, S.experiments)) return S.session;
+  if (S.session) {
+    // the data changed: the same session goes on (a new one only from "New session"), with a
+    // version of the current model on the new experiments; the history marks the change
+    const names = S.experiments.map((e) => e.dataset_id || e.name || 'inline').join(', ');
+    try {
+      const s = await api('POST', `/api/sessions/${encodeURIComponent(S.session.id)}/versions`,
+        { model: S.model, experiments: clone(S.experiments), note: `experiments changed to ${names}` });
+      setSession(s);
+      return s;
+    } catch (e) {
+      if (!(e instanceof ApiError && e.status === 404)) throw e;   // deleted meanwhile: start one
+    }
+  }
   const name = $('#dataset-select').selectedOptions[0] ? $('#dataset-select').selectedOptions[0].textContent.split(':')[0] : 'session';
   const s = await api('POST', '/api/sessions', { name, model: S.model, experiments: clone(S.experiments) });
   setSession(s);
@@ -1117,6 +1136,12 @@ async function recordVersion(added, params) {
   const s = await api('POST', `/api/sessions/${S.session.id}/versions`, { model: S.model, added: added || null, params: params || {} });
   setSession(s);
   return s;
+}
+/** Whether version `i` was compared on other experiments than version i - 1 (sessions stored
+ * before versions recorded their experiments say nothing: null). */
+function dataChangedAt(v, i) {
+  if (i === 0 || !v[i].experiments || !v[i - 1].experiments) return false;
+  return !sameExperiments(v[i].experiments, v[i - 1].experiments);
 }
 function renderHistory() {
   const s = S.session;
@@ -1138,11 +1163,15 @@ function renderHistory() {
     xaxis: axis('model version [-]', { tickvals: v.map((q) => q.version), ticktext: v.map((q) => q.label), range: [-0.4, Math.max(v.length - 1, 1) + 0.6] }),
     yaxis: axis('overall error [%]', { range: [0, 1.22 * Math.max(1e-9, ...v.map((q) => (q.overall || 0) * 100))] }),
     showlegend: false, hovermode: 'closest', margin: { l: 64, r: 30, t: 40, b: 56 },
+    // a dashed line where the experiments changed: errors either side are on other data
+    shapes: v.map((q, i) => (dataChangedAt(v, i) ? { type: 'line', xref: 'x', yref: 'paper', x0: q.version - 0.5, x1: q.version - 0.5,
+      y0: 0, y1: 1, line: { color: '#a35a00', width: 1.5, dash: 'dash' } } : null)).filter(Boolean),
   }));
   const sigs = [...new Set(v.flatMap((q) => Object.keys(q.errors || {})))];
   $('#history-table').innerHTML = '<table class="data"><thead><tr><th scope="col">version</th><th scope="col">change</th>' +
     sigs.map((q) => `<th scope="col">${esc(q)} [%]</th>`).join('') + '<th scope="col">overall [%]</th></tr></thead><tbody>' +
-    v.map((q, i) => `<tr data-version="${q.version}"><td class="num">${q.version}${i > 0 && q.model && v[i - 1].model ? ` <button type="button" class="icon version-diff" data-index="${i}" title="What changed from version ${v[i - 1].version}">diff</button>` : ''}</td><td>${esc(q.label)}${q.params && Object.keys(q.params).length ? ` <span class="muted small">(${esc(Object.entries(q.params).map(([k, x]) => `${k} = ${num(typeof x === 'object' && x ? x.value : x)}`).join(', '))})</span>` : ''}</td>` +
+    v.map((q, i) => `<tr data-version="${q.version}"><td class="num">${q.version}${i > 0 && q.model && v[i - 1].model ? ` <button type="button" class="icon version-diff" data-index="${i}" title="What changed from version ${v[i - 1].version}">diff</button>` : ''}</td><td>${esc(q.label)}` +
+      (dataChangedAt(v, i) ? ` <span class="badge data-changed" title="${esc(q.note || 'the experiments changed')}: the errors from here on are on other data">data changed</span>` : '') + `${q.params && Object.keys(q.params).length ? ` <span class="muted small">(${esc(Object.entries(q.params).map(([k, x]) => `${k} = ${num(typeof x === 'object' && x ? x.value : x)}`).join(', '))})</span>` : ''}</td>` +
       sigs.map((g) => `<td class="num">${pct(q.errors && q.errors[g])}</td>`).join('') + `<td class="num"><b>${pct(q.overall)}</b></td></tr>`).join('') +
     '</tbody></table>';
 }
@@ -1261,7 +1290,8 @@ function renderDiagnosis() {
   const before = d.error_before ? d.error_before.overall : null;
   const verdict = d.verdict ? esc(d.verdict) : 'none (no catalog effect explains the residual)';
   $('#diag-verdict').innerHTML = `<div class="verdict-name">Verdict: <b id="diag-verdict-name">${verdict}</b></div><div>${esc(d.message)}</div>` +
-    `<div class="muted small">Error before: ${pct(before)} % · noise floor ${pct(d.remaining && d.remaining.noise_floor != null ? d.remaining.noise_floor : floorOf(d.noise_floor))} %</div>`;
+    `<div class="muted small">Error before: ${pct(before)} % · noise floor ${pct(d.remaining && d.remaining.noise_floor != null ? d.remaining.noise_floor : floorOf(d.noise_floor))} %</div>` +
+    `<div class="small" id="diag-error-explained">${esc(explainErrorBefore(d))}</div>`;
   $('#diag-residual-summary').textContent = d.residual_tests && d.residual_tests.summary ? `Residual tests: ${d.residual_tests.summary}` : '';
   const score = d.score_pass || [];
   $('#diag-score').innerHTML = score.length ? '<h3>Score test of every candidate (before refitting)</h3>' +
@@ -1299,6 +1329,28 @@ function renderDiagnosis() {
       `${r.model ? '' : ' disabled'} title="Take the refitted model (current model + ${esc(r.effect)}) as the new current model">Add ${esc(r.effect)} to the model</button>`;
     cards.appendChild(card);
   });
+}
+/** Why the diagnosis's "error before" is not the comparison's error: the diagnosis first refits
+ * the uncertain base parameters (the null model), and every candidate is weighed against that.
+ * The line names the refitted values that moved, and says they come with whatever is added. */
+function explainErrorBefore(d) {
+  const start = d.error_start ? d.error_start.overall : null;
+  const before = d.error_before ? d.error_before.overall : null;
+  if (start == null || before == null) return '';
+  const moved = (d.refitted || []).filter((q) => typeof q.before === 'number' && typeof q.after === 'number' &&
+    Math.abs(q.after - q.before) > (q.stderr || 0) && q.after !== q.before);
+  if (!moved.length || Math.abs(start - before) <= 1e-4 * Math.max(start, 1e-12)) {
+    return `Error before is your model's own error (${pct(start)} %): no base parameter was refitted.`;
+  }
+  const show = (q) => {
+    const u = typeof unitShow === 'function' ? unitShow(q.unit) : { unit: q.unit, scale: 1, offset: 0 };
+    const v = (x) => num((x - u.offset) / u.scale);
+    return `${q.label || q.path} ${v(q.before)} → ${v(q.after)}${u.unit && u.unit !== '-' ? ` ${prettyUnit(u.unit)}` : ''}`;
+  };
+  return `Your model as given: ${pct(start)} % (the comparison's error). The diagnosis first refits the base parameters ` +
+    `you left uncertain (${moved.map(show).join('; ')}), which alone gives ${pct(before)} %: that is "error before", ` +
+    'against which each effect is weighed. Adding a finding takes these refitted values with it (listed in its changes)' +
+    ((d.recalibrate || []).length ? '; "Apply the recalibration" takes them alone.' : '.');
 }
 /** Every parameter taking a candidate would change, before it is taken: the effect's own and
  * the base parameters recalibrated with it (before → after, in the page's units). */
@@ -1371,11 +1423,8 @@ const STUDY_FIELDS = {
   normal: [['mean', 'mean', true], ['std', 'std', true], ['min', 'min', false], ['max', 'max', false]],
   lognormal: [['median', 'median', true], ['sigma', 'sigma of ln x', true, '-'], ['min', 'min', false], ['max', 'max', false]],
 };
-// metrics come in SI; lengths and pressures shown in the header's unit system (plotUnit),
-// temperatures in °C; `diff` converts spreads (std)
-const METRIC_DISPLAY = {
-  K: { label: '°C', val: (v) => v - 273.15, diff: (v) => v },
-};
+// metrics come in SI; lengths, pressures and temperatures shown in the header's unit system
+// (plotUnit); `diff` converts spreads (std)
 const METHOD_NAMES = {
   prcc: 'partial rank correlation (PRCC) with Spearman',
   factorial_variance: 'variance decomposition of the full factorial (S_i, S_Ti)',
@@ -1391,8 +1440,7 @@ function plotUnit(si) {
   return { label: prettyUnit(d.unit), val: conv(d.offset || 0), diff: conv(0) };
 }
 function metricDisplay(unit) {
-  if (METRIC_DISPLAY[unit]) return METRIC_DISPLAY[unit];
-  if (unit === 'm' || unit === 'Pa') {
+  if (unit === 'm' || unit === 'Pa' || unit === 'K') {
     const u = plotUnit(unit);
     return { label: u.label, val: (v) => u.val([v])[0], diff: (v) => u.diff([v])[0] };
   }

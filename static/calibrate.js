@@ -91,13 +91,17 @@ async function runCalibration(btn) {
   setStatus(`Fitting ${Object.keys(parameters).join(', ')}…`, 'busy');
   await busy(btn, async () => {
     try {
-      CAL.result = await api('POST', '/api/calibrate', { model: S.model, experiments: clone(S.experiments), parameters, max_nfev: 60 });
+      const known = $('#cal-known').value.split(/[\s,;]+/).filter(Boolean);
+      CAL.result = await api('POST', '/api/calibrate', { model: S.model, experiments: clone(S.experiments), parameters, max_nfev: 60, known });
+      CAL.known = known;
       renderCalReport();
       $('#btn-cal-apply').disabled = false;
       $('#btn-cal-download').disabled = false;
       const r = CAL.result;
       setStatus(`Fit done: overall error ${pct(r.error_before.overall)} % → ${pct(r.error_after.overall)} %.`, 'ok');
-    } catch (e) { showApiError(e, 'Fit', (f) => (f.startsWith('experiments') ? 'experiments' : f)); }
+    } catch (e) {
+      showApiError(e, 'Fit', (f) => (f.startsWith('experiments') ? 'experiments' : f.startsWith('known') ? 'calibrate.known' : f));
+    }
   });
 }
 
@@ -134,6 +138,19 @@ function renderCalReport() {
     cell(tr, v.min != null ? `[${num(d(v.min), 4)}, ${num(d(v.max), 4)}]${v.at_bound ? ' (at a bound)' : ''}` : 'held');
   }
   box.appendChild(vt);
+  // the known values: held where declared (or identified on a bench), and where the data disagree
+  const held = document.createElement('p');
+  held.id = 'cal-known-report';
+  held.className = 'small';
+  const known = (CAL.known || []).concat(r.bench_held || []);
+  held.textContent = known.length ? `Held as known: ${known.join(', ')}${(r.bench_held || []).length ? ` (bench: ${r.bench_held.join(', ')})` : ''}.` : '';
+  box.appendChild(held);
+  for (const d of r.known_disagree || []) {
+    const p = document.createElement('p');
+    p.className = 'small warn';
+    p.textContent = d.description || `the data disagree with the declared ${d.path}`;
+    box.appendChild(p);
+  }
   const paths = Object.keys(r.correlations || {});
   if (paths.length > 1) {
     const h3 = document.createElement('h3'); h3.textContent = '[[Correlations]]'; box.appendChild(h3);

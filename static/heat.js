@@ -65,7 +65,7 @@ function onHeatModelChange(ev) {
 }
 
 /* ------------------------------------------------------------ side by side: one scenario */
-/** `show` converts a series to the plot's unit (app.js plotUnit; temperatures stay in K). */
+/** `show` converts a series to the plot's unit (app.js plotUnit, the header's unit system). */
 function heatTraces(runs, signal, show, dash) {
   return Object.entries(runs).map(([name, run], i) => ({
     x: run.series.t, y: show(run.series[signal] || []),
@@ -83,11 +83,11 @@ async function heatSimulateAll() {
       const res = await api('POST', '/api/heat-models/simulate', { model: S.model, scenario });
       const runs = res.runs;
       const b = S.model.valve && S.model.valve.kind === '4/2';
-      const P = plotUnit('Pa').val, K = (a) => a;
+      const P = plotUnit('Pa').val, K = plotUnit('K').val;
       plot('heat-plot-pressure', [...heatTraces(runs, 'p_a', P, 'solid'), ...(b ? heatTraces(runs, 'p_b', P, 'dot') : [])],
         baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`pressure [${plotUnit('Pa').label}]`) }));
       plot('heat-plot-temperature', [...heatTraces(runs, 'T_a', K, 'solid'), ...(b ? heatTraces(runs, 'T_b', K, 'dot') : [])],
-        baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('gas temperature [K]') }));
+        baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`gas temperature [${plotUnit('K').label}]`) }));
       document.getElementById('panel-heat').dataset.simulated = String(Object.keys(runs).length);
       setStatus(`Scenario run under ${Object.keys(runs).length} heat models: ${Object.keys(runs).join(', ')}.`, 'ok');
     } catch (e) { showApiError(e, 'Heat models side by side'); }
@@ -137,7 +137,7 @@ async function heatCompareAll() {
       wrap.textContent = '';
       wrap.append(heatTable(res.models));
       const m = res.measured;
-      const P = plotUnit('Pa').val, K = (a) => a;   // pressures as the header's unit system, temperatures in K
+      const P = plotUnit('Pa').val, K = plotUnit('K').val;   // as the header's unit system
       const meas = (sig, show) => ({ x: m.t, y: show(m[sig]), name: `measured ${sig}`, mode: 'markers', marker: { color: '#000', size: 5 } });
       const sim = (sig, show) => res.models.map((r, i) => ({
         x: r.t, y: show(r.simulated[sig] || []), name: `${r.name} ${sig}`, mode: 'lines',
@@ -147,7 +147,7 @@ async function heatCompareAll() {
       plot('heat-plot-pressure', pSig.flatMap((s) => [meas(s, P), ...sim(s, P)]),
         baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`pressure [${plotUnit('Pa').label}]`), annotations: pSig.length ? [] : emptyNote('no pressure measured') }));
       plot('heat-plot-temperature', tSig.flatMap((s) => [meas(s, K), ...sim(s, K)]),
-        baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('gas temperature [K]'), annotations: tSig.length ? [] : emptyNote('no gas temperature measured') }));
+        baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`gas temperature [${plotUnit('K').label}]`), annotations: tSig.length ? [] : emptyNote('no gas temperature measured') }));
       document.getElementById('panel-heat').dataset.compared = String(res.models.length);
       setStatus(`Every heat model calibrated on ${res.experiment || 'the measurement'}; errors in the table.`, 'ok');
     } catch (e) { showApiError(e, 'Heat models against the measurement', (f) => (f.startsWith('experiments') ? 'experiments' : f)); }
@@ -178,7 +178,7 @@ async function initHeat() {
   document.getElementById('btn-heat-all').addEventListener('click', heatSimulateAll);
   document.getElementById('btn-heat-compare').addEventListener('click', heatCompareAll);
   plot('heat-plot-pressure', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`pressure [${plotUnit('Pa').label}]`), annotations: emptyNote('Run every heat model') }));
-  plot('heat-plot-temperature', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis('gas temperature [K]'), annotations: emptyNote('Run every heat model') }));
+  plot('heat-plot-temperature', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`gas temperature [${plotUnit('K').label}]`), annotations: emptyNote('Run every heat model') }));
   document.getElementById('panel-heat').dataset.ready = 'true';
 }
 

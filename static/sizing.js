@@ -13,8 +13,12 @@ const SZ = { ans: null, chosen: 0 };
 const SIZING_FIELDS = [
   ['stroke', 'Stroke [m]', 0.2], ['moving_mass', 'Moving mass [kg]', 5],
   ['load_force', 'Load force against the extension [N]', 50], ['angle', 'Mounting angle, 90 = rod up [deg]', 30],
-  ['supply_pressure', 'Supply pressure [Pa abs]', 7e5], ['extend_time', 'Extend time, full stroke [s]', 0.6],
-  ['retract_time', 'Retract time, full stroke [s]', 0.6], ['max_end_speed', 'Max stroke-end speed [m/s] (blank: none)', 1.0],
+  ['supply_pressure', 'Supply pressure [Pa abs]', 7e5],
+  ['extend_time', 'Extend time, full stroke (blank with a cycle time) [s]', 0.6],
+  ['retract_time', 'Retract time, full stroke (blank with a cycle time) [s]', 0.6],
+  ['cycle_time', 'Cycle time instead of the two times (blank: none) [s]', ''],
+  ['dwell', 'Dwell at each end stop, with a cycle time (blank: 0) [s]', ''],
+  ['max_end_speed', 'Max stroke-end speed [m/s] (blank: none)', 1.0],
   ['max_end_energy', 'Cushion capacity at the end stop [J] (blank: none)', ''],
   ['tube_length', 'Tube length per port [m] (blank: no tube)', ''],
 ];
@@ -99,8 +103,10 @@ async function plotChosenDesign() {
   const d = SZ.ans && SZ.ans.designs[SZ.chosen];
   if (!d) return;
   const req = SZ.ans.requirement;
-  const t1 = 1.5 * req.extend_time;
-  const scenario = { duration: t1 + 1.5 * req.retract_time, sample_period: (t1 + 1.5 * req.retract_time) / 1000,
+  // the times this design was sized for (with a cycle time, its shares of it)
+  const t1 = 1.5 * d.required_times.extend;
+  const t2 = 1.5 * d.required_times.retract;
+  const scenario = { duration: t1 + t2, sample_period: (t1 + t2) / 1000,
     command: [[0, 1], [t1, -1]], x0: 0, initial: { p_b: req.supply_pressure } };
   const r = await api('POST', '/api/simulate', { model: d.model, scenario, series: ['t', 'x', 'v'] });
   plot('sizing-plot', [

@@ -28,7 +28,8 @@ SMALL = {
     "bench_request_memory.py": ["--rows", "2000", "--kinds", "csv,npz"],
     "bench_sizing.py": ["--families", "36", "--workers", "1"],
     "bench_long_records.py": ["--lengths", "1", "--counts", "2", "--duration", "1",
-                              "--refine-lengths", "1"],
+                              "--refine-lengths", "1", "--memory"],
+    "bench_heat_transfer.py": ["--quick"],
 }
 #: figures a script must write (phases that could silently drop out of its --json)
 KEYS = {"bench_api.py": ("sequential_lean", "sequential_lean_npz", "http_alone_lean",

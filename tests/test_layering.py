@@ -91,3 +91,50 @@ def test_pneucore_does_not_import_the_web_layer():
             bad += [f"{rel}:{node.lineno} imports {n}" for n in names
                     if n.split(".")[0] in ("app", "fastapi", "pydantic", "starlette")]
     assert not bad, "\n".join(bad)
+
+
+#: What each lower layer of pneucore may not import: physics is the bottom (the laws, their
+#: registries and the state terms' rates), the core assembles them, spec describes models
+_LOWER_LAYERS = {"physics": ("core", "spec", "simulate", "result", "strokes", "analysis", "data",
+                             "study", "identify", "sizing")}
+
+
+def _pneucore_targets(rel, tree):
+    """``(subpackage or module of pneucore, line)`` of every import in ``tree`` (absolute
+    ``pneucore.x``, and relative ``..x`` from inside a subpackage)."""
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                parts = a.name.split(".")
+                if parts[0] == "pneucore" and len(parts) > 1:
+                    yield parts[1], node.lineno
+        elif isinstance(node, ast.ImportFrom):
+            if node.level == 0:
+                parts = (node.module or "").split(".")
+                if parts[0] == "pneucore":
+                    if len(parts) > 1:
+                        yield parts[1], node.lineno
+                    else:
+                        yield from ((a.name, node.lineno) for a in node.names)
+            elif node.level >= 2:
+                # from inside pneucore/<sub>/: ``..x`` is pneucore.x
+                if node.module:
+                    yield node.module.split(".")[0], node.lineno
+                else:
+                    yield from ((a.name, node.lineno) for a in node.names)
+
+
+@pytest.mark.parametrize("layer", sorted(_LOWER_LAYERS))
+def test_lower_layers_do_not_import_the_layers_above(layer):
+    bad = [f"{rel}:{line} imports pneucore.{target}"
+           for rel, tree in _sources(f"pneucore/{layer}")
+           for target, line in _pneucore_targets(rel, tree) if target in _LOWER_LAYERS[layer]]
+    assert not bad, "\n".join(bad)
+
+
+def test_the_layer_check_catches_an_import_of_the_core():
+    # the rule above on a made-up module: one import of the core, absolute, relative or lazy
+    for src in ("from pneucore.core import layout as L\n", "import pneucore.core.layout\n",
+                "from ..core.layout import PORT_NAMES\n", "def f():\n    from pneucore import core\n"):
+        targets = [t for t, _ in _pneucore_targets("pneucore/physics/x.py", ast.parse(src))]
+        assert "core" in targets, src

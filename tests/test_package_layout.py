@@ -26,8 +26,8 @@ PUBLIC = [
 
 #: The subpackages and the modules each holds (a new module is added here on purpose)
 LAYOUT = {
-    "physics": {"chamber", "flow", "friction", "gas", "heat", "jack", "series", "tube", "valve",
-                "vessel"},
+    "physics": {"chamber", "cushion", "flow", "friction", "gas", "heat", "jack", "sensors", "series",
+                "states", "tube", "valve", "vessel"},
     "core": {"cache", "integrator", "layout", "rhs"},
     "spec": {"docstrings", "effects", "model", "paths", "presets", "provenance", "scenario", "units",
              "validation", "valve_data"},

@@ -36,6 +36,7 @@ from scipy.optimize import least_squares
 from pneucore.analysis.autocorrelation import residual_times, times_report
 from pneucore.analysis.compare import plain_json, replay, summarise
 from pneucore.data.experiment import as_experiments
+from pneucore.data.measurement import sensor_zero
 from pneucore.analysis.metrics import noise_sigma
 from pneucore.spec.model import Model
 from pneucore.spec.paths import parse_parameters, set_values
@@ -90,7 +91,7 @@ def _sensed(e, sensors, ambient, stroke):
     ini = dict(scen.get("initial") or {})
     changed = False
     for sig, sv in sensors.items():
-        zero = ambient if sig in ("p_a", "p_b") else 0.0
+        zero = sensor_zero(sig, ambient)
         given = scen.get("x0") if sig == "x" else ini.get(sig)
         if given is not None or sig not in ("x", "p_a", "p_b", "T_a", "T_b"):
             continue
@@ -231,7 +232,7 @@ class Objective:
             for rp in rps:
                 for sig, sv in sensors.items():
                     if sig in rp.simulated:
-                        zero = amb if sig in ("p_a", "p_b") else 0.0
+                        zero = sensor_zero(sig, amb)
                         g = rp.simulated[sig]
                         rp.simulated[sig] = g + sv.get("offset", 0.0) + sv.get("gain", 0.0) * (g - zero)
         return rps

@@ -7,6 +7,14 @@
 the gas-temperature sensor's time constant) against the same measurements
 and tabulates pressure errors (paper Eq. 25) and gas-temperature errors (rms
 [K] and Eq. 25) per model.
+
+Transfer (:func:`transfer`): a heat model's parameters fitted on one record
+(a vessel's filling) predict another (its discharge, or the held-out end of
+the same record) without refitting. The fit weighs every sample by the
+stated accuracy of its signal (:data:`SIGNAL_ACCURACY`, or the caller's),
+fixed in advance, so that neither pressure nor temperature can take all the
+weight (issue 22: a weighting by each series' own residual let the series the
+model could fit take it).
 """
 from __future__ import annotations
 
@@ -21,6 +29,7 @@ from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
 from pneucore.analysis.metrics import eq25_error
 from pneucore.spec.model import Model
 from pneucore.simulate import simulate
+from pneucore.spec.paths import set_values
 from pneucore.spec.validation import FieldError
 
 def check_names(names, path="heat_models"):
@@ -145,4 +154,181 @@ def table(rows):
         eT = r["temperature_rms"].get("T_a")
         lines.append(f"{r['name']:<22} {100 * ep:>9.2f}% {eT if eT is not None else float('nan'):>7.2f}K  "
                      f"{fitted}")
+    return "\n".join(lines)
+
+
+#: Default accuracy of each measured signal (one standard deviation, SI): the published vessel
+#: record's digitisation scatter (shared/data/vessel-filling/README.md: "a few tenths of a percent
+#: on pressure and about 1 K on temperature": 0.3 % of one bar, 1 K)
+SIGNAL_ACCURACY = {"p_a": 300.0, "T_a": 1.0}
+#: Bounds of the parameters a transfer fit may move (fitted in logarithm: multipliers, a
+#: coefficient and a time constant are scale quantities, so the registry's lower bound of 0
+#: becomes a floor): a multiplier from 1e-3 of its correlation, h from 0.01 W/(m^2 K), a
+#: sensor's time constant from 0.01 s (a bare fine-wire couple); the upper bounds are the
+#: registry's (:data:`HEAT_PARAMETERS`), h capped at 1e3 W/(m^2 K) as in
+#: :func:`compare_heat_models`
+TRANSFER_BOUNDS = {p: (floor, min(HEAT_PARAMETERS[p].max, 1e3)) for p, floor in (
+    ("natural_multiplier", 1e-3), ("jet_multiplier", 1e-3), ("coefficient", 1e-2),
+    ("sensor_time_constant", 1e-2))}
+#: A fitted value within this distance of a bound in logarithm (1 %) ran to it [-]
+AT_BOUND_LOG = 0.01
+
+
+def _residuals(model, exps, accuracy, t_min=None, t_max=None):
+    out = []
+    for e in exps:
+        rp = replay(model, e)
+        for s, sig in accuracy.items():
+            if s not in rp.measured:
+                continue
+            m, g = np.asarray(rp.measured[s], float), np.asarray(rp.simulated[s], float)
+            ok = np.isfinite(m)
+            if t_min is not None:
+                ok &= rp.t >= t_min
+            if t_max is not None:
+                ok &= rp.t <= t_max
+            r = (g[ok] - m[ok]) / sig
+            out.append(np.where(np.isfinite(r), r, 1e3))   # a failed replay: large, finite
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def fit_heat(model, experiments, parameters, accuracy=None, t_max=None, max_nfev=200):
+    """Fit heat parameters on records, every sample weighted by its signal's stated accuracy.
+
+    Least squares (``scipy.optimize.least_squares``, trust region, bounded) on
+    ``(simulated - measured) / accuracy`` of pressure and gas temperature, with the
+    parameters in logarithm (:data:`TRANSFER_BOUNDS`).
+
+    Parameters
+    ----------
+    model : Model or dict
+        Starting model (its heat section names the heat model)
+    experiments : list
+        Experiments (objects or JSON) fitted jointly
+    parameters : list of str
+        Heat parameters fitted (names in :data:`TRANSFER_BOUNDS`)
+    accuracy : dict or None
+        Signal -> one standard deviation in its SI unit (default :data:`SIGNAL_ACCURACY`)
+    t_max : float or None
+        Fit only the samples up to this time [s] (the rest held out)
+    max_nfev : int
+        Residual evaluations
+
+    Returns
+    -------
+    model : Model
+        The fitted model
+    values : dict
+        ``{name: value}`` of the fitted parameters (heat parameter units)
+    """
+    from scipy.optimize import least_squares
+    model = Model.from_dict(model) if not isinstance(model, Model) else model
+    exps = as_experiments(experiments, model.ambient.pressure)
+    accuracy = dict(SIGNAL_ACCURACY if accuracy is None else accuracy)
+    lo = np.log([TRANSFER_BOUNDS[p][0] for p in parameters])
+    hi = np.log([TRANSFER_BOUNDS[p][1] for p in parameters])
+    x0 = np.clip(np.log([max(getattr(model.heat, p), 1e-2) for p in parameters]), lo + 1e-9,
+                 hi - 1e-9)
+
+    def at(x):
+        return set_values(model, {f"heat.{p}": float(math.exp(v)) for p, v in zip(parameters, x)})
+
+    sol = least_squares(lambda x: _residuals(at(x), exps, accuracy, t_max=t_max), x0,
+                        bounds=(lo, hi), x_scale=1.0, diff_step=1e-3, max_nfev=max_nfev)
+    return at(sol.x), {p: float(math.exp(v)) for p, v in zip(parameters, sol.x)}
+
+
+def record_errors(model, experiment, t_min=None, t_max=None):
+    """Pressure error (paper Eq. 25 [-]) and gas-temperature rms [K] of a model on a record.
+
+    Parameters
+    ----------
+    model : Model or dict
+        The model
+    experiment : Experiment or dict
+        The record
+    t_min, t_max : float or None
+        Only the samples in this time window [s]
+
+    Returns
+    -------
+    errors : dict
+        ``p`` [-] and ``T`` [K] (None where the record has no such samples)
+    """
+    model = Model.from_dict(model) if not isinstance(model, Model) else model
+    rp = replay(model, as_experiments([experiment], model.ambient.pressure)[0])
+    out = {}
+    for s, key in (("p_a", "p"), ("T_a", "T")):
+        if s not in rp.measured:
+            out[key] = None
+            continue
+        m, g = np.asarray(rp.measured[s], float), np.asarray(rp.simulated[s], float)
+        ok = np.isfinite(m)
+        if t_min is not None:
+            ok &= rp.t >= t_min
+        if t_max is not None:
+            ok &= rp.t <= t_max
+        if not ok.any():
+            out[key] = None
+        elif key == "p":
+            out[key] = eq25_error(m[ok], g[ok])
+        else:
+            out[key] = float(math.sqrt(np.mean((g[ok] - m[ok]) ** 2)))
+    return out
+
+
+def transfer(model, fit_on, predict, parameters, accuracy=None, t_split=None, name=None):
+    """Fit heat parameters on one record, then predict another (or the held-out rest) unrefitted.
+
+    Parameters
+    ----------
+    model : Model or dict
+        Starting model (its heat section names the heat model and holds the wall, inlet, ...)
+    fit_on : Experiment or dict
+        The record fitted (a filling)
+    predict : Experiment or dict or None
+        The record predicted (a discharge); None with ``t_split``: the rest of ``fit_on``
+    parameters : list of str
+        Heat parameters fitted
+    accuracy : dict or None
+        Per-signal accuracy (:func:`fit_heat`)
+    t_split : float or None
+        Fit ``fit_on`` up to this time [s] only; with ``predict`` None, predict after it
+    name : str or None
+        Row label (default: the heat model's name)
+
+    Returns
+    -------
+    row : dict
+        ``name``, ``values`` (fitted), ``at_bound`` (fitted parameters that ran to a bound of
+        :data:`TRANSFER_BOUNDS`: a symptom, not a measurement), ``fit`` and ``predicted``
+        errors (:func:`record_errors`), ``model`` (the fitted model)
+    """
+    model = Model.from_dict(model) if not isinstance(model, Model) else model
+    fitted, values = fit_heat(model, [fit_on], parameters, accuracy, t_max=t_split)
+    fit_err = record_errors(fitted, fit_on, t_max=t_split)
+    if predict is None:
+        pred = record_errors(fitted, fit_on, t_min=t_split)
+    else:
+        pred = record_errors(fitted, predict)
+    at_bound = [p for p, v in values.items()
+                if any(abs(math.log(v / b)) < AT_BOUND_LOG for b in TRANSFER_BOUNDS[p])]
+    return {"name": name or model.heat.model, "values": values, "at_bound": at_bound,
+            "fit": fit_err, "predicted": pred, "model": fitted}
+
+
+def transfer_table(rows, fit_label="fitted on", predict_label="predicted"):
+    """Rows of :func:`transfer` as plain text: fitted values, p Eq. 25 [%] and T rms [K] of both."""
+    def pct(v):
+        return f"{100 * v:6.2f} %" if v is not None else "     - "
+
+    def kel(v):
+        return f"{v:6.2f} K" if v is not None else "     - "
+
+    lines = [f"{'model':<34} {fit_label + ' p':>10} {'T':>8}   {predict_label + ' p':>12} {'T':>8}"
+             f"   fitted"]
+    for r in rows:
+        vals = ", ".join(f"{k} = {v:.3g}" for k, v in r["values"].items())
+        lines.append(f"{r['name']:<34} {pct(r['fit']['p']):>10} {kel(r['fit']['T']):>8}   "
+                     f"{pct(r['predicted']['p']):>12} {kel(r['predicted']['T']):>8}   {vals}")
     return "\n".join(lines)

@@ -51,6 +51,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from pneucore.data.measurement import sensor_zero
 from pneucore.spec.paths import VALVE_GROUPS, ParameterSpec, get_value, set_values, unit_of
 
 #: Sensitivity norm^2 (noise-weighted chi-square units) a typical error must produce to be
@@ -558,7 +559,7 @@ def sensor_findings(replays, ambient=0.0, share=None):
         den = float(m @ m)
         if m.size < 3 or den <= 0.0:
             continue
-        zero = ambient if s in ("p_a", "p_b") else 0.0
+        zero = sensor_zero(s, ambient)
         d = m - g
         e0 = float(d @ d)
         if e0 <= 0.0:

@@ -60,6 +60,48 @@ def _decimate(x, y):
     return x[idx], y[idx]
 
 
+def nice_ticks(lo: float, hi: float, target: int = 6) -> np.ndarray:
+    """Tick values on a 1-2-5 grid covering ``[lo, hi]``, as a person would label an axis.
+
+    The step is the power of ten times 1, 2 or 5 nearest to the range over ``target``
+    (Heckbert, "Nice numbers for graph labels", Graphics Gems, 1990: a fraction below 1.5
+    rounds to 1, below 3 to 2, below 7 to 5, else 10); the ticks are the step's
+    multiples inside the range, so they read 0, 0.2, 0.4 ... and never 0.2083.
+
+    Parameters
+    ----------
+    lo, hi : float
+        The axis range, any unit [-]
+    target : int
+        About how many intervals [-]
+
+    Returns
+    -------
+    ticks : numpy.ndarray
+        Multiples of the step within ``[lo, hi]`` (at least two values) [-]
+
+    Examples
+    --------
+    >>> nice_ticks(0.0, 1.25).tolist()
+    [0.0, 0.2, 0.4, 0.6, 0.8, 1.0, 1.2]
+    >>> nice_ticks(1.37, 6.2, 4).tolist()
+    [2.0, 3.0, 4.0, 5.0, 6.0]
+    """
+    lo, hi = float(lo), float(hi)
+    if not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
+        return np.array([lo, hi])
+    raw = (hi - lo) / max(int(target), 1)
+    mag = 10.0 ** math.floor(math.log10(raw))
+    frac = raw / mag
+    step = mag * (1.0 if frac < 1.5 else 2.0 if frac < 3.0 else 5.0 if frac < 7.0 else 10.0)
+    first, last = math.ceil(lo / step - 1e-9), math.floor(hi / step + 1e-9)
+    ticks = np.arange(first, last + 1) * step
+    # round away the float noise of k * step (0.30000000000000004 -> 0.3)
+    digits = max(0, -int(math.floor(math.log10(step))) + 2)
+    ticks = np.round(ticks, digits) + 0.0
+    return ticks if ticks.size >= 2 else np.array([lo, hi])
+
+
 def svg_plot(lines, title="", xlabel="t [s]", ylabel="", width=900, height=230) -> str:
     """A line plot as inline SVG.
 
@@ -102,15 +144,23 @@ def svg_plot(lines, title="", xlabel="t [s]", ylabel="", width=900, height=230) 
            f'viewBox="0 0 {width} {height}" font-size="11" font-family="sans-serif">',
            f'<text x="{ml}" y="15" font-weight="bold">{_e(title)}</text>',
            f'<rect x="{ml}" y="{mt}" width="{pw}" height="{ph}" fill="none" stroke="#999"/>']
-    for v in np.linspace(x0, x1, 6):
+    for v in nice_ticks(x0, x1, 6):
         out.append(f'<line x1="{px(v):.1f}" y1="{mt + ph}" x2="{px(v):.1f}" y2="{mt + ph + 4}" stroke="#999"/>'
-                   f'<text x="{px(v):.1f}" y="{mt + ph + 15}" text-anchor="middle">{v:.3g}</text>')
-    for v in np.linspace(y0, y1, 5):
+                   f'<text x="{px(v):.1f}" y="{mt + ph + 15}" text-anchor="middle">{v:.6g}</text>')
+    for v in nice_ticks(y0, y1, 4):
         out.append(f'<line x1="{ml - 4}" y1="{py(v):.1f}" x2="{ml + pw}" y2="{py(v):.1f}" stroke="#eee"/>'
-                   f'<text x="{ml - 6}" y="{py(v) + 4:.1f}" text-anchor="end">{v:.4g}</text>')
+                   f'<text x="{ml - 6}" y="{py(v) + 4:.1f}" text-anchor="end">{v:.6g}</text>')
     out.append(f'<text x="{ml + pw / 2}" y="{height - 4}" text-anchor="middle">{_e(xlabel)}</text>')
     out.append(f'<text x="12" y="{mt + ph / 2}" text-anchor="middle" '
                f'transform="rotate(-90 12 {mt + ph / 2})">{_e(ylabel)}</text>')
+    # the legend's box fits its longest label (about 6.5 px a character at 11 px), drawn over
+    # the lines with a white background so that neither clips the other
+    legend_w = min(pw - 8, 30 + int(6.5 * max((len(str(d[2])) for d in data), default=0)))
+    legend_out = []
+    if data:
+        legend_out.append(f'<rect class="legend" x="{ml + pw - legend_w - 6}" y="{mt + 3}" '
+                          f'width="{legend_w + 2}" height="{14 * len(data) + 6}" fill="white" '
+                          f'fill-opacity="0.85" stroke="#ccc"/>')
     for k, (x, y, lab) in enumerate(data):
         color = _COLORS[k % len(_COLORS)]
         segs, cur = [], []
@@ -124,10 +174,11 @@ def svg_plot(lines, title="", xlabel="t [s]", ylabel="", width=900, height=230) 
             segs.append(cur)
         for seg in segs:
             out.append(f'<polyline fill="none" stroke="{color}" stroke-width="1.2" points="{" ".join(seg)}"/>')
-        lx = ml + pw - 150
+        lx = ml + pw - legend_w
         ly = mt + 14 + 14 * k
-        out.append(f'<line x1="{lx}" y1="{ly - 4}" x2="{lx + 18}" y2="{ly - 4}" stroke="{color}" stroke-width="2"/>'
-                   f'<text x="{lx + 22}" y="{ly}">{_e(lab)}</text>')
+        legend_out.append(f'<line x1="{lx}" y1="{ly - 4}" x2="{lx + 18}" y2="{ly - 4}" stroke="{color}" '
+                          f'stroke-width="2"/><text x="{lx + 22}" y="{ly}">{_e(lab)}</text>')
+    out += legend_out
     out.append("</svg>")
     return "".join(out)
 

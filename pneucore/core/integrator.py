@@ -448,7 +448,7 @@ def _needs_aux(mode):
 @_internal
 def _record(ev_t, ev_kind, ev_mode, n_ev, t, kind, mode):
     if n_ev < ev_t.shape[0]:
-        ev_t[n_ev] = t
+        ev_t[n_ev, 0] = t
         ev_kind[n_ev] = kind
         ev_mode[n_ev] = mode
     return n_ev + 1
@@ -478,7 +478,9 @@ def _transition(t, y, mode, k, stroke, seg_t0, seg_u0, seg_slope, model, ftmp, a
         y[L.Y_V] = 0.0
         return new, _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_SLIP, new)
     if k == 1:
-        # end stop: inelastic, the piston stays until the net force pulls it away
+        # end stop: inelastic, the piston stays until the net force pulls it away; the
+        # velocity it arrives with (the state at the located event time) is logged with it
+        v_impact = y[L.Y_V]
         y[L.Y_V] = 0.0
         if mode == L.MODE_SLIDE_POS:
             y[L.Y_X] = stroke
@@ -486,6 +488,8 @@ def _transition(t, y, mode, k, stroke, seg_t0, seg_u0, seg_slope, model, ftmp, a
         else:
             y[L.Y_X] = 0.0
             new = L.MODE_STOP_LOW
+        if n_ev < ev_t.shape[0]:
+            ev_t[n_ev, 1] = v_impact
         n_ev = _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_STOP, new)
         return _settle(t, y, new, seg_t0, seg_u0, seg_slope, model, ftmp, aux,
                        ev_t, ev_kind, ev_mode, n_ev)
@@ -627,7 +631,8 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
     y_out, aux_out, mode_out, u_out : ndarray
         Outputs at ``t_out``
     ev_t, ev_kind, ev_mode : ndarray
-        Event log (time [s], ``layout.EV_*``, mode after)
+        Event log: ``ev_t[k] = (time [s], piston velocity at an end stop's impact [m/s])``
+        (the second column is written for ``stop`` events only), ``layout.EV_*``, mode after
     stats : ndarray of int
         Solver statistics (``ST_*`` slots)
 

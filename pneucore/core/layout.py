@@ -4,8 +4,17 @@ The compiled right-hand side receives the model as one float vector ``prm``
 and the positions of optional states as one integer vector ``iy``. The names
 below are module constants, which numba folds into the compiled code. Effects
 (``pneucore.spec.effects``) fill their own slots and declare their own states, so
-the base equations never change when an effect is added.
+the base equations never change when an effect is added. The effects with a
+state per chamber (:mod:`pneucore.physics.states`) get their slots from their
+registry, after the base slots written out here.
 """
+
+import pneucore.physics.heat       # noqa: F401  (registers the state term ``wall``)
+import pneucore.physics.sensors    # noqa: F401  (registers the sensors' state terms)
+from pneucore.physics.states import STATE_TERMS, slot_blocks
+from pneucore.physics.valve import PORT_NAMES
+
+_STATE_BLOCKS = slot_blocks(STATE_TERMS)
 
 # --- base states (always present) --------------------------------------------
 Y_MA, Y_TA, Y_MB, Y_TB, Y_X, Y_V = 0, 1, 2, 3, 4, 5
@@ -18,16 +27,11 @@ STATE_UNITS = {"m_a": "kg", "T_a": "K", "m_b": "kg", "T_b": "K", "x": "m", "v": 
 IY_SPOOL = 0        # effective spool opening [-]
 IY_SPOOL_RATE = 1   # its rate [1/s] (second-order spool only)
 IY_SUPPLY_M = 2     # gas mass in the supply line [kg]
-IY_SENSOR_A = 3     # pressure seen by the transducer of chamber A [Pa]
-IY_SENSOR_B = 4     # pressure seen by the transducer of chamber B [Pa]
-IY_USER0 = 5        # first state of user-registered effects
-IY_NUSER = 6        # number of user states
-IY_HOOK = 7         # 1 when user effect terms are present
-IY_WALL_A = 8       # wall temperature of chamber A [K] (heat model with a wall capacity)
-IY_WALL_B = 9       # wall temperature of chamber B [K]
-IY_TSENSOR_A = 10   # gas temperature seen by the sensor of chamber A [K]
-IY_TSENSOR_B = 11   # gas temperature seen by the sensor of chamber B [K]
-N_IY = 12
+IY_USER0 = 3        # first state of user-registered effects
+IY_NUSER = 4        # number of user states
+IY_HOOK = 5         # 1 when user effect terms are present
+N_IY = 6
+# the state terms' positions follow (STATE_IY0 below)
 
 # --- parameter slots in ``prm`` ------------------------------------------------
 # Written out (not generated) so that a search finds each slot; PRM_INDEX below is
@@ -60,76 +64,88 @@ P_WALL_B = 19
 # heat exchange: coefficient [W/(m^2 K)], isothermal flag
 P_H = 20
 P_ISOTHERMAL = 21
-# heat models (pneucore.physics.heat): natural and jet multipliers, inlet diameter [m];
-# wall mass [kg], specific heat [J/(kg K)], outer coefficient [W/(m^2 K)];
-# gas-temperature sensor time constant [s]
+# heat models (pneucore.physics.heat): natural and jet multipliers, inlet diameter [m]
 P_HEAT_NAT = 22
 P_HEAT_JET = 23
 P_HEAT_D_IN = 24
-P_WALL_MASS = 25
-P_WALL_CP = 26
-P_WALL_H_OUT = 27
-P_TSENSOR_TAU = 28
 # friction (Eq. 19-20), extend set then retract set: fc0 [N], fc_a, fc_b [N/Pa],
 # kv0 [N s/m], kv_a, kv_b [N s/(m Pa)]
-P_FE_FC0 = 29
-P_FE_FCA = 30
-P_FE_FCB = 31
-P_FE_KV0 = 32
-P_FE_KVA = 33
-P_FE_KVB = 34
-P_FR_FC0 = 35
-P_FR_FCA = 36
-P_FR_FCB = 37
-P_FR_KV0 = 38
-P_FR_KVA = 39
-P_FR_KVB = 40
+P_FE_FC0 = 25
+P_FE_FCA = 26
+P_FE_FCB = 27
+P_FE_KV0 = 28
+P_FE_KVA = 29
+P_FE_KVB = 30
+P_FR_FC0 = 31
+P_FR_FCA = 32
+P_FR_FCB = 33
+P_FR_KV0 = 34
+P_FR_KVA = 35
+P_FR_KVB = 36
 # Stribeck breakaway: Fs/Fc ratio (1 = none) and Stribeck velocity [m/s]
-P_STRIBECK_RATIO = 41
-P_STRIBECK_V = 42
+P_STRIBECK_RATIO = 37
+P_STRIBECK_V = 38
 # laminar leaks [kg/(s Pa)]: across the piston, chamber A and B to ambient
-P_G_AB = 43
-P_G_A = 44
-P_G_B = 45
+P_G_AB = 39
+P_G_A = 40
+P_G_B = 41
 # valve: centred-spool leakage fraction, flow law code (FLOW_LAWS[...].code), laminar ratio
-P_NULL_LEAK = 46
-P_FLOW_LAW = 47
-P_R_LAM = 48
+P_NULL_LEAK = 42
+P_FLOW_LAW = 43
+P_R_LAM = 44
 # spool dynamics: time constant [s], natural frequency [rad/s], damping [-]
-P_SPOOL_TAU = 49
-P_SPOOL_WN = 50
-P_SPOOL_ZETA = 51
+P_SPOOL_TAU = 45
+P_SPOOL_WN = 46
+P_SPOOL_ZETA = 47
 # supply line: regulator conductance [m^3/(s Pa)], critical ratio, volume [m^3]
-P_SUP_C = 52
-P_SUP_B = 53
-P_SUP_V = 54
-# pressure transducer lag [s]
-P_SENSOR_TAU = 55
+P_SUP_C = 48
+P_SUP_B = 49
+P_SUP_V = 50
 # 3/2 mode: constant pressure of chamber B [Pa] (0 = chamber B is dynamic)
-P_B_CONST = 56
+P_B_CONST = 51
 # full-opening C [m^3/(s Pa)] and b [-] of each edge, in PORT_NAMES order (null leakage)
-P_CMAX_PA = 57
-P_CMAX_AR = 58
-P_CMAX_PB = 59
-P_CMAX_BR = 60
-P_BMAX_PA = 61
-P_BMAX_AR = 62
-P_BMAX_PB = 63
-P_BMAX_BR = 64
+P_CMAX_PA = 52
+P_CMAX_AR = 53
+P_CMAX_PB = 54
+P_CMAX_BR = 55
+P_BMAX_PA = 56
+P_BMAX_AR = 57
+P_BMAX_PB = 58
+P_BMAX_BR = 59
 # friction law code (FRICTION_LAWS[...].code)
-P_FRICTION_LAW = 65
+P_FRICTION_LAW = 60
 # return spring (effect ``return_spring``): rate [N/m], force at x = 0 [N]; both 0 = none
-P_SPRING_K = 66
-P_SPRING_F0 = 67
+P_SPRING_K = 61
+P_SPRING_F0 = 62
+# end cushions (effect ``end_cushion``, pneucore.physics.cushion): lengths at the x = 0 end
+# (chamber A) and the x = stroke end (chamber B) [m], both 0 = none; needle conductances
+# [m^3/(s Pa)] and critical ratio [-]
+P_CUSHION_LA = 63
+P_CUSHION_LB = 64
+P_CUSHION_CA = 65
+P_CUSHION_CB = 66
+P_CUSHION_B = 67
 
 #: Slot of each parameter by name (without the ``P_`` prefix), read from the constants above
 PRM_INDEX = dict(sorted(((name[2:], i) for name, i in globals().items()
                          if name.startswith("P_") and isinstance(i, int)), key=lambda kv: kv[1]))
 N_PRM = len(PRM_INDEX)
 
+# --- state terms (pneucore.physics.states): slots assigned by the registry ---------
+#: First parameter slot of each state term, after the base slots
+STATE_PRM0 = {name: N_PRM + k for name, k in _STATE_BLOCKS[0].items()}
+#: Slot in ``iy`` of each state term's first state (chamber A's; chamber B's follows), after
+#: the base positions
+STATE_IY0 = {name: N_IY + k for name, k in _STATE_BLOCKS[1].items()}
+#: Length of the core's parameter vector and of its state-position vector
+N_PRM_ALL = N_PRM + _STATE_BLOCKS[2]
+N_IY_ALL = N_IY + _STATE_BLOCKS[3]
+#: The wall temperatures, which the heat exchange law reads (state term ``wall``)
+IY_WALL_A = STATE_IY0["wall"]
+IY_WALL_B = IY_WALL_A + 1
+
 # --- valve edges ---------------------------------------------------------------
-PORT_NAMES = ("P-A", "A-R", "P-B", "B-R")
-N_PORTS = 4
+N_PORTS = len(PORT_NAMES)
 
 # --- auxiliary outputs computed by the right-hand side --------------------------
 AUX_NAMES = ("p_a", "p_b", "q_a", "q_b", "friction", "a", "u_eff", "p_supply",

@@ -31,10 +31,12 @@ from numba.extending import overload
 
 from pneucore.core import layout as L
 from pneucore.physics.chamber import chamber_pressure, chamber_rates, enthalpy_flow
+from pneucore.physics.cushion import cushioned_outflow, in_cushion
 from pneucore.physics.flow import FLOW_LAWS, iso6358_mass_flow, laminar_mass_flow
-from pneucore.physics.heat import convective_heat_flow, exchange_coefficient, wall_rate
+from pneucore.physics.heat import convective_heat_flow, exchange_coefficient
 from pneucore.physics.friction import FRICTION_LAWS, coulomb_level, viscous_coefficient
 from pneucore.physics.jack import chamber_volumes, net_pressure_force, spring_force, wall_area
+from pneucore.physics.states import STATE_TERMS
 from pneucore.physics.valve import table_segment
 
 
@@ -144,6 +146,55 @@ flow_laws = law_table(FLOW_LAWS, builtin_only=True)
 friction_laws = law_table(FRICTION_LAWS, builtin_only=True)
 
 
+def state_table(terms=None):
+    """The core's table of state terms (:mod:`pneucore.physics.states`):
+    ``((iy slot of chamber A's state, first parameter slot, frozen with a constant chamber B,
+    rate), ...)`` in registration order, slots from :mod:`pneucore.core.layout` (the function
+    last, as in :func:`law_table`: numba then calls it directly, not as a first-class value).
+
+    Parameters
+    ----------
+    terms : dict or None
+        Terms by name (default :data:`pneucore.physics.states.STATE_TERMS`)
+    """
+    terms = STATE_TERMS if terms is None else terms
+    return tuple((L.STATE_IY0[name], L.STATE_PRM0[name], t.frozen_with_constant_b, t.rate)
+                 for name, t in terms.items())
+
+
+#: State terms compiled into the core: every registered term (its rate, slots and flag)
+state_terms = state_table()
+
+
+def call_state_rates(table, iy, y, dy, prm, sa, sb, T_amb, b_const):
+    """In compiled code: the rate of every state term of ``table`` present in the model
+    (``iy`` at its slot >= 0), for chamber A with the signals ``sa = (p, T, Q, S)`` and for
+    chamber B with ``sb`` (skipped when chamber B is constant and the term says so).
+
+    Generated from the table's type when a caller is compiled (as :func:`_table_dispatch`):
+    one test and one or two direct calls per term.
+    """
+    raise NotImplementedError("called from compiled code only")
+
+
+@overload(call_state_rates)
+def _generate_state_rates(table, iy, y, dy, prm, sa, sb, T_amb, b_const):
+    lines = ["def impl(table, iy, y, dy, prm, sa, sb, T_amb, b_const):"]
+    for i in range(len(table)):
+        lines += [f"    i = iy[table[{i}][0]]",
+                  "    if i >= 0:",
+                  f"        dy[i] = table[{i}][3](y[i], sa[0], sa[1], sa[2], sa[3], T_amb, prm, "
+                  f"table[{i}][1])",
+                  f"        if not (b_const and table[{i}][2]):",
+                  f"            j = iy[table[{i}][0] + 1]",
+                  f"            dy[j] = table[{i}][3](y[j], sb[0], sb[1], sb[2], sb[3], T_amb, prm, "
+                  f"table[{i}][1])"]
+    lines.append("    return")
+    namespace = {}
+    exec("\n".join(lines), namespace)   # text built from integers only
+    return namespace["impl"]
+
+
 @njit(cache=True, error_model="numpy", _nrt=False)
 def edge_flow(law, p1, T1, p2, T2, C, b, m, r_lam, r, gamma):
     """Mass flow from node 1 to node 2 through one valve edge [kg/s], by flow-law code.
@@ -188,6 +239,29 @@ def _edge(k, u, p1, T1, p2, T2, prm, tx, tC, tb, tm, toff):
         q += edge_flow(law, p1, T1, p2, T2, frac * prm[L.P_CMAX_PA + k], prm[L.P_BMAX_PA + k],
                        0.5, prm[L.P_R_LAM], prm[L.P_R], prm[L.P_GAMMA])
     return q
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _cushion(x, prm, p_sup, T_sup, p_a, T_a, p_b, T_b, p_atm, T_atm, q_pa, q_ar, q_pb, q_br):
+    """The valve edges' flows with the end cushions (:mod:`pneucore.physics.cushion`): inside
+    a cushion, the gas leaving that chamber passes the needle (bounded by the edge), the gas
+    entering it the check valve."""
+    stroke = prm[L.P_STROKE]
+    r_lam = prm[L.P_R_LAM]
+    r = prm[L.P_R]
+    gamma = prm[L.P_GAMMA]
+    b = prm[L.P_CUSHION_B]
+    la = prm[L.P_CUSHION_LA]
+    lb = prm[L.P_CUSHION_LB]
+    if in_cushion(x, stroke, la, lb, 0):
+        C = prm[L.P_CUSHION_CA]
+        q_ar = cushioned_outflow(q_ar, p_a, T_a, p_atm, T_atm, C, b, r_lam, r, gamma)
+        q_pa = -cushioned_outflow(-q_pa, p_a, T_a, p_sup, T_sup, C, b, r_lam, r, gamma)
+    if in_cushion(x, stroke, la, lb, 1):
+        C = prm[L.P_CUSHION_CB]
+        q_br = cushioned_outflow(q_br, p_b, T_b, p_atm, T_atm, C, b, r_lam, r, gamma)
+        q_pb = -cushioned_outflow(-q_pb, p_b, T_b, p_sup, T_sup, C, b, r_lam, r, gamma)
+    return q_pa, q_ar, q_pb, q_br
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -275,6 +349,9 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
     q_ar = _edge(1, u_eff, p_a, T_a, p_atm, T_atm, prm, tx, tC, tb, tm, toff)   # A -> R
     q_pb = _edge(2, u_eff, p_sup, T_sup, p_b, T_b, prm, tx, tC, tb, tm, toff)   # P -> B
     q_br = _edge(3, u_eff, p_b, T_b, p_atm, T_atm, prm, tx, tC, tb, tm, toff)   # B -> R
+    if prm[L.P_CUSHION_LA] > 0.0 or prm[L.P_CUSHION_LB] > 0.0:
+        q_pa, q_ar, q_pb, q_br = _cushion(x, prm, p_sup, T_sup, p_a, T_a, p_b, T_b, p_atm, T_atm,
+                                          q_pa, q_ar, q_pb, q_br)
     q_a = q_pa - q_ar
     q_b = q_pb - q_br
     H_a = enthalpy_flow(q_pa, T_sup, T_a, cp) + enthalpy_flow(-q_ar, T_atm, T_a, cp)
@@ -351,26 +428,20 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
         Tw_b = y[iy[L.IY_WALL_B]]
     if prm[L.P_HEAT_NAT] > 0.0 or prm[L.P_HEAT_JET] > 0.0:
         # inflow jet: what enters through the valve edges
-        h_a = exchange_coefficient(prm, p_a, T_a, Tw_a, max(q_pa, 0.0) + max(-q_ar, 0.0))
-        h_b = exchange_coefficient(prm, p_b, T_b, Tw_b, max(q_pb, 0.0) + max(-q_br, 0.0))
+        h0 = prm[L.P_H]
+        c_n = prm[L.P_HEAT_NAT]
+        c_j = prm[L.P_HEAT_JET]
+        d_in = prm[L.P_HEAT_D_IN]
+        D = prm[L.P_BORE]
+        h_a = exchange_coefficient(h0, c_n, c_j, d_in, D, r, gamma, p_a, T_a, Tw_a,
+                                   max(q_pa, 0.0) + max(-q_ar, 0.0))
+        h_b = exchange_coefficient(h0, c_n, c_j, d_in, D, r, gamma, p_b, T_b, Tw_b,
+                                   max(q_pb, 0.0) + max(-q_br, 0.0))
     Qw_a = convective_heat_flow(h_a, S_a, Tw_a, T_a)
     Qw_b = convective_heat_flow(h_b, S_b, Tw_b, T_b)
     Q_a = Qw_a + t_qa_heat
     Q_b = Qw_b + t_qb_heat
     isothermal = prm[L.P_ISOTHERMAL] > 0.0
-    if i_wa >= 0:
-        m_w = prm[L.P_WALL_MASS]
-        c_w = prm[L.P_WALL_CP]
-        h_o = prm[L.P_WALL_H_OUT]
-        dy[i_wa] = wall_rate(Qw_a, S_a, Tw_a, T_atm, m_w, c_w, h_o)
-        if not b_const:
-            dy[iy[L.IY_WALL_B]] = wall_rate(Qw_b, S_b, Tw_b, T_atm, m_w, c_w, h_o)
-    i_ts = iy[L.IY_TSENSOR_A]
-    if i_ts >= 0:
-        tau_T = prm[L.P_TSENSOR_TAU]
-        dy[i_ts] = (T_a - y[i_ts]) / tau_T
-        i_tsb = iy[L.IY_TSENSOR_B]
-        dy[i_tsb] = (T_b - y[i_tsb]) / tau_T
 
     # --- chambers (Eq. 14-15) ---------------------------------------------------------
     dm, dT = chamber_rates(m_a, T_a, p_a, A_a * v, q_a, H_a, Q_a, cv, isothermal)
@@ -412,12 +483,9 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
         F_f = 0.0
         acc = 0.0
 
-    # --- sensors: first-order transducer lag ---------------------------------------
-    i_sa = iy[L.IY_SENSOR_A]
-    if i_sa >= 0:
-        tau = prm[L.P_SENSOR_TAU]
-        dy[i_sa] = (p_a - y[i_sa]) / tau
-        dy[iy[L.IY_SENSOR_B]] = (p_b - y[iy[L.IY_SENSOR_B]]) / tau
+    # --- state terms (sensors, walls: pneucore.physics.states), from their table ------
+    call_state_rates(state_terms, iy, y, dy, prm, (p_a, T_a, Qw_a, S_a), (p_b, T_b, Qw_b, S_b),
+                     T_atm, b_const)
 
     # --- supply line mass balance (isothermal line) ------------------------------------
     q_draw = q_pa + q_pb

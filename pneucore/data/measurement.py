@@ -46,7 +46,7 @@ from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
 
-from pneucore.physics.gas import P_ATM, RHO_REF
+from pneucore.physics.gas import P_ATM, RHO_REF, T_ZERO_CELSIUS
 
 __all__ = [
     "MeasurementError",
@@ -64,6 +64,7 @@ __all__ = [
     "EXPORT_MARKER",
     "SIGNALS",
     "SIGNAL_UNITS",
+    "sensor_zero",
     "UNITS",
     "MIN_SAMPLES",
     "MAX_SAMPLES",
@@ -89,6 +90,29 @@ SIGNAL_UNITS: dict[str, str] = {
     "p_s": "Pa",
 }
 """SI unit of each signal as stored in a :class:`Measurement`."""
+
+
+def sensor_zero(signal, ambient):
+    """The value a sensor's gain error scales about: ambient pressure for a pressure (a gauge
+    sensor's span starts at the atmosphere, so a gain error leaves ambient read right), zero
+    for every other signal.
+
+    Parameters
+    ----------
+    signal : str
+        Signal name (:data:`SIGNALS`) [-]
+    ambient : float
+        Ambient pressure [Pa]
+
+    Returns
+    -------
+    float
+        The zero of the gain, in the signal's SI unit (:data:`SIGNAL_UNITS`)
+
+    >>> sensor_zero("p_s", 101300.0), sensor_zero("x", 101300.0)
+    (101300.0, 0.0)
+    """
+    return float(ambient) if SIGNAL_UNITS.get(signal) == "Pa" else 0.0
 
 MIN_SAMPLES: int = 10
 """Minimum number of samples (data rows) of a measurement."""
@@ -196,7 +220,7 @@ def _scale(mul: float = 1.0, div: float = 1.0, add: float = 0.0) -> Callable:
 
 def _fahrenheit(values):
     out = np.asarray(values, dtype=np.float64)
-    return (out - 32.0) * 5.0 / 9.0 + 273.15
+    return (out - 32.0) * 5.0 / 9.0 + T_ZERO_CELSIUS
 
 
 # unit -> (factor spec, is_gauge). Gauge units get ambient pressure added.
@@ -401,7 +425,7 @@ class Conversion:
             if kind == "K":
                 return _scale()
             if kind == "C":
-                return _scale(add=273.15)
+                return _scale(add=T_ZERO_CELSIUS)
             return _fahrenheit
         table = {"t": _TIME_UNITS, "u": _COMMAND_UNITS, "x": _LENGTH_UNITS,
                  "v": _VELOCITY_UNITS, "F": _FORCE_UNITS, "q_a": _FLOW_UNITS, "q_b": _FLOW_UNITS,

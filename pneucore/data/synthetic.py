@@ -165,9 +165,30 @@ def diagnostic_scenarios(model):
     }
 
 
+def full_stroke_scenario(model):
+    """A free full stroke each way from the lower stop, hitting both end stops (what an end
+    cushion acts on): the valve switched fully open towards A at 0.05 s, towards B at 0.6 s
+    (a 3/2 valve: back to exhausting A), 1.2 s at 1 kHz.
+
+    Parameters
+    ----------
+    model : Model
+        Used for the valve kind
+
+    Returns
+    -------
+    scenario : dict
+    """
+    model = Model.from_dict(model) if not isinstance(model, Model) else model
+    back = 0.0 if model.valve.kind == "3/2" else -1.0
+    return {"duration": 1.2, "sample_period": 0.001,
+            "command": [[0.0, 0.0], [0.05, 1.0], [0.6, back]], "locked": False, "x0": 0.0}
+
+
 def synthetic_experiments(true_model, signals=("p_a", "p_b", "x"), noise=None, bits=12, seed=0,
-                          which=None, noise_corr_time=0.0, initial=None):
-    """Synthetic experiments (JSON-ready dicts) of the diagnostic scenarios on ``true_model``.
+                          which=None, noise_corr_time=0.0, initial=None, full_strokes=False):
+    """Synthetic experiments (JSON-ready dicts) of the diagnostic scenarios on ``true_model``
+    (and, with ``full_strokes``, of :func:`full_stroke_scenario`, named ``full-strokes``).
 
     ``initial`` (``{"p_a", "p_b"}`` [Pa abs]) is the true initial chamber state of every
     test; the experiments do not declare it (the engineer does not know the rig was left
@@ -180,7 +201,10 @@ def synthetic_experiments(true_model, signals=("p_a", "p_b", "x"), noise=None, b
     """
     true_model = Model.from_dict(true_model) if not isinstance(true_model, Model) else true_model
     out = []
-    for k, (name, scen) in enumerate(diagnostic_scenarios(true_model).items()):
+    scenarios = diagnostic_scenarios(true_model)
+    if full_strokes:
+        scenarios["full-strokes"] = full_stroke_scenario(true_model)
+    for k, (name, scen) in enumerate(scenarios.items()):
         if which is not None and name not in which:
             continue
         sigs = tuple(s for s in signals if not (scen["locked"] and s in ("x", "v")))
@@ -212,6 +236,9 @@ RIG_EFFECTS = {
     "meter_out_throttle": {"C_a": 3e-9, "b_a": 0.3, "C_b": 3e-9, "b_b": 0.3},
     "exhaust_silencer": {"C": 6e-9, "b": 0.4},
     "return_spring": {"rate": 400.0, "preload": 30.0},
+    # 15 mm cushions at both ends, needles at a third of the exhaust edge's conductance
+    "end_cushion": {"length_a": 0.015, "volume_a": 0.0, "C_a": 4e-9, "length_b": 0.015,
+                    "volume_b": 0.0, "C_b": 4e-9, "b": 0.3, "capacity": 0.0},
 }
 
 #: Base parameters a catalogue model gets wrong, with the relative error range drawn for a
@@ -284,7 +311,7 @@ class RigCase:
 
 def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
              signals=("p_a", "p_b", "x"), noise_corr_time=0.0, base_errors=None, scale=1.0,
-             base_values=None, initial=None):
+             base_values=None, initial=None, full_strokes=False):
     """Draw one rig case: every base parameter of :data:`RIG_BASE_ERRORS` somewhat off.
 
     Parameters
@@ -315,6 +342,8 @@ def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
     initial : dict or None
         True initial chamber pressures ``{"p_a", "p_b"}`` [Pa abs], not declared in the
         experiments (a rig left pressurised)
+    full_strokes : bool
+        Record a full stroke each way as well (:func:`full_stroke_scenario`)
 
     Returns
     -------
@@ -345,7 +374,8 @@ def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
         truth_m.effects[n] = dict(RIG_EFFECTS[n])
     truth = truth_m.to_dict()
     exps = synthetic_experiments(truth_m, signals=signals, seed=seed + 100,
-                                 noise_corr_time=noise_corr_time, initial=initial)
+                                 noise_corr_time=noise_corr_time, initial=initial,
+                                 full_strokes=full_strokes)
     if outside is not None:
         sig, gain, offset = RIG_TRANSDUCER_ERRORS[outside]
         amb = start_m.ambient.pressure if sig.startswith("p") else 0.0
@@ -406,4 +436,7 @@ RIG_CASES = [
     ("effect/circuit/silencer", dict(seed=32, effects=("exhaust_silencer",))),
     ("effect/circuit/spring", dict(seed=33, effects=("return_spring",))),
     ("effect/circuit/tubing+meter_out", dict(seed=34, effects=("tubing", "meter_out_throttle"))),
+    # end cushions act over the last 15 mm of travel only: the rig also records a full
+    # stroke each way (the pulse test never reaches the ends)
+    ("effect/circuit/end_cushion", dict(seed=35, effects=("end_cushion",), full_strokes=True)),
 ]

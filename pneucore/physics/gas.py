@@ -13,6 +13,8 @@ GAMMA_AIR = 1.4
 RHO_REF = 1.185
 #: ISO 6358 / ISO 8778 reference temperature [K]
 T_REF = 293.15
+#: 0 °C in kelvin (the Celsius scale's zero, SI brochure 2.3.1) [K]
+T_ZERO_CELSIUS = 273.15
 #: Standard atmospheric pressure used as default ambient [Pa]
 P_ATM = 1.013e5
 #: Lowest absolute pressure of a source (supply or ambient) [Pa]: below it the mean free path

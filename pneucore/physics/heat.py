@@ -29,8 +29,9 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from pneucore.core import layout as L
 from pneucore.physics.gas import air_conductivity, air_viscosity
+from pneucore.physics.sensors import TEMPERATURE_SENSOR
+from pneucore.physics.states import StateTerm, register_state_term
 
 #: Standard acceleration of gravity [m/s^2] (CGPM 1901)
 G_STANDARD = 9.80665
@@ -230,23 +231,38 @@ def jet_convection_coefficient(q_in, d_in, T, D):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def exchange_coefficient(prm, p, T, T_wall, q_in):
+def exchange_coefficient(h0, c_n, c_j, d_in, D, r, gamma, p, T, T_wall, q_in):
     """Coefficient ``h`` [W/(m^2 K)] of the core's heat law for one chamber (module docstring).
 
-    ``prm`` holds ``h_0`` (``P_H``), the multipliers ``c_n`` (``P_HEAT_NAT``) and
-    ``c_j`` (``P_HEAT_JET``), the inlet diameter and the bore (the chamber's diameter).
+    Parameters
+    ----------
+    h0 : float
+        Fixed coefficient of Eq. 9 [W/(m^2 K)]
+    c_n, c_j : float
+        Multipliers of the natural and jet terms [-] (0 = term off)
+    d_in : float
+        Inlet (jet) diameter [m]
+    D : float
+        Chamber (bore) diameter [m]
+    r : float
+        Specific gas constant [J/(kg K)]
+    gamma : float
+        Ratio of specific heats [-]
+    p : float
+        Gas pressure [Pa]
+    T : float
+        Gas temperature [K]
+    T_wall : float
+        Wall temperature [K]
+    q_in : float
+        Mass flow entering the chamber [kg/s]
     """
-    h = prm[L.P_H]
-    D = prm[L.P_BORE]
-    r = prm[L.P_R]
-    gamma = prm[L.P_GAMMA]
+    h = h0
     cp = gamma * r / (gamma - 1.0)
-    c_n = prm[L.P_HEAT_NAT]
     if c_n > 0.0:
         h += c_n * natural_convection_coefficient(p, T, T_wall, D, r, cp)
-    c_j = prm[L.P_HEAT_JET]
     if c_j > 0.0:
-        h += c_j * jet_convection_coefficient(q_in, prm[L.P_HEAT_D_IN], T, D)
+        h += c_j * jet_convection_coefficient(q_in, d_in, T, D)
     return h
 
 
@@ -290,6 +306,28 @@ def wall_rate(Q_gas, S, T_wall, T_amb, mass, c, h_out):
     -0.1
     """
     return (-Q_gas + h_out * S * (T_amb - T_wall)) / (mass * c)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def wall_state_rate(y_s, p, T, Q, S, T_amb, prm, k0):
+    """State-term rate of a chamber wall [K/s] (:func:`wall_rate`; signature of
+    :mod:`pneucore.physics.states`): ``y_s`` the wall temperature [K], ``prm[k0:k0 + 3]``
+    its mass [kg], specific heat [J/(kg K)] and outer coefficient [W/(m^2 K)]."""
+    return wall_rate(Q, S, y_s, T_amb, prm[k0], prm[k0 + 1], prm[k0 + 2])
+
+
+def _wall_start(p_a, p_b, T_a, T_b, T_amb, p_sup):
+    # the walls start at the ambient temperature
+    return (T_amb, 1e-6 * T_amb), (T_amb, 1e-6 * T_amb)
+
+
+#: Walls with a thermal capacity (``heat.wall_mass``, effect ``wall_heat_capacity``): states
+#: ``T_wall_a``, ``T_wall_b``; the exchange law reads them as the wall temperature
+WALL = register_state_term(StateTerm(
+    "wall", wall_state_rate,
+    (("mass", "kg"), ("specific_heat", "J/(kg K)"), ("outer_coefficient", "W/(m^2 K)")),
+    ("T_wall_a", "T_wall_b"), "K", _wall_start, frozen_with_constant_b=True,
+    description="lumped wall heat balance of each chamber"))
 
 
 # ---------------------------------------------------------------------------
@@ -397,16 +435,18 @@ class HeatModel:
         """Coefficient [W/(m^2 K)] written into the compiled core's parameter vector."""
         return float(h) if self.fixed else 0.0
 
-    def pack(self, heat, prm):
-        """Write this model's slots of the core's parameter vector from ``heat`` (a
-        :class:`pneucore.spec.model.Heat`)."""
-        prm[L.P_H] = self.core_coefficient(heat.coefficient)
-        prm[L.P_ISOTHERMAL] = 1.0 if self.isothermal else 0.0
+    def core_values(self, heat):
+        """This model's slots of the core's parameter vector from ``heat`` (a
+        :class:`pneucore.spec.model.Heat`): ``{slot name: value}``, slot names of
+        :data:`pneucore.core.layout.PRM_INDEX`."""
+        out = {"H": self.core_coefficient(heat.coefficient),
+               "ISOTHERMAL": 1.0 if self.isothermal else 0.0}
         if self.natural:
-            prm[L.P_HEAT_NAT] = heat.natural_multiplier
+            out["HEAT_NAT"] = heat.natural_multiplier
         if self.jet:
-            prm[L.P_HEAT_JET] = heat.jet_multiplier
-            prm[L.P_HEAT_D_IN] = heat.inlet_diameter
+            out["HEAT_JET"] = heat.jet_multiplier
+            out["HEAT_D_IN"] = heat.inlet_diameter
+        return out
 
     def add_states(self, heat, build, T_a, T_b):
         """Declare the wall and sensor states this model's parameters ask for.
@@ -432,9 +472,7 @@ class HeatModel:
 
 
 def add_wall(build, mass, c, h_out):
-    """Give each chamber a wall with thermal capacity: slots and states ``T_wall_a``, ``T_wall_b``.
-
-    The walls start at the ambient temperature.
+    """Give each chamber a wall with thermal capacity (state term :data:`WALL`).
 
     Parameters
     ----------
@@ -447,19 +485,12 @@ def add_wall(build, mass, c, h_out):
     h_out : float
         Outer coefficient to the ambient [W/(m^2 K)]
     """
-    build.prm[L.P_WALL_MASS] = mass
-    build.prm[L.P_WALL_CP] = c
-    build.prm[L.P_WALL_H_OUT] = h_out
-    T0 = build.model.ambient.temperature
-    build.iy[L.IY_WALL_A] = build.add_state("T_wall_a", T0, 1e-6 * T0)
-    build.iy[L.IY_WALL_B] = build.add_state("T_wall_b", T0, 1e-6 * T0)
+    build.add_term(WALL, (mass, c, h_out))
 
 
 def add_temperature_sensor(build, tau, T_a, T_b):
-    """First-order gas-temperature sensors: states ``T_a_sensor``, ``T_b_sensor``.
-
-    ``dT_s/dt = (T - T_s) / tau``; the comparison reads them in place of
-    ``T_a``, ``T_b`` (:meth:`pneucore.result.SimulationResult.observed`).
+    """First-order gas-temperature sensors (state term
+    :data:`pneucore.physics.sensors.TEMPERATURE_SENSOR`): states ``T_a_sensor``, ``T_b_sensor``.
 
     Parameters
     ----------
@@ -468,11 +499,9 @@ def add_temperature_sensor(build, tau, T_a, T_b):
     tau : float
         Sensor time constant [s]
     T_a, T_b : float
-        Initial gas temperatures [K]
+        Initial gas temperatures [K] (the sensors start there)
     """
-    build.prm[L.P_TSENSOR_TAU] = tau
-    build.iy[L.IY_TSENSOR_A] = build.add_state("T_a_sensor", T_a, 1e-6 * T_a)
-    build.iy[L.IY_TSENSOR_B] = build.add_state("T_b_sensor", T_b, 1e-6 * T_b)
+    build.add_term(TEMPERATURE_SENSOR, (tau,))
 
 
 #: Registry of heat models by name (``model.heat.model``)

@@ -8,7 +8,9 @@ hold. The compiled core receives all tables concatenated with offsets.
 import numpy as np
 from numba import njit
 
-from pneucore.core.layout import PORT_NAMES
+
+#: The valve's metering edges, in the order of the compiled core's tables and slots
+PORT_NAMES = ("P-A", "A-R", "P-B", "B-R")
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)

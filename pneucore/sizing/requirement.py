@@ -18,7 +18,8 @@ from pneucore.spec.validation import FieldError, known_keys, mapping, number
 #: (ISO 15552 cylinders are rated 10 bar, strokes of a few metres), they keep a mistyped
 #: number from asking the simulator for nonsense
 BOUNDS = {"stroke": 10.0, "moving_mass": 1e5, "load_force": 1e7, "supply_pressure": 5e6,
-          "extend_time": 600.0, "retract_time": 600.0, "max_end_speed": 100.0, "max_end_energy": 1e6,
+          "extend_time": 600.0, "retract_time": 600.0, "cycle_time": 1200.0, "dwell": 600.0,
+          "max_end_speed": 100.0, "max_end_energy": 1e6,
           "tube_length": 100.0, "ambient_pressure": 5e6}
 
 
@@ -54,10 +55,19 @@ class Requirement:
         lifts the load), -90 = vertical rod down [deg]
     supply_pressure : float
         Absolute supply pressure at the valve [Pa]
-    extend_time : float
-        Full-stroke extension time allowed, from the valve's command to the end stop [s]
-    retract_time : float
-        Full-stroke retraction time allowed, from the valve's command to the end stop [s]
+    extend_time : float or None
+        Full-stroke extension time allowed, from the valve's command to the end stop;
+        required unless cycle_time is given [s]
+    retract_time : float or None
+        Full-stroke retraction time allowed, from the valve's command to the end stop;
+        required unless cycle_time is given [s]
+    cycle_time : float or None
+        Time of one whole cycle (extension, dwell, retraction, dwell), instead of extend_time
+        and retract_time: each family's time to move, cycle_time less both dwells, is shared
+        between its two strokes in proportion to their fully open times (both slowed by the
+        same factor); null = the two times given [s]
+    dwell : float
+        Time held at each end stop within cycle_time (twice per cycle) [s]
     max_end_speed : float or None
         Largest piston speed allowed at either end stop (what the cushion or the stop absorbs);
         null = no limit [m/s]
@@ -75,15 +85,19 @@ class Requirement:
     load_force: float = 0.0
     angle: float = 0.0
     supply_pressure: float = 7e5
-    extend_time: float = 1.0
-    retract_time: float = 1.0
+    extend_time: Optional[float] = None
+    retract_time: Optional[float] = None
+    cycle_time: Optional[float] = None
+    dwell: float = 0.0
     max_end_speed: Optional[float] = None
     max_end_energy: Optional[float] = None
     tube_length: Optional[float] = None
     ambient_pressure: float = P_ATM
 
     #: fields a request must give (the others have their defaults)
-    REQUIRED = ("stroke", "moving_mass", "supply_pressure", "extend_time", "retract_time")
+    REQUIRED = ("stroke", "moving_mass", "supply_pressure")
+    #: the times a request gives: both of these, or cycle_time (with its dwell)
+    TIMES = ("extend_time", "retract_time")
     #: unit of each field, read once from the docstring above (the one source)
     UNITS = {}
 
@@ -123,10 +137,30 @@ class Requirement:
                                       positive=True)
         r.supply_pressure = _checked(d["supply_pressure"], f"{path}.supply_pressure",
                                      u("supply_pressure"), low=r.ambient_pressure, low_open=True)
-        r.extend_time = _checked(d["extend_time"], f"{path}.extend_time", u("extend_time"),
-                                 positive=True)
-        r.retract_time = _checked(d["retract_time"], f"{path}.retract_time", u("retract_time"),
-                                  positive=True)
+        if d.get("cycle_time") is None:
+            for key in cls.TIMES:
+                if d.get(key) is None:
+                    raise FieldError(f"{path}.{key}", f"is required, or cycle_time instead of "
+                                                      f"both (unit: {u(key)})")
+            r.extend_time = _checked(d["extend_time"], f"{path}.extend_time", u("extend_time"),
+                                     positive=True)
+            r.retract_time = _checked(d["retract_time"], f"{path}.retract_time",
+                                      u("retract_time"), positive=True)
+            if d.get("dwell") not in (None, 0, 0.0):
+                raise FieldError(f"{path}.dwell", "is read with cycle_time only (unit: s)")
+        else:
+            given = [k for k in cls.TIMES if d.get(k) is not None]
+            if given:
+                raise FieldError(f"{path}.{given[0]}", "give cycle_time or extend_time and "
+                                                       "retract_time, not both (unit: s)")
+            r.cycle_time = _checked(d["cycle_time"], f"{path}.cycle_time", u("cycle_time"),
+                                    positive=True)
+            r.dwell = _checked(d.get("dwell", r.dwell), f"{path}.dwell", u("dwell"),
+                               nonnegative=True)
+            if r.motion_time <= 0.0:
+                raise FieldError(f"{path}.dwell", f"two dwells of {r.dwell:g} s leave no time to "
+                                                  f"move in a cycle of {r.cycle_time:g} s "
+                                                  f"(unit: {u('dwell')})")
         r.max_end_speed = None if d.get("max_end_speed") is None else _checked(
             d["max_end_speed"], f"{path}.max_end_speed", u("max_end_speed"), positive=True)
         r.max_end_energy = None if d.get("max_end_energy") is None else _checked(
@@ -138,6 +172,18 @@ class Requirement:
     def to_dict(self):
         """Plain JSON (round-trips through :meth:`from_dict`)."""
         return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @property
+    def motion_time(self):
+        """Time to move in one cycle: cycle_time less both dwells [s]; None without cycle_time."""
+        return None if self.cycle_time is None else self.cycle_time - 2.0 * self.dwell
+
+    def time_bound(self, direction):
+        """The longest one stroke may take [s]: its required time, or with cycle_time the
+        whole time to move (the share each family gets is at most that)."""
+        if self.cycle_time is not None:
+            return self.motion_time
+        return self.extend_time if direction == "extend" else self.retract_time
 
     @classmethod
     def unit(cls, name):
@@ -160,8 +206,10 @@ class Choices:
         ``{"bore": [m], "rod": [m]}``; empty = every shipped cylinder series [-]
     valve : list
         Valves: a series name (``ckd-4ga``, ``ckd-4gb``), a member (``ckd-4ga:M4GA2``) or
-        ``{"C": [m^3/(s Pa)], "b": [-]}`` (optionally ``C_exhaust``, ``b_exhaust``, ``name``);
-        empty = every shipped valve series [-]
+        ``{"C": [m^3/(s Pa)], "b": [-]}`` (optionally ``C_exhaust``, ``b_exhaust``, ``name``),
+        or instead of C a catalogue's figure with its b: ``{"qn": [NL/min], "b": [-]}``,
+        ``{"effective_area": [m^2], "b": [-]}`` or one flow point (``flow_rate`` [m^3/s],
+        ``p1``, ``p2`` [Pa]); empty = every shipped valve series [-]
     tube_inner_diameter : list
         Tube inner diameters when a tube length is given: a series name (``pu-tube``), a
         member (``pu-tube:TU0604``) or a value [m]; empty = the shipped tube series [-]
@@ -218,3 +266,15 @@ class Choices:
     def to_dict(self):
         """Plain JSON (round-trips through :meth:`from_dict`)."""
         return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @property
+    def motion_time(self):
+        """Time to move in one cycle: cycle_time less both dwells [s]; None without cycle_time."""
+        return None if self.cycle_time is None else self.cycle_time - 2.0 * self.dwell
+
+    def time_bound(self, direction):
+        """The longest one stroke may take [s]: its required time, or with cycle_time the
+        whole time to move (the share each family gets is at most that)."""
+        if self.cycle_time is not None:
+            return self.motion_time
+        return self.extend_time if direction == "extend" else self.retract_time

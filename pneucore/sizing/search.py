@@ -7,7 +7,10 @@ inner diameter. For each family :func:`size`
    both ways (no simulation): too weak is the reason ``force``;
 2. simulates each direction fully open (a full stroke from rest at one end stop, the valve
    commanded at t = 0, the chamber to be exhausted starting at the supply pressure): a
-   full-stroke time above the required one is the reason ``too_slow``;
+   full-stroke time above the required one is the reason ``too_slow``; with a cycle time
+   instead of the two times, the time to move (the cycle less both dwells) is first shared
+   between the strokes in proportion to these fully open times, and the family is too slow
+   when their sum exceeds it;
 3. with ``choices.meter_out``, solves the sonic conductance of each direction's meter-out
    throttle (the model's ``meter_out_throttle`` on the exhausting port, in series with the
    valve's exhaust edge) for the full-stroke time to equal the required one, by a 1-D root
@@ -209,6 +212,12 @@ def model_notes(requirement, tube=None):
         "5 cm^3; not in the standards). Seal friction: the base model's, scaled with the bore.",
         "Valve switching time is not modelled: the valve opens fully at the command.",
     ]
+    if requirement.cycle_time is not None:
+        notes.append(f"Cycle time {requirement.cycle_time:g} s with a dwell of "
+                     f"{requirement.dwell:g} s at each end: each family's {requirement.motion_time:g} s "
+                     "to move is shared between its strokes in proportion to their fully open "
+                     "times (both slowed by the same factor); each design's required_times "
+                     "gives its share.")
     if requirement.tube_length is not None:
         notes.append(f"Tube of {requirement.tube_length:g} m on each port: the model's tubing "
                      "effect, its volume pi d^2 L / 4 added to each chamber's dead volume and its "
@@ -251,7 +260,7 @@ class _Direction:
     def __init__(self, model, requirement, direction):
         self.model = model
         self.direction = direction
-        self.t_req = requirement.extend_time if direction == "extend" else requirement.retract_time
+        self.t_req = requirement.time_bound(direction)
         self.scenario = Scenario.from_dict(_stroke_scenario(requirement, direction), model)
         self.runs = {}
 
@@ -307,7 +316,7 @@ def _stroke_scenario(requirement, direction):
     """The scenario of one full stroke: at rest at one end stop, the chamber to be exhausted
     at the supply pressure (where the previous stroke left it), the valve switched at the
     first sample after t = 0 (the ``command`` event :mod:`pneucore.strokes` times from)."""
-    t_req = requirement.extend_time if direction == "extend" else requirement.retract_time
+    t_req = requirement.time_bound(direction)
     period = min(DURATION_FACTOR * t_req / RUN_SAMPLES, MAX_SAMPLE_PERIOD)
     p_s, p_0 = requirement.supply_pressure, requirement.ambient_pressure
     ext = direction == "extend"
@@ -357,8 +366,7 @@ def robustness_studies(design, requirement, samples=ROBUSTNESS_SAMPLES):
     out = {}
     for k in DIRECTIONS:
         ext = k == "extend"
-        t_req = requirement.extend_time if ext else requirement.retract_time
-        duration = DURATION_FACTOR * t_req
+        duration = DURATION_FACTOR * requirement.time_bound(k)
         fs = model["friction"][k]
         lo, hi = FRICTION_SPREAD
         params = {f"friction.{k}.{c}": {"distribution": "uniform", "min": lo * fs[c],
@@ -432,6 +440,10 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
             if "failure" in m:
                 return {**family, "feasible": False, "reason": "simulation", "direction": k,
                         "detail": f"{k}: {m['failure']}"}
+        if requirement.cycle_time is not None:
+            cycle = _share_cycle(requirement, dirs, family, cylinder, valve, tube, full, base)
+            if cycle is not None:
+                return cycle
         slow = [k for k, dr in dirs.items() if dr.time(0.0) > dr.t_req]
         if slow:
             k = max(slow, key=lambda k: dirs[k].time(0.0) / dirs[k].t_req)
@@ -452,7 +464,8 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
     except FieldError as exc:
         return {**family, "feasible": False, "reason": "simulation", "direction": None,
                 "detail": str(exc)}
-    design = _design(requirement, cylinder, valve, tube, settings, metrics, base)
+    design = _design(requirement, cylinder, valve, tube, settings, metrics, base,
+                     {k: dirs[k].t_req for k in DIRECTIONS})
     checks = (("end_speed", "stroke-end speed", requirement.max_end_speed, "m/s"),
               ("end_energy", "kinetic energy at the end stop", requirement.max_end_energy, "J"))
     for reason, what, limit, unit in checks:
@@ -470,7 +483,29 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
     return {**family, "feasible": True, "design": design}
 
 
-def _design(requirement, cylinder, valve, tube, settings, metrics, base):
+def _share_cycle(requirement, dirs, family, cylinder, valve, tube, full, base):
+    """With a cycle time: each direction's required time, the time to move shared in
+    proportion to the fully open times (both strokes slowed by the same factor, so neither
+    is left at full speed while the other crawls); the ``too_slow`` outcome when even fully
+    open the two strokes take longer than the time to move, else None (``dirs`` updated)."""
+    t0 = {k: dirs[k].time(0.0) for k in DIRECTIONS}
+    total, budget = t0["extend"] + t0["retract"], requirement.motion_time
+    if total <= budget:
+        for k in DIRECTIONS:
+            dirs[k].t_req = budget * t0[k] / total
+        return None
+    k = max(DIRECTIONS, key=lambda k: t0[k])
+    took = " + ".join(f"{n} {t0[n]:.4g} s" if math.isfinite(t0[n]) else
+                      f"{n} not at the end stop after {DURATION_FACTOR * budget:.4g} s"
+                      for n in DIRECTIONS)
+    design = _design(requirement, cylinder, valve, tube, {n: 0.0 for n in DIRECTIONS}, full, base)
+    return {**family, "feasible": False, "reason": "too_slow", "direction": k,
+            "detail": f"cycle: fully open {took}, more than the {budget:.4g} s to move (cycle "
+                      f"{requirement.cycle_time:.4g} s less two dwells of {requirement.dwell:.4g} s)",
+            "shortfall": total / budget, "design": {**design, "feasible": False}}
+
+
+def _design(requirement, cylinder, valve, tube, settings, metrics, base, times=None):
     model = build_model(requirement, cylinder, valve, tube,
                         (settings["extend"], settings["retract"]), base=base)
     air = metrics["extend"]["air"] + metrics["retract"]["air"]
@@ -485,6 +520,9 @@ def _design(requirement, cylinder, valve, tube, settings, metrics, base):
         "metrics": {k: {n: metrics[k][n] for n in STROKE_METRIC_UNITS} for k in DIRECTIONS}
         | {"units": dict(STROKE_METRIC_UNITS)},
         "air_per_cycle": air,
+        # the full-stroke time each direction was sized for (with a cycle time, its share)
+        "required_times": {k: requirement.time_bound(k) if times is None else times[k]
+                           for k in DIRECTIONS},
         "feasible": True,
     }
 
@@ -555,12 +593,14 @@ def check(requirement, choices=None, max_duration=None):
     req = Requirement.from_dict(requirement)
     ch = Choices.from_dict(choices)
     if max_duration is not None:
-        for key in ("extend_time", "retract_time"):
-            if DURATION_FACTOR * getattr(req, key) > max_duration:
+        for k in DIRECTIONS:
+            key = f"{k}_time" if req.cycle_time is None else "cycle_time"
+            if DURATION_FACTOR * req.time_bound(k) > max_duration:
                 raise FieldError(f"requirement.{key}", (
                     f"{getattr(req, key):g} s: each direction is simulated for {DURATION_FACTOR:g} "
-                    f"times its required time, more than the {max_duration:g} s a run may last "
-                    f"here (GET /api/limits: max_duration) (unit: s)"))
+                    f"times the most it may take ({req.time_bound(k):g} s), more than the "
+                    f"{max_duration:g} s a run may last here (GET /api/limits: max_duration) "
+                    f"(unit: s)"))
     return req, ch, families(req, ch)
 
 

@@ -17,17 +17,20 @@ import functools
 import json
 import os
 
-from pneucore.physics.flow import R_LAMINAR, anr_volume_flow, iso6358_mass_flow
+from pneucore.physics.flow import (P_ANR, QN_DP, QN_P1_GAUGE, R_LAMINAR, anr_volume_flow,
+                                   iso6358_mass_flow)
 from pneucore.physics.gas import GAMMA_AIR, R_AIR, T_REF
+from pneucore.spec.model import Jack
+from pneucore.spec.valve_data import CONVERSIONS as VALVE_CONVERSIONS
+from pneucore.spec.valve_data import FIELDS as VALVE_FIELDS
+from pneucore.spec.valve_data import convert_valve_data
+from pneucore.spec.valve_data import unit as valve_unit
 from pneucore.spec.validation import FieldError, known_keys, number
 
 #: File holding the series (beside this module)
 SERIES_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "series.json")
 #: SI factor of each unit the series file uses
 _UNIT_FACTORS = {"mm": 1e-3, "m": 1.0, "dm^3/(s bar)": 1e-8}
-#: ISO 6358 nominal flow conditions: 6 bar gauge upstream, 1 bar pressure drop [Pa]
-QN_UPSTREAM_GAUGE = 6e5
-QN_DROP = 1e5
 
 
 @functools.lru_cache(maxsize=None)
@@ -72,7 +75,10 @@ def dead_length():
 def nominal_flow(C, b):
     """ISO 6358 nominal flow Qn of a valve edge: 6 bar gauge in, 5 bar gauge out, 20 degC.
 
-    Derived from the edge's C and b (the model's one source) with the paper's Eq. 4-5.
+    Derived from the edge's C and b (the model's one source) with the paper's Eq. 4-5, at
+    the nominal-flow conditions of :mod:`pneucore.physics.flow` (``QN_P1_GAUGE``, ``QN_DP``
+    over the ANR atmosphere ``P_ANR``): the inverse of
+    :func:`pneucore.physics.flow.conductance_from_qn`, the way in from a catalogue's Qn.
 
     Parameters
     ----------
@@ -88,35 +94,109 @@ def nominal_flow(C, b):
 
     Examples
     --------
-    A 1 dm^3/(s bar) edge with b = 0.3. Choked at 7.013 bar abs it would pass SMC's worked
-    figure 600 x C x (P1 + 0.1) = 600 x 1 x 0.7013 = 421 NL/min (P1 in MPa gauge; SMC's
-    "Solenoid valves flow characteristics"); at the nominal ratio 6.013 / 7.013 = 0.857 the
-    subsonic law leaves sqrt(1 - ((0.857 - 0.3) / 0.7)^2) = 0.606 of it:
+    A 1 dm^3/(s bar) edge with b = 0.3. Choked at 7 bar abs it would pass SMC's worked
+    figure 600 x C x (P1 + 0.1) = 600 x 1 x 0.7 = 420 NL/min (P1 in MPa gauge; SMC's
+    "Solenoid valves flow characteristics"); at the nominal ratio 6 / 7 = 0.857 the
+    subsonic law leaves sqrt(1 - ((0.857 - 0.3) / 0.7)^2) = 0.605 of it:
 
-    >>> round(nominal_flow(1e-8, 0.3))
-    255
+    >>> round(nominal_flow(1e-8, 0.3), 1)
+    254.3
     """
-    p1 = 1.013e5 + QN_UPSTREAM_GAUGE
-    q = iso6358_mass_flow(p1, T_REF, p1 - QN_DROP, T_REF, C, b, 0.5, R_LAMINAR, R_AIR, GAMMA_AIR)
+    p1 = P_ANR + QN_P1_GAUGE
+    q = iso6358_mass_flow(p1, T_REF, p1 - QN_DP, T_REF, C, b, 0.5, R_LAMINAR, R_AIR, GAMMA_AIR)
     return anr_volume_flow(q) * 60e3
 
 
-def _series_or_member(item, registry, path, what):
-    """Members named by ``item`` (a series name or ``series:member``), or None if not a name."""
-    if not isinstance(item, str):
-        return None
-    series_name, _, member = item.partition(":")
-    if series_name not in registry:
-        raise FieldError(path, f"unknown {what} series {series_name!r}; expected one of "
-                               f"{sorted(registry)} (or {what} values)")
-    members = registry[series_name]["members"]
-    if member:
-        found = [m for m in members if m["name"] == member]
-        if not found:
-            raise FieldError(path, f"no {what} {member!r} in series {series_name!r}; expected one "
-                                   f"of {[m['name'] for m in members]}")
-        members = found
-    return [{**m, "series": series_name} for m in members]
+def _resolve(kind, items, path, what, member_record, given_record):
+    """The one walk over a request's choices of one kind: series names, ``series:member``
+    names, or the user's own values.
+
+    Parameters
+    ----------
+    kind : str
+        Registry in the series file: ``cylinders``, ``valves`` or ``tubes``
+    items : list
+        The request's choices; empty = every shipped series of that kind
+    path : str
+        Field path named in errors
+    what : str
+        The component's name in messages (``cylinder``, ``valve``, ``tube``)
+    member_record : callable
+        ``member_record(member)``: the SI record of a shipped series member (its ``series``
+        and ``name`` are added here)
+    given_record : callable
+        ``given_record(item, path)``: the SI record of a value the user gives, or a
+        :class:`FieldError` naming ``path``
+
+    Returns
+    -------
+    records : list of dict
+        One per component, each with ``series`` (None for the user's own) and ``name``
+    """
+    registry = _load()[kind]
+    out = []
+    for i, item in enumerate(items or list(registry)):
+        p = f"{path}[{i}]"
+        if not isinstance(item, str):
+            out.append({"series": None, **given_record(item, p)})
+            continue
+        series_name, _, member = item.partition(":")
+        if series_name not in registry:
+            raise FieldError(p, f"unknown {what} series {series_name!r}; expected one of "
+                                f"{sorted(registry)} (or {what} values)")
+        members = registry[series_name]["members"]
+        if member:
+            members = [m for m in members if m["name"] == member]
+            if not members:
+                raise FieldError(p, f"no {what} {member!r} in series {series_name!r}; expected "
+                                    f"one of {[m['name'] for m in registry[series_name]['members']]}")
+        out += [{"series": series_name, "name": f"{series_name}:{m['name']}", **member_record(m)}
+                for m in members]
+    return out
+
+
+def _given_cylinder(item, p):
+    if isinstance(item, (int, float)) and not isinstance(item, bool):
+        raise FieldError(p, "a cylinder needs its rod too: give {\"bore\": [m], \"rod\": [m]} "
+                            "or a series name")
+    if not isinstance(item, dict):
+        raise FieldError(p, f"must be a series name or {{\"bore\": [m], \"rod\": [m]}}, got "
+                            f"{type(item).__name__}")
+    known_keys(item, ("bore", "rod", "name"), p)
+    bore = number(item.get("bore"), f"{p}.bore", positive=True)
+    # the jack's own rule (one source): non-negative and smaller than the bore
+    rod = Jack.checked_rod(item.get("rod", 0.0), bore, f"{p}.rod")
+    return {"name": str(item.get("name") or f"bore {bore * 1e3:g} mm"), "bore": bore, "rod": rod}
+
+
+def _given_valve(item, p):
+    if not isinstance(item, dict):
+        raise FieldError(p, f"must be a series name or {{\"C\": [m^3/(s Pa)], \"b\": [-]}}, "
+                            f"got {type(item).__name__}")
+    known_keys(item, ("C", "b", "C_exhaust", "b_exhaust", "name", *VALVE_FIELDS), p)
+    figures = [k for k in VALVE_CONVERSIONS if item.get(k) is not None]
+    if figures:
+        # a catalogue's figure (Qn, effective area, one flow point): the valve converter's
+        # registry turns it into C, the one way in (POST /api/valve/convert answers the same)
+        if item.get("C") is not None:
+            raise FieldError(f"{p}.C", f"give C or a catalogue figure ({figures[0]}), not both")
+        conv = convert_valve_data({k: v for k, v in item.items() if k in VALVE_FIELDS}, p)
+        C, b = conv["C"], conv["b"]
+        fig = figures[0]
+        label = f"{fig} {item[fig]:g} {valve_unit(fig)}"
+    else:
+        C = number(item.get("C"), f"{p}.C", positive=True)
+        b = number(item.get("b"), f"{p}.b", low=0.0, high=1.0, high_open=True)
+        label = f"C {C:.3g} m^3/(s Pa)"
+    Ce = number(item.get("C_exhaust", C), f"{p}.C_exhaust", positive=True)
+    be = number(item.get("b_exhaust", b), f"{p}.b_exhaust", low=0.0, high=1.0, high_open=True)
+    return {"name": str(item.get("name") or label), "C": C, "b": b, "C_exhaust": Ce,
+            "b_exhaust": be}
+
+
+def _given_tube(item, p):
+    d = number(item, p, positive=True)
+    return {"name": f"ID {d * 1e3:g} mm", "inner_diameter": d}
 
 
 def resolve_cylinders(items, path="choices.bore"):
@@ -134,31 +214,8 @@ def resolve_cylinders(items, path="choices.bore"):
     cylinders : list of dict
         ``{"series", "name", "bore" [m], "rod" [m]}``
     """
-    registry = _load()["cylinders"]
-    items = items or list(registry)
-    out = []
-    for i, item in enumerate(items):
-        p = f"{path}[{i}]"
-        named = _series_or_member(item, registry, p, "cylinder")
-        if named is not None:
-            out += [{"series": m["series"], "name": f"{m['series']}:{m['name']}", "bore": m["bore"],
-                     "rod": m["rod"]} for m in named]
-            continue
-        if isinstance(item, (int, float)) and not isinstance(item, bool):
-            raise FieldError(p, "a cylinder needs its rod too: give {\"bore\": [m], \"rod\": [m]} "
-                                "or a series name")
-        if not isinstance(item, dict):
-            raise FieldError(p, f"must be a series name or {{\"bore\": [m], \"rod\": [m]}}, got "
-                                f"{type(item).__name__}")
-        known_keys(item, ("bore", "rod", "name"), p)
-        bore = number(item.get("bore"), f"{p}.bore", positive=True)
-        rod = number(item.get("rod", 0.0), f"{p}.rod", nonnegative=True)
-        if rod >= bore:
-            raise FieldError(f"{p}.rod", f"rod diameter {rod:g} m must be smaller than the bore "
-                                         f"{bore:g} m")
-        out.append({"series": None, "name": str(item.get("name") or f"bore {bore * 1e3:g} mm"),
-                    "bore": bore, "rod": rod})
-    return out
+    return _resolve("cylinders", items, path, "cylinder",
+                    lambda m: {"bore": m["bore"], "rod": m["rod"]}, _given_cylinder)
 
 
 def resolve_valves(items, path="choices.valve"):
@@ -168,36 +225,21 @@ def resolve_valves(items, path="choices.valve"):
     ----------
     items : list
         Series names, ``series:member`` names or ``{"C": [m^3/(s Pa)], "b": [-]}`` with
-        optional ``C_exhaust``, ``b_exhaust`` (default: as the supply edge) and ``name``
+        optional ``C_exhaust``, ``b_exhaust`` (default: as the supply edge) and ``name``;
+        instead of ``C``, a catalogue's figure that :func:`pneucore.spec.valve_data.convert_valve_data`
+        converts: ``{"qn": [NL/min], "b": [-]}``, ``{"effective_area": [m^2], "b": [-]}`` or
+        one flow point ``{"flow_rate": [m^3/s], "p1": [Pa], "p2": [Pa], "b": [-]}``
     path : str
         Field path named in errors
 
     Returns
     -------
     valves : list of dict
-        ``{"series", "name", "C", "b", "C_exhaust", "b_exhaust"}`` (C in m^3/(s Pa))
+        ``{"series", "name", "C", "b", "C_exhaust", "b_exhaust", "qn"}`` (C in m^3/(s Pa),
+        qn in NL/min)
     """
-    registry = _load()["valves"]
-    items = items or list(registry)
-    out = []
-    for i, item in enumerate(items):
-        p = f"{path}[{i}]"
-        named = _series_or_member(item, registry, p, "valve")
-        if named is not None:
-            out += [{"series": m["series"], "name": f"{m['series']}:{m['name']}", "C": m["C"],
-                     "b": m["b"], "C_exhaust": m["C_exhaust"], "b_exhaust": m["b_exhaust"]}
-                    for m in named]
-            continue
-        if not isinstance(item, dict):
-            raise FieldError(p, f"must be a series name or {{\"C\": [m^3/(s Pa)], \"b\": [-]}}, "
-                                f"got {type(item).__name__}")
-        known_keys(item, ("C", "b", "C_exhaust", "b_exhaust", "name"), p)
-        C = number(item.get("C"), f"{p}.C", positive=True)
-        b = number(item.get("b"), f"{p}.b", low=0.0, high=1.0, high_open=True)
-        Ce = number(item.get("C_exhaust", C), f"{p}.C_exhaust", positive=True)
-        be = number(item.get("b_exhaust", b), f"{p}.b_exhaust", low=0.0, high=1.0, high_open=True)
-        out.append({"series": None, "name": str(item.get("name") or f"C {C:.3g} m^3/(s Pa)"),
-                    "C": C, "b": b, "C_exhaust": Ce, "b_exhaust": be})
+    out = _resolve("valves", items, path, "valve",
+                   lambda m: {k: m[k] for k in ("C", "b", "C_exhaust", "b_exhaust")}, _given_valve)
     for v in out:
         v["qn"] = nominal_flow(v["C"], v["b"])
     return out
@@ -218,16 +260,5 @@ def resolve_tubes(items, path="choices.tube_inner_diameter"):
     tubes : list of dict
         ``{"series", "name", "inner_diameter" [m]}``
     """
-    registry = _load()["tubes"]
-    items = items or list(registry)
-    out = []
-    for i, item in enumerate(items):
-        p = f"{path}[{i}]"
-        named = _series_or_member(item, registry, p, "tube")
-        if named is not None:
-            out += [{"series": m["series"], "name": f"{m['series']}:{m['name']}",
-                     "inner_diameter": m["inner"]} for m in named]
-            continue
-        d = number(item, p, positive=True)
-        out.append({"series": None, "name": f"ID {d * 1e3:g} mm", "inner_diameter": d})
-    return out
+    return _resolve("tubes", items, path, "tube", lambda m: {"inner_diameter": m["inner"]},
+                    _given_tube)

@@ -35,6 +35,7 @@ import functools
 
 from pneucore.core import layout as L
 from pneucore.physics.heat import HEAT_PARAMETERS, add_wall
+from pneucore.physics.sensors import PRESSURE_SENSOR
 from pneucore.physics.series import combine_table
 from pneucore.physics.tube import line_volume, tube_characteristic
 from pneucore.spec.validation import FieldError, mapping, number, optional_mapping
@@ -172,6 +173,27 @@ class CoreBuild:
         """Append a state; returns its index in the full state vector."""
         self.states.append((name, float(y0), float(atol)))
         return L.N_BASE_STATES + len(self.states) - 1
+
+    def add_term(self, term, values):
+        """Switch a state term on (:mod:`pneucore.physics.states`): its parameters into the
+        slots its registry assigned, its two states (chamber A's, then B's) appended.
+
+        Parameters
+        ----------
+        term : pneucore.physics.states.StateTerm
+            The registered term
+        values : tuple of float
+            Its parameters, in the order of ``term.parameters`` (SI units)
+        """
+        k0 = L.STATE_PRM0[term.name]
+        for k, value in enumerate(values):
+            self.prm[k0 + k] = value
+        b = self.y_base
+        starts = term.start(b["p_a"], b["p_b"], b["T_a"], b["T_b"], self.model.ambient.temperature,
+                            self.model.supply.pressure)
+        i0 = L.STATE_IY0[term.name]
+        for k, (name, (y0, atol)) in enumerate(zip(term.states, starts)):
+            self.iy[i0 + k] = self.add_state(name, y0, atol)
 
 
 EFFECTS: dict = {}
@@ -404,13 +426,8 @@ def _pack_supply(p, build):
 
 
 def _pack_sensor(p, build):
-    tau = p["time_constant"]
-    if tau <= 0.0:
-        return
-    build.prm[L.P_SENSOR_TAU] = tau
-    pa, pb = build.y_base["p_a"], build.y_base["p_b"]
-    build.iy[L.IY_SENSOR_A] = build.add_state("p_a_sensor", pa, 1e-6 * build.model.supply.pressure)
-    build.iy[L.IY_SENSOR_B] = build.add_state("p_b_sensor", pb, 1e-6 * build.model.supply.pressure)
+    if p["time_constant"] > 0.0:
+        build.add_term(PRESSURE_SENSOR, (p["time_constant"],))
 
 
 def _pack_spring(p, build):
@@ -489,6 +506,39 @@ def _tubing_series(p, model):
             out[supply] = ([], [cb])
             out[exhaust] = ([cb], [])
     return out
+
+
+def _cushion_transform(m, p):
+    # the cushion cavity beyond the piston's travel is part of the chamber's dead volume
+    m.jack.dead_volume_a += p["volume_a"]
+    m.jack.dead_volume_b += p["volume_b"]
+
+
+def _pack_cushion(p, build):
+    build.prm[L.P_CUSHION_LA] = p["length_a"]
+    build.prm[L.P_CUSHION_LB] = p["length_b"]
+    build.prm[L.P_CUSHION_CA] = p["C_a"]
+    build.prm[L.P_CUSHION_CB] = p["C_b"]
+    build.prm[L.P_CUSHION_B] = p["b"]
+
+
+def _check_cushion(p, model, path):
+    """A cushion longer than the stroke, two cushions that overlap, or a cushion on a port the
+    valve does not drive is refused, naming the parameter and its unit."""
+    stroke = model.jack.stroke
+    for sfx in ("a", "b"):
+        if p[f"length_{sfx}"] > stroke:
+            raise FieldError(f"{path}.length_{sfx}",
+                             f"a cushion longer than the stroke ({stroke:g} m) [m]")
+    if p["length_a"] + p["length_b"] > stroke:
+        raise FieldError(f"{path}.length_b",
+                         f"the two cushions overlap: length_a + length_b exceeds the stroke "
+                         f"({stroke:g} m) [m]")
+    for sfx, (port, exhaust, _) in _FLOW_CONTROL_PORTS.items():
+        if p[f"length_{sfx}"] > 0.0 and exhaust not in model.valve.ports:
+            raise FieldError(f"{path}.length_{sfx}",
+                             f"the {model.valve.kind} valve has no port {port}: set length_{sfx} "
+                             f"to 0 (no cushion) [m]")
 
 
 def _flow_control_parameters(what):
@@ -695,5 +745,37 @@ for _e in [
                       "sonic conductance of the silencer (0 = none)"),
             Parameter("b", "-", 0.4, 0.0, 0.99, None, "its critical pressure ratio")],
            strength="C", series=_silencer_series, fit_params=("C",), probe={"C": 5e-9}),
+    Effect("end_cushion",
+           "adjustable end cushions (pneucore.physics.cushion): over the last length of its "
+           "travel towards an end the piston traps the gas ahead of it, which leaves only "
+           "through a needle (ISO 6358 restriction); a check valve lets the piston leave the end "
+           "freely",
+           "the piston decelerates over the last millimetres before each end stop while the "
+           "exhausting chamber's pressure rises above the supply; the impact speed is lower "
+           "and the stroke time longer than the model says; starts from the ends unchanged",
+           "Beater, Pneumatic Drives (2007) Sect. 6.3; SMC Best Pneumatics, air cushion and "
+           "allowable kinetic energy",
+           [Parameter("length_a", "m", 0.015, 0.0, 1.0, 0.0,
+                      "cushion length at the x = 0 end, chamber A (0 = none)"),
+            Parameter("volume_a", "m^3", 0.0, 0.0, 1e-3, 0.0,
+                      "cushion cavity at that end beyond the piston's travel, added to the "
+                      "dead volume of A (0 = counted in it)"),
+            Parameter("C_a", _C_UNIT, 1e-9, 0.0, 1e-6, None,
+                      "sonic conductance of the needle of chamber A's cushion"),
+            Parameter("length_b", "m", 0.015, 0.0, 1.0, 0.0,
+                      "cushion length at the x = stroke end, chamber B (0 = none)"),
+            Parameter("volume_b", "m^3", 0.0, 0.0, 1e-3, 0.0,
+                      "cushion cavity at that end beyond the piston's travel, added to the "
+                      "dead volume of B (0 = counted in it)"),
+            Parameter("C_b", _C_UNIT, 1e-9, 0.0, 1e-6, None,
+                      "sonic conductance of the needle of chamber B's cushion"),
+            Parameter("b", "-", 0.3, 0.0, 0.99, None, "critical pressure ratio of the needles"),
+            Parameter("capacity", "J", 0.0, 0.0, 1e5, None,
+                      "kinetic energy the cushion absorbs at most (catalogue figure; 0 = not "
+                      "given): the stroke metrics check each impact against it")],
+           strength="length_a", transform=_cushion_transform, pack=_pack_cushion,
+           check=_check_cushion, unused=_missing_ports("length"), observable_in=("free",),
+           fit_params=("length_a", "length_b", "C_a", "C_b"),
+           probe={"length_a": 0.015, "length_b": 0.015}),
 ]:
     register_effect(_e)

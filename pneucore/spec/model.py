@@ -128,19 +128,47 @@ class Jack:
         return chamber_volumes(x, self.area_a, self.area_b, self.stroke, self.dead_volume_a,
                                self.dead_volume_b)
 
+    @staticmethod
+    def checked_rod(rod, bore, path):
+        """A rod diameter checked against its bore: the jack's one rule, also used for the
+        cylinders a sizing request gives (:mod:`pneucore.sizing.series`).
+
+        Parameters
+        ----------
+        rod : float
+            Rod diameter as given [m]
+        bore : float
+            Bore diameter, already checked positive [m]
+        path : str
+            Field path named in errors
+
+        Returns
+        -------
+        rod : float
+            The rod diameter, non-negative and smaller than the bore [m]
+
+        Examples
+        --------
+        >>> Jack.checked_rod(0.012, 0.032, "jack.rod_a")
+        0.012
+        >>> Jack.checked_rod(0.032, 0.032, "jack.rod_a")
+        Traceback (most recent call last):
+        ...
+        pneucore.spec.validation.FieldError: jack.rod_a: rod diameter 0.032 m must be smaller than the bore 0.032 m
+        """
+        rod = number(rod, path, nonnegative=True)
+        if rod >= bore:
+            raise FieldError(path, f"rod diameter {rod:g} m must be smaller than the bore {bore:g} m")
+        return rod
+
     @classmethod
     def from_dict(cls, d, path="jack"):
         mapping(d, path)
         known_keys(d, cls.__dataclass_fields__, path)
         j = cls(**{**cls().__dict__, **d})
         j.bore = number(j.bore, f"{path}.bore", positive=True)
-        j.rod_a = number(j.rod_a, f"{path}.rod_a", nonnegative=True)
-        j.rod_b = number(j.rod_b, f"{path}.rod_b", nonnegative=True)
-        for side in ("a", "b"):
-            if getattr(j, f"rod_{side}") >= j.bore:
-                raise FieldError(f"{path}.rod_{side}",
-                                 f"rod diameter {getattr(j, f'rod_{side}'):g} m must be smaller "
-                                 f"than the bore {j.bore:g} m")
+        j.rod_a = cls.checked_rod(j.rod_a, j.bore, f"{path}.rod_a")
+        j.rod_b = cls.checked_rod(j.rod_b, j.bore, f"{path}.rod_b")
         j.stroke = number(j.stroke, f"{path}.stroke", positive=True)
         j.dead_volume_a = number(j.dead_volume_a, f"{path}.dead_volume_a", positive=True)
         j.dead_volume_b = number(j.dead_volume_b, f"{path}.dead_volume_b", positive=True)

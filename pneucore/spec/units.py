@@ -1,4 +1,4 @@
-"""Display unit systems of the page: SI, or engineering units (bar absolute or gauge, mm, L/min ANR).
+"""Display unit systems of the page: SI, or engineering units (bar absolute or gauge, mm, L/min ANR, °C).
 
 The service computes in SI with absolute pressures; a unit system only says
 how a quantity is *shown*: ``display = (si - offset) / scale``. The page
@@ -12,14 +12,14 @@ flow a flow meter of the air-preparation unit shows: 1 L/min ANR =
 """
 from __future__ import annotations
 
-from pneucore.physics.gas import RHO_REF
+from pneucore.physics.gas import RHO_REF, T_ZERO_CELSIUS
 
 __all__ = ["UNIT_SYSTEMS", "unit_systems"]
 
 #: SI unit -> (shown unit, scale to SI, offset to SI) for each system; units absent are shown in SI
 UNIT_SYSTEMS: dict[str, dict] = {
     "si": {"label": "SI (Pa, m, m³, kg/s)", "units": {}},
-    "engineering": {"label": "engineering (bar abs, mm, cm³, L/min ANR)", "units": {
+    "engineering": {"label": "engineering (bar abs, mm, cm³, L/min ANR, °C)", "units": {
         "Pa": ("bar abs", 1e5, 0.0),
         "m": ("mm", 1e-3, 0.0),
         "m/s": ("mm/s", 1e-3, 0.0),
@@ -27,8 +27,9 @@ UNIT_SYSTEMS: dict[str, dict] = {
         "m^2": ("cm²", 1e-4, 0.0),
         "kg/s": ("L/min ANR", RHO_REF * 1e-3 / 60.0, 0.0),
         "m^3/(s Pa)": ("dm³/(s bar)", 1e-3 / 1e5, 0.0),
+        "K": ("°C", 1.0, T_ZERO_CELSIUS),
     }},
-    "engineering-gauge": {"label": "engineering, gauge pressures (bar g, mm, cm³, L/min ANR)", "units": {
+    "engineering-gauge": {"label": "engineering, gauge pressures (bar g, mm, cm³, L/min ANR, °C)", "units": {
         "Pa": ("bar g", 1e5, "gauge"),
         "m": ("mm", 1e-3, 0.0),
         "m/s": ("mm/s", 1e-3, 0.0),
@@ -36,6 +37,7 @@ UNIT_SYSTEMS: dict[str, dict] = {
         "m^2": ("cm²", 1e-4, 0.0),
         "kg/s": ("L/min ANR", RHO_REF * 1e-3 / 60.0, 0.0),
         "m^3/(s Pa)": ("dm³/(s bar)", 1e-3 / 1e5, 0.0),
+        "K": ("°C", 1.0, T_ZERO_CELSIUS),
     }},
 }
 

@@ -89,9 +89,16 @@ HIDDEN = {
     "tubing": {"length_a": 2.0, "diameter_a": 4e-3, "length_b": 1.5, "diameter_b": 4e-3},
     # a silencer of 0.6 dm^3/(s bar) on both exhausts (probe 0.5 dm^3/(s bar))
     "exhaust_silencer": {"C": 6e-9, "b": 0.4},
+    # cushions of 20 mm / 12 mm (probe 15 mm each), needles of 3e-9 / 5e-9 m^3/(s Pa), about a
+    # third of the exhaust edge's C; seen on full strokes only (FULL_STROKES)
+    "end_cushion": {"length_a": 0.02, "volume_a": 0.0, "C_a": 3e-9, "length_b": 0.012,
+                    "volume_b": 0.0, "C_b": 5e-9, "b": 0.3, "capacity": 0.0},
 }
 
 BUILTIN = sorted(n for n, e in EFFECTS.items() if not e.user)
+#: Effects that act near the end stops only: their cases also record a full stroke each way
+#: (the pulse test never reaches the ends)
+FULL_STROKES = {"end_cushion"}
 SEED = 1
 
 
@@ -124,7 +131,7 @@ def truth_value(name, param):
 def hidden_case(name):
     """(base, truth, experiments, noise floor) of the case hiding ``name``."""
     truth = truth_model(name)
-    exps = synthetic_experiments(truth, seed=SEED)
+    exps = synthetic_experiments(truth, seed=SEED, full_strokes=name in FULL_STROKES)
     floor = compare(truth, exps).overall
     return base_model(name), truth, exps, floor
 

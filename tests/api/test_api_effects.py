@@ -76,3 +76,34 @@ def test_effect_duplicating_the_base_model_is_refused(client):
     m["effects"] = {"heat_exchange": {"h": 25.0}}
     assert_field_error(client.post("/api/simulate", json={"model": m, "scenario": scenario()}),
                        "model.effects.heat_exchange", msg_contains="convective")
+
+
+@pytest.mark.parametrize("cushion, field, msg", [
+    ({"length_b": 0.3}, "model.effects.end_cushion.length_b", ("longer than the stroke", "[m]")),
+    ({"length_a": -0.005}, "model.effects.end_cushion.length_a", ("[m]",)),
+    ({"length_a": 0.2, "length_b": 0.1}, "model.effects.end_cushion.length_b", ("overlap", "[m]")),
+])
+def test_a_bad_end_cushion_is_a_422_naming_the_field_and_unit(client, cushion, field, msg):
+    m = model()
+    m["effects"] = {"end_cushion": cushion}
+    r = client.post("/api/simulate", json={"model": m, "scenario": scenario()})
+    assert_field_error(r, field, msg_contains=msg)
+
+
+def test_stop_events_carry_the_impact_velocity_and_the_stroke_its_energy(client):
+    m = model()
+    m["effects"] = {"end_cushion": {"length_a": 0.015, "length_b": 0.015, "C_a": 4e-9,
+                                    "C_b": 4e-9, "capacity": 0.2}}
+    s = scenario(**{"x0": 0.0, "duration": 0.5,
+                    "command": [[0.0, 0.0], [0.05, 1.0]], "command_interpolation": "hold"})
+    d = client.post("/api/simulate", json={"model": m, "scenario": s})
+    assert d.status_code == 200, d.text[:500]
+    d = d.json()
+    stops = [e for e in d["events"] if e["kind"] == "stop"]
+    assert stops and all(math.isfinite(e["v"]) and e["v"] > 0.0 for e in stops)
+    st = d["stats"]["stroke"]
+    assert len(st["impacts"]) == len(stops)
+    ext = [s for s in st["strokes"] if s["direction"] == "extend"][0]
+    assert ext["end_speed"] == max(e["v"] for e in stops)
+    assert ext["cushion_capacity"] == 0.2
+    assert ext["energy_ratio"] == pytest.approx(ext["end_energy"] / 0.2, rel=1e-12)

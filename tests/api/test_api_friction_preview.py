@@ -261,3 +261,19 @@ def test_the_page_holds_no_copy_of_the_friction_law_or_the_unit_table():
         assert "'N s/(m Pa)'" not in text and "'N/Pa'" not in text, name
     app = _page_sources()["app.js"]
     assert "/api/friction/preview" in app and "/api/units" in app
+
+
+def test_units_serve_the_stroke_metrics_of_pneucore(client):
+    """GET /api/units ``stroke``: each per-stroke metric of ``stats.stroke.strokes`` with the
+    unit and definition of pneucore.strokes.STROKE_FIELDS (the page's stroke table reads its
+    columns from here), and every key a simulation's strokes carry has an entry."""
+    from pneucore.strokes import STROKE_FIELDS
+    stroke = client.get("/api/units").json()["stroke"]
+    assert stroke == {k: {"unit": u, "description": d} for k, (u, d) in STROKE_FIELDS.items()}
+    assert stroke["full_stroke_time"]["unit"] == "s" and stroke["end_speed"]["unit"] == "m/s"
+    sim = client.post("/api/simulate", json={
+        "model": model(),
+        "scenario": {"duration": 0.8, "sample_period": 1e-3, "command": [[0, 0], [0.05, 1], [0.5, -1]]}})
+    assert sim.status_code == 200, sim.text
+    strokes = sim.json()["stats"]["stroke"]["strokes"]
+    assert strokes and all(set(s) == set(stroke) for s in strokes)

@@ -142,3 +142,57 @@ def test_sessions_survive_restart(db_path):
         assert c.get(f"/api/sessions/{s['id']}").json() == before
         r = c.post(f"/api/sessions/{s['id']}/versions", json={"model": _with_leak(7e-11)})
         assert [v["version"] for v in r.json()["versions"]] == [0, 1, 2]
+
+
+def test_the_session_goes_on_across_a_change_of_its_data(client):
+    """Issue 24: one session across dataset changes. A version may bring the session's new set
+    of experiments; its errors are computed on them, each version records its set, and the
+    versions after it stay on the new set."""
+    s = _create(client)
+    one = [{"dataset_id": LEAK_IDS[0]}]
+    r = client.post(f"/api/sessions/{s['id']}/versions", json={"model": model(), "experiments": one,
+                                                               "note": "experiments changed"})
+    assert r.status_code == 201, r.text[:300]
+    s1 = r.json()
+    assert s1["id"] == s["id"] and s1["experiments"] == one
+    v0, v1 = s1["versions"]
+    assert v0["experiments"] == LEAK and v1["experiments"] == one
+    ref = client.post("/api/compare", json={"model": model(), "experiments": one}).json()
+    assert v1["overall"] == pytest.approx(ref["overall"], rel=1e-12)   # same computation
+    assert set(v1["errors"]) == set(ref["errors"])
+    v2 = client.post(f"/api/sessions/{s['id']}/versions", json={"model": _with_leak()}).json()["versions"][2]
+    assert v2["experiments"] == one
+
+
+def test_a_bad_new_set_of_experiments_changes_nothing(client):
+    s = _create(client)
+    r = client.post(f"/api/sessions/{s['id']}/versions",
+                    json={"model": model(), "experiments": [{"dataset_id": "nope"}]})
+    assert_field_error(r, "experiments[0].dataset_id")
+    after = client.get(f"/api/sessions/{s['id']}").json()
+    assert after["experiments"] == LEAK and len(after["versions"]) == 1
+
+
+def test_a_database_from_before_versions_recorded_their_experiments_opens(db_path):
+    """The versions table of an older database lacks the experiments column: it is added on
+    opening; old versions read experiments null, new ones record theirs."""
+    import sqlite3
+    db = sqlite3.connect(db_path)
+    db.executescript("""
+        CREATE TABLE sessions (id TEXT PRIMARY KEY, name TEXT NOT NULL, created REAL NOT NULL,
+                               experiments TEXT NOT NULL);
+        CREATE TABLE versions (session TEXT NOT NULL, version INTEGER NOT NULL, label TEXT NOT NULL,
+            created REAL NOT NULL, model TEXT NOT NULL, errors TEXT NOT NULL, overall REAL, added TEXT,
+            params TEXT NOT NULL, note TEXT NOT NULL DEFAULT '', PRIMARY KEY (session, version));""")
+    import json
+    db.execute("INSERT INTO sessions VALUES ('old1', 'old', 0, ?)", (json.dumps(LEAK),))
+    db.execute("INSERT INTO versions VALUES ('old1', 0, 'base', 0, ?, '{}', NULL, NULL, '{}', '')",
+               (json.dumps(model()),))
+    db.commit()
+    db.close()
+    with api(db_path) as c:
+        s = c.get("/api/sessions/old1").json()
+        assert s["versions"][0]["experiments"] is None
+        r = c.post("/api/sessions/old1/versions", json={"model": _with_leak()})
+        assert r.status_code == 201, r.text[:300]
+        assert r.json()["versions"][1]["experiments"] == LEAK

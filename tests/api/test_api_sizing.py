@@ -67,6 +67,9 @@ def test_missing_fields_and_bad_choices_are_422s(client):
                        msg_contains="iso15552")
     body["choices"] = {"valve": [{"C": -1.0, "b": 0.3}]}
     assert_field_error(client.post("/api/sizing", json=body), "choices.valve[0].C")
+    body["choices"] = {"valve": [{"qn": 0.0, "b": 0.3}]}
+    assert_field_error(client.post("/api/sizing", json=body), "choices.valve[0].qn",
+                       msg_contains="NL/min")
     body = _body()
     body["requirement"]["stroke_length"] = 1.0
     assert client.post("/api/sizing", json=body).status_code == 422
@@ -136,3 +139,35 @@ def test_sizings_beyond_the_sync_queue_are_429_naming_the_job_route(db_path, mon
         assert c.app.state.sync_pool.admitted == 0
     assert all(r.status_code == 429 and "/api/jobs/sizing" in r.json()["detail"] for r in refused)
     assert sorted(r.status_code for r in answers) == [200] * 2 + [429] * 2
+
+
+def test_a_valve_given_by_its_catalogue_qn(client):
+    # the same valve as the converter answers for that Qn (POST /api/valve/convert): one law
+    conv = client.post("/api/valve/convert", json={"qn": 600.0, "b": 0.3})
+    assert conv.status_code == 200, conv.text[:800]
+    body = {"requirement": REQ, "choices": {"bore": ["iso15552:32"],
+                                            "valve": [{"qn": 600.0, "b": 0.3, "name": "cat"}]}}
+    r = client.post("/api/sizing", json=body)
+    assert r.status_code == 200, r.text[:800]
+    designs = r.json()["designs"]
+    assert designs and designs[0]["valve"]["name"] == "cat"
+    # 1e-12: the same function on the same numbers, floating point only
+    assert designs[0]["valve"]["C"] == pytest.approx(conv.json()["C"], rel=1e-12)
+    assert designs[0]["valve"]["qn"] == pytest.approx(600.0, rel=1e-9)
+
+
+def test_a_cycle_time_with_dwell_instead_of_the_two_times(client):
+    req = {k: v for k, v in REQ.items() if k not in ("extend_time", "retract_time")}
+    body = {"requirement": {**req, "cycle_time": 1.6, "dwell": 0.2},
+            "choices": {"bore": ["iso15552:32"], "valve": ["ckd-4ga:M4GA1"]}}
+    r = client.post("/api/sizing", json=body)
+    assert r.status_code == 200, r.text[:800]
+    (d,) = r.json()["designs"]
+    # the shares fill the 1.2 s to move (cycle less two dwells; 1e-9: arithmetic only), and
+    # each stroke meets its share
+    assert sum(d["required_times"].values()) == pytest.approx(1.2, rel=1e-9)
+    for k in ("extend", "retract"):
+        assert d["metrics"][k]["full_stroke_time"] <= d["required_times"][k]
+    body["requirement"]["extend_time"] = 0.6
+    assert_field_error(client.post("/api/sizing", json=body), "requirement.extend_time",
+                       msg_contains="not both")

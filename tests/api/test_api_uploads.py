@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from api_conftest import client, db_path  # noqa: F401
+from pneucore import model_preset
 
 #: The rig's record, in the units a lab would write: time in ms, command in %, gauge pressures
 #: in bar, position in mm. 40 rows, valve opens at row 11.
@@ -241,3 +242,18 @@ def test_damaged_rig_files_are_refused_never_a_500(client):
         assert r.status_code < 500, (fmt, how, r.text[:300])
     assert codes.get(422, 0) > 30   # most damaged files are refused, with a message
     assert client.get("/api/limits").status_code == 200   # the server is still here
+
+
+def test_the_report_names_every_unit_conversion_of_an_uploaded_file(client):
+    """Issue 24: the report's provenance says how each column was read (ms, %, bar(g), mm), not
+    "none (SI)" for a file whose every column was converted."""
+    text, enc = DIALECTS["semicolon-decimal-comma-units-row"]
+    info = client.post("/api/datasets", files={"file": ("rig.csv", text.encode(enc), "text/csv")},
+                       data={"ambient_pressure": str(AMBIENT)}).json()
+    body = {"model": model_preset("paper-4way"), "experiments": [{"dataset_id": info["id"]}]}
+    r = client.post("/api/reports/compare", json=body)
+    assert r.status_code == 200, r.text[:300]
+    prov = r.text.split("<h2>Data provenance</h2>")[1].split("</table>")[0]
+    assert "none (SI)" not in prov
+    for unit in ("ms → s", "% → -", "barg → Pa", "mm → m"):
+        assert unit in prov, unit

@@ -209,6 +209,18 @@ def test_plots_follow_the_unit_switch(page):
     assert (y_title("plot-pressure"), y_title("plot-position")) == ("pressure [bar abs]", "position x [mm]")
     assert first_p_a() == pytest.approx(p0 / 1e5)
 
+    # temperatures follow the same switch (issue 24: no K in one panel and °C in another):
+    # kelvin in SI, degrees Celsius in engineering units, offset 273.15 K exactly
+    def first_t_a():
+        return page.evaluate("document.getElementById('plot-temperature').data[0].y[0]")
+    t0 = page.evaluate("S.sim.series.T_a[0]")
+    assert y_title("plot-temperature") == "temperature [°C]"
+    assert first_t_a() == pytest.approx(t0 - 273.15)
+    page.select_option("#unit-system", "si")
+    assert y_title("plot-temperature") == "temperature [K]"
+    assert first_t_a() == pytest.approx(t0)
+    page.select_option("#unit-system", "engineering")
+
 
 def test_stored_data_listed_and_deletable(page):
     page.click("#stored-box summary")

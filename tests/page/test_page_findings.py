@@ -40,6 +40,11 @@ def test_mis_set_and_missing_are_shown_apart_and_applied_in_one_click(page):
     missing = page.inner_text("#diag-findings .finding.missing")
     assert "missing:" in missing and "piston_leakage" in missing
     assert page.locator("#btn-apply-recalibration").count() == 1
+    # "error before" explains itself (issue 24): the model as given, the refitted base values
+    # with the heat coefficient among them, and what adding a finding takes with it
+    explained = page.inner_text("#diag-error-explained")
+    assert "Your model as given" in explained and "heat coefficient" in explained, explained
+    assert "error before" in explained and "changes" in explained, explained
 
     page.click("#btn-apply-findings")
     page.wait_for_function("() => ((document.getElementById('history-plot').data || [])[0] || {}).y?.length === 2")

@@ -45,3 +45,23 @@ def test_two_versions_are_compared_in_the_history(page):
     page.click("#history-table button.version-diff")
     page.wait_for_selector("#version-diff tr[data-path='heat.coefficient']")
     assert "31.5" in page.inner_text("#version-diff tr[data-path='heat.coefficient']")
+
+
+def test_the_session_goes_on_when_the_data_change(page):
+    """Issue 24: changing the experiments does not start a new session (and a new version 0):
+    the next comparison adds a version on the new data, marked in the history."""
+    sid = page.evaluate("S.session.id")
+    n = page.evaluate("S.session.versions.length")
+    page.select_option("#dataset-select", "sample:piston-leak")
+    page.click("#btn-compare")
+    page.wait_for_function("(n) => S.session && S.session.versions.length === n + 1", arg=n)
+    assert page.evaluate("S.session.id") == sid
+    last = page.locator("#history-table tbody tr").last
+    assert last.locator(".data-changed").count() == 1
+    assert "piston-leak" in last.locator(".data-changed").get_attribute("title")
+    shapes = page.evaluate("document.getElementById('history-plot').layout.shapes || []")
+    assert any(s.get("x0") == n - 0.5 for s in shapes)
+    # "New session" still starts a fresh one, version 0 on the current data
+    page.click("#btn-new-session")
+    page.wait_for_function("(sid) => S.session && S.session.id !== sid", arg=sid)
+    assert page.evaluate("S.session.versions.length") == 1

@@ -66,3 +66,32 @@ def test_a_malformed_requirement_is_shown_next_to_its_field(page):
     assert page.get_attribute("#panel-sizing", "data-sized") == "error"
     assert "unit: deg" in page.inner_text("#sz-angle + .field-error")
     page.fill("#sz-angle", "30")
+
+
+def test_a_cycle_time_with_dwell_instead_of_the_two_times(page):
+    for field in ("cycle_time", "dwell"):
+        assert "[s]" in page.inner_text(f"label[for='sz-{field}']")
+    page.fill("#sz-bore", "iso15552:32")
+    page.fill("#sz-valve", "ckd-4ga:M4GA1")
+    page.fill("#sz-extend_time", "")
+    page.fill("#sz-retract_time", "")
+    page.fill("#sz-cycle_time", "1.6")
+    page.fill("#sz-dwell", "0.2")
+    page.evaluate("delete document.getElementById('panel-sizing').dataset.plotted")
+    _size(page)
+    assert page.get_attribute("#panel-sizing", "data-sized") == "1", page.inner_text("#status")
+    shares = page.evaluate("SZ.ans.designs[0].required_times")
+    # the shares fill the 1.2 s to move (1e-9: arithmetic only)
+    assert shares["extend"] + shares["retract"] == pytest.approx(1.2, rel=1e-9)
+    # the chosen design's cycle is plotted from its own shares: out to the stroke and back
+    page.wait_for_function("() => document.getElementById('panel-sizing').dataset.plotted === '1'")
+    x = next(t for t in plot_data(page, "sizing-plot") if t["name"] == "x [mm]")
+    assert max(x["y"]) == pytest.approx(200.0, abs=0.01) and x["y"][-1] == pytest.approx(0.0, abs=0.01)
+    # both ways at once: the 422 is shown next to the field it names
+    page.fill("#sz-extend_time", "0.6")
+    _size(page)
+    assert page.get_attribute("#panel-sizing", "data-sized") == "error"
+    assert "not both" in page.inner_text("#sz-extend_time + .field-error")
+    for field, value in (("extend_time", "0.6"), ("retract_time", "0.6"), ("cycle_time", ""),
+                         ("dwell", "")):
+        page.fill(f"#sz-{field}", value)

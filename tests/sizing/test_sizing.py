@@ -31,14 +31,16 @@ import pytest
 from scipy.optimize import brentq
 
 from pneucore import model_preset, simulate
+from pneucore.physics.flow import conductance_from_qn
 from pneucore.physics.gas import R_AIR, RHO_REF, T_REF
 from pneucore.physics.series import series_characteristic
 from pneucore.physics.tube import line_volume
 from pneucore.sizing import (Choices, Requirement, build_model, direction_metrics, load_series,
                              size)
-from pneucore.sizing.series import dead_length, nominal_flow
+from pneucore.sizing.series import (dead_length, nominal_flow, resolve_cylinders, resolve_tubes,
+                                     resolve_valves)
 from pneucore.spec.effects import effective_model
-from pneucore.spec.model import Model
+from pneucore.spec.model import Jack, Model
 from pneucore.spec.validation import FieldError
 
 BORE, ROD, STROKE, LOAD, P_S, P_ATM, T_REQ = 0.032, 0.012, 0.2, 100.0, 6e5, 1.013e5, 0.5
@@ -293,11 +295,21 @@ def test_nominal_flow_is_the_iso6358_law():
     # 6 bar gauge in, 5 bar gauge out: a ratio of 0.86, above b (subsonic); by hand with the
     # paper's Eq. 4 (m = 0.5): Q = C p1 sqrt(1 - ((r - b)/(1 - b))^2), in NL/min (1e-9: the
     # same formula, rounding only)
+    # 6 bar gauge over the ANR atmosphere of ISO 8778 (100 kPa), as catalogues state Qn
     C, b = 2e-8, 0.3
-    p1 = 1.013e5 + 6e5
+    p1 = 1e5 + 6e5
     r = (p1 - 1e5) / p1
     hand = C * p1 * math.sqrt(1 - ((r - b) / (1 - b)) ** 2) * 60e3
     assert nominal_flow(C, b) == pytest.approx(hand, rel=1e-9)
+
+
+@pytest.mark.parametrize("C,b", [(1e-8, 0.3), (2.3e-8, 0.21), (0.99e-8, 0.45)])
+def test_nominal_flow_and_the_valve_converter_are_one_law(C, b):
+    # the Qn the sizing reports and the C the converter (POST /api/valve/convert) takes from
+    # a catalogue's Qn are the same law at the same conditions: the round trip returns C
+    # (1e-12: floating point only; the atmospheres once differed, 1.013e5 against 1e5 Pa,
+    # a 0.3 % gap this would catch)
+    assert conductance_from_qn(nominal_flow(C, b), b) == pytest.approx(C, rel=1e-12)
 
 
 def test_progress_is_reported_and_can_stop_the_search():
@@ -361,3 +373,127 @@ def test_the_command_line_sizes_a_requirement_file(tmp_path, capsys):
     req.write_text(json.dumps({**_requirement(), "angle": 120}))
     assert main(["size", str(req)]) == 2
     assert "requirement.angle" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("rod", [0.05, 0.06, -0.001])
+def test_a_given_cylinder_gets_the_jacks_own_rod_rule(rod):
+    # the sizing's cylinder and the model's jack refuse the same rods with the same words:
+    # one rule (Jack.checked_rod), the field path the request's
+    with pytest.raises(FieldError) as sized:
+        resolve_cylinders([{"bore": 0.05, "rod": rod}])
+    with pytest.raises(FieldError) as jack:
+        Jack.from_dict({"bore": 0.05, "rod_a": rod})
+    assert sized.value.path == "choices.bore[0].rod" and jack.value.path == "jack.rod_a"
+    assert sized.value.detail == jack.value.detail
+
+
+def test_the_three_resolvers_walk_the_registry_alike():
+    # a series name gives every member, "series:member" one, with the same naming and the
+    # same errors for each kind; the user's own value has series None
+    s = load_series()
+    for resolve, kind, own in ((resolve_cylinders, "cylinders", {"bore": 0.05, "rod": 0.02}),
+                               (resolve_valves, "valves", {"C": 1e-8, "b": 0.3}),
+                               (resolve_tubes, "tubes", 0.004)):
+        name, series = next(iter(s[kind].items()))
+        every = resolve([name])
+        assert [r["name"] for r in every] == [f"{name}:{m['name']}" for m in series["members"]]
+        first = series["members"][0]["name"]
+        assert resolve([f"{name}:{first}"]) == every[:1]
+        assert resolve([own])[0]["series"] is None
+        assert len(resolve([])) == sum(len(x["members"]) for x in s[kind].values())
+        with pytest.raises(FieldError) as e:
+            resolve([f"{name}:nope"])
+        assert e.value.path.endswith("[0]") and first in e.value.detail
+
+
+def test_a_valve_given_by_its_catalogue_qn_sizes_as_the_same_valve_given_by_c():
+    # a catalogue prints Qn (and b); the valve converter's law turns it into C: the design is
+    # the one the same valve given by C gives (the round trip is exact to 1e-12 above, so the
+    # metrics agree to the integrator's tolerance; 1e-6 is far below any physical effect)
+    c_star, _, _, _ = _hand()
+    by_c = {"C": 1.15 * c_star, "b": 0.3}
+    by_qn = {"qn": nominal_flow(by_c["C"], 0.3), "b": 0.3}
+    runs = [size(_requirement(), {"bore": [{"bore": BORE, "rod": ROD}], "valve": [v],
+                                  "meter_out": False}, workers=1, base=_base())
+            for v in (by_c, by_qn)]
+    (a,), (b,) = (r["designs"] for r in runs)
+    assert b["valve"]["name"].startswith("qn ") and b["valve"]["series"] is None
+    assert b["valve"]["C"] == pytest.approx(a["valve"]["C"], rel=1e-12)
+    for direction in ("extend", "retract"):
+        assert b["metrics"][direction]["full_stroke_time"] == pytest.approx(
+            a["metrics"][direction]["full_stroke_time"], rel=1e-6)
+
+
+@pytest.mark.parametrize("valve,path", [
+    ({"qn": 300.0, "b": 0.3, "C": 1e-8}, "choices.valve[0].C"),        # both ways at once
+    ({"qn": -300.0, "b": 0.3}, "choices.valve[0].qn"),
+    ({"qn": 300.0}, "choices.valve[0].b"),                              # Qn does not give b
+    ({"flow_rate": 5e-3, "p1": 5e5, "b": 0.3}, "choices.valve[0].p2"),
+    ({"b": 0.3}, "choices.valve[0].C"),                                 # neither
+])
+def test_a_malformed_catalogue_figure_names_its_field(valve, path):
+    with pytest.raises(FieldError) as e:
+        resolve_valves([valve])
+    assert e.value.path == path
+
+
+def _cycle_requirement(cycle_time, dwell):
+    d = _requirement()
+    del d["extend_time"], d["retract_time"]
+    return {**d, "cycle_time": cycle_time, "dwell": dwell}
+
+
+def test_a_cycle_time_is_shared_in_proportion_to_the_fully_open_strokes():
+    c_star, _, _, _ = _hand()
+    family = {"bore": [{"bore": BORE, "rod": ROD}], "valve": [_valve(2.0, c_star)]}
+    # the fully open strokes, each direction given ample time
+    (open_,) = size(_requirement(extend_time=3.0, retract_time=3.0), {**family, "meter_out": False},
+                    workers=1, base=_base())["designs"]
+    t0 = {k: open_["metrics"][k]["full_stroke_time"] for k in ("extend", "retract")}
+    dwell = 0.25
+    motion = 1.5 * (t0["extend"] + t0["retract"])
+    ans = size(_cycle_requirement(motion + 2 * dwell, dwell), family, workers=1, base=_base())
+    (d,) = ans["designs"]
+    share = d["required_times"]
+    # the shares fill the time to move, in the ratio of the fully open times (1e-3: the same
+    # runs, the scenario only longer, so the integrator's steps may differ slightly)
+    assert share["extend"] + share["retract"] == pytest.approx(motion, rel=1e-12)
+    assert share["extend"] / share["retract"] == pytest.approx(t0["extend"] / t0["retract"],
+                                                               rel=1e-3)
+    for k in ("extend", "retract"):
+        t = d["metrics"][k]["full_stroke_time"]
+        # each stroke's meter-out root lands at or under its share, within 1 %: the root's
+        # tolerance on the exhaust conductance is 0.1 % (SETTING_XTOL), the time nearly
+        # proportional to its inverse
+        assert share[k] * 0.99 <= t <= share[k]
+        assert d["settings"][f"{k}_meter_out_C"] > 0.0       # both strokes were slowed down
+    assert any("Cycle time" in n for n in ans["notes"])
+    # a cycle shorter than the two fully open strokes (plus the dwells) is too slow, and says so
+    short = size(_cycle_requirement(0.9 * (t0["extend"] + t0["retract"]) + 2 * dwell, dwell),
+                 family, workers=1, base=_base())
+    (bad,) = short["infeasible"]
+    assert bad["reason"] == "too_slow" and bad["detail"].startswith("cycle: fully open")
+    assert bad["direction"] == max(t0, key=t0.get)
+
+
+@pytest.mark.parametrize("change,path", [
+    ({"cycle_time": 2.0}, "requirement.extend_time"),               # both ways at once
+    ({"extend_time": None}, "requirement.extend_time"),             # neither way
+    ({"dwell": 0.1}, "requirement.dwell"),                          # a dwell needs a cycle time
+])
+def test_the_times_are_given_one_way(change, path):
+    d = {**_requirement(), **change}
+    with pytest.raises(FieldError) as e:
+        Requirement.from_dict(d)
+    assert e.value.path == path and "(unit: s)" in e.value.detail
+
+
+def test_two_dwells_must_leave_time_to_move():
+    with pytest.raises(FieldError) as e:
+        Requirement.from_dict(_cycle_requirement(1.0, 0.5))
+    assert e.value.path == "requirement.dwell" and "no time to move" in e.value.detail
+    r = Requirement.from_dict(_cycle_requirement(1.0, 0.2))
+    # the time to move bounds each stroke (0.6 s, exact arithmetic); the round trip holds
+    assert r.motion_time == pytest.approx(0.6, rel=1e-12)
+    assert r.time_bound("extend") == r.time_bound("retract") == r.motion_time
+    assert Requirement.from_dict(r.to_dict()) == r

@@ -1,0 +1,118 @@
+"""Registry of the built-in effects that carry a state per chamber (a state term).
+
+A state term is one module's business: the module holding its physics (a
+transducer lag, a wall with a thermal capacity, ...) defines its compiled rate,
+names its parameters and states with their units, says where its states start,
+and registers itself here with :func:`register_state_term`. Nothing else is
+edited to add one: the registry assigns its slots (a block of the compiled
+core's parameter vector and a block of its optional-state positions,
+:mod:`pneucore.core.layout` places the blocks after the base slots) and the
+core calls every registered rate from one table
+(:data:`pneucore.core.rhs.state_terms`), the way it calls the flow and friction
+laws.
+
+Every state term has one state per chamber (``<state>`` for A then B) and one
+rate law for both, with the signature
+
+``rate(y_s, p, T, Q, S, T_amb, prm, k0) -> dy_s``
+
+``y_s`` the state, ``p`` [Pa], ``T`` [K] the chamber's gas, ``Q`` [W] the
+heat flow from its wall into the gas, ``S`` [m^2] its wall area, ``T_amb`` [K]
+the ambient temperature, and the term's parameters in ``prm[k0:k0 + n]`` in the
+order of :attr:`StateTerm.parameters`. This module imports nothing from the
+core: physics stays below it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+
+@dataclass(frozen=True)
+class StateTerm:
+    """A registered effect with one state per chamber.
+
+    Parameters
+    ----------
+    name : str
+        Registry name
+    rate : callable
+        Compiled rate law (module docstring's signature) [state unit / s]
+    parameters : tuple
+        ``(name, unit)`` of each parameter, in the order of its slots
+    states : tuple
+        ``(name of chamber A's state, name of chamber B's state)``
+    state_unit : str
+        SI unit of the states
+    start : callable
+        ``start(p_a, p_b, T_a, T_b, T_amb, p_sup) -> ((y_a, atol_a), (y_b, atol_b))``:
+        initial states and absolute tolerances
+    frozen_with_constant_b : bool
+        Chamber B's state keeps its initial value when chamber B is held at a constant
+        pressure (3/2 valve)
+    description : str
+        One line
+    """
+    name: str
+    rate: Callable
+    parameters: tuple
+    states: tuple
+    state_unit: str
+    start: Callable
+    frozen_with_constant_b: bool = False
+    description: str = ""
+
+    @property
+    def n_parameters(self):
+        """Number of parameter slots."""
+        return len(self.parameters)
+
+
+#: The state terms by name, in registration order (their slots follow that order)
+STATE_TERMS: dict = {}
+
+
+def register_state_term(term):
+    """Add a built-in state term; its slots follow those of the terms registered before.
+
+    Parameters
+    ----------
+    term : StateTerm
+        The term (a name not yet registered, two states)
+
+    Returns
+    -------
+    term : StateTerm
+        The registered term
+    """
+    if term.name in STATE_TERMS:
+        raise ValueError(f"state term {term.name!r} is already registered")
+    if len(term.states) != 2:
+        raise ValueError("a state term has one state per chamber (two names)")
+    STATE_TERMS[term.name] = term
+    return term
+
+
+def slot_blocks(terms=None):
+    """Relative slot blocks of the registered terms.
+
+    Parameters
+    ----------
+    terms : dict or None
+        Terms by name (default :data:`STATE_TERMS`)
+
+    Returns
+    -------
+    prm0, iy0 : dict
+        First parameter slot and first state-position slot of each term, counted from
+        the start of the state terms' blocks
+    n_prm, n_iy : int
+        Total parameter slots and state-position slots
+    """
+    terms = STATE_TERMS if terms is None else terms
+    prm0, iy0, n_prm, n_iy = {}, {}, 0, 0
+    for name, term in terms.items():
+        prm0[name], iy0[name] = n_prm, n_iy
+        n_prm += term.n_parameters
+        n_iy += len(term.states)
+    return prm0, iy0, n_prm, n_iy
