@@ -463,7 +463,7 @@ def _base_alternatives(model, exps, hyp, recal, null):
     out = []
     moved = {r["path"] for r in recal}
     for h in hyp.identifiability:
-        if h["status"] == "not separable":
+        if h["status"] in ("not separable", "held"):
             alt = {"path": h["path"], "label": h["label"], "kind": "base",
                    "with": h.get("with", []),
                    "note": f"{h['label']} cannot be told apart from "
