@@ -88,6 +88,8 @@ class BaseHypothesis:
         ``user_knows(model) -> bool``: the user typically knows this value on ``model`` (a
         horizontal jack's load); it is chosen after every other parameter and moves only
         when the data demand it (:data:`pneucore.analysis.diagnosis.rules.DEMAND_RULES`)
+    separated_by : str
+        The measurement that gives this value where the records cannot (said when it is held)
     """
     path: str
     label: str
@@ -99,6 +101,7 @@ class BaseHypothesis:
     same_as_effect: Optional[str] = None
     zero_typical: float = 0.1
     user_knows: Optional[Callable] = None
+    separated_by: str = ""
 
 
 def _span(model, hyp):
@@ -145,7 +148,10 @@ BASE_HYPOTHESES = {h.path: h for h in [
     # a combination of the two Coulomb levels); on a horizontal jack its user knows it: it
     # moves only when the data demand it
     BaseHypothesis("jack.load_force", "load", 0.3, -5.0, 5.0, _load_span, zero_typical=0.005,
-                   user_knows=_horizontal),
+                   user_knows=_horizontal,
+                   separated_by="no test of the moving jack separates them (while it moves, a "
+                   "constant load shifts the two Coulomb levels, one up, one down); measure the "
+                   "load at rest, with the chambers vented and a force gauge on the rod"),
 ]}
 
 
