@@ -243,7 +243,13 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
     exps = hyp.exps
     report(0.02, "fitting the base model")
     unc = S.uncertain_paths(model, hyp, known, refit_existing)
-    null = S.null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report)
+    # a value the user typically knows (a horizontal jack's load) is held at the user's value,
+    # and freed only where the data demand it
+    # (one confounded in the small is not chosen, and is freed where a fit drives the
+    # parameters it is confounded with to a bound, as any other)
+    null = S.null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report,
+                      held=S.known_chosen(hyp))
+    null = S.demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report, alpha)
 
     def weigh(null):
         score = S.candidate_scores(model, exps, null, cands, report)
@@ -262,7 +268,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         report(0.5, "weighing the effects with " + ", ".join(o["label"] for o in hold)
                + " held at the catalogue value")
         null_h = S.null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report,
-                            held={o["path"] for o in hold})
+                            held={o["path"] for o in hold} | hyp.held)
         weighed_h = weigh(null_h)
         e_held = (weighed_h[2][weighed_h[4]].error_after.overall if weighed_h[4] is not None
                   else null_h.error)

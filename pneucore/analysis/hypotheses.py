@@ -84,6 +84,12 @@ class BaseHypothesis:
         Typical error as a fraction of ``span`` when the current value is 0 [-]
     same_as_effect : str or None
         Catalog effect carrying the same physics
+    user_knows : callable or None
+        ``user_knows(model) -> bool``: the user typically knows this value on ``model`` (a
+        horizontal jack's load); it is chosen after every other parameter and moves only
+        when the data demand it (:data:`pneucore.analysis.diagnosis.rules.DEMAND_RULES`)
+    separated_by : str
+        The measurement that gives this value where the records cannot (said when it is held)
     """
     path: str
     label: str
@@ -94,6 +100,8 @@ class BaseHypothesis:
     applies: Optional[Callable] = None
     same_as_effect: Optional[str] = None
     zero_typical: float = 0.1
+    user_knows: Optional[Callable] = None
+    separated_by: str = ""
 
 
 def _span(model, hyp):
@@ -103,6 +111,11 @@ def _span(model, hyp):
 def _load_span(m):
     """Half-range of a load: half the jack's largest force, area A at supply above ambient [N]."""
     return 0.5 * m.jack.area_a * (m.supply.pressure - m.ambient.pressure)
+
+
+def _horizontal(m):
+    """A horizontal jack: no weight along the rod, so any load is one its user put there."""
+    return m.jack.mounting_angle == 0.0
 
 
 def _convective(m):
@@ -132,8 +145,13 @@ BASE_HYPOTHESES = {h.path: h for h in [
     # fitted either sign within half the jack's force; typically small, 0.5 % of that range
     # (about 1 N on the paper's jack), below the typical error of a Coulomb level, so that a
     # mis-set friction is not taken for a load (a constant load is, while the piston moves,
-    # a combination of the two Coulomb levels)
-    BaseHypothesis("jack.load_force", "load", 0.3, -5.0, 5.0, _load_span, zero_typical=0.005),
+    # a combination of the two Coulomb levels); on a horizontal jack its user knows it: it
+    # moves only when the data demand it
+    BaseHypothesis("jack.load_force", "load", 0.3, -5.0, 5.0, _load_span, zero_typical=0.005,
+                   user_knows=_horizontal,
+                   separated_by="no test of the moving jack separates them (while it moves, a "
+                   "constant load shifts the two Coulomb levels, one up, one down); measure the "
+                   "load at rest, with the chambers vented and a force gauge on the rod"),
 ]}
 
 
@@ -245,6 +263,12 @@ def prior_for(model, paths, scale=None):
     return out
 
 
+def user_known(model, hyps):
+    """The paths of ``hyps`` whose values the user typically knows on ``model``
+    (:attr:`BaseHypothesis.user_knows`): held at the user's value until the data demand them."""
+    return [h.path for h in hyps if h.user_knows is not None and h.user_knows(model)]
+
+
 def offered(model, candidates=(), exclude=()):
     """Base hypotheses that apply to ``model`` (and are not carried by a candidate effect);
     ``exclude``: paths never offered (the values the user declared known)."""
@@ -267,7 +291,7 @@ def offered(model, candidates=(), exclude=()):
 
 
 def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBLE,
-                 collinear=COLLINEAR):
+                 collinear=COLLINEAR, last=()):
     """Choose the base hypotheses the experiments can identify.
 
     Parameters
@@ -286,6 +310,10 @@ def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBL
         ``replay(model, experiment)``
     visible, collinear : float
         See :data:`VISIBLE`, :data:`COLLINEAR`
+    last : iterable of str
+        Paths judged after every other (a value the user typically knows, a horizontal
+        jack's load: the parameters it is confounded with are chosen first, and it is
+        ``not separable`` from them where only their combination is seen)
 
     Returns
     -------
@@ -313,7 +341,8 @@ def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBL
             cols[h.path] = col / dv
             norms[h.path] = float(col @ col)
             steps[h.path] = dv
-    order = sorted(hyps, key=lambda h: -norms[h.path])
+    last = set(last)
+    order = sorted(hyps, key=lambda h: (h.path in last, -norms[h.path]))
     chosen, report, basis = [], [], []
     for h in order:
         c = cols[h.path] * steps[h.path]

@@ -246,3 +246,67 @@ def test_findings_carry_the_named_effect_into_the_next_model():
     assert "after_verdict" in f.tests
     assert f.remaining["error"] == pytest.approx(
         st["refits"]["piston_leakage"].error_after.overall, rel=1e-12)
+
+
+# ------------------------------------------------------------------ a value the user knows
+
+def test_a_horizontal_jacks_load_is_known_to_its_user_a_vertical_ones_is_not():
+    from pneucore.analysis import hypotheses as H
+    m = Model.from_dict(model_preset("paper-4way"))
+    offered = H.offered(m)
+    assert H.user_known(m, offered) == ["jack.load_force"]
+    m.jack.mounting_angle = 90.0
+    assert H.user_known(m, offered) == []
+
+
+def test_orthogonal_part_of_a_combination_is_nothing_and_names_its_parts():
+    rng = np.random.default_rng(2)
+    a, b, c = rng.normal(size=(3, 300))
+    cols = {"a": a, "b": b, "load": a - b, "free": c}
+    frac, with_ = S.orthogonal_part(cols, "load", ["a", "b", "free"])
+    # exact least squares on 300 samples: zero up to round-off
+    assert frac < 1e-10
+    assert set(with_) == {"a", "b"}
+    # independent random columns of 300 samples: the orthogonal part keeps nearly all of it
+    # (the projection on two others is about sqrt(2 / 300) = 8 % of its norm)
+    assert S.orthogonal_part(cols, "free", ["a", "b"])[0] > 0.9
+
+
+def _demand_case(orthogonal, p_value, delta_bic):
+    calls = []
+
+    def freed(t):
+        calls.append(1)
+        t.update(p_value=p_value, delta_bic=delta_bic)
+    t = {"orthogonal": orthogonal}
+    return R.demanded(t, R.Judging(R.ALPHA, 1), freed), t, calls
+
+
+def test_a_confounded_known_value_stays_without_a_refit():
+    ok, t, calls = _demand_case(0.3, 1e-12, -100.0)
+    assert not ok and t["failed"] == "unconfounded" and not calls
+
+
+@pytest.mark.parametrize("p_value, delta_bic, failed", [
+    (1e-12, -100.0, None), (0.01, -100.0, "significant"), (1e-12, -5.0, "strong")])
+def test_an_unconfounded_known_value_moves_only_on_the_likelihood_tests(p_value, delta_bic, failed):
+    ok, t, calls = _demand_case(0.9, p_value, delta_bic)
+    assert ok == (failed is None) and t["failed"] == failed
+    assert calls == [1]   # the refit with the value freed, once
+
+
+def test_the_end_cushion_rig_keeps_its_load_and_says_what_it_is_confounded_with():
+    """The rig of the confusion set (nothing declared, full strokes into end cushions): a
+    load freed beside the Coulomb levels took 3.2 N of the cushions' misfit; held, the
+    cushions are named, and the confounding is reported with the diagnosis."""
+    from pneucore.analysis.diagnose import diagnose
+    from pneucore.data.synthetic import RIG_CASES, rig_case
+    case = rig_case("effect/circuit/end_cushion", **dict(RIG_CASES)["effect/circuit/end_cushion"])
+    d = diagnose(case.start, case.experiments)
+    assert d.verdict == "end_cushion"
+    assert d.model.jack.load_force == 0.0
+    load = next(h for h in d.identifiability if h["path"] == "jack.load_force")
+    assert load["status"] == "held" and load["demand"]["failed"] == "unconfounded"
+    assert set(load["with"]) == {"friction.extend.fc0", "friction.retract.fc0"}
+    alt = next(a for a in d.alternatives if a.get("path") == "jack.load_force")
+    assert alt["held"] and "Coulomb" in alt["note"] and "force gauge" in alt["note"]

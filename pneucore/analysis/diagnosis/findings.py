@@ -463,12 +463,21 @@ def _base_alternatives(model, exps, hyp, recal, null):
     out = []
     moved = {r["path"] for r in recal}
     for h in hyp.identifiability:
-        if h["status"] == "not separable":
+        if h["status"] in ("not separable", "held"):
             alt = {"path": h["path"], "label": h["label"], "kind": "base",
                    "with": h.get("with", []),
                    "note": f"{h['label']} cannot be told apart from "
                            f"{', '.join(H.label_of(w) for w in h.get('with', []))} "
                            f"by these experiments: only their combination is fitted"}
+            if h["status"] == "held":   # a value the user knows, the data do not demand
+                hb = H.BASE_HYPOTHESES[h["path"]]
+                alt["note"] = (f"{h['label']} is held at the value given: these experiments "
+                               f"cannot tell it apart from "
+                               f"{', '.join(H.label_of(w) for w in h.get('with', []))}; "
+                               + (hb.separated_by or "check it"))
+                alt["held"] = True
+                out.append(alt)
+                continue
             # the split matters once its partners were found mis-set: say what would separate
             if moved & set(h.get("with", [])):
                 twin = H.confounded_twin(model, h["path"], [q.path for q in null.auto_specs],

@@ -152,3 +152,56 @@ def judge(c, ctx):
             break
     c["named"] = c["failed"] is None
     return c["named"]
+
+
+# -- when a value the user knows may move ---------------------------------------------------
+
+#: Part of a known value's sensitivity column orthogonal to the parameters fitted beside it
+#: below which it is confounded with them: under 0.5, more than 3/4 of what it changes in
+#: the records (its squared norm) is what they change together (|correlation| above 0.87),
+#: so a freed value takes up whatever misfit their combination leaves (a load standing in
+#: for a Coulomb level, or for an effect not yet named)
+CONFOUNDED = 0.5
+
+
+def _unconfounded(t, ctx):
+    return t["orthogonal"] >= CONFOUNDED
+
+
+def _lr_significant(t, ctx):
+    return t["p_value"] < ctx.alpha
+
+
+def _bic_strong(t, ctx):
+    return t["delta_bic"] < DELTA_BIC
+
+
+#: The rules a base parameter the user typically knows (a horizontal jack's load,
+#: :attr:`pneucore.analysis.hypotheses.BaseHypothesis.user_knows`) must pass to move, in
+#: order: the null is fitted with it held at the user's value; a deferred rule reads the
+#: null refitted with it freed (``p_value``, ``delta_bic`` of freed against held)
+DEMAND_RULES = (
+    Rule("unconfounded", "what it changes is no combination of the parameters fitted beside "
+         "it (a load against the two Coulomb levels): the records cannot tell which moved",
+         _unconfounded),
+    Rule("significant", "likelihood-ratio p-value of it freed against it held below alpha "
+         "(counted on n / tau effective samples)", _lr_significant, deferred=True),
+    Rule("strong", f"delta BIC of it freed against it held below {DELTA_BIC:g}", _bic_strong,
+         deferred=True),
+)
+
+
+def demanded(t, ctx, freed):
+    """Do the data demand freeing a value the user knows? The rules of :data:`DEMAND_RULES`
+    in order, stopping at the first that fails; ``freed(t)`` fills the fields the deferred
+    rules read (a refit), called once before the first of them. Sets ``t["rules"]`` and
+    ``t["failed"]`` (None when demanded)."""
+    t["rules"], t["failed"] = {}, None
+    for r in DEMAND_RULES:
+        if r.deferred and "p_value" not in t:
+            freed(t)
+        t["rules"][r.name] = ok = bool(r.test(t, ctx))
+        if not ok:
+            t["failed"] = r.name
+            break
+    return t["failed"] is None

@@ -32,7 +32,7 @@ from pneucore.analysis.diagnosis.evidence import (consistency, excess_drop, give
                                                   explain, pair, undetermined)
 from pneucore.analysis.engineering import impossible
 from pneucore.spec.effects import EFFECTS
-from pneucore.spec.paths import ParameterSpec, get_value, parse_parameters, set_values
+from pneucore.spec.paths import ParameterSpec, get_value, parse_parameters, set_values, unit_of
 
 #: Relative change below which a refitted base parameter is not reported as mis-set
 RECAL_MIN = 0.02
@@ -135,6 +135,8 @@ class Hypotheses:
     identifiability: list = field(default_factory=list)
     id_cols: dict = field(default_factory=dict)
     initial_state: list = field(default_factory=list)
+    user_known: list = field(default_factory=list)
+    held: set = field(default_factory=set)
 
 
 def base_hypotheses(model, exps, cands, uncertain, known, automatic, rps_start, report):
@@ -152,9 +154,12 @@ def base_hypotheses(model, exps, cands, uncertain, known, automatic, rps_start, 
                              "sensitivity": None} for h in init_report]
     rps_id = [replay(model, e) for e in hyp.exps] if hyp.initial_state else rps_start
     obj_s = Objective(model, hyp.exps, [])
+    offered = H.offered(model, cands, exclude=known)
+    # a value the user typically knows is judged last: what it changes is first given to the
+    # parameters it may be confounded with
+    hyp.user_known = H.user_known(model, offered)
     chosen, base_report, hyp.id_cols = H.identifiable(
-        model, hyp.exps, obj_s, obj_s.weighted(rps_id), H.offered(model, cands, exclude=known),
-        replay)
+        model, hyp.exps, obj_s, obj_s.weighted(rps_id), offered, replay, last=hyp.user_known)
     hyp.identifiability = base_report + hyp.identifiability
     hyp.auto_specs = [H.spec_for(model, h) for h in chosen]
     return hyp
@@ -250,6 +255,69 @@ def null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report, hel
         if floor else float("nan")
     return Null(base, nf, u_specs, u_specs_start, auto_specs, base_paths, prior, comp0, rps0,
                 rss0, m2ll0, n_all, r0, keys, stack(rps0, keys), floor_overall)
+
+
+def orthogonal_part(cols, path, others):
+    """``(fraction, with)``: the part of ``path``'s sensitivity column orthogonal to the
+    columns of ``others`` (least squares), as a fraction of its norm [-], and the two of
+    ``others`` carrying most of it."""
+    use = [p for p in others if p in cols and p != path]
+    c = cols.get(path)
+    if c is None or not use or not np.linalg.norm(c):
+        return 1.0, []
+    A = np.column_stack([cols[p] for p in use])
+    coef, *_ = np.linalg.lstsq(A, c, rcond=None)
+    frac = float(np.linalg.norm(c - A @ coef) / np.linalg.norm(c))
+    share = sorted(((abs(k) * np.linalg.norm(cols[p]), p) for k, p in zip(coef, use)),
+                   reverse=True)
+    return frac, [p for _, p in share[:2]]
+
+
+def known_chosen(hyp):
+    """The chosen paths whose values the user typically knows: held in the first null fit."""
+    return {s.path for s in hyp.auto_specs if s.path in hyp.user_known}
+
+
+def demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report, alpha):
+    """The values the user typically knows (a horizontal jack's load), held at the user's
+    value in ``null``, freed only where the data demand it
+    (:data:`pneucore.analysis.diagnosis.rules.DEMAND_RULES`). Returns the null to go on with;
+    each held value's identifiability entry gets status ``held``, what it is confounded
+    with and the rules' record (``demand``)."""
+    fitted = {s.path for s in null.auto_specs}
+    waiting = [p for p in known_chosen(hyp) if p not in fitted]
+    out = null
+    for path in waiting:
+        frac, with_ = orthogonal_part(hyp.id_cols, path, [p for p in fitted if p in hyp.id_cols])
+        t = {"path": path, "orthogonal": frac, "with": with_}
+
+        def freed(t, path=path):
+            report(0.045, "refitting the base model with " + H.label_of(path) + " freed")
+            trial = null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report,
+                             held=set(waiting) - {path})
+            taus = trial.fit.residual_times if trial.fit is not None else None
+            lr, n_eff = effective_lr(null.rss, trial.rss, taus)
+            t.update(p_value=float(stats.chi2.sf(max(lr, 0.0), 1)), lr_statistic=lr,
+                     delta_bic=-lr + math.log(max(n_eff, 1.0)), trial=trial)
+
+        ok = R.demanded(t, R.Judging(alpha, 1), freed)
+        trial = t.pop("trial", None)
+        entry = next(h for h in hyp.identifiability if h["path"] == path)
+        entry["demand"] = t
+        if ok:
+            entry["note"] = "the data demand it: freed, it passes " + ", ".join(t["rules"])
+            out = trial
+        else:
+            hyp.held.add(path)
+            entry["status"] = "held"
+            entry["with"] = with_
+            why = next(r.reason for r in R.DEMAND_RULES if r.name == t["failed"])
+            entry["note"] = (f"held at the value given ({get_value(model, path):.3g} "
+                             f"{unit_of(path)}".rstrip() + f"): the data do not demand it, rule "
+                             f"'{t['failed']}' fails ({why}; what it changes in the records is "
+                             f"{100 * (1 - frac ** 2):.0f} % what "
+                             f"{' and '.join(H.label_of(p) for p in with_)} change)")
+    return out
 
 
 # -- 4. candidate scores ------------------------------------------------------------------
