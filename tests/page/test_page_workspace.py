@@ -159,3 +159,24 @@ def test_an_unknown_or_hostile_link_says_so_as_text(browser, server, hash_, says
         assert errors == []
     finally:
         other.close()
+
+
+def test_an_error_on_a_field_of_another_view_leads_there(browser, server):  # noqa: F811
+    errors = []
+    other = browser.new_context(viewport={"width": WIDTH, "height": HEIGHT})   # no session, no dataset chosen
+    try:
+        p = other.new_page()
+        p.on("pageerror", lambda exc: errors.append(str(exc)))
+        p.goto(f"{server}/#view=diagnose")
+        p.wait_for_function("() => document.getElementById('workspace-nav').dataset.ready", timeout=TIMEOUT_MS)
+        p.click("#btn-diagnose")
+        link = p.locator("#status-errors li.link", has_text="experiments")
+        link.wait_for()
+        assert not p.is_visible("#dataset-select")        # the field is in the Data view
+        link.click()
+        assert p.evaluate("document.body.dataset.view") == "data"
+        assert p.is_visible("#dataset-select")
+        assert "view=data" in p.evaluate("location.hash")
+        assert errors == []
+    finally:
+        other.close()
