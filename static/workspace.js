@@ -188,7 +188,8 @@
     updateLink();
   };
   window.revealElement = reveal;
-  window.showView = go;
+  // an action that leads to another step shows it (not when every step is on the page)
+  window.showView = (view) => { if (document.body.dataset.view !== 'all') go(view); };
   whenReady(async () => {
     if (document.body.dataset.ready === 'true') await openLinkedSession(linked);
     // a comparison redraws the residual plot at its own height: fit it again in the Diagnose view

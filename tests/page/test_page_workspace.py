@@ -180,3 +180,18 @@ def test_an_error_on_a_field_of_another_view_leads_there(browser, server):  # no
         assert errors == []
     finally:
         other.close()
+
+
+def test_using_a_sized_design_shows_the_model_it_went_into(page):
+    """Last: it replaces the page's model."""
+    show(page, "sizing")
+    page.wait_for_function("() => document.getElementById('panel-sizing').dataset.ready === 'true'")
+    page.fill("#sz-bore", "iso15552:32")
+    page.fill("#sz-valve", "ckd-4ga")
+    page.click("#btn-size")
+    page.wait_for_function("() => document.getElementById('panel-sizing').dataset.sized")
+    assert not page.is_visible("#jack-bore")
+    page.click("#btn-size-use")
+    page.wait_for_function("() => document.body.dataset.shown === 'model'")
+    assert page.is_visible("#jack-bore")
+    assert page.input_value("#model-name-input").startswith("sizing: ")
