@@ -98,7 +98,8 @@ def test_diagnose_view_shows_the_residual_plot_beside_the_findings(page):
     # wholly in the first screen, without scrolling: the residual plot and the verdict
     for name, b in (("residual plot", res), ("verdict", verdict)):
         assert b["top"] >= 0 and b["bottom"] <= HEIGHT and b["right"] <= WIDTH, (name, b)
-    # the top ranked finding's card starts in the first screen (its evidence may run below)
+    # the top ranked finding's card starts in the first screen with at least its title line (40 px:
+    # one 14 px heading line with the card's padding) seen; its evidence table may run below
     assert 0 <= first["top"] < HEIGHT - 40, first
     # beside, not under: the plot and the findings side by side
     assert res["left"] >= verdict["right"] - 1, (res, verdict)
