@@ -78,6 +78,10 @@ def test_the_keyboard_moves_along_the_steps_and_opens_one(page):
     assert view_of(page) == "data"
     page.keyboard.press("End")
     assert page.evaluate("document.activeElement.dataset.view") == "all"
+    # an address typed or followed in the same tab switches too
+    page.evaluate("location.hash = '#view=heat'")
+    page.wait_for_function("() => document.body.dataset.shown === 'heat'")
+    assert page.is_visible("#panel-heat") and not page.is_visible("#panel-model")
 
 
 def test_diagnose_view_shows_the_residual_plot_beside_the_findings(page):
