@@ -169,7 +169,7 @@ function fieldError(field, msg, target) {
   }
   const li = document.createElement('li');
   li.innerHTML = `<code>${esc(field || 'request')}</code>: ${esc(msg)}`;
-  if (el) { li.classList.add('link'); li.addEventListener('click', () => { el.scrollIntoView({ block: 'center' }); if (el.focus) el.focus(); }); }
+  if (el) { li.classList.add('link'); li.addEventListener('click', () => { if (window.revealElement) revealElement(el); el.scrollIntoView({ block: 'center' }); if (el.focus) el.focus(); }); }
   $('#status-errors').appendChild(li);
   return el;
 }

@@ -153,6 +153,7 @@ function useChosenDesign() {
   S.model = clone(d.model);
   renderModel();
   setStatus(`Model panel: design ${d.rank} (${d.cylinder.name} + ${d.valve.name}).`, 'ok');
+  if (window.showView) showView('model');   // the workspace shows the model it went into
 }
 
 function exportChosenDesign() {

@@ -76,14 +76,17 @@ def workbench_page(browser, url, errors, **context):
     ctx.close()
 
 
-def _open(ctx, url, errors):
+def _open(ctx, url, errors, view="all"):
+    """A new page of ``ctx`` on the service at ``url``, ready; ``view``: the workspace view it opens
+    (static/workspace.js). The tests of the panels drive every panel from one page, so they open
+    "all" (every panel shown, as one long page); tests/page/test_page_workspace.py drives the views."""
     page = ctx.new_page()
     page.set_default_timeout(TIMEOUT_MS)
     page.on("pageerror", lambda exc: errors.append(f"page error: {exc}"))
     # HTTP errors (the 422s the tests provoke) are logged by Chromium as "Failed to load resource"
     page.on("console", lambda m: errors.append(f"console {m.type}: {m.text}")
             if m.type == "error" and "Failed to load resource" not in m.text else None)
-    page.goto(url + "/")
+    page.goto(url + "/" + (f"#view={view}" if view else ""))
     page.wait_for_function("() => document.body.dataset.ready", timeout=TIMEOUT_MS)
     assert page.evaluate("document.body.dataset.ready") == "true", page.inner_text("#status")
     assert page.evaluate("typeof window.Plotly") == "object", "plotly.min.js did not load"

@@ -223,7 +223,10 @@ def test_the_stroke_metrics_table_next_to_the_plots(page):
     the engineering system), the columns and units as GET /api/units gives them."""
     _load_preset(page, "paper-4way")
     page.click("#btn-fig10")
-    page.wait_for_function("() => S.scenario && S.scenario.name === 'paper-fig10-pulses'")
+    # Fig. 10 is also the page's first scenario, so its name alone does not say the load ended: the
+    # button is disabled while it runs (a command typed before it ends would be overwritten)
+    page.wait_for_function("() => S.scenario && S.scenario.name === 'paper-fig10-pulses'"
+                           " && !document.getElementById('btn-fig10').disabled")
     page.fill("#scn-command", "0, 0\n0.05, 1\n0.5, -1")
     before = int(page.get_attribute("#panel-plots", "data-runs") or 0)
     page.click("#btn-simulate")

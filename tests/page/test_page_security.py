@@ -58,7 +58,7 @@ def test_stored_text_is_shown_as_text_under_the_csp(browser, tmp_path):
         did = json.loads(_post(url, f"/api/datasets?name={urllib.request.quote(HOSTILE)}",
                                csv.encode(), "text/csv"))["id"]
         errors = []
-        ctx, page = _open(browser, url + "/", errors)
+        ctx, page = _open(browser, url + "/#view=data", errors)   # the workspace view with the picker
         page.select_option("#dataset-select", f"ds:{did}")
         page.wait_for_function("(n) => document.querySelector('#dataset-info').textContent.includes(n)",
                                arg=HOSTILE)
@@ -93,7 +93,8 @@ def test_page_works_behind_a_token(browser, tmp_path):
                 time.sleep(0.2)
         errors = []
         ctx, page = _open(browser, f"{url}/?token={token}", errors)
-        assert page.url == url + "/"   # the token left the address bar
+        # the token left the address bar; the workspace keeps its view there (#view=...)
+        assert page.url.split("#")[0] == url + "/" and "token" not in page.url, page.url
         # the page's own API calls carry the cookie: the dataset picker was filled from the API
         assert page.locator("#dataset-select option").count() > 0
         assert errors == [], errors
