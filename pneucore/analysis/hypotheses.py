@@ -210,6 +210,11 @@ def plausibility(model, path, after, at_bound=False):
     if h is None:
         return ""
     v = get_value(model, path)
+    if v != 0.0 and after / v < 0.0:
+        # a declared load, mass or level that changes sign is not a catalogue error but a
+        # force pointing the other way: impossible whatever its size (issue 28)
+        return (f"{h.label} changed sign ({v:g} -> {after:.3g} {unit_of(path)}): against its declared "
+                f"direction")
     if v != 0.0 and after / v > 0.0:
         # a relative catalogue error is a factor: x 1/2.8 is as far from the catalogue as x 2.8
         # (a valve's conductance at 0.35 of its catalogue value is 7 typical errors of 15 %)

@@ -133,3 +133,16 @@ def test_an_undeclared_load_stays_and_is_called_implausible():
     assert "Implausible" in d.message
     # the recalibration it keeps is the one at the floor
     assert compare(d.model, exps).overall <= 1.2 * floor
+
+
+def test_a_declared_load_that_changes_sign_is_impossible_whatever_its_size():
+    """Issue 28: a load recalibrated against its declared direction (a weight that would pull
+    the rod up) is not a catalogue error, however small the change."""
+    m = Model.from_dict(model_preset("paper-4way"))
+    m.jack.load_force = 14.4            # declared: pushing against extension [N]
+    assert plausibility(m, "jack.load_force", 14.0) == ""
+    why = plausibility(m, "jack.load_force", -0.5)
+    assert "changed sign" in why and "declared direction" in why and "N" in why
+    # a value of 0 declares no direction: a sign is no symptom there
+    m.jack.load_force = 0.0
+    assert "changed sign" not in plausibility(m, "jack.load_force", -0.5)
