@@ -42,7 +42,7 @@ from pneucore.spec.scenario import Scenario
 from pneucore.spec.units import unit_systems
 from pneucore.spec.validation import FieldError, choice, finite_json, mapping, number
 from pneucore.spec.valve_data import convert_valve_data
-from pneucore.strokes import STROKE_FIELDS
+from pneucore.analysis.strokes import STROKE_FIELDS
 from pneucore.study import (Study, check_run_options, delete_study, list_studies, queue_study,
                             requeue_study, run_study, runs_csv, runs_npz, set_study_status,
                             study_results, study_status)
@@ -620,7 +620,7 @@ def display_units():
     units : dict
         ``systems`` (:func:`pneucore.spec.units.unit_systems`), ``parameters``
         (:func:`parameter_units`) and ``stroke``: the unit and definition of each per-stroke
-        metric of a simulation's ``stats.stroke.strokes`` (:data:`pneucore.strokes.STROKE_FIELDS`)
+        metric of a simulation's ``stats.stroke.strokes`` (:data:`pneucore.analysis.strokes.STROKE_FIELDS`)
     """
     stroke = {name: {"unit": unit, "description": text} for name, (unit, text) in STROKE_FIELDS.items()}
     return {"systems": unit_systems(), "parameters": parameter_units(), "stroke": stroke}

@@ -20,7 +20,7 @@ MOVED = {
     "layout": "core.layout", "rhs": "core.rhs", "integrator": "core.integrator", "_cache": "core.cache",
     "validation": "spec.validation", "model": "spec.model", "scenario": "spec.scenario", "effects": "spec.effects", "paths": "spec.paths", "presets": "spec.presets", "units": "spec.units",
     "measurement": "data.measurement", "fileformats": "data.fileformats", "experiment": "data.experiment", "synthetic": "data.synthetic", "samples": "data.samples", "export": "data.export",
-    "metrics": "analysis.metrics", "autocorrelation": "analysis.autocorrelation", "compare": "analysis.compare", "calibrate": "analysis.calibrate", "calibration_options": "analysis.calibration_options", "diagnose": "analysis.diagnose", "hypotheses": "analysis.hypotheses", "history": "analysis.history", "heat_compare": "analysis.heat_compare", "report": "analysis.report",
+    "metrics": "analysis.metrics", "autocorrelation": "analysis.autocorrelation", "compare": "analysis.compare", "calibrate": "analysis.calibrate", "calibration_options": "analysis.calibration_options", "diagnose": "analysis.diagnose", "hypotheses": "analysis.hypotheses", "history": "analysis.history", "heat_compare": "analysis.heat_compare", "report": "analysis.report", "strokes": "analysis.strokes",
     "study_def": "study.definition", "study_exec": "study.execute", "study_metrics": "study.metrics", "study_results": "study.results", "study_store": "study.store", "_study_worker": "study._worker", "_study_warm": "study._warm",
 }
 

@@ -85,10 +85,10 @@ class SimulationResult:
 
     def stroke_metrics(self):
         """Start-up time, full stroke time, 90 % force time, mean, maximum and stroke end
-        speed per stroke, and the air used per cycle [NL] (:func:`pneucore.strokes.stroke_metrics`,
+        speed per stroke, and the air used per cycle [NL] (:func:`pneucore.analysis.strokes.stroke_metrics`,
         SMC's definitions); computed on first use."""
         if self._strokes is None:
-            from pneucore.strokes import stroke_metrics
+            from pneucore.analysis.strokes import stroke_metrics
             self._strokes = stroke_metrics(self, self.model)
         return self._strokes
 

@@ -711,7 +711,7 @@ async function simulate(btn, note = '') {
     } catch (e) { showApiError(e, 'Simulation'); }
   });
 }
-/** The stroke metrics of a simulation in words (pneucore/strokes.py, SMC's definitions), '' if none. */
+/** The stroke metrics of a simulation in words (pneucore/analysis/strokes.py, SMC's definitions), '' if none. */
 function strokeSummary(sm) {
   if (!sm) return '';
   const f = (v, unit, digits = 3) => (typeof v === 'number' ? `${v.toPrecision(digits)} ${unit}` : null);

@@ -1,5 +1,5 @@
 'use strict';
-/* The stroke metrics of the last simulation (stats.stroke.strokes, pneucore/strokes.py after
+/* The stroke metrics of the last simulation (stats.stroke.strokes, pneucore/analysis/strokes.py after
  * SMC's definitions) as a table in the plots panel, one row per valve switching. The columns,
  * their units and definitions come from GET /api/units ("stroke", S.units: the page holds no
  * list of its own); each value shows in the page's unit system (static/units.js). Loaded after

@@ -1,4 +1,4 @@
-"""Stroke metrics (SMC's definitions, pneucore/strokes.py) against mass conservation and the
+"""Stroke metrics (SMC's definitions, pneucore/analysis/strokes.py) against mass conservation and the
 events of the run: air used equals the mass the chambers gained over the ANR density, the
 full stroke time is the switching-to-stop interval, the average speed the stroke over it."""
 import math

@@ -9,7 +9,7 @@ and the REST API accept as it is.
 The series (ISO 15552 and ISO 6432 cylinders, tubes, valves by C and b) are data with their
 sources (:mod:`pneucore.sizing.series`); the circuit is the model's own (``jack.mounting_angle``,
 the ``tubing`` and ``meter_out_throttle`` effects) and the stroke metrics are
-:mod:`pneucore.strokes`' (:func:`pneucore.sizing.stroke.direction_metrics`).
+:mod:`pneucore.analysis.strokes`' (:func:`pneucore.sizing.stroke.direction_metrics`).
 """
 from pneucore.sizing.requirement import Choices, Requirement
 from pneucore.sizing.search import (REASONS, build_model, check, evaluate_family, families,

@@ -34,7 +34,7 @@ Families run in parallel on a thread pool (the compiled integrator releases the 
 The circuit is the model's own (issue 23): the mounting angle is ``jack.mounting_angle``,
 the tube the ``tubing`` effect on both ports (its volume and its Fanno-flow resistance), the
 flow controls the ``meter_out_throttle`` effect, and the stroke metrics those of
-:mod:`pneucore.strokes` (:func:`pneucore.sizing.stroke.direction_metrics`).
+:mod:`pneucore.analysis.strokes` (:func:`pneucore.sizing.stroke.direction_metrics`).
 """
 from __future__ import annotations
 
@@ -65,7 +65,7 @@ BASE_PRESET = "paper-4way"
 DURATION_FACTOR = 3.0
 #: Output samples of a run [-]
 RUN_SAMPLES = 1500
-#: Longest sample period of a run: the air per stroke is :mod:`pneucore.strokes`' trapezoidal
+#: Longest sample period of a run: the air per stroke is :mod:`pneucore.analysis.strokes`' trapezoidal
 #: integral of the sampled supply flow, which a chamber's first filling after the command (a
 #: few ms) needs samples this close for: on the hand case's retraction (tests/sizing) 5 % too
 #: much air at 6 ms, 0.04 % at 2 ms [s]
@@ -505,7 +505,7 @@ class _Direction:
 def _stroke_scenario(requirement, direction):
     """The scenario of one full stroke: at rest at one end stop, the chamber to be exhausted
     at the supply pressure (where the previous stroke left it), the valve switched at the
-    first sample after t = 0 (the ``command`` event :mod:`pneucore.strokes` times from)."""
+    first sample after t = 0 (the ``command`` event :mod:`pneucore.analysis.strokes` times from)."""
     t_req = requirement.time_bound(direction)
     period = min(DURATION_FACTOR * t_req / RUN_SAMPLES, MAX_SAMPLE_PERIOD)
     p_s, p_0 = requirement.supply_pressure, requirement.ambient_pressure

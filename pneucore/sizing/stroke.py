@@ -1,22 +1,22 @@
-"""The sizing's view of one stroke: :func:`pneucore.strokes.stroke_metrics` plus the energy at
+"""The sizing's view of one stroke: :func:`pneucore.analysis.strokes.stroke_metrics` plus the energy at
 the end stop.
 
 Every definition (start-up time, full-stroke time, mean, maximum and stroke-end speed, air
-per stroke in normal litres) is SMC's, as :mod:`pneucore.strokes` implements it for every
+per stroke in normal litres) is SMC's, as :mod:`pneucore.analysis.strokes` implements it for every
 simulation's ``stats.stroke``; this module only picks the stroke of one direction and adds
-what the sizing checks and :mod:`pneucore.strokes` does not give: the kinetic energy of the
+what the sizing checks and :mod:`pneucore.analysis.strokes` does not give: the kinetic energy of the
 moving mass at the end stop, ``m v^2 / 2`` (SMC's selection step 2 checks it against the
 cushion's capacity) [J].
 """
 from __future__ import annotations
 
-from pneucore.strokes import STROKE_FIELDS
+from pneucore.analysis.strokes import STROKE_FIELDS
 
-#: The sizing's metric -> the field of :data:`pneucore.strokes.STROKE_FIELDS` it is
+#: The sizing's metric -> the field of :data:`pneucore.analysis.strokes.STROKE_FIELDS` it is
 _FROM_STROKES = {"start_up_time": "start_up_time", "full_stroke_time": "full_stroke_time",
                  "mean_speed": "mean_speed", "max_speed": "max_speed", "end_speed": "end_speed",
                  "air": "air_NL"}
-#: Each metric's unit (the answer's ``metrics.units``): those of :mod:`pneucore.strokes`,
+#: Each metric's unit (the answer's ``metrics.units``): those of :mod:`pneucore.analysis.strokes`,
 #: and the kinetic energy's
 STROKE_METRIC_UNITS = {**{k: STROKE_FIELDS[f][0] for k, f in _FROM_STROKES.items()},
                        "end_energy": "J"}

@@ -140,7 +140,7 @@ for _name, _unit, _definition, _compute in (
     ("air_consumption", "NL", "air drawn from the supply in normal litres (ANR): the time "
                               "integral (trapezoidal) of q_supply [kg/s] / 1.185 kg/m^3 x 1000",
      lambda r: air_consumption(r.t, r.res.q_supply)),
-    # stroke metrics (pneucore.strokes: SMC's definitions, from the valve switching)
+    # stroke metrics (pneucore.analysis.strokes: SMC's definitions, from the valve switching)
     ("start_up_time", "s", "valve switching to the piston starting to travel, first full stroke "
                            "(SMC); null without one",
      lambda r: _first_stroke(r, "start_up_time")),

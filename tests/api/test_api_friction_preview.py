@@ -265,9 +265,9 @@ def test_the_page_holds_no_copy_of_the_friction_law_or_the_unit_table():
 
 def test_units_serve_the_stroke_metrics_of_pneucore(client):
     """GET /api/units ``stroke``: each per-stroke metric of ``stats.stroke.strokes`` with the
-    unit and definition of pneucore.strokes.STROKE_FIELDS (the page's stroke table reads its
+    unit and definition of pneucore.analysis.strokes.STROKE_FIELDS (the page's stroke table reads its
     columns from here), and every key a simulation's strokes carry has an entry."""
-    from pneucore.strokes import STROKE_FIELDS
+    from pneucore.analysis.strokes import STROKE_FIELDS
     stroke = client.get("/api/units").json()["stroke"]
     assert stroke == {k: {"unit": u, "description": d} for k, (u, d) in STROKE_FIELDS.items()}
     assert stroke["full_stroke_time"]["unit"] == "s" and stroke["end_speed"]["unit"] == "m/s"

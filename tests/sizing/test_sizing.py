@@ -107,7 +107,7 @@ def test_the_search_picks_the_valve_the_hand_calculation_picks():
     # the mean speed while moving is the choked volume flow over the annulus (same 3 %)
     assert STROKE / (m["full_stroke_time"] - m["start_up_time"]) == pytest.approx(v(c), rel=0.03)
     # the design's air per cycle is the hand fill of both chambers: 0.1 % (the fill at the
-    # end stop is complete within the run; pneucore.strokes' trapezoidal integral of the
+    # end stop is complete within the run; pneucore.analysis.strokes' trapezoidal integral of the
     # supply flow at <= 2 ms samples, measured 0.03 %)
     V_A0, V_B0 = A_A * dead_length(), A_B * dead_length()
     air = (P_S * (V_A0 + A_A * STROKE) - P_ATM * V_A0 + P_S * (V_B0 + A_B * STROKE)
