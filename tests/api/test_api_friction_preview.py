@@ -259,8 +259,9 @@ def test_the_page_holds_no_copy_of_the_friction_law_or_the_unit_table():
         assert not re.search(r"""\b(fc0|fc_a|kv0|kv_a|bore|moving_mass|gamma)\s*:\s*['"][^'"]*['"]""",
                              text), name
         assert "'N s/(m Pa)'" not in text and "'N/Pa'" not in text, name
-    app = _page_sources()["app.js"]
-    assert "/api/friction/preview" in app and "/api/units" in app
+    # the friction map is the model view's (static/model.js), the units request app.js's shared helper
+    sources = _page_sources()
+    assert "/api/friction/preview" in sources["model.js"] and "/api/units" in sources["app.js"]
 
 
 def test_units_serve_the_stroke_metrics_of_pneucore(client):
