@@ -187,7 +187,9 @@ def on_cluster(row, d_local, fn):
 def _dask_text(row):
     if "dask_round_s" not in row:
         return ""
-    return f"   on Dask {row['dask_round_s']:.2f} s ({'same' if row['dask_same'] else 'DIFFERENT'})"
+    refine_text = f", refine {row['dask_refine_s']:.2f} s" if "dask_refine_s" in row else ""
+    return (f"   on Dask {row['dask_round_s']:.2f} s ({'same' if row['dask_same'] else 'DIFFERENT'})"
+            + refine_text)
 
 
 def main(argv=None):

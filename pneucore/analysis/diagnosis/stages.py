@@ -506,14 +506,18 @@ def cluster_client(scheduler, timeout=None):
     if scheduler is None:
         yield None
         return
-    from pneucore.study.execute import SCHEDULER_TIMEOUT, _bounded, connect_scheduler
+    import threading
+
+    from pneucore.study.execute import SCHEDULER_TIMEOUT, connect_scheduler
     timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
     client, owned, _ = connect_scheduler(scheduler, timeout)
     try:
         yield client
     finally:
-        if owned:
-            _bounded(lambda: client.close(timeout=timeout), timeout + 1.0)
+        if owned:   # closed within the timeout, even against a scheduler that stopped answering
+            t = threading.Thread(target=lambda: client.close(timeout=timeout), daemon=True)
+            t.start()
+            t.join(timeout + 1.0)
 
 
 def joint_refits(model, exps, null, lead, max_nfev, report, client=None):
