@@ -2,6 +2,8 @@
 candidate refits run on the Dask cluster configured on the server when the request names it
 ("dask"), with the same answer as on this machine ("local"); an address, or a name not
 configured here, is a 422 naming ``scheduler`` (a request never gives an address)."""
+import time
+
 import pytest
 from fastapi.testclient import TestClient
 
@@ -13,6 +15,9 @@ from dask_cluster import local_cluster
 #: Relative agreement of a value fitted on a Dask worker with the same fit on this machine:
 #: the same arithmetic from the same inputs (tests/analysis/test_diagnosis_cluster.py's SAME_RTOL)
 SAME_RTOL = 1e-9
+
+#: a bound on a hung job under a loaded machine, not a speed claim
+WAIT_S = 300.0
 
 PATHS = ("/api/diagnose", "/api/jobs/diagnose", "/api/refine", "/api/jobs/refine",
          "/api/reports/diagnose", "/api/reports/refine")
@@ -59,5 +64,17 @@ def test_a_diagnosis_on_the_configured_cluster_answers_as_the_local_one(tmp_path
                 for p, v in ra["params"].items():
                     assert rb["params"][p]["value"] == pytest.approx(v["value"], rel=SAME_RTOL)
                 assert rb["delta_bic"] == pytest.approx(ra["delta_bic"], rel=SAME_RTOL)
+            # the same as a job on the cluster (the job runs where its request named)
+            r = c.post("/api/jobs/diagnose", json=_body(scheduler="dask", **small))
+            assert r.status_code == 202, r.text
+            t0 = time.monotonic()
+            while (job := c.get(f"/api/jobs/{r.json()['id']}").json())["status"] in ("queued", "running"):
+                assert time.monotonic() - t0 < WAIT_S, job
+                time.sleep(0.2)
+            assert job["status"] == "done", job["error"]
+            assert job["result"]["verdict"] == "piston_leakage"
+            for p, v in a["ranking"][0]["params"].items():
+                assert job["result"]["ranking"][0]["params"][p]["value"] == pytest.approx(
+                    v["value"], rel=SAME_RTOL)
     finally:
         cluster.close()
