@@ -16,6 +16,8 @@
 from __future__ import annotations
 
 import math
+import threading
+import time
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -467,7 +469,6 @@ def _cluster_refits(client, model, exps, null, lead, max_nfev, report):
     """``{name: calibration}`` of :func:`remote_joint_refit` for each of ``lead``, one Dask task
     each (the model, experiments and null sent to the cluster once); the progress callback is
     called at least every :data:`CLUSTER_HEARTBEAT` s, and whatever it raises cancels the tasks."""
-    import time
     shared = client.scatter([model, exps, null], hash=False)
     futures = {client.submit(remote_joint_refit, *shared, name, max_nfev, pure=False): name
                for name in lead}
@@ -506,8 +507,6 @@ def cluster_client(scheduler, timeout=None):
     if scheduler is None:
         yield None
         return
-    import threading
-
     from pneucore.study.execute import SCHEDULER_TIMEOUT, connect_scheduler
     timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
     client, owned, _ = connect_scheduler(scheduler, timeout)
