@@ -13,7 +13,7 @@ from pneucore.spec.model import Model, check_resolvable
 from pneucore.spec.scenario import Scenario
 from pneucore.spec.validation import FieldError
 
-from .config import Limits
+from .config import Limits, Settings
 from .jobs import JobManager
 from .store import Store
 
@@ -30,9 +30,14 @@ def get_limits(request: Request) -> Limits:
     return request.app.state.settings.limits
 
 
+def get_settings(request: Request) -> Settings:
+    return request.app.state.settings
+
+
 StoreDep = Annotated[Store, Depends(get_store)]
 JobsDep = Annotated[JobManager, Depends(get_jobs)]
 LimitsDep = Annotated[Limits, Depends(get_limits)]
+SettingsDep = Annotated[Settings, Depends(get_settings)]
 
 
 class PrefixedFieldError(FieldError):

@@ -263,6 +263,12 @@ class CalibrateRequest(_Strict):
     bench_known: bool = Field(True, description=BENCH_KNOWN_DOC)
 
 
+#: A request's ``scheduler``: a cluster name (one source for the study and diagnosis requests)
+CLUSTER_NAME_DOC = ("Where to run, by name (never an address): 'local' = this machine, 'dask' = the Dask "
+                    "cluster configured on the server ($PNEUCORE_DASK_SCHEDULER or --scheduler; see GET "
+                    "/api/studies/clusters); null = 'dask' when configured, else 'local'")
+
+
 class DiagnoseRequest(_Strict):
     model: ModelIn = Field(..., description="Current model")
     experiments: list[ExperimentIn] = Field(..., description="Experiments")
@@ -270,6 +276,7 @@ class DiagnoseRequest(_Strict):
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along [-]")
     known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
     bench_known: bool = Field(True, description=BENCH_KNOWN_DOC)
+    scheduler: Optional[str] = Field(None, max_length=64, description=CLUSTER_NAME_DOC + ": where the candidates' joint refits run (one task each on the cluster) [-]")
 
 
 def _refine_default(name):
@@ -287,6 +294,7 @@ class RefineRequest(_Strict):
     known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
     bench_known: bool = Field(True, description=BENCH_KNOWN_DOC)
     max_rounds: int = Field(_refine_default("max_rounds"), ge=1, le=8, description="Most rounds (diagnose, apply the findings) [-]")
+    scheduler: Optional[str] = Field(None, max_length=64, description=CLUSTER_NAME_DOC + ": where each round's candidate refits run (one task each on the cluster) [-]")
 
 
 class DatasetJsonIn(_Strict):
@@ -318,7 +326,7 @@ class StudyRequest(_Strict):
     samples: Optional[int] = Field(None, description="Number of random samples (distributions) [-]")
     seed: int = Field(0, description="Random seed [-]")
     metrics: Optional[list[str]] = Field(None, description="Metrics to compute; null = all (see pneucore.study METRICS) [-]")
-    scheduler: Optional[str] = Field(None, max_length=64, description="Where to run, by name (never an address): 'local' = this machine's process pool, 'dask' = the Dask cluster configured on the server ($PNEUCORE_DASK_SCHEDULER or --scheduler; see GET /api/studies/clusters); null = 'dask' when configured, else 'local' [-]")
+    scheduler: Optional[str] = Field(None, max_length=64, description=CLUSTER_NAME_DOC + " (for a study, 'local' is this machine's process pool) [-]")
     workers: Optional[int] = Field(None, description="Local pool size, at most max_workers of GET /api/limits (the CPUs available); 0 = in the service's process; null = one per CPU [-]")
     name: Name = Field("", description="Label of the study")
 

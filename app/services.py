@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import time
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -280,7 +281,18 @@ def _uncertain_known(req, model):
     return [p for p in req.uncertain if p not in held], known, held
 
 
-def check_diagnose(req: DiagnoseRequest, store, limits):
+def diagnosis_scheduler(req, settings):
+    """The Dask scheduler address a diagnosis or refinement runs its candidate refits on, from
+    the request's cluster *name* (:func:`cluster_address`, the studies' resolution: an address
+    or an unconfigured name is a 422 naming ``scheduler``); None = this machine. ``settings``
+    None = no cluster configured."""
+    address = cluster_address(settings if settings is not None else _NO_CLUSTER,
+                              getattr(req, "scheduler", None))
+    return None if address == "local" else address
+
+
+def check_diagnose(req: DiagnoseRequest, store, limits, settings=None):
+    diagnosis_scheduler(req, settings)
     model = parse_model(req.model)
     uncertain, known, _ = _uncertain_known(req, model)
     check_request(model, req.candidates, uncertain, known)
@@ -313,30 +325,34 @@ def run_calibrate(req: CalibrateRequest, store, limits, progress=None, checked=N
     return out
 
 
-def run_diagnose(req: DiagnoseRequest, store, limits, progress=None, checked=None):
-    """The diagnosis; ``checked`` as for :func:`run_compare` (from :func:`check_diagnose`)."""
-    model, exps = checked or check_diagnose(req, store, limits)
+def run_diagnose(req: DiagnoseRequest, store, limits, progress=None, checked=None, settings=None):
+    """The diagnosis; ``checked`` as for :func:`run_compare` (from :func:`check_diagnose`);
+    ``settings``: the server's (its Dask cluster, :func:`diagnosis_scheduler`)."""
+    model, exps = checked or check_diagnose(req, store, limits, settings)
     uncertain, known, held = _uncertain_known(req, model)
     out = diagnose(model, exps, candidates=req.candidates, uncertain=uncertain,
-                   progress=progress, validated=True, known=known).to_dict()   # checked above
+                   progress=progress, validated=True, known=known,   # checked above
+                   scheduler=diagnosis_scheduler(req, settings),
+                   scheduler_timeout=limits.scheduler_timeout).to_dict()
     out["bench_held"] = held
     return out
 
 
-def check_refine(req: RefineRequest, store, limits):
+def check_refine(req: RefineRequest, store, limits, settings=None):
     """Everything a refine request can get wrong, checked before any work."""
+    diagnosis_scheduler(req, settings)
     model = parse_model(req.model)
     uncertain, known, _ = _uncertain_known(req, model)
     check_request(model, None, uncertain, known)
     return model, parse_experiments(req.experiments, model, store, limits)
 
 
-def run_refine(req: RefineRequest, store, limits, progress=None, checked=None):
+def run_refine(req: RefineRequest, store, limits, progress=None, checked=None, settings=None):
     """:func:`pneucore.analysis.history.refine` on the request: the versions, each round's diagnosis and
     the refined model (plain JSON); ``checked`` as for :func:`run_compare` (from
-    :func:`check_refine`)."""
+    :func:`check_refine`); ``settings`` as for :func:`run_diagnose`."""
     from pneucore.analysis.history import refine, refinement_answer
-    model, exps = checked or check_refine(req, store, limits)
+    model, exps = checked or check_refine(req, store, limits, settings)
     uncertain, known, _ = _uncertain_known(req, model)
     state = {"round": 0, "last": 0.0}
 
@@ -349,7 +365,9 @@ def run_refine(req: RefineRequest, store, limits, progress=None, checked=None):
                      f"round {state['round'] + 1}: {step}")
     final, history, diagnoses = refine(model, exps, max_rounds=req.max_rounds,
                                        uncertain=uncertain, progress=each_round,
-                                       validated=True, known=known)   # check_refine checked it
+                                       validated=True, known=known,   # check_refine checked it
+                                       scheduler=diagnosis_scheduler(req, settings),
+                                       scheduler_timeout=limits.scheduler_timeout)
     return refinement_answer(final, history, diagnoses)
 
 
@@ -393,12 +411,12 @@ def comparison_report(req: CompareRequest, store, limits, progress=None):
     return html_report(model, c, _provenance(store, exps))
 
 
-def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None):
+def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None, settings=None):
     """POST /api/reports/diagnose: the diagnosis (with the comparisons of the model and of the
     verdict's refined model) as one self-contained HTML text; ``progress`` follows the
-    diagnosis."""
+    diagnosis (run where ``req.scheduler`` names, as for :func:`run_diagnose`)."""
     from pneucore.analysis.report import diagnosis_report_on
-    model, exps = check_diagnose(req, store, limits)
+    model, exps = check_diagnose(req, store, limits, settings)
     shown = getattr(req, "diagnosis", None)
     if shown is not None:   # the diagnosis on screen, exported as it is
         d = shown.model_dump()
@@ -416,16 +434,18 @@ def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None):
     else:
         uncertain, known, _ = _uncertain_known(req, model)
         d = diagnose(model, exps, candidates=req.candidates, uncertain=uncertain,
-                     progress=progress, validated=True, known=known).to_dict()   # checked above
+                     progress=progress, validated=True, known=known,   # checked above
+                     scheduler=diagnosis_scheduler(req, settings),
+                     scheduler_timeout=limits.scheduler_timeout).to_dict()
     return diagnosis_report_on(model, exps, d, _provenance(store, exps))
 
 
-def refinement_report(req: RefineRequest, store, limits, progress=None):
+def refinement_report(req: RefineRequest, store, limits, progress=None, settings=None):
     """POST /api/reports/refine: the whole refinement (every version and round, the refined
     model against the data) as one self-contained HTML text; ``progress`` follows the loop."""
     from pneucore.analysis.report import refinement_report as html_report
-    checked = check_refine(req, store, limits)
-    answer = run_refine(req, store, limits, progress=progress, checked=checked)
+    checked = check_refine(req, store, limits, settings)
+    answer = run_refine(req, store, limits, progress=progress, checked=checked, settings=settings)
     exps = checked[1]
     return html_report(answer, compare(Model.from_dict(answer["model"]), exps), _provenance(store, exps))
 
@@ -869,6 +889,10 @@ def add_session_version(session_id, req, store, limits):
 
 
 # ------------------------------------------------------------------------------ studies
+#: Settings with no Dask cluster configured (a caller of the services without the server's)
+_NO_CLUSTER = SimpleNamespace(dask_scheduler=None)
+
+
 def configured_clusters(settings):
     """The cluster names a request may give, those of :data:`STUDY_CLUSTERS` configured here."""
     return [c for c in STUDY_CLUSTERS if c == "local" or (c == "dask" and settings.dask_scheduler)]

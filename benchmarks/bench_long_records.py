@@ -4,6 +4,7 @@ Run from the repository root::
 
     python benchmarks/bench_long_records.py [--lengths 1,1.7,5,20,60] [--counts 2,5,10]
                                             [--refine-lengths 20] [--json PATH]
+                                            [--scheduler tcp://host:8786 | --scheduler local:2]
 
 The rig is the paper's 4/2 jack (``paper-4way``) with a hidden piston leak
 (conductance :data:`LEAK`), diagnosed from the catalogue model with nothing
@@ -24,6 +25,11 @@ refinement loop (:func:`pneucore.analysis.history.refine`), with the exponent ``
 ``time ~ a * size^b`` fitted by least squares on the logarithms (size: simulated seconds
 of record in all, or the number of experiments). Speed is measured here, never asserted by
 a test.
+
+With ``--scheduler`` each row also times the same round with its candidate refits on a Dask
+cluster (``diagnose(..., scheduler=...)``): a scheduler's address, or ``local:N`` for a
+LocalCluster of ``N`` single-threaded worker processes started here; the row says whether the
+verdict and the leading candidate's fitted values are the local round's.
 """
 from __future__ import annotations
 
@@ -144,6 +150,48 @@ def peak_memory(fn):
     return peak - base, out
 
 
+def open_cluster(spec):
+    """``(scheduler, close)`` for ``--scheduler``: an address as given, or ``local:N`` for a
+    LocalCluster of ``N`` single-threaded worker processes (closed by ``close()``)."""
+    if not spec:
+        return None, lambda: None
+    if spec.startswith("local:"):
+        import logging
+
+        import distributed
+        cluster = distributed.LocalCluster(n_workers=int(spec.split(":", 1)[1]), threads_per_worker=1,
+                                           processes=True, dashboard_address="127.0.0.1:0",
+                                           silence_logs=logging.CRITICAL)
+        client = distributed.Client(cluster, set_as_default=False)
+
+        def close():
+            client.close()
+            cluster.close()
+        return client, close
+    return spec, lambda: None
+
+
+def on_cluster(row, d_local, fn):
+    """Time ``fn()`` (the round on the cluster) into ``row``: its wall time, and whether its
+    verdict and its leading candidate's fitted values are the local round's (to 1e-9: the same
+    arithmetic on the same inputs in another process)."""
+    row["dask_round_s"], d = timed(fn)
+    same = d.verdict == d_local.verdict and [r["effect"] for r in d.ranking] == \
+        [r["effect"] for r in d_local.ranking]
+    if same and d.ranking:
+        a, b = d_local.ranking[0]["params"], d.ranking[0]["params"]
+        same = all(abs(b[p]["value"] - v["value"]) <= 1e-9 * abs(v["value"]) for p, v in a.items())
+    row["dask_same"] = bool(same)
+
+
+def _dask_text(row):
+    if "dask_round_s" not in row:
+        return ""
+    refine_text = f", refine {row['dask_refine_s']:.2f} s" if "dask_refine_s" in row else ""
+    return (f"   on Dask {row['dask_round_s']:.2f} s ({'same' if row['dask_same'] else 'DIFFERENT'})"
+            + refine_text)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--lengths", default="1,1.7,5,20,60",
@@ -157,6 +205,9 @@ def main(argv=None):
     ap.add_argument("--memory", action="store_true",
                     help="also trace each round's peak memory (a second, untimed round)")
     ap.add_argument("--json", default=None, help="write the figures to this file")
+    ap.add_argument("--scheduler", default=None,
+                    help="also time each round with its candidate refits on a Dask cluster: a "
+                         "scheduler address, or local:N for a LocalCluster of N worker processes")
     a = ap.parse_args(argv)
     lengths = [float(x) for x in a.lengths.split(",") if x]
     counts = [int(x) for x in a.counts.split(",") if x]
@@ -168,6 +219,9 @@ def main(argv=None):
     print("machine:", info)
     # compile and warm the caches outside the timings
     diagnose(start, length_set(true, 1.0)[:1])
+    scheduler, close_cluster = open_cluster(a.scheduler)
+    if scheduler is not None:   # the workers' imports and compiled caches, outside the timings
+        diagnose(start, length_set(true, 1.0)[:1], scheduler=scheduler)
 
     figures = {"machine": info, "length": [], "count": []}
     print(f"\n{'record':>22} {'samples':>8} {'round s':>8} {'verdict':>18} {'refine s':>9}")
@@ -177,28 +231,40 @@ def main(argv=None):
         t_round, d = timed(lambda: diagnose(start, exps))
         row = {"cyclic_s": T, "simulated_s": 1.0 + T, "samples": n, "round_s": t_round,
                "verdict": d.verdict or "none"}
+        if scheduler is not None:
+            on_cluster(row, d, lambda: diagnose(start, exps, scheduler=scheduler))
         if T in ref_len:
             row["refine_s"], _ = timed(lambda: refine(start, exps))
+            if scheduler is not None:
+                row["dask_refine_s"], _ = timed(lambda: refine(start, exps, scheduler=scheduler))
         if a.memory:
             peak, _ = peak_memory(lambda: diagnose(start, exps))
             row["peak_mb"], row["records_mb"] = peak / 1e6, record_bytes(exps) / 1e6
         figures["length"].append(row)
         print(f"{'1 s hold + %g s cyclic' % T:>22} {n:>8} {t_round:>8.2f} {row['verdict']:>18} "
-              f"{row.get('refine_s', float('nan')):>9.2f}" + _memory_text(row))
+              f"{row.get('refine_s', float('nan')):>9.2f}" + _memory_text(row) + _dask_text(row))
     for n_exp in counts:
         exps = count_set(true, n_exp, a.duration)
         n = sum(e.measurement.n for e in exps)
         t_round, d = timed(lambda: diagnose(start, exps))
         row = {"experiments": n_exp, "simulated_s": n_exp * a.duration, "samples": n,
                "round_s": t_round, "verdict": d.verdict or "none"}
+        if scheduler is not None:
+            on_cluster(row, d, lambda: diagnose(start, exps, scheduler=scheduler))
         if n_exp in ref_cnt:
             row["refine_s"], _ = timed(lambda: refine(start, exps))
+            if scheduler is not None:
+                row["dask_refine_s"], _ = timed(lambda: refine(start, exps, scheduler=scheduler))
         if a.memory:
             peak, _ = peak_memory(lambda: diagnose(start, exps))
             row["peak_mb"], row["records_mb"] = peak / 1e6, record_bytes(exps) / 1e6
         figures["count"].append(row)
         print(f"{'%d x %g s' % (n_exp, a.duration):>22} {n:>8} {t_round:>8.2f} "
-              f"{row['verdict']:>18} {row.get('refine_s', float('nan')):>9.2f}" + _memory_text(row))
+              f"{row['verdict']:>18} {row.get('refine_s', float('nan')):>9.2f}" + _memory_text(row)
+              + _dask_text(row))
+    close_cluster()
+    if scheduler is not None:
+        figures["scheduler"] = a.scheduler if a.scheduler.startswith("local:") else "a Dask scheduler"
 
     for key in ("length", "count"):
         mem = [r for r in figures[key] if "peak_mb" in r]

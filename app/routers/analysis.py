@@ -2,7 +2,7 @@
 from fastapi import APIRouter, Request
 
 from ..bodies import OffLoopRoute
-from ..deps import LimitsDep, StoreDep
+from ..deps import LimitsDep, SettingsDep, StoreDep
 from ..sync_pool import sync_slot
 from ..responses import JSON, CSV_RESPONSES, csv_response, wants_csv
 from ..schemas import (CalibrateRequest, CalibrateResponse, CompareRequest, CompareResponse,
@@ -34,13 +34,15 @@ def calibrate_endpoint(req: CalibrateRequest, store: StoreDep, limits: LimitsDep
 @router.post("/diagnose", dependencies=[sync_slot("/api/jobs/diagnose")],
              summary="Rank the missing physical effects and name the verdict",
              response_class=JSON, response_model=DiagnoseResponse)
-def diagnose_endpoint(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep):
-    return JSON(run_diagnose(req, store, limits, progress=deadline_progress(limits, "diagnosis", "/api/jobs/diagnose")))
+def diagnose_endpoint(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep, settings: SettingsDep):
+    return JSON(run_diagnose(req, store, limits, progress=deadline_progress(limits, "diagnosis", "/api/jobs/diagnose"),
+                             settings=settings))
 
 
 @router.post("/refine", dependencies=[sync_slot("/api/jobs/refine")],
              summary="Stepwise to the noise floor: diagnose, apply the findings, repeat",
              response_class=JSON, response_model=RefineResponse)
-def refine_endpoint(req: RefineRequest, store: StoreDep, limits: LimitsDep):
+def refine_endpoint(req: RefineRequest, store: StoreDep, limits: LimitsDep, settings: SettingsDep):
     return JSON(run_refine(req, store, limits,
-                           progress=deadline_progress(limits, "refinement", "/api/jobs/refine")))
+                           progress=deadline_progress(limits, "refinement", "/api/jobs/refine"),
+                           settings=settings))

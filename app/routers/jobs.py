@@ -3,7 +3,7 @@ from fastapi import APIRouter, HTTPException
 from ..responses import JSON
 
 from ..bodies import OffLoopRoute
-from ..deps import JobsDep, LimitsDep, StoreDep, not_found
+from ..deps import JobsDep, LimitsDep, SettingsDep, StoreDep, not_found
 from ..schemas import CalibrateRequest, CompareRequest, DiagnoseRequest, JobResponse, RefineRequest
 from ..services import (check_calibrate, check_compare, check_diagnose, check_refine, run_calibrate,
                         run_compare, run_diagnose, run_refine)
@@ -22,12 +22,13 @@ def _submit(jobs, kind, fn):
 
 
 @router.post("/diagnose", status_code=202, response_model=JobResponse, summary="Diagnose as a job")
-def diagnose_job(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep):
+def diagnose_job(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep,
+                 settings: SettingsDep):
     # validate up front so bad input is a 422 now, not a failed job later; the job runs on
-    # what was checked (validated once)
-    checked = check_diagnose(req, store, limits)
+    # what was checked (validated once), on the cluster the request names
+    checked = check_diagnose(req, store, limits, settings)
     return _submit(jobs, "diagnose", lambda job: run_diagnose(req, store, limits, progress=job.report,
-                                                              checked=checked))
+                                                              checked=checked, settings=settings))
 
 
 def _simple(kind, check, runner):
@@ -41,7 +42,6 @@ def _simple(kind, check, runner):
 
 _calibrate = _simple("calibrate", check_calibrate, run_calibrate)
 _compare = _simple("compare", check_compare, run_compare)
-_refine = _simple("refine", check_refine, run_refine)
 
 
 @router.post("/calibrate", status_code=202, response_model=JobResponse, summary="Calibrate as a job")
@@ -56,8 +56,11 @@ def compare_job(req: CompareRequest, store: StoreDep, limits: LimitsDep, jobs: J
 
 @router.post("/refine", status_code=202, response_model=JobResponse,
              summary="Refine to the noise floor as a job (the versions, each round's diagnosis)")
-def refine_job(req: RefineRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep):
-    return _refine(req, store, limits, jobs)
+def refine_job(req: RefineRequest, store: StoreDep, limits: LimitsDep, jobs: JobsDep,
+               settings: SettingsDep):
+    checked = check_refine(req, store, limits, settings)
+    return _submit(jobs, "refine", lambda job: run_refine(req, store, limits, progress=job.report,
+                                                          checked=checked, settings=settings))
 
 
 @router.post("/sizing", status_code=202, response_model=JobResponse,

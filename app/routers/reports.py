@@ -3,7 +3,7 @@ report to download."""
 from fastapi import APIRouter
 from fastapi.responses import Response
 
-from ..deps import LimitsDep, StoreDep
+from ..deps import LimitsDep, SettingsDep, StoreDep
 from ..sync_pool import sync_slot
 from ..schemas import CompareRequest, DiagnoseReportRequest, RefineRequest
 from ..services import comparison_report, deadline_progress, diagnosis_report, refinement_report
@@ -31,15 +31,18 @@ def compare_report(req: CompareRequest, store: StoreDep, limits: LimitsDep):
 @router.post("/diagnose", dependencies=[sync_slot("/api/jobs/diagnose")],
              response_class=Response, responses=_HTML,
              summary="HTML report of a diagnosis (verdict, ranking, residual tests, plots, model)")
-def diagnose_report(req: DiagnoseReportRequest, store: StoreDep, limits: LimitsDep):
+def diagnose_report(req: DiagnoseReportRequest, store: StoreDep, limits: LimitsDep,
+                    settings: SettingsDep):
     progress = deadline_progress(limits, "diagnosis", "/api/jobs/diagnose")
-    return _html(diagnosis_report(req, store, limits, progress=progress), "diagnosis-report.html")
+    return _html(diagnosis_report(req, store, limits, progress=progress, settings=settings),
+                 "diagnosis-report.html")
 
 
 @router.post("/refine", dependencies=[sync_slot("/api/jobs/refine")],
              response_class=Response, responses=_HTML,
              summary="HTML report of a whole refinement (every version and round, the refined "
                      "model against the data, the model)")
-def refine_report(req: RefineRequest, store: StoreDep, limits: LimitsDep):
+def refine_report(req: RefineRequest, store: StoreDep, limits: LimitsDep, settings: SettingsDep):
     progress = deadline_progress(limits, "refinement", "/api/jobs/refine")
-    return _html(refinement_report(req, store, limits, progress=progress), "refinement-report.html")
+    return _html(refinement_report(req, store, limits, progress=progress, settings=settings),
+                 "refinement-report.html")

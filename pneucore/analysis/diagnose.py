@@ -180,7 +180,7 @@ def check_request(model, candidates=None, uncertain=(), known=()):
 @single_threaded_blas
 def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT, alpha=ALPHA,
              datasets=None, progress=None, max_nfev=30, refit_existing=True, base_hypotheses=True,
-             validated=False, known=()):
+             validated=False, known=(), scheduler=None, scheduler_timeout=None):
     """Which base parameters are mis-set, which catalog effect is missing, what remains.
 
     Parameters
@@ -216,6 +216,13 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         Parameter paths whose values the user declared (a weighed mass, a load from
         gravity): never fitted, never offered as a base hypothesis; where the data would
         need one far off, ``remaining["known_disagree"]`` and the message say so
+    scheduler : str, distributed.Client, cluster or None
+        Where the candidates' joint refits (step 3, the costliest independent work) run:
+        None = this machine's threads; a Dask scheduler address, ``Client`` or cluster
+        object = one task each on that cluster (the same answer, to round-off). A service
+        passes only the address configured on the server, never one from a request
+    scheduler_timeout : float or None
+        Time to reach the scheduler (None = the studies' default) [s]
 
     Returns
     -------
@@ -231,79 +238,80 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
 
     names = _candidate_names(model, candidates) if validated else \
         check_request(model, candidates, uncertain, known)
-    known = tuple(known or ())
-    cands, skipped = S.candidate_effects(model, names)
+    with S.cluster_client(scheduler, scheduler_timeout) as client:
+        known = tuple(known or ())
+        cands, skipped = S.candidate_effects(model, names)
 
-    report(0.01, "simulating the model as given")
-    rps_start = [replay(model, e) for e in exps]
-    comp_start = summarise(rps_start)
+        report(0.01, "simulating the model as given")
+        rps_start = [replay(model, e) for e in exps]
+        comp_start = summarise(rps_start)
 
-    hyp = S.base_hypotheses(model, exps, cands, uncertain, known, base_hypotheses, rps_start,
-                            report)
-    exps = hyp.exps
-    report(0.02, "fitting the base model")
-    unc = S.uncertain_paths(model, hyp, known, refit_existing)
-    # a value the user typically knows (a horizontal jack's load) is held at the user's value,
-    # and freed only where the data demand it
-    # (one confounded in the small is not chosen, and is freed where a fit drives the
-    # parameters it is confounded with to a bound, as any other)
-    null = S.null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report,
-                      held=S.known_chosen(hyp))
-    null = S.demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report, alpha)
+        hyp = S.base_hypotheses(model, exps, cands, uncertain, known, base_hypotheses, rps_start,
+                                report)
+        exps = hyp.exps
+        report(0.02, "fitting the base model")
+        unc = S.uncertain_paths(model, hyp, known, refit_existing)
+        # a value the user typically knows (a horizontal jack's load) is held at the user's value,
+        # and freed only where the data demand it
+        # (one confounded in the small is not chosen, and is freed where a fit drives the
+        # parameters it is confounded with to a bound, as any other)
+        null = S.null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report,
+                          held=S.known_chosen(hyp))
+        null = S.demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report, alpha)
 
-    def weigh(null):
-        score = S.candidate_scores(model, exps, null, cands, report)
-        lead = S.leading(score, n_refit)
-        refits = S.joint_refits(model, exps, null, lead, max_nfev, report)
-        ranking = S.evidence(null, refits)
-        return (score, lead, refits, ranking) + S.verdict(model, exps, ranking, refits, null,
-                                                          alpha, max_nfev, report)
+        def weigh(null):
+            score = S.candidate_scores(model, exps, null, cands, report)
+            lead = S.leading(score, n_refit)
+            refits = S.joint_refits(model, exps, null, lead, max_nfev, report, client)
+            ranking = S.evidence(null, refits)
+            return (score, lead, refits, ranking) + S.verdict(model, exps, ranking, refits, null,
+                                                              alpha, max_nfev, report)
 
-    weighed = weigh(null)
-    # a recalibration at a bound, or far beyond a catalogue error, is a symptom: the catalog
-    # effects are weighed again against a null with it held at the catalogue value
-    odd = S.implausible(model, null) if weighed[4] is None else []
-    held = None
-    for hold in S.holdings(odd):
-        report(0.5, "weighing the effects with " + ", ".join(o["label"] for o in hold)
-               + " held at the catalogue value")
-        null_h = S.null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report,
-                            held={o["path"] for o in hold} | hyp.held)
-        weighed_h = weigh(null_h)
-        e_held = (weighed_h[2][weighed_h[4]].error_after.overall if weighed_h[4] is not None
-                  else null_h.error)
-        taken = S.takes_over(weighed_h, null)
-        held = {"parameters": hold, "verdict": weighed_h[4], "error_held": e_held,
-                "error_recalibrated": null.error, "taken": taken,
-                "description": S.held_words(odd, hold, weighed_h[4] if taken else None,
-                                            e_held, null.error)}
-        if taken:
-            null, weighed = null_h, weighed_h
-            break
-    score, lead, refits, ranking, verdict, message = weighed
-    f = findings(model, exps, verdict, message, ranking, refits, null, hyp, comp_start,
-                 rps_start, known, lead, max_nfev, report)
-    if held is not None:
-        f.remaining["held_at_catalogue"] = held
-        f.message += " " + held["description"] + "."
-        if held["taken"]:
-            f.model, back = S.withheld(model, f.model, f.recalibrate,
-                                       {s.path for s in null.auto_specs})
-            held["withheld"] = [r["path"] for r in back]
-            if back:
-                f.message += (" Not taken into the next model, the same symptom beside it: "
-                              + "; ".join(f"{r['label']} stays at {r['before']:.3g} "
-                                          f"{r['unit']}".rstrip() for r in back) + ".")
-    report(1.0, "done")
-    return Diagnosis(verdict, f.message, ranking,
-                     score + [{"effect": s["effect"], "skipped": s["reason"]} for s in skipped],
-                     null.comp, null.comp.windows, f.tests, null.comp.noise_floor, null.base,
-                     [s.path for s in null.specs], refits,
-                     recalibrate=f.recalibrate, refitted=f.refitted, model=f.model,
-                     alternatives=f.alternatives, remaining=f.remaining,
-                     identifiability=hyp.identifiability, error_start=comp_start,
-                     dropped=f.dropped, initial_state=hyp.initial_state, hints=comp_start.hints,
-                     given=model.to_dict(), known=list(known))
+        weighed = weigh(null)
+        # a recalibration at a bound, or far beyond a catalogue error, is a symptom: the catalog
+        # effects are weighed again against a null with it held at the catalogue value
+        odd = S.implausible(model, null) if weighed[4] is None else []
+        held = None
+        for hold in S.holdings(odd):
+            report(0.5, "weighing the effects with " + ", ".join(o["label"] for o in hold)
+                   + " held at the catalogue value")
+            null_h = S.null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report,
+                                held={o["path"] for o in hold} | hyp.held)
+            weighed_h = weigh(null_h)
+            e_held = (weighed_h[2][weighed_h[4]].error_after.overall if weighed_h[4] is not None
+                      else null_h.error)
+            taken = S.takes_over(weighed_h, null)
+            held = {"parameters": hold, "verdict": weighed_h[4], "error_held": e_held,
+                    "error_recalibrated": null.error, "taken": taken,
+                    "description": S.held_words(odd, hold, weighed_h[4] if taken else None,
+                                                e_held, null.error)}
+            if taken:
+                null, weighed = null_h, weighed_h
+                break
+        score, lead, refits, ranking, verdict, message = weighed
+        f = findings(model, exps, verdict, message, ranking, refits, null, hyp, comp_start,
+                     rps_start, known, lead, max_nfev, report)
+        if held is not None:
+            f.remaining["held_at_catalogue"] = held
+            f.message += " " + held["description"] + "."
+            if held["taken"]:
+                f.model, back = S.withheld(model, f.model, f.recalibrate,
+                                           {s.path for s in null.auto_specs})
+                held["withheld"] = [r["path"] for r in back]
+                if back:
+                    f.message += (" Not taken into the next model, the same symptom beside it: "
+                                  + "; ".join(f"{r['label']} stays at {r['before']:.3g} "
+                                              f"{r['unit']}".rstrip() for r in back) + ".")
+        report(1.0, "done")
+        return Diagnosis(verdict, f.message, ranking,
+                         score + [{"effect": s["effect"], "skipped": s["reason"]} for s in skipped],
+                         null.comp, null.comp.windows, f.tests, null.comp.noise_floor, null.base,
+                         [s.path for s in null.specs], refits,
+                         recalibrate=f.recalibrate, refitted=f.refitted, model=f.model,
+                         alternatives=f.alternatives, remaining=f.remaining,
+                         identifiability=hyp.identifiability, error_start=comp_start,
+                         dropped=f.dropped, initial_state=hyp.initial_state, hints=comp_start.hints,
+                         given=model.to_dict(), known=list(known))
 
 
 def apply_diagnosis(model, diagnosis, effect=None):

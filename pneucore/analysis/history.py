@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 from pneucore.analysis.compare import compare
 from pneucore.analysis.diagnose import check_request, diagnose
+from pneucore.analysis.diagnosis.stages import cluster_client
 from pneucore.data.experiment import as_experiments
 from pneucore.spec.model import Model
 
@@ -162,7 +163,7 @@ WORSE_TOLERANCE = 0.01
 
 
 def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progress=None,
-           validated=False, known=()):
+           validated=False, known=(), scheduler=None, scheduler_timeout=None):
     """Stepwise to the noise floor: diagnose, apply the findings, repeat.
 
     Each round recalibrates the base parameters the experiments identify and
@@ -193,6 +194,11 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
         ``uncertain`` and ``known`` were already checked on ``model`` by
         :func:`pneucore.analysis.diagnose.check_request` (the API does at its boundary); otherwise
         it is checked once here, before the first round, and not again in each round
+    scheduler : str, distributed.Client, cluster or None
+        Where each round's candidate refits run (see
+        :func:`pneucore.analysis.diagnose.diagnose`); reached once for all the rounds
+    scheduler_timeout : float or None
+        Time to reach the scheduler (None = the studies' default) [s]
 
     Returns
     -------
@@ -212,40 +218,41 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
     history = history or RefinementHistory()
     if not history.versions:
         history.add(model, compare(model, exps))
-    diagnoses = []
-    dropped_in = {}        # effect -> round in which the data dropped it
-    for k in range(max_rounds):
-        d = diagnose(model, exps, uncertain=uncertain, progress=progress, validated=True,
-                     known=known)
-        diagnoses.append(d)
-        if d.initial_state:
-            # the records imply an initial state their context does not declare (a rig left
-            # pressurised): later rounds, and this version's errors, start from it
-            exps = from_initial_state(exps, d.initial_state)
-        if d.verdict is None and not d.recalibrate:
+    with cluster_client(scheduler, scheduler_timeout) as client:
+        diagnoses = []
+        dropped_in = {}        # effect -> round in which the data dropped it
+        for k in range(max_rounds):
+            d = diagnose(model, exps, uncertain=uncertain, progress=progress, validated=True,
+                         known=known, scheduler=client)
+            diagnoses.append(d)
             if d.initial_state:
-                history.add(model, compare(model, exps), note=d.message,
-                            label="initial state: " + ", ".join(r.get("label", r["path"])
-                                                                for r in d.initial_state))
-            break
-        if d.verdict in dropped_in:
-            d.message += (f" {d.verdict} is added back: round {dropped_in[d.verdict]} dropped it "
-                          f"as indistinguishable from off, these records ask for it again.")
-        for name in d.dropped:
-            dropped_in[name] = k + 1
-        comp_prev = compare(model, exps)
-        comp_new = compare(d.model, exps)
-        if comp_new.overall > (1.0 + WORSE_TOLERANCE) * comp_prev.overall:
-            # never a version worse than the one before: the round's proposal is not taken
-            d.message += (f" Not applied: the proposed model's error ({100 * comp_new.overall:.2f} %)"
-                          f" is above the current version's ({100 * comp_prev.overall:.2f} %), "
-                          f"which refine keeps.")
-            break
-        model = d.model.copy()
-        params = d.ranking[0]["params"] if d.verdict else {}
-        history.add(model, comp_new, d.verdict, params, d.message, d.recalibrate)
-        if d.verdict is None or d.remaining.get("at_floor"):
-            break
+                # the records imply an initial state their context does not declare (a rig left
+                # pressurised): later rounds, and this version's errors, start from it
+                exps = from_initial_state(exps, d.initial_state)
+            if d.verdict is None and not d.recalibrate:
+                if d.initial_state:
+                    history.add(model, compare(model, exps), note=d.message,
+                                label="initial state: " + ", ".join(r.get("label", r["path"])
+                                                                    for r in d.initial_state))
+                break
+            if d.verdict in dropped_in:
+                d.message += (f" {d.verdict} is added back: round {dropped_in[d.verdict]} dropped it "
+                              f"as indistinguishable from off, these records ask for it again.")
+            for name in d.dropped:
+                dropped_in[name] = k + 1
+            comp_prev = compare(model, exps)
+            comp_new = compare(d.model, exps)
+            if comp_new.overall > (1.0 + WORSE_TOLERANCE) * comp_prev.overall:
+                # never a version worse than the one before: the round's proposal is not taken
+                d.message += (f" Not applied: the proposed model's error ({100 * comp_new.overall:.2f} %)"
+                              f" is above the current version's ({100 * comp_prev.overall:.2f} %), "
+                              f"which refine keeps.")
+                break
+            model = d.model.copy()
+            params = d.ranking[0]["params"] if d.verdict else {}
+            history.add(model, comp_new, d.verdict, params, d.message, d.recalibrate)
+            if d.verdict is None or d.remaining.get("at_floor"):
+                break
     return model, history, diagnoses
 
 

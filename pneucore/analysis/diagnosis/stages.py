@@ -16,7 +16,10 @@
 from __future__ import annotations
 
 import math
+import threading
+import time
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -25,6 +28,7 @@ from scipy import stats
 from pneucore.analysis import calibrate as _calibrate
 from pneucore.analysis import hypotheses as H
 from pneucore.analysis.autocorrelation import effective_lr, residual_times, times_report
+from pneucore.analysis.blas_threads import single_threaded_blas
 from pneucore.analysis.calibrate import Objective, fit, information_criteria
 from pneucore.analysis.compare import replay
 from pneucore.analysis.diagnosis import rules as R
@@ -448,8 +452,79 @@ def joint_refit(model, exps, null, name, max_nfev, report):
     return cal
 
 
-def joint_refits(model, exps, null, lead, max_nfev, report):
-    """``{name: calibration}`` of :func:`joint_refit` for each leading candidate (in parallel)."""
+@single_threaded_blas
+def remote_joint_refit(model, exps, null, name, max_nfev):
+    """:func:`joint_refit` as a Dask task: every argument and the result are plain picklable
+    objects (the model, the experiments, the :class:`Null`, the calibration); the progress
+    callback stays with the caller (:func:`joint_refits` checks it while it waits)."""
+    return joint_refit(model, exps, null, name, max_nfev, lambda f, s: None)
+
+
+#: Longest wait for a refit on a Dask cluster between two calls of the progress callback
+#: (which stops the diagnosis past its time limit or once its client has gone) [s]
+CLUSTER_HEARTBEAT = 1.0
+
+
+def _cluster_refits(client, model, exps, null, lead, max_nfev, report):
+    """``{name: calibration}`` of :func:`remote_joint_refit` for each of ``lead``, one Dask task
+    each (the model, experiments and null sent to the cluster once); the progress callback is
+    called at least every :data:`CLUSTER_HEARTBEAT` s, and whatever it raises cancels the tasks."""
+    shared = client.scatter([model, exps, null], hash=False)
+    futures = {client.submit(remote_joint_refit, *shared, name, max_nfev, pure=False): name
+               for name in lead}
+    out = {}
+    try:
+        pending = set(futures)
+        while pending:
+            report(0.4 + 0.55 * len(out) / max(len(lead), 1), "refit: " + ", ".join(
+                sorted(futures[f] for f in pending)) + " (on the Dask cluster)")
+            end = time.monotonic() + CLUSTER_HEARTBEAT
+            while time.monotonic() < end and not any(f.done() for f in pending):
+                time.sleep(0.02)   # a refit takes seconds: 20 ms polling costs nothing
+            for f in [f for f in pending if f.done()]:
+                pending.discard(f)
+                out[futures[f]] = f.result()
+    except BaseException:
+        client.cancel(list(futures))
+        raise
+    finally:
+        for f in list(futures) + list(shared):
+            f.release()
+    return {name: out[name] for name in lead}
+
+
+@contextmanager
+def cluster_client(scheduler, timeout=None):
+    """A ``distributed.Client`` for ``scheduler`` (None = none: yields None), closed at the end
+    if opened here.
+
+    ``scheduler`` is an address, a ``distributed.Client`` or a cluster object, as for a study
+    (:func:`pneucore.study.execute.connect_scheduler`, whose :class:`SchedulerError` names
+    ``scheduler`` when it cannot be reached or has no worker); a service passes only the
+    address configured on the server, never one from a request (a client unpickles what the
+    scheduler sends). ``timeout`` [s]: time to reach it (None = the studies' default).
+    """
+    if scheduler is None:
+        yield None
+        return
+    from pneucore.study.execute import SCHEDULER_TIMEOUT, connect_scheduler
+    timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
+    client, owned, _ = connect_scheduler(scheduler, timeout)
+    try:
+        yield client
+    finally:
+        if owned:   # closed within the timeout, even against a scheduler that stopped answering
+            t = threading.Thread(target=lambda: client.close(timeout=timeout), daemon=True)
+            t.start()
+            t.join(timeout + 1.0)
+
+
+def joint_refits(model, exps, null, lead, max_nfev, report, client=None):
+    """``{name: calibration}`` of :func:`joint_refit` for each leading candidate (in parallel):
+    on the Dask cluster of ``client`` (a ``distributed.Client``) when one is given, one task
+    each, else on this machine's threads."""
+    if client is not None and lead:
+        return _cluster_refits(client, model, exps, null, lead, max_nfev, report)
     refits = {}
     with ThreadPoolExecutor(_calibrate.THREADS) as pool:
         for done, (name, cal) in enumerate(pool.map(
