@@ -107,3 +107,13 @@ def test_the_isothermal_discharge_gets_a_heat_effect_by_held_out_prediction(disc
     # without the held-out path the same LR hears nothing: the verdict is its work
     monkeypatch.setattr(R, "HELD_OUT", False)
     assert diagnose(model, [dis], alpha=DEAF).verdict is None
+
+
+def test_a_candidate_that_does_not_predict_says_so():
+    from pneucore.analysis.diagnosis import stages as S
+    c = _candidate(0.5)
+    R.flags(c, _ctx([], 1, 0.05))
+    words = " ".join(S.why_not(c))
+    # the reason names the held-out evidence it failed, with its figures
+    assert "not significant" in words and f"{R.HELD_OUT_FOLDS} blocks" in words
+    assert "predicts 1 better" in words and "5 %" in words

@@ -591,7 +591,12 @@ def why_not(b):
         why.append(f"best candidate {b['effect']} is not determined by these records "
                    f"({b['undetermined']})")
     elif not b["significant"]:
-        why.append(f"best candidate {b['effect']} not significant (p = {b['p_value']:.2g})")
+        h = b.get("held_out")
+        held = (f"; refitted without each of {h['n_folds']} blocks in time it predicts "
+                f"{h['wins']} better than the null, removing {100 * h['drop']:.0f} % of its "
+                "held-out error" if h else "")
+        why.append(f"best candidate {b['effect']} not significant (p = {b['p_value']:.2g}"
+                   f"{held})")
     if not b["strong"]:
         why.append(f"delta BIC {b['delta_bic']:.1f} not below {R.DELTA_BIC:g}")
     if b["material"] and b["significant"] and b["strong"] and not b["consistent"]:
