@@ -117,3 +117,42 @@ def test_a_candidate_that_does_not_predict_says_so():
     # the reason names the held-out evidence it failed, with its figures
     assert "not significant" in words and f"{R.HELD_OUT_FOLDS} blocks" in words
     assert "predicts 1 better" in words and "5 %" in words
+
+
+def _drift(t, sd, time_constant, rng):
+    """Coloured noise: white noise through a first-order filter of ``time_constant`` [s],
+    scaled to standard deviation ``sd`` (a transducer's slow drift)."""
+    a = np.exp(-np.diff(t, prepend=t[0]) / time_constant)
+    w = rng.standard_normal(t.size)
+    y = np.zeros(t.size)
+    for i in range(1, t.size):
+        y[i] = a[i] * y[i - 1] + np.sqrt(1.0 - a[i] ** 2) * w[i]
+    return sd * y
+
+
+def test_a_drifting_sparse_discharge_gets_a_heat_effect_where_the_lr_is_deaf(monkeypatch):
+    """The discharge of the reference vessel at the correlation's own coefficient, 31 points,
+    both sensors drifting slowly (filtered noise, 100 s on a 60 s record: 0.4 bar and 10 K):
+    the residual is smooth, ``n / tau`` counts ~5 effective samples and the LR hears nothing
+    at the default alpha, as on the issue's real discharge."""
+    D, d_in = FILLING_TEST["diameter"], FILLING_TEST["orifice"]
+    _, dis = reference_records(reference_inner_coefficient(D, d_in, "churchill_chu", 1.0, 0.5),
+                               2.0, discharge_end=60.0, period=2.0, seed=0)
+    meas = dis["measurement"]
+    t = np.array(meas["t"])
+    rng = np.random.default_rng(5)
+    for s, sd in (("p_a", 4e4), ("T_a", 10.0)):
+        meas[s] = [None if v is None else v + d for v, d in zip(meas[s], _drift(t, sd, 100.0, rng))]
+    model = published_vessel({"model": "isothermal"})
+    monkeypatch.setattr(R, "HELD_OUT", False)
+    deaf = diagnose(model, [dis])
+    assert deaf.verdict is None
+    b = deaf.ranking[0]
+    # deaf: the best heat effect removes most of the error, yet neither LR nor BIC passes on
+    # the few effective samples left (the symptom the rule is for)
+    assert b["excess_drop"] > 0.5 and b["p_value"] > R.ALPHA / len(deaf.ranking)
+    assert b["delta_bic"] > R.DELTA_BIC and b["effective_samples"] < 10
+    monkeypatch.setattr(R, "HELD_OUT", True)
+    d = diagnose(model, [dis])
+    assert d.verdict in ("natural_convection", "heat_exchange")
+    assert d.ranking[0]["held_out"]["predicts"]
