@@ -3,13 +3,18 @@ over the noise floor, its fit with the next candidate, its agreement across expe
 whether its strength is determined at all, and the words that explain it."""
 from __future__ import annotations
 
+import dataclasses
 import math
 from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
 
 from pneucore.analysis import calibrate as _calibrate
 from pneucore.analysis import hypotheses as H
 from pneucore.analysis.calibrate import fit
+from pneucore.analysis.compare import replay
 from pneucore.analysis.diagnosis.rules import CONSISTENT_RTOL
+from pneucore.data.measurement import Measurement
 from pneucore.spec.effects import EFFECTS
 from pneucore.spec.paths import ParameterSpec
 
@@ -186,9 +191,6 @@ def masked(exp, k, n_folds):
     """A copy of experiment ``exp`` with its ``k``-th of ``n_folds`` blocks of samples in time
     marked missing (NaN in every compared signal); the scenario and the initial state are
     the full record's (read from its first samples, copied, not re-estimated)."""
-    import dataclasses
-    import numpy as np
-    from pneucore.data.measurement import Measurement
     n = exp.measurement.t.size
     lo, hi = (k * n) // n_folds, ((k + 1) * n) // n_folds
     sig = {s: np.array(v, float) for s, v in exp.measurement.signals.items()}
@@ -204,8 +206,6 @@ def block_energy(model, exps, blocks, scales):
     """Squared prediction error of ``model`` on the held-out ``blocks`` (``{experiment name:
     (lo, hi)}``), each series scaled by ``scales[(experiment, signal)]`` (the null's residual
     RMS): sum of squares [-], NaN where the replay failed."""
-    import numpy as np
-    from pneucore.analysis.compare import replay
     total = 0.0
     for e in exps:
         lo, hi = blocks[e.name]
@@ -241,8 +241,6 @@ def held_out(null_model, null_specs, cand_model, cand_specs, exps, scales, prior
         candidate predicts better), ``drop`` (1 - candidate's / null's held-out energy over
         all folds) [-]
     """
-    from pneucore.analysis.calibrate import fit
-
     def one(k):
         cut = [masked(e, k, n_folds) for e in exps]
         train = [c for c, _ in cut]
