@@ -35,7 +35,13 @@
    signal's best transducer gain and offset are removed from the residuals
    (:func:`pneucore.analysis.hypotheses.calibrated_error`), or together with
    the next candidate), and consistent across experiments (its parameters
-   fitted on each experiment alone agree, :func:`consistency`). Candidates
+   fitted on each experiment alone agree, :func:`consistency`). Where the LR or
+   BIC test fails on a determined, material candidate (a sparse record whose
+   smooth misspecified residual leaves few effective samples), it is significant
+   and strong when it predicts data it was not fitted on: refitted, as the null
+   is, without each of ``HELD_OUT_FOLDS`` blocks in time, it predicts the
+   held-out blocks better (:func:`pneucore.analysis.diagnosis.evidence.held_out`,
+   ``ranking[i]["held_out"]``). Candidates
    are judged in order of evidence: a stand-in that fails does not hide the
    next; the first that passes is named (and ranked first). Otherwise
    the verdict is ``None``: "no catalog effect explains the remaining

@@ -28,6 +28,18 @@ CONSISTENT_RTOL = 0.5
 #: Share of that excess the named effect must remove, alone or with the next candidate (two
 #: missing effects of similar size): a stand-in for something outside the catalog removes less
 EXCESS_MAJOR = 0.5
+#: Held-out prediction is an alternative path to "significant" and "strong" (judged only on a
+#: determined, material candidate that failed the effective-sample LR or BIC test)
+HELD_OUT = True
+#: Blocks in time each experiment is cut into for the held-out prediction: 4 leaves 3/4 of a
+#: 30-point record (~22 points) to fit 1-3 parameters, and 4 folds to vote
+HELD_OUT_FOLDS = 4
+#: Folds on which the candidate must predict the held-out block better than the null: all
+#: but one (a majority that one unlucky block cannot decide)
+HELD_OUT_WINS = HELD_OUT_FOLDS - 1
+#: Share of the null's held-out prediction energy (squared scaled error, all folds) the
+#: candidate must remove: the same share as :data:`EXCESS_MATERIAL` asks of the fit itself
+HELD_OUT_DROP = 0.2
 
 
 @dataclass(frozen=True)
@@ -66,27 +78,42 @@ class Judging:
         significant, material one (``excess_drop`` of the two together)
     consistency : callable
         ``consistency(candidate) -> dict``: its parameters fitted on each experiment alone
+    held_out : callable
+        ``held_out(candidate) -> dict``: its and the null's predictions of blocks held out of
+        their fits (:func:`pneucore.analysis.diagnosis.evidence.held_out`); None: not judged
     """
     alpha: float
     n_tests: int
     pair: Callable = None
     consistency: Callable = None
+    held_out: Callable = None
 
 
 def _determined(c, ctx):
     return not c["undetermined"]
 
 
+def _material(c, ctx):
+    return c["relative_drop"] >= MATERIAL and c["excess_drop"] >= EXCESS_MATERIAL
+
+
+def _predicts(c, ctx):
+    """Held-out prediction (refits: judged once, only on a determined, material candidate)."""
+    if not HELD_OUT or ctx.held_out is None or not (_determined(c, ctx) and _material(c, ctx)):
+        return False
+    if "held_out" not in c:
+        c["held_out"] = ctx.held_out(c)
+    h = c["held_out"]
+    h["predicts"] = bool(h["wins"] >= HELD_OUT_WINS and h["drop"] >= HELD_OUT_DROP)
+    return h["predicts"]
+
+
 def _significant(c, ctx):
-    return c["p_value"] < ctx.alpha / ctx.n_tests
+    return c["p_value"] < ctx.alpha / ctx.n_tests or _predicts(c, ctx)
 
 
 def _strong(c, ctx):
-    return c["delta_bic"] < DELTA_BIC
-
-
-def _material(c, ctx):
-    return c["relative_drop"] >= MATERIAL and c["excess_drop"] >= EXCESS_MATERIAL
+    return c["delta_bic"] < DELTA_BIC or _predicts(c, ctx)
 
 
 def _major(c, ctx):
@@ -106,8 +133,13 @@ RULES = (
     Rule("determined", "a strength at its fit bound, or within one standard error of off, or "
          "physically impossible, is no evidence of the effect", _determined),
     Rule("significant", "likelihood-ratio p-value below alpha / number of refitted candidates "
-         "(counted on n / tau effective samples)", _significant),
-    Rule("strong", f"delta BIC below {DELTA_BIC:g} (Kass & Raftery: very strong)", _strong),
+         "(counted on n / tau effective samples), or it predicts held-out data (below)",
+         _significant),
+    Rule("strong", f"delta BIC below {DELTA_BIC:g} (Kass & Raftery: very strong), or it "
+         "predicts held-out data: a determined, material candidate refitted without each of "
+         f"{HELD_OUT_FOLDS} blocks in time predicts the block better than the null on "
+         f"{HELD_OUT_WINS} folds and removes {100 * HELD_OUT_DROP:g} % of the null's held-out "
+         "error (smooth residuals make n / tau too few samples for the LR)", _strong),
     Rule("material", f"removes at least {100 * MATERIAL:g} % of the error and "
          f"{100 * EXCESS_MATERIAL:g} % of its excess over the noise floor", _material),
     Rule("major", f"removes at least {100 * EXCESS_MAJOR:g} % of the excess: alone, once the "

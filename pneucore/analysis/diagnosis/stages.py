@@ -32,8 +32,8 @@ from pneucore.analysis.blas_threads import single_threaded_blas
 from pneucore.analysis.calibrate import Objective, fit, information_criteria
 from pneucore.analysis.compare import replay
 from pneucore.analysis.diagnosis import rules as R
-from pneucore.analysis.diagnosis.evidence import (consistency, excess_drop, given_prior, improvement,
-                                                  explain, pair, undetermined)
+from pneucore.analysis.diagnosis.evidence import (consistency, excess_drop, given_prior, held_out,
+                                                  improvement, explain, pair, undetermined)
 from pneucore.analysis.engineering import impossible
 from pneucore.spec.effects import EFFECTS
 from pneucore.spec.paths import ParameterSpec, get_value, parse_parameters, set_values, unit_of
@@ -612,6 +612,11 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
         report(0.96, f"consistency across experiments: {c['effect']}")
         return consistency(refits[c["effect"]], exps, c["effect"], max_nfev)
     ctx.consistency = consistent
+
+    def predicts(c):
+        report(0.96, f"held-out prediction: {c['effect']}")
+        return held_out_evidence(model, exps, null, c["effect"], refits[c["effect"]], max_nfev)
+    ctx.held_out = predicts
     for c in ranking:
         # physical plausibility: a strength at its fit bound, or not distinguishable from off by
         # its own standard error, is no evidence of the effect however much the fit improves
@@ -631,6 +636,29 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
     return None, NO_EFFECT + " (" + "; ".join(why_not(ranking[0])) + ")"
 
 
+def fitted_specs(fitted, specs):
+    """``specs`` restarted at ``fitted``'s values (a valve scale factor at 1 on its table)."""
+    out = []
+    for q in specs:
+        if q.path.startswith("valve."):
+            out.append(ParameterSpec(q.path, 1.0, q.min, q.max, True, q.unit))
+        else:
+            v = min(max(get_value(fitted, q.path), q.min), q.max)
+            out.append(ParameterSpec(q.path, v, q.min, q.max, True, q.unit))
+    return out
+
+
+def held_out_evidence(model, exps, null, name, cal, max_nfev):
+    """:func:`pneucore.analysis.diagnosis.evidence.held_out` of candidate ``name`` (its joint
+    refit ``cal``) against the null, each refitted from its own fit without each block."""
+    scales = {(e, s): rms for e, s, _, rms in null.keys}
+    base = fitted_specs(null.base, null.specs_start)
+    cand = effect_specs(model, name, cal.model.effects[name]) + fitted_specs(cal.model,
+                                                                            null.specs_start)
+    return held_out(null.base, base, cal.model, cand, exps, scales, null.prior,
+                    R.HELD_OUT_FOLDS, max(max_nfev // 2, 8))
+
+
 def why_not(b):
     """Why the best candidate ``b`` is not named, in words."""
     why = []
@@ -638,7 +666,12 @@ def why_not(b):
         why.append(f"best candidate {b['effect']} is not determined by these records "
                    f"({b['undetermined']})")
     elif not b["significant"]:
-        why.append(f"best candidate {b['effect']} not significant (p = {b['p_value']:.2g})")
+        h = b.get("held_out")
+        held = (f"; refitted without each of {h['n_folds']} blocks in time it predicts "
+                f"{h['wins']} better than the null, removing {100 * h['drop']:.0f} % of its "
+                "held-out error" if h else "")
+        why.append(f"best candidate {b['effect']} not significant (p = {b['p_value']:.2g}"
+                   f"{held})")
     if not b["strong"]:
         why.append(f"delta BIC {b['delta_bic']:.1f} not below {R.DELTA_BIC:g}")
     if b["material"] and b["significant"] and b["strong"] and not b["consistent"]:
