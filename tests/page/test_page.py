@@ -14,6 +14,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import re
+
 import pytest
 from service import running_service
 
@@ -74,6 +76,24 @@ def workbench_page(browser, url, errors, **context):
     yield p
     p.close()
     ctx.close()
+
+
+def wide_context(browser):
+    """A 1600x1000 context that accepts downloads (the panels with wide tables and file
+    exports); a generator for a module fixture: yields the context, closes it after."""
+    ctx = browser.new_context(viewport={"width": 1600, "height": 1000}, accept_downloads=True)
+    yield ctx
+    ctx.close()
+
+
+def wait_status(page, pattern):
+    """Wait until the status bar's message matches ``pattern`` (a regular expression) or turns
+    to an error; asserts the match and returns the message."""
+    page.wait_for_function("(p) => new RegExp(p).test(document.getElementById('status-msg').textContent) "
+                           "|| document.getElementById('status').classList.contains('error')", arg=pattern)
+    msg = page.inner_text("#status-msg")
+    assert re.search(pattern, msg), msg
+    return msg
 
 
 def _open(ctx, url, errors, view="all"):

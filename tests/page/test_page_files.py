@@ -8,23 +8,21 @@ commas, ``Zeit;Ventil;Kanal 3;p_B;Weg`` over ``ms;%;bar(g);bar(g);mm``.
 """
 from __future__ import annotations
 
-import re
 
 import numpy as np
 import pytest
 
 from pneucore import model_preset, scenario_preset
 from pneucore.simulate import simulate
-from test_page import TIMEOUT_MS, _open, browser, page_errors, server  # noqa: F401
+from test_page import (TIMEOUT_MS, _open, browser, page_errors, server, wait_status,  # noqa: F401
+                       wide_context)
 
 TRUE_MASS = 2.5
 
 
 @pytest.fixture(scope="module")
 def context(browser):  # noqa: F811
-    ctx = browser.new_context(viewport={"width": 1600, "height": 1000}, accept_downloads=True)
-    yield ctx
-    ctx.close()
+    yield from wide_context(browser)
 
 
 @pytest.fixture(scope="module")
@@ -51,11 +49,7 @@ def rig_file(tmp_path_factory):
 
 
 def _wait_status(page, pattern):
-    page.wait_for_function("(p) => new RegExp(p).test(document.getElementById('status-msg').textContent) "
-                           "|| document.getElementById('status').classList.contains('error')", arg=pattern)
-    msg = page.inner_text("#status-msg")
-    assert re.search(pattern, msg), msg
-    return msg
+    return wait_status(page, pattern)
 
 
 def test_upload_with_mapping(page, rig_file):

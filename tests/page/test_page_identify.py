@@ -13,7 +13,6 @@ No skipping: if Playwright or Chromium is missing the tests fail loudly.
 from __future__ import annotations
 
 import json
-import re
 import sys
 from pathlib import Path
 
@@ -27,7 +26,7 @@ from test_valve_bench import B_TRUE, C_TRUE, U, _bench  # noqa: E402
 from pneucore.data.synthetic import synthesize  # noqa: E402
 from pneucore.spec.presets import model_preset, scenario_preset  # noqa: E402
 from test_page import (_open, browser, no_script_errors, page_errors, plot_data,  # noqa: E402,F401
-                       server)
+                       server, wide_context, wait_status)
 
 #: Friction-bench records: held gauge pressure in A [bar]; fitted on 1, 3 and 7, 5 predicted
 FIT_LEVELS = (1.0, 3.0, 7.0)
@@ -36,9 +35,7 @@ VALIDATE_LEVEL = 5.0
 
 @pytest.fixture(scope="module")
 def context(browser):  # noqa: F811
-    ctx = browser.new_context(viewport={"width": 1600, "height": 1000}, accept_downloads=True)
-    yield ctx
-    ctx.close()
+    yield from wide_context(browser)
 
 
 @pytest.fixture(scope="module")
@@ -50,11 +47,7 @@ def page(context, server, page_errors):  # noqa: F811
 
 
 def _wait_status(page, pattern):
-    page.wait_for_function("(p) => new RegExp(p).test(document.getElementById('status-msg').textContent) "
-                           "|| document.getElementById('status').classList.contains('error')", arg=pattern)
-    msg = page.inner_text("#status-msg")
-    assert re.search(pattern, msg), msg
-    return msg
+    return wait_status(page, pattern)
 
 
 def _bench_csv(tmp_path, points, name="bench.csv"):

@@ -9,14 +9,14 @@ Skipped when the data are not beside the checkout (shared/), as tests/identify/t
 """
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import pytest
 
 from pneucore.identify import identify_friction, read_bench_file
 from pneucore.spec.model import Model
-from test_page import _open, browser, no_script_errors, page_errors, server  # noqa: F401
+from test_page import (_open, browser, no_script_errors, page_errors, server,  # noqa: F401
+                       wait_status)
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT.parent / "shared" / "data" / "friction-bench"
@@ -36,11 +36,7 @@ def page(browser, server, page_errors):  # noqa: F811
 
 
 def _wait_status(page, pattern):
-    page.wait_for_function("(p) => new RegExp(p).test(document.getElementById('status-msg').textContent) "
-                           "|| document.getElementById('status').classList.contains('error')", arg=pattern)
-    msg = page.inner_text("#status-msg")
-    assert re.search(pattern, msg), msg
-    return msg
+    return wait_status(page, pattern)
 
 
 def test_the_rigs_files_as_they_come_are_read_and_identified(page):

@@ -9,7 +9,6 @@ is exported as the report.
 """
 from __future__ import annotations
 
-import re
 
 import numpy as np
 import pytest
@@ -18,16 +17,14 @@ from pneucore.data.synthetic import synthesize
 from pneucore.spec.model import Model
 from pneucore.spec.presets import model_preset
 from pneucore.spec.scenario import pulse_train
-from test_page import _open, browser, page_errors, server  # noqa: F401
+from test_page import _open, browser, page_errors, server, wait_status, wide_context  # noqa: F401
 
 PULSES = [(0.1, 1.0), (0.5, 1.0), (0.9, 1.0)]
 
 
 @pytest.fixture(scope="module")
 def context(browser):  # noqa: F811
-    ctx = browser.new_context(viewport={"width": 1600, "height": 1000}, accept_downloads=True)
-    yield ctx
-    ctx.close()
+    yield from wide_context(browser)
 
 
 @pytest.fixture(scope="module")
@@ -54,11 +51,7 @@ def rig_file(tmp_path_factory):
 
 
 def _wait_status(page, pattern):
-    page.wait_for_function("(p) => new RegExp(p).test(document.getElementById('status-msg').textContent) "
-                           "|| document.getElementById('status').classList.contains('error')", arg=pattern)
-    msg = page.inner_text("#status-msg")
-    assert re.search(pattern, msg), msg
-    return msg
+    return wait_status(page, pattern)
 
 
 def test_upload_volts_with_a_sensor_and_see_the_proposed_command(page, rig_file):

@@ -8,14 +8,12 @@ import json
 import pytest
 
 from test_page import (server, _open, browser, no_script_errors, page_errors,  # noqa: F401
-                       plot_data)
+                       plot_data, wide_context)
 
 
 @pytest.fixture(scope="module")
 def context(browser):  # noqa: F811
-    ctx = browser.new_context(viewport={"width": 1600, "height": 1000}, accept_downloads=True)
-    yield ctx
-    ctx.close()
+    yield from wide_context(browser)
 
 
 @pytest.fixture(scope="module")
