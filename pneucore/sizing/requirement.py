@@ -292,15 +292,3 @@ class Choices:
     def to_dict(self):
         """Plain JSON (round-trips through :meth:`from_dict`)."""
         return {f.name: getattr(self, f.name) for f in fields(self)}
-
-    @property
-    def motion_time(self):
-        """Time to move in one cycle: cycle_time less both dwells [s]; None without cycle_time."""
-        return None if self.cycle_time is None else self.cycle_time - 2.0 * self.dwell
-
-    def time_bound(self, direction):
-        """The longest one stroke may take [s]: its required time, or with cycle_time the
-        whole time to move (the share each family gets is at most that)."""
-        if self.cycle_time is not None:
-            return self.motion_time
-        return self.extend_time if direction == "extend" else self.retract_time
