@@ -31,6 +31,6 @@ class ValveConvertResponse(BaseModel):
 
 
 #: The route's summary
-SUMMARY = ("Valve data as catalogues give them (Qn, effective area, a flow point) to the "
+SUMMARY = ("Valve data as catalogues give them (Qn, effective area, Cv, Kv, a flow point) to the "
            "model's C and b; exactly one of " + ", ".join(sorted(CONVERSIONS)))
 

@@ -1,5 +1,5 @@
 """POST /api/valve/convert: valve data as catalogues give them (nominal flow Qn, effective
-area, one flow point) converted to the model's sonic conductance C and critical ratio b
+area, Cv, Kv, one flow point) converted to the model's sonic conductance C and critical ratio b
 (issue 23, item 7; :mod:`pneucore.spec.valve_data`)."""
 from fastapi import APIRouter
 

@@ -297,6 +297,10 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         score, lead, refits, ranking, verdict, message = weighed
         f = findings(model, exps, verdict, message, ranking, refits, null, hyp, comp_start,
                      rps_start, known, lead, max_nfev, report)
+        # a value the user knows, moved on the data's demand: what it cannot be told from
+        words = S.demanded_words(model, hyp, f.recalibrate, f.refitted)
+        if words:
+            f.message += " " + words
         if held is not None:
             f.remaining["held_at_catalogue"] = held
             f.message += " " + held["description"] + "."

@@ -52,6 +52,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from pneucore.data.measurement import sensor_zero
+from pneucore.physics.jack import ANGLE_MAX
 from pneucore.spec.paths import VALVE_GROUPS, ParameterSpec, get_value, set_values, unit_of
 
 #: Sensitivity norm^2 (noise-weighted chi-square units) a typical error must produce to be
@@ -90,6 +91,10 @@ class BaseHypothesis:
         when the data demand it (:data:`pneucore.analysis.diagnosis.rules.DEMAND_RULES`)
     separated_by : str
         The measurement that gives this value where the records cannot (said when it is held)
+    additive : bool
+        ``typical``, ``lo`` and ``hi`` are in the parameter's own unit, not relative to its
+        value: a quantity for which 0 is no special value and an error is a difference, not
+        a factor (a mounting angle: 5 deg off at 30 deg as at 60 deg)
     """
     path: str
     label: str
@@ -102,6 +107,7 @@ class BaseHypothesis:
     zero_typical: float = 0.1
     user_knows: Optional[Callable] = None
     separated_by: str = ""
+    additive: bool = False
 
 
 def _span(model, hyp):
@@ -113,9 +119,21 @@ def _load_span(m):
     return 0.5 * m.jack.area_a * (m.supply.pressure - m.ambient.pressure)
 
 
-def _horizontal(m):
-    """A horizontal jack: no weight along the rod, so any load is one its user put there."""
-    return m.jack.mounting_angle == 0.0
+def _known_load(m):
+    """A jack's load is one its user put there: on a horizontal jack no weight acts along the
+    rod, and on an inclined one the weight is the model's own (moving mass and mounting
+    angle, :attr:`pneucore.spec.model.Jack.gravity_force`), not part of the load."""
+    return True
+
+
+def _inclined(m):
+    """An inclined or vertical jack: the weight of the moving mass acts along the rod."""
+    return m.jack.mounting_angle != 0.0
+
+
+def _known_angle(m):
+    """The user sets the mounting angle up (a machine frame's geometry)."""
+    return True
 
 
 def _convective(m):
@@ -145,13 +163,27 @@ BASE_HYPOTHESES = {h.path: h for h in [
     # fitted either sign within half the jack's force; typically small, 0.5 % of that range
     # (about 1 N on the paper's jack), below the typical error of a Coulomb level, so that a
     # mis-set friction is not taken for a load (a constant load is, while the piston moves,
-    # a combination of the two Coulomb levels); on a horizontal jack its user knows it: it
-    # moves only when the data demand it
+    # a combination of the two Coulomb levels); its user knows it: it moves only when the
+    # data demand it
     BaseHypothesis("jack.load_force", "load", 0.3, -5.0, 5.0, _load_span, zero_typical=0.005,
-                   user_knows=_horizontal,
+                   user_knows=_known_load,
                    separated_by="no test of the moving jack separates them (while it moves, a "
                    "constant load shifts the two Coulomb levels, one up, one down); measure the "
                    "load at rest, with the chambers vented and a force gauge on the rod"),
+    # the mounting angle of an inclined or vertical jack (a horizontal one is declared level,
+    # and offered nothing): typically 5 deg off, an angle set by eye on a machine frame
+    # (a spirit level or an inclinometer reads it to better than 1 deg); fitted anywhere in
+    # the model's range; its user knows it: it moves only when the data demand it. Its weight
+    # m g sin(angle) is a constant force along the rod, as a load is: the records never tell
+    # the two apart, and while the piston moves they shift the two Coulomb levels
+    BaseHypothesis("jack.mounting_angle", "mounting angle", 5.0, -ANGLE_MAX, ANGLE_MAX,
+                   applies=_inclined, user_knows=_known_angle, additive=True,
+                   separated_by="no test of this jack separates them (a wrong angle changes "
+                   "the weight along the rod, m g sin(angle), a constant force as a load is, and "
+                   "while the piston moves both shift the two Coulomb levels); measure the angle "
+                   "with an inclinometer on the rod, or repeat a free test with a known mass "
+                   "added to the rod: the weight along the rod changes by the mass times "
+                   "g sin(angle), a load does not"),
 ]}
 
 
@@ -164,7 +196,9 @@ def label_of(path):
 def spec_for(model, hyp):
     """The :class:`ParameterSpec` that fits ``hyp`` from the current value of ``model``."""
     v = get_value(model, hyp.path)
-    if v == 0.0:
+    if hyp.additive:
+        lo, hi = hyp.lo, hyp.hi
+    elif v == 0.0:
         span = _span(model, hyp)
         lo, hi = -span if hyp.lo < 0 else 0.0, span
     else:
@@ -174,7 +208,18 @@ def spec_for(model, hyp):
 
 def _step(model, hyp):
     v = get_value(model, hyp.path)
+    if hyp.additive:
+        return hyp.typical
     return hyp.typical * abs(v) if v != 0.0 else hyp.zero_typical * _span(model, hyp)
+
+
+def _signed_step(model, hyp):
+    """The typical error as a move from the current value, into the fit's range (an angle of
+    88 deg is moved down, not past the vertical)."""
+    dv = _step(model, hyp)
+    if hyp.additive and get_value(model, hyp.path) + dv > hyp.hi:
+        return -dv
+    return dv
 
 
 #: Change of a recalibrated base parameter, in typical catalogue errors, beyond which it is
@@ -210,6 +255,11 @@ def plausibility(model, path, after, at_bound=False):
     if h is None:
         return ""
     v = get_value(model, path)
+    if h.additive:
+        z = abs(after - v) / h.typical
+        if z > IMPLAUSIBLE:
+            return f"{z:.0f} times the typical error of {h.label} ({h.typical:g} {unit_of(path)})"
+        return ""
     if v != 0.0 and after / v < 0.0:
         # a declared load, mass or level that changes sign is not a catalogue error but a
         # force pointing the other way: impossible whatever its size (issue 28)
@@ -334,7 +384,7 @@ def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBL
     cols, norms, steps = {}, {}, {}
 
     def column(h):
-        dv = _step(model, h)
+        dv = _signed_step(model, h)
         mp = set_values(model, {h.path: get_value(model, h.path) + dv})
         return h, dv, objective.weighted([replay(mp, e) for e in experiments]) - r0
 
@@ -345,7 +395,7 @@ def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBL
         for h, dv, col in pool.map(column, hyps):
             cols[h.path] = col / dv
             norms[h.path] = float(col @ col)
-            steps[h.path] = dv
+            steps[h.path] = abs(dv)
     last = set(last)
     order = sorted(hyps, key=lambda h: (h.path in last, -norms[h.path]))
     chosen, report, basis = [], [], []

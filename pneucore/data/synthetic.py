@@ -311,7 +311,7 @@ class RigCase:
 
 def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
              signals=("p_a", "p_b", "x"), noise_corr_time=0.0, base_errors=None, scale=1.0,
-             base_values=None, initial=None, full_strokes=False):
+             base_values=None, initial=None, full_strokes=False, declared=None):
     """Draw one rig case: every base parameter of :data:`RIG_BASE_ERRORS` somewhat off.
 
     Parameters
@@ -344,6 +344,10 @@ def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
         experiments (a rig left pressurised)
     full_strokes : bool
         Record a full stroke each way as well (:func:`full_stroke_scenario`)
+    declared : dict or None
+        ``{path: value}`` (SI) the engineer declares, set on the start and on the truth
+        before the errors (a mounting angle [deg]); ``base_values`` may then give the true
+        value where the declaration is wrong
 
     Returns
     -------
@@ -355,6 +359,9 @@ def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
     start = model_preset("paper-4way" if valve == "4/2" else "paper-3way") if jack == "paper" \
         else fifty_mm_jack(valve)
     start_m = Model.from_dict(start)
+    if declared:
+        start_m = set_values(start_m, dict(declared))
+        start = start_m.to_dict()
     if base_errors is None:
         base_errors = {}
         for path, (lo, hi) in RIG_BASE_ERRORS.items():

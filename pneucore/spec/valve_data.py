@@ -3,10 +3,10 @@ critical ratio b (issue 23, item 7): the model keeps C and b as the one source, 
 conversions are the way in from a catalogue's other figures.
 
 Each conversion is registered in :data:`CONVERSIONS` by the catalogue figure that names it
-(``qn``, ``effective_area``, ``flow_rate``), with the fields it reads (:data:`FIELDS`, each
-with its unit) and the physics it calls (:mod:`pneucore.physics.flow`, where each law is
+(``qn``, ``effective_area``, ``cv``, ``kv``, ``flow_rate``), with the fields it reads
+(:data:`FIELDS`, each with its unit) and the physics it calls (:mod:`pneucore.physics.flow`, where each law is
 cited). The critical ratio b is the catalogue's own in every case: none of these figures
-gives it (a nominal flow, an area or one flow point fix the conductance only).
+gives it (a nominal flow, an area, a Cv or Kv or one flow point fix the conductance only).
 """
 from __future__ import annotations
 
@@ -14,7 +14,8 @@ from dataclasses import dataclass
 from typing import Callable
 
 from pneucore.physics.flow import (QN_DP, QN_P1_GAUGE, conductance_from_area,
-                                   conductance_from_flow, conductance_from_qn)
+                                   conductance_from_cv, conductance_from_flow, conductance_from_kv,
+                                   conductance_from_qn)
 from pneucore.physics.gas import T_REF
 from pneucore.spec.effects import EFFECTS
 from pneucore.spec.validation import FieldError, known_keys, mapping, number
@@ -27,6 +28,10 @@ FIELDS = {
     "qn": ("NL/min", f"nominal flow (ISO 6358-1 / VDI 3290: {QN_P1_GAUGE / 1e5:g} bar gauge "
                      f"upstream, {QN_DP / 1e5:g} bar drop), at ANR", {"positive": True}, None),
     "effective_area": ("m^2", "effective area S (JIS B 8390)", {"positive": True}, None),
+    "cv": ("US gal/min", "flow coefficient Cv (water at 1 psi drop; ISA-75.01.01 / IEC 60534)",
+           {"positive": True}, None),
+    "kv": ("m^3/h", "flow coefficient Kv (water at 1 bar drop; IEC 60534-1: Kv = 0.865 Cv)",
+           {"positive": True}, None),
     "flow_rate": ("m^3/s", "one measured flow point, volume flow at ANR (ISO 8778)",
                   {"positive": True}, None),
     "p1": ("Pa", "upstream absolute pressure of the flow point", {"positive": True}, None),
@@ -65,6 +70,14 @@ CONVERSIONS = {
                                  "the ideal nozzle's choked flow (paper Eq. 2) equated to Eq. 5 "
                                  "(pneucore.physics.flow.conductance_from_area; catalogues: "
                                  "S [mm^2] = 5.0 C [dm^3/(s bar)])"),
+    "cv": Conversion(("cv", "b"), lambda v: conductance_from_cv(v["cv"], v["b"]),
+                     "ISA-75.01.01 / IEC 60534-2-1 gas sizing equation (N7 = 1360 scfh, psia, "
+                     "degR) at choked flow, Y = 2/3, with x_T = 1 - b: C = (2/3) N7 Cv "
+                     "sqrt(x_T / T0); below choke it runs up to 6.1 % above the ISO 6358 law "
+                     "(pneucore.physics.flow.conductance_from_cv)"),
+    "kv": Conversion(("kv", "b"), lambda v: conductance_from_kv(v["kv"], v["b"]),
+                     "Kv = 0.865 Cv (IEC 60534-1), then the Cv conversion "
+                     "(pneucore.physics.flow.conductance_from_kv)"),
     "flow_rate": Conversion(("flow_rate", "p1", "p2", "T1", "b"),
                             lambda v: conductance_from_flow(v["flow_rate"], v["p1"], v["p2"],
                                                             v["b"], v["T1"]),
@@ -85,8 +98,8 @@ def convert_valve_data(d, path="valve"):
     ----------
     d : dict
         Exactly one of the figures that name a conversion (``qn`` [NL/min],
-        ``effective_area`` [m^2], ``flow_rate`` [m^3/s]), the fields that conversion reads,
-        and ``b`` [-]
+        ``effective_area`` [m^2], ``cv`` [US gal/min], ``kv`` [m^3/h], ``flow_rate``
+        [m^3/s]), the fields that conversion reads, and ``b`` [-]
     path : str
         Field path named in errors
 

@@ -250,13 +250,15 @@ def test_findings_carry_the_named_effect_into_the_next_model():
 
 # ------------------------------------------------------------------ a value the user knows
 
-def test_a_horizontal_jacks_load_is_known_to_its_user_a_vertical_ones_is_not():
+def test_a_jacks_load_is_known_to_its_user_and_an_inclined_ones_angle_too():
     from pneucore.analysis import hypotheses as H
     m = Model.from_dict(model_preset("paper-4way"))
     offered = H.offered(m)
+    # a horizontal jack is declared level: its angle is not offered
     assert H.user_known(m, offered) == ["jack.load_force"]
     m.jack.mounting_angle = 90.0
-    assert H.user_known(m, offered) == []
+    offered = H.offered(m)
+    assert H.user_known(m, offered) == ["jack.load_force", "jack.mounting_angle"]
 
 
 def test_orthogonal_part_of_a_combination_is_nothing_and_names_its_parts():
@@ -285,6 +287,17 @@ def _demand_case(orthogonal, p_value, delta_bic):
 def test_a_confounded_known_value_stays_without_a_refit():
     ok, t, calls = _demand_case(0.3, 1e-12, -100.0)
     assert not ok and t["failed"] == "unconfounded" and not calls
+
+
+def test_a_confounded_known_value_whose_partner_sits_at_a_bound_goes_to_the_likelihood_tests():
+    calls = []
+
+    def freed(t):
+        calls.append(1)
+        t.update(p_value=1e-12, delta_bic=-100.0)
+    t = {"orthogonal": 0.05, "at_bound": ["friction.retract.fc0"]}
+    assert R.demanded(t, R.Judging(R.ALPHA, 1), freed) and t["failed"] is None
+    assert calls == [1]
 
 
 @pytest.mark.parametrize("p_value, delta_bic, failed", [

@@ -197,7 +197,10 @@ CONFOUNDED = 0.5
 
 
 def _unconfounded(t, ctx):
-    return t["orthogonal"] >= CONFOUNDED
+    # collinearity is local (:func:`pneucore.analysis.hypotheses.freed_by_bounds`): where the
+    # fit with the value held drove a parameter it is confounded with to a bound (a Coulomb
+    # level at 0 standing in for 25 N of weight), their combination is cut off there
+    return t["orthogonal"] >= CONFOUNDED or bool(t.get("at_bound"))
 
 
 def _lr_significant(t, ctx):
@@ -214,8 +217,8 @@ def _bic_strong(t, ctx):
 #: null refitted with it freed (``p_value``, ``delta_bic`` of freed against held)
 DEMAND_RULES = (
     Rule("unconfounded", "what it changes is no combination of the parameters fitted beside "
-         "it (a load against the two Coulomb levels): the records cannot tell which moved",
-         _unconfounded),
+         "it (a load against the two Coulomb levels), or the fit with it held drove one of them "
+         "to a bound: otherwise the records cannot tell which moved", _unconfounded),
     Rule("significant", "likelihood-ratio p-value of it freed against it held below alpha "
          "(counted on n / tau effective samples)", _lr_significant, deferred=True),
     Rule("strong", f"delta BIC of it freed against it held below {DELTA_BIC:g}", _bic_strong,

@@ -283,24 +283,36 @@ def known_chosen(hyp):
 
 
 def demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report, alpha):
-    """The values the user typically knows (a horizontal jack's load), held at the user's
-    value in ``null``, freed only where the data demand it
+    """The values the user typically knows (a jack's load, an inclined jack's mounting angle),
+    held at the user's value in ``null``, freed only where the data demand it
     (:data:`pneucore.analysis.diagnosis.rules.DEMAND_RULES`). Returns the null to go on with;
     each held value's identifiability entry gets status ``held``, what it is confounded
-    with and the rules' record (``demand``)."""
+    with and the rules' record (``demand``).
+
+    They are judged one at a time, the one whose typical error changes the records most
+    first (its prior makes it the likelier culprit: a 5 deg error of an inclined jack's angle
+    against 1 N of undeclared load); a value freed joins the fitted ones, so a second known
+    value that changes what the first does (a load beside a freed angle: both a constant
+    force along the rod) is confounded with it and held (:func:`demanded_words` says what a
+    freed one cannot be told from)."""
     fitted = {s.path for s in null.auto_specs}
-    waiting = [p for p in known_chosen(hyp) if p not in fitted]
+    sens = {h["path"]: h.get("sensitivity") or 0.0 for h in hyp.identifiability}
+    waiting = sorted((p for p in known_chosen(hyp) if p not in fitted), key=lambda p: -sens[p])
+    freed_paths = []
     out = null
     for path in waiting:
-        frac, with_ = orthogonal_part(hyp.id_cols, path, [p for p in fitted if p in hyp.id_cols])
-        t = {"path": path, "orthogonal": frac, "with": with_}
+        frac, with_ = orthogonal_part(hyp.id_cols, path,
+                                      [p for p in fitted | set(freed_paths) if p in hyp.id_cols])
+        vals = out.fit.values if out.fit is not None else {}
+        t = {"path": path, "orthogonal": frac, "with": with_,
+             "at_bound": [p for p in with_ if (vals.get(p) or {}).get("at_bound")]}
 
-        def freed(t, path=path):
+        def freed(t, path=path, ref=out):
             report(0.045, "refitting the base model with " + H.label_of(path) + " freed")
             trial = null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report,
-                             held=set(waiting) - {path})
+                             held=set(waiting) - set(freed_paths) - {path})
             taus = trial.fit.residual_times if trial.fit is not None else None
-            lr, n_eff = effective_lr(null.rss, trial.rss, taus)
+            lr, n_eff = effective_lr(ref.rss, trial.rss, taus)
             t.update(p_value=float(stats.chi2.sf(max(lr, 0.0), 1)), lr_statistic=lr,
                      delta_bic=-lr + math.log(max(n_eff, 1.0)), trial=trial)
 
@@ -310,6 +322,7 @@ def demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report,
         entry["demand"] = t
         if ok:
             entry["note"] = "the data demand it: freed, it passes " + ", ".join(t["rules"])
+            freed_paths.append(path)
             out = trial
         else:
             hyp.held.add(path)
@@ -322,6 +335,78 @@ def demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report,
                              f"{100 * (1 - frac ** 2):.0f} % what "
                              f"{' and '.join(H.label_of(p) for p in with_)} change)")
     return out
+
+
+#: A known value freed by the data (:func:`demand`, or a bound the fit drove its confounders
+#: to) is reported as moved when it moved by half its typical error or more (the catalogue
+#: prior's width: 2.5 deg of a mounting angle, about 0.4 N of the paper's load); less is the
+#: fit's split among confounded parameters, not a finding
+MOVED_KNOWN = 0.5
+
+
+def _freed_how(h):
+    """Why the data freed a known value (its identifiability entry ``h``), or ``""``."""
+    d = h.get("demand")
+    if d is not None:
+        if d.get("failed") is not None:
+            return ""
+        if d.get("at_bound") and d.get("orthogonal", 1.0) < R.CONFOUNDED:
+            return (f"the fit with it held drove {', '.join(H.label_of(p) for p in d['at_bound'])} "
+                    f"to a bound, and the likelihood tests pass")
+        return f"the data demand it (rules {', '.join(d['rules'])} pass)"
+    if h.get("status") == "identifiable" and "bound" in h.get("note", ""):
+        # freed by :func:`pneucore.analysis.hypotheses.freed_by_bounds`
+        return "the fit " + h["note"].split("but the fit ", 1)[-1] + " without it"
+    return ""
+
+
+def demanded_words(model, hyp, recalibrate, refitted):
+    """The values the user knows (:attr:`pneucore.analysis.hypotheses.BaseHypothesis.user_knows`)
+    that the data moved, with what they cannot be told from and the measurement that would.
+
+    A known value freed by the data (the rules of :func:`demand`, or a bound the fit drove
+    its confounders to, :func:`pneucore.analysis.hypotheses.freed_by_bounds`) and moved by
+    :data:`MOVED_KNOWN` typical errors or more is put in ``recalibrate`` (edited in place)
+    when the three-standard-error rule left it out (confounded, its own standard error is
+    large), with ``demand``: ``how`` it was freed, ``twins`` (the other known values that
+    change what it changes: an angle and a load, both a constant force along the rod),
+    ``with`` (the fitted parameters it is confounded with) and ``separated_by``.
+
+    Returns
+    -------
+    words : str
+        The sentences for the message (empty where no known value moved)
+    """
+    out, done = [], set()
+    moved = {r["path"]: r for r in recalibrate}
+    fits = {r["path"]: r for r in refitted}
+    # the one moved furthest, in typical errors, first
+    order = sorted((p for p in hyp.user_known if p in fits), key=lambda p: -abs(
+        fits[p]["after"] - fits[p]["before"]) / H._step(model, H.BASE_HYPOTHESES[p]))
+    for path in order:
+        h = next((e for e in hyp.identifiability if e["path"] == path), None)
+        r = moved.get(path) or next((e for e in refitted if e["path"] == path), None)
+        how = _freed_how(h) if h is not None else ""
+        if not how or r is None or path in done:
+            continue
+        hb = H.BASE_HYPOTHESES[path]
+        if abs(r["after"] - r["before"]) < MOVED_KNOWN * H._step(model, hb):
+            continue
+        twins = [q for q in hyp.user_known if q != path and q in hyp.id_cols and path in hyp.id_cols
+                 and orthogonal_part(hyp.id_cols, path, [q])[0] < H.COLLINEAR]
+        with_ = [p for p in (h.get("demand") or h).get("with", []) if p not in twins]
+        r["demand"] = {"how": how, "twins": twins, "with": with_,
+                       "separated_by": hb.separated_by}
+        if path not in moved:
+            recalibrate.append(r)
+            moved[path] = r
+        done.add(path)
+        others = twins + with_
+        out.append(f"{hb.label[:1].upper() + hb.label[1:]} {r['before']:.3g} -> {r['after']:.3g} "
+                   f"{r['unit']}: a value given, moved because {how}; these experiments cannot "
+                   f"tell it apart from {', '.join(H.label_of(p) for p in others) or 'nothing'}: "
+                   f"{hb.separated_by}.")
+    return " ".join(out)
 
 
 # -- 4. candidate scores ------------------------------------------------------------------
