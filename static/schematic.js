@@ -12,8 +12,18 @@
  *   #schem-cushion-a/-b  the end_cushion effect's ends (adjustable cushion: rectangle + arrow)
  *   #schem-valve         the directional valve by valve.kind: 4/2 or 3/2 boxes with flow arrows,
  *                        solenoid and spring return; another kind: one box naming it
+ *   #schem-proportional  inside #schem-valve, when the valve is proportional (a port's table
+ *                        gives C at more than two openings: it meters by opening, where a
+ *                        switching valve's table is a step): ISO 1219-1's marking, two lines
+ *                        parallel to the envelope's long sides ("infinite positioning") and the
+ *                        proportional solenoid, an arrow through the solenoid (as described in
+ *                        huadeonline.com "Proportional Valve Symbols Explained", citing ISO 1219-1)
  *   #schem-supply        the pneumatic pressure source on P, with its pressure
- *   #schem-exhaust       the exhaust on R, #schem-silencer when exhaust_silencer is on
+ *   #schem-exhaust       the exhaust on R, #schem-silencer when exhaust_silencer is on: a square
+ *                        at 45 deg with its port on a corner, ISO 1219-1's shape of a conditioning
+ *                        apparatus (CETOP RP 68 P symbol guide, after ISO 1219-1:1991: "square at
+ *                        45 deg, conditioning apparatus, connections to corners"); the three lines
+ *                        inside are this drawing's, the material found gives no inner detail
  *   #schem-tube-a/-b     the tubing effect on a port: a working line labelled length and bore
  *   #schem-meter-out-a/-b, #schem-meter-in-a/-b
  *                        one-way flow controls (throttle in parallel with a check valve; the
@@ -21,7 +31,10 @@
  *                        it for meter-in)
  *   #schem-b-vent, #schem-b-closed, #schem-b-held, #schem-b-restriction
  *                        chamber B's port on a 3/2 valve (valve.b_chamber)
- *   #schem-angle         the mounting angle (jack.mounting_angle, 0 horizontal, 90 rod up) and g
+ *   #schem-angle         the mounting angle (jack.mounting_angle, 0 horizontal, 90 rod up): the
+ *                        cylinder, its spring and cushions are drawn rotated by it (#schem-jack,
+ *                        about the cylinder's centre, the drawing made taller to hold it), the
+ *                        angle marked from a horizontal through the centre, and g
  *   #schem-others        every other effect of the model, by name, as text
  *
  * The expected end_cushion shape (the effect is added by issue 23 item 4; drawn when present):
@@ -156,6 +169,16 @@ function schemCushionEnds(p) {
   }
   return ends;
 }
+/** A proportional valve: a port's table gives its conductance at more than two openings. */
+function schemProportional(valve) {
+  const ports = valve && typeof valve.ports === 'object' && valve.ports ? valve.ports : {};
+  return Object.values(ports).some((p) => p && Array.isArray(p.opening) && p.opening.length > 2);
+}
+/** A point (x, y) rotated by th [rad] counter-clockwise on the page about (ox, oy). */
+function schemRotate(x, y, ox, oy, th) {
+  const c = Math.cos(th); const s = Math.sin(th);
+  return [ox + (x - ox) * c + (y - oy) * s, oy - (x - ox) * s + (y - oy) * c];
+}
 function schemPortOn(p, key) { return !!p && typeof p === 'object' && (schemNum(p[key]) || 0) > 0; }
 
 /**
@@ -175,20 +198,35 @@ function drawSchematic(model, opts = {}) {
   const bMode = typeof valve.b_chamber === 'string' ? valve.b_chamber : 'held';
   const threeWay = kind === '3/2';
   const singleActing = threeWay && SINGLE_ACTING_B.includes(bMode);
+  const proportional = schemProportional(valve);
+  const ang = Math.max(-90, Math.min(90, schemNum(jack.mounting_angle) || 0));
+  const th = (ang * Math.PI) / 180;
 
   const svg = schemEl('svg', {
     xmlns: SVG_NS, viewBox: `0 0 ${SCHEM_W} ${SCHEM_H}`, class: 'schematic', role: 'img',
     'data-valve': kind, 'data-cylinder': singleActing ? 'single-acting' : 'double-acting',
-    'data-effects': Object.keys(effects).join(' '),
+    'data-effects': Object.keys(effects).join(' '), 'data-proportional': String(proportional),
+    'data-angle': String(ang),
   });
   schemEl('title', {}, svg).textContent = `Circuit (ISO 1219-1): ${kind} valve, ${singleActing ? 'single' : 'double'}-acting cylinder` +
     (Object.keys(effects).length ? `, effects: ${Object.keys(effects).join(', ')}` : '');
 
-  // ---------------------------------------------------------------- cylinder
+  // ---------------------------------------------------------------- cylinder, at the mounting angle
   const cx0 = 110; const cx1 = 330; const cy0 = 40; const cy1 = 90; const axis = (cy0 + cy1) / 2;
   const pistonX = cx0 + 0.35 * (cx1 - cx0);
   const portA = 130; const portB = 310;
-  const cyl = schemGroup(svg, 'schem-cylinder', `${singleActing ? 'Single' : 'Double'}-acting cylinder (ISO 1219-1), ` +
+  // the jack (cylinder, rod, mass) rotated about the cylinder's centre: the drawing grows above
+  // by what the rotated jack needs (`top`) and the lines start below it (`drop`)
+  const mid = (cx0 + cx1) / 2;
+  // (its box: rod end to mass, the labels above it and the mass's below it)
+  const jy0 = cy0 - 18; const jy1 = axis + 34;
+  const corners = [[cx0 - 30, jy0], [cx1 + 80, jy0], [cx0 - 30, jy1], [cx1 + 80, jy1]].map(([x, y]) => schemRotate(x, y, mid, axis, th)[1]);
+  const top = Math.ceil(Math.max(0, 4 - Math.min(...corners)));
+  const drop = Math.ceil(Math.max(0, Math.max(...corners) + 4 - cy1));
+  svg.setAttribute('viewBox', `0 0 ${SCHEM_W} ${SCHEM_H + top + drop}`);
+  const root = schemEl('g', { transform: `translate(0 ${top})` }, svg);
+  const jackG = schemEl('g', { id: 'schem-jack', transform: `rotate(${-ang} ${mid} ${axis})` }, root);
+  const cyl = schemGroup(jackG, 'schem-cylinder', `${singleActing ? 'Single' : 'Double'}-acting cylinder (ISO 1219-1), ` +
     `bore ${show(jack.bore, 'jack.bore')}, stroke ${show(jack.stroke, 'jack.stroke')}`, singleActing ? 'single-acting' : 'double-acting');
   schemEl('rect', { x: cx0, y: cy0, width: cx1 - cx0, height: cy1 - cy0, class: 'schem-open' }, cyl);
   schemEl('rect', { x: pistonX, y: cy0, width: 8, height: cy1 - cy0, class: 'schem-fill' }, cyl);
@@ -204,13 +242,13 @@ function drawSchematic(model, opts = {}) {
 
   if (Object.prototype.hasOwnProperty.call(effects, 'return_spring')) {
     const p = effects.return_spring || {};
-    const g = schemGroup(svg, 'schem-spring', `Return spring: rate ${show(p.rate, 'effects.return_spring.rate')}, preload ${show(p.preload, 'effects.return_spring.preload')}`);
+    const g = schemGroup(jackG, 'schem-spring', `Return spring: rate ${show(p.rate, 'effects.return_spring.rate')}, preload ${show(p.preload, 'effects.return_spring.preload')}`);
     schemZigzag(g, pistonX + 10, axis, cx1 - 2, 18, 10);
     schemText(g, pistonX + 30, cy0 - 6, `spring ${show(p.rate, 'effects.return_spring.rate')}`);
   }
   for (const end of schemCushionEnds(effects.end_cushion)) {
     const p = effects.end_cushion;
-    const g = schemGroup(svg, `schem-cushion-${end}`, `Adjustable end cushion at ${end === 'a' ? 'x = 0 (A)' : 'x = stroke (B)'}` +
+    const g = schemGroup(jackG, `schem-cushion-${end}`, `Adjustable end cushion at ${end === 'a' ? 'x = 0 (A)' : 'x = stroke (B)'}` +
       (schemNum(p[`length_${end}`]) !== null ? `, length ${show(p[`length_${end}`], `effects.end_cushion.length_${end}`)}` : ''));
     const x = end === 'a' ? cx0 + 2 : cx1 - 14;
     schemEl('rect', { x, y: axis - 10, width: 12, height: 20, class: 'schem-open schem-cushion' }, g);
@@ -218,10 +256,23 @@ function drawSchematic(model, opts = {}) {
     schemArrowHead(g, x + 15, axis - 15, 0.54, -0.84, 4);
   }
 
+  // the ports on the rotated jack, joined to the lines below it (first away from the cylinder,
+  // along its rotated normal, then straight down)
+  const below = schemEl('g', { transform: `translate(0 ${drop})` }, root);
+  const joinPort = (px, parent) => {
+    const [qx, qy] = schemRotate(px, cy1, mid, axis, th);
+    const [nx, ny] = [Math.sin(th), Math.cos(th)];   // the cylinder's "down" side, rotated
+    schemPath(parent, `M${qx},${qy} L${qx + 10 * nx},${qy + 10 * ny} L${px},${cy1 + drop}`, { class: 'schem-open schem-port-join' });
+  };
+  const joins = schemEl('g', { id: 'schem-port-joins' }, root);
+  joinPort(portA, joins);
+  joinPort(portB, joins);
+
   // ---------------------------------------------------------------- valve
   const vy0 = 290; const vy1 = 340; const vb = 55;  // box top, bottom, width
   const vx = 170;                                   // left box's left edge
-  const vg = schemGroup(svg, 'schem-valve', `${kind} directional control valve (ISO 1219-1), solenoid operated, spring return`, `valve-${kind.replace(/[^\w-]/g, '_')}`);
+  const vg = schemGroup(below, 'schem-valve', `${kind} ${proportional ? 'proportional ' : ''}directional control valve (ISO 1219-1), ` +
+    `${proportional ? 'proportional ' : ''}solenoid operated, spring return`, `valve-${kind.replace(/[^\w-]/g, '_')}${proportional ? ' proportional' : ''}`);
   const rA = vx + vb + 15; const rB = vx + 2 * vb - 15;   // the right (normal) box's ports
   const lA = vx + 15; const lB = vx + vb - 15;            // the left (actuated) box's ports
   if (kind === '4/2' || threeWay) {
@@ -240,6 +291,15 @@ function drawSchematic(model, opts = {}) {
     schemLine(vg, vx - 22, vy0 + 36, vx, vy0 + 14);
     schemZigzag(vg, vx + 2 * vb, vy0 + 25, vx + 2 * vb + 30, 7, 6);                                  // spring return
     schemText(vg, vx - 40, vy0 - 6, kind);
+    if (proportional) {
+      // ISO 1219-1: two lines along the envelope's long sides (the spool meters at any opening)
+      // and the proportional solenoid, an arrow through the solenoid's diagonal
+      const pg = schemGroup(vg, 'schem-proportional', 'Proportional valve (ISO 1219-1): continuously variable opening, proportional solenoid');
+      schemLine(pg, vx, vy0 - 5, vx + 2 * vb, vy0 - 5, { class: 'schem-proportional-line' });
+      schemLine(pg, vx, vy1 + 5, vx + 2 * vb, vy1 + 5, { class: 'schem-proportional-line' });
+      schemLine(pg, vx - 27, vy0 + 40, vx + 3, vy0 + 10, { class: 'schem-proportional-arrow' });
+      schemArrowHead(pg, vx + 5, vy0 + 8, Math.SQRT1_2, -Math.SQRT1_2, 5);
+    }
   } else {
     schemEl('rect', { x: vx, y: vy0, width: 2 * vb, height: vy1 - vy0, class: 'schem-open' }, vg);
     schemText(vg, vx + 8, vy0 + 30, `valve ${kind}`);
@@ -248,18 +308,20 @@ function drawSchematic(model, opts = {}) {
   schemText(vg, rB + 3, vy1 + 12, 'R', { class: 'schem-label schem-port' });
 
   // supply on P, exhaust (and silencer) on R
-  const sup = schemGroup(svg, 'schem-supply', `Pneumatic pressure source (ISO 1219-1), ${show((m.supply || {}).pressure, 'supply.pressure')} absolute`);
+  const sup = schemGroup(below, 'schem-supply', `Pneumatic pressure source (ISO 1219-1), ${show((m.supply || {}).pressure, 'supply.pressure')} absolute`);
   schemLine(sup, rA, vy1, rA, vy1 + 24);
   schemEl('circle', { cx: rA, cy: vy1 + 36, r: 12, class: 'schem-open' }, sup);
   schemPath(sup, `M${rA},${vy1 + 26} L${rA + 6},${vy1 + 36} L${rA - 6},${vy1 + 36} Z`, { class: 'schem-open' });
   schemText(sup, rA - 90, vy1 + 40, `p_s ${show((m.supply || {}).pressure, 'supply.pressure')}`);
   const sil = effects.exhaust_silencer;
-  const exh = schemGroup(svg, 'schem-exhaust', 'Exhaust to atmosphere (ISO 1219-1)');
+  const exh = schemGroup(below, 'schem-exhaust', 'Exhaust to atmosphere (ISO 1219-1)');
   schemLine(exh, rB, vy1, rB, vy1 + 18);
   if (schemPortOn(sil, 'C')) {
-    const g = schemGroup(svg, 'schem-silencer', `Silencer (ISO 1219-1): C ${show(sil.C, 'effects.exhaust_silencer.C')}, b ${show(sil.b, 'effects.exhaust_silencer.b')}`);
-    schemEl('rect', { x: rB - 8, y: vy1 + 18, width: 16, height: 22, class: 'schem-open' }, g);
-    for (const dy of [24, 29, 34]) schemLine(g, rB - 5, vy1 + dy, rB + 5, vy1 + dy);
+    const g = schemGroup(below, 'schem-silencer', `Silencer (ISO 1219-1): C ${show(sil.C, 'effects.exhaust_silencer.C')}, b ${show(sil.b, 'effects.exhaust_silencer.b')}`);
+    // a square at 45 deg (ISO 1219-1: conditioning apparatus, connections to corners), the port
+    // on its top corner
+    schemPath(g, `M${rB},${vy1 + 18} L${rB + 12},${vy1 + 30} L${rB},${vy1 + 42} L${rB - 12},${vy1 + 30} Z`, { class: 'schem-open schem-silencer-body' });
+    for (const dy of [25, 30, 35]) { const w = 12 - Math.abs(dy - 30) - 3; schemLine(g, rB - w, vy1 + dy, rB + w, vy1 + dy); }
     schemText(g, rB + 14, vy1 + 34, `silencer ${show(sil.C, 'effects.exhaust_silencer.C')}`);
   } else schemExhaustTriangle(exh, rB, vy1 + 18);
 
@@ -270,13 +332,13 @@ function drawSchematic(model, opts = {}) {
     const mi = effects.meter_in_throttle;
     const L = tube && typeof tube === 'object' ? schemNum(tube[`length_${end}`]) : null;
     const tubeOn = L !== null && L > 0;
-    const line = schemGroup(svg, `schem-line-${end}`, `Working line, port ${end.toUpperCase()}`);
+    const line = schemGroup(below, `schem-line-${end}`, `Working line, port ${end.toUpperCase()}`);
     const slots = [];
     if (schemPortOn(mo, `C_${end}`)) slots.push(['out', mo[`C_${end}`]]);
     if (schemPortOn(mi, `C_${end}`)) slots.push(['in', mi[`C_${end}`]]);
     let y = cy1;
     if (tubeOn) {
-      const g = schemGroup(svg, `schem-tube-${end}`, `Tube on port ${end.toUpperCase()}: length ${show(L, `effects.tubing.length_${end}`)}, ` +
+      const g = schemGroup(below, `schem-tube-${end}`, `Tube on port ${end.toUpperCase()}: length ${show(L, `effects.tubing.length_${end}`)}, ` +
         `inner diameter ${show(tube[`diameter_${end}`], `effects.tubing.diameter_${end}`)}`, 'schem-tube');
       schemLine(g, px, y, px, y + 50, { class: 'schem-tube-line' });
       schemText(g, px + 8, y + 26, `tube ${show(L, `effects.tubing.length_${end}`)}`);
@@ -288,7 +350,7 @@ function drawSchematic(model, opts = {}) {
       const slot = slots[i];
       if (!slot) { schemLine(line, px, y, px, y + 60); y += 60; continue; }
       const out = slot[0] === 'out';
-      const g = schemGroup(svg, `schem-meter-${slot[0]}-${end}`, `One-way flow control (ISO 1219-1), meter-${slot[0]} on port ` +
+      const g = schemGroup(below, `schem-meter-${slot[0]}-${end}`, `One-way flow control (ISO 1219-1), meter-${slot[0]} on port ` +
         `${end.toUpperCase()}: throttle C ${show(slot[1], `effects.meter_${slot[0]}_throttle.C_${end}`)} in parallel with a check valve`, 'schem-flow-control');
       schemLine(g, px, y, px, y + 6);
       schemLine(g, px, y + 54, px, y + 60);
@@ -308,7 +370,7 @@ function drawSchematic(model, opts = {}) {
       vented: 'Chamber B vented to atmosphere (single-acting)', closed: 'Chamber B closed (an air spring)',
       held: `Chamber B held at ${show(valve.b_chamber_pressure, 'valve.b_chamber_pressure')}`, restriction: 'Chamber B vented through a fixed restriction',
     }[bMode] || `Chamber B: ${bMode}`;
-    const g = schemGroup(svg, id, what);
+    const g = schemGroup(below, id, what);
     schemLine(g, portB, cy1, portB, cy1 + 20);
     if (bMode === 'vented') schemExhaustTriangle(g, portB, cy1 + 20);
     else if (bMode === 'closed') schemLine(g, portB - 8, cy1 + 20, portB + 8, cy1 + 20);
@@ -320,24 +382,24 @@ function drawSchematic(model, opts = {}) {
   }
 
   // ---------------------------------------------------------------- mounting angle and gravity
-  const ang = schemNum(jack.mounting_angle) || 0;
-  const ag = schemGroup(svg, 'schem-angle', `Mounting angle ${+ang.toPrecision(4)} deg (0 horizontal, 90 rod up); gravity on the moving mass`);
-  const ox = 20; const oy = 200; const r = 60; const th = (ang * Math.PI) / 180;
-  schemLine(ag, ox, oy, ox + r, oy, { class: 'schem-dashed' });
-  schemLine(ag, ox, oy, ox + r * Math.cos(th), oy - r * Math.sin(th), { class: 'schem-axis' });
-  schemArrowHead(ag, ox + r * Math.cos(th), oy - r * Math.sin(th), Math.cos(th), -Math.sin(th));
+  // marked on the rotated jack: a horizontal through the cylinder's centre, the arc to its axis
+  const ag = schemGroup(root, 'schem-angle', `Mounting angle ${+ang.toPrecision(4)} deg (0 horizontal, 90 rod up); ` +
+    'the cylinder is drawn at it; gravity on the moving mass');
+  const ar = 40;
   if (ang !== 0) {
-    const ar = 28;
-    schemPath(ag, `M${ox + ar},${oy} A${ar},${ar} 0 0 ${ang > 0 ? 0 : 1} ${ox + ar * Math.cos(th)},${oy - ar * Math.sin(th)}`, { class: 'schem-open' });
-  }
-  schemText(ag, ox, oy + 18, `angle ${+ang.toPrecision(4)}°`);
-  schemLine(ag, ox + 70, oy - 30, ox + 70, oy + 4);
-  schemArrowHead(ag, ox + 70, oy + 6, 0, 1);
-  schemText(ag, ox + 76, oy - 8, 'g');
+    schemLine(ag, mid, axis, mid + ar + 20, axis, { class: 'schem-dashed' });
+    schemPath(ag, `M${mid + ar},${axis} A${ar},${ar} 0 0 ${ang > 0 ? 0 : 1} ${mid + ar * Math.cos(th)},${axis - ar * Math.sin(th)}`,
+      { class: 'schem-open schem-angle-arc' });
+    schemText(ag, mid + ar + 6, axis + (ang > 0 ? 14 : -6), `${+ang.toPrecision(4)}°`, { class: 'schem-label schem-angle-label' });
+  } else schemText(ag, cx1 + 6, cy0 - 6, '0°', { class: 'schem-label schem-angle-label' });   // horizontal
+  const gx = 24; const gy = Math.max(axis - 30, 4 - top);
+  schemLine(ag, gx, gy, gx, gy + 34);
+  schemArrowHead(ag, gx, gy + 36, 0, 1);
+  schemText(ag, gx + 6, gy + 22, 'g');
 
   // ---------------------------------------------------------------- every other effect, by name
   const others = Object.keys(effects).filter((n) => !SCHEM_DRAWN.includes(n));
-  const og = schemGroup(svg, 'schem-others', others.length ? `Effects not drawn: ${others.join(', ')}` : 'No other effect');
-  if (others.length) schemText(og, 10, SCHEM_H - 8, `+ ${others.join(', ')}`, { class: 'schem-label schem-others' });
+  const og = schemGroup(root, 'schem-others', others.length ? `Effects not drawn: ${others.join(', ')}` : 'No other effect');
+  if (others.length) schemText(og, 10, SCHEM_H + drop - 8, `+ ${others.join(', ')}`, { class: 'schem-label schem-others' });
   return svg;
 }

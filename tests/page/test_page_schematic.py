@@ -68,12 +68,15 @@ def test_the_preset_is_a_4_2_valve_and_a_double_acting_cylinder(page):
     # the paper's jack has no circuit component: none drawn
     assert not [i for i in ids if i.startswith(("schem-tube", "schem-meter", "schem-silencer", "schem-spring",
                                                  "schem-cushion", "schem-b-"))]
-    assert "4/2 directional control valve" in _title(page, "schem-valve")
+    assert "4/2 proportional directional control valve" in _title(page, "schem-valve")
     # the supply's pressure in the page's units (engineering by default: 7e5 Pa = 7 bar abs)
     assert "7 bar abs" in _title(page, "schem-supply")
     # a 4/2 valve: two boxes, four flow arrows (P-A and B-R actuated, P-B and A-R at rest)
     assert page.locator("#schem-valve rect").count() == 3      # two boxes and the solenoid
-    assert page.locator("#schem-valve line").count() == 5      # four arrows' shafts and the solenoid's diagonal
+    # four arrows' shafts and the solenoid's diagonal, and the paper's valve is proportional (its
+    # tables give C at five openings): two lines along the envelope and the solenoid's arrow
+    assert page.locator("#schem-valve line").count() == 5 + 3
+    assert svg.get_attribute("data-proportional") == "true"
 
 
 def test_every_component_of_the_model_is_drawn(page):
@@ -165,6 +168,8 @@ def test_a_3_2_valve_with_a_spring_return_single_acting_cylinder(page):
     assert {"schem-spring", "schem-b-vent", "schem-line-a"} <= ids
     assert "schem-line-b" not in ids                  # chamber B is not on the valve
     assert "3/2 directional control valve" in _title(page, "schem-valve")
+    # the paper's 3/2 valve switches (its tables are a step over 1 % of the travel): no marking
+    assert svg.get_attribute("data-proportional") == "false" and "schem-proportional" not in ids
     assert "Single-acting cylinder" in _title(page, "schem-cylinder")
     assert page.evaluate("() => S.model.effects.return_spring") == {"rate": 400.0, "preload": 0.0}
     # a 3/2 valve: two flow arrows and two blocked ports (P at rest, R actuated)
@@ -246,3 +251,84 @@ def test_the_stroke_metrics_table_next_to_the_plots(page):
     assert float(cell("full_stroke_time")) == pytest.approx(strokes[ext]["full_stroke_time"], rel=5e-4)
     assert float(cell("end_speed")) == pytest.approx(strokes[ext]["end_speed"] / 1e-3, rel=5e-4)   # m/s -> mm/s
     assert float(cell("air_NL")) == pytest.approx(strokes[ext]["air_NL"], rel=5e-4)
+
+
+def _jack_angle(page, svg_js="document.querySelector('#schematic svg')"):
+    """The angle [deg] the jack is drawn at on the page, counter-clockwise from the horizontal,
+    from the rotation its group applies (the SVG's own transform matrix)."""
+    return page.evaluate(f"""() => {{ const m = {svg_js}.querySelector('#schem-jack').transform.baseVal.consolidate().matrix;
+        return Math.atan2(-m.b, m.a) * 180 / Math.PI; }}""")
+
+
+def test_proportional_marking_silencer_and_the_cylinder_at_its_angle(page):
+    """ISO 1219-1 as described in the sources named in static/schematic.js: a proportional
+    valve's two lines along the envelope's long sides and its solenoid's arrow; the silencer a
+    square at 45 deg on its port; the cylinder drawn at the mounting angle, inside the drawing."""
+    _load_preset(page, "paper-4way")
+    _paste_model(page, "m.effects = {exhaust_silencer: {C: 1e-8, b: 0.4}}; m.jack.mounting_angle = 30")
+    svg = page.locator("#schematic svg")
+    assert svg.get_attribute("data-proportional") == "true" and svg.get_attribute("data-angle") == "30"
+    assert "proportional directional control valve" in _title(page, "schem-valve")
+    geo = page.evaluate("""() => {
+        const box = Array.from(document.querySelectorAll('#schem-valve > rect')).map(r => r.getBBox())
+            .map(b => ({x: b.x, y: b.y, width: b.width, height: b.height}));
+        const lines = Array.from(document.querySelectorAll('#schem-proportional .schem-proportional-line'))
+            .map(l => ['x1', 'y1', 'x2', 'y2'].map(k => Number(l.getAttribute(k))));
+        const body = document.querySelector('#schem-silencer .schem-silencer-body').getAttribute('d');
+        const exhaust = document.querySelector('#schem-exhaust line');
+        return {box, lines, body, exhaustX: Number(exhaust.getAttribute('x1')),
+                exhaustEnd: Number(exhaust.getAttribute('y2')),
+                arrow: document.querySelectorAll('#schem-proportional .schem-proportional-arrow').length};
+    }""")
+    top = min(b["y"] for b in geo["box"][:2])
+    bottom = max(b["y"] + b["height"] for b in geo["box"][:2])
+    left = min(b["x"] for b in geo["box"][:2])
+    right = max(b["x"] + b["width"] for b in geo["box"][:2])
+    assert len(geo["lines"]) == 2 and geo["arrow"] == 1
+    for x1, y1, x2, y2 in geo["lines"]:
+        assert y1 == y2 and (x1, x2) == (left, right)       # parallel to the long sides, as long
+        assert y1 < top or y1 > bottom                      # outside the boxes, one each side
+    assert {y1 < top for _, y1, _, _ in geo["lines"]} == {True, False}
+    # the silencer: four vertices, the top one on the exhaust line's end, equal half-diagonals
+    pts = [tuple(map(float, p.split(","))) for p in geo["body"].replace("M", "").replace("Z", "").split(" L")]
+    assert len(pts) == 4
+    assert pts[0] == (geo["exhaustX"], geo["exhaustEnd"])
+    xs, ys = [p[0] for p in pts], [p[1] for p in pts]
+    assert max(xs) - min(xs) == max(ys) - min(ys)           # a square standing on a corner
+    # the jack drawn at 30 deg (float round-off of the SVG matrix: 1e-6 deg), and the rotated
+    # jack lies inside the drawing (its screen box inside the svg's)
+    assert _jack_angle(page) == pytest.approx(30.0, abs=1e-6)
+    inside = page.evaluate("""() => { const s = document.querySelector('#schematic svg').getBoundingClientRect();
+        const j = document.querySelector('#schem-jack').getBoundingClientRect();
+        return j.top >= s.top && j.bottom <= s.bottom && j.left >= s.left && j.right <= s.right; }""")
+    assert inside
+    assert "30°" in page.text_content("#schem-angle")
+    # the ports stay joined to their working lines: a join per port, ending where the line starts
+    assert page.locator("#schem-port-joins .schem-port-join").count() == 2
+    # vertical, rod down, and back to horizontal
+    for ang in (90, -90, 0):
+        _paste_model(page, f"m.jack.mounting_angle = {ang}")
+        assert _jack_angle(page) == pytest.approx(ang, abs=1e-6)
+    _load_preset(page, "paper-4way")
+
+
+def test_hostile_text_and_numbers_in_the_new_symbols_stay_text(page):
+    res = page.evaluate("""(h) => {
+        const m = JSON.parse(JSON.stringify(S.model));
+        m.jack.mounting_angle = h;                        // not a number: drawn horizontal
+        m.effects = {exhaust_silencer: {C: h, b: 0.4}, [h]: {x: 1}};
+        m.valve.ports[h] = {opening: [0, 0.5, 1], C: [h, h, h], b: [0.3, 0.3, 0.3]};
+        const svg = drawSchematic(m);
+        document.body.appendChild(svg);
+        const out = {markup: svg.querySelectorAll('img, script, foreignObject, iframe').length,
+                     angle: svg.getAttribute('data-angle'), prop: svg.getAttribute('data-proportional'),
+                     transform: svg.querySelector('#schem-jack').getAttribute('transform'),
+                     others: svg.querySelector('#schem-others').textContent,
+                     pwned: window.__pwned === undefined ? null : window.__pwned};
+        svg.remove();
+        return out;
+    }""", HOSTILE)
+    assert res["markup"] == 0 and res["pwned"] is None
+    assert res["angle"] == "0" and "NaN" not in res["transform"]
+    assert res["prop"] == "true"                          # a table of three openings, whatever its name
+    assert HOSTILE in res["others"]
