@@ -9,9 +9,9 @@ recalibrate is decided here, from the data, not by the user:
    engineer actually gets wrong (friction level and viscous coefficient per
    direction, moving mass, heat coefficient, valve conductance of the supply
    and of the exhaust edges (``valve.ports.P-*.C``, ``valve.ports.*-R.C``),
-   supply pressure, dead volumes, an undeclared load), each with the relative
-   error a catalogue value typically carries and fit bounds relative to the
-   current value.
+   supply pressure, dead volumes, an undeclared load, an inclined jack's mounting
+   angle), each with the relative error a catalogue value typically carries and fit
+   bounds relative to the current value (an angle's in degrees: ``additive``).
 2. **Sensitivity.** Each parameter is moved by its typical error and the
    change of every output, divided by the output's noise level, gives a
    column ``s_j`` of the sensitivity matrix (one simulation per parameter
@@ -87,8 +87,9 @@ class BaseHypothesis:
         Catalog effect carrying the same physics
     user_knows : callable or None
         ``user_knows(model) -> bool``: the user typically knows this value on ``model`` (a
-        horizontal jack's load); it is chosen after every other parameter and moves only
-        when the data demand it (:data:`pneucore.analysis.diagnosis.rules.DEMAND_RULES`)
+        jack's load, an inclined jack's mounting angle); it is chosen after every other
+        parameter and moves only when the data demand it
+        (:data:`pneucore.analysis.diagnosis.rules.DEMAND_RULES`)
     separated_by : str
         The measurement that gives this value where the records cannot (said when it is held)
     additive : bool
@@ -366,8 +367,8 @@ def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBL
     visible, collinear : float
         See :data:`VISIBLE`, :data:`COLLINEAR`
     last : iterable of str
-        Paths judged after every other (a value the user typically knows, a horizontal
-        jack's load: the parameters it is confounded with are chosen first, and it is
+        Paths judged after every other (a value the user typically knows, a jack's load:
+        the parameters it is confounded with are chosen first, and it is
         ``not separable`` from them where only their combination is seen)
 
     Returns

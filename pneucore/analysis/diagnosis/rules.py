@@ -211,7 +211,7 @@ def _bic_strong(t, ctx):
     return t["delta_bic"] < DELTA_BIC
 
 
-#: The rules a base parameter the user typically knows (a horizontal jack's load,
+#: The rules a base parameter the user typically knows (a jack's load, an inclined jack's angle,
 #: :attr:`pneucore.analysis.hypotheses.BaseHypothesis.user_knows`) must pass to move, in
 #: order: the null is fitted with it held at the user's value; a deferred rule reads the
 #: null refitted with it freed (``p_value``, ``delta_bic`` of freed against held)
