@@ -257,8 +257,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         exps = hyp.exps
         report(0.02, "fitting the base model")
         unc = S.uncertain_paths(model, hyp, known, refit_existing)
-        # a value the user typically knows (a jack's load, an inclined jack's angle) is held at the user's value,
-        # and freed only where the data demand it
+        # a value the user typically knows (a jack's load, an inclined jack's angle) is held at
+        # the user's value, and freed only where the data demand it
         # (one confounded in the small is not chosen, and is freed where a fit drives the
         # parameters it is confounded with to a bound, as any other)
         null = S.null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report,
