@@ -85,7 +85,18 @@ def run_after(case, rounds=4):
             "error_after": last.remaining.get("error", hist.versions[-1].overall),
             "noise_floor": last.remaining.get("noise_floor"),
             "outside_text": last.remaining.get("description", ""),
-            "load_moved": _load_moved(case, model)}
+            "load_moved": _load_moved(case, model), "angle_miss": _angle_miss(case, model)}
+
+
+#: How far the loop may leave a declared mounting angle from the truth [deg]: the angle's
+#: typical error (``hypotheses.BASE_HYPOTHESES``), the width of its prior; a wrong angle the loop
+#: does not move misses by the whole error (20 deg in ``base/angle-wrong``)
+ANGLE_MISS = 5.0
+
+
+def _angle_miss(case, model):
+    """The final mounting angle's distance from the truth [deg] (0 on a horizontal rig)."""
+    return abs(model.jack.mounting_angle - Model.from_dict(case.truth).jack.mounting_angle)
 
 
 #: An undeclared load the loop may invent where the rig has none [N]: 3 N is three times the
@@ -97,6 +108,8 @@ LOAD_INVENTED = 3.0
 def judge(case, res):
     named = set(res["named"])
     if res.get("load_moved", 0.0) > LOAD_INVENTED:
+        return False
+    if res.get("angle_miss", 0.0) > ANGLE_MISS:
         return False
     if case.category == "base":
         return not named
@@ -130,6 +143,7 @@ def main(argv=None):
               f"{'; initial state ' + str(len(res['initial_state'])) if res.get('initial_state') else ''}"
               f"; error {100 * res['error_after']:.3f} %"
               f"{'; load moved %.1f N' % res['load_moved'] if res.get('load_moved') else ''}"
+              f"{'; angle off %.1f deg' % res['angle_miss'] if res.get('angle_miss') else ''}"
               f"; {res['seconds']:.1f} s", flush=True)
     print("\ncategory   right / cases")
     for cat in ("base", "effect", "outside"):

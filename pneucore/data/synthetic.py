@@ -446,4 +446,10 @@ RIG_CASES = [
     # end cushions act over the last 15 mm of travel only: the rig also records a full
     # stroke each way (the pulse test never reaches the ends)
     ("effect/circuit/end_cushion", dict(seed=35, effects=("end_cushion",), full_strokes=True)),
+    # an inclined jack carrying 6 kg (8 kg moving) declared at 30 deg (issue 23, item 6): in
+    # truth at 50 deg (23.5 N more weight along the rod than declared, more than a Coulomb
+    # level can take up), and declared right
+    ("base/angle-wrong", dict(seed=41, declared={"jack.mounting_angle": 30.0, "jack.moving_mass": 8.0},
+                              base_values={"jack.mounting_angle": 50.0})),
+    ("base/angle-right", dict(seed=42, declared={"jack.mounting_angle": 30.0, "jack.moving_mass": 8.0})),
 ]
