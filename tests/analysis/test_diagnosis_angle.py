@@ -1,18 +1,20 @@
 """The mounting angle in the diagnosis (issue 23, item 6): a base parameter the user knows,
 moved only where the data demand it, and then reported with what it cannot be told from
 (an undeclared load, the Coulomb levels) and the measurement that would separate them."""
-import math
-
 import pytest
 
 from pneucore import Model, model_preset
 from pneucore.analysis import hypotheses as H
 
-#: The rigs: the paper's jack carrying a 6 kg payload (8 kg moving), declared at 30 deg, every
-#: other base parameter somewhat off and nothing else declared (``rig_case``'s draws). At
-#: 50 deg the weight along the rod is 9 kg x 9.81 x (sin 50 - sin 30) = 23.5 N more than
-#: declared: more than the retracting Coulomb level (about 12 N) can take up
-DECLARED = {"jack.mounting_angle": 30.0, "jack.moving_mass": 8.0}
+
+def _rig(name):
+    """The confusion set's inclined rigs (``pneucore.data.synthetic.RIG_CASES``): the paper's
+    jack carrying a 6 kg payload (8 kg moving), declared at 30 deg, every other base parameter
+    somewhat off and nothing else declared. At 50 deg the weight along the rod is
+    9 kg x 9.81 x (sin 50 - sin 30) = 23.5 N more than declared: more than the retracting
+    Coulomb level (about 12 N) can take up."""
+    from pneucore.data.synthetic import RIG_CASES, rig_case
+    return rig_case(name, **dict(RIG_CASES)[name])
 
 
 def _inclined():
@@ -39,17 +41,14 @@ def test_an_angle_error_is_a_difference_in_degrees_bounded_by_the_vertical():
 @pytest.fixture(scope="module")
 def wrong_angle():
     from pneucore.analysis.diagnose import diagnose
-    from pneucore.data.synthetic import rig_case
-    case = rig_case("angle/wrong", seed=41, declared=DECLARED,
-                    base_values={"jack.mounting_angle": 50.0})
+    case = _rig("base/angle-wrong")
     return case, diagnose(case.start, case.experiments)
 
 
 @pytest.fixture(scope="module")
 def right_angle():
     from pneucore.analysis.diagnose import diagnose
-    from pneucore.data.synthetic import rig_case
-    case = rig_case("angle/right", seed=42, declared=DECLARED)
+    case = _rig("base/angle-right")
     return case, diagnose(case.start, case.experiments)
 
 
