@@ -410,9 +410,13 @@ P_ANR = 1e5
 #: upstream, 1 bar pressure drop (5 bar gauge downstream) [Pa]
 QN_P1_GAUGE = 6e5
 QN_DP = 1e5
+#: 1 ft^3 [m^3] and 1 psi [Pa], by the units' definitions (international foot 0.3048 m,
+#: pound-force 4.4482216152605 N on the square inch)
+FT3 = 0.3048 ** 3
+PSI = 6894.757293168
 #: Kv [m^3/h of water at 1 bar] per Cv [US gal/min of water at 1 psi]: (3.785411784 L x 60)
-#: x sqrt(1e5 Pa / 6894.757 Pa), from the units' definitions (IEC 60534-1: Kv = 0.865 Cv) [-]
-KV_PER_CV = 3.785411784e-3 * 60.0 * math.sqrt(1e5 / 6894.757293168)
+#: x sqrt(1e5 Pa / 1 psi), from the units' definitions (IEC 60534-1: Kv = 0.865 Cv) [-]
+KV_PER_CV = 3.785411784e-3 * 60.0 * math.sqrt(1e5 / PSI)
 
 
 def conductance_from_flow(Q, p1, p2, b, T1=T_REF):
@@ -516,12 +520,8 @@ def conductance_from_area(S, r=R_AIR, gamma=GAMMA_AIR):
 #: temperatures in degR: ``Q = N7 Fp Cv p1 Y sqrt(x / (G T1 Z))`` [-]
 N7_SCFH = 1360.0
 #: The scfh's standard state, 14.73 psia and 60 degF (ISA-75.01.01), in Pa and K
-P_SCFH = 14.73 * 6894.757293168
+P_SCFH = 14.73 * PSI
 T_SCFH = (60.0 + 459.67) / 1.8
-#: 1 ft^3 [m^3] and 1 psi [Pa], by the units' definitions (international foot 0.3048 m,
-#: pound-force 4.4482216152605 N)
-FT3 = 0.3048 ** 3
-PSI = 6894.757293168
 
 
 def conductance_from_cv(cv, b):
