@@ -113,13 +113,6 @@ def _open(ctx, url, errors, view="all"):
     return page
 
 
-@pytest.fixture(scope="module")
-def page(context, server, page_errors):
-    p = _open(context, server, page_errors)
-    yield p
-    p.close()
-
-
 @pytest.fixture(autouse=True)
 def no_script_errors(page_errors):
     """Every test also fails on an uncaught script error or a console error of the page."""
