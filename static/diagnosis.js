@@ -105,8 +105,17 @@ function explainErrorBefore(d) {
   if (start == null || before == null) return '';
   const moved = (d.refitted || []).filter((q) => typeof q.before === 'number' && typeof q.after === 'number' &&
     Math.abs(q.after - q.before) > (q.stderr || 0) && q.after !== q.before);
-  if (!moved.length || Math.abs(start - before) <= 1e-4 * Math.max(start, 1e-12)) {
-    return `Error before is your model's own error (${pct(start)} %): no base parameter was refitted.`;
+  if (Math.abs(start - before) <= 1e-4 * Math.max(start, 1e-12)) {
+    return `Error before is your model's own error (${pct(start)} %)${moved.length ? '' : ': no base parameter moved'}.`;
+  }
+  if (!moved.length) {
+    // the null refit moved the uncertain base values, and the fit with the effect brought them
+    // back to the user's (they took up part of what was missing): the finding keeps them
+    const paths = (d.uncertain || []).filter((p) => !String(p).startsWith('effects.'));
+    return `Your model as given: ${pct(start)} % (the comparison's error). "Error before" (${pct(before)} %) is the ` +
+      `best it reaches with the base parameters left uncertain${paths.length ? ` (${paths.join(', ')})` : ''} refitted ` +
+      'and no effect added: each effect is weighed against that. Fitted with the effect, those values came back to ' +
+      'yours, so a finding changes only what its card lists.';
   }
   const show = (q) => {
     const u = typeof unitShow === 'function' ? unitShow(q.unit) : { unit: q.unit, scale: 1, offset: 0 };
