@@ -411,6 +411,24 @@ def comparison_report(req: CompareRequest, store, limits, progress=None):
     return html_report(model, c, _provenance(store, exps))
 
 
+def _shown_param(v):
+    """A fitted parameter of a diagnosis on screen, as the report prints it: a number or text,
+    or the answer's ``{"value", "stderr", "unit"}`` (those three fields only, each of its type);
+    None for anything else (left out)."""
+    def number(x):
+        return isinstance(x, (int, float)) and not isinstance(x, bool)
+    if number(v) or isinstance(v, str):
+        return v
+    if isinstance(v, dict) and number(v.get("value")):
+        out = {"value": v["value"]}
+        if number(v.get("stderr")):
+            out["stderr"] = v["stderr"]
+        if isinstance(v.get("unit"), str):
+            out["unit"] = v["unit"]
+        return out
+    return None
+
+
 def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None, settings=None):
     """POST /api/reports/diagnose: the diagnosis (with the comparisons of the model and of the
     verdict's refined model) as one self-contained HTML text; ``progress`` follows the
@@ -426,8 +444,8 @@ def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None, s
             for k in ("error_before", "error_after_overall", "lr_statistic", "p_value", "delta_bic"):
                 if r.get(k) is None:
                     r[k] = float("nan")
-            r["params"] = {str(k): v for k, v in r["params"].items()
-                           if isinstance(v, (int, float, str)) and not isinstance(v, bool)}
+            r["params"] = {str(k): q for k, q in ((k, _shown_param(v)) for k, v in r["params"].items())
+                           if q is not None}
         best = next((r for r in d["ranking"] if r.get("effect") == d.get("verdict")), None)
         if best is not None and best.get("model"):
             parse_model(best["model"], "diagnosis.ranking.model")   # a 422 naming it, not a 500

@@ -91,8 +91,12 @@ function renderDiagnosis() {
         `<dd class="eff-samples">${Math.round(r.effective_samples)} of ${r.n_samples}</dd>` : '') + '</dl>' +
       (params ? `<table class="data params"><thead><tr><th scope="col">parameter</th><th scope="col">value ± std. error</th><th scope="col">95 % CI</th><th></th></tr></thead><tbody>${params}</tbody></table>` : '') +
       `<p class="explanation">${esc(r.explanation || '')}</p>` + changesTable(r.changes, `Adding ${r.effect} changes ${(r.changes || []).length} value(s) of the model`) +
-      `<button type="button" class="${r.effect === d.verdict ? 'primary ' : ''}add-effect-btn" id="add-${esc(r.effect)}" data-effect="${esc(r.effect)}"` +
-      `${r.model ? '' : ' disabled'} title="Take the refitted model (current model + ${esc(r.effect)}) as the new current model">Add ${esc(r.effect)} to the model</button>`;
+      // one "add" per effect: the verdict's is the findings' button above (static/findings.js),
+      // which takes the whole next model (with its recalibration)
+      (r.effect === d.verdict && d.model
+        ? `<p class="muted small taken-above">The verdict: add it with “Add ${esc(r.effect)}” under the verdict above.</p>`
+        : `<button type="button" class="add-effect-btn" id="add-${esc(r.effect)}" data-effect="${esc(r.effect)}"` +
+          `${r.model ? '' : ' disabled'} title="Take the refitted model (current model + ${esc(r.effect)}) as the new current model">Add ${esc(r.effect)} to the model</button>`);
     cards.appendChild(card);
   });
 }

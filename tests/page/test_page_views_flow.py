@@ -108,8 +108,9 @@ def test_diagnose_view_finds_the_leak_and_adding_it_records_a_version(page):
     explained = page.inner_text("#diag-error-explained")
     assert before < start and "no base parameter" not in explained, explained
     assert f"{100 * before:.2f} %" in explained and f"{100 * start:.2f} %" in explained, explained
-    page.click("#diag-cards .add-effect-btn[data-effect='piston_leakage']")
-    wait_status(page, r"piston_leakage added \(version 1\)")
+    assert page.locator("button", has_text="Add piston_leakage").count() == 1   # one "add" per effect
+    page.click("#btn-apply-findings")
+    wait_status(page, r"Applied the piston_leakage \(version 1\)")
 
 
 def test_the_history_shows_both_versions_with_the_error_falling(page):
