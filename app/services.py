@@ -458,6 +458,37 @@ def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None, s
     return diagnosis_report_on(model, exps, d, _provenance(store, exps))
 
 
+def session_report(session_id, store, limits, progress=None):
+    """POST /api/reports/sessions/{session_id}: a refinement session as the user recorded it (every version
+    with its errors and what it changed, the last version against the session's experiments)
+    as one self-contained HTML text; None for an unknown session."""
+    from pneucore.analysis.report import refinement_report as html_report
+    from pneucore.spec.paths import model_changes
+    s = store.session(session_id)
+    if s is None:
+        return None
+    models = [parse_model(v["model"], f"session.versions[{i}].model") for i, v in enumerate(s["versions"])]
+    versions = []
+    for i, v in enumerate(s["versions"]):
+        row = {k: v.get(k) for k in ("version", "label", "errors", "overall", "note")}
+        row["changes"] = model_changes(models[i - 1], models[i]) if i else []
+        versions.append(row)
+    try:
+        exps_in = [ExperimentIn(**e) for e in s["experiments"]]
+    except (TypeError, ValueError):
+        raise FieldError("session_id", f"session {session_id!r} has unreadable experiments") from None
+    if not exps_in:
+        raise FieldError("session_id", f"session {session_id!r} has no experiments to compare with")
+    exps = parse_experiments(exps_in, models[-1], store, limits)
+    n = len(versions)
+    answer = {"versions": versions, "diagnoses": [], "model": s["versions"][-1]["model"],
+              "message": f"Session {s['id']} “{s['name']}”: {n} version{'s' if n != 1 else ''}, each with "
+                         "its errors on the experiments it was recorded on and the values it changed; "
+                         "the last version is compared with the session's experiments below."}
+    return html_report(answer, compare(models[-1], exps, progress=progress), _provenance(store, exps),
+                       title=f"Refinement session {s['name']}")
+
+
 def refinement_report(req: RefineRequest, store, limits, progress=None, settings=None):
     """POST /api/reports/refine: the whole refinement (every version and round, the refined
     model against the data) as one self-contained HTML text; ``progress`` follows the loop."""

@@ -22,7 +22,7 @@ SHOWN = {"model": "#panel-model", "data": "#dataset-select", "compare": "#btn-co
 
 @pytest.fixture(scope="module")
 def page(browser, server, page_errors):  # noqa: F811
-    ctx = browser.new_context(viewport={"width": 1366, "height": 768})
+    ctx = browser.new_context(viewport={"width": 1366, "height": 768}, accept_downloads=True)
     p = _open(ctx, server, page_errors, view="model")
     yield p
     p.close()
@@ -118,6 +118,12 @@ def test_the_history_shows_both_versions_with_the_error_falling(page):
     assert len(history_rows(page)) == 2 and "piston_leakage" in history_rows(page)[1]
     y = page.evaluate("document.getElementById('history-plot').data[0].y")
     assert len(y) == 2 and y[1] < y[0], y
+    # the whole refinement as recorded, as one file: both versions and what the second changed
+    with page.expect_download() as dl:
+        page.click("#btn-session-report")
+    html = open(dl.value.path(), encoding="utf-8").read()
+    assert "Refinement session" in html and "What each version changed" in html
+    assert "effects.piston_leakage.conductance" in html and DATASET in html
 
 
 def test_the_state_carries_back_to_the_earlier_views(page):
