@@ -109,8 +109,17 @@ def test_diagnose_view_finds_the_leak_and_adding_it_records_a_version(page):
     assert before < start and "no base parameter" not in explained, explained
     assert f"{100 * before:.2f} %" in explained and f"{100 * start:.2f} %" in explained, explained
     assert page.locator("button", has_text="Add piston_leakage").count() == 1   # one "add" per effect
+    # what the button changes is listed before it is pressed
+    listed = page.evaluate("[...document.querySelectorAll('#diag-findings-changes tr[data-path]')]"
+                           ".map(r => r.dataset.path)")
+    assert "effects.piston_leakage.conductance" in listed, listed
     page.click("#btn-apply-findings")
     wait_status(page, r"Applied the piston_leakage \(version 1\)")
+    # ... and it changed exactly that: the history's diff of version 0 -> 1
+    page.click("#history-table .version-diff[data-index='1']")
+    page.wait_for_selector("#version-diff tr[data-path]")
+    changed = page.evaluate("[...document.querySelectorAll('#version-diff tr[data-path]')].map(r => r.dataset.path)")
+    assert sorted(changed) == sorted(listed), (changed, listed)
 
 
 def test_the_history_shows_both_versions_with_the_error_falling(page):
