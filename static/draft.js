@@ -16,6 +16,8 @@
  *   panels' own rendering, the messages are textContent.
  * workspace.js calls modelDraft.restore() once the page is ready and the address's session
  * opened; model.js and history.js call modelDraft.markClean() when a model is loaded or stored.
+ * Loaded before them and app.js (index.html), so that modelDraft exists before the first model
+ * is loaded.
  */
 (function modelDraft() {
   const KEY = 'pneucore.modelDraft';

@@ -45,8 +45,12 @@ function wireExports() {
     try { await download('/api/compare', { model: S.model, experiments: clone(S.experiments) }, 'text/csv', 'comparison.csv', 'Comparison CSV'); } catch (e) { showApiError(e, 'Comparison CSV'); }
   }));
   $('#btn-compare-report').addEventListener('click', (ev) => busy(ev.target, async () => {
-    if (!needExperiments()) return;
-    try { await download('/api/reports/compare', { model: S.model, experiments: clone(S.experiments) }, 'text/html', 'comparison-report.html', 'Comparison report'); } catch (e) { showApiError(e, 'Comparison report'); }
+    // the comparison on screen (its model and experiments, even when the model changed since:
+    // the same numbers, the comparison being deterministic); the current ones when none is shown
+    const shown = S.compare && S.compare.model ? { model: JSON.parse(S.compare.model), experiments: clone(S.compare.experiments) } : null;
+    if (!shown && !needExperiments()) return;
+    const body = shown || { model: S.model, experiments: clone(S.experiments) };
+    try { await download('/api/reports/compare', body, 'text/html', 'comparison-report.html', 'Comparison report'); } catch (e) { showApiError(e, 'Comparison report'); }
   }));
   $('#btn-diag-report').addEventListener('click', (ev) => busy(ev.target, async () => {
     if (!needExperiments()) return;

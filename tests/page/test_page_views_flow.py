@@ -9,6 +9,8 @@ next and after the reload (model, experiment, session, history).
 """
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from test_page import ARTIFACTS, TIMEOUT_MS, _open, browser, page_errors, server  # noqa: F401
@@ -145,6 +147,22 @@ def test_the_state_carries_back_to_the_earlier_views(page):
     go(page, "compare")                 # the comparison redone with the leak, not the stale one
     assert not page.is_visible("#compare-stale")
     assert "piston_leakage" in page.inner_text("#compare-summary")
+    # the model edited after the comparison: the comparison on screen says it is stale, and its
+    # report exports that comparison (its model: 2 kg), not a new one of the edited model
+    shown_mass = page.evaluate("JSON.parse(S.compare.model).jack.moving_mass")
+    go(page, "model")
+    page.fill("#jack-moving_mass", "2.5")
+    go(page, "compare")
+    assert page.is_visible("#compare-stale")
+    with page.expect_download() as dl:
+        page.click("#btn-compare-report")
+    html = open(dl.value.path(), encoding="utf-8").read()
+    mass = re.search(r"moving_mass&quot;: ([0-9.e+-]+)", html)
+    assert mass and float(mass.group(1)) == shown_mass != 2.5, mass
+    go(page, "model")                   # edited back: nothing unsaved, the comparison current again
+    page.fill("#jack-moving_mass", f"{shown_mass:g}")
+    go(page, "compare")
+    assert not page.is_visible("#compare-stale")
 
 
 def test_a_reload_reopens_the_view_the_session_and_everything_in_it(page):
