@@ -13,7 +13,8 @@ import re
 
 import pytest
 
-from test_page import ARTIFACTS, TIMEOUT_MS, _open, browser, page_errors, server  # noqa: F401
+from test_page import (ARTIFACTS, TIMEOUT_MS, _open, browser, no_script_errors, page_errors, server,  # noqa: F401
+                       wait_status)
 
 DATASET = "sample-piston-leak-locked-hold"   # the shipped sample: a leak across the piston
 NAME = "rig A"
@@ -31,13 +32,6 @@ def page(browser, server, page_errors):  # noqa: F811
     ctx.close()
 
 
-@pytest.fixture(autouse=True)
-def no_script_errors(page_errors):  # noqa: F811
-    n = len(page_errors)
-    yield
-    assert page_errors[n:] == [], page_errors[n:]
-
-
 def go(page, view):
     """Click the nav's step; check that its panel shows and the other steps' do not."""
     page.click(f"#workspace-nav a[data-view='{view}']")
@@ -47,14 +41,6 @@ def go(page, view):
         assert page.is_visible(sel) == (other == view), (view, other)
     ARTIFACTS.mkdir(exist_ok=True)
     page.screenshot(path=str(ARTIFACTS / f"views-flow-{view}.png"))
-
-
-def wait_status(page, pattern):
-    page.wait_for_function("(p) => new RegExp(p).test(document.getElementById('status-msg').textContent) "
-                           "|| document.getElementById('status').classList.contains('error')", arg=pattern)
-    msg = page.inner_text("#status-msg")
-    assert "error" not in page.get_attribute("#status", "class"), msg
-    return msg
 
 
 def history_rows(page):
