@@ -42,7 +42,7 @@ from .routers import models
 from .routers import identify
 from .routers import sizing
 from .routers import valve
-from .schemas import LimitsResponse, SampleInfo
+from .schemas import NO_CONTROL, LimitsResponse, SampleInfo
 from .security import Guard
 from .store import DamagedRecord, ServerLock, Store, StoreUnavailable, disk_full, storage_fault
 from .sync_pool import ClientGone, SyncPool
@@ -205,6 +205,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def validation_error(request: Request, exc: RequestValidationError):
         errs = []
         for e in exc.errors():
+            if e.get("type") == "string_pattern_mismatch" and (e.get("ctx") or {}).get("pattern") == NO_CONTROL:
+                e = dict(e, msg="must not contain a control character (a tab, CR, LF, NUL, ...)")
             e = {k: v for k, v in e.items() if k in ("loc", "msg", "type")}
             field = ""
             for p in e["loc"][1:]:

@@ -55,7 +55,8 @@ _ERROR_TEXT = {
 
 #: The synchronous analyses admitted by :mod:`app.sync_pool` (429 when its queue is full)
 SYNC_ANALYSES = ("/api/compare", "/api/calibrate", "/api/diagnose", "/api/refine",
-                 "/api/reports/compare", "/api/reports/diagnose", "/api/heat-models/compare")
+                 "/api/reports/compare", "/api/reports/diagnose", "/api/heat-models/compare",
+                 "/api/reports/sessions/{session_id}")
 
 
 def document_errors(app, settings=None):

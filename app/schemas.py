@@ -28,15 +28,16 @@ from pydantic import StringConstraints  # noqa: E402
 
 from .config import Limits as _Limits  # noqa: E402
 
+#: Text with no control character (the pattern of names and descriptions; a refusal says so in
+#: words, app.main's validation_error)
+NO_CONTROL = r"^[^\x00-\x1f\x7f]*$"
 #: A name: at most Limits.max_name_length characters, no control character (a tab, a line break,
 #: an escape sequence would reach logs, file names and CSV cells)
-Name = _Annotated[str, StringConstraints(max_length=_Limits.max_name_length,
-                                         pattern=r"^[^\x00-\x1f\x7f]*$")]
+Name = _Annotated[str, StringConstraints(max_length=_Limits.max_name_length, pattern=NO_CONTROL)]
 #: Free text (a description): at most Limits.max_text_length characters, and no control
 #: character either: a CR, LF or NUL in a description would reach the same logs, reports and
 #: CSV headers as a name's
-Text = _Annotated[str, StringConstraints(max_length=_Limits.max_text_length,
-                                         pattern=r"^[^\x00-\x1f\x7f]*$")]
+Text = _Annotated[str, StringConstraints(max_length=_Limits.max_text_length, pattern=NO_CONTROL)]
 
 
 class _Strict(BaseModel):

@@ -411,6 +411,24 @@ def comparison_report(req: CompareRequest, store, limits, progress=None):
     return html_report(model, c, _provenance(store, exps))
 
 
+def _shown_param(v):
+    """A fitted parameter of a diagnosis on screen, as the report prints it: a number or text,
+    or the answer's ``{"value", "stderr", "unit"}`` (those three fields only, each of its type);
+    None for anything else (left out)."""
+    def number(x):
+        return isinstance(x, (int, float)) and not isinstance(x, bool)
+    if number(v) or isinstance(v, str):
+        return v
+    if isinstance(v, dict) and number(v.get("value")):
+        out = {"value": v["value"]}
+        if number(v.get("stderr")):
+            out["stderr"] = v["stderr"]
+        if isinstance(v.get("unit"), str):
+            out["unit"] = v["unit"]
+        return out
+    return None
+
+
 def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None, settings=None):
     """POST /api/reports/diagnose: the diagnosis (with the comparisons of the model and of the
     verdict's refined model) as one self-contained HTML text; ``progress`` follows the
@@ -426,8 +444,8 @@ def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None, s
             for k in ("error_before", "error_after_overall", "lr_statistic", "p_value", "delta_bic"):
                 if r.get(k) is None:
                     r[k] = float("nan")
-            r["params"] = {str(k): v for k, v in r["params"].items()
-                           if isinstance(v, (int, float, str)) and not isinstance(v, bool)}
+            r["params"] = {str(k): q for k, q in ((k, _shown_param(v)) for k, v in r["params"].items())
+                           if q is not None}
         best = next((r for r in d["ranking"] if r.get("effect") == d.get("verdict")), None)
         if best is not None and best.get("model"):
             parse_model(best["model"], "diagnosis.ranking.model")   # a 422 naming it, not a 500
@@ -438,6 +456,37 @@ def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None, s
                      scheduler=diagnosis_scheduler(req, settings),
                      scheduler_timeout=limits.scheduler_timeout).to_dict()
     return diagnosis_report_on(model, exps, d, _provenance(store, exps))
+
+
+def session_report(session_id, store, limits, progress=None):
+    """POST /api/reports/sessions/{session_id}: a refinement session as the user recorded it (every version
+    with its errors and what it changed, the last version against the session's experiments)
+    as one self-contained HTML text; None for an unknown session."""
+    from pneucore.analysis.report import refinement_report as html_report
+    from pneucore.spec.paths import model_changes
+    s = store.session(session_id)
+    if s is None:
+        return None
+    models = [parse_model(v["model"], f"session.versions[{i}].model") for i, v in enumerate(s["versions"])]
+    versions = []
+    for i, v in enumerate(s["versions"]):
+        row = {k: v.get(k) for k in ("version", "label", "errors", "overall", "note")}
+        row["changes"] = model_changes(models[i - 1], models[i]) if i else []
+        versions.append(row)
+    try:
+        exps_in = [ExperimentIn(**e) for e in s["experiments"]]
+    except (TypeError, ValueError):
+        raise FieldError("session_id", f"session {session_id!r} has unreadable experiments") from None
+    if not exps_in:
+        raise FieldError("session_id", f"session {session_id!r} has no experiments to compare with")
+    exps = parse_experiments(exps_in, models[-1], store, limits)
+    n = len(versions)
+    answer = {"versions": versions, "diagnoses": [], "model": s["versions"][-1]["model"],
+              "message": f"Session {s['id']} “{s['name']}”: {n} version{'s' if n != 1 else ''}, each with "
+                         "its errors on the experiments it was recorded on and the values it changed; "
+                         "the last version is compared with the session's experiments below."}
+    return html_report(answer, compare(models[-1], exps, progress=progress), _provenance(store, exps),
+                       title=f"Refinement session {s['name']}")
 
 
 def refinement_report(req: RefineRequest, store, limits, progress=None, settings=None):

@@ -318,7 +318,8 @@ function wire() {
   });
   mp.addEventListener('input', (ev) => {
     if (ev.target.id === 'friction-pressures') { plotFriction(); return; }
-    if (ev.target.type === 'number') onModelInput(ev);
+    // numbers and names as typed (a name typed and the page reloaded before the field is left is kept: static/draft.js)
+    if (ev.target.type === 'number' || ev.target.dataset.text) onModelInput(ev);
   });
   $('#valve-tables').addEventListener('click', editValveRows);
   $('#effects-list').addEventListener('click', removeEffect);

@@ -2,7 +2,8 @@
 /* Calibration panel: pick parameters, fit, read an lmfit-style report, apply.
  * The parameters, their units, current values and default bounds come from the service
  * (POST /api/calibrate/parameters): nothing is restated here. The fit is POST /api/calibrate
- * on the model of panel 1 and the datasets chosen in panel 4. Values are SI (as the API). */
+ * on the model of panel 1 and the datasets chosen in panel 4. Values are sent in SI (as the API) and shown in the
+ * unit system of the header (static/units.js). */
 
 const CAL = { options: [], result: null, checked: new Set(['jack.moving_mass']) };
 

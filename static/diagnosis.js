@@ -91,8 +91,12 @@ function renderDiagnosis() {
         `<dd class="eff-samples">${Math.round(r.effective_samples)} of ${r.n_samples}</dd>` : '') + '</dl>' +
       (params ? `<table class="data params"><thead><tr><th scope="col">parameter</th><th scope="col">value ± std. error</th><th scope="col">95 % CI</th><th></th></tr></thead><tbody>${params}</tbody></table>` : '') +
       `<p class="explanation">${esc(r.explanation || '')}</p>` + changesTable(r.changes, `Adding ${r.effect} changes ${(r.changes || []).length} value(s) of the model`) +
-      `<button type="button" class="${r.effect === d.verdict ? 'primary ' : ''}add-effect-btn" id="add-${esc(r.effect)}" data-effect="${esc(r.effect)}"` +
-      `${r.model ? '' : ' disabled'} title="Take the refitted model (current model + ${esc(r.effect)}) as the new current model">Add ${esc(r.effect)} to the model</button>`;
+      // one "add" per effect: the verdict's is the findings' button above (static/findings.js),
+      // which takes the whole next model (with its recalibration)
+      (r.effect === d.verdict && d.model
+        ? `<p class="muted small taken-above">The verdict: add it with “Add ${esc(r.effect)}” under the verdict above.</p>`
+        : `<button type="button" class="add-effect-btn" id="add-${esc(r.effect)}" data-effect="${esc(r.effect)}"` +
+          `${r.model ? '' : ' disabled'} title="Take the refitted model (current model + ${esc(r.effect)}) as the new current model">Add ${esc(r.effect)} to the model</button>`);
     cards.appendChild(card);
   });
 }
@@ -105,8 +109,17 @@ function explainErrorBefore(d) {
   if (start == null || before == null) return '';
   const moved = (d.refitted || []).filter((q) => typeof q.before === 'number' && typeof q.after === 'number' &&
     Math.abs(q.after - q.before) > (q.stderr || 0) && q.after !== q.before);
-  if (!moved.length || Math.abs(start - before) <= 1e-4 * Math.max(start, 1e-12)) {
-    return `Error before is your model's own error (${pct(start)} %): no base parameter was refitted.`;
+  if (Math.abs(start - before) <= 1e-4 * Math.max(start, 1e-12)) {
+    return `Error before is your model's own error (${pct(start)} %)${moved.length ? '' : ': no base parameter moved'}.`;
+  }
+  if (!moved.length) {
+    // the null refit moved the uncertain base values, and the fit with the effect brought them
+    // back to the user's (they took up part of what was missing): the finding keeps them
+    const paths = (d.uncertain || []).filter((p) => !String(p).startsWith('effects.'));
+    return `Your model as given: ${pct(start)} % (the comparison's error). "Error before" (${pct(before)} %) is the ` +
+      `best it reaches with the base parameters left uncertain${paths.length ? ` (${paths.join(', ')})` : ''} refitted ` +
+      'and no effect added: each effect is weighed against that. Fitted with the effect, those values came back to ' +
+      'yours, so a finding changes only what its card lists.';
   }
   const show = (q) => {
     const u = typeof unitShow === 'function' ? unitShow(q.unit) : { unit: q.unit, scale: 1, offset: 0 };

@@ -1,7 +1,7 @@
 'use strict';
 /* Downloads: simulation and comparison as CSV (the API's Accept: text/csv answer, units in
  * the header; uploads read it back), the simulation as a NumPy .npz archive (Accept:
- * application/x-npz), HTML reports of a comparison or a diagnosis (one
+ * application/x-npz), HTML reports of a comparison, a diagnosis or the whole session (one
  * self-contained file), the fitted model as JSON. */
 
 function saveBlob(blob, filename) {
@@ -45,8 +45,12 @@ function wireExports() {
     try { await download('/api/compare', { model: S.model, experiments: clone(S.experiments) }, 'text/csv', 'comparison.csv', 'Comparison CSV'); } catch (e) { showApiError(e, 'Comparison CSV'); }
   }));
   $('#btn-compare-report').addEventListener('click', (ev) => busy(ev.target, async () => {
-    if (!needExperiments()) return;
-    try { await download('/api/reports/compare', { model: S.model, experiments: clone(S.experiments) }, 'text/html', 'comparison-report.html', 'Comparison report'); } catch (e) { showApiError(e, 'Comparison report'); }
+    // the comparison on screen (its model and experiments, even when the model changed since:
+    // the same numbers, the comparison being deterministic); the current ones when none is shown
+    const shown = S.compare && S.compare.model ? { model: JSON.parse(S.compare.model), experiments: clone(S.compare.experiments) } : null;
+    if (!shown && !needExperiments()) return;
+    const body = shown || { model: S.model, experiments: clone(S.experiments) };
+    try { await download('/api/reports/compare', body, 'text/html', 'comparison-report.html', 'Comparison report'); } catch (e) { showApiError(e, 'Comparison report'); }
   }));
   $('#btn-diag-report').addEventListener('click', (ev) => busy(ev.target, async () => {
     if (!needExperiments()) return;
@@ -55,6 +59,13 @@ function wireExports() {
     const body = shown ? { model: shown.model || S.model, experiments: clone(shown.experiments), diagnosis: shown.result }
       : { model: S.model, experiments: clone(S.experiments), known: typeof knownPaths === 'function' ? knownPaths() : [] };
     try { await download('/api/reports/diagnose', body, 'text/html', 'diagnosis-report.html', 'Diagnosis report'); } catch (e) { showApiError(e, 'Diagnosis report'); }
+  }));
+  $('#btn-session-report').addEventListener('click', (ev) => busy(ev.target, async () => {
+    // the refinement as recorded: every version of the session on screen (not a new refinement)
+    if (!S.session) { setStatus('Session report: no session yet (the first comparison or diagnosis starts one).', 'error'); return; }
+    try {
+      await download(`/api/reports/sessions/${encodeURIComponent(S.session.id)}`, {}, 'text/html', 'session-report.html', 'Session report');
+    } catch (e) { showApiError(e, 'Session report'); }
   }));
   $('#btn-cal-download').addEventListener('click', () => {
     if (typeof CAL === 'undefined' || !CAL.result) return;

@@ -86,6 +86,13 @@
       for (const [k, p] of Object.entries(top.params || {})) params[k] = p.value;
       b.addEventListener('click', () => apply(b, d.model, d.verdict, params, d.verdict));
       actions.appendChild(b);
+      // everything the button changes, listed before it is pressed: the effect, the recalibration
+      // and any other value the next model moves (a refitted value below the "mis-set" threshold)
+      const changes = d.changes || [];
+      if (changes.length) {
+        box.insertAdjacentHTML('beforeend', changesTable(changes, `“${b.textContent}” changes ${changes.length} value(s) of the model`));
+        box.lastElementChild.id = 'diag-findings-changes';
+      }
     }
     box.appendChild(actions);
     const verdict = document.getElementById('diag-verdict');

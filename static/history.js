@@ -29,6 +29,7 @@ async function ensureSession() {
 function setSession(s) {
   S.session = s;
   if (s) localStorage.setItem(SESSION_KEY, s.id); else localStorage.removeItem(SESSION_KEY);
+  if (s) modelDraft.markClean(S.model);   // static/draft.js: the model just stored as a version
   renderHistory();
 }
 async function recordVersion(added, params) {
@@ -82,7 +83,7 @@ async function openSession(id, verb = 'Opened') {
   const last = s.versions[s.versions.length - 1];
   S.session = s;
   localStorage.setItem(SESSION_KEY, s.id);
-  if (last && last.model) { S.model = last.model; renderModel(); }
+  if (last && last.model) { S.model = last.model; renderModel(); modelDraft.markClean(last.model); }
   selectExperiments(s.experiments);
   renderHistory();
   setStatus(`${verb} session ${s.id} “${s.name}” (${s.versions.length} version(s), last: ${last ? last.label : '?'}).`, 'ok');

@@ -337,5 +337,6 @@ async function loadModelPreset(name) {
   clearErrors();
   renderModel();
   markStaleComparison();
+  modelDraft.markClean(m);   // static/draft.js: edits from here on are unsaved
   return m;
 }

@@ -1,6 +1,6 @@
 'use strict';
 /* A rig's record as it comes (panel 4): the chosen dataset plotted as soon as it is chosen or
- * uploaded; for a record without a valve command (no u column), a command proposed from its
+ * uploaded (several chosen together: drawn in one plot, one line style each); for a record without a valve command (no u column), a command proposed from its
  * pressure's edges (POST /api/datasets/{id}/propose-command) drawn over the data in an editable
  * box: what the box holds is the experiment's scenario.command, sent with every analysis, and
  * the page says where it came from. Known values (panel 5): parameter paths the fits never move.
@@ -35,23 +35,40 @@ function applyCommands() {
   }
 }
 
-function plotDataset(id, meas, cmd) {
+/** The traces of one record: its measured signals and its command (measured, or the one
+ * proposed or entered); ``label`` (a dataset's name) and ``dash`` tell records apart when
+ * several are drawn together. */
+function datasetTraces(id, meas, cmd, label = '', dash = 'solid') {
   const traces = [];
+  const name = (what) => (label ? `${label}: ${what}` : what);
+  const group = label ? { legendgroup: id } : {};
   for (const sig of ['p_a', 'p_b', 'x', 'v', 'T_a', 'T_b']) {
     if (!meas[sig]) continue;
     const row = sig.startsWith('p') ? 'y' : (sig === 'x' || sig === 'v' ? 'y2' : 'y3');
-    traces.push({ x: meas.t, y: toDisplay(sig, meas[sig]), yaxis: row, mode: 'lines', name: `${sig} measured`,
-      line: { color: SIG_COLORS[sig] || '#555', width: 1.2 } });
+    traces.push({ x: meas.t, y: toDisplay(sig, meas[sig]), yaxis: row, mode: 'lines', name: name(`${sig} measured`),
+      line: { color: SIG_COLORS[sig] || '#555', width: 1.2, dash }, ...group });
   }
   const u = cmd ? null : meas.u;
   if (cmd) {
     const tEnd = meas.t[meas.t.length - 1];
     const xs = [], ys = [];
     cmd.forEach(([t, v], k) => { const t1 = k + 1 < cmd.length ? cmd[k + 1][0] : tEnd; xs.push(t, t1); ys.push(v, v); });
-    traces.push({ x: xs, y: ys, yaxis: 'y3', mode: 'lines', name: `u ${RIG.sources[id] || 'proposed'}`, line: { color: '#ff7f0e', width: 1.6 } });
+    traces.push({ x: xs, y: ys, yaxis: 'y3', mode: 'lines', name: name(`u ${RIG.sources[id] || 'proposed'}`), line: { color: '#ff7f0e', width: 1.6, dash }, ...group });
   } else if (u) {
-    traces.push({ x: meas.t, y: u, yaxis: 'y3', mode: 'lines', name: 'u measured', line: { color: '#ff7f0e', width: 1.2 } });
+    traces.push({ x: meas.t, y: u, yaxis: 'y3', mode: 'lines', name: name('u measured'), line: { color: '#ff7f0e', width: 1.2, dash }, ...group });
   }
+  return traces;
+}
+
+function plotDataset(id, meas, cmd) { plotDatasetTraces(datasetTraces(id, meas, cmd)); }
+
+/** Several records chosen together (a rig's tests): drawn in one plot, one line style each. */
+function plotDatasets(list, meass) {
+  const dashes = ['solid', 'dot', 'dash', 'dashdot', 'longdash'];
+  plotDatasetTraces(list.flatMap((d, k) => datasetTraces(d.id, meass[k], RIG.commands[d.id] || null, d.name, dashes[k % dashes.length])));
+}
+
+function plotDatasetTraces(traces) {
   const layout = baseLayout({ height: 360, margin: { l: 64, r: 20, t: 30, b: 46 } });
   layout.xaxis = axis('time t [s]', { anchor: 'y3' });
   layout.yaxis = axis(`pressure [${plotUnit('Pa').label}]`, { domain: [0.68, 1] });
@@ -64,7 +81,16 @@ async function showDatasetData(list) {
   const box = $('#dataset-command-box');
   const plotEl = $('#dataset-plot');
   box.hidden = true;
-  if (list.length !== 1) { plotEl.hidden = true; return; }
+  if (!list.length) { plotEl.hidden = true; return; }
+  if (list.length > 1) {
+    let meass;
+    try { meass = await Promise.all(list.map((d) => measured(d.id))); } catch (e) { return; }
+    const ids = list.map((d) => d.id);
+    if (JSON.stringify(selectedDatasets().map((d) => d.id)) !== JSON.stringify(ids)) return;   // chosen again meanwhile
+    plotEl.hidden = false;
+    plotDatasets(list, meass);
+    return;
+  }
   const d = list[0];
   let meas;
   try { meas = await measured(d.id); } catch (e) { return; }

@@ -170,12 +170,15 @@
     const j = ev.key === 'Home' ? 0 : ev.key === 'End' ? links.length - 1 : (i + (ev.key === 'ArrowDown' ? 1 : -1) + links.length) % links.length;
     links[j].focus();
   });
-  window.addEventListener('hashchange', () => {
-    const { session } = fromHash();   // before show() rewrites the address
+  // an address typed or followed in this tab: Chromium fires popstate before hashchange, and the
+  // first handler rewrites the address, so both read the session before show() does
+  function onAddress() {
+    const { session } = fromHash();
     applyHash();
     if (document.body.dataset.ready === 'true' && session) openLinkedSession(session);
-  });
-  window.addEventListener('popstate', applyHash);
+  }
+  window.addEventListener('hashchange', onAddress);
+  window.addEventListener('popstate', onAddress);
   window.addEventListener('resize', () => requestAnimationFrame(resizePlots));
 
   // the session in the address now: read before the page resumes the stored one and rewrites it
@@ -191,7 +194,11 @@
   // an action that leads to another step shows it (not when every step is on the page)
   window.showView = (view) => { if (document.body.dataset.view !== 'all') go(view); };
   whenReady(async () => {
-    if (document.body.dataset.ready === 'true') await openLinkedSession(linked);
+    if (document.body.dataset.ready === 'true') {
+      await openLinkedSession(linked);
+      // unsaved model edits come back after a reload, unless the address's session opened (static/draft.js)
+      await window.modelDraft.restore(!!linked && currentSessionId() === linked);
+    }
     // a comparison redraws the residual plot at its own height: fit it again in the Diagnose view
     const res = document.getElementById('residual-plot');
     if (res && res.on) {

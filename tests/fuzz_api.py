@@ -18,6 +18,7 @@ from __future__ import annotations
 import copy
 import json
 import random
+import re
 from dataclasses import dataclass, field
 
 import httpx
@@ -181,6 +182,19 @@ def _send(c, method, path, text, accept=None):
                 return _Dropped(f"transport error (twice): {exc!r}")
 
 
+#: A numpy repr in a message (``np.float64(0.0)``, ``array([...])``): the user reads the
+#: number, not numpy's spelling of it (issue 28)
+NUMPY_REPR = re.compile(r"\bnp\.\w+\(|\barray\(\[|\bnp\.(True|False)_\b")
+
+
+def _numpy_repr(r):
+    """The first numpy repr in an error answer's text, or None."""
+    if r.status_code < 400:
+        return None
+    m = NUMPY_REPR.search(r.text)
+    return r.text[max(m.start() - 120, 0):m.end() + 60] if m else None
+
+
 def run_mutations(base_url, n, report, seed=0, excluded=EXCLUDED_PATHS):
     """``n`` requests, each a valid template with one field replaced by hostile JSON."""
     rng = random.Random(seed)
@@ -207,6 +221,8 @@ def run_mutations(base_url, n, report, seed=0, excluded=EXCLUDED_PATHS):
             if r.status_code >= 500:
                 report.failures.append(("names", method, path, f"{r.status_code} {r.text[:300]} <- "
                                                                f"{json.dumps(doc)[-200:]}"))
+            elif _numpy_repr(r):
+                report.failures.append(("numpy repr", method, path, f"{r.status_code} {_numpy_repr(r)}"))
         for i in range(n):
             method, path, body = tmpl[i % len(tmpl)]
             doc = _mutate(body, rng)
@@ -216,6 +232,9 @@ def run_mutations(base_url, n, report, seed=0, excluded=EXCLUDED_PATHS):
             if r.status_code >= 500:
                 report.failures.append(("mutation", method, path, f"{r.status_code} {r.text[:300]} "
                                                                   f"<- {text[:300]}"))
+            elif _numpy_repr(r):
+                report.failures.append(("numpy repr", method, path, f"{r.status_code} {_numpy_repr(r)} "
+                                                                    f"<- {text[:300]}"))
         for path in ("/api/datasets", "/api/sessions"):   # nothing stored can break a read
             r = c.get(path)
             report.add(r.status_code)

@@ -1,12 +1,13 @@
-"""POST /api/reports/compare, /api/reports/diagnose and /api/reports/refine: a self-contained HTML
-report to download."""
-from fastapi import APIRouter
+"""POST /api/reports/compare, /api/reports/diagnose, /api/reports/refine and
+/api/reports/sessions/{id}: a self-contained HTML report to download."""
+from fastapi import APIRouter, Path
 from fastapi.responses import Response
 
-from ..deps import LimitsDep, SettingsDep, StoreDep
+from ..deps import LimitsDep, SettingsDep, StoreDep, not_found
 from ..sync_pool import sync_slot
 from ..schemas import CompareRequest, DiagnoseReportRequest, RefineRequest
-from ..services import comparison_report, deadline_progress, diagnosis_report, refinement_report
+from ..services import (comparison_report, deadline_progress, diagnosis_report, refinement_report,
+                        session_report)
 
 router = APIRouter(prefix="/api/reports", tags=["reports"])
 
@@ -46,3 +47,18 @@ def refine_report(req: RefineRequest, store: StoreDep, limits: LimitsDep, settin
     progress = deadline_progress(limits, "refinement", "/api/jobs/refine")
     return _html(refinement_report(req, store, limits, progress=progress, settings=settings),
                  "refinement-report.html")
+
+
+
+@router.post("/sessions/{session_id}", dependencies=[sync_slot("/api/jobs/compare")],
+             response_class=Response, responses=_HTML,
+             summary="HTML report of a stored refinement session as recorded (every version with its "
+                     "errors and the values it changed, the last model against the data, the model)")
+def report_session(store: StoreDep, limits: LimitsDep,
+                   session_id: str = Path(..., max_length=64, pattern=r"^[A-Za-z0-9_-]+$",
+                                          description="A stored session's id (GET /api/sessions) [-]")):
+    progress = deadline_progress(limits, "comparison", "/api/jobs/compare")
+    text = session_report(session_id, store, limits, progress=progress)
+    if text is None:
+        raise not_found("session", session_id)
+    return _html(text, "session-report.html")

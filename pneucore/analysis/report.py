@@ -327,6 +327,16 @@ def diagnosis_report(model, diagnosis, comparison, provenance=None, refined=None
     return _page(title, sections)
 
 
+def _quantity(x) -> str:
+    """A value of a model change as text: a number to 4 significant digits, text as it is,
+    nothing as a dash."""
+    if x is None:
+        return "—"
+    if isinstance(x, (int, float)) and not isinstance(x, bool):
+        return f"{x:.4g}"
+    return str(x)
+
+
 def _fitted(name, v) -> str:
     """One fitted parameter as text: ``name = value unit (± stderr)``; a parameter is a plain
     number or the diagnosis' ``{"value", "stderr", "unit"}``."""
@@ -402,7 +412,9 @@ def refinement_report(answer, comparison, provenance=None, title="Refinement") -
     Parameters
     ----------
     answer : dict
-        :func:`pneucore.analysis.history.refinement_answer` [-]
+        :func:`pneucore.analysis.history.refinement_answer`, or a stored session's versions
+        (each may carry ``changes``, :func:`pneucore.spec.paths.model_changes` from the
+        version before, and a ``note``) [-]
     comparison : pneucore.analysis.compare.Comparison
         The refined model compared with the data [-]
     provenance : list of dict or None, optional
@@ -421,6 +433,16 @@ def refinement_report(answer, comparison, provenance=None, title="Refinement") -
             + [_pct((v.get("errors") or {}).get(s)) for s in signals] for v in versions]
     sections = ["<h2>Versions</h2>", _table(["version", "label", "overall"] + signals, rows, left=2),
                 f"<p>{_e(answer.get('message', ''))}</p>"]
+    # what each version changed (a session's versions carry it: model_changes of the one before)
+    changed = [v for v in versions if v.get("changes")]
+    if changed:
+        sections.append("<h2>What each version changed</h2>")
+    for v in changed:
+        note = f" ({v['note']})" if v.get("note") else ""
+        sections.append(f"<h3>Version {_e(v.get('version'))}: {_e(v.get('label', ''))}{_e(note)}</h3>")
+        sections.append(_table(["parameter", "before", "after", "unit"],
+                               [[c.get("path", ""), _quantity(c.get("before")), _quantity(c.get("after")),
+                                 c.get("unit") or ""] for c in v["changes"]]))
     for k, d in enumerate(answer.get("diagnoses", [])):
         sections.append(f"<h2>Round {k + 1}</h2>")
         sections += _diagnosis_sections(d, level=3)

@@ -123,6 +123,8 @@ def test_names_are_bounded_and_free_of_control_characters(client, name):
     assert r.status_code == 422 and r.json()["detail"][0]["field"] == "name", r.text[:300]
     r = client.post("/api/sessions", json={"name": name, "model": model()})
     assert r.status_code == 422 and r.json()["detail"][0]["field"] == "name", r.text[:300]
+    if len(name) < 10:   # said in words, not as the pattern's regular expression
+        assert "control character" in r.json()["detail"][0]["msg"], r.text[:300]
     assert _up(client, name="ok name").status_code == 201
 
 
@@ -135,6 +137,7 @@ def test_descriptions_refuse_cr_lf_and_nul_naming_the_field(client, text):
     m["description"] = text
     r = client.post("/api/simulate", json={"model": m, "scenario": {"duration": 0.01}})
     assert r.status_code == 422 and r.json()["detail"][0]["field"] == "model.description", r.text[:300]
+    assert "control character" in r.json()["detail"][0]["msg"], r.text[:300]
     assert _up(client, description="a plain description").status_code == 201
 
 

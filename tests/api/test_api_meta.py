@@ -61,6 +61,8 @@ def test_every_script_of_the_page_is_served_and_every_page_script_is_named(clien
     assert set(names) - {"plotly.min.js"} == {p.name for p in static.glob("*.js")} - {"swagger-init.js"}
     views = ("model.js", "simulation.js", "datasets.js", "compare.js", "history.js", "diagnosis.js", "study.js")
     assert all(names.index(v) < names.index("app.js") for v in views)
+    # the model draft (static/draft.js) is there before any view script loads a model
+    assert names.index("draft.js") < min(names.index(v) for v in views)
 
 
 def test_openapi_documents_every_route_and_units(client):

@@ -197,6 +197,14 @@ def test_the_report_exports_the_diagnosis_on_screen(client):
     assert r.status_code == 200, r.text
     assert "the diagnosis on screen, 12:00" in r.text and "dead_volume" in r.text
     assert "valve command" in r.text and "measured (u)" in r.text    # the provenance's command
+    # a fitted value as the page holds it (POST /api/diagnose's answer) is printed with its unit
+    # and standard error, as in a report of a new diagnosis; its other fields are left out
+    shown["ranking"][0]["params"] = {"volume": {"value": 1.25e-5, "stderr": 2e-7, "unit": "m^3",
+                                                "ci95": [1.2e-5, 1.3e-5], "at_bound": False}}
+    r = client.post("/api/reports/diagnose", json={"model": model, "experiments": exps,
+                                                   "diagnosis": shown})
+    assert r.status_code == 200, r.text
+    assert "volume = 1.25e-05 m^3 (± 2e-07)" in r.text
 
 
 def test_calibrate_fits_the_position_sensors_zero(client, record):

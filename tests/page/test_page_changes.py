@@ -4,14 +4,7 @@ candidate's model differs in, before and after, with its unit, on the card, in C
 list is the API's ``changes`` (pneucore.spec.paths.model_changes), checked against the model."""
 import pytest
 
-from test_page import _open, browser, context, page_errors, server  # noqa: F401
-
-
-@pytest.fixture(scope="module")
-def page(context, server, page_errors):  # noqa: F811
-    p = _open(context, server, page_errors)
-    yield p
-    p.close()
+from test_page import browser, context, page_errors, server  # noqa: F401
 
 
 def test_each_card_lists_what_taking_it_changes(page):

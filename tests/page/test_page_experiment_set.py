@@ -28,6 +28,12 @@ def test_two_datasets_of_different_samples_are_compared_together(page):
     page.select_option("#dataset-select", [f"ds:{HOLD}", f"ds:{FREE}"])
     rows = page.locator("#experiment-set-table tbody tr")
     assert rows.count() == 2
+    # both tests drawn at once in the Data view, before any comparison (one line style each)
+    page.wait_for_function("() => !document.getElementById('dataset-plot').hidden && "
+                           "(document.getElementById('dataset-plot').data || []).length > 0")
+    names = page.evaluate("document.getElementById('dataset-plot').data.map(t => t.name)")
+    assert any(n.startswith("piston-leak / locked-hold: p_a") for n in names), names
+    assert any(n.startswith("spool-lag / free-pulses: x") for n in names), names
     assert page.is_checked("#experiment-set-table tr[data-index='0'] input[data-key='locked']")
     assert not page.is_checked("#experiment-set-table tr[data-index='1'] input[data-key='locked']")
     # the free test's start position, edited in mm, reaches the request in m

@@ -14,7 +14,7 @@ import pytest
 
 from pneucore import model_preset, scenario_preset
 from pneucore.simulate import simulate
-from test_page import (TIMEOUT_MS, _open, browser, page_errors, server, wait_status,  # noqa: F401
+from test_page import (TIMEOUT_MS, browser, page_errors, server, wait_status,  # noqa: F401
                        wide_context)
 
 TRUE_MASS = 2.5
@@ -23,13 +23,6 @@ TRUE_MASS = 2.5
 @pytest.fixture(scope="module")
 def context(browser):  # noqa: F811
     yield from wide_context(browser)
-
-
-@pytest.fixture(scope="module")
-def page(context, server, page_errors):  # noqa: F811
-    p = _open(context, server, page_errors)
-    yield p
-    p.close()
 
 
 @pytest.fixture(scope="module")

@@ -7,17 +7,10 @@ with a model whose heat coefficient is mis-set (15 instead of the true
 and "missing: piston_leakage" as separate findings; one click applies both, and
 the history chart draws the error falling towards the dashed noise floor.
 """
-from test_page import (ARTIFACTS, _open, browser, context, no_script_errors, page_errors,  # noqa: F401
+from test_page import (ARTIFACTS, browser, context, no_script_errors, page_errors,  # noqa: F401
                        plot_data, server)
 
 import pytest
-
-
-@pytest.fixture(scope="module")
-def page(context, server, page_errors):  # noqa: F811
-    p = _open(context, server, page_errors)
-    yield p
-    p.close()
 
 
 def test_mis_set_and_missing_are_shown_apart_and_applied_in_one_click(page):

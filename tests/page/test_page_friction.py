@@ -15,16 +15,9 @@ import urllib.request
 
 import pytest
 
-from test_page import server, _open, browser, context, no_script_errors, page_errors, plot_data  # noqa: F401
+from test_page import server, browser, context, no_script_errors, page_errors, plot_data  # noqa: F401
 
 BAR = 1e5
-
-
-@pytest.fixture(scope="module")
-def page(context, server, page_errors):
-    p = _open(context, server, page_errors)
-    yield p
-    p.close()
 
 
 def _preview(server, model, pairs):

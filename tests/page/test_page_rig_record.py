@@ -17,7 +17,7 @@ from pneucore.data.synthetic import synthesize
 from pneucore.spec.model import Model
 from pneucore.spec.presets import model_preset
 from pneucore.spec.scenario import pulse_train
-from test_page import _open, browser, page_errors, server, wait_status, wide_context  # noqa: F401
+from test_page import browser, page_errors, server, wait_status, wide_context  # noqa: F401
 
 PULSES = [(0.1, 1.0), (0.5, 1.0), (0.9, 1.0)]
 
@@ -25,13 +25,6 @@ PULSES = [(0.1, 1.0), (0.5, 1.0), (0.9, 1.0)]
 @pytest.fixture(scope="module")
 def context(browser):  # noqa: F811
     yield from wide_context(browser)
-
-
-@pytest.fixture(scope="module")
-def page(context, server, page_errors):  # noqa: F811
-    p = _open(context, server, page_errors)
-    yield p
-    p.close()
 
 
 @pytest.fixture(scope="module")
