@@ -32,8 +32,9 @@ from pneucore.analysis.blas_threads import single_threaded_blas
 from pneucore.analysis.calibrate import Objective, fit, information_criteria
 from pneucore.analysis.compare import replay
 from pneucore.analysis.diagnosis import rules as R
-from pneucore.analysis.diagnosis.evidence import (consistency, excess_drop, given_prior, held_out,
-                                                  improvement, explain, pair, undetermined)
+from pneucore.analysis.diagnosis.evidence import (consistency, excess_drop, experiment_excess,
+                                                  given_prior, held_out, improvement, explain,
+                                                  not_compared, pair, undetermined)
 from pneucore.analysis.engineering import impossible
 from pneucore.spec.effects import EFFECTS
 from pneucore.spec.paths import ParameterSpec, get_value, parse_parameters, set_values, unit_of
@@ -576,6 +577,7 @@ def candidate_evidence(name, cal, null, taus, e0_cal):
             "params": params,
             "uncertain_params": {k: v for k, v in cal.values.items() if not k.startswith("effects.")},
             "improvement": improvement(null.comp, cal.error_after),
+            "experiments": experiment_excess(null.replays, cal.error_after.replays),
             "fit_success": cal.success, "fit_message": cal.message,
             "description": eff.description, "signature": eff.signature,
             "reference": eff.reference, "model_obj": cal.model}
@@ -610,7 +612,8 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
 
     def consistent(c):
         report(0.96, f"consistency across experiments: {c['effect']}")
-        return consistency(refits[c["effect"]], exps, c["effect"], max_nfev)
+        return consistency(refits[c["effect"]], exps, c["effect"], max_nfev,
+                           skip=not_compared(c.get("experiments", ())))
     ctx.consistency = consistent
 
     def predicts(c):
