@@ -299,7 +299,21 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                      rps_start, known, lead, max_nfev, report)
         if held is not None:
             f.remaining["held_at_catalogue"] = held
-            f.message += " " + held["description"] + "."
+            if not held["taken"]:
+                # the words describe the fit returned (a sensor fit may have followed the null)
+                now = S.still_implausible(odd, f.refitted)
+                if now != odd:
+                    held["null_fit"] = {"parameters": odd, "description": held["description"]}
+                    held["description"] = (S.held_words(now, hold, None, held["error_held"],
+                                                        null.error) if now else "")
+                    if not now:
+                        held["superseded"] = (
+                            "the fit returned leaves " + ", ".join(o["label"] for o in odd)
+                            + " where a catalogue error reaches: "
+                            + "; ".join(f"{r['label']} {r['after']:.3g} {r['unit']}".rstrip()
+                                        for r in f.refitted if r["path"] in {o["path"] for o in odd}))
+            if held["description"]:
+                f.message += " " + held["description"] + "."
             if held["taken"]:
                 f.model, back = S.withheld(model, f.model, f.recalibrate,
                                            {s.path for s in null.auto_specs})

@@ -324,23 +324,51 @@ def block_energy(model, exps, blocks, scales):
 
 
 def held_out(null_model, null_specs, cand_model, cand_specs, exps, scales, prior, n_folds,
-             max_nfev):
+             max_nfev, loeo=None):
     """Does the candidate predict data it was not fitted on better than the null?
 
-    Each experiment is cut into ``n_folds`` blocks in time; for each fold ``k`` the null's
-    and the candidate's parameters are refitted (from their full fits, reweighted, under the
-    same ``prior``) on every experiment with its ``k``-th block marked missing, and each
-    model predicts the held-out blocks: the squared prediction errors, series scaled by
-    ``scales``, are compared. A smooth misspecified residual or coloured noise inflates
-    both models' held-out errors alike; it does not let an effect that only fits what it
-    was fitted on predict what it was not.
+    **Blocks in time.** Each experiment is cut into ``n_folds`` blocks in time; for each
+    fold ``k`` the null's and the candidate's parameters are refitted (from their full
+    fits, reweighted, under the same ``prior``) on every experiment with its ``k``-th block
+    marked missing, and each model predicts the held-out blocks: the squared prediction
+    errors, series scaled by ``scales``, are compared. A smooth misspecified residual or
+    coloured noise inflates both models' held-out errors alike; it does not let an effect
+    that only fits what it was fitted on predict what it was not.
+
+    **Experiments left out** (``loeo`` given and at least two experiments): for each
+    experiment, the null and the candidate are fitted on all the others, from the model as
+    given (``loeo``: nothing of the left-out record enters, not even through a starting
+    point), and predict it whole. A stand-in takes whatever helps the records it is fitted
+    on; a physical effect fitted on some records predicts another.
+
+    Parameters
+    ----------
+    null_model, cand_model : Model
+        The null's and the candidate's full fits [-]
+    null_specs, cand_specs : list of ParameterSpec
+        Their parameters, starting at those fits [-]
+    exps : list of Experiment
+        The experiments [-]
+    scales : dict
+        ``{(experiment, signal): residual RMS}`` of the null (unit of the signal)
+    prior : dict
+        The catalogue prior of the base parameters [-]
+    n_folds : int
+        Blocks in time per experiment [-]
+    max_nfev : int
+        Evaluation budget of each block refit [-]
+    loeo : tuple or None
+        ``(null start model, null start specs, candidate start model, candidate start
+        specs)``: the fits' starting points for the experiment folds (None: none) [-]
 
     Returns
     -------
     report : dict
-        ``folds`` [{``null``, ``candidate``}] held-out energies, ``wins`` (folds where the
-        candidate predicts better), ``drop`` (1 - candidate's / null's held-out energy over
-        all folds) [-]
+        ``folds`` [{``null``, ``candidate``}] held-out energies of the blocks, ``wins``
+        (blocks where the candidate predicts better), ``drop`` (1 - candidate's / null's
+        held-out energy over all blocks) [-]; ``experiment_folds`` [{``experiment``,
+        ``null``, ``candidate``}], ``experiment_wins``, ``experiment_drop`` likewise for the
+        experiments left out (empty, 0 and 0 without them); ``used``: the folds in words
     """
     def one(k):
         cut = [masked(e, k, n_folds) for e in exps]
@@ -355,11 +383,42 @@ def held_out(null_model, null_specs, cand_model, cand_specs, exps, scales, prior
             out[key] = block_energy(mk, exps, blocks, scales)
         return out
 
+    def left_out(i):
+        held, train = exps[i], exps[:i] + exps[i + 1:]
+        out = {"experiment": held.name}
+        for key, m, specs in (("null",) + tuple(loeo[:2]), ("candidate",) + tuple(loeo[2:])):
+            mk = m
+            if specs:
+                # from the model as given: the budget of a joint refit, which starts there too
+                mk = fit(m, train, specs, max_nfev=2 * max_nfev, compute_before=False,
+                         reweight=True, prior=prior).model
+            out[key] = block_energy(mk, [held], {held.name: (0, held.measurement.t.size)}, scales)
+        return out
+
+    jobs = [("block", k) for k in range(n_folds)]
+    if loeo is not None and len(exps) >= 2:
+        jobs += [("experiment", i) for i in range(len(exps))]
     with ThreadPoolExecutor(_calibrate.THREADS) as pool:
-        folds = list(pool.map(one, range(n_folds)))
+        done = list(pool.map(lambda j: one(j[1]) if j[0] == "block" else left_out(j[1]), jobs))
+    folds = [d for (kind, _), d in zip(jobs, done) if kind == "block"]
+    efolds = [d for (kind, _), d in zip(jobs, done) if kind == "experiment"]
+    out = {"folds": folds, "n_folds": n_folds}
+    out["wins"], out["drop"] = _vote(folds)
+    out["experiment_folds"] = efolds
+    out["experiment_wins"], out["experiment_drop"] = _vote(efolds)
+    out["used"] = (f"{n_folds} blocks in time of each of {len(exps)} experiment"
+                   f"{'s' if len(exps) != 1 else ''}"
+                   + (f"; each of the {len(efolds)} experiments left out in turn, fitted on the "
+                      "others from the model as given" if efolds else
+                      "; no experiment left out (one experiment)" if len(exps) < 2 else ""))
+    return out
+
+
+def _vote(folds):
+    """``(wins, drop)`` of held-out folds: where the candidate predicts better, and 1 - its
+    held-out energy over the null's, over the folds whose replays finished [-]."""
     good = [f for f in folds if f["null"] == f["null"] and f["candidate"] == f["candidate"]]
     wins = sum(f["candidate"] < f["null"] for f in good)
     e0 = sum(f["null"] for f in good)
     e1 = sum(f["candidate"] for f in good)
-    return {"folds": folds, "n_folds": n_folds, "wins": wins,
-            "drop": (1.0 - e1 / e0) if good and e0 > 0 else 0.0}
+    return wins, ((1.0 - e1 / e0) if good and e0 > 0 else 0.0)

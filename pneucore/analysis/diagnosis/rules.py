@@ -44,6 +44,9 @@ HELD_OUT_WINS = HELD_OUT_FOLDS - 1
 #: Share of the null's held-out prediction energy (squared scaled error, all folds) the
 #: candidate must remove: the same share as :data:`EXCESS_MATERIAL` asks of the fit itself
 HELD_OUT_DROP = 0.2
+# With two experiments or more, each is also left out in turn: the null and the candidate
+# fitted on the others predict it (experiment_wins(n) of them, and the same HELD_OUT_DROP);
+# either vote, blocks in time or experiments left out, shows a prediction
 
 
 @dataclass(frozen=True)
@@ -108,8 +111,22 @@ def _predicts(c, ctx):
     if "held_out" not in c:
         c["held_out"] = ctx.held_out(c)
     h = c["held_out"]
-    h["predicts"] = bool(h["wins"] >= HELD_OUT_WINS and h["drop"] >= HELD_OUT_DROP)
+    by = []
+    if h["wins"] >= HELD_OUT_WINS and h["drop"] >= HELD_OUT_DROP:
+        by.append("blocks in time")
+    n_exp = len(h.get("experiment_folds") or ())
+    if n_exp >= 2 and h["experiment_wins"] >= experiment_wins(n_exp) \
+            and h["experiment_drop"] >= HELD_OUT_DROP:
+        by.append("experiments left out")
+    h["predicts_by"] = by
+    h["predicts"] = bool(by)
     return h["predicts"]
+
+
+def experiment_wins(n):
+    """Experiments left out that the candidate must predict better than the null, of ``n``:
+    all but one (a majority that one unlucky record cannot decide) from 3 on, both of 2."""
+    return n - 1 if n >= 3 else n
 
 
 def _significant(c, ctx):
@@ -151,7 +168,9 @@ RULES = (
          "predicts held-out data: a determined, material candidate refitted without each of "
          f"{HELD_OUT_FOLDS} blocks in time predicts the block better than the null on "
          f"{HELD_OUT_WINS} folds and removes {100 * HELD_OUT_DROP:g} % of the null's held-out "
-         "error (smooth residuals make n / tau too few samples for the LR)", _strong),
+         "error, or, fitted on all experiments but one, predicts the one left out better on "
+         "all of them but one (both of two) and removes as much of the null's error there "
+         "(smooth residuals make n / tau too few samples for the LR)", _strong),
     Rule("material", f"removes at least {100 * MATERIAL:g} % of the error and "
          f"{100 * EXCESS_MATERIAL:g} % of its excess over the noise floor", _material),
     Rule("major", f"removes at least {100 * EXCESS_MAJOR:g} % of the excess: alone, once the "
@@ -215,6 +234,10 @@ def _unconfounded(t, ctx):
     return t["orthogonal"] >= CONFOUNDED
 
 
+def _possible(t, ctx):
+    return not t.get("impossible")
+
+
 def _lr_significant(t, ctx):
     return t["p_value"] < ctx.alpha
 
@@ -231,6 +254,9 @@ DEMAND_RULES = (
     Rule("unconfounded", "what it changes is no combination of the parameters fitted beside "
          "it (a load against the two Coulomb levels): the records cannot tell which moved",
          _unconfounded),
+    Rule("possible", "freed, it keeps its declared direction (a load that would turn the "
+         "declared load or the weight along the rod around is impossible, never significant)",
+         _possible, deferred=True),
     Rule("significant", "likelihood-ratio p-value of it freed against it held below alpha "
          "(counted on n / tau effective samples)", _lr_significant, deferred=True),
     Rule("strong", f"delta BIC of it freed against it held below {DELTA_BIC:g}", _bic_strong,
