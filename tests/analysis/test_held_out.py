@@ -229,3 +229,27 @@ def test_each_experiment_left_out_is_predicted_by_a_fit_on_the_others_only(filli
     # the isothermal model misses the gas cooling and warming by tens of kelvin: a wall heat
     # exchange fitted on the filling predicts the discharge, and the other way round
     assert h["experiment_wins"] == 2 and h["experiment_drop"] > 0.5
+
+
+def test_experiments_are_not_left_out_where_the_blocks_already_show_it(filling_and_discharge):
+    from pneucore.analysis.diagnosis import stages as S
+    from pneucore.spec.effects import EFFECTS
+    model, exps = filling_and_discharge
+    name = "heat_exchange"
+    start = EFFECTS[name].probe_values(model)
+    m0, specs0 = S.with_effect(model, name, start), S.effect_specs(model, name, start)
+    scales = {(e.name, s): 1.0 for e in exps for s in e.signals}
+    seen = []
+
+    def enough(h):
+        seen.append(h["wins"])
+        return True
+    h = V.held_out(model, [], m0, specs0, exps, scales, {}, 2, 3, loeo=(model, [], m0, specs0),
+                   enough=enough)
+    # the blocks' vote was read, and the experiment refits spared; the report says so
+    assert seen == [h["wins"]] and h["experiment_folds"] == [] and h["experiment_wins"] == 0
+    assert "no experiment left out (the blocks in time already show it)" in h["used"]
+    # with one experiment there is nothing to leave out
+    h1 = V.held_out(model, [], m0, specs0, exps[:1], scales, {}, 2, 3,
+                    loeo=(model, [], m0, specs0))
+    assert h1["experiment_folds"] == [] and "one experiment" in h1["used"]

@@ -324,7 +324,7 @@ def block_energy(model, exps, blocks, scales):
 
 
 def held_out(null_model, null_specs, cand_model, cand_specs, exps, scales, prior, n_folds,
-             max_nfev, loeo=None):
+             max_nfev, loeo=None, enough=None):
     """Does the candidate predict data it was not fitted on better than the null?
 
     **Blocks in time.** Each experiment is cut into ``n_folds`` blocks in time; for each
@@ -360,6 +360,9 @@ def held_out(null_model, null_specs, cand_model, cand_specs, exps, scales, prior
     loeo : tuple or None
         ``(null start model, null start specs, candidate start model, candidate start
         specs)``: the fits' starting points for the experiment folds (None: none) [-]
+    enough : callable or None
+        ``enough(report) -> bool``: the blocks in time already show what is asked; the
+        experiments are then not left out (their refits spared, ``used`` says so) [-]
 
     Returns
     -------
@@ -395,22 +398,25 @@ def held_out(null_model, null_specs, cand_model, cand_specs, exps, scales, prior
             out[key] = block_energy(mk, [held], {held.name: (0, held.measurement.t.size)}, scales)
         return out
 
-    jobs = [("block", k) for k in range(n_folds)]
-    if loeo is not None and len(exps) >= 2:
-        jobs += [("experiment", i) for i in range(len(exps))]
     with ThreadPoolExecutor(_calibrate.THREADS) as pool:
-        done = list(pool.map(lambda j: one(j[1]) if j[0] == "block" else left_out(j[1]), jobs))
-    folds = [d for (kind, _), d in zip(jobs, done) if kind == "block"]
-    efolds = [d for (kind, _), d in zip(jobs, done) if kind == "experiment"]
-    out = {"folds": folds, "n_folds": n_folds}
-    out["wins"], out["drop"] = _vote(folds)
+        folds = list(pool.map(one, range(n_folds)))
+        out = {"folds": folds, "n_folds": n_folds}
+        out["wins"], out["drop"] = _vote(folds)
+        used = f"{n_folds} blocks in time of each of {len(exps)} experiment{'s' * (len(exps) != 1)}"
+        efolds = []
+        if loeo is None:
+            used += "; no experiment left out"
+        elif len(exps) < 2:
+            used += "; no experiment left out (one experiment)"
+        elif enough is not None and enough(out):
+            used += "; no experiment left out (the blocks in time already show it)"
+        else:
+            efolds = list(pool.map(left_out, range(len(exps))))
+            used += (f"; each of the {len(efolds)} experiments left out in turn, fitted on the "
+                     "others from the model as given")
     out["experiment_folds"] = efolds
     out["experiment_wins"], out["experiment_drop"] = _vote(efolds)
-    out["used"] = (f"{n_folds} blocks in time of each of {len(exps)} experiment"
-                   f"{'s' if len(exps) != 1 else ''}"
-                   + (f"; each of the {len(efolds)} experiments left out in turn, fitted on the "
-                      "others from the model as given" if efolds else
-                      "; no experiment left out (one experiment)" if len(exps) < 2 else ""))
+    out["used"] = used
     return out
 
 

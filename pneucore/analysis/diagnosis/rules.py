@@ -111,16 +111,24 @@ def _predicts(c, ctx):
     if "held_out" not in c:
         c["held_out"] = ctx.held_out(c)
     h = c["held_out"]
-    by = []
-    if h["wins"] >= HELD_OUT_WINS and h["drop"] >= HELD_OUT_DROP:
-        by.append("blocks in time")
-    n_exp = len(h.get("experiment_folds") or ())
-    if n_exp >= 2 and h["experiment_wins"] >= experiment_wins(n_exp) \
-            and h["experiment_drop"] >= HELD_OUT_DROP:
-        by.append("experiments left out")
+    by = [what for what, vote in (("blocks in time", blocks_predict),
+                                  ("experiments left out", experiments_predict)) if vote(h)]
     h["predicts_by"] = by
     h["predicts"] = bool(by)
     return h["predicts"]
+
+
+def blocks_predict(h):
+    """The vote of the blocks in time of a held-out report
+    (:func:`pneucore.analysis.diagnosis.evidence.held_out`)."""
+    return bool(h["wins"] >= HELD_OUT_WINS and h["drop"] >= HELD_OUT_DROP)
+
+
+def experiments_predict(h):
+    """The vote of the experiments left out in turn of a held-out report (none: no vote)."""
+    n = len(h.get("experiment_folds") or ())
+    return bool(n >= 2 and h["experiment_wins"] >= experiment_wins(n)
+                and h["experiment_drop"] >= HELD_OUT_DROP)
 
 
 def experiment_wins(n):

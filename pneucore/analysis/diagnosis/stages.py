@@ -672,7 +672,8 @@ def held_out_evidence(model, exps, null, name, cal, max_nfev):
     loeo = (model, list(null.specs_start), with_effect(model, name, start),
             effect_specs(model, name, start) + list(null.specs_start))
     return held_out(null.base, base, cal.model, cand, exps, scales, null.prior,
-                    R.HELD_OUT_FOLDS, max(max_nfev // 2, 8), loeo=loeo)
+                    R.HELD_OUT_FOLDS, max(max_nfev // 2, 8), loeo=loeo,
+                    enough=R.blocks_predict)
 
 
 def why_not(b):
