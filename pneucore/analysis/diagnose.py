@@ -34,14 +34,22 @@
    half of the misfit in excess of the noise floor: alone, alone once each
    signal's best transducer gain and offset are removed from the residuals
    (:func:`pneucore.analysis.hypotheses.calibrated_error`), or together with
-   the next candidate), and consistent across experiments (its parameters
-   fitted on each experiment alone agree, :func:`consistency`). Where the LR or
+   the next candidate, or most of what it removes lies in records it leaves at
+   their noise floor: ``ranking[i]["experiments"]``, a short record that shows
+   the effect beside a long one whose misfit no catalog effect reaches), and
+   consistent across experiments (its parameters fitted on each experiment alone
+   agree, :func:`consistency`; beside a record it clears, one it explains nothing
+   of is not compared). A base parameter the refit turns against its declared
+   direction (a load lifting a vertical jack's mass) makes the candidate
+   impossible. Where the LR or
    BIC test fails on a determined, material candidate (a sparse record whose
    smooth misspecified residual leaves few effective samples), it is significant
    and strong when it predicts data it was not fitted on: refitted, as the null
    is, without each of ``HELD_OUT_FOLDS`` blocks in time, it predicts the
-   held-out blocks better (:func:`pneucore.analysis.diagnosis.evidence.held_out`,
-   ``ranking[i]["held_out"]``). Candidates
+   held-out blocks better, or, with two experiments or more, fitted on all but
+   one it predicts the one left out better
+   (:func:`pneucore.analysis.diagnosis.evidence.held_out`,
+   ``ranking[i]["held_out"]``, whose ``used`` names the folds). Candidates
    are judged in order of evidence: a stand-in that fails does not hide the
    next; the first that passes is named (and ranked first). Otherwise
    the verdict is ``None``: "no catalog effect explains the remaining
@@ -303,7 +311,21 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
             f.message += " " + words
         if held is not None:
             f.remaining["held_at_catalogue"] = held
-            f.message += " " + held["description"] + "."
+            if not held["taken"]:
+                # the words describe the fit returned (a sensor fit may have followed the null)
+                now = S.still_implausible(odd, f.refitted)
+                if now != odd:
+                    held["null_fit"] = {"parameters": odd, "description": held["description"]}
+                    held["description"] = (S.held_words(now, hold, None, held["error_held"],
+                                                        null.error) if now else "")
+                    if not now:
+                        held["superseded"] = (
+                            "the fit returned leaves " + ", ".join(o["label"] for o in odd)
+                            + " where a catalogue error reaches: "
+                            + "; ".join(f"{r['label']} {r['after']:.3g} {r['unit']}".rstrip()
+                                        for r in f.refitted if r["path"] in {o["path"] for o in odd}))
+            if held["description"]:
+                f.message += " " + held["description"] + "."
             if held["taken"]:
                 f.model, back = S.withheld(model, f.model, f.recalibrate,
                                            {s.path for s in null.auto_specs})

@@ -250,9 +250,12 @@ def plausibility(model, path, after, at_bound=False):
     reason : str
         Empty when plausible
     """
+    h = BASE_HYPOTHESES.get(path)
+    against = against_direction(model, path, after) if h is not None else ""
+    if against:
+        return against
     if at_bound:
         return "at its fit bound: the data push it further than the fit allows"
-    h = BASE_HYPOTHESES.get(path)
     if h is None:
         return ""
     v = get_value(model, path)
@@ -261,11 +264,6 @@ def plausibility(model, path, after, at_bound=False):
         if z > IMPLAUSIBLE:
             return f"{z:.0f} times the typical error of {h.label} ({h.typical:g} {unit_of(path)})"
         return ""
-    if v != 0.0 and after / v < 0.0:
-        # a declared load, mass or level that changes sign is not a catalogue error but a
-        # force pointing the other way: impossible whatever its size (issue 28)
-        return (f"{h.label} changed sign ({v:g} -> {after:.3g} {unit_of(path)}): against its declared "
-                f"direction")
     if v != 0.0 and after / v > 0.0:
         # a relative catalogue error is a factor: x 1/2.8 is as far from the catalogue as x 2.8
         # (a valve's conductance at 0.35 of its catalogue value is 7 typical errors of 15 %)
@@ -275,6 +273,73 @@ def plausibility(model, path, after, at_bound=False):
         z = abs(after - v) / sg if sg > 0 else 0.0
     if z > IMPLAUSIBLE:
         return f"{z:.0f} times the typical catalogue error of {h.label}"
+    return ""
+
+
+def against_direction(model, path, after):
+    """Why a recalibrated value points against its declared direction, or ``""``.
+
+    A declared load, mass or level that changes sign is not a catalogue error but a force
+    pointing the other way: physically impossible whatever its size (issue 28). For the
+    load, the declared direction is that of the whole load of Eq. 17 as declared: the
+    user's ``load_force`` plus the weight along the rod (``m g sin(angle)``, towards
+    x = 0 with the rod up); a recalibrated load that turns it around (gravity pointing up)
+    is impossible, as is one that turns the user's own ``load_force`` around. A load of 0
+    on a horizontal jack declares no direction: either sign may be fitted.
+
+    Parameters
+    ----------
+    model : Model
+        The model the value was recalibrated from (the declared values)
+    path : str
+        Parameter path
+    after : float
+        The recalibrated value (SI; a scale factor for valve tables)
+
+    Returns
+    -------
+    reason : str
+        Empty when it keeps the declared direction
+
+    Examples
+    --------
+    A 1.47 kg mass on a vertical jack (rod up) weighs 14.4 N towards x = 0; a load of
+    -51 N fitted beside it would lift it (issue 28):
+
+    >>> from pneucore import Model, model_preset
+    >>> m = Model.from_dict(model_preset("paper-4way"))
+    >>> m.jack.moving_mass, m.jack.mounting_angle = 1.47, 90.0
+    >>> against_direction(m, "jack.load_force", -51.0)
+    'load against its declared direction: 14.4 N towards x = 0 declared (the weight along the rod), -36.6 N fitted'
+    >>> against_direction(m, "jack.load_force", -10.0)
+    ''
+    """
+    v = get_value(model, path)
+    label = label_of(path)
+    if v != 0.0 and after / v < 0.0:
+        return (f"{label} changed sign ({v:g} -> {after:.3g} {unit_of(path)}): against its declared "
+                f"direction")
+    if path == "jack.load_force":
+        grav = model.jack.gravity_force
+        declared, fitted = v + grav, after + grav
+        if declared != 0.0 and fitted / declared < 0.0:
+            what = ("the weight along the rod" if v == 0.0 else
+                    "the load given" if grav == 0.0 else "the load given and the weight along the rod")
+            return (f"load against its declared direction: {declared:.3g} N towards x = 0 declared "
+                    f"({what}), {fitted:.3g} N fitted")
+    return ""
+
+
+def first_against_direction(model, values):
+    """The first of ``values`` (``{path: value or {"value": ...}}``, fitted base parameters)
+    that points against its declared direction (:func:`against_direction`), in words, or
+    ``""``; paths that are no registered base hypothesis are skipped."""
+    for p, v in (values or {}).items():
+        if p not in BASE_HYPOTHESES:
+            continue
+        why = against_direction(model, p, v["value"] if isinstance(v, dict) else v)
+        if why:
+            return why
     return ""
 
 

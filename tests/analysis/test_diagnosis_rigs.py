@@ -245,6 +245,16 @@ def test_transducer_offset_is_outside_the_catalog():
     # the remainder sits on p_b and is a constant: what an offset looks like
     assert sig["signal"] == "p_b" and sig["proportional_to"] == "1", sig
     assert "outside the catalog" in d.message.lower()
+    # the words describe the fit returned (issue 22): the base fit before the sensor's zero was
+    # found put a Coulomb level at its bound, the one returned holds a plausible value; no
+    # value the message calls implausible is one the returned fit has plausible
+    plausible = [r for r in d.refitted if not r.get("implausible")]
+    for r in plausible:
+        assert f"Implausible: {r['label']}" not in d.message, describe(d)
+    held = rem.get("held_at_catalogue")
+    if held and held.get("null_fit"):
+        for o in held["null_fit"]["parameters"]:
+            assert f"{o['after']:.3g} {o['unit']}" not in d.message, describe(d)
 
 
 # ----------------------------------------------------------------- what the data can identify

@@ -12,6 +12,7 @@ from pneucore.analysis.compare import compare
 from pneucore.analysis.diagnosis import stages as S
 from pneucore.analysis.diagnose import diagnose
 from pneucore.analysis.history import refine
+from pneucore.analysis import hypotheses as H
 from pneucore.analysis.hypotheses import BASE_HYPOTHESES, IMPLAUSIBLE, plausibility
 from pneucore.data.experiment import as_experiments
 from pneucore.data.synthetic import RIG_CASES, rig_case
@@ -146,3 +147,64 @@ def test_a_declared_load_that_changes_sign_is_impossible_whatever_its_size():
     # a value of 0 declares no direction: a sign is no symptom there
     m.jack.load_force = 0.0
     assert "changed sign" not in plausibility(m, "jack.load_force", -0.5)
+
+
+def _vertical(mass=1.47):
+    """The issue's rig: a vertical jack (rod up) lifting ``mass`` [kg], no load declared."""
+    m = Model.from_dict(model_preset("paper-4way"))
+    m.jack.moving_mass, m.jack.mounting_angle = mass, 90.0
+    return m
+
+
+def test_a_load_that_turns_the_weight_along_the_rod_around_is_impossible():
+    """Issue 28: "Add dead_volume silently set the load to -51 N (gravity pointing up)". On a
+    vertical jack the weight, m g = 14.4 N for 1.47 kg, declares the load's direction even
+    with no load given: a fitted load beyond -14.4 N lifts the mass by itself."""
+    m = _vertical()
+    weight = 1.47 * 9.80665
+    why = plausibility(m, "jack.load_force", -51.0)
+    assert "declared direction" in why and "weight along the rod" in why
+    # ... whatever its size: just past the weight, and even where the fit left it at a bound
+    assert "declared direction" in plausibility(m, "jack.load_force", -1.01 * weight)
+    assert "declared direction" in plausibility(m, "jack.load_force", -51.0, at_bound=True)
+    # a load short of the weight keeps the direction (a counterweight, a cable's pull): it is
+    # judged by its size only (0.8 m g is some 10 typical errors of an undeclared load there)
+    assert "declared direction" not in plausibility(m, "jack.load_force", -0.8 * weight)
+    # a horizontal jack with no load declares no direction: either sign is a size question
+    m.jack.mounting_angle = 0.0
+    assert "declared direction" not in plausibility(m, "jack.load_force", -51.0)
+
+
+def test_the_load_given_and_the_weight_declare_the_direction_together():
+    m = _vertical()
+    m.jack.load_force = -5.0     # a spring helping the lift: 9.42 N towards x = 0 in all
+    assert H.against_direction(m, "jack.load_force", -8.0) == ""
+    why = H.against_direction(m, "jack.load_force", -20.0)
+    assert "the load given and the weight along the rod" in why and "9.42 N" in why
+    # the load given turned around is against its own declared sign, too
+    assert "changed sign" in H.against_direction(m, "jack.load_force", 3.0)
+
+
+def test_a_candidate_whose_fit_turns_the_load_around_is_not_determined():
+    """A refit's base values (``uncertain_params``) that point against their declared
+    direction make the candidate impossible: never significant, never named."""
+    m = _vertical()
+    fitted = {"heat.coefficient": {"value": 30.0}, "jack.load_force": {"value": -51.0},
+              "effects.dead_volume.volume_a": {"value": 1e-5}}
+    assert "declared direction" in H.first_against_direction(m, fitted)
+    fitted["jack.load_force"]["value"] = -3.0
+    assert H.first_against_direction(m, fitted) == ""
+
+
+def test_the_words_follow_the_fit_returned():
+    """Issue 22: "Implausible: Coulomb friction extending 12.8 -> 6e-21 N" came from the fit
+    before the sensor's zero was found; the fit returned holds 15.9 N."""
+    odd = [{"path": "friction.extend.fc0", "label": "Coulomb friction extending",
+            "before": 12.8, "after": 6.4e-21, "unit": "N", "reason": "at its fit bound: ..."}]
+    plausible = [{"path": "friction.extend.fc0", "after": 15.9}]
+    assert S.still_implausible(odd, plausible) == []
+    still = [{"path": "friction.extend.fc0", "after": 80.0, "implausible": "7 times ..."}]
+    (o,) = S.still_implausible(odd, still)
+    assert o["after"] == 80.0 and o["reason"] == "7 times ..."
+    # a value the returned fit did not refit keeps the null fit's words
+    assert S.still_implausible(odd, []) == odd

@@ -12,8 +12,9 @@ import numpy as np
 from pneucore.analysis import calibrate as _calibrate
 from pneucore.analysis import hypotheses as H
 from pneucore.analysis.calibrate import fit
-from pneucore.analysis.compare import replay
-from pneucore.analysis.diagnosis.rules import CONSISTENT_RTOL
+from pneucore.analysis.compare import noise_floor, replay
+from pneucore.analysis.diagnosis.rules import AT_FLOOR, CONSISTENT_RTOL, EXCESS_MATERIAL
+from pneucore.analysis.metrics import eq25_error
 from pneucore.data.measurement import Measurement
 from pneucore.spec.effects import EFFECTS
 from pneucore.spec.paths import ParameterSpec
@@ -28,6 +29,82 @@ def excess_drop(e0, e1, floor):
     if not (floor == floor) or e0 <= floor:
         return 0.0
     return float((e0 * e0 - e1 * e1) / (e0 * e0 - floor * floor))
+
+
+def own_error(rp):
+    """Overall Eq. 25 error of one replay alone: the root mean square of its signals' [-]."""
+    vals = [eq25_error(rp.measured[s], rp.simulated[s]) for s in rp.measured]
+    vals = [v for v in vals if v == v]
+    return float(math.sqrt(np.mean(np.square(vals)))) if vals else float("nan")
+
+
+def experiment_excess(before, after):
+    """Where a change removes the misfit in excess of the noise floor, experiment by experiment.
+
+    The pooled Eq. 25 error of a signal is ``sqrt(sum_i SSE_i / sum_i D_i)`` over the
+    experiments ``i`` (``D``: the sum of the measured squares), and the overall error the
+    root mean square over the signals, so the squared overall error, and its noise floor,
+    are sums of one term per experiment. A short record that shows an effect clearly (a
+    1 s locked hold with a leak) carries little of that sum beside a long one whose misfit
+    no catalog effect reaches (a free piston's position drifting over 20 cycles): the
+    effect's share of the pooled excess is then small although it explains its own
+    record down to the noise.
+
+    Parameters
+    ----------
+    before : list of Replay
+        The null model's replays of the experiments [-]
+    after : list of Replay
+        The candidate's replays of the same experiments, in the same order [-]
+
+    Returns
+    -------
+    rows : list of dict
+        Per experiment: ``experiment`` (name), ``error_before``, ``error_after`` and
+        ``noise_floor`` (its own overall Eq. 25 errors) [-], ``excess_drop`` (the share of
+        its own excess over its floor the change removes) [-], ``excess_share`` (the part
+        of the pooled excess over the floor the change removes there; the rows sum to
+        :func:`excess_drop` of the pooled errors) [-], ``cleared`` (it leaves that
+        experiment at its floor, :data:`pneucore.analysis.diagnosis.rules.AT_FLOOR`,
+        from above it) [-]
+    """
+    den, rows = {}, []
+    for rp in before:
+        for s, m in rp.experiment.measurement.signals.items():
+            if s in rp.measured:
+                ok = np.isfinite(m)
+                den[s] = den.get(s, 0.0) + float(np.sum(m[ok] ** 2))
+    n_sig = len(den)
+
+    def energy(rp):
+        # this experiment's term of the pooled squared overall error, and of its floor
+        e = f = 0.0
+        fl = noise_floor([rp])
+        for s in rp.measured:
+            m = rp.experiment.measurement.signals[s]
+            g = np.full(m.shape, np.nan)
+            g[:rp.simulated[s].shape[0]] = rp.simulated[s][:m.shape[0]]
+            ok = np.isfinite(m) & np.isfinite(g)
+            if den.get(s, 0.0) > 0:
+                e += float(np.sum((m[ok] - g[ok]) ** 2)) / den[s] / n_sig
+                f += fl[s] ** 2 * float(np.sum(m[np.isfinite(m)] ** 2)) / den[s] / n_sig
+        return e, f
+
+    terms = []
+    for r0, r1 in zip(before, after):
+        (e0, f), (e1, _) = energy(r0), energy(r1)
+        fl = noise_floor([r0])
+        floor = float(math.sqrt(np.mean([v * v for v in fl.values()]))) if fl else float("nan")
+        c0, c1 = own_error(r0), own_error(r1)
+        whole = r1.t.shape[0] == r0.t.shape[0]   # the candidate's replay reached the end
+        rows.append({"experiment": r0.experiment.name, "error_before": c0, "error_after": c1,
+                     "noise_floor": floor, "excess_drop": excess_drop(c0, c1, floor),
+                     "cleared": bool(whole and c0 > AT_FLOOR * floor and c1 <= AT_FLOOR * floor)})
+        terms.append((e0, e1, f))
+    excess = sum(e0 - f for e0, _, f in terms)
+    for row, (e0, e1, _) in zip(rows, terms):
+        row["excess_share"] = float((e0 - e1) / excess) if excess > 0 else 0.0
+    return rows
 
 
 def improvement(before, after):
@@ -127,7 +204,7 @@ def pair(model, exps, lead, ranking, refits, u_specs, e0, floor, max_nfev, repor
     return {"effect": b, "error_after_overall": e1, "excess_drop": excess_drop(e0, e1, floor)}
 
 
-def consistency(cal, exps, name, max_nfev=30):
+def consistency(cal, exps, name, max_nfev=30, skip=None):
     """Do the experiments agree on the effect's parameters? (a physical effect: yes)
 
     The effect's parameters are refitted on each experiment alone, the base
@@ -138,21 +215,25 @@ def consistency(cal, exps, name, max_nfev=30):
     of the larger, or by less than three standard errors of the difference
     (each inflated by the square root of its residual's autocorrelation time).
     Experiments in which the effect does not act (``observable_in``) or whose
-    estimate has a relative standard error above 1 are not compared.
+    estimate has a relative standard error above 1 are not compared, nor those of
+    ``skip`` (:func:`not_compared`: records the effect explains nothing of, beside one it
+    explains down to the noise).
 
     Returns
     -------
     report : dict
         ``consistent`` (True, or False when two estimates disagree), ``per_experiment``
-        ``{experiment: {param: {value, stderr}}}``, ``summary``
+        ``{experiment: {param: {value, stderr}}}``, ``not_compared`` ``{experiment: why}``,
+        ``summary``
     """
+    skip = dict(skip or {})
     eff = EFFECTS[name]
     per = {}
     specs = [ParameterSpec(f"effects.{name}.{p}", cal.model.effects[name][p], eff.param(p).min,
                            eff.param(p).max, True, eff.param(p).unit)
              for p in eff.score_params]
-    acting = [e for e in exps
-              if ("locked" if e.scenario.get("locked") else "free") in eff.observable_in]
+    acting = [e for e in exps if e.name not in skip
+              and ("locked" if e.scenario.get("locked") else "free") in eff.observable_in]
     if not specs:
         acting = []
 
@@ -179,8 +260,28 @@ def consistency(cal, exps, name, max_nfev=30):
                 se = math.sqrt(a[p]["stderr"] ** 2 + b[p]["stderr"] ** 2)
                 if abs(va - vb) > CONSISTENT_RTOL * max(abs(va), abs(vb)) and abs(va - vb) > 3 * se:
                     bad.append(f"{p} = {va:.3g} on {names[i]}, {vb:.3g} on {names[j]}")
-    return {"consistent": not bad, "per_experiment": per,
+    return {"consistent": not bad, "per_experiment": per, "not_compared": skip,
             "summary": "; ".join(bad) if bad else "the experiments agree"}
+
+
+def not_compared(rows):
+    """``{experiment: why}``: the records whose estimates of an effect's parameters say nothing
+    of it, from the candidate's :func:`experiment_excess` ``rows``.
+
+    Where the effect brings some record from above its noise floor down to it, a record of
+    whose excess it removes less than :data:`EXCESS_MATERIAL` carries no evidence of its
+    value: fitted there alone, the effect takes whatever value helps with the misfit that
+    lies outside the catalog (a free piston's position drifting on a long record), the
+    stand-in behaviour the comparison looks for in the effect itself. Where it clears no
+    record, every record is compared.
+    """
+    if not any(r["cleared"] for r in rows):
+        return {}
+    return {r["experiment"]: (f"the effect removes {100 * r['excess_drop']:.0f} % of its excess "
+                              f"over the noise floor (error {100 * r['error_before']:.2f} % -> "
+                              f"{100 * r['error_after']:.2f} %, floor {100 * r['noise_floor']:.2f} "
+                              "%), while it brings another record to its floor")
+            for r in rows if not r["cleared"] and r["excess_drop"] < EXCESS_MATERIAL}
 
 
 
@@ -223,23 +324,54 @@ def block_energy(model, exps, blocks, scales):
 
 
 def held_out(null_model, null_specs, cand_model, cand_specs, exps, scales, prior, n_folds,
-             max_nfev):
+             max_nfev, loeo=None, enough=None):
     """Does the candidate predict data it was not fitted on better than the null?
 
-    Each experiment is cut into ``n_folds`` blocks in time; for each fold ``k`` the null's
-    and the candidate's parameters are refitted (from their full fits, reweighted, under the
-    same ``prior``) on every experiment with its ``k``-th block marked missing, and each
-    model predicts the held-out blocks: the squared prediction errors, series scaled by
-    ``scales``, are compared. A smooth misspecified residual or coloured noise inflates
-    both models' held-out errors alike; it does not let an effect that only fits what it
-    was fitted on predict what it was not.
+    **Blocks in time.** Each experiment is cut into ``n_folds`` blocks in time; for each
+    fold ``k`` the null's and the candidate's parameters are refitted (from their full
+    fits, reweighted, under the same ``prior``) on every experiment with its ``k``-th block
+    marked missing, and each model predicts the held-out blocks: the squared prediction
+    errors, series scaled by ``scales``, are compared. A smooth misspecified residual or
+    coloured noise inflates both models' held-out errors alike; it does not let an effect
+    that only fits what it was fitted on predict what it was not.
+
+    **Experiments left out** (``loeo`` given and at least two experiments): for each
+    experiment, the null and the candidate are fitted on all the others, from the model as
+    given (``loeo``: nothing of the left-out record enters, not even through a starting
+    point), and predict it whole. A stand-in takes whatever helps the records it is fitted
+    on; a physical effect fitted on some records predicts another.
+
+    Parameters
+    ----------
+    null_model, cand_model : Model
+        The null's and the candidate's full fits [-]
+    null_specs, cand_specs : list of ParameterSpec
+        Their parameters, starting at those fits [-]
+    exps : list of Experiment
+        The experiments [-]
+    scales : dict
+        ``{(experiment, signal): residual RMS}`` of the null (unit of the signal)
+    prior : dict
+        The catalogue prior of the base parameters [-]
+    n_folds : int
+        Blocks in time per experiment [-]
+    max_nfev : int
+        Evaluation budget of each block refit [-]
+    loeo : tuple or None
+        ``(null start model, null start specs, candidate start model, candidate start
+        specs)``: the fits' starting points for the experiment folds (None: none) [-]
+    enough : callable or None
+        ``enough(report) -> bool``: the blocks in time already show what is asked; the
+        experiments are then not left out (their refits spared, ``used`` says so) [-]
 
     Returns
     -------
     report : dict
-        ``folds`` [{``null``, ``candidate``}] held-out energies, ``wins`` (folds where the
-        candidate predicts better), ``drop`` (1 - candidate's / null's held-out energy over
-        all folds) [-]
+        ``folds`` [{``null``, ``candidate``}] held-out energies of the blocks, ``wins``
+        (blocks where the candidate predicts better), ``drop`` (1 - candidate's / null's
+        held-out energy over all blocks) [-]; ``experiment_folds`` [{``experiment``,
+        ``null``, ``candidate``}], ``experiment_wins``, ``experiment_drop`` likewise for the
+        experiments left out (empty, 0 and 0 without them); ``used``: the folds in words
     """
     def one(k):
         cut = [masked(e, k, n_folds) for e in exps]
@@ -254,11 +386,45 @@ def held_out(null_model, null_specs, cand_model, cand_specs, exps, scales, prior
             out[key] = block_energy(mk, exps, blocks, scales)
         return out
 
+    def left_out(i):
+        held, train = exps[i], exps[:i] + exps[i + 1:]
+        out = {"experiment": held.name}
+        for key, m, specs in (("null",) + tuple(loeo[:2]), ("candidate",) + tuple(loeo[2:])):
+            mk = m
+            if specs:
+                # from the model as given: the budget of a joint refit, which starts there too
+                mk = fit(m, train, specs, max_nfev=2 * max_nfev, compute_before=False,
+                         reweight=True, prior=prior).model
+            out[key] = block_energy(mk, [held], {held.name: (0, held.measurement.t.size)}, scales)
+        return out
+
     with ThreadPoolExecutor(_calibrate.THREADS) as pool:
         folds = list(pool.map(one, range(n_folds)))
+        out = {"folds": folds, "n_folds": n_folds}
+        out["wins"], out["drop"] = _vote(folds)
+        used = f"{n_folds} blocks in time of each of {len(exps)} experiment{'s' * (len(exps) != 1)}"
+        efolds = []
+        if loeo is None:
+            used += "; no experiment left out"
+        elif len(exps) < 2:
+            used += "; no experiment left out (one experiment)"
+        elif enough is not None and enough(out):
+            used += "; no experiment left out (the blocks in time already show it)"
+        else:
+            efolds = list(pool.map(left_out, range(len(exps))))
+            used += (f"; each of the {len(efolds)} experiments left out in turn, fitted on the "
+                     "others from the model as given")
+    out["experiment_folds"] = efolds
+    out["experiment_wins"], out["experiment_drop"] = _vote(efolds)
+    out["used"] = used
+    return out
+
+
+def _vote(folds):
+    """``(wins, drop)`` of held-out folds: where the candidate predicts better, and 1 - its
+    held-out energy over the null's, over the folds whose replays finished [-]."""
     good = [f for f in folds if f["null"] == f["null"] and f["candidate"] == f["candidate"]]
     wins = sum(f["candidate"] < f["null"] for f in good)
     e0 = sum(f["null"] for f in good)
     e1 = sum(f["candidate"] for f in good)
-    return {"folds": folds, "n_folds": n_folds, "wins": wins,
-            "drop": (1.0 - e1 / e0) if good and e0 > 0 else 0.0}
+    return wins, ((1.0 - e1 / e0) if good and e0 > 0 else 0.0)

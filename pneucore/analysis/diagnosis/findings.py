@@ -13,7 +13,7 @@ from pneucore.analysis import hypotheses as H
 from pneucore.analysis.calibrate import Objective, fit
 from pneucore.analysis.compare import replay, summarise
 from pneucore.analysis.diagnosis.evidence import excess_drop as _excess_drop
-from pneucore.analysis.diagnosis.rules import DELTA_BIC, EXCESS_MAJOR
+from pneucore.analysis.diagnosis.rules import AT_FLOOR, DELTA_BIC, EXCESS_MAJOR
 from pneucore.analysis.diagnosis.stages import RECAL_MIN, with_effect as _with_effect
 from pneucore.analysis.engineering import in_words
 from pneucore.analysis.metrics import cross_correlation_test, ljung_box
@@ -24,8 +24,6 @@ from pneucore.spec.paths import ParameterSpec, get_value, model_changes
 #: (its strength indistinguishable from off): 1 %, the scatter of refits stopped by the
 #: optimiser's budget; an effect whose removal costs more is still doing work
 DROP_TOLERANCE = 0.01
-#: An error within this factor of the noise floor is at the floor
-AT_FLOOR = 1.2
 #: Misfit above this factor of the floor, with a command-dependent residual, lies outside
 OUTSIDE_FACTOR = 1.5
 #: Share of the remaining residual a physical signal must explain for the remainder to count as

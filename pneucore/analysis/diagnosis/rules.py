@@ -28,6 +28,10 @@ CONSISTENT_RTOL = 0.5
 #: Share of that excess the named effect must remove, alone or with the next candidate (two
 #: missing effects of similar size): a stand-in for something outside the catalog removes less
 EXCESS_MAJOR = 0.5
+#: An error within this factor of the noise floor is at the floor (20 %: the scatter of the
+#: floor's estimate from second differences on quantised records, measured 0.06-0.08 % on
+#: the confusion table's base cases against a 0.06 % noise level)
+AT_FLOOR = 1.2
 #: Held-out prediction is an alternative path to "significant" and "strong" (judged only on a
 #: determined, material candidate that failed the effective-sample LR or BIC test)
 HELD_OUT = True
@@ -40,6 +44,9 @@ HELD_OUT_WINS = HELD_OUT_FOLDS - 1
 #: Share of the null's held-out prediction energy (squared scaled error, all folds) the
 #: candidate must remove: the same share as :data:`EXCESS_MATERIAL` asks of the fit itself
 HELD_OUT_DROP = 0.2
+# With two experiments or more, each is also left out in turn: the null and the candidate
+# fitted on the others predict it (experiment_wins(n) of them, and the same HELD_OUT_DROP);
+# either vote, blocks in time or experiments left out, shows a prediction
 
 
 @dataclass(frozen=True)
@@ -104,8 +111,30 @@ def _predicts(c, ctx):
     if "held_out" not in c:
         c["held_out"] = ctx.held_out(c)
     h = c["held_out"]
-    h["predicts"] = bool(h["wins"] >= HELD_OUT_WINS and h["drop"] >= HELD_OUT_DROP)
+    by = [what for what, vote in (("blocks in time", blocks_predict),
+                                  ("experiments left out", experiments_predict)) if vote(h)]
+    h["predicts_by"] = by
+    h["predicts"] = bool(by)
     return h["predicts"]
+
+
+def blocks_predict(h):
+    """The vote of the blocks in time of a held-out report
+    (:func:`pneucore.analysis.diagnosis.evidence.held_out`)."""
+    return bool(h["wins"] >= HELD_OUT_WINS and h["drop"] >= HELD_OUT_DROP)
+
+
+def experiments_predict(h):
+    """The vote of the experiments left out in turn of a held-out report (none: no vote)."""
+    n = len(h.get("experiment_folds") or ())
+    return bool(n >= 2 and h["experiment_wins"] >= experiment_wins(n)
+                and h["experiment_drop"] >= HELD_OUT_DROP)
+
+
+def experiment_wins(n):
+    """Experiments left out that the candidate must predict better than the null, of ``n``:
+    all but one (a majority that one unlucky record cannot decide) from 3 on, both of 2."""
+    return n - 1 if n >= 3 else n
 
 
 def _significant(c, ctx):
@@ -116,8 +145,16 @@ def _strong(c, ctx):
     return c["delta_bic"] < DELTA_BIC or _predicts(c, ctx)
 
 
+def _clears(c):
+    """Most of what it removes, it removes from records it leaves at their noise floor."""
+    cleared = sum(r["excess_share"] for r in c.get("experiments", ()) if r["cleared"])
+    return c["excess_drop"] > 0 and cleared >= EXCESS_MAJOR * c["excess_drop"]
+
+
 def _major(c, ctx):
     if c["excess_drop"] >= EXCESS_MAJOR or c["excess_drop_calibrated"] >= EXCESS_MAJOR:
+        return True
+    if _clears(c):
         return True
     c["with_next"] = ctx.pair(c)
     return bool(c["with_next"] and c["with_next"]["excess_drop"] >= EXCESS_MAJOR)
@@ -139,11 +176,16 @@ RULES = (
          "predicts held-out data: a determined, material candidate refitted without each of "
          f"{HELD_OUT_FOLDS} blocks in time predicts the block better than the null on "
          f"{HELD_OUT_WINS} folds and removes {100 * HELD_OUT_DROP:g} % of the null's held-out "
-         "error (smooth residuals make n / tau too few samples for the LR)", _strong),
+         "error, or, fitted on all experiments but one, predicts the one left out better on "
+         "all of them but one (both of two) and removes as much of the null's error there "
+         "(smooth residuals make n / tau too few samples for the LR)", _strong),
     Rule("material", f"removes at least {100 * MATERIAL:g} % of the error and "
          f"{100 * EXCESS_MATERIAL:g} % of its excess over the noise floor", _material),
     Rule("major", f"removes at least {100 * EXCESS_MAJOR:g} % of the excess: alone, once the "
-         "sensors' gains and offsets are removed, or with the next candidate (else a stand-in)",
+         "sensors' gains and offsets are removed, or with the next candidate (else a stand-in); "
+         f"or at least {100 * EXCESS_MAJOR:g} % of what it removes lies in records it leaves at "
+         "their noise floor (a short record that shows the effect beside a long one whose misfit "
+         "no catalog effect reaches: what remains is outside the catalog, not this effect's)",
          _major, deferred=True),
     Rule("consistent", "its parameters fitted on each experiment alone agree (a stand-in takes "
          "whatever helps each)", _consistent, deferred=True),
@@ -203,6 +245,10 @@ def _unconfounded(t, ctx):
     return t["orthogonal"] >= CONFOUNDED or bool(t.get("at_bound"))
 
 
+def _possible(t, ctx):
+    return not t.get("impossible")
+
+
 def _lr_significant(t, ctx):
     return t["p_value"] < ctx.alpha
 
@@ -219,6 +265,9 @@ DEMAND_RULES = (
     Rule("unconfounded", "what it changes is no combination of the parameters fitted beside "
          "it (a load against the two Coulomb levels), or the fit with it held drove one of them "
          "to a bound: otherwise the records cannot tell which moved", _unconfounded),
+    Rule("possible", "freed, it keeps its declared direction (a load that would turn the "
+         "declared load or the weight along the rod around is impossible, never significant)",
+         _possible, deferred=True),
     Rule("significant", "likelihood-ratio p-value of it freed against it held below alpha "
          "(counted on n / tau effective samples)", _lr_significant, deferred=True),
     Rule("strong", f"delta BIC of it freed against it held below {DELTA_BIC:g}", _bic_strong,

@@ -32,8 +32,9 @@ from pneucore.analysis.blas_threads import single_threaded_blas
 from pneucore.analysis.calibrate import Objective, fit, information_criteria
 from pneucore.analysis.compare import replay
 from pneucore.analysis.diagnosis import rules as R
-from pneucore.analysis.diagnosis.evidence import (consistency, excess_drop, given_prior, held_out,
-                                                  improvement, explain, pair, undetermined)
+from pneucore.analysis.diagnosis.evidence import (consistency, excess_drop, experiment_excess,
+                                                  given_prior, held_out, improvement, explain,
+                                                  not_compared, pair, undetermined)
 from pneucore.analysis.engineering import impossible
 from pneucore.spec.effects import EFFECTS
 from pneucore.spec.paths import ParameterSpec, get_value, parse_parameters, set_values, unit_of
@@ -313,8 +314,11 @@ def demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report,
                              held=set(waiting) - set(freed_paths) - {path})
             taus = trial.fit.residual_times if trial.fit is not None else None
             lr, n_eff = effective_lr(ref.rss, trial.rss, taus)
+            value = trial.fit.values[path]["value"] if trial.fit is not None else None
             t.update(p_value=float(stats.chi2.sf(max(lr, 0.0), 1)), lr_statistic=lr,
-                     delta_bic=-lr + math.log(max(n_eff, 1.0)), trial=trial)
+                     delta_bic=-lr + math.log(max(n_eff, 1.0)), trial=trial, value=value,
+                     impossible=H.against_direction(model, path, value) if value is not None
+                     else "")
 
         ok = R.demanded(t, R.Judging(alpha, 1), freed)
         trial = t.pop("trial", None)
@@ -329,6 +333,8 @@ def demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report,
             entry["status"] = "held"
             entry["with"] = with_
             why = next(r.reason for r in R.DEMAND_RULES if r.name == t["failed"])
+            if t.get("impossible"):
+                why += f": freed, {t['impossible']}"
             entry["note"] = (f"held at the value given ({get_value(model, path):.3g} "
                              f"{unit_of(path)}".rstrip() + f"): the data do not demand it, rule "
                              f"'{t['failed']}' fails ({why}; what it changes in the records is "
@@ -661,6 +667,7 @@ def candidate_evidence(name, cal, null, taus, e0_cal):
             "params": params,
             "uncertain_params": {k: v for k, v in cal.values.items() if not k.startswith("effects.")},
             "improvement": improvement(null.comp, cal.error_after),
+            "experiments": experiment_excess(null.replays, cal.error_after.replays),
             "fit_success": cal.success, "fit_message": cal.message,
             "description": eff.description, "signature": eff.signature,
             "reference": eff.reference, "model_obj": cal.model}
@@ -695,7 +702,8 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
 
     def consistent(c):
         report(0.96, f"consistency across experiments: {c['effect']}")
-        return consistency(refits[c["effect"]], exps, c["effect"], max_nfev)
+        return consistency(refits[c["effect"]], exps, c["effect"], max_nfev,
+                           skip=not_compared(c.get("experiments", ())))
     ctx.consistency = consistent
 
     def predicts(c):
@@ -705,8 +713,11 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
     for c in ranking:
         # physical plausibility: a strength at its fit bound, or not distinguishable from off by
         # its own standard error, is no evidence of the effect however much the fit improves
+        # (and a base parameter refitted beside it that points against its declared direction:
+        # a load turned around by the effect's fit, gravity pointing up, issue 28)
         c["undetermined"] = undetermined(c) or impossible(
-            c["effect"], (c["model"].get("effects") or {}).get(c["effect"]) or c["params"], model)
+            c["effect"], (c["model"].get("effects") or {}).get(c["effect"]) or c["params"],
+            model) or H.first_against_direction(model, c["uncertain_params"])
         R.flags(c, ctx)
     if not ranking:
         return None, NO_EFFECT
@@ -740,8 +751,14 @@ def held_out_evidence(model, exps, null, name, cal, max_nfev):
     base = fitted_specs(null.base, null.specs_start)
     cand = effect_specs(model, name, cal.model.effects[name]) + fitted_specs(cal.model,
                                                                             null.specs_start)
+    # the experiments left out in turn start where the null fit and the joint refit start:
+    # the model as given, the effect at its probe dose
+    start = EFFECTS[name].probe_values(model)
+    loeo = (model, list(null.specs_start), with_effect(model, name, start),
+            effect_specs(model, name, start) + list(null.specs_start))
     return held_out(null.base, base, cal.model, cand, exps, scales, null.prior,
-                    R.HELD_OUT_FOLDS, max(max_nfev // 2, 8))
+                    R.HELD_OUT_FOLDS, max(max_nfev // 2, 8), loeo=loeo,
+                    enough=R.blocks_predict)
 
 
 def why_not(b):
@@ -755,6 +772,10 @@ def why_not(b):
         held = (f"; refitted without each of {h['n_folds']} blocks in time it predicts "
                 f"{h['wins']} better than the null, removing {100 * h['drop']:.0f} % of its "
                 "held-out error" if h else "")
+        if h and h.get("experiment_folds"):
+            held += (f"; fitted on the others, it predicts {h['experiment_wins']} of "
+                     f"{len(h['experiment_folds'])} experiments left out better, removing "
+                     f"{100 * h['experiment_drop']:.0f} % of the null's error on them")
         why.append(f"best candidate {b['effect']} not significant (p = {b['p_value']:.2g}"
                    f"{held})")
     if not b["strong"]:
@@ -804,9 +825,11 @@ def takes_over(weighed, null):
 
 def holdings(odd):
     """The sets of implausible parameters to hold, in turn: those at a fit bound (the data push
-    them further than the fit allows: the plainest symptom) alone, then every one."""
+    them further than the fit allows: the plainest symptom) or against their declared
+    direction alone, then every one."""
     out = []
-    bound = [o for o in odd if "bound" in o["reason"]]
+    # (a value against its declared direction is as plain: impossible, whatever its size)
+    bound = [o for o in odd if "bound" in o["reason"] or "declared direction" in o["reason"]]
     for hold in (bound, odd):
         if hold and hold not in out:
             out.append(hold)
@@ -828,6 +851,23 @@ def held_words(odd, hold, verdict_h, e_held, e_null):
     return (f"Implausible: {vals(odd)}; with {it} held at the catalogue value no catalog effect "
             f"explains the records as well, so the recalibration stands, but a missing effect or "
             f"a wrong declaration may stand behind {it}")
+
+
+def still_implausible(odd, refitted):
+    """Of the implausible values ``odd`` the null fit found, those the fit a diagnosis returns
+    (``refitted``: its entries, :func:`pneucore.analysis.diagnosis.findings.findings`) still
+    has implausible, each with the returned value and reason: a later fit (the sensors' zeros
+    fitted beside the base parameters) may put them back where a catalogue error reaches,
+    and the message describes the model returned, not the fit before it."""
+    final = {r["path"]: r for r in refitted}
+    out = []
+    for o in odd:
+        r = final.get(o["path"])
+        if r is None:
+            out.append(o)
+        elif r.get("implausible"):
+            out.append({**o, "after": r["after"], "reason": r["implausible"]})
+    return out
 
 
 def withheld(model, next_model, recal, auto_paths):
