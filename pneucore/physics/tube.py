@@ -29,7 +29,11 @@ zero is the ideal nozzle of its bore (b = 0.528, Eq. 3).
 """
 import math
 
+from numba import njit
+
+from pneucore.physics.chamber import chamber_rates, enthalpy_flow
 from pneucore.physics.gas import GAMMA_AIR, R_AIR, RHO_REF, T_REF
+from pneucore.physics.states import LineTerm, register_line_term
 
 #: Reynolds number below which the flow in the line is laminar [-]
 RE_LAMINAR = 2300.0
@@ -180,3 +184,145 @@ def tube_characteristic(diameter, length, p0, T0=T_REF, r=R_AIR, gamma=GAMMA_AIR
     C = q / (RHO_REF * p0 * math.sqrt(T_REF / T0))
     b = (1.0 + 0.5 * k * M * M) ** (-gamma / k) * M * math.sqrt((gamma + 1.0) / (2.0 + k * M * M))
     return C, b
+
+
+# --- the line in segments, inside the compiled core ----------------------------------------
+#: Most segments a line may have per port [-]: the core's Jacobian is dense (forward
+#: differences, one right-hand side per state, and an LU factorisation in the cube of the
+#: states), and 3 states a segment on two ports at 32 segments already make 198 states;
+#: 32 segments resolve a signal of one quarter-wave period of the line at
+#: :data:`pneucore.physics.line.CELLS_PER_QUARTER_WAVE` cells per quarter wave four times over
+MAX_SEGMENTS = 32
+
+#: The parameters of one port's segmented line, in the order of its slots (name, unit)
+LINE_PARAMETERS = (("segments", "-"), ("cell_volume", "m^3"), ("area", "m^2"),
+                   ("segment_length", "m"), ("diameter", "m"), ("viscosity", "Pa s"))
+
+
+def line_slots(diameter, length, segments, T0=T_REF):
+    """The slot values of one port's segmented line (:data:`LINE_PARAMETERS` order).
+
+    Parameters
+    ----------
+    diameter : float
+        Inner diameter [m]
+    length : float
+        Length [m]
+    segments : int
+        Number of segments [-]
+    T0 : float
+        Temperature at which the viscosity is taken (the supply's, as
+        :func:`tube_characteristic` takes it) [K]
+
+    Returns
+    -------
+    values : tuple of float
+        segments [-], cell volume [m^3], bore area [m^2], segment length [m], diameter [m],
+        viscosity [Pa s]
+    """
+    n = int(segments)
+    return (float(n), line_volume(diameter, length) / n, math.pi * diameter * diameter / 4.0,
+            length / n, diameter, air_viscosity_sutherland(T0))
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def segment_friction(q, rho, A, d, mu):
+    """Wall friction on the gas of one segment, per unit length, as a rate of its mass flow
+    [kg/s^2]: ``f q |q| / (2 d rho A)``, Darcy's ``f`` of :func:`darcy_friction`'s law, which
+    is Hagen-Poiseuille's ``32 mu q / (rho d^2)`` below :data:`RE_LAMINAR`.
+
+    Parameters
+    ----------
+    q : float
+        Mass flow [kg/s]
+    rho : float
+        Gas density [kg/m^3]
+    A : float
+        Bore area [m^2]
+    d : float
+        Inner diameter [m]
+    mu : float
+        Dynamic viscosity [Pa s]
+
+    Examples
+    --------
+    Laminar: 0.1 g/s of air at 1.19 kg/m^3 in a 4 mm bore is 32 mu q / (rho d^2):
+
+    >>> mu = 1.8e-5
+    >>> round(segment_friction(1e-4, 1.19, 1.2566e-5, 4e-3, mu) / (32 * mu * 1e-4 / (1.19 * 16e-6)), 12)
+    1.0
+    """
+    Re = abs(q) * d / (A * mu)
+    if Re < RE_LAMINAR:
+        return 32.0 * mu * q / (rho * d * d)
+    f = (-1.8 * math.log10(6.9 / Re)) ** -2
+    return f * q * abs(q) / (2.0 * d * rho * A)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def line_node(y, i0, prm, k0, r):
+    """Pressure [Pa] and temperature [K] of the line's first cell, the node the port's valve
+    edges see (line term ``node``, :mod:`pneucore.physics.states`)."""
+    n = int(prm[k0])
+    T = y[i0 + n]
+    return y[i0] * r * T / prm[k0 + 1], T
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def line_rates(y, dy, i0, prm, k0, q_v, H_v, p_c, T_c, r, cp, cv, isothermal):
+    """Derivatives of a segmented line's states; the mass and enthalpy flows into the chamber.
+
+    The states of a port's line, from ``y[i0]``: the gas mass of each cell [kg], its
+    temperature [K], then the mass flow through the face downstream of each cell [kg/s]
+    (module section "The line in segments"). The valve's flow ``q_v`` [kg/s], with its
+    enthalpy ``H_v`` [W], enters the first cell; the last face opens into the chamber at
+    ``p_c`` [Pa], ``T_c`` [K]. Returns the mass flow [kg/s] and enthalpy flow [W] into the
+    chamber (line term ``rate``, :mod:`pneucore.physics.states`).
+    """
+    n = int(prm[k0])
+    V = prm[k0 + 1]
+    A = prm[k0 + 2]
+    dx = prm[k0 + 3]
+    d = prm[k0 + 4]
+    mu = prm[k0 + 5]
+    iT = i0 + n
+    iq = i0 + 2 * n
+    q_prev = q_v
+    for i in range(n):
+        m = y[i0 + i]
+        T = y[iT + i]
+        p = m * r * T / V
+        rho = m / V
+        q_out = y[iq + i]
+        # mass and energy of the cell (paper Eq. 14-15 with a fixed volume, no wall heat)
+        if i == 0:
+            H = H_v
+        else:
+            H = enthalpy_flow(q_prev, y[iT + i - 1], T, cp)
+        T_down = y[iT + i + 1] if i + 1 < n else T_c
+        H += enthalpy_flow(-q_out, T_down, T, cp)
+        dm, dT = chamber_rates(m, T, p, 0.0, q_prev - q_out, H, 0.0, cv, isothermal)
+        dy[i0 + i] = dm
+        dy[iT + i] = dT
+        # momentum of the face downstream (staggered grid): pressure difference and wall
+        # friction on the gas between the two cell centres (module section "The line in
+        # segments": the convective momentum flux is left out)
+        if i + 1 < n:
+            p2 = y[i0 + i + 1] * r * y[iT + i + 1] / V
+            rho2 = y[i0 + i + 1] / V
+        else:
+            p2 = p_c
+            rho2 = p_c / (r * T_c)
+        dy[iq + i] = A * (p - p2) / dx - segment_friction(q_out, 0.5 * (rho + rho2), A, d, mu)
+        q_prev = q_out
+    q_c = y[iq + n - 1]
+    T_last = y[iT + n - 1]
+    return q_c, enthalpy_flow(q_c, T_last, T_c, cp)
+
+
+#: The line in segments (effect ``tubing`` with ``segments`` > 1): states per port
+#: ``line_<port>_m<i>``, ``line_<port>_T<i>``, ``line_<port>_q<i>``
+SEGMENTED_LINE = register_line_term(LineTerm(
+    "line", line_node, line_rates, LINE_PARAMETERS,
+    description="the line between valve and chamber in segments: mass and energy per cell, "
+                "momentum per face"))

@@ -32,13 +32,15 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 import functools
+import math
 
 from pneucore.core import layout as L
 from pneucore.physics.heat import HEAT_PARAMETERS, add_wall
 from pneucore.physics.line import LUMPED_MARGIN, line_regime
 from pneucore.physics.sensors import PRESSURE_SENSOR
 from pneucore.physics.series import combine_table
-from pneucore.physics.tube import line_volume, tube_characteristic
+from pneucore.physics.tube import (MAX_SEGMENTS, SEGMENTED_LINE, line_slots, line_volume,
+                                   tube_characteristic)
 from pneucore.spec.validation import FieldError, mapping, number, optional_mapping
 
 
@@ -487,11 +489,55 @@ def _check_line_ports(p, model, path):
             raise FieldError(f"{path}.length_{sfx}",
                              f"the {model.valve.kind} valve has no port {port}: set length_{sfx} "
                              f"to 0 (no line) [m]")
+    if p["segments"] != int(p["segments"]):
+        raise FieldError(f"{path}.segments",
+                         f"a whole number of segments from 1 to {MAX_SEGMENTS}, got "
+                         f"{p['segments']:g} [-]")
+
+
+def _lumped(p):
+    """The line is lumped (one segment: today's volume and series resistance)."""
+    return int(p["segments"]) <= 1
 
 
 def _tubing_transform(m, p):
-    m.jack.dead_volume_a += line_volume(p["diameter_a"], p["length_a"])
-    m.jack.dead_volume_b += line_volume(p["diameter_b"], p["length_b"])
+    # lumped: the line's volume joins the chamber's dead volume; in segments, the cells hold it
+    if _lumped(p):
+        m.jack.dead_volume_a += line_volume(p["diameter_a"], p["length_a"])
+        m.jack.dead_volume_b += line_volume(p["diameter_b"], p["length_b"])
+
+
+def _pack_tubing(p, build):
+    """A line in segments: its slots per port (``physics.tube.line_slots``) and its states,
+    cells at the chamber's pressure and temperature, gas at rest."""
+    if _lumped(p):
+        return
+    m = build.model
+    r = m.gas.r
+    n = int(p["segments"])
+    k0 = L.STATE_PRM0[SEGMENTED_LINE.name]
+    i0 = L.STATE_IY0[SEGMENTED_LINE.name]
+    size = len(SEGMENTED_LINE.parameters)
+    for k, sfx in enumerate(("a", "b")):
+        if p[f"length_{sfx}"] <= 0.0:
+            continue
+        vals = line_slots(p[f"diameter_{sfx}"], p[f"length_{sfx}"], n, m.supply.temperature)
+        build.prm[k0 + k * size:k0 + (k + 1) * size] = vals
+        p0, T0 = build.y_base[f"p_{sfx}"], build.y_base[f"T_{sfx}"]
+        V, A = vals[1], vals[2]
+        m_cell = p0 * V / (r * T0)
+        # tolerances: a millionth of a cell's mass at the supply pressure, of the temperature,
+        # and of the bore's choked flow at the supply (rho c A, order of magnitude)
+        m_tol = 1e-6 * m.supply.pressure * V / (r * T0)
+        q_tol = 1e-6 * m.supply.pressure * A / math.sqrt(r * T0)
+        first = build.add_state(f"line_{sfx}_m1", m_cell, m_tol)
+        for i in range(2, n + 1):
+            build.add_state(f"line_{sfx}_m{i}", m_cell, m_tol)
+        for i in range(1, n + 1):
+            build.add_state(f"line_{sfx}_T{i}", T0, 1e-6 * T0)
+        for i in range(1, n + 1):
+            build.add_state(f"line_{sfx}_q{i}", 0.0, q_tol)
+        build.iy[i0 + k] = first
 
 
 @functools.lru_cache(maxsize=1024)
@@ -503,6 +549,8 @@ def _tubing_series(p, model):
     # the line's resistance sits between the valve and the chamber: downstream of the supply
     # edge, upstream of the exhaust edge; its friction evaluated at the supply pressure
     out = {}
+    if not _lumped(p):
+        return out       # in segments, the line's friction acts along it (physics.tube)
     for sfx, (_, exhaust, supply) in _FLOW_CONTROL_PORTS.items():
         if p[f"length_{sfx}"] > 0.0:
             cb = _line(p[f"diameter_{sfx}"], p[f"length_{sfx}"], model.supply.pressure,
@@ -544,19 +592,25 @@ def _check_cushion(p, model, path):
                              f"the {model.valve.kind} valve has no port {port}: set length_{sfx} "
                              f"to 0 (no cushion) [m]")
 def _tubing_warn(p, model, time_scale):
-    # the lumped line against the command's time scale (physics.line.line_regime)
+    # the chosen segments against those the command's time scale needs
+    # (physics.line.line_regime): warned only where the line is too coarse
     out = []
+    n = int(p["segments"])
     for sfx, (port, _, _) in _FLOW_CONTROL_PORTS.items():
         if p[f"length_{sfx}"] > 0.0:
             r = line_regime(p[f"diameter_{sfx}"], p[f"length_{sfx}"], time_scale,
                             model.supply.temperature)
-            if not r["lumped"]:
-                out.append(f"tubing on port {port} ({p[f'length_{sfx}']:g} m): transport delay "
-                           f"{r['delay'] * 1e3:.3g} ms, quarter-wave period "
-                           f"{r['quarter_wave_period'] * 1e3:.3g} ms, against command changes "
-                           f"{time_scale * 1e3:.3g} ms apart; the lumped line (no delay) is "
-                           f"adequate from {LUMPED_MARGIN:g} quarter-wave periods on, a "
-                           f"finite-volume line of {r['cells']} cells would resolve it")
+            if n >= r["cells"]:
+                continue
+            advice = (f"set tubing.segments to {r['cells']} or more" if r["cells"] <= MAX_SEGMENTS
+                      else f"even the most segments, {MAX_SEGMENTS}, are too coarse")
+            out.append(f"tubing on port {port} ({p[f'length_{sfx}']:g} m, {n} segment"
+                       f"{'s' if n > 1 else ''}): transport delay "
+                       f"{r['delay'] * 1e3:.3g} ms, quarter-wave period "
+                       f"{r['quarter_wave_period'] * 1e3:.3g} ms, against command changes "
+                       f"{time_scale * 1e3:.3g} ms apart; the lumped line (no delay) is "
+                       f"adequate from {LUMPED_MARGIN:g} quarter-wave periods on, a line in "
+                       f"segments needs {r['cells']}: {advice}")
     return out
 
 
@@ -774,8 +828,12 @@ for _e in [
            [Parameter("length_a", "m", 2.0, 0.0, 50.0, 0.0, "line length on port A (0 = none)"),
             Parameter("diameter_a", "m", 4e-3, 5e-4, 0.05, None, "inner diameter on port A"),
             Parameter("length_b", "m", 2.0, 0.0, 50.0, 0.0, "line length on port B (0 = none)"),
-            Parameter("diameter_b", "m", 4e-3, 5e-4, 0.05, None, "inner diameter on port B")],
+            Parameter("diameter_b", "m", 4e-3, 5e-4, 0.05, None, "inner diameter on port B"),
+            Parameter("segments", "-", 1.0, 1.0, float(MAX_SEGMENTS), None,
+                      "finite volumes per line: 1 = lumped (volume and series resistance, no "
+                      "delay); more carry the transport delay and the line's waves")],
            strength="length_a", transform=_tubing_transform, series=_tubing_series,
+           pack=_pack_tubing,
            check=_check_line_ports, unused=_missing_ports("length"), fit_params=("length_a", "length_b"),
            probe={"length_a": 1.0, "length_b": 1.0}, warn=_tubing_warn),
     Effect("exhaust_silencer",
