@@ -237,6 +237,37 @@ def tube_characteristic(diameter, length, p0, T0=T_REF, r=R_AIR, gamma=GAMMA_AIR
 #: :data:`pneucore.physics.line.CELLS_PER_QUARTER_WAVE` cells per quarter wave four times over
 MAX_SEGMENTS = 32
 
+#: The states of a line in segments, per cell or face, in the order of their blocks: the
+#: state ``line_<port>_<kind><i>`` (i from 1 at the valve), its kind and unit
+LINE_STATES = (("m", "kg"), ("T", "K"), ("q", "kg/s"))
+
+
+def line_state_unit(name):
+    """Unit of a line state named ``line_<port>_<kind><i>``, or None for another name.
+
+    Parameters
+    ----------
+    name : str
+        State name [-]
+
+    Returns
+    -------
+    unit : str or None
+        Its SI unit [-]
+
+    Examples
+    --------
+    >>> line_state_unit("line_a_q3"), line_state_unit("p_a")
+    ('kg/s', None)
+    """
+    parts = name.split("_")
+    if len(parts) == 3 and parts[0] == "line" and parts[1] in ("a", "b"):
+        for kind, unit in LINE_STATES:
+            if parts[2].startswith(kind) and parts[2][len(kind):].isdigit():
+                return unit
+    return None
+
+
 #: The parameters of one port's segmented line, in the order of its slots (name, unit)
 LINE_PARAMETERS = (("segments", "-"), ("cell_volume", "m^3"), ("area", "m^2"),
                    ("segment_length", "m"), ("diameter", "m"), ("viscosity", "Pa s"))

@@ -39,8 +39,8 @@ from pneucore.physics.heat import HEAT_PARAMETERS, add_wall
 from pneucore.physics.line import LUMPED_MARGIN, line_regime
 from pneucore.physics.sensors import PRESSURE_SENSOR
 from pneucore.physics.series import combine_table
-from pneucore.physics.tube import (MAX_SEGMENTS, SEGMENTED_LINE, line_slots, line_volume,
-                                   tube_characteristic)
+from pneucore.physics.tube import (LINE_STATES, MAX_SEGMENTS, SEGMENTED_LINE, line_slots,
+                                   line_volume, tube_characteristic)
 from pneucore.spec.validation import FieldError, mapping, number, optional_mapping
 
 
@@ -498,6 +498,24 @@ def _check_line_ports(p, model, path):
             raise FieldError(f"{path}.length_{sfx}",
                              f"the {model.valve.kind} valve has no port {port}: set length_{sfx} "
                              f"to 0 (no line) [m]")
+    cushion = (model.effects or {}).get("end_cushion")
+    if int(p["segments"]) > 1 and isinstance(cushion, dict) and any(
+            _as_float(cushion.get(k, EFFECTS["end_cushion"].param(k).default)) > 0.0
+            for k in ("length_a", "length_b")):
+        # the cushion's needle acts on the valve's edges (core.rhs._cushion); with a line in
+        # segments it would sit at the line's valve end, not at the chamber: not modelled
+        raise FieldError(f"{path}.segments",
+                         "a line in segments with end cushions is not modelled (the needle "
+                         "would act at the valve's end of the line): use segments 1 with "
+                         "end_cushion [-]")
+
+
+def _as_float(v):
+    """A raw value as a number, NaN when it is none (the cushion's own check names it)."""
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return math.nan
 
 
 def _lumped(p):
@@ -538,13 +556,12 @@ def _pack_tubing(p, build):
         # benchmark with 2 segments, positions and pressures the same to 1e-6)
         m_tol = 1e-6 * m.supply.pressure * V / (r * T0)
         q_tol = 1e-4 * m.supply.pressure * A / math.sqrt(r * T0)
-        first = build.add_state(f"line_{sfx}_m1", m_cell, m_tol)
-        for i in range(2, n + 1):
-            build.add_state(f"line_{sfx}_m{i}", m_cell, m_tol)
-        for i in range(1, n + 1):
-            build.add_state(f"line_{sfx}_T{i}", T0, 1e-6 * T0)
-        for i in range(1, n + 1):
-            build.add_state(f"line_{sfx}_q{i}", 0.0, q_tol)
+        start = {"m": (m_cell, m_tol), "T": (T0, 1e-6 * T0), "q": (0.0, q_tol)}
+        first = None
+        for kind, _ in LINE_STATES:            # the blocks in the order line_rates reads them
+            for i in range(1, n + 1):
+                j = build.add_state(f"line_{sfx}_{kind}{i}", *start[kind])
+                first = j if first is None else first
         build.iy[i0 + k] = first
 
 
@@ -825,10 +842,12 @@ for _e in [
            strength="C_a", series=_meter_in_series, check=_check_ports, unused=_missing_ports("C"),
            fit_params=("C_a", "C_b"), probe={"C_a": 3e-9, "C_b": 3e-9}),
     Effect("tubing",
-           "the line between valve and chamber on each port, lumped: its volume pi d^2 L / 4 "
-           "joins the dead volume, its resistance (Fanno flow with wall friction) is in series "
-           "with the port's valve edges (ISO 6358-3); no transport delay (a simulation warns "
-           "where the line is long against the command's changes: physics.line)",
+           "the line between valve and chamber on each port. Lumped (segments 1): its volume "
+           "pi d^2 L / 4 joins the dead volume, its resistance (Fanno flow with wall friction) "
+           "is in series with the port's valve edges (ISO 6358-3), no transport delay. In "
+           "segments (physics.tube): finite volumes with the gas's inertia and wall friction, "
+           "carrying the delay L / c and the line's waves; a simulation warns where the "
+           "segments are too coarse for the command's changes (physics.line.line_regime)",
            "both filling and exhausting slower than the model, most at the small-volume end of "
            "stroke, and a flow limit the valve alone does not have: a dead volume fits the "
            "pressure rise, not the flow",

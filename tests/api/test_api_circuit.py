@@ -34,6 +34,8 @@ def _three_way(**changes):
      "model.effects.tubing.length_b", "no port B"),
     (lambda: model(effects={"tubing": {"segments": 0}}), "model.effects.tubing.segments", "[-]"),
     (lambda: model(effects={"tubing": {"segments": 33}}), "model.effects.tubing.segments", "[-]"),
+    (lambda: model(effects={"tubing": {"segments": 4}, "end_cushion": {}}),
+     "model.effects.tubing.segments", "end cushions"),
     (lambda: model(effects={"tubing": {"segments": 2.5}}), "model.effects.tubing.segments",
      "whole number"),
     (lambda: model(**{"valve.b_chamber": "closed"}), "model.valve.b_chamber", "3/2"),

@@ -199,3 +199,12 @@ def test_segments_are_a_whole_number_never_fitted():
     assert e.value.path == "parameters.effects.tubing.segments"
     # held (vary false), it may be listed: the fit keeps it as the model has it
     assert parse_parameters(model, {"effects.tubing.segments": {"vary": False}})[0].value == 3.0
+
+
+def test_the_line_states_carry_their_units(strong_step):
+    res = strong_step[4]
+    units = res.summary()["units"]
+    names = [k for k in res.series if k.startswith("line_a_")]
+    assert len(names) == 30                      # 10 cells' m and T, 10 faces' q
+    assert {units[k] for k in names} == {"kg", "K", "kg/s"}
+    assert units["line_a_m3"] == "kg" and units["line_a_T3"] == "K" and units["line_a_q3"] == "kg/s"
