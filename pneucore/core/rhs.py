@@ -15,7 +15,9 @@ The flow and friction laws come from their registries
 the core dispatches on the law codes in ``prm`` (``P_FLOW_LAW``, ``P_FRICTION_LAW``)
 over the module-level tables :data:`flow_laws` and :data:`friction_laws`, which hold
 the built-in laws; a model naming a law registered at run time runs on a copy of the
-core compiled over the registry's table, as for a user effect's hook.
+core compiled over the registry's table, as for a user effect's hook. The effects with a
+state per chamber and the lines between valve and chamber (:mod:`pneucore.physics.states`)
+are called from the tables :data:`state_terms` and :data:`line_terms` likewise.
 
 Within one piston ``mode`` the equations are smooth; stick, slip and end
 stops switch the mode (handled as events by :mod:`pneucore.core.integrator`).
