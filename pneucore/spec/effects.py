@@ -499,7 +499,7 @@ def _check_line_ports(p, model, path):
                              f"the {model.valve.kind} valve has no port {port}: set length_{sfx} "
                              f"to 0 (no line) [m]")
     cushion = (model.effects or {}).get("end_cushion")
-    if int(p["segments"]) > 1 and isinstance(cushion, dict) and any(
+    if _segments(p) > 1 and isinstance(cushion, dict) and any(
             _as_float(cushion.get(k, EFFECTS["end_cushion"].param(k).default)) > 0.0
             for k in ("length_a", "length_b")):
         # the cushion's needle acts on the valve's edges (core.rhs._cushion); with a line in
@@ -518,9 +518,15 @@ def _as_float(v):
         return math.nan
 
 
+def _segments(p):
+    """The line's segments; 1 (lumped) where the parameters predate them (a model built
+    without validation, e.g. a stored synthetic rig's)."""
+    return int(p.get("segments", 1))
+
+
 def _lumped(p):
     """The line is lumped (one segment: today's volume and series resistance)."""
-    return int(p["segments"]) <= 1
+    return _segments(p) <= 1
 
 
 def _tubing_transform(m, p):
@@ -537,7 +543,7 @@ def _pack_tubing(p, build):
         return
     m = build.model
     r = m.gas.r
-    n = int(p["segments"])
+    n = _segments(p)
     k0 = L.STATE_PRM0[SEGMENTED_LINE.name]
     i0 = L.STATE_IY0[SEGMENTED_LINE.name]
     size = len(SEGMENTED_LINE.parameters)
@@ -620,7 +626,7 @@ def _tubing_warn(p, model, time_scale):
     # the chosen segments against those the command's time scale needs
     # (physics.line.line_regime): warned only where the line is too coarse
     out = []
-    n = int(p["segments"])
+    n = _segments(p)
     for sfx, (port, _, _) in _FLOW_CONTROL_PORTS.items():
         if p[f"length_{sfx}"] > 0.0:
             r = line_regime(p[f"diameter_{sfx}"], p[f"length_{sfx}"], time_scale,
