@@ -34,11 +34,17 @@ layout of the pipeline codes that carry waves in stiff system models (mass and e
 in the cells, momentum on the faces; Patankar, *Numerical Heat Transfer and Fluid
 Flow*, 1980, sect. 6.3; the lumped-segment pipeline of Krus, Weddfelt & Palmberg,
 J. Dyn. Sys. Meas. Control 116, 1994, 132). Each of the N cells holds ``V / N`` of the
-line's volume with its gas mass and temperature, adiabatic like the chamber (paper
-Eq. 14-15 with a fixed volume, enthalpy carried upwind): the sound speed is then
-``sqrt(gamma R T)``, the one the oracle and acoustics give (an isothermal cell would
-carry the step 15 % late: the test tells the two apart); with the model's isothermal
-heat model the cells are isothermal too. Each of the N faces (cell to cell, the last
+line's volume with its gas mass and temperature, as the chamber (paper Eq. 14-15 with
+a fixed volume, enthalpy carried upwind), exchanging heat with the line's wall at the
+ambient temperature by Eq. 9 with the model's coefficient ``h`` over the cell's wall
+``pi d L / N``: over a wave's transit the cells are adiabatic (for 4 mm of bore at 7
+bar and h = 25 W/(m^2 K), ``rho c_v d / (4 h)`` = 0.24 s against 6 ms for 2 m), so the
+sound speed is ``sqrt(gamma R T)``, the one the oracle and acoustics give (an isothermal
+cell would carry the step 15 % late: the test tells the two apart), while over strokes
+the line's gas returns towards the wall's temperature; with the model's isothermal heat
+model the cells are isothermal too (the heat models that compute ``h`` from a
+correlation give the cells the model's fixed part of it, 0 when it has none: adiabatic
+cells). Each of the N faces (cell to cell, the last
 one into the chamber) carries a mass flow ``q`` with the inertia of the gas between
 the two cell centres, ``L/N`` long:
 
@@ -270,10 +276,11 @@ def line_state_unit(name):
 
 #: The parameters of one port's segmented line, in the order of its slots (name, unit)
 LINE_PARAMETERS = (("segments", "-"), ("cell_volume", "m^3"), ("area", "m^2"),
-                   ("segment_length", "m"), ("diameter", "m"), ("viscosity", "Pa s"))
+                   ("segment_length", "m"), ("diameter", "m"), ("viscosity", "Pa s"),
+                   ("wall_coefficient", "W/(m^2 K)"), ("wall_temperature", "K"))
 
 
-def line_slots(diameter, length, segments, T0=T_REF):
+def line_slots(diameter, length, segments, T0=T_REF, h=0.0, T_wall=T_REF):
     """The slot values of one port's segmented line (:data:`LINE_PARAMETERS` order).
 
     Parameters
@@ -287,16 +294,21 @@ def line_slots(diameter, length, segments, T0=T_REF):
     T0 : float
         Temperature at which the viscosity is taken (the supply's, as
         :func:`tube_characteristic` takes it) [K]
+    h : float
+        Heat exchange coefficient between the gas and the line's wall (the model's, paper
+        Eq. 9; 0 = adiabatic cells) [W/(m^2 K)]
+    T_wall : float
+        Wall temperature (the ambient's) [K]
 
     Returns
     -------
     values : tuple of float
         segments [-], cell volume [m^3], bore area [m^2], segment length [m], diameter [m],
-        viscosity [Pa s]
+        viscosity [Pa s], wall coefficient [W/(m^2 K)], wall temperature [K]
     """
     n = int(segments)
     return (float(n), line_volume(diameter, length) / n, math.pi * diameter * diameter / 4.0,
-            length / n, diameter, air_viscosity_sutherland(T0))
+            length / n, diameter, air_viscosity_sutherland(T0), float(h), float(T_wall))
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -365,6 +377,8 @@ def line_rates(y, dy, i0, prm, k0, q_v, H_v, p_c, T_c, r, cp, cv, isothermal):
     dx = prm[k0 + 3]
     d = prm[k0 + 4]
     mu = prm[k0 + 5]
+    hS = prm[k0 + 6] * math.pi * d * dx          # wall exchange of one cell [W/K]
+    T_w = prm[k0 + 7]
     iT = i0 + n
     iq = i0 + 2 * n
     q_prev = q_v
@@ -374,14 +388,15 @@ def line_rates(y, dy, i0, prm, k0, q_v, H_v, p_c, T_c, r, cp, cv, isothermal):
         p = m * r * T / V
         rho = m / V
         q_out = y[iq + i]
-        # mass and energy of the cell (paper Eq. 14-15 with a fixed volume, no wall heat)
+        # mass and energy of the cell (paper Eq. 14-15 with a fixed volume, heat from its
+        # wall by Eq. 9)
         if i == 0:
             H = H_v
         else:
             H = enthalpy_flow(q_prev, y[iT + i - 1], T, cp)
         T_down = y[iT + i + 1] if i + 1 < n else T_c
         H += enthalpy_flow(-q_out, T_down, T, cp)
-        dm, dT = chamber_rates(m, T, p, 0.0, q_prev - q_out, H, 0.0, cv, isothermal)
+        dm, dT = chamber_rates(m, T, p, 0.0, q_prev - q_out, H, hS * (T_w - T), cv, isothermal)
         dy[i0 + i] = dm
         dy[iT + i] = dT
         # momentum of the face downstream (staggered grid): pressure difference and wall

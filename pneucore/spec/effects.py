@@ -550,7 +550,8 @@ def _pack_tubing(p, build):
     for k, sfx in enumerate(("a", "b")):
         if p[f"length_{sfx}"] <= 0.0:
             continue
-        vals = line_slots(p[f"diameter_{sfx}"], p[f"length_{sfx}"], n, m.supply.temperature)
+        vals = line_slots(p[f"diameter_{sfx}"], p[f"length_{sfx}"], n, m.supply.temperature,
+                          build.prm[L.P_H], m.ambient.temperature)
         build.prm[k0 + k * size:k0 + (k + 1) * size] = vals
         p0, T0 = build.y_base[f"p_{sfx}"], build.y_base[f"T_{sfx}"]
         V, A = vals[1], vals[2]
