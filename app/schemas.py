@@ -651,6 +651,8 @@ class EffectParameterInfo(_Open):
     off: Optional[float] = Field(..., description="Value at which the effect does nothing (in its unit); "
                                                   "null for a shape parameter (the effect is off through another one)")
     description: str = Field("", description="What it is")
+    integer: bool = Field(False, description="A whole number, a count that shapes the model (a "
+                                             "line's segments [-]): refused otherwise, never fitted")
 
 
 class EffectInfo(_Open):

@@ -52,7 +52,8 @@ def calibration_options(model) -> list[dict]:
         if eff is None:
             continue
         for p in eff.parameters:
-            paths[f"effects.{name}.{p.name}"] = f"{name}: {p.description or p.name}"
+            if not p.integer:           # a count that shapes the model is not fitted
+                paths[f"effects.{name}.{p.name}"] = f"{name}: {p.description or p.name}"
     out = []
     for path, label in paths.items():
         try:

@@ -11,10 +11,11 @@ registry, after the base slots written out here.
 
 import pneucore.physics.heat       # noqa: F401  (registers the state term ``wall``)
 import pneucore.physics.sensors    # noqa: F401  (registers the sensors' state terms)
-from pneucore.physics.states import STATE_TERMS, slot_blocks
+import pneucore.physics.tube       # noqa: F401  (registers the line term ``line``)
+from pneucore.physics.states import slot_blocks
 from pneucore.physics.valve import PORT_NAMES
 
-_STATE_BLOCKS = slot_blocks(STATE_TERMS)
+_STATE_BLOCKS = slot_blocks()
 
 # --- base states (always present) --------------------------------------------
 Y_MA, Y_TA, Y_MB, Y_TB, Y_X, Y_V = 0, 1, 2, 3, 4, 5
@@ -131,11 +132,12 @@ PRM_INDEX = dict(sorted(((name[2:], i) for name, i in globals().items()
                          if name.startswith("P_") and isinstance(i, int)), key=lambda kv: kv[1]))
 N_PRM = len(PRM_INDEX)
 
-# --- state terms (pneucore.physics.states): slots assigned by the registry ---------
-#: First parameter slot of each state term, after the base slots
+# --- state and line terms (pneucore.physics.states): slots assigned by the registry ---------
+#: First parameter slot of each state term and line term (port A's block; port B's follows),
+#: after the base slots
 STATE_PRM0 = {name: N_PRM + k for name, k in _STATE_BLOCKS[0].items()}
-#: Slot in ``iy`` of each state term's first state (chamber A's; chamber B's follows), after
-#: the base positions
+#: Slot in ``iy`` of each state term's first state (chamber A's; chamber B's follows), and of
+#: each line term's first state on port A (port B's follows), after the base positions
 STATE_IY0 = {name: N_IY + k for name, k in _STATE_BLOCKS[1].items()}
 #: Length of the core's parameter vector and of its state-position vector
 N_PRM_ALL = N_PRM + _STATE_BLOCKS[2]

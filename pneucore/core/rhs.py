@@ -15,7 +15,9 @@ The flow and friction laws come from their registries
 the core dispatches on the law codes in ``prm`` (``P_FLOW_LAW``, ``P_FRICTION_LAW``)
 over the module-level tables :data:`flow_laws` and :data:`friction_laws`, which hold
 the built-in laws; a model naming a law registered at run time runs on a copy of the
-core compiled over the registry's table, as for a user effect's hook.
+core compiled over the registry's table, as for a user effect's hook. The effects with a
+state per chamber and the lines between valve and chamber (:mod:`pneucore.physics.states`)
+are called from the tables :data:`state_terms` and :data:`line_terms` likewise.
 
 Within one piston ``mode`` the equations are smooth; stick, slip and end
 stops switch the mode (handled as events by :mod:`pneucore.core.integrator`).
@@ -36,7 +38,7 @@ from pneucore.physics.flow import FLOW_LAWS, iso6358_mass_flow, laminar_mass_flo
 from pneucore.physics.heat import convective_heat_flow, exchange_coefficient
 from pneucore.physics.friction import FRICTION_LAWS, coulomb_level, viscous_coefficient
 from pneucore.physics.jack import chamber_volumes, net_pressure_force, spring_force, wall_area
-from pneucore.physics.states import STATE_TERMS
+from pneucore.physics.states import LINE_TERMS, STATE_TERMS
 from pneucore.physics.valve import table_segment
 
 
@@ -195,6 +197,72 @@ def _generate_state_rates(table, iy, y, dy, prm, sa, sb, T_amb, b_const):
     return namespace["impl"]
 
 
+def line_table(terms=None):
+    """The core's table of line terms (:mod:`pneucore.physics.states`): ``((iy slot of port
+    A's first state, first parameter slot of port A, parameter slots per port, node, rate),
+    ...)`` in registration order, slots from :mod:`pneucore.core.layout`.
+
+    Parameters
+    ----------
+    terms : dict or None
+        Terms by name (default :data:`pneucore.physics.states.LINE_TERMS`)
+    """
+    terms = LINE_TERMS if terms is None else terms
+    return tuple((L.STATE_IY0[name], L.STATE_PRM0[name], len(t.parameters), t.node, t.rate)
+                 for name, t in terms.items())
+
+
+#: Line terms compiled into the core: every registered term (its slots, node and rate)
+line_terms = line_table()
+
+
+def call_line_node(table, port, iy, y, prm, p, T, r):
+    """In compiled code: ``(p, T)`` of the node port ``port`` (0 = A, 1 = B) connects the valve
+    edges to: a line term's first cell where one is present on that port (its ``iy`` slot
+    >= 0), else the chamber's ``p`` [Pa], ``T`` [K] themselves.
+
+    Generated from the table's type when a caller is compiled (as :func:`_table_dispatch`).
+    """
+    raise NotImplementedError("called from compiled code only")
+
+
+@overload(call_line_node)
+def _generate_line_node(table, port, iy, y, prm, p, T, r):
+    lines = ["def impl(table, port, iy, y, prm, p, T, r):"]
+    for i in range(len(table)):
+        lines += [f"    i = iy[table[{i}][0] + port]",
+                  "    if i >= 0:",
+                  f"        return table[{i}][3](y, i, prm, table[{i}][1] + port * table[{i}][2], r)"]
+    lines.append("    return p, T")
+    namespace = {}
+    exec("\n".join(lines), namespace)   # text built from integers only
+    return namespace["impl"]
+
+
+def call_line_rates(table, port, iy, y, dy, prm, q, H, p, T, r, cp, cv, isothermal):
+    """In compiled code: a line term's rates on port ``port`` where one is present, and the
+    mass flow [kg/s] and enthalpy flow [W] into the chamber it gives from the valve's ``q``,
+    ``H`` into the port; ``(q, H)`` unchanged without one.
+
+    Generated from the table's type when a caller is compiled (as :func:`_table_dispatch`).
+    """
+    raise NotImplementedError("called from compiled code only")
+
+
+@overload(call_line_rates)
+def _generate_line_rates(table, port, iy, y, dy, prm, q, H, p, T, r, cp, cv, isothermal):
+    lines = ["def impl(table, port, iy, y, dy, prm, q, H, p, T, r, cp, cv, isothermal):"]
+    for i in range(len(table)):
+        lines += [f"    i = iy[table[{i}][0] + port]",
+                  "    if i >= 0:",
+                  f"        return table[{i}][4](y, dy, i, prm, table[{i}][1] + port * table[{i}][2], "
+                  "q, H, p, T, r, cp, cv, isothermal)"]
+    lines.append("    return q, H")
+    namespace = {}
+    exec("\n".join(lines), namespace)   # text built from integers only
+    return namespace["impl"]
+
+
 @njit(cache=True, error_model="numpy", _nrt=False)
 def edge_flow(law, p1, T1, p2, T2, C, b, m, r_lam, r, gamma):
     """Mass flow from node 1 to node 2 through one valve edge [kg/s], by flow-law code.
@@ -344,20 +412,31 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
     else:
         u_eff = u
 
+    # --- the nodes the valve edges see: the chambers, or a line's first cell ------------
+    pn_a, Tn_a = call_line_node(line_terms, 0, iy, y, prm, p_a, T_a, r)
+    pn_b, Tn_b = call_line_node(line_terms, 1, iy, y, prm, p_b, T_b, r)
+
     # --- valve edges (Eq. 4-5) --------------------------------------------------
-    q_pa = _edge(0, u_eff, p_sup, T_sup, p_a, T_a, prm, tx, tC, tb, tm, toff)   # P -> A
-    q_ar = _edge(1, u_eff, p_a, T_a, p_atm, T_atm, prm, tx, tC, tb, tm, toff)   # A -> R
-    q_pb = _edge(2, u_eff, p_sup, T_sup, p_b, T_b, prm, tx, tC, tb, tm, toff)   # P -> B
-    q_br = _edge(3, u_eff, p_b, T_b, p_atm, T_atm, prm, tx, tC, tb, tm, toff)   # B -> R
+    q_pa = _edge(0, u_eff, p_sup, T_sup, pn_a, Tn_a, prm, tx, tC, tb, tm, toff)   # P -> A
+    q_ar = _edge(1, u_eff, pn_a, Tn_a, p_atm, T_atm, prm, tx, tC, tb, tm, toff)   # A -> R
+    q_pb = _edge(2, u_eff, p_sup, T_sup, pn_b, Tn_b, prm, tx, tC, tb, tm, toff)   # P -> B
+    q_br = _edge(3, u_eff, pn_b, Tn_b, p_atm, T_atm, prm, tx, tC, tb, tm, toff)   # B -> R
     if prm[L.P_CUSHION_LA] > 0.0 or prm[L.P_CUSHION_LB] > 0.0:
-        q_pa, q_ar, q_pb, q_br = _cushion(x, prm, p_sup, T_sup, p_a, T_a, p_b, T_b, p_atm, T_atm,
-                                          q_pa, q_ar, q_pb, q_br)
+        q_pa, q_ar, q_pb, q_br = _cushion(x, prm, p_sup, T_sup, pn_a, Tn_a, pn_b, Tn_b, p_atm,
+                                          T_atm, q_pa, q_ar, q_pb, q_br)
     q_a = q_pa - q_ar
     q_b = q_pb - q_br
-    H_a = enthalpy_flow(q_pa, T_sup, T_a, cp) + enthalpy_flow(-q_ar, T_atm, T_a, cp)
-    H_b = enthalpy_flow(q_pb, T_sup, T_b, cp) + enthalpy_flow(-q_br, T_atm, T_b, cp)
+    H_a = enthalpy_flow(q_pa, T_sup, Tn_a, cp) + enthalpy_flow(-q_ar, T_atm, Tn_a, cp)
+    H_b = enthalpy_flow(q_pb, T_sup, Tn_b, cp) + enthalpy_flow(-q_br, T_atm, Tn_b, cp)
     aux[L.AUX_QA] = q_a
     aux[L.AUX_QB] = q_b
+    isothermal = prm[L.P_ISOTHERMAL] > 0.0
+
+    # --- lines in segments (pneucore.physics.tube): valve flow in, chamber flow out ----------
+    q_a, H_a = call_line_rates(line_terms, 0, iy, y, dy, prm, q_a, H_a, p_a, T_a, r, cp, cv,
+                               isothermal)
+    q_b, H_b = call_line_rates(line_terms, 1, iy, y, dy, prm, q_b, H_b, p_b, T_b, r, cp, cv,
+                               isothermal)
 
     # --- laminar leaks: across the piston, and to ambient ------------------------
     g_ab = prm[L.P_G_AB]
@@ -441,7 +520,6 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
     Qw_b = convective_heat_flow(h_b, S_b, Tw_b, T_b)
     Q_a = Qw_a + t_qa_heat
     Q_b = Qw_b + t_qb_heat
-    isothermal = prm[L.P_ISOTHERMAL] > 0.0
 
     # --- chambers (Eq. 14-15) ---------------------------------------------------------
     dm, dT = chamber_rates(m_a, T_a, p_a, A_a * v, q_a, H_a, Q_a, cv, isothermal)

@@ -1,12 +1,13 @@
 """A pneumatic line resolved along its length: a 1D finite-volume model, and when it is needed.
 
-The project's ``tubing`` effect lumps a line (:mod:`pneucore.physics.tube`): its volume
-joins the chamber and its resistance sits in series with the valve edges; the pressure
-at the chamber's end follows the valve's at once. A real line carries pressure waves at
-the speed of sound ``c``: a change at the valve reaches the chamber ``L / c`` later, and
-the line rings at its quarter-wave frequency ``c / (4 L)`` (closed far end). This module
-is the independent check of the lumped line, and says where lumping is adequate
-(:func:`line_regime`).
+The project's ``tubing`` effect lumps a line by default (:mod:`pneucore.physics.tube`):
+its volume joins the chamber and its resistance sits in series with the valve edges; the
+pressure at the chamber's end follows the valve's at once. A real line carries pressure
+waves at the speed of sound ``c``: a change at the valve reaches the chamber ``L / c``
+later, and the line rings at its quarter-wave frequency ``c / (4 L)`` (closed far end).
+The effect's ``segments`` resolve it inside the compiled core. This module is the
+independent check of both (another scheme, grid and integrator), and says where lumping
+is adequate and how many segments a line needs (:func:`line_regime`).
 
 Model
 -----

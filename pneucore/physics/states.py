@@ -19,8 +19,16 @@ rate law for both, with the signature
 ``y_s`` the state, ``p`` [Pa], ``T`` [K] the chamber's gas, ``Q`` [W] the
 heat flow from its wall into the gas, ``S`` [m^2] its wall area, ``T_amb`` [K]
 the ambient temperature, and the term's parameters in ``prm[k0:k0 + n]`` in the
-order of :attr:`StateTerm.parameters`. This module imports nothing from the
-core: physics stays below it.
+order of :attr:`StateTerm.parameters`.
+
+A line term (:class:`LineTerm`, registered with :func:`register_line_term`) is an effect
+with a variable number of states on each port, between the valve's edges and the chamber
+(a line resolved in segments, :mod:`pneucore.physics.tube`). The registry assigns it a block
+of parameter slots per port and one state position per port (its first state); the core
+asks it for the state of the node the valve edges see (``node``) and hands it the valve's
+flow into the port, from which it returns the flow into the chamber (``rate``), calling
+both from one table (:data:`pneucore.core.rhs.line_terms`). This module imports nothing
+from the core: physics stays below it.
 """
 from __future__ import annotations
 
@@ -67,6 +75,51 @@ class StateTerm:
         """Number of parameter slots."""
         return len(self.parameters)
 
+    @property
+    def n_positions(self):
+        """Number of state positions (one per chamber)."""
+        return len(self.states)
+
+
+@dataclass(frozen=True)
+class LineTerm:
+    """A registered effect with a variable number of states on each port, between the valve
+    and the chamber.
+
+    Parameters
+    ----------
+    name : str
+        Registry name
+    node : callable
+        Compiled ``node(y, i0, prm, k0, r) -> (p, T)``: pressure [Pa] and temperature [K]
+        of the node the port's valve edges see, the port's states starting at ``y[i0]``
+        and its parameters at ``prm[k0]``
+    rate : callable
+        Compiled ``rate(y, dy, i0, prm, k0, q, H, p, T, r, cp, cv, isothermal) -> (q_c, H_c)``:
+        writes the derivatives of the port's states given the valve's mass flow ``q`` [kg/s]
+        and enthalpy flow ``H`` [W] into the port and the chamber's ``p`` [Pa] and
+        ``T`` [K]; returns the mass flow [kg/s] and enthalpy flow [W] into the chamber
+    parameters : tuple
+        ``(name, unit)`` of each parameter of one port, in the order of its slots
+    description : str
+        One line
+    """
+    name: str
+    node: Callable
+    rate: Callable
+    parameters: tuple
+    description: str = ""
+
+    @property
+    def n_parameters(self):
+        """Number of parameter slots (the port's block for each of the two ports)."""
+        return 2 * len(self.parameters)
+
+    @property
+    def n_positions(self):
+        """Number of state positions (the first state of each port's block)."""
+        return 2
+
 
 #: The state terms by name, in registration order (their slots follow that order)
 STATE_TERMS: dict = {}
@@ -93,13 +146,36 @@ def register_state_term(term):
     return term
 
 
+#: The line terms by name, in registration order (their slots follow the state terms')
+LINE_TERMS: dict = {}
+
+
+def register_line_term(term):
+    """Add a built-in line term; its slots follow those of the terms registered before.
+
+    Parameters
+    ----------
+    term : LineTerm
+        The term (a name not yet registered as a state or line term)
+
+    Returns
+    -------
+    term : LineTerm
+        The registered term
+    """
+    if term.name in LINE_TERMS or term.name in STATE_TERMS:
+        raise ValueError(f"term {term.name!r} is already registered")
+    LINE_TERMS[term.name] = term
+    return term
+
+
 def slot_blocks(terms=None):
     """Relative slot blocks of the registered terms.
 
     Parameters
     ----------
     terms : dict or None
-        Terms by name (default :data:`STATE_TERMS`)
+        Terms by name (default: :data:`STATE_TERMS`, then :data:`LINE_TERMS`)
 
     Returns
     -------
@@ -109,10 +185,10 @@ def slot_blocks(terms=None):
     n_prm, n_iy : int
         Total parameter slots and state-position slots
     """
-    terms = STATE_TERMS if terms is None else terms
+    terms = {**STATE_TERMS, **LINE_TERMS} if terms is None else terms
     prm0, iy0, n_prm, n_iy = {}, {}, 0, 0
     for name, term in terms.items():
         prm0[name], iy0[name] = n_prm, n_iy
         n_prm += term.n_parameters
-        n_iy += len(term.states)
+        n_iy += term.n_positions
     return prm0, iy0, n_prm, n_iy

@@ -209,6 +209,11 @@ def parse_parameters(model, parameters):
         vary = opts.get("vary", True)
         if not isinstance(vary, bool):
             raise FieldError(f"parameters.{path}.vary", "must be true or false")
+        parts = path.split(".")
+        if vary and parts[0] == "effects" and EFFECTS[parts[1]].param(parts[2]).integer:
+            raise FieldError(f"parameters.{path}",
+                             f"a whole number that shapes the model, not a parameter to fit: "
+                             f"set it in the model [{_unit(path) or '-'}]")
         specs.append(ParameterSpec(path, value, lo, hi, vary, _unit(path)))
     return specs
 

@@ -85,8 +85,9 @@ HIDDEN = {
     "meter_out_throttle": {"C_a": 5e-9, "b_a": 0.3, "C_b": 4e-9, "b_b": 0.3},
     # meter-in flow controls, same sizes
     "meter_in_throttle": {"C_a": 5e-9, "b_a": 0.3, "C_b": 4e-9, "b_b": 0.3},
-    # 2 m and 1.5 m of 4 mm line on A / B (probe 1 m each; the diameter is held)
-    "tubing": {"length_a": 2.0, "diameter_a": 4e-3, "length_b": 1.5, "diameter_b": 4e-3},
+    # 2 m and 1.5 m of 4 mm line on A / B (probe 1 m each; the diameter is held), lumped
+    "tubing": {"length_a": 2.0, "diameter_a": 4e-3, "length_b": 1.5, "diameter_b": 4e-3,
+               "segments": 1.0},
     # a silencer of 0.6 dm^3/(s bar) on both exhausts (probe 0.5 dm^3/(s bar))
     "exhaust_silencer": {"C": 6e-9, "b": 0.4},
     # cushions of 20 mm / 12 mm (probe 15 mm each), needles of 3e-9 / 5e-9 m^3/(s Pa), about a

@@ -6,12 +6,13 @@ import numpy as np
 from pneucore import model_preset, scenario_preset, simulate
 from pneucore.core import layout as L
 from pneucore.core import rhs
-from pneucore.physics.states import STATE_TERMS, slot_blocks
+from pneucore.physics.states import LINE_TERMS, STATE_TERMS, slot_blocks
 
 
 def test_the_registry_assigns_contiguous_slots_after_the_base_slots():
-    prm = [(L.STATE_PRM0[n], t.n_parameters) for n, t in STATE_TERMS.items()]
-    iy = [(L.STATE_IY0[n], len(t.states)) for n, t in STATE_TERMS.items()]
+    terms = {**STATE_TERMS, **LINE_TERMS}     # the line terms' blocks follow the state terms'
+    prm = [(L.STATE_PRM0[n], t.n_parameters) for n, t in terms.items()]
+    iy = [(L.STATE_IY0[n], t.n_positions) for n, t in terms.items()]
     for blocks, start, end in ((prm, L.N_PRM, L.N_PRM_ALL), (iy, L.N_IY, L.N_IY_ALL)):
         k = start
         for first, size in blocks:
@@ -30,6 +31,10 @@ def test_the_core_table_holds_every_registered_term_in_order():
     assert [entry[3] for entry in table] == [t.rate for t in STATE_TERMS.values()]
     assert rhs.state_terms == table
     assert {"pressure_sensor", "temperature_sensor", "wall"} <= set(STATE_TERMS)
+    lines = rhs.line_table()
+    assert [entry[0] for entry in lines] == [L.STATE_IY0[n] for n in LINE_TERMS]
+    assert [entry[4] for entry in lines] == [t.rate for t in LINE_TERMS.values()]
+    assert rhs.line_terms == lines and "line" in LINE_TERMS
 
 
 def test_a_term_switched_on_adds_its_states_and_follows_its_law():

@@ -135,6 +135,11 @@ def test_a_tube_typed_into_the_circuit_panel_changes_the_schematic(page):
     page.fill("#circ-tubing-diameter_a", "6")
     assert page.evaluate("() => S.model.effects.tubing.diameter_a") == pytest.approx(0.006)
     assert "6 mm" in page.text_content("#schem-tube-a")
+    # the line's segments (a catalog parameter of both ports): shown at its default, 1 (lumped)
+    assert page.is_enabled("#circ-tubing-segments")
+    assert page.input_value("#circ-tubing-segments") == "1"
+    page.fill("#circ-tubing-segments", "6")
+    assert page.evaluate("() => S.model.effects.tubing.segments") == 6
     # the model is one the service takes (the effect as the catalog defines it)
     assert page.evaluate("async () => { await api('POST', '/api/calibrate/parameters', {model: S.model}); return true; }")
     # emptied, the port is off again: every port off removes the effect and its symbol

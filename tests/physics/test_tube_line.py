@@ -217,7 +217,7 @@ def test_a_simulation_warns_when_a_tube_is_long_against_the_command():
     warnings = res.stats["warnings"]
     assert len(warnings) == 1
     delay = 5.0 / sound_speed(m["supply"]["temperature"])
-    assert "port A (5 m)" in warnings[0] and f"{delay * 1e3:.3g} ms" in warnings[0]
+    assert "port A (5 m, 1 segment)" in warnings[0] and f"{delay * 1e3:.3g} ms" in warnings[0]
     # a slow command (one step, held 40 ms: 34 quarter-wave periods of 0.1 m): none
     m["effects"] = {"tubing": {"length_a": 0.1, "length_b": 0.1}}
     assert "warnings" not in simulate(m, _scenario([[0, 0], [0.01, 1]])).stats

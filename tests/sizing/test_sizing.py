@@ -171,7 +171,7 @@ def test_every_design_model_simulates_as_it_is():
     model = Model.from_dict(ans["designs"][0]["model"])
     assert model.jack.mounting_angle == 30.0 and model.jack.load_force == LOAD
     assert model.effects["tubing"] == {"length_a": 1.0, "diameter_a": 0.004, "length_b": 1.0,
-                                       "diameter_b": 0.004}
+                                       "diameter_b": 0.004, "segments": 1.0}
     eff = effective_model(model)
     assert eff.jack.dead_volume_a == pytest.approx(model.jack.area_a * dead_length()
                                                    + line_volume(0.004, 1.0), rel=1e-12)
