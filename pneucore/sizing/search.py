@@ -324,7 +324,9 @@ def model_notes(requirement, tube=None):
                      "series of cushion figures is shipped): the model's end_cushion effect. "
                      "Where a stroke would meet its end with more energy than the capacity, "
                      "its needle is solved (no meter-out throttle that way) for the impact "
-                     "energy to be at the capacity; fully open (settings.*_needle_C = "
+                     "energy to be at the capacity; where no needle alone meets both the time "
+                     "and the capacity and the throttle may vary (choices.meter_out), the "
+                     "throttle and the needle together; fully open (settings.*_needle_C = "
                      "cushion.needle_open_C) where it is not needed.")
     if requirement.tube_length is not None:
         notes.append(f"Tube of {requirement.tube_length:g} m on each port: the model's tubing "
@@ -559,8 +561,12 @@ class _Direction:
     def solve_pair(self, capacity, C_open, C_min, C_edge):
         """A meter-out throttle and a needle together that meet both the time and ``capacity``.
 
-        The needle goes down a ladder of :data:`PAIR_STEP` from ``C_open``; at each the throttle
-        of least impact energy that meets the time (:meth:`least_energy`). The first needle
+        The needle goes down a ladder: ``C_open``, then from the valve's exhaust conductance
+        ``C_edge`` down in steps of :data:`PAIR_STEP` (a needle between the two brakes as little
+        as the open one: on the 32 mm bore of tests/sizing/test_sizing_cushion.py the
+        throttle-free impact is 6.05 J with the needle fully open and with it at ``C_edge``, 3.9
+        J at half of it); at each the throttle of least impact energy that meets the time
+        (:meth:`least_energy`). The first needle
         whose energy is within the capacity is returned with that throttle: the most open needle
         of the ladder that works. The ladder stops at the first needle with which even no
         throttle is too slow (closing it further only slows the stroke) or at
@@ -588,8 +594,9 @@ class _Direction:
             meets both
         """
         best = None
-        needle = C_open
-        while needle >= NEEDLE_MIN:
+        rungs = [C_open] + [C_edge / PAIR_STEP ** i for i in range(
+            int(math.log(C_edge / NEEDLE_MIN) / math.log(PAIR_STEP)) + 1)]
+        for needle in rungs:
             e, C = self.least_energy(needle, C_min, C_edge)
             if C is None:
                 break
@@ -597,7 +604,6 @@ class _Direction:
                 best = (e, C, needle)
             if e <= capacity:
                 return C, needle
-            needle /= PAIR_STEP
         self.pair_failure = best
         if best is None:
             return None
