@@ -788,13 +788,13 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
                 cap = requirement.cushion_capacity
                 design = _design(requirement, cylinder, valve, tube, settings, metrics, base,
                                  {n: dirs[n].t_req for n in DIRECTIONS}, needles)
-                how = (f"the least over the meter-out throttle and needle pairs searched that "
+                how = (f", the least over the meter-out throttle and needle pairs searched that "
                        f"meet {dirs[k].t_req:.4g} s (needle {C_t:.3g}, throttle "
                        f"{settings[k]:.3g} m^3/(s Pa), 0 = none)" if pair is not None else
-                       f"with the needle closed to {C_t:.3g} m^3/(s Pa), as far as "
+                       f" with the needle closed to {C_t:.3g} m^3/(s Pa), as far as "
                        f"{dirs[k].t_req:.4g} s allows (no meter-out throttle: meter_out false)")
                 return {**family, "feasible": False, "reason": "cushion", "direction": k,
-                        "detail": f"{k}: kinetic energy at the end stop {energy:.3g} J {how}, "
+                        "detail": f"{k}: kinetic energy at the end stop {energy:.3g} J{how}, "
                                   f"cushion capacity {cap:.3g} J",
                         "shortfall": energy / cap, "design": {**design, "feasible": False}}
     except FieldError as exc:
