@@ -115,6 +115,10 @@ NEEDLE_STEP = 4.0
 #: returned, at most two tolerances on the root's closed side, leaves 99.3 % of the capacity
 #: or more [-]
 NEEDLE_XTOL = 5e-4
+#: Impact energy that stands for "the stroke does not meet its time" in the pair search's
+#: minimisations: finite, so that Brent's parabolic steps stay defined, and above any
+#: energy a stroke can have [J]
+TOO_SLOW = 1e30
 #: Ladder of needles of the joint throttle + needle search (:meth:`_Direction.solve_pair`): from
 #: fully open, each needle this factor more closed than the last; the needle returned is at
 #: most this factor more closed than the most open one that works on the ladder [-]
@@ -538,15 +542,15 @@ class _Direction:
         Returns
         -------
         energy, throttle : float, float or None
-            The least impact energy [J] and its throttle [m^3/(s Pa)] (0 = none); ``inf, None``
-            when even no throttle meets the time with this needle
+            The least impact energy [J] and its throttle [m^3/(s Pa)] (0 = none);
+            ``TOO_SLOW, None`` when even no throttle meets the time with this needle
         """
         if self.time(0.0, needle) > self.t_req:
-            return math.inf, None
+            return TOO_SLOW, None
 
         def energy(y):
             C = path_throttle(y, C_edge)
-            return math.inf if self.time(C, needle) > self.t_req else self.energy(needle, C)
+            return TOO_SLOW if self.time(C, needle) > self.t_req else self.energy(needle, C)
 
         y_t = path_y(self.solve(C_min, C_edge, needle), C_edge)
         if y_t >= 0.0:
@@ -556,7 +560,7 @@ class _Direction:
         r = minimize_scalar(energy, bounds=(max(y_t, y - step), min(0.0, y + step)),
                             method="bounded", options={"xatol": PAIR_XATOL})
         e, y = min((e, y), (energy(r.x), r.x))
-        return e, path_throttle(y, C_edge)
+        return (e, path_throttle(y, C_edge)) if e < TOO_SLOW else (TOO_SLOW, None)
 
     def solve_pair(self, capacity, C_open, C_min, C_edge):
         """A meter-out throttle and a needle together that meet both the time and ``capacity``.
