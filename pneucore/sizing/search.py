@@ -630,8 +630,17 @@ def path_y(C, C_edge):
 
 
 def path_throttle(y, C_edge):
-    """The throttle [m^3/(s Pa)] of :func:`path_y`'s variable ``y`` [-] (0 = none for y >= 0)."""
-    return 0.0 if y >= 0.0 else C_edge / math.sqrt(math.expm1(-2.0 * y))
+    """The throttle [m^3/(s Pa)] of :func:`path_y`'s variable ``y`` [-] (0 = none for y >= 0).
+
+    A throttle above the ``meter_out_throttle`` effect's largest conductance (which the model
+    refuses) is none: near ``y = 0`` the formula grows without bound. With the shipped
+    series' largest exhaust edge (3.8e-8 m^3/(s Pa), 1/26 of that bound) such a throttle
+    changes the exhaust path by 0.07 % at most.
+    """
+    if y >= 0.0:
+        return 0.0
+    C = C_edge / math.sqrt(math.expm1(-2.0 * y))
+    return 0.0 if C > EFFECTS["meter_out_throttle"].param("C_a").max else C
 
 
 def _stroke_scenario(requirement, direction):

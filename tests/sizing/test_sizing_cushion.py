@@ -191,3 +191,17 @@ def test_the_command_lines_table_shows_the_needles():
     assert "needle C ext/ret" in lines[1] and "E_end/capacity" in lines[1]
     c = ans["designs"][0]["cushion"]
     assert f"{c['extend']['needle_C']:.3g}/{c['retract']['needle_C']:.3g}" in lines[2]
+
+
+def test_the_throttle_variable_round_trips_and_stays_within_the_effect():
+    """``path_y`` and ``path_throttle`` are inverses (the meter-out root's change of variable);
+    near y = 0 the throttle would exceed the ``meter_out_throttle`` effect's bound, which the
+    model refuses: it is then none (the pair search probes up to y = 0 on every valve)."""
+    from pneucore.sizing.search import path_throttle, path_y
+    from pneucore.spec.effects import EFFECTS
+    c_edge = 3.8e-8
+    for c in (1e-10, 3e-9, 4e-8, 5e-7):
+        # round-off of expm1/log1p on numbers of order 1
+        assert path_throttle(path_y(c, c_edge), c_edge) == pytest.approx(c, rel=1e-9)
+    assert path_throttle(0.0, c_edge) == path_throttle(-1e-9, c_edge) == 0.0
+    assert path_throttle(-1e-3, c_edge) < EFFECTS["meter_out_throttle"].param("C_a").max
