@@ -849,23 +849,26 @@ def _solve_needles(requirement, valve, dirs, settings, metrics, pair=None):
     cap = requirement.cushion_capacity
     C_open = needle_open(valve)
     needles = {k: C_open for k in DIRECTIONS}
-    solved = []
+    solved, paired = [], set()
     # the order: extend, retract, then extend again with the retraction's needle in its model
     # when both were solved (its needle moves the other's stroke by ~1e-3 of its energy, the
-    # second solve's change moves the first by ~1e-7: not solved again)
+    # second solve's change moves the first by ~1e-7: not solved again); a pair (throttle and
+    # needle together) is kept as it is when it still meets the capacity there: it is not at
+    # the capacity but at the least energy of its needle, and a new search costs a ladder
     for k in DIRECTIONS + ("extend",):
         back = "retract" if k == "extend" else "extend"
         if k in solved and back not in solved:
             continue
         dirs[k].other = needles[back] if back in solved else None
         e = dirs[k].run(settings[k], needles[k] if k in solved else None)["end_energy"]
-        if k not in solved and (e is None or e <= cap):
+        if (k not in solved or k in paired) and (e is None or e <= cap):
             continue
         C, throttle = dirs[k].solve_needle(cap, C_open), 0.0
         if C is None and pair is not None:
             found = dirs[k].solve_pair(cap, C_open, *pair)
             if found is not None:
                 throttle, C = found
+                paired.add(k)
             elif dirs[k].pair_failure is not None:
                 # the design shown is the pair of least impact energy that meets the time (the
                 # throttle-free needle's when that is lower)
