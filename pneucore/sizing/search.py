@@ -127,9 +127,9 @@ PAIR_STEP = math.sqrt(2.0)
 #: meets the time exactly to none, before the bounded search refines the best [-]
 PAIR_PROBES = 6
 #: Tolerance of the bounded search for the throttle of least impact energy at one needle, on
-#: :func:`path_y`'s variable (2 % on the exhaust path's conductance: the energy varies by a
-#: few percent over it where it is smooth, and a dip narrower than that is a rebound's edge,
-#: not a setting to rely on) [-]
+#: :func:`path_y`'s variable (2 % on the exhaust path's conductance). Every pair kept is the
+#: one its own run measured, so this decides how hard the search looks between probes, not
+#: the accuracy of what it returns [-]
 PAIR_XATOL = 0.02
 #: Most families one sizing tries (cylinders x valves x tubes): the shipped series make 390
 #: with a tube; beyond this a request is refused before any work [-]
