@@ -3,6 +3,7 @@
 Run from the repository root::
 
     python benchmarks/bench_sizing.py [--families 468] [--workers 1,2] [--json PATH]
+                                      [--cushion LENGTH,CAPACITY]
 
 The requirement is the README's example (0.2 m stroke, 5 kg at 30 degrees, 50 N, 7 bar abs,
 0.6 s each way, 1 m of tube, stroke-end speed at most 1 m/s); the choices are every shipped
@@ -21,6 +22,12 @@ Figures printed (and written to ``--json PATH``):
 * **families per second** (the family is the unit of work: a force check, two fully-open
   runs, two meter-out roots of about five probe runs each, two final runs);
 * the machine and its load average before and after (other processes may share it).
+
+``--cushion 0.02,0.05`` adds end cushions to the requirement (``cushion_length`` [m],
+``cushion_capacity`` [J]): every family's needles are then solved where a stroke meets its end
+above the capacity, the needle alone first, then the meter-out throttle and the needle together
+(:meth:`pneucore.sizing.search._Direction.solve_pair`); the figures add the count of families
+failing with ``cushion`` and of directions whose throttle and needle were solved together.
 """
 from __future__ import annotations
 
@@ -62,7 +69,13 @@ def main(argv=None):
                    help="comma-separated family counts (whole cylinders; default 468: all)")
     p.add_argument("--workers", type=str, default="1,2", help="comma-separated thread counts")
     p.add_argument("--json", help="write the figures to this JSON file")
+    p.add_argument("--cushion", default=None,
+                   help="LENGTH,CAPACITY: end cushions in the requirement [m, J]")
     a = p.parse_args(argv)
+    requirement = dict(REQUIREMENT)
+    if a.cushion:
+        length, capacity = (float(v) for v in a.cushion.split(","))
+        requirement.update(cushion_length=length, cushion_capacity=capacity)
     from pneucore.sizing import size
     from pneucore.simulate import warm_up
     warm_up()      # the compiled core loaded before any timing
@@ -72,16 +85,23 @@ def main(argv=None):
         ch = choices_for(fam)
         for w in (int(x) for x in a.workers.split(",")):
             t0, c0 = time.perf_counter(), time.process_time()
-            ans = size(REQUIREMENT, ch, workers=w)
+            ans = size(requirement, ch, workers=w)
             wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+            feasible = [d for d in ans["designs"] if d["feasible"]]
             row = {"families": ans["families"], "workers": w, "wall_s": wall, "cpu_s": cpu,
                    "families_per_s": ans["families"] / wall,
-                   "feasible": sum(d["feasible"] for d in ans["designs"]),
+                   "feasible": len(feasible), "reasons": ans["reasons"],
+                   # directions braked by a solved needle with a meter-out throttle beside it
+                   "pairs": sum(1 for d in feasible if d.get("cushion")
+                                for k in ("extend", "retract")
+                                if d["cushion"][k]["needle_solved"]
+                                and d["settings"][f"{k}_meter_out_C"] > 0.0),
                    "load_1min": os.getloadavg()[0]}
             figures["runs"].append(row)
             print(f"{row['families']:5d} families  {w} worker(s)  {wall:7.2f} s  (CPU {cpu:6.2f} s)  "
                   f"{row['families_per_s']:7.1f} families/s  {row['feasible']} feasible  "
-                  f"(load {row['load_1min']:.1f})")
+                  f"(load {row['load_1min']:.1f})  reasons {row['reasons']}"
+                  + (f"  throttle+needle directions {row['pairs']}" if a.cushion else ""))
     figures["load_after"] = list(os.getloadavg())
     print(f"machine: {figures['machine']['cpu']}, {figures['machine']['usable_cores']} usable "
           f"cores; load average before {figures['load_before'][0]:.2f}, after "

@@ -30,6 +30,8 @@ SMALL = {
     "bench_long_records.py": ["--lengths", "1", "--counts", "2", "--duration", "1",
                               "--refine-lengths", "1", "--memory"],
     "bench_heat_transfer.py": ["--quick"],
+    # the table of the presets as they are (six short runs); --fit adds about 130 more
+    "bench_table2_presets.py": [],
 }
 #: figures a script must write (phases that could silently drop out of its --json)
 KEYS = {"bench_api.py": ("sequential_lean", "sequential_lean_npz", "http_alone_lean",

@@ -332,3 +332,155 @@ def transfer_table(rows, fit_label="fitted on", predict_label="predicted"):
         lines.append(f"{r['name']:<34} {pct(r['fit']['p']):>10} {kel(r['fit']['T']):>8}   "
                      f"{pct(r['predicted']['p']):>12} {kel(r['predicted']['T']):>8}   {vals}")
     return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- paper Table 2
+#: The paper's Table 2 (Maré, Geider & Colin): Eq. 25 pressure error [%] of its convective
+#: ("actual"), adiabatic and isothermal models against the locked-chamber measurements of
+#: Figs. 6-7, per valve move (``opens``: the chamber filled, ``closes``: exhausted) and chamber
+#: volume (``min``: piston at x = 0, ``max``: at full stroke)
+PAPER_TABLE2 = {
+    ("opens", "min"): {"convective": 0.95, "adiabatic": 0.94, "isothermal": 0.94},
+    ("opens", "max"): {"convective": 1.22, "adiabatic": 2.82, "isothermal": 2.82},
+    ("closes", "min"): {"convective": 1.14, "adiabatic": 6.10, "isothermal": 4.64},
+    ("closes", "max"): {"convective": 2.01, "adiabatic": 13.08, "isothermal": 8.87},
+}
+#: The scenario preset of each chamber volume of Table 2 (run with ``paper-4way``)
+TABLE2_TESTS = {"max": "paper-fig6-locked-max", "min": "paper-fig7-locked-min"}
+#: The valve moves of Table 2, in the order a locked test makes them
+TABLE2_MOVES = ("opens", "closes")
+
+
+def locked_test_windows(scenario):
+    """Split a locked-chamber test at its last command change: ``opens`` before, ``closes`` from it.
+
+    Parameters
+    ----------
+    scenario : Scenario or dict
+        A test whose command opens the valve, then moves it once more (exhausts the chamber)
+
+    Returns
+    -------
+    t_close : float
+        Time of the last command change [s]
+    """
+    cmd = scenario.command if not isinstance(scenario, dict) else scenario["command"]
+    changes = [t for (t, u), (_, u_prev) in zip(cmd[1:], cmd[:-1]) if u != u_prev]
+    if len(changes) < 2:
+        raise ValueError("a Table 2 test opens the valve, then closes it: two command changes")
+    return float(changes[-1])
+
+
+def heat_model_distances(model, scenario, names=("adiabatic", "isothermal")):
+    """Eq. 25 distance of each heat model from the convective one, per valve move of a locked test.
+
+    The convective run is the reference (the paper's ``P_s``), each other model's run the
+    ``P_g`` of Eq. 25, on chamber A's absolute pressure, over the ``opens`` samples
+    (before the test's last command change) and the ``closes`` samples (from it on).
+
+    Parameters
+    ----------
+    model : Model or dict
+        The model (its heat model is replaced; its coefficient is the convective one)
+    scenario : Scenario or dict
+        A locked-chamber test (:func:`locked_test_windows`)
+    names : tuple of str
+        Heat models compared with the convective one
+
+    Returns
+    -------
+    distances : dict
+        move -> heat model name -> distance [%]
+    """
+    runs = simulate_heat_models(model, scenario, ("convective",) + tuple(names))
+    t_close = locked_test_windows(scenario)
+    t = np.asarray(runs["convective"].t)
+    ref = np.asarray(runs["convective"].p_a)
+    out = {}
+    # half a sample of slack: the change lands on a sample, which belongs to the new move
+    for move, keep in (("opens", t < t_close - 1e-9), ("closes", t >= t_close - 1e-9)):
+        out[move] = {n: 100.0 * eq25_error(ref[keep], np.asarray(runs[n].p_a)[keep]) for n in names}
+    return out
+
+
+def table2_target(move, volume, name):
+    """What Table 2 says a heat model's distance from the convective one is, and whether it says it.
+
+    The table's errors are against measurements; the convective model's own error is the
+    table's noise level. Removing it in quadrature (``sqrt(e_model^2 - e_conv^2)``) gives the
+    distance between the two models the table implies when the two errors are independent.
+    A cell whose model error does not exceed the convective one is below the noise: the table
+    then says only that the distance is at most ``e_model + e_conv`` (the triangle inequality
+    on two errors against the same data).
+
+    Parameters
+    ----------
+    move : str
+        ``opens`` or ``closes``
+    volume : str
+        ``min`` or ``max``
+    name : str
+        ``adiabatic`` or ``isothermal``
+
+    Returns
+    -------
+    target : float or None
+        The distance [%]; None below the noise
+    bound : float
+        The largest distance the table allows [%]
+    """
+    row = PAPER_TABLE2[(move, volume)]
+    e, c = row[name], row["convective"]
+    return (math.sqrt(e * e - c * c) if e > c else None), e + c
+
+
+def table2_rows(model="paper-4way", scenarios=None, factor=1.5):
+    """The paper's Table 2 against the presets' heat-model distances, per cell.
+
+    Parameters
+    ----------
+    model : str, Model or dict
+        The model (a preset name, by default ``paper-4way``)
+    scenarios : dict or None
+        volume (``min``/``max``) -> scenario; None = the presets of :data:`TABLE2_TESTS`
+    factor : float
+        Agreement asked of a cell above the noise [-]
+
+    Returns
+    -------
+    rows : list of dict
+        ``move``, ``volume``, ``model`` (adiabatic / isothermal), ``paper`` (the table's errors
+        [%]), ``target`` [%] or None, ``bound`` [%], ``distance`` [%], ``ratio`` (distance /
+        target, or None) and ``ok``
+    """
+    from pneucore.spec.presets import model_preset, scenario_preset
+    if isinstance(model, str):
+        model = model_preset(model)
+    scenarios = scenarios or {v: scenario_preset(n) for v, n in TABLE2_TESTS.items()}
+    rows = []
+    for volume in ("min", "max"):
+        dist = heat_model_distances(model, scenarios[volume])
+        for move in TABLE2_MOVES:
+            for name in ("adiabatic", "isothermal"):
+                target, bound = table2_target(move, volume, name)
+                d = dist[move][name]
+                ratio = d / target if target is not None else None
+                ok = (1.0 / factor <= ratio <= factor) if ratio is not None else d <= bound
+                rows.append({"move": move, "volume": volume, "model": name,
+                             "paper": dict(PAPER_TABLE2[(move, volume)]), "target": target,
+                             "bound": bound, "distance": d, "ratio": ratio, "ok": ok})
+    return rows
+
+
+def table2_text(rows):
+    """The rows of :func:`table2_rows` as a plain-text table."""
+    lines = [f"{'valve':<7}{'volume':<7}{'model':<11}{'paper e/e_conv':>15}{'paper dist.':>12}"
+             f"{'preset dist.':>13}{'ratio':>7}  verdict"]
+    for r in rows:
+        tgt = f"{r['target']:.2f}%" if r["target"] is not None else f"<={r['bound']:.2f}%"
+        ratio = f"{r['ratio']:.2f}" if r["ratio"] is not None else "-"
+        verdict = ("ok" if r["ok"] else "OFF") + ("" if r["target"] is not None else " (below noise)")
+        lines.append(f"{r['move']:<7}{r['volume']:<7}{r['model']:<11}"
+                     f"{r['paper'][r['model']]:>8.2f}/{r['paper']['convective']:<5.2f}{tgt:>12}"
+                     f"{r['distance']:>12.2f}%{ratio:>7}  {verdict}")
+    return "\n".join(lines)

@@ -22,8 +22,12 @@ inner diameter. For each family :func:`size`
    so sized meets its end stop with more kinetic energy than the capacity, solves the needle
    of that end without the throttle, the most open needle whose impact energy is within the
    capacity while the stroke still meets its time (:meth:`_Direction.solve_needle`, a 1-D
-   root on the needle bracketed from its open side); the energy at the most closed needle
-   the time allows above the capacity is the reason ``cushion``;
+   root on the needle bracketed from its open side); where no needle alone does and the
+   throttle may vary (``choices.meter_out``), the throttle and the needle together
+   (:meth:`_Direction.solve_pair`: on a ladder of needles from fully open, the throttle
+   that meets the time as a root, then the throttle of least impact energy among those that
+   meet it by a bounded search); no pair searched within the capacity in the time is the
+   reason ``cushion``;
 5. checks the stroke-end speed against ``max_end_speed`` and its kinetic energy against
    ``max_end_energy``: above is the reason ``end_speed`` or ``end_energy``.
 
@@ -43,7 +47,7 @@ import copy
 import math
 import os
 
-from scipy.optimize import brentq
+from scipy.optimize import brentq, minimize_scalar
 
 from pneucore.physics.jack import annulus_area, net_pressure_force, rod_area
 from pneucore.progress import no_progress
@@ -82,8 +86,9 @@ REASONS = {
     "end_speed": "stroke-end speed above the limit at the slowest setting that meets the time",
     "end_energy": "kinetic energy at the end stop above the cushion's capacity at the slowest "
                   "setting that meets the time",
-    "cushion": "stroke-end energy above the cushion capacity even with the needle closed as far "
-               "as the time allows",
+    "cushion": "stroke-end energy above the cushion capacity with every meter-out throttle and "
+               "needle pair searched that meets the time (with meter_out false: even with the "
+               "needle closed as far as the time allows)",
     "simulation": "the simulation of this family failed",
 }
 DIRECTIONS = ("extend", "retract")
@@ -110,6 +115,22 @@ NEEDLE_STEP = 4.0
 #: returned, at most two tolerances on the root's closed side, leaves 99.3 % of the capacity
 #: or more [-]
 NEEDLE_XTOL = 5e-4
+#: Impact energy that stands for "the stroke does not meet its time" in the pair search's
+#: minimisations: finite, so that Brent's parabolic steps stay defined, and above any
+#: energy a stroke can have [J]
+TOO_SLOW = 1e30
+#: Ladder of needles of the joint throttle + needle search (:meth:`_Direction.solve_pair`): from
+#: fully open, each needle this factor more closed than the last; the needle returned is at
+#: most this factor more closed than the most open one that works on the ladder [-]
+PAIR_STEP = math.sqrt(2.0)
+#: Throttles probed at each needle, evenly on :func:`path_y`'s variable from the one that
+#: meets the time exactly to none, before the bounded search refines the best [-]
+PAIR_PROBES = 6
+#: Tolerance of the bounded search for the throttle of least impact energy at one needle, on
+#: :func:`path_y`'s variable (2 % on the exhaust path's conductance). Every pair kept is the
+#: one its own run measured, so this decides how hard the search looks between probes, not
+#: the accuracy of what it returns [-]
+PAIR_XATOL = 0.02
 #: Most families one sizing tries (cylinders x valves x tubes): the shipped series make 390
 #: with a tube; beyond this a request is refused before any work [-]
 MAX_FAMILIES = 5000
@@ -307,7 +328,9 @@ def model_notes(requirement, tube=None):
                      "series of cushion figures is shipped): the model's end_cushion effect. "
                      "Where a stroke would meet its end with more energy than the capacity, "
                      "its needle is solved (no meter-out throttle that way) for the impact "
-                     "energy to be at the capacity; fully open (settings.*_needle_C = "
+                     "energy to be at the capacity; where no needle alone meets both the time "
+                     "and the capacity and the throttle may vary (choices.meter_out), the "
+                     "throttle and the needle together; fully open (settings.*_needle_C = "
                      "cushion.needle_open_C) where it is not needed.")
     if requirement.tube_length is not None:
         notes.append(f"Tube of {requirement.tube_length:g} m on each port: the model's tubing "
@@ -391,10 +414,10 @@ class _Direction:
         t = self.run(C, needle)["full_stroke_time"]
         return math.inf if t is None else t
 
-    def energy(self, needle):
-        """Kinetic energy at the end stop, no throttle, needle ``needle`` [J]; 0 when the
-        piston never reaches the stop (that run fails the time instead)."""
-        e = self.run(0.0, needle)["end_energy"]
+    def energy(self, needle, C=0.0):
+        """Kinetic energy at the end stop with needle ``needle`` and throttle ``C`` (0 = none)
+        [J]; 0 when the piston never reaches the stop (that run fails the time instead)."""
+        e = self.run(C, needle)["end_energy"]
         return 0.0 if e is None else e
 
     def solve_needle(self, capacity, C_open):
@@ -411,12 +434,9 @@ class _Direction:
         allows, ``t(C) = t_req``, is then found the same way, and the energy there decides):
         the first crossing from the open side, so the bouncing region of a nearly closed
         needle (non-monotonic) is never bracketed. Without a throttle the piston runs fully
-        open and brakes only over the cushion; a combination of both is not searched, and it
-        can leave less energy in the same time (a throttle raises the back pressure the
-        trapped gas starts from): on the 32 mm bore of tests/sizing/test_sizing_cushion.py,
-        5 kg in 0.3 s, 0.185 J without a throttle, 0.10 J with a throttle of the valve's
-        exhaust conductance, 0.37 J with 0.7 of it. A ``cushion`` verdict is therefore
-        for the throttle-free needle.
+        open and brakes only over the cushion; where no needle alone meets both, a throttle
+        and a needle together may (a throttle raises the back pressure the trapped gas starts
+        from): :meth:`solve_pair`, which the search calls next when the throttle may vary.
 
         Returns
         -------
@@ -473,9 +493,10 @@ class _Direction:
         self.needle_failure = (prev, self.energy(prev))
         return None
 
-    def solve(self, C_min, C_edge):
+    def solve(self, C_min, C_edge, needle=None):
         """The throttle whose full-stroke time is the required one [m^3/(s Pa)]: ``C_min`` if
-        even that is fast enough, 0 (none) when only the valve alone meets the time.
+        even that is fast enough, 0 (none) when only the valve alone meets the time; with
+        the needle ``needle`` [m^3/(s Pa)] on the end this stroke meets (None = the model's).
 
         The root is sought on ``y = ln(C_path / C_edge)`` in ``[ln(C_path(C_min) / C_edge),
         0]``, ``C_path`` the conductance of throttle and edge in series by the effective
@@ -484,22 +505,142 @@ class _Direction:
         nearly proportional to ``exp(-y)``, so the root takes few runs; ``y = 0`` is no
         throttle (the fully open run).
         """
-        if self.time(C_min) <= self.t_req:
+        if self.time(C_min, needle) <= self.t_req:
             return C_min
         cap = DURATION_FACTOR * self.t_req
 
-        def throttle(y):
-            return 0.0 if y >= 0.0 else C_edge / math.sqrt(math.expm1(-2.0 * y))
-
         def g(y):
-            return math.log(min(self.time(throttle(y)), cap) / self.t_req)
-        y_min = -0.5 * math.log1p((C_edge / C_min) ** 2)
-        C = throttle(brentq(g, y_min, 0.0, xtol=SETTING_XTOL))
-        if self.time(C) > self.t_req:
+            return math.log(min(self.time(path_throttle(y, C_edge), needle), cap) / self.t_req)
+        C = path_throttle(brentq(g, path_y(C_min, C_edge), 0.0, xtol=SETTING_XTOL), C_edge)
+        if self.time(C, needle) > self.t_req:
             # the root's bracket end on the fast side meets the time for sure
-            C = min((k for k, n, o in self.runs if n is None and o == self.other and k > 0.0
-                     and self.time(k) <= self.t_req), default=0.0)
+            C = min((k for k, n, o in self.runs if n == needle and o == self.other and k > 0.0
+                     and self.time(k, needle) <= self.t_req), default=0.0)
         return C
+
+    def least_energy(self, needle, C_min, C_edge):
+        """The throttle of least impact energy among those that meet the time with ``needle``.
+
+        The time is kept as a root: the throttle ``C_t`` whose full-stroke time is the required
+        one (:meth:`solve`, the slowest stroke this needle allows) bounds the throttles that
+        meet it (the time falls as the throttle opens). The energy over them, ``y`` from
+        ``C_t``'s to 0 (no throttle) in :func:`path_y`'s variable, is not monotonic (a throttle
+        raises the back pressure the trapped gas starts from, and the piston may stop short
+        and rebound off it): it is probed at :data:`PAIR_PROBES` evenly spaced ``y`` (both ends
+        included), then a bounded Brent search (:data:`PAIR_XATOL`) refines the best probe
+        between its neighbours.
+
+        Parameters
+        ----------
+        needle : float
+            The needle of the end this stroke meets [m^3/(s Pa)]
+        C_min : float
+            Smallest throttle tried [m^3/(s Pa)]
+        C_edge : float
+            The valve's exhaust conductance [m^3/(s Pa)]
+
+        Returns
+        -------
+        energy, throttle : float, float or None
+            The least impact energy [J] and its throttle [m^3/(s Pa)] (0 = none);
+            ``TOO_SLOW, None`` when even no throttle meets the time with this needle
+        """
+        if self.time(0.0, needle) > self.t_req:
+            return TOO_SLOW, None
+
+        def energy(y):
+            C = path_throttle(y, C_edge)
+            return TOO_SLOW if self.time(C, needle) > self.t_req else self.energy(needle, C)
+
+        y_t = path_y(self.solve(C_min, C_edge, needle), C_edge)
+        if y_t >= 0.0:
+            return energy(0.0), 0.0
+        step = -y_t / (PAIR_PROBES - 1)
+        e, y = min((energy(y), y) for y in (y_t + i * step for i in range(PAIR_PROBES)))
+        r = minimize_scalar(energy, bounds=(max(y_t, y - step), min(0.0, y + step)),
+                            method="bounded", options={"xatol": PAIR_XATOL})
+        e, y = min((e, y), (energy(r.x), r.x))
+        return (e, path_throttle(y, C_edge)) if e < TOO_SLOW else (TOO_SLOW, None)
+
+    def solve_pair(self, capacity, C_open, C_min, C_edge):
+        """A meter-out throttle and a needle together that meet both the time and ``capacity``.
+
+        The needle goes down a ladder: ``C_open``, then from the valve's exhaust conductance
+        ``C_edge`` down in steps of :data:`PAIR_STEP` (a needle between the two brakes as little
+        as the open one: on the 32 mm bore of tests/sizing/test_sizing_cushion.py the
+        throttle-free impact is 6.05 J with the needle fully open and with it at ``C_edge``, 3.9
+        J at half of it); at each the throttle of least impact energy that meets the time
+        (:meth:`least_energy`). The first needle
+        whose energy is within the capacity is returned with that throttle: the most open needle
+        of the ladder that works. The ladder stops at the first needle with which even no
+        throttle is too slow (closing it further only slows the stroke) or at
+        :data:`NEEDLE_MIN`. When no rung works, a bounded Brent search on ``ln C`` refines the
+        needle between the neighbours of the rung of least energy (the energy dips over narrow
+        needle ranges where the piston stops short in the cushion and creeps to the end). The
+        lowest energy seen, with its pair, is kept in :attr:`pair_failure` when no pair meets
+        the capacity.
+
+        Parameters
+        ----------
+        capacity : float
+            Cushion capacity [J]
+        C_open : float
+            The needle fully open [m^3/(s Pa)]
+        C_min : float
+            Smallest throttle tried [m^3/(s Pa)]
+        C_edge : float
+            The valve's exhaust conductance [m^3/(s Pa)]
+
+        Returns
+        -------
+        pair : tuple or None
+            ``(throttle, needle)`` [m^3/(s Pa)], throttle 0 = none; None when no pair searched
+            meets both
+        """
+        best = None
+        rungs = [C_open] + [C_edge / PAIR_STEP ** i for i in range(
+            int(math.log(C_edge / NEEDLE_MIN) / math.log(PAIR_STEP)) + 1)]
+        for needle in rungs:
+            e, C = self.least_energy(needle, C_min, C_edge)
+            if C is None:
+                break
+            if best is None or e < best[0]:
+                best = (e, C, needle)
+            if e <= capacity:
+                return C, needle
+        self.pair_failure = best
+        if best is None:
+            return None
+        u0, du = math.log(best[2]), math.log(PAIR_STEP)
+        r = minimize_scalar(lambda u: self.least_energy(math.exp(u), C_min, C_edge)[0],
+                            bounds=(u0 - du, min(u0 + du, math.log(C_open))), method="bounded",
+                            options={"xatol": NEEDLE_XTOL})
+        needle = math.exp(r.x)
+        e, C = self.least_energy(needle, C_min, C_edge)
+        if C is not None and e < best[0]:
+            self.pair_failure = best = (e, C, needle)
+        return (best[1], best[2]) if best[0] <= capacity else None
+
+
+def path_y(C, C_edge):
+    """The meter-out root's variable: ``y = ln(C_path / C_edge)`` for a throttle ``C`` (0 = none,
+    ``y = 0``) in series with the valve's exhaust edge ``C_edge`` [m^3/(s Pa)], by the effective
+    areas' rule ``1 / C_path^2 = 1 / C^2 + 1 / C_edge^2`` (JIS B 8390) [-]."""
+    return 0.0 if C <= 0.0 else -0.5 * math.log1p((C_edge / C) ** 2)
+
+
+def path_throttle(y, C_edge):
+    """The throttle [m^3/(s Pa)] of :func:`path_y`'s variable ``y`` [-] (0 = none for y >= 0).
+
+    A throttle above the ``meter_out_throttle`` effect's largest conductance (which the model
+    refuses) is none: near ``y = 0`` the formula grows without bound. With the shipped
+    series' largest exhaust edge (3.8e-8 m^3/(s Pa), 1/26 of that bound) such a throttle
+    changes the exhaust path by 0.07 % at most.
+    """
+    if y >= 0.0:
+        return 0.0
+    C = C_edge / math.sqrt(math.expm1(-2.0 * y))
+    return 0.0 if C > EFFECTS["meter_out_throttle"].param("C_a").max else C
 
 
 def _stroke_scenario(requirement, direction):
@@ -653,16 +794,20 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
         metrics = {k: dirs[k].run(settings[k]) for k in DIRECTIONS}
         needles = None
         if requirement.cushion_capacity is not None:
-            needles, failed = _solve_needles(requirement, valve, dirs, settings, metrics)
+            pair = (C_min, valve["C_exhaust"]) if choices.meter_out else None
+            needles, failed = _solve_needles(requirement, valve, dirs, settings, metrics, pair)
             if failed is not None:
                 k, (C_t, energy) = failed
                 cap = requirement.cushion_capacity
                 design = _design(requirement, cylinder, valve, tube, settings, metrics, base,
                                  {n: dirs[n].t_req for n in DIRECTIONS}, needles)
+                how = (f", the least over the meter-out throttle and needle pairs searched that "
+                       f"meet {dirs[k].t_req:.4g} s (needle {C_t:.3g}, throttle "
+                       f"{settings[k]:.3g} m^3/(s Pa), 0 = none)" if pair is not None else
+                       f" with the needle closed to {C_t:.3g} m^3/(s Pa), as far as "
+                       f"{dirs[k].t_req:.4g} s allows (no meter-out throttle: meter_out false)")
                 return {**family, "feasible": False, "reason": "cushion", "direction": k,
-                        "detail": f"{k}: kinetic energy at the end stop {energy:.3g} J with the "
-                                  f"needle closed to {C_t:.3g} m^3/(s Pa), as far as "
-                                  f"{dirs[k].t_req:.4g} s allows (no meter-out throttle), "
+                        "detail": f"{k}: kinetic energy at the end stop {energy:.3g} J{how}, "
                                   f"cushion capacity {cap:.3g} J",
                         "shortfall": energy / cap, "design": {**design, "feasible": False}}
     except FieldError as exc:
@@ -687,10 +832,13 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
     return {**family, "feasible": True, "design": design}
 
 
-def _solve_needles(requirement, valve, dirs, settings, metrics):
+def _solve_needles(requirement, valve, dirs, settings, metrics, pair=None):
     """Each direction's cushion needle: fully open where the stroke sized by its meter-out
     throttle already meets the end within the cushion's capacity, else solved without the
-    throttle (:meth:`_Direction.solve_needle`); ``settings`` and ``metrics`` are updated.
+    throttle (:meth:`_Direction.solve_needle`), and where no needle alone meets both the time
+    and the capacity, with the throttle (:meth:`_Direction.solve_pair`) when ``pair`` =
+    ``(C_min, C_edge)`` [m^3/(s Pa)] says the throttle may vary; ``settings`` and
+    ``metrics`` are updated.
 
     Returns
     -------
@@ -701,26 +849,42 @@ def _solve_needles(requirement, valve, dirs, settings, metrics):
     cap = requirement.cushion_capacity
     C_open = needle_open(valve)
     needles = {k: C_open for k in DIRECTIONS}
-    solved = []
+    solved, paired = [], set()
     # the order: extend, retract, then extend again with the retraction's needle in its model
     # when both were solved (its needle moves the other's stroke by ~1e-3 of its energy, the
-    # second solve's change moves the first by ~1e-7: not solved again)
+    # second solve's change moves the first by ~1e-7: not solved again); a pair (throttle and
+    # needle together) is kept as it is when it still meets the capacity there: it is not at
+    # the capacity but at the least energy of its needle, and a new search costs a ladder
     for k in DIRECTIONS + ("extend",):
         back = "retract" if k == "extend" else "extend"
         if k in solved and back not in solved:
             continue
         dirs[k].other = needles[back] if back in solved else None
         e = dirs[k].run(settings[k], needles[k] if k in solved else None)["end_energy"]
-        if k not in solved and (e is None or e <= cap):
+        if (k not in solved or k in paired) and (e is None or e <= cap):
             continue
-        C = dirs[k].solve_needle(cap, C_open)
+        C, throttle = dirs[k].solve_needle(cap, C_open), 0.0
+        if C is None and pair is not None:
+            found = dirs[k].solve_pair(cap, C_open, *pair)
+            if found is not None:
+                throttle, C = found
+                paired.add(k)
+            elif dirs[k].pair_failure is not None:
+                # the design shown is the pair of least impact energy that meets the time (the
+                # throttle-free needle's when that is lower)
+                n_alone, e_alone = dirs[k].needle_failure
+                energy, throttle, C_t = min(dirs[k].pair_failure, (e_alone, 0.0, n_alone),
+                                            key=lambda f: f[0])
+                needles[k], settings[k] = C_t, throttle
+                _final_metrics(dirs, settings, needles, solved + [k], metrics)
+                return needles, (k, (C_t, energy))
         if C is None:
             # the design shown is the one that failed: that needle, no throttle
             C_t, energy = dirs[k].needle_failure
             needles[k], settings[k] = C_t, 0.0
             _final_metrics(dirs, settings, needles, solved + [k], metrics)
             return needles, (k, (C_t, energy))
-        needles[k], settings[k] = C, 0.0
+        needles[k], settings[k] = C, throttle
         if k not in solved:
             solved.append(k)
     _final_metrics(dirs, settings, needles, solved, metrics)

@@ -9,7 +9,10 @@ still meets its time. Checked here by hand-verifiable facts: the solved needle's
 simulated anew, meets its end with the capacity's energy (and a needle a little more open
 exceeds it); a smaller capacity needs a more closed needle and a longer stroke (the monotonic
 trade of tests/physics/test_cushion.py); a capacity no needle can meet in the time gets the
-reason ``cushion`` at the most closed needle the time allows.
+reason ``cushion`` at the most closed needle the time allows. Where the meter-out throttle may
+vary too, a throttle and a needle together are searched before that verdict: a capacity the
+needle alone cannot meet in the time, a pair can; and a verdict ``cushion`` then says that no
+pair meets both, which an independent probe of pairs confirms.
 """
 import math
 
@@ -28,8 +31,8 @@ CHOICES = {"bore": ["iso15552:32"], "valve": ["ckd-4ga:M4GA1"], "meter_out": Fal
 NEEDLE = {"extend": "C_b", "retract": "C_a"}
 
 
-def _size(capacity, **req):
-    return size({**REQ, "cushion_capacity": capacity, **req}, CHOICES, workers=1)
+def _size(capacity, choices=CHOICES, **req):
+    return size({**REQ, "cushion_capacity": capacity, **req}, choices, workers=1)
 
 
 def _impact(design, direction, needle=None):
@@ -38,7 +41,8 @@ def _impact(design, direction, needle=None):
                                             design["model"]["effects"].items()}}
     if needle is not None:
         model["effects"]["end_cushion"][NEEDLE[direction]] = needle
-    req = Requirement.from_dict({**REQ, "cushion_capacity": design["cushion"]["capacity"]})
+    req = Requirement.from_dict({**REQ, "cushion_capacity": design["cushion"]["capacity"],
+                                 **{f"{k}_time": t for k, t in design["required_times"].items()}})
     res = simulate(model, _stroke_scenario(req, direction))
     (s,) = [s for s in res.stroke_metrics()["strokes"] if s["direction"] == direction]
     return s
@@ -98,6 +102,56 @@ def test_a_capacity_no_needle_meets_in_the_time_gets_the_reason():
     assert f"{c['end_energy']:.3g} J" in fail["detail"]
 
 
+#: the meter-out throttle may vary as well as the needle
+WITH_THROTTLE = {**CHOICES, "meter_out": True}
+
+
+def test_a_throttle_and_needle_together_meet_what_the_needle_alone_cannot():
+    """0.3 s each way, 0.1 J: the needle alone, closed as far as 0.3 s allows, leaves 0.185 J
+    at the stroke end (extending); with the throttle free, a pair meets both."""
+    alone = _size(0.1, extend_time=0.3, retract_time=0.3)
+    assert [f["reason"] for f in alone["infeasible"]] == ["cushion"]
+    ans = _size(0.1, WITH_THROTTLE, extend_time=0.3, retract_time=0.3)
+    (d,) = ans["designs"]
+    assert d["feasible"] and not ans["infeasible"]
+    c = d["cushion"]["extend"]
+    assert c["needle_solved"] and d["settings"]["extend_meter_out_C"] > 0.0
+    for k in ("extend", "retract"):
+        # the design's own model, simulated anew: the same run as the answer's metrics, within
+        # the time and the capacity
+        s = _impact(d, k)
+        assert s["end_energy"] == pytest.approx(d["cushion"][k]["end_energy"], rel=1e-12)
+        assert s["end_energy"] <= 0.1 and s["full_stroke_time"] <= 0.3
+
+
+def test_a_cushion_verdict_with_the_throttle_free_means_no_pair_meets_both():
+    """0.21 s to extend (0.187 s fully open), 0.01 J: no pair meets both. The design shown is the
+    pair of least energy the search found, within the time; a probe of pairs the search need
+    not have tried (throttles from the valve's exhaust conductance to 4 times it, needles from
+    1 to 16 times 1e-9) finds none within the capacity in the time either."""
+    ans = _size(0.01, WITH_THROTTLE, extend_time=0.21, retract_time=0.5)
+    (fail,) = ans["infeasible"]
+    assert fail["reason"] == "cushion" and fail["direction"] == "extend"
+    assert "meter-out throttle and needle pairs searched" in fail["detail"]
+    (d,) = ans["designs"]
+    c = d["cushion"]["extend"]
+    assert not d["feasible"] and c["energy_ratio"] > 1.0
+    assert f"{c['end_energy']:.3g} J" in fail["detail"]
+    assert d["metrics"]["extend"]["full_stroke_time"] <= 0.21
+    probe = {**d, "model": {**d["model"], "effects": {k: dict(v) for k, v in
+                                                      d["model"]["effects"].items()}}}
+    c_edge = d["valve"]["C_exhaust"]
+    in_time = 0
+    for throttle in (c_edge, 2 * c_edge, 4 * c_edge):
+        probe["model"]["effects"]["meter_out_throttle"]["C_b"] = throttle
+        for needle in (1e-9, 2e-9, 4e-9, 8e-9, 16e-9):
+            s = _impact(probe, "extend", needle)
+            if s["full_stroke_time"] is not None and s["full_stroke_time"] <= 0.21:
+                in_time += 1
+                assert s["end_energy"] > 0.01, (throttle, needle, s)
+    assert in_time >= 3      # the probe is not vacuous: five of its pairs meet the time
+
+
 def test_a_cushion_not_needed_stays_fully_open_and_brakes_nothing():
     """A capacity above the fully open impact: the needle stays open (ten times the exhaust
     conductance, so the edge sets every flow) and the strokes are those without a cushion."""
@@ -137,3 +191,17 @@ def test_the_command_lines_table_shows_the_needles():
     assert "needle C ext/ret" in lines[1] and "E_end/capacity" in lines[1]
     c = ans["designs"][0]["cushion"]
     assert f"{c['extend']['needle_C']:.3g}/{c['retract']['needle_C']:.3g}" in lines[2]
+
+
+def test_the_throttle_variable_round_trips_and_stays_within_the_effect():
+    """``path_y`` and ``path_throttle`` are inverses (the meter-out root's change of variable);
+    near y = 0 the throttle would exceed the ``meter_out_throttle`` effect's bound, which the
+    model refuses: it is then none (the pair search probes up to y = 0 on every valve)."""
+    from pneucore.sizing.search import path_throttle, path_y
+    from pneucore.spec.effects import EFFECTS
+    c_edge = 3.8e-8
+    for c in (1e-10, 3e-9, 4e-8, 5e-7):
+        # round-off of expm1/log1p on numbers of order 1
+        assert path_throttle(path_y(c, c_edge), c_edge) == pytest.approx(c, rel=1e-9)
+    assert path_throttle(0.0, c_edge) == path_throttle(-1e-9, c_edge) == 0.0
+    assert path_throttle(-1e-3, c_edge) < EFFECTS["meter_out_throttle"].param("C_a").max
