@@ -3,6 +3,7 @@
 Run from the repository root::
 
     python benchmarks/bench_tube_segments.py [--runs N] [--pairs K] [--segments 2 4 8]
+                                             [--json PATH]
 
 Case: model ``paper-4way`` + scenario ``paper-fig10-pulses`` (1 s, four valve pulses), the
 base model alone, then with 2 m of 4 mm line on both ports at each number of segments
@@ -21,7 +22,11 @@ import statistics
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))
+sys.path.insert(0, HERE)
+
+from machine import machine_info, save_figures  # noqa: E402
 
 from pneucore import model_preset, scenario_preset, simulate  # noqa: E402
 
@@ -49,6 +54,7 @@ def main(argv=None):
     ap.add_argument("--runs", type=int, default=20, help="calls per case and round")
     ap.add_argument("--pairs", type=int, default=4, help="alternating rounds")
     ap.add_argument("--segments", type=int, nargs="+", default=[1, 2, 4, 8])
+    ap.add_argument("--json", default=None, help="write the figures to this file")
     args = ap.parse_args(argv)
     sc = scenario_preset("paper-fig10-pulses")
     cases = [0] + list(args.segments)
@@ -73,6 +79,12 @@ def main(argv=None):
             " ".join(f"{x:.2f}" for x in ratios[n])
         print(f"{name:<22}{statistics.median(ms[n]):12.3f}{r:>8}  {steps[n]}")
     print(f"target: tubes on both ports <= {TARGET_RATIO:g}x the base model")
+    save_figures(args.json, {
+        "machine": machine_info(),
+        "ms_per_simulated_s": {str(n): statistics.median(ms[n]) for n in cases},
+        "ratio_to_base": {str(n): statistics.median(ratios[n]) for n in args.segments},
+        "steps": {str(n): steps[n] for n in cases},
+        "target_ratio": TARGET_RATIO})
 
 
 if __name__ == "__main__":
