@@ -101,11 +101,12 @@ class Runner:
         return self.client is not None and self.lost is None
 
     def describe(self):
-        """``{"scheduler", "lost"}`` for a diagnosis's report, or None without a cluster."""
+        """``{"lost"}`` for a diagnosis's report (None, or why the cluster was given up), or
+        None without a cluster. No address: a service's report must not show the address
+        configured on its server."""
         if self.client is None:
             return None
-        return {"scheduler": self.address if isinstance(self.address, str) else "a Dask client",
-                "lost": self.lost}
+        return {"lost": self.lost}
 
     def map(self, fn, items, shared=(), step="", fraction=None, local=None):
         """``[fn(*shared, item) for item in items]``, in parallel, in order.
@@ -160,8 +161,7 @@ class Runner:
         if ok:
             self._healthy = now
         elif now - self._healthy > X.CLUSTER_GRACE:
-            raise ClusterLost(f"the Dask scheduler at {self.address} {why} "
-                              f"(for {now - self._healthy:.0f} s)")
+            raise ClusterLost(f"the Dask cluster's scheduler {why} (for {now - self._healthy:.0f} s)")
 
     def _on_cluster(self, fn, items, shared, step, local):
         from concurrent.futures import CancelledError
@@ -185,8 +185,8 @@ class Runner:
                     try:
                         out[i] = futures[i].result()
                     except (KilledWorker, CancelledError) as exc:   # the cluster's doing
-                        raise ClusterLost(f"the Dask cluster at {self.address} lost a task "
-                                          f"({type(exc).__name__}: {exc})") from None
+                        raise ClusterLost(f"the Dask cluster lost a task "
+                                          f"({type(exc).__name__})") from None
                 if not done:
                     self.check()
         except ClusterLost as exc:
