@@ -4,6 +4,8 @@ tests/analysis/test_diagnosis_stages.py, with the model, the experiments and the
 pickled to worker processes of a LocalCluster (the study tests' fixture) and back; so are
 the sensitivities and the per-experiment consistency fits; a cluster lost midway is given up
 as a study gives it up, and the diagnosis ends on this machine."""
+import dataclasses
+import functools
 import time
 
 import numpy as np
@@ -59,10 +61,21 @@ def test_the_refits_on_the_cluster_are_those_of_the_threads(client):
     assert calls and all("Dask cluster" in s for _, s in calls)
 
 
+#: The null held: the refits are the work
+SMALL = dict(base_hypotheses=False, n_refit=3)
+
+
+@functools.lru_cache(maxsize=None)
+def _local_small():
+    """The leak case's diagnosis (:data:`SMALL`) on this machine's threads, the reference."""
+    model, exps, _ = _leak_case()
+    return diagnose(model, exps, **SMALL)
+
+
 def test_a_diagnosis_on_the_cluster_names_the_same_effect_with_the_same_values(client):
     model, exps, _ = _leak_case()
-    kw = dict(base_hypotheses=False, n_refit=3)   # the null held: the refits are the work
-    local = diagnose(model, exps, **kw)
+    kw = SMALL
+    local = _local_small()
     remote = diagnose(model, exps, scheduler=client, **kw)
     assert remote.verdict == local.verdict == "piston_leakage"
     assert [r["effect"] for r in remote.ranking] == [r["effect"] for r in local.ranking]
@@ -126,12 +139,19 @@ def test_the_sensitivities_on_the_cluster_are_those_of_the_threads(client):
     st = _leak_stages()
     rps = st["rps"]
     here = S.base_hypotheses(model, exps, st["cands"], [], (), True, rps, _quiet)
+    # the null's own sensitivities need fitted base parameters: the chosen ones, at the model
+    null = dataclasses.replace(st["null"], specs=list(here.auto_specs))
+    Ju = S.uncertain_sensitivities(exps, null)
     steps, rec = _recorder()
     with P.running(client, report=rec):
         there = S.base_hypotheses(model, exps, st["cands"], [], (), True, rps, _quiet)
         score = S.candidate_scores(model, exps, st["null"], st["cands"], _quiet)
+        Ju_there = S.uncertain_sensitivities(exps, null)
     assert any("base hypotheses (on the Dask cluster)" in s for s in steps)   # it went there
     assert any("score test (on the Dask cluster)" in s for s in steps)
+    assert any("base parameters (on the Dask cluster)" in s for s in steps)
+    assert Ju.shape == Ju_there.shape and Ju.shape[1] == len(here.auto_specs) >= 1
+    assert np.allclose(Ju_there, Ju, rtol=SAME_RTOL, atol=0.0)
     assert set(there.id_cols) == set(here.id_cols) and here.id_cols
     for p, col in here.id_cols.items():
         assert np.allclose(there.id_cols[p], col, rtol=SAME_RTOL, atol=0.0), p
@@ -153,7 +173,8 @@ def test_the_consistency_fits_on_the_cluster_are_those_of_the_threads(client):
         there = consistency(st["refits"][name], exps, name, 30)
     assert any("consistency across experiments" in s and "Dask cluster" in s for s in steps)
     assert there["consistent"] == here["consistent"]
-    assert set(there["per_experiment"]) == set(here["per_experiment"]) and here["per_experiment"]
+    assert set(there["per_experiment"]) == set(here["per_experiment"])
+    assert sum(len(v) for v in here["per_experiment"].values()) >= 2   # estimates compared below
     for e, est in here["per_experiment"].items():
         assert set(there["per_experiment"][e]) == set(est)
         for p, v in est.items():
@@ -173,8 +194,8 @@ def test_a_cluster_lost_midway_is_given_up_and_the_diagnosis_ends_here(monkeypat
     monkeypatch.setattr(study_exec, "CLUSTER_GRACE", 1.0)   # instead of 10 s: a faster test
     monkeypatch.setattr(study_exec, "PROBE_INTERVAL", 0.2)
     model, exps, _ = _leak_case()
-    kw = dict(base_hypotheses=False, n_refit=3)   # the null held: the refits are the work
-    local = diagnose(model, exps, **kw)
+    kw = SMALL
+    local = _local_small()
     cluster = local_cluster(1)
     killed = []
 
