@@ -456,7 +456,7 @@ class Calibration:
 
 @single_threaded_blas
 def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=None,
-        span=(0.0, 1.0), step="fitting", reweight=False, prior=None):
+        span=(0.0, 1.0), step="fitting", reweight=False, prior=None, statistics=True):
     """Fit ``specs`` on prepared experiments (shared by :func:`calibrate` and the diagnosis).
 
     ``progress(fraction, step)`` is reported within ``span`` as the optimiser's
@@ -486,7 +486,8 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     replay a step), so that a round costs a few replays of the full records whatever their
     length. The statistics (differenced afresh at the end point), the reference "before" and
     the guard against ending worse than the model as given are the full records' and the
-    given model's.
+    given model's. The window's fit computes no statistics of its own (``statistics=False``:
+    only the point reached, ``success`` and ``message``, all the full fit reads of it).
     """
     def check():
         if progress is not None:
@@ -513,7 +514,7 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         short = None   # nothing could be cut (too few samples in a window): fit the records whole
     if short is not None:
         pre = fit(model, short, specs, max_nfev=max_nfev, compute_before=False, progress=progress,
-                  span=span, step=step, reweight=reweight, prior=prior)
+                  span=span, step=step, reweight=reweight, prior=prior, statistics=False)
         z_first = np.clip(np.array([pre.values[s.path]["value"] for s in vs], float),
                           lo, hi) / sc
     last_jac = {}
@@ -594,6 +595,10 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         if obj.best[1] is not None and obj.best[0] < float(r_end @ r_end):
             theta = obj.best[1]
             rps1 = obj.replays(theta)
+    if not statistics:   # the point alone: what a fit started from it reads
+        return Calibration(obj.model_at(theta), {s.path: {"value": float(theta[i])}
+                                                 for i, s in enumerate(vs)}, {}, before, None,
+                           math.nan, math.nan, math.nan, 0, len(vs), success, message, obj.n_eval)
     after = summarise(rps1)
     rss1 = obj.rss(rps1)
     m2ll, aic, bic, n_all = information_criteria(rss1, len(vs))
