@@ -169,10 +169,15 @@ class Runner:
         from distributed import KilledWorker
         client = self.client
         where = (step + " " if step else "") + "(on the Dask cluster)"
-        scattered = client.scatter(list(shared), hash=False) if shared else []
-        futures = [client.submit(run_task, fn, *scattered, item, pure=False) for item in items]
-        out = {}
+        futures, scattered, out = [], [], {}
         try:
+            try:   # the shared arguments, once; bounded: the cluster may have died meanwhile
+                scattered = client.scatter(list(shared), hash=False, timeout=self.timeout) \
+                    if shared else []
+            except Exception as exc:  # noqa: BLE001 - whatever the cause, the cluster is unusable
+                raise ClusterLost(f"the Dask cluster did not take the work "
+                                  f"({type(exc).__name__})") from None
+            futures = [client.submit(run_task, fn, *scattered, item, pure=False) for item in items]
             pending = set(range(len(items)))
             while pending:
                 self.report(self._fraction, where)

@@ -246,3 +246,25 @@ def test_the_health_probe_gives_up_a_scheduler_that_does_not_answer(monkeypatch)
     r = P.Runner(client=object(), address="tcp://127.0.0.1:9", timeout=0.2)
     time.sleep(0.4)
     r.check()   # not probed again within the interval: nothing raised
+
+
+def test_a_cluster_dead_before_the_work_is_handed_is_given_up_at_once():
+    """A cluster that died between two batches of work (during a local stage): handing it the
+    shared arguments is bounded by the scheduler timeout, not a hang; the batch runs here."""
+    import operator
+
+    import distributed
+    cluster = local_cluster(1)
+    c = distributed.Client(cluster, set_as_default=False)
+    try:
+        r = P.Runner(c, cluster.scheduler_address, timeout=1.0)
+        assert r.map(operator.add, [1, 2], shared=(10,)) == [11, 12] and r.lost is None
+        cluster.close()
+        t0 = time.monotonic()
+        assert r.map(operator.add, [1, 2], shared=(10,)) == [11, 12]
+        assert time.monotonic() - t0 < 60.0   # a bound on a hang on a loaded machine, not a speed claim
+        assert r.lost and not r.on_cluster
+        assert r.map(operator.add, [3], shared=(10,)) == [13]   # no second try on a lost cluster
+    finally:
+        c.close(timeout=1.0)
+        cluster.close()
