@@ -573,6 +573,7 @@ class DiagnoseResponse(BaseModel):
     changes: list[ModelChange] = Field(default_factory=list, description="Every value of the model that 'model' (the verdict applied) changes")
     known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
     bench_held: list[str] = Field(default_factory=list, description="The bench-identified paths (model provenance) that the request listed in uncertain, held at their bench value [-]")
+    cluster: Optional[dict[str, Any]] = Field(None, description="Present when the work ran on the Dask cluster: 'lost' is null, or why the cluster was given up midway (no worker, no answer for the studies' grace time, a task lost) and the rest ran on this server, to the same answer [-]; null on this server alone")
 
 
 class CalibrationParametersRequest(_Strict):

@@ -3,8 +3,15 @@
 Run from the repository root::
 
     python benchmarks/bench_long_records.py [--lengths 1,1.7,5,20,60] [--counts 2,5,10]
-                                            [--refine-lengths 20] [--json PATH]
-                                            [--scheduler tcp://host:8786 | --scheduler local:2]
+                                            [--refine-lengths 20] [--memory] [--json PATH]
+                                            [--scheduler local|dask|tcp://host:8786]
+                                            [--workers N | --workers 1,2,4,8,16]
+
+A worker sweep on a many-core machine (one round on 1 s + 20 s and one on 10 x 2 s per count;
+``--scheduler dask`` needs dask.distributed there, ``local`` only numpy, scipy and numba)::
+
+    python benchmarks/bench_long_records.py --scheduler local --workers 1,2,4,8,16 --json local.json
+    python benchmarks/bench_long_records.py --scheduler dask --workers 1,2,4,8,16 --json dask.json
 
 The rig is the paper's 4/2 jack (``paper-4way``) with a hidden piston leak
 (conductance :data:`LEAK`), diagnosed from the catalogue model with nothing
@@ -26,10 +33,15 @@ refinement loop (:func:`pneucore.analysis.history.refine`), with the exponent ``
 of record in all, or the number of experiments). Speed is measured here, never asserted by
 a test.
 
-With ``--scheduler`` each row also times the same round with its candidate refits on a Dask
-cluster (``diagnose(..., scheduler=...)``): a scheduler's address, or ``local:N`` for a
-LocalCluster of ``N`` single-threaded worker processes started here; the row says whether the
-verdict and the leading candidate's fitted values are the local round's.
+``--scheduler`` says where a round's independent work runs (the sensitivities, the candidates'
+refits, the per-experiment consistency fits; :mod:`pneucore.analysis.parallel`): ``local``, this
+process's threads (``--workers`` of them); ``dask``, a Dask LocalCluster of ``--workers``
+single-threaded worker processes started here (each task's own fit on one thread); or a
+scheduler's address. With several ``--workers`` every case runs at each count (by default one
+round on 1 s + 20 s and one on 10 x 2 s) and a compact table gives each round's time, the
+speed-up over the first count and the parallel efficiency; every row says whether the verdict,
+the ranking and the leading candidate's fitted values are those of the first count (to 1e-9).
+The script imports pneucore, numpy, scipy and numba only (and dask.distributed with ``dask``).
 """
 from __future__ import annotations
 
@@ -150,122 +162,189 @@ def peak_memory(fn):
     return peak - base, out
 
 
-def open_cluster(spec):
-    """``(scheduler, close)`` for ``--scheduler``: an address as given, or ``local:N`` for a
-    LocalCluster of ``N`` single-threaded worker processes (closed by ``close()``)."""
-    if not spec:
+def set_threads(n):
+    """This process's threads for a diagnosis's independent work (the finite-difference
+    columns, the sensitivities, the candidates' refits) [-]."""
+    import pneucore.analysis.calibrate as calibrate
+    calibrate.THREADS = max(1, int(n))
+
+
+def open_cluster(scheduler, workers):
+    """``(scheduler, close)`` for a configuration: ``local`` (this process's threads: None),
+    ``dask`` (a LocalCluster of ``workers`` single-threaded worker processes started here, each
+    with one thread for its tasks' own fits), or a Dask scheduler's address (as given)."""
+    if scheduler == "local":
         return None, lambda: None
-    if spec.startswith("local:"):
-        import logging
-
+    try:
         import distributed
-        cluster = distributed.LocalCluster(n_workers=int(spec.split(":", 1)[1]), threads_per_worker=1,
-                                           processes=True, dashboard_address="127.0.0.1:0",
-                                           silence_logs=logging.CRITICAL)
-        client = distributed.Client(cluster, set_as_default=False)
+    except ImportError:
+        sys.exit("--scheduler dask needs dask.distributed on this machine "
+                 "(pip install dask distributed), or run --scheduler local")
+    if scheduler != "dask":
+        return scheduler, lambda: None
+    import logging
+    cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                       dashboard_address="127.0.0.1:0",
+                                       silence_logs=logging.CRITICAL)
+    client = distributed.Client(cluster, set_as_default=False)
+    client.run(set_threads, 1)   # one core a worker: N workers are N cores
 
-        def close():
-            client.close()
-            cluster.close()
-        return client, close
-    return spec, lambda: None
+    def close():
+        client.close()
+        cluster.close()
+    return client, close
 
 
-def on_cluster(row, d_local, fn):
-    """Time ``fn()`` (the round on the cluster) into ``row``: its wall time, and whether its
-    verdict and its leading candidate's fitted values are the local round's (to 1e-9: the same
-    arithmetic on the same inputs in another process)."""
-    row["dask_round_s"], d = timed(fn)
-    same = d.verdict == d_local.verdict and [r["effect"] for r in d.ranking] == \
-        [r["effect"] for r in d_local.ranking]
+def same_answer(d, ref):
+    """Are diagnosis ``d``'s verdict, ranking and leading fitted values ``ref``'s (to 1e-9: the
+    same arithmetic on the same inputs, on other threads or in another process)?"""
+    if ref is None:
+        return True
+    same = d.verdict == ref.verdict and [r["effect"] for r in d.ranking] == \
+        [r["effect"] for r in ref.ranking]
     if same and d.ranking:
-        a, b = d_local.ranking[0]["params"], d.ranking[0]["params"]
+        a, b = ref.ranking[0]["params"], d.ranking[0]["params"]
         same = all(abs(b[p]["value"] - v["value"]) <= 1e-9 * abs(v["value"]) for p, v in a.items())
-    row["dask_same"] = bool(same)
+    return bool(same)
 
 
-def _dask_text(row):
-    if "dask_round_s" not in row:
-        return ""
-    refine_text = f", refine {row['dask_refine_s']:.2f} s" if "dask_refine_s" in row else ""
-    return (f"   on Dask {row['dask_round_s']:.2f} s ({'same' if row['dask_same'] else 'DIFFERENT'})"
-            + refine_text)
+def cases(true, lengths, counts, duration, ref_len, ref_cnt):
+    """``[(key, label, experiments, refine too)]``: the length set, then the count set."""
+    out = []
+    for T in lengths:
+        out.append((("length", T), "1 s hold + %g s cyclic" % T, length_set(true, T), T in ref_len))
+    for n in counts:
+        out.append((("count", n), "%d x %g s" % (n, duration), count_set(true, n, duration),
+                    n in ref_cnt))
+    return out
+
+
+def run_config(start, todo, scheduler, workers, memory, refs, repeat):
+    """Every case on one configuration (``scheduler``, ``workers``): its rows."""
+    set_threads(workers)
+    sched, close = open_cluster(scheduler, workers)
+    rows = []
+    try:
+        # the workers' imports and compiled caches, outside the timings
+        diagnose(start, todo[0][2][:1], scheduler=sched)
+        for key, label, exps, with_refine in todo:
+            n = sum(e.measurement.n for e in exps)
+            t_round, d = min((timed(lambda: diagnose(start, exps, scheduler=sched))
+                              for _ in range(max(repeat, 1))), key=lambda td: td[0])
+            row = {"case": label, "samples": n, "round_s": t_round, "verdict": d.verdict or "none",
+                   "same": same_answer(d, refs.get(key)), "lost": (d.cluster or {}).get("lost")}
+            refs.setdefault(key, d)
+            if key[0] == "length":
+                row.update(cyclic_s=key[1], simulated_s=1.0 + key[1])
+            else:
+                row.update(experiments=key[1], simulated_s=sum(e.measurement.duration for e in exps))
+            if with_refine:
+                row["refine_s"], _ = timed(lambda: refine(start, exps, scheduler=sched))
+            if memory:
+                peak, _ = peak_memory(lambda: diagnose(start, exps, scheduler=sched))
+                row["peak_mb"], row["records_mb"] = peak / 1e6, record_bytes(exps) / 1e6
+            rows.append(row)
+            print(f"{workers:>7} {label:>22} {n:>8} {t_round:>8.2f} {row['verdict']:>18} "
+                  f"{row.get('refine_s', float('nan')):>9.2f} "
+                  f"{'same' if row['same'] else 'DIFFERENT':>9}" + _memory_text(row)
+                  + (f"   cluster lost: {row['lost']}" if row["lost"] else ""), flush=True)
+    finally:
+        close()
+    return rows
+
+
+def load():
+    """The load average (1, 5, 15 min), or None where the system has none."""
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except OSError:
+        return None
+
+
+def sweep_table(configs, scheduler):
+    """The compact table of a worker sweep: each case's round time per worker count, with the
+    speed-up over the first count and the parallel efficiency (speed-up / worker ratio)."""
+    labels = [r["case"] for r in configs[0]["rows"]]
+    base = {r["case"]: r["round_s"] for r in configs[0]["rows"]}
+    w0 = configs[0]["workers"]
+    print(f"\nscaling of a round ({scheduler}): seconds, speed-up over {w0} worker(s), "
+          "parallel efficiency")
+    print(f"{'workers':>7} " + " ".join(f"{lb:>30}" for lb in labels) + "  answer")
+    out = []
+    for c in configs:
+        w = c["workers"]
+        cells, row = [], {"workers": w}
+        for r in c["rows"]:
+            sp = base[r["case"]] / r["round_s"]
+            eff = sp / (w / w0)
+            cells.append(f"{r['round_s']:.2f} s {sp:5.2f}x {100 * eff:4.0f} %")
+            row[r["case"]] = {"round_s": r["round_s"], "speedup": sp, "efficiency": eff}
+        row["same"] = all(r["same"] for r in c["rows"])
+        print(f"{w:>7} " + " ".join(f"{x:>30}" for x in cells)
+              + ("  same" if row["same"] else "  DIFFERENT"))
+        out.append(row)
+    return out
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--lengths", default="1,1.7,5,20,60",
-                    help="cyclic record lengths after the 1 s hold [s], comma-separated")
-    ap.add_argument("--counts", default="2,5,10", help="numbers of 2 s experiments")
+    ap.add_argument("--lengths", default=None,
+                    help="cyclic record lengths after the 1 s hold [s], comma-separated "
+                         "(default 1,1.7,5,20,60; with several --workers, 20)")
+    ap.add_argument("--counts", default=None, help="numbers of 2 s experiments (default 2,5,10; "
+                                                   "with several --workers, 10)")
     ap.add_argument("--duration", type=float, default=2.0, help="length of each counted test [s]")
-    ap.add_argument("--refine-lengths", default="20",
-                    help="cyclic lengths whose refinement loop is timed too [s] ('' for none)")
+    ap.add_argument("--refine-lengths", default=None,
+                    help="cyclic lengths whose refinement loop is timed too [s] (default 20; "
+                         "with several --workers, none; '' for none)")
     ap.add_argument("--refine-counts", default="",
                     help="numbers of experiments whose refinement loop is timed too")
     ap.add_argument("--memory", action="store_true",
                     help="also trace each round's peak memory (a second, untimed round)")
     ap.add_argument("--json", default=None, help="write the figures to this file")
-    ap.add_argument("--scheduler", default=None,
-                    help="also time each round with its candidate refits on a Dask cluster: a "
-                         "scheduler address, or local:N for a LocalCluster of N worker processes")
+    ap.add_argument("--scheduler", default="local",
+                    help="where a round's independent work runs: local (this process's "
+                         "threads), dask (a Dask LocalCluster of --workers single-threaded "
+                         "worker processes started here), or a Dask scheduler's address")
+    ap.add_argument("--workers", default=None,
+                    help="threads (local) or LocalCluster worker processes (dask): one count, "
+                         "or a comma-separated sweep such as 1,2,4,8,16 (default: local 2, "
+                         "dask the usable cores)")
+    ap.add_argument("--repeat", type=int, default=1, help="rounds timed per case (the best is kept)")
     a = ap.parse_args(argv)
-    lengths = [float(x) for x in a.lengths.split(",") if x]
-    counts = [int(x) for x in a.counts.split(",") if x]
-    ref_len = {float(x) for x in a.refine_lengths.split(",") if x}
+    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    workers = [int(x) for x in a.workers.split(",") if x] if a.workers else \
+        [2 if a.scheduler == "local" else usable]
+    sweep = len(workers) > 1
+    lengths = [float(x) for x in (a.lengths if a.lengths is not None
+                                  else ("20" if sweep else "1,1.7,5,20,60")).split(",") if x]
+    counts = [int(x) for x in (a.counts if a.counts is not None
+                               else ("10" if sweep else "2,5,10")).split(",") if x]
+    ref_len = {float(x) for x in (a.refine_lengths if a.refine_lengths is not None
+                                  else ("" if sweep else "20")).split(",") if x}
     ref_cnt = {int(x) for x in a.refine_counts.split(",") if x}
     true = true_model()
     start = Model.from_dict(model_preset("paper-4way"))
-    info = machine_info("scipy")
+    info = machine_info("scipy", "dask", "distributed")
     print("machine:", info)
+    print("load average:", load())
     # compile and warm the caches outside the timings
     diagnose(start, length_set(true, 1.0)[:1])
-    scheduler, close_cluster = open_cluster(a.scheduler)
-    if scheduler is not None:   # the workers' imports and compiled caches, outside the timings
-        diagnose(start, length_set(true, 1.0)[:1], scheduler=scheduler)
+    todo = cases(true, lengths, counts, a.duration, ref_len, ref_cnt)
 
-    figures = {"machine": info, "length": [], "count": []}
-    print(f"\n{'record':>22} {'samples':>8} {'round s':>8} {'verdict':>18} {'refine s':>9}")
-    for T in lengths:
-        exps = length_set(true, T)
-        n = sum(e.measurement.n for e in exps)
-        t_round, d = timed(lambda: diagnose(start, exps))
-        row = {"cyclic_s": T, "simulated_s": 1.0 + T, "samples": n, "round_s": t_round,
-               "verdict": d.verdict or "none"}
-        if scheduler is not None:
-            on_cluster(row, d, lambda: diagnose(start, exps, scheduler=scheduler))
-        if T in ref_len:
-            row["refine_s"], _ = timed(lambda: refine(start, exps))
-            if scheduler is not None:
-                row["dask_refine_s"], _ = timed(lambda: refine(start, exps, scheduler=scheduler))
-        if a.memory:
-            peak, _ = peak_memory(lambda: diagnose(start, exps))
-            row["peak_mb"], row["records_mb"] = peak / 1e6, record_bytes(exps) / 1e6
-        figures["length"].append(row)
-        print(f"{'1 s hold + %g s cyclic' % T:>22} {n:>8} {t_round:>8.2f} {row['verdict']:>18} "
-              f"{row.get('refine_s', float('nan')):>9.2f}" + _memory_text(row) + _dask_text(row))
-    for n_exp in counts:
-        exps = count_set(true, n_exp, a.duration)
-        n = sum(e.measurement.n for e in exps)
-        t_round, d = timed(lambda: diagnose(start, exps))
-        row = {"experiments": n_exp, "simulated_s": n_exp * a.duration, "samples": n,
-               "round_s": t_round, "verdict": d.verdict or "none"}
-        if scheduler is not None:
-            on_cluster(row, d, lambda: diagnose(start, exps, scheduler=scheduler))
-        if n_exp in ref_cnt:
-            row["refine_s"], _ = timed(lambda: refine(start, exps))
-            if scheduler is not None:
-                row["dask_refine_s"], _ = timed(lambda: refine(start, exps, scheduler=scheduler))
-        if a.memory:
-            peak, _ = peak_memory(lambda: diagnose(start, exps))
-            row["peak_mb"], row["records_mb"] = peak / 1e6, record_bytes(exps) / 1e6
-        figures["count"].append(row)
-        print(f"{'%d x %g s' % (n_exp, a.duration):>22} {n:>8} {t_round:>8.2f} "
-              f"{row['verdict']:>18} {row.get('refine_s', float('nan')):>9.2f}" + _memory_text(row)
-              + _dask_text(row))
-    close_cluster()
-    if scheduler is not None:
-        figures["scheduler"] = a.scheduler if a.scheduler.startswith("local:") else "a Dask scheduler"
+    figures = {"machine": info, "scheduler": a.scheduler if a.scheduler in ("local", "dask")
+               else "a Dask scheduler", "load_average_start": load(), "configs": []}
+    print(f"\n{'workers':>7} {'record':>22} {'samples':>8} {'round s':>8} {'verdict':>18} "
+          f"{'refine s':>9} {'answer':>9}")
+    refs = {}
+    for w in workers:
+        figures["configs"].append({"workers": w, "rows": run_config(start, todo, a.scheduler, w,
+                                                                    a.memory, refs, a.repeat)})
+    figures["load_average_end"] = load()
 
+    first = figures["configs"][0]["rows"]
+    figures["length"] = [r for r in first if "cyclic_s" in r]
+    figures["count"] = [r for r in first if "experiments" in r]
     for key in ("length", "count"):
         mem = [r for r in figures[key] if "peak_mb" in r]
         if len(mem) >= 2:
@@ -286,6 +365,9 @@ def main(argv=None):
         print(f"round time ~ (simulated seconds)^{b_len:.2f}")
     if b_cnt is not None:
         print(f"round time ~ (number of experiments)^{b_cnt:.2f}")
+    if sweep:
+        figures["sweep"] = sweep_table(figures["configs"], figures["scheduler"])
+    print("load average at the end:", figures["load_average_end"])
     save_figures(a.json, {k: v for k, v in figures.items() if v is not None})
 
 

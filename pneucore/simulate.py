@@ -334,7 +334,9 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
     res = SimulationResult.from_core(model, scenario, core, t_out, y_out, aux_out, mode_out, u_out,
                                      ev_t[:n_ev], ev_kind[:n_ev], ev_mode[:n_ev], stats,
                                      status, t_reached)
-    time_scale = command_time_scale(scenario)
+    # only an effect that can warn needs the command's time scale (a scan of the command)
+    time_scale = (command_time_scale(scenario)
+                  if any(EFFECTS[n].warn is not None for n in model.effects) else None)
     warnings = [] if time_scale is None else effect_warnings(model, time_scale)
     if warnings:
         res.stats["warnings"] = warnings

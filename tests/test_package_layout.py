@@ -33,7 +33,7 @@ LAYOUT = {
              "validation", "valve_data"},
     "data": {"command", "experiment", "export", "fileformats", "matfile", "measurement", "npz", "samples", "synthetic"},
     "analysis": {"autocorrelation", "blas_threads", "calibrate", "calibration_options", "compare", "diagnose",
-                 "command_line", "engineering", "heat_compare", "history", "hypotheses", "metrics", "report",
+                 "command_line", "engineering", "heat_compare", "history", "hypotheses", "metrics", "parallel", "report",
                  "strokes"},
     # the diagnosis's stages, its acceptance rules, its evidence and its findings
     "analysis/diagnosis": {"evidence", "findings", "rules", "stages"},

@@ -48,6 +48,9 @@ THREADS = 2
 #: Smallest noise level assumed per signal (SI): a signal recorded exactly constant (a locked
 #: position, noise-free synthetic data) must not get an infinite weight
 SIGMA_FLOOR = {"p_a": 1.0, "p_b": 1.0, "x": 1e-7, "v": 1e-6, "T_a": 1e-3, "T_b": 1e-3}
+#: Replay sets an objective keeps of its last evaluations (the end point is simulated again
+#: to reweigh and to summarise it): each holds the records' simulated series
+RECENT_REPLAYS = 2
 #: Residual given to samples a failed simulation never reached (keeps the cost finite)
 FAILED_RESIDUAL = 1e3
 #: Simulated time over all experiments [s] beyond which a fit first runs on the records' first
@@ -181,6 +184,8 @@ class Objective:
                                for s in e.signals})
         self.n_eval = 0
         self.best = (np.inf, None)
+        self._finite_cache = {}
+        self._recent = []
         prior = prior or {}
         idx = [(i, prior[s.path]) for i, s in enumerate(self.specs) if s.path in prior]
         self._prior_idx = np.array([i for i, _ in idx], int)
@@ -217,6 +222,18 @@ class Objective:
     def replays(self, theta):
         if self.check is not None:
             self.check()
+        # the optimiser's end point, simulated once more to reweigh and to summarise it, is
+        # usually one of its last evaluations: those are kept (the replays do not depend on
+        # the weights), and a long record is not simulated twice at the same point
+        key = np.asarray(theta, float).tobytes()
+        for k, rps in list(self._recent):
+            if k == key:
+                return rps
+        rps = self._replays(theta)
+        self._recent = (self._recent + [(key, rps)])[-RECENT_REPLAYS:]
+        return rps
+
+    def _replays(self, theta):
         m = self.model_at(theta)
         sensors = {}
         for p, v in self.values(theta).items():
@@ -237,14 +254,27 @@ class Objective:
                         rp.simulated[sig] = g + sv.get("offset", 0.0) + sv.get("gain", 0.0) * (g - zero)
         return rps
 
+    def _finite(self, meas):
+        """``(isfinite(meas), all finite)``, found once per measured series (an optimiser
+        weighs the same records at every evaluation)."""
+        hit = self._finite_cache.get(id(meas))
+        if hit is None or hit[0] is not meas:
+            ok = np.isfinite(meas)
+            hit = self._finite_cache[id(meas)] = (meas, ok, bool(ok.all()))
+        return hit[1], hit[2]
+
     def weighted(self, replays):
         parts = []
         for rp, sig in zip(replays, self.sigma):
             for s in rp.measured:
                 meas = rp.experiment.measurement.signals[s]
-                r = np.full(meas.shape[0], 0.0)
-                n = rp.simulated[s].shape[0]
-                ok = np.isfinite(meas)
+                sim = rp.simulated[s]
+                n = sim.shape[0]
+                ok, whole = self._finite(meas)
+                if whole and n == meas.shape[0] and np.isfinite(sim).all():
+                    parts.append((sim - meas) / sig[s])   # every sample recorded and reached
+                    continue
+                r = np.zeros(meas.shape[0])
                 ok_n = ok[:n] & np.isfinite(rp.simulated[s])
                 r[:n][ok_n] = (rp.simulated[s][ok_n] - meas[:n][ok_n]) / sig[s]
                 # samples the simulation did not reach (solver failure) get a large residual
@@ -426,7 +456,7 @@ class Calibration:
 
 @single_threaded_blas
 def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=None,
-        span=(0.0, 1.0), step="fitting", reweight=False, prior=None):
+        span=(0.0, 1.0), step="fitting", reweight=False, prior=None, statistics=True):
     """Fit ``specs`` on prepared experiments (shared by :func:`calibrate` and the diagnosis).
 
     ``progress(fraction, step)`` is reported within ``span`` as the optimiser's
@@ -456,7 +486,8 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     replay a step), so that a round costs a few replays of the full records whatever their
     length. The statistics (differenced afresh at the end point), the reference "before" and
     the guard against ending worse than the model as given are the full records' and the
-    given model's.
+    given model's. The window's fit computes no statistics of its own (``statistics=False``:
+    only the point reached, ``success`` and ``message``, all the full fit reads of it).
     """
     def check():
         if progress is not None:
@@ -483,7 +514,7 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         short = None   # nothing could be cut (too few samples in a window): fit the records whole
     if short is not None:
         pre = fit(model, short, specs, max_nfev=max_nfev, compute_before=False, progress=progress,
-                  span=span, step=step, reweight=reweight, prior=prior)
+                  span=span, step=step, reweight=reweight, prior=prior, statistics=False)
         z_first = np.clip(np.array([pre.values[s.path]["value"] for s in vs], float),
                           lo, hi) / sc
     last_jac = {}
@@ -564,6 +595,10 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         if obj.best[1] is not None and obj.best[0] < float(r_end @ r_end):
             theta = obj.best[1]
             rps1 = obj.replays(theta)
+    if not statistics:   # the point alone: what a fit started from it reads
+        return Calibration(obj.model_at(theta), {s.path: {"value": float(theta[i])}
+                                                 for i, s in enumerate(vs)}, {}, before, None,
+                           math.nan, math.nan, math.nan, 0, len(vs), success, message, obj.n_eval)
     after = summarise(rps1)
     rss1 = obj.rss(rps1)
     m2ll, aic, bic, n_all = information_criteria(rss1, len(vs))

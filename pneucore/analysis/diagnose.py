@@ -73,6 +73,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from pneucore.analysis import parallel as P
 from pneucore.analysis.blas_threads import single_threaded_blas
 from pneucore.analysis.compare import plain_json, replay, summarise
 from pneucore.analysis.diagnosis import stages as S
@@ -116,6 +117,7 @@ class Diagnosis:
     hints: list = field(default_factory=list)
     given: object = field(default=None, repr=False)
     known: list = field(default_factory=list)
+    cluster: object = None
 
     def best(self):
         return self.ranking[0] if self.ranking else None
@@ -140,6 +142,7 @@ class Diagnosis:
             "initial_state": self.initial_state, "hints": self.hints,
             "error_start": ({"errors": self.error_start.errors, "overall": self.error_start.overall}
                             if self.error_start is not None else None),
+            "cluster": self.cluster,
         })
 
 
@@ -231,10 +234,14 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         gravity): never fitted, never offered as a base hypothesis; where the data would
         need one far off, ``remaining["known_disagree"]`` and the message say so
     scheduler : str, distributed.Client, cluster or None
-        Where the candidates' joint refits (step 3, the costliest independent work) run:
+        Where the independent pieces of work run (the base hypotheses' and the score pass's
+        sensitivities, the candidates' joint refits, the per-experiment consistency fits):
         None = this machine's threads; a Dask scheduler address, ``Client`` or cluster
-        object = one task each on that cluster (the same answer, to round-off). A service
-        passes only the address configured on the server, never one from a request
+        object = one task each on that cluster (the same answer, to round-off;
+        :mod:`pneucore.analysis.parallel`). A cluster that loses every worker or stops
+        answering is given up after the studies' grace time and the rest runs here
+        (``cluster["lost"]`` says why). A service passes only the address configured on the
+        server, never one from a request
     scheduler_timeout : float or None
         Time to reach the scheduler (None = the studies' default) [s]
 
@@ -252,7 +259,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
 
     names = _candidate_names(model, candidates) if validated else \
         check_request(model, candidates, uncertain, known)
-    with S.cluster_client(scheduler, scheduler_timeout) as client:
+    with P.running(scheduler, scheduler_timeout, report) as runner:
         known = tuple(known or ())
         cands, skipped = S.candidate_effects(model, names)
 
@@ -276,7 +283,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         def weigh(null):
             score = S.candidate_scores(model, exps, null, cands, report)
             lead = S.leading(score, n_refit)
-            refits = S.joint_refits(model, exps, null, lead, max_nfev, report, client)
+            refits = S.joint_refits(model, exps, null, lead, max_nfev, report)
             ranking = S.evidence(null, refits)
             return (score, lead, refits, ranking) + S.verdict(model, exps, ranking, refits, null,
                                                               alpha, max_nfev, report)
@@ -343,7 +350,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                          alternatives=f.alternatives, remaining=f.remaining,
                          identifiability=hyp.identifiability, error_start=comp_start,
                          dropped=f.dropped, initial_state=hyp.initial_state, hints=comp_start.hints,
-                         given=model.to_dict(), known=list(known))
+                         given=model.to_dict(), known=list(known), cluster=runner.describe())
 
 
 def apply_diagnosis(model, diagnosis, effect=None):

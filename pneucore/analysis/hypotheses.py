@@ -411,6 +411,15 @@ def offered(model, candidates=(), exclude=()):
     return out
 
 
+
+def sensitivity_column(model, experiments, objective, r0, replay, h):
+    """``(h, dv, column)``: hypothesis ``h`` moved by its step ``dv`` on ``model``, the change
+    of ``objective``'s weighted residual from ``r0`` (one column of :func:`identifiable`)."""
+    dv = _signed_step(model, h)
+    mp = set_values(model, {h.path: get_value(model, h.path) + dv})
+    return h, dv, objective.weighted([replay(mp, e) for e in experiments]) - r0
+
+
 def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBLE,
                  collinear=COLLINEAR, last=()):
     """Choose the base hypotheses the experiments can identify.
@@ -448,20 +457,14 @@ def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBL
         path -> sensitivity column per unit of the parameter [1/SI]
     """
     cols, norms, steps = {}, {}, {}
-
-    def column(h):
-        dv = _signed_step(model, h)
-        mp = set_values(model, {h.path: get_value(model, h.path) + dv})
-        return h, dv, objective.weighted([replay(mp, e) for e in experiments]) - r0
-
     # one simulation per hypothesis and experiment, in the fit's worker threads (the compiled
-    # integrator runs outside the GIL)
-    from pneucore.analysis.calibrate import THREADS
-    with ThreadPoolExecutor(THREADS) as pool:
-        for h, dv, col in pool.map(column, hyps):
-            cols[h.path] = col / dv
-            norms[h.path] = float(col @ col)
-            steps[h.path] = abs(dv)
+    # integrator runs outside the GIL), or one task each on the diagnosis's Dask cluster
+    from pneucore.analysis.parallel import pmap
+    for h, dv, col in pmap(sensitivity_column, hyps, (model, experiments, objective, r0, replay),
+                           "sensitivities of the base hypotheses"):
+        cols[h.path] = col / dv
+        norms[h.path] = float(col @ col)
+        steps[h.path] = abs(dv)
     last = set(last)
     order = sorted(hyps, key=lambda h: (h.path in last, -norms[h.path]))
     chosen, report, basis = [], [], []

@@ -81,6 +81,7 @@ class Experiment:
     time_offset: Optional[float] = None
     _first_cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
     _scenario_cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    _signals_cache: tuple = field(default=(None, ()), init=False, repr=False, compare=False)
 
     @classmethod
     def from_dict(cls, d, path="experiment", ambient_pressure=101300.0, datasets=None):
@@ -167,8 +168,17 @@ class Experiment:
 
     @property
     def signals(self):
-        """Measured signals that the model predicts (``p_a``, ``p_b``, ``x``, ...)."""
-        return tuple(s for s in self.measurement.measured_signals if s in COMPARABLE)
+        """Measured signals that the model predicts (``p_a``, ``p_b``, ``x``, ...).
+
+        Found once per measurement (a scan of every sample; a calibration asks at each of
+        its replays): like the first-sample estimates, this assumes the measurement's series
+        are not edited in place afterwards (a new measurement is found afresh).
+        """
+        meas, names = self._signals_cache
+        if meas is not self.measurement:
+            names = tuple(s for s in self.measurement.measured_signals if s in COMPARABLE)
+            self._signals_cache = (self.measurement, names)
+        return names
 
     def model_for(self, model):
         """The model with this experiment's load and supply pressure applied."""

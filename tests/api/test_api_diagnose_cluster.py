@@ -59,6 +59,8 @@ def test_a_diagnosis_on_the_configured_cluster_answers_as_the_local_one(tmp_path
             assert here.status_code == there.status_code == 200, (here.text[:400], there.text[:400])
             a, b = here.json(), there.json()
             assert a["verdict"] == b["verdict"] == "piston_leakage"
+            # where it ran, without the server's address: the cluster, never lost here
+            assert b["cluster"] == {"lost": None} and a.get("cluster") is None
             assert [r["effect"] for r in a["ranking"]] == [r["effect"] for r in b["ranking"]]
             for ra, rb in zip(a["ranking"], b["ranking"]):
                 for p, v in ra["params"].items():

@@ -15,6 +15,7 @@ from pneucore.analysis.calibrate import fit
 from pneucore.analysis.compare import noise_floor, replay
 from pneucore.analysis.diagnosis.rules import AT_FLOOR, CONSISTENT_RTOL, EXCESS_MATERIAL
 from pneucore.analysis.metrics import eq25_error
+from pneucore.analysis.parallel import pmap
 from pneucore.data.measurement import Measurement
 from pneucore.spec.effects import EFFECTS
 from pneucore.spec.paths import ParameterSpec
@@ -204,6 +205,11 @@ def pair(model, exps, lead, ranking, refits, u_specs, e0, floor, max_nfev, repor
     return {"effect": b, "error_after_overall": e1, "excess_drop": excess_drop(e0, e1, floor)}
 
 
+def fit_alone(model, specs, max_nfev, e):
+    """``specs`` fitted on experiment ``e`` alone from ``model`` (one fit of :func:`consistency`)."""
+    return fit(model, [e], specs, max_nfev=max_nfev, compute_before=False)
+
+
 def consistency(cal, exps, name, max_nfev=30, skip=None):
     """Do the experiments agree on the effect's parameters? (a physical effect: yes)
 
@@ -237,12 +243,10 @@ def consistency(cal, exps, name, max_nfev=30, skip=None):
     if not specs:
         acting = []
 
-    def one(e):
-        # each experiment's fit is independent of the others': in parallel on the cores
-        return fit(cal.model, [e], specs, max_nfev=max(max_nfev // 2, 8), compute_before=False)
-
-    with ThreadPoolExecutor(_calibrate.THREADS) as pool:
-        fits = list(pool.map(one, acting))
+    # each experiment's fit is independent of the others': in parallel on the cores, or one
+    # task each on the diagnosis's Dask cluster
+    fits = pmap(fit_alone, acting, (cal.model, specs, max(max_nfev // 2, 8)),
+                f"consistency across experiments: {name}")
     for e, c1 in zip(acting, fits):
         est = {}
         for sp in specs:

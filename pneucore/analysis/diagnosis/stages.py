@@ -16,8 +16,6 @@
 from __future__ import annotations
 
 import math
-import threading
-import time
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -27,8 +25,8 @@ from scipy import stats
 
 from pneucore.analysis import calibrate as _calibrate
 from pneucore.analysis import hypotheses as H
+from pneucore.analysis import parallel as P
 from pneucore.analysis.autocorrelation import effective_lr, residual_times, times_report
-from pneucore.analysis.blas_threads import single_threaded_blas
 from pneucore.analysis.calibrate import Objective, fit, information_criteria
 from pneucore.analysis.compare import replay
 from pneucore.analysis.diagnosis import rules as R
@@ -421,17 +419,44 @@ def uncertain_sensitivities(exps, null):
     """Sensitivities of the null's fitted parameters (columns), scaled like its residual."""
     if not null.specs:
         return None
-    base, keys, y0 = null.base, null.keys, null.y
+    return np.column_stack(P.pmap(uncertain_column, null.specs, (exps, null.base, null.keys, null.y),
+                                  "sensitivities of the base parameters"))
 
-    def ucol(s):
-        # around the null model (a valve scale reads 1 there, whatever the fit found)
-        v = get_value(base, s.path)
-        h = 1e-3 * (abs(v) or (s.max - s.min) / 100)
-        mp = set_values(base, {s.path: v + h})
-        return (stack([replay(mp, e) for e in exps], keys) - y0) / h
 
-    with ThreadPoolExecutor(_calibrate.THREADS) as pool:
-        return np.column_stack(list(pool.map(ucol, null.specs)))
+def uncertain_column(exps, base, keys, y0, s):
+    """One column of :func:`uncertain_sensitivities`: parameter ``s`` (a spec) moved by 1e-3 of
+    its value around the null model ``base`` (a valve scale reads 1 there, whatever the fit
+    found), the outputs' change per unit, scaled like the residual."""
+    v = get_value(base, s.path)
+    h = 1e-3 * (abs(v) or (s.max - s.min) / 100)
+    mp = set_values(base, {s.path: v + h})
+    return (stack([replay(mp, e) for e in exps], keys) - y0) / h
+
+
+def probe(model, exps, null, Ju, name):
+    """The score of candidate ``name`` (see :func:`candidate_scores`): ``{effect, lm, dof,
+    p_value, score_params}``; ``Ju`` the base parameters' sensitivities (or None)."""
+    eff = EFFECTS[name]
+    sp = eff.score_params
+    vals_off = eff.probe_values(model)
+    for p in sp:
+        vals_off[p] = eff.param(p).off
+    cols, one_sided = [], []
+    for p in sp:
+        v = dict(vals_off)
+        v[p] = eff.probe_values(model)[p]
+        mp = with_effect(null.base, name, v)
+        yp = stack([replay(mp, e) for e in exps], null.keys)
+        cols.append(yp - null.y)
+        par = eff.param(p)
+        one_sided.append(par.off is not None and par.min >= par.off
+                         and v[p] > par.off)
+    J = project_out(np.column_stack(cols), Ju)
+    lm, used = lm_statistic(null.r, J, one_sided)
+    dof = max(len(used), 1)
+    p_lm = float(stats.chi2.sf(lm, dof)) if used else 1.0
+    return {"effect": name, "lm": lm, "dof": len(used), "p_value": p_lm,
+            "score_params": list(sp)}
 
 
 def candidate_scores(model, exps, null, cands, report):
@@ -441,35 +466,10 @@ def candidate_scores(model, exps, null, cands, report):
     only be positive is dropped when the data ask for a negative one (one-sided test).
     Returns the candidates' scores, best first, each with its ``rank``."""
     Ju = uncertain_sensitivities(exps, null)
-
-    def probe(name):
-        eff = EFFECTS[name]
-        sp = eff.score_params
-        vals_off = eff.probe_values(model)
-        for p in sp:
-            vals_off[p] = eff.param(p).off
-        cols, one_sided = [], []
-        for p in sp:
-            v = dict(vals_off)
-            v[p] = eff.probe_values(model)[p]
-            mp = with_effect(null.base, name, v)
-            yp = stack([replay(mp, e) for e in exps], null.keys)
-            cols.append(yp - null.y)
-            par = eff.param(p)
-            one_sided.append(par.off is not None and par.min >= par.off
-                             and v[p] > par.off)
-        J = project_out(np.column_stack(cols), Ju)
-        lm, used = lm_statistic(null.r, J, one_sided)
-        dof = max(len(used), 1)
-        p_lm = float(stats.chi2.sf(lm, dof)) if used else 1.0
-        return {"effect": name, "lm": lm, "dof": len(used), "p_value": p_lm,
-                "score_params": list(sp)}
-
     score = []
-    with ThreadPoolExecutor(_calibrate.THREADS) as pool:
-        for k, res in enumerate(pool.map(probe, cands)):
-            score.append(res)
-            report(0.05 + 0.35 * (k + 1) / max(len(cands), 1), f"score test: {res['effect']}")
+    for k, res in enumerate(P.pmap(probe, cands, (model, exps, null, Ju), "score test", 0.05)):
+        score.append(res)
+        report(0.05 + 0.35 * (k + 1) / max(len(cands), 1), f"score test: {res['effect']}")
     score.sort(key=lambda d: (-d["lm"] if d["dof"] else 0.0))
     for i, s in enumerate(score):
         s["rank"] = i + 1
@@ -543,79 +543,42 @@ def joint_refit(model, exps, null, name, max_nfev, report):
     return cal
 
 
-@single_threaded_blas
-def remote_joint_refit(model, exps, null, name, max_nfev):
-    """:func:`joint_refit` as a Dask task: every argument and the result are plain picklable
-    objects (the model, the experiments, the :class:`Null`, the calibration); the progress
-    callback stays with the caller (:func:`joint_refits` checks it while it waits)."""
+def remote_joint_refit(model, exps, null, max_nfev, name):
+    """:func:`joint_refit` as a Dask task (:func:`pneucore.analysis.parallel.pmap`): every
+    argument and the result are plain picklable objects (the model, the experiments, the
+    :class:`Null`, the calibration); the progress callback stays with the caller (the runner
+    calls it while it waits)."""
     return joint_refit(model, exps, null, name, max_nfev, lambda f, s: None)
-
-
-#: Longest wait for a refit on a Dask cluster between two calls of the progress callback
-#: (which stops the diagnosis past its time limit or once its client has gone) [s]
-CLUSTER_HEARTBEAT = 1.0
-
-
-def _cluster_refits(client, model, exps, null, lead, max_nfev, report):
-    """``{name: calibration}`` of :func:`remote_joint_refit` for each of ``lead``, one Dask task
-    each (the model, experiments and null sent to the cluster once); the progress callback is
-    called at least every :data:`CLUSTER_HEARTBEAT` s, and whatever it raises cancels the tasks."""
-    shared = client.scatter([model, exps, null], hash=False)
-    futures = {client.submit(remote_joint_refit, *shared, name, max_nfev, pure=False): name
-               for name in lead}
-    out = {}
-    try:
-        pending = set(futures)
-        while pending:
-            report(0.4 + 0.55 * len(out) / max(len(lead), 1), "refit: " + ", ".join(
-                sorted(futures[f] for f in pending)) + " (on the Dask cluster)")
-            end = time.monotonic() + CLUSTER_HEARTBEAT
-            while time.monotonic() < end and not any(f.done() for f in pending):
-                time.sleep(0.02)   # a refit takes seconds: 20 ms polling costs nothing
-            for f in [f for f in pending if f.done()]:
-                pending.discard(f)
-                out[futures[f]] = f.result()
-    except BaseException:
-        client.cancel(list(futures))
-        raise
-    finally:
-        for f in list(futures) + list(shared):
-            f.release()
-    return {name: out[name] for name in lead}
 
 
 @contextmanager
 def cluster_client(scheduler, timeout=None):
     """A ``distributed.Client`` for ``scheduler`` (None = none: yields None), closed at the end
-    if opened here.
-
-    ``scheduler`` is an address, a ``distributed.Client`` or a cluster object, as for a study
-    (:func:`pneucore.study.execute.connect_scheduler`, whose :class:`SchedulerError` names
-    ``scheduler`` when it cannot be reached or has no worker); a service passes only the
-    address configured on the server, never one from a request (a client unpickles what the
-    scheduler sends). ``timeout`` [s]: time to reach it (None = the studies' default).
-    """
-    if scheduler is None:
-        yield None
-        return
-    from pneucore.study.execute import SCHEDULER_TIMEOUT, connect_scheduler
-    timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
-    client, owned, _ = connect_scheduler(scheduler, timeout)
-    try:
-        yield client
-    finally:
-        if owned:   # closed within the timeout, even against a scheduler that stopped answering
-            t = threading.Thread(target=lambda: client.close(timeout=timeout), daemon=True)
-            t.start()
-            t.join(timeout + 1.0)
+    if opened here: the client of :func:`pneucore.analysis.parallel.running` (which see), for
+    a caller that runs several diagnoses on one cluster (a refinement's rounds)."""
+    with P.running(scheduler, timeout) as runner:
+        yield runner.client
 
 
 def joint_refits(model, exps, null, lead, max_nfev, report, client=None):
     """``{name: calibration}`` of :func:`joint_refit` for each leading candidate (in parallel):
-    on the Dask cluster of ``client`` (a ``distributed.Client``) when one is given, one task
-    each, else on this machine's threads."""
-    if client is not None and lead:
-        return _cluster_refits(client, model, exps, null, lead, max_nfev, report)
+    one Dask task each on the cluster of ``client`` (a ``distributed.Client``) when one is
+    given, else on the current diagnosis's cluster
+    (:func:`pneucore.analysis.parallel.current`), else on this machine's threads."""
+    runner = P.Runner(client, getattr(client.scheduler, "address", None), report=report) \
+        if client is not None else P.current()
+    if client is not None:
+        runner.probe_or_not()
+    if runner is not None and runner.on_cluster and lead:
+        prev = runner.report
+        runner.report = report
+        try:
+            cals = runner.map(remote_joint_refit, lead, (model, exps, null, max_nfev),
+                              "refit: " + ", ".join(lead), 0.4,
+                              local=lambda n: joint_refit(model, exps, null, n, max_nfev, report))
+        finally:
+            runner.report = prev
+        return dict(zip(lead, cals))
     refits = {}
     with ThreadPoolExecutor(_calibrate.THREADS) as pool:
         for done, (name, cal) in enumerate(pool.map(
