@@ -285,6 +285,20 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         # a recalibration at a bound, or far beyond a catalogue error, is a symptom: the catalog
         # effects are weighed again against a null with it held at the catalogue value
         odd = S.implausible(model, null) if weighed[4] is None else []
+        # a physically impossible value (a load against its declared direction) is no model to
+        # propose: held at the declared value, the rest refitted and the effects weighed again
+        # against that null, which stands in for the recalibration from here on
+        impossible = None
+        null_i, hold_i = S.hold_impossible(model, exps, hyp, unc, null, odd, comp_start,
+                                           rps_start, max_nfev, report)
+        if hold_i:
+            e_with = null.error
+            null, weighed = null_i, weigh(null_i)
+            hyp.held |= {o["path"] for o in hold_i}
+            impossible = {"parameters": hold_i, "verdict": weighed[4], "error_held": null.error,
+                          "error_with_impossible": e_with,
+                          "description": S.impossible_words(hold_i, null.error, e_with)}
+            odd = S.implausible(model, null) if weighed[4] is None else []
         held = None
         for hold in S.holdings(odd):
             report(0.5, "weighing the effects with " + ", ".join(o["label"] for o in hold)
@@ -309,6 +323,9 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         words = S.demanded_words(model, hyp, f.recalibrate, f.refitted)
         if words:
             f.message += " " + words
+        if impossible is not None:
+            f.remaining["held_impossible"] = impossible
+            f.message += " " + impossible["description"] + "."
         if held is not None:
             f.remaining["held_at_catalogue"] = held
             if not held["taken"]:
