@@ -357,9 +357,12 @@ def impossible(model, path, after):
     >>> from pneucore import Model, model_preset
     >>> m = Model.from_dict(model_preset("paper-4way"))
     >>> impossible(m, "jack.moving_mass", -0.29)
-    'moving mass below 0 (-0.29 kg): physically impossible'
+    'moving mass changed sign (2 -> -0.29 kg): against its declared direction'
     >>> impossible(m, "jack.moving_mass", 0.29)
     ''
+    >>> m.friction.extend.kv0 = 0.0      # declared 0: a level may be fitted to 0, not below
+    >>> impossible(m, "friction.extend.kv0", -1.0)
+    'viscous friction extending below 0 (-1 N s/m): physically impossible'
     """
     against = against_direction(model, path, after)
     if against:
