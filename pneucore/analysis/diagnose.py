@@ -61,7 +61,11 @@
    null; an effect named there that fits at least as well as the implausible
    recalibration is the verdict (the other implausible values beside it stay at
    the catalogue in the next model), else the recalibration stands and is called
-   implausible (``remaining["held_at_catalogue"]``).
+   implausible (``remaining["held_at_catalogue"]``). A value that is physically
+   impossible (:func:`pneucore.analysis.hypotheses.impossible`: a load against its
+   declared direction, a negative mass) never stands: it is held at the declared value
+   first, the rest refitted and steps 1-4 run against that null, which replaces the
+   recalibration (``remaining["held_impossible"]``, and the message says why).
 5. **Findings.** ``recalibrate`` (mis-set base parameters, before/after),
    ``model`` (the next version), ``alternatives`` (what the data cannot tell
    apart from the verdict), ``remaining`` (error, noise floor, whether the
