@@ -299,6 +299,11 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
             e_with = null.error
             null, weighed = null_i, weigh(null_i)
             hyp.held |= {o["path"] for o in hold_i}
+            for entry in hyp.identifiability:
+                why = next((o["reason"] for o in hold_i if o["path"] == entry["path"]), None)
+                if why:
+                    entry["status"] = "held"
+                    entry["note"] = "held at the declared value, the value fitted is impossible: " + why
             impossible = {"parameters": hold_i, "verdict": weighed[4], "error_held": null.error,
                           "error_with_impossible": e_with,
                           "description": S.impossible_words(hold_i, null.error, e_with)}

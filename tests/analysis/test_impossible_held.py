@@ -78,4 +78,6 @@ def test_a_load_against_the_weight_is_held_at_the_declared_value_and_said(lifted
     # the price of holding it is said: the refit around it fits worse than the impossible value
     assert held["error_held"] > held["error_with_impossible"]
     assert "physically impossible: load stays at 0 N" in d.message
+    (entry,) = [h for h in d.identifiability if h["path"] == "jack.load_force"]
+    assert entry["status"] == "held" and "impossible" in entry["note"]
     assert "load against its declared direction" in d.message
