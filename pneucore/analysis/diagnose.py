@@ -61,7 +61,11 @@
    null; an effect named there that fits at least as well as the implausible
    recalibration is the verdict (the other implausible values beside it stay at
    the catalogue in the next model), else the recalibration stands and is called
-   implausible (``remaining["held_at_catalogue"]``).
+   implausible (``remaining["held_at_catalogue"]``). A value that is physically
+   impossible (:func:`pneucore.analysis.hypotheses.impossible`: a load against its
+   declared direction, a negative mass) never stands: it is held at the declared value
+   first, the rest refitted and steps 1-4 run against that null, which replaces the
+   recalibration (``remaining["held_impossible"]``, and the message says why).
 5. **Findings.** ``recalibrate`` (mis-set base parameters, before/after),
    ``model`` (the next version), ``alternatives`` (what the data cannot tell
    apart from the verdict), ``remaining`` (error, noise floor, whether the
@@ -292,6 +296,25 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         # a recalibration at a bound, or far beyond a catalogue error, is a symptom: the catalog
         # effects are weighed again against a null with it held at the catalogue value
         odd = S.implausible(model, null) if weighed[4] is None else []
+        # a physically impossible value (a load against its declared direction) is no model to
+        # propose: held at the declared value, the rest refitted and the effects weighed again
+        # against that null, which stands in for the recalibration from here on
+        impossible = None
+        null_i, hold_i = S.hold_impossible(model, exps, hyp, unc, null, odd, comp_start,
+                                           rps_start, max_nfev, report)
+        if hold_i:
+            e_with = null.error
+            null, weighed = null_i, weigh(null_i)
+            hyp.held |= {o["path"] for o in hold_i}
+            for entry in hyp.identifiability:
+                why = next((o["reason"] for o in hold_i if o["path"] == entry["path"]), None)
+                if why:
+                    entry["status"] = "held"
+                    entry["note"] = "held at the declared value, the value fitted is impossible: " + why
+            impossible = {"parameters": hold_i, "verdict": weighed[4], "error_held": null.error,
+                          "error_with_impossible": e_with,
+                          "description": S.impossible_words(hold_i, null.error, e_with)}
+            odd = S.implausible(model, null) if weighed[4] is None else []
         held = None
         for hold in S.holdings(odd):
             report(0.5, "weighing the effects with " + ", ".join(o["label"] for o in hold)
@@ -316,6 +339,9 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         words = S.demanded_words(model, hyp, f.recalibrate, f.refitted)
         if words:
             f.message += " " + words
+        if impossible is not None:
+            f.remaining["held_impossible"] = impossible
+            f.message += " " + impossible["description"] + "."
         if held is not None:
             f.remaining["held_at_catalogue"] = held
             if not held["taken"]:

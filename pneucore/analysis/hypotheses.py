@@ -330,6 +330,49 @@ def against_direction(model, path, after):
     return ""
 
 
+def impossible(model, path, after):
+    """Why a recalibrated base value is physically impossible, or ``""``: against its declared
+    direction (:func:`against_direction`), or below 0 where the quantity cannot be (a mass, a
+    friction level, a conductance, a volume, a heat coefficient, an absolute pressure: every
+    registered hypothesis fitted as a positive multiple of its value, ``lo >= 0``). Such a
+    value never goes into a proposed model, however well it fits (issue 28); one that is only
+    implausible (:func:`plausibility`) may.
+
+    Parameters
+    ----------
+    model : Model
+        The model the value was recalibrated from (the declared values)
+    path : str
+        Base parameter path
+    after : float
+        The recalibrated value (SI; a scale factor for valve tables)
+
+    Returns
+    -------
+    reason : str
+        Empty when the value is physically possible
+
+    Examples
+    --------
+    >>> from pneucore import Model, model_preset
+    >>> m = Model.from_dict(model_preset("paper-4way"))
+    >>> impossible(m, "jack.moving_mass", -0.29)
+    'moving mass changed sign (2 -> -0.29 kg): against its declared direction'
+    >>> impossible(m, "jack.moving_mass", 0.29)
+    ''
+    >>> m.friction.extend.kv0 = 0.0      # declared 0: a level may be fitted to 0, not below
+    >>> impossible(m, "friction.extend.kv0", -1.0)
+    'viscous friction extending below 0 (-1 N s/m): physically impossible'
+    """
+    against = against_direction(model, path, after)
+    if against:
+        return against
+    h = BASE_HYPOTHESES.get(path)
+    if h is not None and not h.additive and h.lo >= 0.0 and after < 0.0:
+        return f"{h.label} below 0 ({after:.3g} {unit_of(path)}".rstrip() + "): physically impossible"
+    return ""
+
+
 def first_against_direction(model, values):
     """The first of ``values`` (``{path: value or {"value": ...}}``, fitted base parameters)
     that points against its declared direction (:func:`against_direction`), in words, or

@@ -774,8 +774,48 @@ def implausible(model, null):
         why = H.plausibility(model, s.path, v["value"], v.get("at_bound", False))
         if why and abs(v["value"] - before) > RECAL_MIN * max(abs(before), 1e-300):
             out.append({"path": s.path, "label": H.label_of(s.path), "before": before,
-                        "after": v["value"], "unit": v.get("unit", ""), "reason": why})
+                        "after": v["value"], "unit": v.get("unit", ""), "reason": why,
+                        "impossible": bool(H.impossible(model, s.path, v["value"]))})
     return out
+
+
+def hold_impossible(model, exps, hyp, unc, null, odd, comp_start, rps_start, max_nfev, report):
+    """The null refitted with the physically impossible values among ``odd``
+    (:func:`pneucore.analysis.hypotheses.impossible`: a load against its declared direction, a
+    negative mass) held at the declared values, and again with any the refit turns impossible
+    in their place, until none is left: ``(null, held)``, ``held`` the impossible values (as
+    :func:`implausible` gives them); ``(null, [])`` when none is impossible. An impossible
+    value is no model to propose, however well it fits (issue 28): the rest is refitted
+    around the declared value."""
+    hold = [o for o in odd if o.get("impossible")]
+    if not hold:
+        return null, []
+    for _ in range(len(hyp.auto_specs)):
+        report(0.05, "refitting the base model with " + ", ".join(o["label"] for o in hold)
+               + " held at the declared value (the value fitted is impossible)")
+        null_h = null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report,
+                          held={o["path"] for o in hold} | hyp.held)
+        paths = {o["path"] for o in hold}
+        new = [o for o in implausible(model, null_h) if o["impossible"] and o["path"] not in paths]
+        if not new:
+            break
+        hold = hold + new
+    return null_h, hold
+
+
+def impossible_words(hold, e_held, e_with):
+    """The impossible values held at the declared values, in words: each before and as fitted,
+    with its reason, and the error of the refit around them (``e_held``) against the fit with
+    them (``e_with``)."""
+    it = "it" if len(hold) == 1 else "them"
+    return ("Held at the declared value, being physically impossible: "
+            + "; ".join(f"{o['label']} stays at {o['before']:.3g} {o['unit']}".rstrip()
+                        + f" (fitted {o['after']:.3g} {o['unit']}".rstrip() + f": {o['reason']})"
+                        for o in hold)
+            + f". The rest is refitted with {it} held (error {100 * e_held:.2f} % against "
+            f"{100 * e_with:.2f} % with the impossible value{'s' if len(hold) > 1 else ''}): "
+            f"something this model lacks (an undeclared force or effect) or a wrong declaration "
+            f"stands behind {it}")
 
 
 def takes_over(weighed, null):
