@@ -13,6 +13,7 @@ from typing import Any, Literal, Optional, Union
 from pydantic import BaseModel, ConfigDict, Field
 from pydantic.fields import FieldInfo
 
+from pneucore.analysis.phase_excess import START_SAMPLES
 from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
 from pneucore.spec.docstrings import api_description
 from pneucore.spec.model import (B_CHAMBER_MODES, VALVE_KINDS, Friction, FrictionSet, Gas, Heat, Jack, Model,
@@ -509,7 +510,7 @@ class SignalExcess(BaseModel):
     rms: Optional[float] = Field(None, description="RMS of the residual, model minus measured, over the phase (SI unit of the signal)")
     ratio: Optional[float] = Field(None, description="rms / sigma: 1 is noise alone [-]")
     offset: Optional[float] = Field(None, description="Mean residual over the phase (SI unit of the signal)")
-    start_offset: Optional[float] = Field(None, description="Mean residual over the phase's first 20 samples: the initial state (SI unit of the signal)")
+    start_offset: Optional[float] = Field(None, description=f"Mean residual over the phase's first {START_SAMPLES} samples: the initial state (SI unit of the signal)")
     start_sigmas: Optional[float] = Field(None, description="|start_offset| in its own standard errors, sigma / sqrt(samples) [-]")
     drift: Optional[float] = Field(None, description="Slope of an offset-and-straight-line fit of the residual (SI unit of the signal per second)")
     lag: Optional[float] = Field(None, description="Delay of the model from an offset-and-shift fit, positive when the model is late [s]")

@@ -35,6 +35,11 @@ MIN_SAMPLES = 20
 #: The samples at the phase's start whose mean residual is reported (the initial state) [-]
 START_SAMPLES = 20
 
+#: The longest shift taken for a timing error [s]: valves switch in a few ms to some tens of ms
+#: (catalogue response times of 5 to 30 ms); a fitted shift beyond this is no lag but another
+#: shape, or a signal too flat for a shift to show (a phase where nothing moves)
+LAG_AT_MOST = 0.05
+
 #: How the messages show a signal's SI unit: (unit shown, factor from SI)
 _SHOWN = {"Pa": ("bar", 1e-5), "m": ("mm", 1e3), "m/s": ("mm/s", 1e3)}
 
@@ -74,7 +79,7 @@ def explain_residual(t, residual, sigma, simulated=None, derivative=None):
         residual over the first :data:`START_SAMPLES` samples (unit) and ``start_sigmas`` its
         size in its own standard errors [-]; ``drift`` the slope of the offset-and-drift fit
         [unit/s]; ``lag`` the model's delay of the offset-and-lag fit [s] (positive: the model
-        late); ``explained`` the share of the excess energy each of ``offset``, ``drift`` and
+        late; None when none fits within :data:`LAG_AT_MOST`); ``explained`` the share of the excess energy each of ``offset``, ``drift`` and
         ``lag`` explains [-]; ``cause`` one of ``noise``, ``offset``, ``drift``, ``lag``,
         ``shape`` (none of the three), ``too_few`` [-]
 
@@ -128,8 +133,9 @@ def explain_residual(t, residual, sigma, simulated=None, derivative=None):
     out["drift"] = float(slope)
     if dsim is not None and np.any(dsim != 0):
         (_, minus_tau), fit_lag = _fit(r, [ones, -dsim])
-        out["lag"] = float(minus_tau)
-        left["lag"] = float(np.sum((r - fit_lag) ** 2))
+        if abs(minus_tau) <= LAG_AT_MOST:
+            out["lag"] = float(minus_tau)
+            left["lag"] = float(np.sum((r - fit_lag) ** 2))
     out["explained"] = {c: float(min(max((energy - u) / excess, 0.0), 1.0)) for c, u in left.items()}
     if ratio < WITHIN_NOISE:
         out["cause"] = "noise"
