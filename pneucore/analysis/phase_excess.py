@@ -80,8 +80,8 @@ def explain_residual(t, residual, sigma, simulated=None, derivative=None):
         size in its own standard errors [-]; ``drift`` the slope of the offset-and-drift fit
         [unit/s]; ``lag`` the model's delay of the offset-and-lag fit [s] (positive: the model
         late; None when none fits within :data:`LAG_AT_MOST`); ``explained`` the share of the
-        excess energy each of ``offset``, ``drift`` and ``lag`` explains [-]; ``cause`` one of ``noise``, ``offset``, ``drift``, ``lag``,
-        ``shape`` (none of the three), ``too_few`` [-]
+        excess energy each of ``offset``, ``drift`` and ``lag`` explains [-]; ``cause`` one of
+        ``noise``, ``offset``, ``drift``, ``lag``, ``shape`` (none of the three), ``too_few`` [-]
 
     Examples
     --------
