@@ -278,7 +278,15 @@ class Comparison:
     heat_models: dict = field(default_factory=dict)
     replays: list = field(default_factory=list, repr=False)
     hints: list = field(default_factory=list)
-    phase_explanations: dict = field(default_factory=dict)
+    _explanations: dict = field(default=None, repr=False)
+
+    @property
+    def phase_explanations(self):
+        """:func:`phase_explanations` of the replays, made on first use (a fit's trial models
+        need only the errors) [-]"""
+        if self._explanations is None:
+            self._explanations = phase_explanations(self.replays)
+        return self._explanations
 
     def to_dict(self, residuals=True):
         d = {"errors": self.errors, "overall": self.overall, "phases": self.phases,
@@ -360,7 +368,7 @@ def summarise(replays, n_windows=5):
     return Comparison(errors, _overall(errors), _phase_table(replays, "command"),
                       _phase_table(replays, "piston"), _phase_table(replays, "combined"),
                       windows[:n_windows], exps, noise_floor(replays), replays=replays,
-                      hints=context_hints(replays), phase_explanations=phase_explanations(replays))
+                      hints=context_hints(replays))
 
 
 #: The three heat models of the paper's Fig. 8 and Table 2
