@@ -79,7 +79,7 @@ def explain_residual(t, residual, sigma, simulated=None, derivative=None):
         residual over the first :data:`START_SAMPLES` samples (unit) and ``start_sigmas`` its
         size in its own standard errors [-]; ``drift`` the slope of the offset-and-drift fit
         [unit/s]; ``lag`` the model's delay of the offset-and-lag fit [s] (positive: the model
-        late; None when none fits within :data:`LAG_AT_MOST`); ``explained`` the share of the
+        late; None when none fits between half a sample step and :data:`LAG_AT_MOST`); ``explained`` the share of the
         excess energy each of ``offset``, ``drift`` and ``lag`` explains [-]; ``cause`` one of
         ``noise``, ``offset``, ``drift``, ``lag``, ``shape`` (none of the three), ``too_few`` [-]
 
@@ -133,7 +133,9 @@ def explain_residual(t, residual, sigma, simulated=None, derivative=None):
     out["drift"] = float(slope)
     if dsim is not None and np.any(dsim != 0):
         (_, minus_tau), fit_lag = _fit(r, [ones, -dsim])
-        if abs(minus_tau) <= LAG_AT_MOST:
+        # a shift under half a sample step is below what the record's time base resolves
+        step = float(np.median(np.diff(t))) if n > 1 else 0.0
+        if 0.5 * step <= abs(minus_tau) <= LAG_AT_MOST:
             out["lag"] = float(minus_tau)
             left["lag"] = float(np.sum((r - fit_lag) ** 2))
     out["explained"] = {c: float(min(max((energy - u) / excess, 0.0), 1.0)) for c, u in left.items()}
@@ -179,13 +181,17 @@ def describe(signal, e):
                 f"of the excess), already {_shown(e['start_offset'], si)} over the first "
                 f"{min(START_SAMPLES, e['n'])} samples ({e['start_sigmas']:.0f} standard errors): "
                 "the initial state or a sensor's zero")
+    # a drift or a lag is fitted with an offset beside it: say so where the offset alone
+    # explains half the excess or more, the two together being the explanation
+    beside = (f", on an offset of {_shown(e['offset'], si)} (the offset alone "
+              f"{100 * share['offset']:.0f} %)" if share.get("offset", 0.0) >= 0.5 else "")
     if e["cause"] == "drift":
         return (f"{head}: a drift of {_shown(e['drift'], si)}/s ({100 * share['drift']:.0f} % of "
-                "the excess): a leak or heat exchange the model lacks or overstates")
+                f"the excess){beside}: a leak or heat exchange the model lacks or overstates")
     if e["cause"] == "lag":
         late = "late" if e["lag"] > 0 else "early"
         return (f"{head}: a lag, the model {1e3 * abs(e['lag']):.3g} ms {late} "
-                f"({100 * share['lag']:.0f} % of the excess): valve timing or a dead time")
+                f"({100 * share['lag']:.0f} % of the excess){beside}: valve timing or a dead time")
     parts = ", ".join(f"{c} {100 * v:.0f} %" for c, v in share.items())
     return (f"{head}: not an offset, a drift or a lag alone (share of the excess each explains: "
             f"{parts}): look at the residual plot")

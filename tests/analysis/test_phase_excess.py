@@ -132,3 +132,21 @@ def test_a_spool_lag_is_called_a_lag_in_milliseconds(samples):
     assert "ms early" in c.phase_explanations["valve closes"]["message"]
     # where nothing moves (the initial phase) no shift is fitted: a flat signal has no timing
     assert all(e["lag"] is None for e in c.phase_explanations["initial"]["signals"])
+
+
+def test_a_sensor_zero_error_is_an_offset_of_its_size():
+    """The clean hold test read by a p_a sensor whose zero is 0.05 bar high: after the valve
+    closes (the chamber held at a steady pressure) the residual is that offset, from the start."""
+    import copy
+    hold = copy.deepcopy(next(e for e in load_sample("clean") if e["name"] == "locked-hold"))
+    hold["measurement"].signals["p_a"] = hold["measurement"].signals["p_a"] + 5e3
+    c = compare(model_preset("paper-4way"), [hold])
+    e = next(e for e in c.phase_explanations["valve closes"]["signals"] if e["signal"] == "p_a")
+    assert e["cause"] == "offset", e["message"]
+    # model minus measured: -5000 Pa, give or take the clean model's own error there (its
+    # residual RMS is the noise, 300 Pa; the mean over 500 samples is far closer): 300 Pa
+    assert e["offset"] == pytest.approx(-5e3, abs=300)
+    assert e["start_offset"] == pytest.approx(-5e3, abs=300)
+    # p_b's sensor is right: its residual stays within the noise
+    e_b = next(e for e in c.phase_explanations["valve closes"]["signals"] if e["signal"] == "p_b")
+    assert e_b["cause"] == "noise", e_b["message"]
