@@ -242,6 +242,7 @@ def phase_explanations(replays):
                     e["message"] = describe(s, e)
                     acc.setdefault(str(lab), []).append(e)
     many = len(replays) > 1
+    record = _overall(noise_floor(replays))
     out = {}
     for lab, items in acc.items():
         judged = [e for e in items if e["ratio"] is not None]
@@ -256,6 +257,9 @@ def phase_explanations(replays):
             msg = (f"{lab}: within the noise (at most {worst:.2g}x the noise in any signal); "
                    f"this phase's own noise floor is {100 * floor['overall']:.2g} % (Eq. 25 "
                    "over its samples)")
+            if floor["overall"] > 1.5 * record:
+                msg += (f", above the whole record's {100 * record:.2g} % since Eq. 25 divides "
+                        "by this phase's smaller signals")
         else:
             msg = f"{lab}: " + "; ".join((f"{e['experiment']}, " if many else "") + e["message"]
                                          for e in above[:EXPLAIN_AT_MOST])

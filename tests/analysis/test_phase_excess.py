@@ -111,7 +111,7 @@ def test_the_initial_phase_is_judged_against_its_own_floor(samples):
     # the phase's own floor accounts for its error: within 25 % (the noise estimate's spread
     # over a few hundred samples, and a model that is the data's own)
     assert init["noise_floor"]["overall"] == pytest.approx(c.phases["initial"]["overall"], rel=0.25)
-    assert "own noise floor" in init["message"]
+    assert "own noise floor" in init["message"] and "whole record's" in init["message"]
     d = c.to_dict()["phase_explanations"]
     assert d["initial"]["signals"][0]["cause"] == "noise"
 
