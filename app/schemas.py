@@ -13,6 +13,7 @@ from typing import Any, Literal, Optional, Union
 from pydantic import BaseModel, ConfigDict, Field
 from pydantic.fields import FieldInfo
 
+from pneucore.analysis.phase_excess import START_SAMPLES
 from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
 from pneucore.spec.docstrings import api_description
 from pneucore.spec.model import (B_CHAMBER_MODES, VALVE_KINDS, Friction, FrictionSet, Gas, Heat, Jack, Model,
@@ -500,6 +501,33 @@ class ContextHint(BaseModel):
     message: str = Field(..., description="What the record contradicts, and what to declare instead")
 
 
+class SignalExcess(BaseModel):
+    model_config = ConfigDict(extra="allow")
+    experiment: str = Field(..., description="Experiment label")
+    signal: str = Field(..., description="Signal (p_a, p_b, x, ...) [-]")
+    n: int = Field(..., description="Samples of the phase in this experiment [-]")
+    sigma: Optional[float] = Field(None, description="White measurement noise of the signal (SI unit of the signal: Pa, m, m/s, K)")
+    rms: Optional[float] = Field(None, description="RMS of the residual, model minus measured, over the phase (SI unit of the signal)")
+    ratio: Optional[float] = Field(None, description="rms / sigma: 1 is noise alone [-]")
+    offset: Optional[float] = Field(None, description="Mean residual over the phase (SI unit of the signal)")
+    start_offset: Optional[float] = Field(None, description=f"Mean residual over the phase's first {START_SAMPLES} samples: the initial state (SI unit of the signal)")
+    start_sigmas: Optional[float] = Field(None, description="|start_offset| in its own standard errors, sigma / sqrt(samples) [-]")
+    drift: Optional[float] = Field(None, description="Slope of an offset-and-straight-line fit of the residual (SI unit of the signal per second)")
+    lag: Optional[float] = Field(None, description="Delay of the model from an offset-and-shift fit, positive when the model is late [s]")
+    explained: dict[str, float] = Field(default_factory=dict, description="Share of the excess energy (residual less noise) that the offset, drift and lag fits each explain [-]")
+    cause: str = Field(..., description="noise, offset, drift, lag, shape (none of the three alone) or too_few [-]")
+    message: str = Field(..., description="The cause in words, numbers with units")
+
+
+class PhaseExplanation(BaseModel):
+    model_config = ConfigDict(extra="allow")
+    worst_ratio: Optional[float] = Field(None, description="Largest residual RMS over noise sigma among the experiments and signals [-]")
+    within_noise: bool = Field(..., description="Every signal's residual within the noise in this phase [-]")
+    noise_floor: dict[str, Optional[float]] = Field(default_factory=dict, description="Eq. 25 error that the noise alone gives over this phase's samples, per signal and overall: " + FRACTION)
+    message: str = Field(..., description="The phase's explanation in words")
+    signals: list[SignalExcess] = Field(default_factory=list, description="Per experiment and signal")
+
+
 class CompareResponse(ErrorSet):
     model_config = ConfigDict(extra="allow")
     combined_phases: dict[str, Any] = Field(default_factory=dict, description="Per command x piston phase and signal: " + FRACTION)
@@ -508,6 +536,7 @@ class CompareResponse(ErrorSet):
     experiments: list[ExperimentComparison] = Field(..., description="Per experiment")
     heat_models: Optional[dict[str, Any]] = Field(None, description="The same comparison under each heat model asked for")
     hints: list[ContextHint] = Field(default_factory=list, description="Where a record contradicts the context declared with it (a free test that never moves, a locked one that does)")
+    phase_explanations: dict[str, PhaseExplanation] = Field(default_factory=dict, description="Per command and piston phase: why its error stands above the noise (an offset, a drift, a lag) or that it is within the noise, from the residual")
 
 
 class CalibrateResponse(BaseModel):

@@ -54,6 +54,7 @@ function renderCompare() {
       `<td class="num"><b>${pct(row.overall)}</b></td></tr>`;
   }
   $('#phase-table').innerHTML = p + '</tbody></table>';
+  renderPhaseExplanations(c.phase_explanations || {}, phaseRows.map(([name]) => name));
   $('#compare-summary').innerHTML = `Overall error <b id="compare-overall">${pct(c.overall)} %</b> over ${c.experiments.length} experiment(s); ` +
     `model <i>${esc(S.model.name || 'custom')}</i>${Object.keys(S.model.effects || {}).length ? ' + ' + esc(Object.keys(S.model.effects).join(' + ')) : ''}.` +
     (c.hints || []).map((h) => `<p class="context-hint warn" data-kind="${esc(h.kind)}">Check the context: ${esc(h.message)}</p>`).join('');
@@ -66,6 +67,19 @@ function renderCompare() {
   plotResiduals(c);
   if (typeof plotCompareBench === 'function') plotCompareBench(c, exps);   // F and q (static/identify.js)
   markStaleComparison();
+}
+/** Why each phase's error stands above the noise (offset, drift, lag) or that it is within it,
+ * one line per phase in the table's order; the service's words, set as plain text. */
+function renderPhaseExplanations(ex, order) {
+  const box = $('#phase-explanations');
+  if (!box) return;
+  box.replaceChildren(...order.filter((name) => ex[name]).map((name) => {
+    const li = document.createElement('li');
+    li.dataset.phase = name;
+    li.className = ex[name].within_noise ? 'muted' : 'warn';
+    li.textContent = ex[name].message;
+    return li;
+  }));
 }
 /** A stacked layout with one row per experiment, each with a left and an overlaying right axis. */
 function stackedLayout(n, left, right, titles, extra = {}) {

@@ -17,6 +17,7 @@ import numpy as np
 from pneucore.data.experiment import as_experiments
 from pneucore.analysis.metrics import (command_phases, eq25_error, noise_sigma, ordered_labels,
                                        phase_errors, piston_phases, worst_windows)
+from pneucore.analysis.phase_excess import describe, explain_residual
 from pneucore.spec.model import Model
 
 
@@ -188,6 +189,85 @@ def noise_floor(replays):
     return {s: float(math.sqrt(a[0] / a[1])) if a[1] > 0 else float("nan") for s, a in acc.items()}
 
 
+#: The most signals a phase's message names (the worst first) [-]
+EXPLAIN_AT_MOST = 4
+
+
+def phase_explanations(replays):
+    """Per phase (command and piston), why its error stands above the noise floor.
+
+    Each experiment's residual of each signal within the phase is split into an offset, a drift
+    and a lag (:func:`pneucore.analysis.phase_excess.explain_residual`), against the noise of
+    that experiment's measured signal.
+
+    Parameters
+    ----------
+    replays : list of Replay
+        The experiments replayed on the model [-]
+
+    Returns
+    -------
+    explanations : dict
+        phase label -> ``{"worst_ratio"``: the largest residual RMS over noise sigma [-],
+        ``"within_noise"``: bool, ``"noise_floor"``: the Eq. 25 error that the noise alone gives
+        over this phase's samples, per signal and ``overall`` (RMS of the signals'), as
+        :func:`noise_floor` for the whole record [-], ``"message"``: words, ``"signals"``: one
+        dict per experiment and signal (``experiment``, ``signal`` and
+        :func:`explain_residual`'s fields)``}``
+
+        A phase whose signals are small (the ``initial`` phase: chambers near ambient pressure,
+        the piston near 0) has an Eq. 25 noise floor above the whole record's, since Eq. 25
+        divides by the signal's energy: its error is judged against its own floor.
+    """
+    acc = {}
+    floors = {}
+    for rp in replays:
+        t = np.asarray(rp.t, float)
+        for s in rp.measured:
+            if s == "u":
+                continue
+            m = np.asarray(rp.measured[s], float)
+            g = np.asarray(rp.simulated[s], float)
+            sigma = noise_sigma(m)
+            dg = np.gradient(g, t) if t.size > 1 else np.zeros_like(g)
+            for labels in (rp.cmd_labels, rp.piston_labels):
+                for lab in ordered_labels(labels):
+                    sel = labels == lab
+                    ok = sel & np.isfinite(m) & np.isfinite(g)
+                    f = floors.setdefault(str(lab), {}).setdefault(s, [0.0, 0.0])
+                    f[0] += ok.sum() * sigma * sigma
+                    f[1] += float(np.sum(m[ok] ** 2))
+                    e = explain_residual(t[sel], g[sel] - m[sel], sigma, derivative=dg[sel])
+                    e = {"experiment": rp.experiment.name, "signal": s, **e}
+                    e["message"] = describe(s, e)
+                    acc.setdefault(str(lab), []).append(e)
+    many = len(replays) > 1
+    record = _overall(noise_floor(replays))
+    out = {}
+    for lab, items in acc.items():
+        judged = [e for e in items if e["ratio"] is not None]
+        judged.sort(key=lambda e: -e["ratio"])
+        worst = judged[0]["ratio"] if judged else None
+        above = [e for e in judged if e["cause"] != "noise"]
+        floor = {s: math.sqrt(a / b) for s, a, b in ((s, *v) for s, v in floors[lab].items()) if b > 0}
+        floor["overall"] = _overall(floor)
+        if not judged:
+            msg = f"{lab}: too few samples to judge"
+        elif not above:
+            msg = (f"{lab}: within the noise (at most {worst:.2g}x the noise in any signal); "
+                   f"this phase's own noise floor is {100 * floor['overall']:.2g} % (Eq. 25 "
+                   "over its samples)")
+            if floor["overall"] > 1.5 * record:
+                msg += (f", above the whole record's {100 * record:.2g} % since Eq. 25 divides "
+                        "by this phase's smaller signals")
+        else:
+            msg = f"{lab}: " + "; ".join((f"{e['experiment']}, " if many else "") + e["message"]
+                                         for e in above[:EXPLAIN_AT_MOST])
+        out[lab] = {"worst_ratio": worst, "within_noise": bool(judged) and not above,
+                    "noise_floor": floor, "message": msg, "signals": items}
+    return out
+
+
 @dataclass
 class Comparison:
     """Result of :func:`compare` (all numbers plain; ``to_dict()`` is JSON-ready)."""
@@ -202,12 +282,22 @@ class Comparison:
     heat_models: dict = field(default_factory=dict)
     replays: list = field(default_factory=list, repr=False)
     hints: list = field(default_factory=list)
+    _explanations: dict = field(default=None, repr=False)
+
+    @property
+    def phase_explanations(self):
+        """:func:`phase_explanations` of the replays, made on first use (a fit's trial models
+        need only the errors) [-]"""
+        if self._explanations is None:
+            self._explanations = phase_explanations(self.replays)
+        return self._explanations
 
     def to_dict(self, residuals=True):
         d = {"errors": self.errors, "overall": self.overall, "phases": self.phases,
              "piston_phases": self.piston_phases, "combined_phases": self.combined_phases,
              "failure_windows": self.windows, "noise_floor": self.noise_floor,
-             "experiments": [dict(e) for e in self.experiments], "hints": self.hints}
+             "experiments": [dict(e) for e in self.experiments], "hints": self.hints,
+             "phase_explanations": self.phase_explanations}
         if not residuals:
             for e in d["experiments"]:
                 e.pop("residuals", None)

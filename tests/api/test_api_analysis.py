@@ -32,6 +32,13 @@ def test_compare_inline_with_null_samples(client):
     assert set(e["residuals"]) == {"p_a", "p_b", "x"}
     assert len(e["t"]) == len(e["residuals"]["p_a"]) == 1001
     assert e["residuals"]["p_a"][10] is None  # a missing sample has no residual
+    # each phase explained from its residual (issue 24): the clean record is within the noise
+    # in every phase, the "initial" one judged against its own (smaller-signal) noise floor
+    ex = d["phase_explanations"]
+    assert set(ex) == set(d["phases"]) | set(d["piston_phases"])
+    assert all(v["within_noise"] for v in ex.values()), {k: v["message"] for k, v in ex.items()}
+    assert ex["initial"]["noise_floor"]["overall"] > d["overall"]   # smaller signals, higher floor
+    assert {s["signal"] for s in ex["initial"]["signals"]} == {"p_a", "p_b", "x"}
 
 
 def test_compare_by_dataset_id_equals_inline(client):
@@ -48,6 +55,12 @@ def test_compare_by_dataset_id_equals_inline(client):
     # the leak is missing from the model: an order of magnitude above the clean sample
     clean = client.post("/api/compare", json={"model": model(), "experiments": CLEAN}).json()
     assert by_id["overall"] > 5 * clean["overall"]
+    # the leak empties the held chambers after the valve closes: that phase is far above the
+    # noise (32x measured; 10x is a margin no noise reaches), and says so signal by signal
+    closes = by_id["phase_explanations"]["valve closes"]
+    assert not closes["within_noise"] and closes["worst_ratio"] > 10
+    assert "x the noise" in closes["message"] and "within the noise" not in closes["message"]
+    assert {e["cause"] for e in closes["signals"]} <= {"noise", "offset", "drift", "lag", "shape"}
 
 
 def test_compare_without_residuals_and_with_heat_models(client):

@@ -236,6 +236,12 @@ def test_compare_with_the_piston_leak_sample(page):
         assert float(page.inner_text(f"#error-table-data td[data-signal='{sig}']")) >= 0
     phases = page.inner_text("#phase-table-data")
     assert "valve opens" in phases and "valve closes" in phases and "piston locked" in phases
+    # each phase explained under the table (issue 24): the initial phase within the noise, the
+    # held chambers emptying after the valve closes far above it
+    initial = page.inner_text("#phase-explanations li[data-phase='initial']")
+    assert "within the noise" in initial and "own noise floor" in initial, initial
+    closes = page.inner_text("#phase-explanations li[data-phase='valve closes']")
+    assert "x the noise" in closes and "locked-hold" in closes, closes
     # measured and simulated overlaid, residuals with the worst windows shaded and listed
     names = {t["name"] for t in plot_data(page, "compare-plot")}
     assert {"p_a measured", "p_a simulated", "x measured", "x simulated"} <= names
