@@ -223,7 +223,7 @@ class MeasurementIn(BaseModel):
 class ExperimentIn(_Strict):
     name: Optional[Name] = Field(None, description="Label")
     scenario: Optional[dict[str, Any]] = Field(None, description="Scenario context (locked, x0, ...); command ([[t [s], u [-]], ...], held) and duration [s] default to the measurement's; a record without a u column needs the command here")
-    measurement: Optional[MeasurementIn] = Field(None, description="Inline measurement: t [s], u [-], p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K], F rod force on the load, positive outward [N], q_a/q_b mass flow into A/B and q_s from the supply [kg/s], p_s supply pressure [Pa abs]; null marks a missing sample")
+    measurement: Optional[MeasurementIn] = Field(None, description="Inline measurement: t [s], u [-], p_a/p_b [Pa abs], x [m], v [m/s], T_a/T_b [K], F rod force on the load, positive outward [N], q_a/q_b mass flow into A/B and q_s from the supply [kg/s], p_s supply pressure [Pa abs]; null marks a missing sample; meta.accuracy {signal or 'signal[unit]': sensor accuracy, the standard deviation of its error in that unit (a difference: bar(g) and degC as bar and K)}: the fit weighs that signal by it instead of the noise estimated from the record")
     dataset_id: Optional[str] = Field(None, description="Stored dataset to use instead of an inline measurement")
     load_force: Optional[Number] = Field(None, description="Load during this experiment [N]")
     supply_pressure: Optional[Number] = Field(None, description="Supply pressure during this experiment [Pa abs]")

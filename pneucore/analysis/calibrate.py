@@ -38,6 +38,7 @@ from pneucore.analysis.compare import plain_json, replay, summarise
 from pneucore.data.experiment import as_experiments
 from pneucore.data.measurement import sensor_zero
 from pneucore.analysis.metrics import noise_sigma
+from pneucore.data.measurement import ACCURACY
 from pneucore.spec.model import Model
 from pneucore.spec.paths import parse_parameters, set_values
 from pneucore.progress import Cancelled
@@ -157,6 +158,38 @@ def sensor_specs(experiments, signals, fields=("offset", "gain"), parameters=Non
     return out
 
 
+def signal_sigmas(experiment):
+    """Standard deviation of each fitted signal's error, by which its residual is divided.
+
+    The sensor accuracy stated in the measurement's metadata (``meta["accuracy"]``,
+    :func:`pneucore.data.measurement.sensor_accuracy`, SI) where given; otherwise the
+    record's own noise (:func:`pneucore.analysis.metrics.noise_sigma`), at least 1e-6 of the
+    signal's largest magnitude and :data:`SIGMA_FLOOR`, so that no signal can take all the
+    weight by looking noise-free (issue 22, item 6).
+
+    Parameters
+    ----------
+    experiment : Experiment
+        The experiment whose signals are fitted [-]
+
+    Returns
+    -------
+    sigma : dict
+        ``{signal: sigma [SI unit of the signal]}`` [-]
+    """
+    sig = experiment.measurement.signals
+    stated = experiment.measurement.meta.get(ACCURACY) or {}
+    out = {}
+    for s in experiment.signals:
+        given = stated.get(s)
+        if given is not None and math.isfinite(float(given)) and float(given) > 0:
+            out[s] = float(given)
+        else:
+            out[s] = max(noise_sigma(sig[s]), 1e-6 * np.nanmax(np.abs(sig[s])),
+                         SIGMA_FLOOR.get(s, 1e-12))
+    return out
+
+
 class Objective:
     """Weighted residuals of a set of experiments as a function of parameter values.
 
@@ -176,12 +209,7 @@ class Objective:
         self.experiments = experiments
         self.specs = [s for s in specs if s.vary]
         self.fixed = {s.path: s.value for s in specs if not s.vary}
-        self.sigma = []
-        for e in experiments:
-            self.sigma.append({s: max(noise_sigma(e.measurement.signals[s]),
-                                      1e-6 * np.nanmax(np.abs(e.measurement.signals[s])),
-                                      SIGMA_FLOOR.get(s, 1e-12))
-                               for s in e.signals})
+        self.sigma = [signal_sigmas(e) for e in experiments]
         self.n_eval = 0
         self.best = (np.inf, None)
         self._finite_cache = {}

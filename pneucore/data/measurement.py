@@ -857,6 +857,71 @@ def resolve_column(label: str, unit_row: str | None, mapping: Mapping[str, Any],
         raise exc from None
 
 
+#: Key of a measurement's metadata that states each signal's sensor accuracy (issue 22, item 6)
+ACCURACY = "accuracy"
+
+
+def sensor_accuracy(given: Any, ambient_pressure: float = DEFAULT_AMBIENT_PRESSURE
+                    ) -> dict[str, float]:
+    """The per-signal sensor accuracy of a measurement's metadata, in SI units.
+
+    A fit weighs each signal's residual by the standard deviation of its error
+    (:class:`pneucore.analysis.calibrate.Objective`); without a stated accuracy that is
+    estimated from the record's own noise. A stated one replaces the estimate: a sensor's
+    datasheet error is what the user knows, and a quantised or smooth record hides its
+    noise. Keys are signal names with an optional unit in brackets, as column names
+    (``"p_a[bar]": 0.003``); the value is a difference, so a gauge unit's ambient or a
+    Celsius zero does not apply (``0.003 bar(g)`` is 300 Pa, ``1 degC`` is 1 K).
+
+    Parameters
+    ----------
+    given : dict
+        ``{signal or "signal[unit]": accuracy}``, accuracy a positive number in that unit [-]
+    ambient_pressure : float, optional
+        Ambient pressure of gauge units [Pa]
+
+    Returns
+    -------
+    accuracy : dict
+        ``{signal: accuracy [SI unit of the signal]}`` [-]
+
+    Raises
+    ------
+    MeasurementError
+        Naming ``meta.accuracy.<key>`` and the unit, for an unknown signal or unit, or a
+        value that is not a finite positive number.
+
+    Examples
+    --------
+    >>> sensor_accuracy({"p_a[bar]": 0.003, "T_a[degC]": 1.0, "x[mm]": 0.05})
+    {'p_a': 300.0, 'T_a': 1.0, 'x': 5e-05}
+    """
+    if not isinstance(given, Mapping):
+        raise MeasurementError(f"must be a dict of signal -> accuracy, got {type(given).__name__}",
+                               column=f"meta.{ACCURACY}")
+    out: dict[str, float] = {}
+    for key, value in given.items():
+        where = f"meta.{ACCURACY}.{key}"
+        try:
+            conv = _header_conversion(key, ambient_pressure)
+        except MeasurementError as exc:
+            raise MeasurementError(exc.detail, column=where) from None
+        if conv.signal in ("t", "u"):
+            raise MeasurementError("an accuracy is stated for a measured signal, not for time "
+                                   "or the command", column=where)
+        unit = conv.unit or conv.si_unit
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not math.isfinite(value) or value <= 0:
+            raise MeasurementError(f"must be a finite positive number [{unit}], got {value!r}",
+                                   column=where)
+        f = conv.converter()
+        si = float(f(np.array([float(value)]))[0] - f(np.array([0.0]))[0])
+        if conv.signal in out:
+            raise MeasurementError(f"accuracy of {conv.signal!r} given twice", column=where)
+        out[conv.signal] = abs(si)
+    return out
+
+
 def measurement_from_columns(columns: list[tuple[str, list]], ambient_pressure: float,
                              name: str, meta: dict, lines: list[int] | None,
                              decimal_comma_hint: bool = False, units: list | None = None,
@@ -916,6 +981,12 @@ def measurement_from_columns(columns: list[tuple[str, list]], ambient_pressure: 
     signals = {sig: arrays[sig] for sig in SIGNALS if sig in arrays}
     meta = dict(meta)
     meta.setdefault("columns", dict(source_columns))
+    if ACCURACY in meta:
+        meta[ACCURACY] = sensor_accuracy(meta[ACCURACY], ambient_pressure)
+        absent = sorted(set(meta[ACCURACY]) - set(signals))
+        if absent:
+            raise MeasurementError(f"accuracy stated for {', '.join(absent)}, which the record "
+                                   f"does not hold", column=f"meta.{ACCURACY}.{absent[0]}")
     m = Measurement(t=t, signals=signals, name=name, meta=meta)
     m._columns = source_columns
     m._lines = list(lines) if lines is not None else None

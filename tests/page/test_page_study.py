@@ -27,7 +27,7 @@ import pytest
 from service import running_service
 
 from test_page import (ARTIFACTS, ROOT, _open, browser, click_and_wait_for_plot,  # noqa: F401
-                       context, no_script_errors, page, page_errors, plot_data)
+                       context, no_script_errors, page_errors, plot_data)
 
 if str(ROOT) not in sys.path:  # pneucore seeds the database from this process
     sys.path.insert(0, str(ROOT))
