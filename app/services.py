@@ -467,25 +467,33 @@ def session_report(session_id, store, limits, progress=None):
     s = store.session(session_id)
     if s is None:
         return None
-    models = [parse_model(v["model"], f"session.versions[{i}].model") for i, v in enumerate(s["versions"])]
+    # a damaged version (the store gives its model as None, the others stay usable) is listed
+    # without its changes; the report compares the last readable model
+    models = [None if v.get("model") is None else parse_model(v["model"], f"session.versions[{i}].model")
+              for i, v in enumerate(s["versions"])]
+    readable = [i for i, m in enumerate(models) if m is not None]
+    if not readable:
+        raise FieldError("session_id", f"session {session_id!r} has no readable version to report")
     versions = []
     for i, v in enumerate(s["versions"]):
         row = {k: v.get(k) for k in ("version", "label", "errors", "overall", "note")}
-        row["changes"] = model_changes(models[i - 1], models[i]) if i else []
+        row["changes"] = (model_changes(models[i - 1], models[i])
+                          if i and models[i] is not None and models[i - 1] is not None else [])
         versions.append(row)
+    last = readable[-1]
     try:
         exps_in = [ExperimentIn(**e) for e in s["experiments"]]
     except (TypeError, ValueError):
         raise FieldError("session_id", f"session {session_id!r} has unreadable experiments") from None
     if not exps_in:
         raise FieldError("session_id", f"session {session_id!r} has no experiments to compare with")
-    exps = parse_experiments(exps_in, models[-1], store, limits)
+    exps = parse_experiments(exps_in, models[last], store, limits)
     n = len(versions)
-    answer = {"versions": versions, "diagnoses": [], "model": s["versions"][-1]["model"],
+    answer = {"versions": versions, "diagnoses": [], "model": s["versions"][last]["model"],
               "message": f"Session {s['id']} “{s['name']}”: {n} version{'s' if n != 1 else ''}, each with "
                          "its errors on the experiments it was recorded on and the values it changed; "
                          "the last version is compared with the session's experiments below."}
-    return html_report(answer, compare(models[-1], exps, progress=progress), _provenance(store, exps),
+    return html_report(answer, compare(models[last], exps, progress=progress), _provenance(store, exps),
                        title=f"Refinement session {s['name']}")
 
 

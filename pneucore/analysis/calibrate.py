@@ -36,9 +36,8 @@ from scipy.optimize import least_squares
 from pneucore.analysis.autocorrelation import residual_times, times_report
 from pneucore.analysis.compare import plain_json, replay, summarise
 from pneucore.data.experiment import as_experiments
-from pneucore.data.measurement import sensor_zero
+from pneucore.data.measurement import ACCURACY, sensor_zero
 from pneucore.analysis.metrics import noise_sigma
-from pneucore.data.measurement import ACCURACY
 from pneucore.spec.model import Model
 from pneucore.spec.paths import parse_parameters, set_values
 from pneucore.progress import Cancelled

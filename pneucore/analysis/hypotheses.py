@@ -120,21 +120,17 @@ def _load_span(m):
     return 0.5 * m.jack.area_a * (m.supply.pressure - m.ambient.pressure)
 
 
-def _known_load(m):
-    """A jack's load is one its user put there: on a horizontal jack no weight acts along the
-    rod, and on an inclined one the weight is the model's own (moving mass and mounting
-    angle, :attr:`pneucore.spec.model.Jack.gravity_force`), not part of the load."""
+def _user_sets(m):
+    """A value its user sets up and knows: a jack's load (on a horizontal jack no weight acts
+    along the rod, and on an inclined one the weight is the model's own, moving mass and
+    mounting angle, :attr:`pneucore.spec.model.Jack.gravity_force`, not part of the load) and
+    its mounting angle (a machine frame's geometry)."""
     return True
 
 
 def _inclined(m):
     """An inclined or vertical jack: the weight of the moving mass acts along the rod."""
     return m.jack.mounting_angle != 0.0
-
-
-def _known_angle(m):
-    """The user sets the mounting angle up (a machine frame's geometry)."""
-    return True
 
 
 def _convective(m):
@@ -167,7 +163,7 @@ BASE_HYPOTHESES = {h.path: h for h in [
     # a combination of the two Coulomb levels); its user knows it: it moves only when the
     # data demand it
     BaseHypothesis("jack.load_force", "load", 0.3, -5.0, 5.0, _load_span, zero_typical=0.005,
-                   user_knows=_known_load,
+                   user_knows=_user_sets,
                    separated_by="no test of the moving jack separates them (while it moves, a "
                    "constant load shifts the two Coulomb levels, one up, one down); measure the "
                    "load at rest, with the chambers vented and a force gauge on the rod"),
@@ -178,7 +174,7 @@ BASE_HYPOTHESES = {h.path: h for h in [
     # m g sin(angle) is a constant force along the rod, as a load is: the records never tell
     # the two apart, and while the piston moves they shift the two Coulomb levels
     BaseHypothesis("jack.mounting_angle", "mounting angle", 5.0, -ANGLE_MAX, ANGLE_MAX,
-                   applies=_inclined, user_knows=_known_angle, additive=True,
+                   applies=_inclined, user_knows=_user_sets, additive=True,
                    separated_by="no test of this jack separates them (a wrong angle changes "
                    "the weight along the rod, m g sin(angle), a constant force as a load is, and "
                    "while the piston moves both shift the two Coulomb levels); measure the angle "
@@ -313,7 +309,17 @@ def against_direction(model, path, after):
     'load against its declared direction: 14.4 N towards x = 0 declared (the weight along the rod), -36.6 N fitted'
     >>> against_direction(m, "jack.load_force", -10.0)
     ''
+
+    An angle has no direction of its own: declared at 2 deg, fitted at -1 deg, it moved:
+
+    >>> m.jack.mounting_angle = 2.0
+    >>> against_direction(m, "jack.mounting_angle", -1.0)
+    ''
     """
+    h = BASE_HYPOTHESES.get(path)
+    if h is not None and h.additive:
+        # an angle has no direction of its own: 2 deg fitted at -1 deg is a move, not a reversal
+        return ""
     v = get_value(model, path)
     label = label_of(path)
     if v != 0.0 and after / v < 0.0:

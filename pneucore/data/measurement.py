@@ -46,7 +46,7 @@ from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
 
-from pneucore.physics.gas import P_ATM, RHO_REF, T_ZERO_CELSIUS
+from pneucore.physics.gas import P_ATM, PSI, RHO_REF, T_ZERO_CELSIUS
 
 __all__ = [
     "MeasurementError",
@@ -128,8 +128,6 @@ be tens of MB)."""
 DEFAULT_AMBIENT_PRESSURE: float = P_ATM
 """Default ambient pressure used to convert gauge pressures: the model's default ambient [Pa]."""
 
-PSI: float = 6894.757293168361
-"""One pound-force per square inch [Pa] (0.45359237 kg * 9.80665 m/s^2 / 0.0254^2 m^2)."""
 
 _PRESSURES = ("p_a", "p_b", "p_s")
 _TEMPERATURES = ("T_a", "T_b")

@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
-from pneucore.physics.gas import GAMMA_AIR, R_AIR, RHO_REF, T_REF
+from pneucore.physics.gas import GAMMA_AIR, PSI, R_AIR, RHO_REF, T_REF
 
 #: Default pressure ratio above which the flow is linearised (laminar) [-]
 R_LAMINAR = 0.999
@@ -410,10 +410,9 @@ P_ANR = 1e5
 #: upstream, 1 bar pressure drop (5 bar gauge downstream) [Pa]
 QN_P1_GAUGE = 6e5
 QN_DP = 1e5
-#: 1 ft^3 [m^3] and 1 psi [Pa], by the units' definitions (international foot 0.3048 m,
-#: pound-force 4.4482216152605 N on the square inch)
+#: 1 ft^3 [m^3] by the unit's definition (international foot 0.3048 m); 1 psi [Pa] comes from
+#: :data:`pneucore.physics.gas.PSI` (one source)
 FT3 = 0.3048 ** 3
-PSI = 6894.757293168
 #: Kv [m^3/h of water at 1 bar] per Cv [US gal/min of water at 1 psi]: (3.785411784 L x 60)
 #: x sqrt(1e5 Pa / 1 psi), from the units' definitions (IEC 60534-1: Kv = 0.865 Cv) [-]
 KV_PER_CV = 3.785411784e-3 * 60.0 * math.sqrt(1e5 / PSI)

@@ -15,6 +15,8 @@ RHO_REF = 1.185
 T_REF = 293.15
 #: 0 °C in kelvin (the Celsius scale's zero, SI brochure 2.3.1) [K]
 T_ZERO_CELSIUS = 273.15
+#: One pound-force per square inch [Pa] (0.45359237 kg x 9.80665 m/s^2 / 0.0254^2 m^2)
+PSI = 6894.757293168361
 #: Standard atmospheric pressure used as default ambient [Pa]
 P_ATM = 1.013e5
 #: Lowest absolute pressure of a source (supply or ambient) [Pa]: below it the mean free path

@@ -51,3 +51,22 @@ def test_an_unknown_or_malformed_session_is_refused(client):  # noqa: F811
     assert r.status_code == 404 and "0123456789ab" in r.text
     r = client.post("/api/reports/sessions/bad%20id")
     assert r.status_code == 422 and "session_id" in r.text
+
+
+def test_a_damaged_version_leaves_the_rest_of_the_report(client, db_path):  # noqa: F811
+    # the store gives a damaged version's model as null and keeps the others usable: the
+    # report lists it without its changes and compares the last readable model, never a 422
+    # blaming the request or a 500
+    import sqlite3
+    m0 = model()
+    s = client.post("/api/sessions", json={"name": "rig", "model": m0,
+                                           "experiments": [{"dataset_id": DATASET}]})
+    sid = s.json()["id"]
+    m1 = dict(m0, effects={"piston_leakage": {"conductance": 1e-10}})
+    assert client.post(f"/api/sessions/{sid}/versions", json={"model": m1}).status_code == 201
+    with sqlite3.connect(db_path) as db:
+        db.execute("UPDATE versions SET model='{' WHERE session=? AND version=1", (sid,))
+    r = client.post(f"/api/reports/sessions/{sid}")
+    assert r.status_code == 200, r.text
+    # the model shown and compared is version 0's, the last readable one: no leak in it
+    assert "piston_leakage" not in r.text, r.text[:2000]

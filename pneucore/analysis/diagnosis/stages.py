@@ -296,7 +296,7 @@ def demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report,
     freed one cannot be told from)."""
     fitted = {s.path for s in null.auto_specs}
     sens = {h["path"]: h.get("sensitivity") or 0.0 for h in hyp.identifiability}
-    waiting = sorted((p for p in known_chosen(hyp) if p not in fitted), key=lambda p: -sens[p])
+    waiting = sorted((p for p in known_chosen(hyp) if p not in fitted), key=lambda p: (-sens[p], p))
     freed_paths = []
     out = null
     for path in waiting:
@@ -790,7 +790,9 @@ def hold_impossible(model, exps, hyp, unc, null, odd, comp_start, rps_start, max
     hold = [o for o in odd if o.get("impossible")]
     if not hold:
         return null, []
-    for _ in range(len(hyp.auto_specs)):
+    null_h = null
+    # each pass holds at least one more parameter, so at most one pass per fitted one
+    for _ in range(max(len(hyp.auto_specs), 1)):
         report(0.05, "refitting the base model with " + ", ".join(o["label"] for o in hold)
                + " held at the declared value (the value fitted is impossible)")
         null_h = null_fit(model, exps, hyp, unc, comp_start, rps_start, max_nfev, report,
