@@ -200,6 +200,7 @@ def test_the_second_round_stops_at_the_noise_floor(page):
     rem = res.get("remaining") or {}
     # with the leak in, nothing else is hidden in the rig: the loop has nothing more to add
     assert rem.get("at_floor") is True, (res.get("verdict"), rem)
+    assert res.get("verdict") is None and page.locator("#btn-apply-findings").count() == 0
     assert "at the noise floor" in page.inner_text("#diag-findings")
     y = page.evaluate("document.getElementById('history-plot').data[0].y")
     assert len(y) == 2 and y[1] < y[0], y
