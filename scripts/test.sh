@@ -12,4 +12,4 @@ if [ ! -x /usr/bin/chromium ]; then
     sudo apt-get update -qq && sudo DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null
   fi
 fi
-python -m pytest -q "$@"
+python -m pytest -q --durations=30 "$@"
