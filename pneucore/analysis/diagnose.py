@@ -343,30 +343,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
             f.remaining["held_impossible"] = impossible
             f.message += " " + impossible["description"] + "."
         if held is not None:
-            f.remaining["held_at_catalogue"] = held
-            if not held["taken"]:
-                # the words describe the fit returned (a sensor fit may have followed the null)
-                now = S.still_implausible(odd, f.refitted)
-                if now != odd:
-                    held["null_fit"] = {"parameters": odd, "description": held["description"]}
-                    held["description"] = (S.held_words(now, hold, None, held["error_held"],
-                                                        null.error) if now else "")
-                    if not now:
-                        held["superseded"] = (
-                            "the fit returned leaves " + ", ".join(o["label"] for o in odd)
-                            + " where a catalogue error reaches: "
-                            + "; ".join(f"{r['label']} {r['after']:.3g} {r['unit']}".rstrip()
-                                        for r in f.refitted if r["path"] in {o["path"] for o in odd}))
-            if held["description"]:
-                f.message += " " + held["description"] + "."
-            if held["taken"]:
-                f.model, back = S.withheld(model, f.model, f.recalibrate,
-                                           {s.path for s in null.auto_specs})
-                held["withheld"] = [r["path"] for r in back]
-                if back:
-                    f.message += (" Not taken into the next model, the same symptom beside it: "
-                                  + "; ".join(f"{r['label']} stays at {r['before']:.3g} "
-                                              f"{r['unit']}".rstrip() for r in back) + ".")
+            S.attach_held(f, held, odd, hold, model, null)
         report(1.0, "done")
         return Diagnosis(verdict, f.message, ranking,
                          score + [{"effect": s["effect"], "skipped": s["reason"]} for s in skipped],

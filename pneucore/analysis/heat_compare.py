@@ -11,10 +11,10 @@ and tabulates pressure errors (paper Eq. 25) and gas-temperature errors (rms
 Transfer (:func:`transfer`): a heat model's parameters fitted on one record
 (a vessel's filling) predict another (its discharge, or the held-out end of
 the same record) without refitting. The fit weighs every sample by the
-stated accuracy of its signal (:data:`SIGNAL_ACCURACY`, or the caller's),
-fixed in advance, so that neither pressure nor temperature can take all the
-weight (issue 22: a weighting by each series' own residual let the series the
-model could fit take it).
+accuracy its measurement states for its signal (``meta.accuracy``), fixed in
+advance, so that neither pressure nor temperature can take all the weight
+(issue 22: a weighting by each series' own residual let the series the model
+could fit take it).
 """
 from __future__ import annotations
 
@@ -22,14 +22,14 @@ import math
 
 import numpy as np
 
-from pneucore.analysis.calibrate import calibrate
+from pneucore.analysis.calibrate import Objective, calibrate
 from pneucore.analysis.compare import replay, with_heat_model
 from pneucore.data.experiment import as_experiments
 from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
 from pneucore.analysis.metrics import eq25_error
 from pneucore.spec.model import Model
 from pneucore.simulate import simulate
-from pneucore.spec.paths import set_values
+from pneucore.spec.paths import ParameterSpec, set_values, unit_of
 from pneucore.spec.validation import FieldError
 
 def check_names(names, path="heat_models"):
@@ -122,7 +122,7 @@ def compare_heat_models(model, experiments, names=None, sensor=False, max_nfev=6
             v = getattr(m.heat, p)
             if p == "sensor_time_constant" and v <= 0.0:
                 v = 1.0   # start from a response time of a bare thermocouple's order [s]
-            params[f"heat.{p}"] = {"min": spec.min, "max": min(spec.max, 1e3), "value": v}
+            params[f"heat.{p}"] = {"min": spec.min, "max": min(spec.max, FIT_CAP), "value": v}
         if params:
             cal = calibrate(m, exps, params, max_nfev=max_nfev)
             m_fit, values, message = cal.model, cal.values, cal.message
@@ -157,47 +157,43 @@ def table(rows):
     return "\n".join(lines)
 
 
-#: Default accuracy of each measured signal (one standard deviation, SI): the published vessel
-#: record's digitisation scatter (shared/data/vessel-filling/README.md: "a few tenths of a percent
-#: on pressure and about 1 K on temperature": 0.3 % of one bar, 1 K)
-SIGNAL_ACCURACY = {"p_a": 300.0, "T_a": 1.0}
+#: Largest heat parameter a fit here may reach (the registry's bounds otherwise): h at
+#: 1e3 W/(m^2 K), forced convection of a fast jet at its strongest, and no sensor slower
+#: than 1e3 s
+FIT_CAP = 1e3
 #: Bounds of the parameters a transfer fit may move (fitted in logarithm: multipliers, a
 #: coefficient and a time constant are scale quantities, so the registry's lower bound of 0
 #: becomes a floor): a multiplier from 1e-3 of its correlation, h from 0.01 W/(m^2 K), a
 #: sensor's time constant from 0.01 s (a bare fine-wire couple); the upper bounds are the
-#: registry's (:data:`HEAT_PARAMETERS`), h capped at 1e3 W/(m^2 K) as in
-#: :func:`compare_heat_models`
-TRANSFER_BOUNDS = {p: (floor, min(HEAT_PARAMETERS[p].max, 1e3)) for p, floor in (
+#: registry's (:data:`HEAT_PARAMETERS`) up to :data:`FIT_CAP`
+TRANSFER_BOUNDS = {p: (floor, min(HEAT_PARAMETERS[p].max, FIT_CAP)) for p, floor in (
     ("natural_multiplier", 1e-3), ("jet_multiplier", 1e-3), ("coefficient", 1e-2),
     ("sensor_time_constant", 1e-2))}
 #: A fitted value within this distance of a bound in logarithm (1 %) ran to it [-]
 AT_BOUND_LOG = 0.01
 
 
-def _residuals(model, exps, accuracy, t_min=None, t_max=None):
-    out = []
-    for e in exps:
-        rp = replay(model, e)
-        for s, sig in accuracy.items():
-            if s not in rp.measured:
-                continue
-            m, g = np.asarray(rp.measured[s], float), np.asarray(rp.simulated[s], float)
-            ok = np.isfinite(m)
-            if t_min is not None:
-                ok &= rp.t >= t_min
-            if t_max is not None:
-                ok &= rp.t <= t_max
-            r = (g[ok] - m[ok]) / sig
-            out.append(np.where(np.isfinite(r), r, 1e3))   # a failed replay: large, finite
-    return np.concatenate(out) if out else np.zeros(0)
+def _up_to(experiment, t_max):
+    """``experiment`` with its samples after ``t_max`` [s] left out (its start kept)."""
+    from pneucore.data.experiment import Experiment
+    e = experiment
+    scen = dict(e.scenario)
+    if "duration" in scen:
+        scen["duration"] = min(float(scen["duration"]), t_max)
+    return Experiment(e.measurement.slice(None, t_max), scen, e.name, e.load_force,
+                      e.supply_pressure, None, e.time_offset)
 
 
-def fit_heat(model, experiments, parameters, accuracy=None, t_max=None, max_nfev=200):
+def fit_heat(model, experiments, parameters, t_max=None, max_nfev=200):
     """Fit heat parameters on records, every sample weighted by its signal's stated accuracy.
 
-    Least squares (``scipy.optimize.least_squares``, trust region, bounded) on
-    ``(simulated - measured) / accuracy`` of pressure and gas temperature, with the
-    parameters in logarithm (:data:`TRANSFER_BOUNDS`).
+    Least squares (``scipy.optimize.least_squares``, trust region, bounded) on the
+    calibration's weighted residuals (:class:`pneucore.analysis.calibrate.Objective`:
+    ``(simulated - measured) / sigma``, sigma the accuracy the measurement's metadata
+    states, ``meta.accuracy``, else the record's own noise), with the parameters in
+    logarithm (:data:`TRANSFER_BOUNDS`). A stated accuracy is fixed in advance, so neither
+    pressure nor temperature can take all the weight (issue 22: a weighting by each
+    series' own residual let the series the model could fit take it).
 
     Parameters
     ----------
@@ -207,8 +203,6 @@ def fit_heat(model, experiments, parameters, accuracy=None, t_max=None, max_nfev
         Experiments (objects or JSON) fitted jointly
     parameters : list of str
         Heat parameters fitted (names in :data:`TRANSFER_BOUNDS`)
-    accuracy : dict or None
-        Signal -> one standard deviation in its SI unit (default :data:`SIGNAL_ACCURACY`)
     t_max : float or None
         Fit only the samples up to this time [s] (the rest held out)
     max_nfev : int
@@ -224,18 +218,20 @@ def fit_heat(model, experiments, parameters, accuracy=None, t_max=None, max_nfev
     from scipy.optimize import least_squares
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     exps = as_experiments(experiments, model.ambient.pressure)
-    accuracy = dict(SIGNAL_ACCURACY if accuracy is None else accuracy)
+    if t_max is not None:
+        exps = [_up_to(e, t_max) for e in exps]
     lo = np.log([TRANSFER_BOUNDS[p][0] for p in parameters])
     hi = np.log([TRANSFER_BOUNDS[p][1] for p in parameters])
     x0 = np.clip(np.log([max(getattr(model.heat, p), 1e-2) for p in parameters]), lo + 1e-9,
                  hi - 1e-9)
-
-    def at(x):
-        return set_values(model, {f"heat.{p}": float(math.exp(v)) for p, v in zip(parameters, x)})
-
-    sol = least_squares(lambda x: _residuals(at(x), exps, accuracy, t_max=t_max), x0,
-                        bounds=(lo, hi), x_scale=1.0, diff_step=1e-3, max_nfev=max_nfev)
-    return at(sol.x), {p: float(math.exp(v)) for p, v in zip(parameters, sol.x)}
+    paths = [f"heat.{p}" for p in parameters]
+    obj = Objective(model, exps, [ParameterSpec(q, float(math.exp(v)), float(math.exp(a)),
+                                                float(math.exp(b)), True, unit_of(q))
+                                  for q, v, a, b in zip(paths, x0, lo, hi)])
+    sol = least_squares(lambda x: obj.residuals(np.exp(x)), x0, bounds=(lo, hi), x_scale=1.0,
+                        diff_step=1e-3, max_nfev=max_nfev)
+    values = {p: float(math.exp(v)) for p, v in zip(parameters, sol.x)}
+    return set_values(model, {f"heat.{p}": v for p, v in values.items()}), values
 
 
 def record_errors(model, experiment, t_min=None, t_max=None):
@@ -277,7 +273,7 @@ def record_errors(model, experiment, t_min=None, t_max=None):
     return out
 
 
-def transfer(model, fit_on, predict, parameters, accuracy=None, t_split=None, name=None):
+def transfer(model, fit_on, predict, parameters, t_split=None, name=None):
     """Fit heat parameters on one record, then predict another (or the held-out rest) unrefitted.
 
     Parameters
@@ -290,8 +286,6 @@ def transfer(model, fit_on, predict, parameters, accuracy=None, t_split=None, na
         The record predicted (a discharge); None with ``t_split``: the rest of ``fit_on``
     parameters : list of str
         Heat parameters fitted
-    accuracy : dict or None
-        Per-signal accuracy (:func:`fit_heat`)
     t_split : float or None
         Fit ``fit_on`` up to this time [s] only; with ``predict`` None, predict after it
     name : str or None
@@ -305,7 +299,7 @@ def transfer(model, fit_on, predict, parameters, accuracy=None, t_split=None, na
         errors (:func:`record_errors`), ``model`` (the fitted model)
     """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
-    fitted, values = fit_heat(model, [fit_on], parameters, accuracy, t_max=t_split)
+    fitted, values = fit_heat(model, [fit_on], parameters, t_max=t_split)
     fit_err = record_errors(fitted, fit_on, t_max=t_split)
     if predict is None:
         pred = record_errors(fitted, fit_on, t_min=t_split)

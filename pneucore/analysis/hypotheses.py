@@ -51,9 +51,10 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from pneucore.data.measurement import sensor_zero
+from pneucore.data.measurement import SIGNAL_UNITS, sensor_zero
 from pneucore.physics.jack import ANGLE_MAX
 from pneucore.spec.paths import VALVE_GROUPS, ParameterSpec, get_value, set_values, unit_of
+from pneucore.spec.units import difference_shown
 
 #: Sensitivity norm^2 (noise-weighted chi-square units) a typical error must produce to be
 #: considered identifiable: 100 is a 10-sigma effect on the whole record
@@ -203,7 +204,25 @@ def spec_for(model, hyp):
     return ParameterSpec(hyp.path, v, lo, hi, True, unit_of(hyp.path))
 
 
-def _step(model, hyp):
+def typical_step(model, hyp):
+    """One typical catalogue error of base parameter ``hyp`` at ``model``'s value, in its unit.
+
+    ``hyp.typical`` itself for an additive parameter (an angle, a load); ``hyp.typical``
+    times the value for a relative one; ``hyp.zero_typical`` of the parameter's span for
+    a relative one whose value is 0.
+
+    Parameters
+    ----------
+    model : Model
+        The model whose value is read [-]
+    hyp : BaseHypothesis
+        The base parameter (:data:`BASE_HYPOTHESES`) [-]
+
+    Returns
+    -------
+    step : float
+        One typical error [the parameter's unit]
+    """
     v = get_value(model, hyp.path)
     if hyp.additive:
         return hyp.typical
@@ -213,7 +232,7 @@ def _step(model, hyp):
 def _signed_step(model, hyp):
     """The typical error as a move from the current value, into the fit's range (an angle of
     88 deg is moved down, not past the vertical)."""
-    dv = _step(model, hyp)
+    dv = typical_step(model, hyp)
     if hyp.additive and get_value(model, hyp.path) + dv > hyp.hi:
         return -dv
     return dv
@@ -265,7 +284,7 @@ def plausibility(model, path, after, at_bound=False):
         # (a valve's conductance at 0.35 of its catalogue value is 7 typical errors of 15 %)
         z = abs(math.log(after / v)) / math.log1p(h.typical)
     else:
-        sg = _step(model, h)
+        sg = typical_step(model, h)
         z = abs(after - v) / sg if sg > 0 else 0.0
     if z > IMPLAUSIBLE:
         return f"{z:.0f} times the typical catalogue error of {h.label}"
@@ -425,7 +444,7 @@ def prior_for(model, paths, scale=None):
         if h is None:
             continue
         c = get_value(model, p)
-        sg = _step(model, h)
+        sg = typical_step(model, h)
         if scale and p in scale:
             c, sg = c / scale[p], sg / scale[p]
         if sg > 0:
@@ -710,8 +729,7 @@ def calibrated_error(replays):
 
 
 #: Units in which a sensor finding is worded (SI -> unit, factor), per signal
-SENSOR_WORDS = {"p_a": ("bar", 1e-5), "p_b": ("bar", 1e-5), "x": ("mm", 1e3), "v": ("mm/s", 1e3),
-                 "T_a": ("K", 1.0), "T_b": ("K", 1.0)}
+SENSOR_WORDS = {s: difference_shown(SIGNAL_UNITS[s]) for s in ("p_a", "p_b", "x", "v", "T_a", "T_b")}
 #: A sensor correction is named when it removes at least this share of the signal's misfit
 #: energy in excess of nothing (its Eq. 25 error squared): half, the rule an effect must meet
 SENSOR_SHARE = 0.5
@@ -844,7 +862,7 @@ def known_disagreements(model, experiments, known, replays, objective):
         except Exception:   # noqa: BLE001 - a path that no longer reads (an effect dropped)
             continue
         h = BASE_HYPOTHESES.get(path)
-        step = _step(model, h) if h is not None else 0.1 * abs(v)
+        step = typical_step(model, h) if h is not None else 0.1 * abs(v)
         if not step > 0 or not rr > 0:
             continue
         dv = 0.1 * step
@@ -941,7 +959,7 @@ def confounded_twin(model, path, chosen, columns):
     use = [p for p in chosen if p in columns]
     if not use:
         return None
-    dv = _step(model, BASE_HYPOTHESES[path])
+    dv = typical_step(model, BASE_HYPOTHESES[path])
     A = np.column_stack([columns[p] for p in use])
     coef, *_ = np.linalg.lstsq(A, columns[path], rcond=None)
     vals = {path: get_value(model, path) + dv}

@@ -21,6 +21,7 @@ import math
 import numpy as np
 
 from pneucore.data.measurement import SIGNAL_UNITS
+from pneucore.spec.units import difference_shown
 
 #: A residual whose RMS is below this many noise sigmas is within the noise. White noise alone
 #: gives an RMS of about 1 sigma; over 20 samples (the fewest a phase is judged on) its RMS
@@ -40,8 +41,6 @@ START_SAMPLES = 20
 #: shape, or a signal too flat for a shift to show (a phase where nothing moves)
 LAG_AT_MOST = 0.05
 
-#: How the messages show a signal's SI unit: (unit shown, factor from SI)
-_SHOWN = {"Pa": ("bar", 1e-5), "m": ("mm", 1e3), "m/s": ("mm/s", 1e3)}
 
 
 def _fit(r, cols):
@@ -150,7 +149,7 @@ def explain_residual(t, residual, sigma, simulated=None, derivative=None):
 
 
 def _shown(value, si):
-    unit, f = _SHOWN.get(si, (si, 1.0))
+    unit, f = difference_shown(si)
     return f"{value * f:+.3g} {unit}"
 
 

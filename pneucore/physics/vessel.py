@@ -223,7 +223,8 @@ def filling_test(data_dir, heat=None):
     t, p_col, T_col = read_vessel_record(data_dir)
     meas = {"name": "vessel-filling", "t": t.tolist(), "u": [1.0] * len(t),
             "p_a": [None if math.isnan(v) else v for v in p_col],
-            "T_a": [None if math.isnan(v) else v for v in T_col]}
+            "T_a": [None if math.isnan(v) else v for v in T_col],
+            "meta": {"accuracy": dict(VESSEL_ACCURACY)}}
     exp = {"name": "vessel-filling", "measurement": meas,
            "scenario": {"locked": True, "x0": 0.0, "initial": {"p_a": g["p0"], "T_a": g["T_atm"]},
                         "solver": {"max_step": 0.5}}}
@@ -415,6 +416,13 @@ def vessel_dimensions(test=None):
     return math.pi * D * D / 4.0 * L, math.pi * D * L + 2.0 * math.pi * D * D / 4.0, D
 
 
+#: Accuracy of the published vessel record's signals, as its measurement metadata states it
+#: (one standard deviation, SI): the digitisation scatter that shared/data/vessel-filling's
+#: README gives ("a few tenths of a percent on pressure and about 1 K on temperature": 0.3 %
+#: of one bar, 1 K); the reference records state the same sensors'
+VESSEL_ACCURACY = {"p_a": 300.0, "T_a": 1.0}
+
+
 def vessel_experiment(name, t, p, T, p0, T0, max_step=0.5):
     """Experiment JSON of a vessel record: pressure and gas temperature at times ``t``.
 
@@ -439,7 +447,7 @@ def vessel_experiment(name, t, p, T, p0, T0, max_step=0.5):
     def col(v):
         return [None if not math.isfinite(x) else float(x) for x in v]
     meas = {"name": name, "t": [float(x) for x in t], "u": [1.0] * len(t), "p_a": col(p),
-            "T_a": col(T)}
+            "T_a": col(T), "meta": {"accuracy": dict(VESSEL_ACCURACY)}}
     return {"name": name, "measurement": meas,
             "scenario": {"locked": True, "x0": 0.0, "initial": {"p_a": float(p0), "T_a": float(T0)},
                          "solver": {"max_step": max_step}}}

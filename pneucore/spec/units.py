@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from pneucore.physics.gas import RHO_REF, T_ZERO_CELSIUS
 
-__all__ = ["UNIT_SYSTEMS", "unit_systems"]
+__all__ = ["UNIT_SYSTEMS", "unit_systems", "difference_shown"]
 
 #: SI unit -> (shown unit, scale to SI, offset to SI) for each system; units absent are shown in SI
 UNIT_SYSTEMS: dict[str, dict] = {
@@ -48,3 +48,35 @@ def unit_systems() -> dict:
                    "units": {si: {"unit": u, "scale": sc, "offset": off}
                              for si, (u, sc, off) in s["units"].items()}}
             for name, s in UNIT_SYSTEMS.items()}
+
+
+def difference_shown(si_unit: str, system: str = "engineering") -> tuple[str, float]:
+    """How a message words a *difference* of a quantity: (unit shown, factor from SI).
+
+    Derived from :data:`UNIT_SYSTEMS` (the one source of shown units): the scale
+    without the offset, since a difference has no zero (0.01 bar(g) and 0.01 bar abs
+    are the same 1,000 Pa; a difference of 1 °C is 1 K, so temperatures stay in K);
+    "abs" and "g" are dropped from the label for the same reason. Units the system
+    does not list are shown in SI.
+
+    Parameters
+    ----------
+    si_unit : str
+        The quantity's SI unit, as :data:`UNIT_SYSTEMS` spells it [-]
+    system : str
+        A name of :data:`UNIT_SYSTEMS` [-]
+
+    Returns
+    -------
+    shown : tuple
+        (unit shown, factor: shown = factor * SI difference) [-]
+
+    >>> difference_shown("Pa"), difference_shown("m"), difference_shown("K")
+    (('bar', 1e-05), ('mm', 1000.0), ('K', 1.0))
+    """
+    entry = UNIT_SYSTEMS[system]["units"].get(si_unit)
+    if entry is None or si_unit == "K":
+        return si_unit, 1.0
+    unit, scale, _ = entry
+    unit = unit.removesuffix(" abs").removesuffix(" g")
+    return unit, 1.0 / scale

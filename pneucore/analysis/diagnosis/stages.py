@@ -381,20 +381,20 @@ def demanded_words(model, hyp, recalibrate, refitted):
     words : str
         The sentences for the message (empty where no known value moved)
     """
-    out, done = [], set()
+    out = []
     moved = {r["path"]: r for r in recalibrate}
     fits = {r["path"]: r for r in refitted}
     # the one moved furthest, in typical errors, first
     order = sorted((p for p in hyp.user_known if p in fits), key=lambda p: -abs(
-        fits[p]["after"] - fits[p]["before"]) / H._step(model, H.BASE_HYPOTHESES[p]))
+        fits[p]["after"] - fits[p]["before"]) / H.typical_step(model, H.BASE_HYPOTHESES[p]))
     for path in order:
         h = next((e for e in hyp.identifiability if e["path"] == path), None)
         r = moved.get(path) or next((e for e in refitted if e["path"] == path), None)
         how = _freed_how(h) if h is not None else ""
-        if not how or r is None or path in done:
+        if not how or r is None:
             continue
         hb = H.BASE_HYPOTHESES[path]
-        if abs(r["after"] - r["before"]) < MOVED_KNOWN * H._step(model, hb):
+        if abs(r["after"] - r["before"]) < MOVED_KNOWN * H.typical_step(model, hb):
             continue
         twins = [q for q in hyp.user_known if q != path and q in hyp.id_cols and path in hyp.id_cols
                  and orthogonal_part(hyp.id_cols, path, [q])[0] < H.COLLINEAR]
@@ -404,13 +404,60 @@ def demanded_words(model, hyp, recalibrate, refitted):
         if path not in moved:
             recalibrate.append(r)
             moved[path] = r
-        done.add(path)
         others = twins + with_
         out.append(f"{hb.label[:1].upper() + hb.label[1:]} {r['before']:.3g} -> {r['after']:.3g} "
                    f"{r['unit']}: a value given, moved because {how}; these experiments cannot "
                    f"tell it apart from {', '.join(H.label_of(p) for p in others) or 'nothing'}: "
                    f"{hb.separated_by}.")
     return " ".join(out)
+
+
+def attach_held(f, held, odd, hold, model, null):
+    """Put the catalogue hold's account (:func:`held_words`) into the findings ``f`` (edited).
+
+    When the held fit was not taken, its words are made to describe the fit returned (a
+    sensor fit may have followed the null: the implausible values may have gone); when it
+    was taken, the recalibrated values beside the symptom are withheld from the next model
+    (:func:`withheld`).
+
+    Parameters
+    ----------
+    f : Findings
+        The round's findings (message, remaining, model, recalibrate, refitted) [-]
+    held : dict
+        The hold's account (parameters, verdict, errors, taken, description) [-]
+    odd : list of dict
+        The implausible recalibrations of the null fit [-]
+    hold : list of str
+        The paths held at the catalogue value [-]
+    model : Model
+        The model diagnosed [-]
+    null : Null
+        The null fit returned [-]
+    """
+    f.remaining["held_at_catalogue"] = held
+    if not held["taken"]:
+        # the words describe the fit returned (a sensor fit may have followed the null)
+        now = still_implausible(odd, f.refitted)
+        if now != odd:
+            held["null_fit"] = {"parameters": odd, "description": held["description"]}
+            held["description"] = (held_words(now, hold, None, held["error_held"], null.error)
+                                   if now else "")
+            if not now:
+                held["superseded"] = (
+                    "the fit returned leaves " + ", ".join(o["label"] for o in odd)
+                    + " where a catalogue error reaches: "
+                    + "; ".join(f"{r['label']} {r['after']:.3g} {r['unit']}".rstrip()
+                                for r in f.refitted if r["path"] in {o["path"] for o in odd}))
+    if held["description"]:
+        f.message += " " + held["description"] + "."
+    if held["taken"]:
+        f.model, back = withheld(model, f.model, f.recalibrate, {s.path for s in null.auto_specs})
+        held["withheld"] = [r["path"] for r in back]
+        if back:
+            f.message += (" Not taken into the next model, the same symptom beside it: "
+                          + "; ".join(f"{r['label']} stays at {r['before']:.3g} "
+                                      f"{r['unit']}".rstrip() for r in back) + ".")
 
 
 # -- 4. candidate scores ------------------------------------------------------------------
