@@ -16,29 +16,25 @@ from pneucore.physics.gas import RHO_REF, T_ZERO_CELSIUS
 
 __all__ = ["UNIT_SYSTEMS", "unit_systems", "difference_shown"]
 
+#: Engineering units shown for each SI unit: (shown unit, scale to SI, offset to SI)
+_ENGINEERING = {
+    "Pa": ("bar abs", 1e5, 0.0),
+    "m": ("mm", 1e-3, 0.0),
+    "m/s": ("mm/s", 1e-3, 0.0),
+    "m^3": ("cm³", 1e-6, 0.0),
+    "m^2": ("cm²", 1e-4, 0.0),
+    "kg/s": ("L/min ANR", RHO_REF * 1e-3 / 60.0, 0.0),
+    "m^3/(s Pa)": ("dm³/(s bar)", 1e-3 / 1e5, 0.0),
+    "K": ("°C", 1.0, T_ZERO_CELSIUS),
+}
+
 #: SI unit -> (shown unit, scale to SI, offset to SI) for each system; units absent are shown in SI
 UNIT_SYSTEMS: dict[str, dict] = {
     "si": {"label": "SI (Pa, m, m³, kg/s)", "units": {}},
-    "engineering": {"label": "engineering (bar abs, mm, cm³, L/min ANR, °C)", "units": {
-        "Pa": ("bar abs", 1e5, 0.0),
-        "m": ("mm", 1e-3, 0.0),
-        "m/s": ("mm/s", 1e-3, 0.0),
-        "m^3": ("cm³", 1e-6, 0.0),
-        "m^2": ("cm²", 1e-4, 0.0),
-        "kg/s": ("L/min ANR", RHO_REF * 1e-3 / 60.0, 0.0),
-        "m^3/(s Pa)": ("dm³/(s bar)", 1e-3 / 1e5, 0.0),
-        "K": ("°C", 1.0, T_ZERO_CELSIUS),
-    }},
-    "engineering-gauge": {"label": "engineering, gauge pressures (bar g, mm, cm³, L/min ANR, °C)", "units": {
-        "Pa": ("bar g", 1e5, "gauge"),
-        "m": ("mm", 1e-3, 0.0),
-        "m/s": ("mm/s", 1e-3, 0.0),
-        "m^3": ("cm³", 1e-6, 0.0),
-        "m^2": ("cm²", 1e-4, 0.0),
-        "kg/s": ("L/min ANR", RHO_REF * 1e-3 / 60.0, 0.0),
-        "m^3/(s Pa)": ("dm³/(s bar)", 1e-3 / 1e5, 0.0),
-        "K": ("°C", 1.0, T_ZERO_CELSIUS),
-    }},
+    "engineering": {"label": "engineering (bar abs, mm, cm³, L/min ANR, °C)",
+                    "units": dict(_ENGINEERING)},
+    "engineering-gauge": {"label": "engineering, gauge pressures (bar g, mm, cm³, L/min ANR, °C)",
+                          "units": {**_ENGINEERING, "Pa": ("bar g", 1e5, "gauge")}},
 }
 
 
