@@ -997,8 +997,11 @@ def families(requirement, choices):
     """
     cyl = resolve_cylinders(choices.bore)
     val = resolve_valves(choices.valve)
-    tubes = resolve_tubes(choices.tube_inner_diameter) if requirement.tube_length is not None \
-        else [None]
+    # resolved (so checked) even when the requirement has no tube_length and they are unused:
+    # a malformed choice is a 422 naming it, not a note
+    tubes = resolve_tubes(choices.tube_inner_diameter)
+    if requirement.tube_length is None:
+        tubes = [None]
     n = len(cyl) * len(val) * len(tubes)
     if n > MAX_FAMILIES:
         raise FieldError("choices", f"{len(cyl)} cylinders x {len(val)} valves x {len(tubes)} "
