@@ -464,6 +464,25 @@ def test_a_tube_longer_than_the_tubing_effect_takes_is_refused_up_front():
     assert f"must be <= {top:g}" in e.value.detail and "(unit: m)" in e.value.detail
 
 
+def test_a_smallest_throttle_above_the_effects_bound_leaves_the_stroke_fully_open():
+    # min_meter_out 1 on an exhaust edge of twice the meter_out_throttle effect's largest
+    # conductance: every throttle the user allows is above what the effect takes, i.e. none
+    # (path_throttle's rule), so the stroke stays fully open; this family once failed as
+    # "simulation" (the model refused its throttle). Below the bound the throttle is solved.
+    top = EFFECTS["meter_out_throttle"].param("C_a").max
+    req = _requirement(extend_time=0.6, retract_time=0.6)
+    for C, mmo, throttle in ((2 * top, 1.0, 0.0), (2 * top, 0.4, 0.8 * top)):
+        ans = size(req, {"bore": ["iso15552:32"], "valve": [{"C": C, "b": 0.3}],
+                         "min_meter_out": mmo}, workers=1)
+        (d,) = ans["designs"]
+        assert d["feasible"] and not ans["infeasible"]
+        # the slowest stroke allowed is still far faster than required: the throttle stays at
+        # the smallest allowed (exact: C_min is returned as it is)
+        assert d["settings"]["extend_meter_out_C"] == pytest.approx(throttle, rel=1e-12)
+        assert d["metrics"]["extend"]["full_stroke_time"] < 0.6
+        Model.from_dict(d["model"])     # the model the API would take as it is
+
+
 def _cycle_requirement(cycle_time, dwell):
     d = _requirement()
     del d["extend_time"], d["retract_time"]
