@@ -21,8 +21,10 @@ from pneucore.spec.validation import FieldError, known_keys, mapping, number
 BOUNDS = {"stroke": 10.0, "moving_mass": 1e5, "load_force": 1e7, "supply_pressure": 5e6,
           "extend_time": 600.0, "retract_time": 600.0, "cycle_time": 1200.0, "dwell": 600.0,
           "max_end_speed": 100.0, "max_end_energy": 1e6,
-          "tube_length": 100.0, "ambient_pressure": 5e6,
-          # the cushion's: the end_cushion effect's own bounds (the one source)
+          "ambient_pressure": 5e6,
+          # the tube's and the cushion's: the tubing and end_cushion effects' own bounds (the
+          # one source: a design's model carries them, and a longer line would be refused there)
+          "tube_length": EFFECTS["tubing"].param("length_a").max,
           "cushion_length": EFFECTS["end_cushion"].param("length_a").max,
           "cushion_capacity": EFFECTS["end_cushion"].param("capacity").max}
 

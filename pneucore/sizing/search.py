@@ -789,12 +789,17 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
                     "shortfall": dirs[k].time(0.0) / dirs[k].t_req,
                     "design": {**design, "feasible": False}}
         C_min = choices.min_meter_out * valve["C_exhaust"]
-        settings = {k: dr.solve(C_min, valve["C_exhaust"]) if choices.meter_out else 0.0
+        # a smallest throttle above the meter_out_throttle effect's largest conductance (one
+        # source) leaves no throttle to try: above that bound a throttle is none
+        # (path_throttle), so the stroke stays fully open. Such a valve (exhaust edge above
+        # 5e-5 m^3/(s Pa) at the default min_meter_out) once had every throttle refused.
+        throttled = choices.meter_out and C_min <= EFFECTS["meter_out_throttle"].param("C_a").max
+        settings = {k: dr.solve(C_min, valve["C_exhaust"]) if throttled else 0.0
                     for k, dr in dirs.items()}
         metrics = {k: dirs[k].run(settings[k]) for k in DIRECTIONS}
         needles = None
         if requirement.cushion_capacity is not None:
-            pair = (C_min, valve["C_exhaust"]) if choices.meter_out else None
+            pair = (C_min, valve["C_exhaust"]) if throttled else None
             needles, failed = _solve_needles(requirement, valve, dirs, settings, metrics, pair)
             if failed is not None:
                 k, (C_t, energy) = failed
@@ -997,8 +1002,11 @@ def families(requirement, choices):
     """
     cyl = resolve_cylinders(choices.bore)
     val = resolve_valves(choices.valve)
-    tubes = resolve_tubes(choices.tube_inner_diameter) if requirement.tube_length is not None \
-        else [None]
+    # resolved (so checked) even when the requirement has no tube_length and they are unused:
+    # a malformed choice is a 422 naming it, not a note
+    tubes = resolve_tubes(choices.tube_inner_diameter)
+    if requirement.tube_length is None:
+        tubes = [None]
     n = len(cyl) * len(val) * len(tubes)
     if n > MAX_FAMILIES:
         raise FieldError("choices", f"{len(cyl)} cylinders x {len(val)} valves x {len(tubes)} "

@@ -20,6 +20,7 @@ import os
 from pneucore.physics.flow import (P_ANR, QN_DP, QN_P1_GAUGE, R_LAMINAR, anr_volume_flow,
                                    iso6358_mass_flow)
 from pneucore.physics.gas import GAMMA_AIR, R_AIR, T_REF
+from pneucore.spec.effects import EFFECTS
 from pneucore.spec.model import Jack
 from pneucore.spec.valve_data import CONVERSIONS as VALVE_CONVERSIONS
 from pneucore.spec.valve_data import FIELDS as VALVE_FIELDS
@@ -195,7 +196,9 @@ def _given_valve(item, p):
 
 
 def _given_tube(item, p):
-    d = number(item, p, positive=True)
+    # the tubing effect's own bounds (the one source): a design's model carries the tube there
+    bound = EFFECTS["tubing"].param("diameter_a")
+    d = number(item, p, low=bound.min, high=bound.max)
     return {"name": f"ID {d * 1e3:g} mm", "inner_diameter": d}
 
 

@@ -75,6 +75,20 @@ def test_missing_fields_and_bad_choices_are_422s(client):
     assert client.post("/api/sizing", json=body).status_code == 422
 
 
+def test_a_tube_outside_the_tubing_effects_bounds_is_a_422_not_a_failed_family(client):
+    # a line of 60 m (the tubing effect takes 50 m) and a 60 mm bore tube (it takes 50 mm):
+    # refused up front naming the field, on both routes (no job is started), also when no
+    # tube_length makes the tube choices count
+    assert_field_error(client.post("/api/sizing", json=_body(tube_length=60.0)),
+                       "requirement.tube_length", msg_contains="(unit: m)")
+    for req in ({"tube_length": 1.0}, {}):
+        body = _body(**req)
+        body["choices"] = {**CHOICES, "tube_inner_diameter": [0.004, 0.06]}
+        for route in ("/api/sizing", "/api/jobs/sizing"):
+            assert_field_error(client.post(route, json=body), "choices.tube_inner_diameter[1]",
+                               msg_contains="<= 0.05")
+
+
 def test_a_run_longer_than_max_duration_is_refused(tmp_path):
     with api(tmp_path / "s.sqlite3", max_duration=1.0) as c:
         # 0.6 s a direction is simulated for 1.8 s: above the 1 s limit

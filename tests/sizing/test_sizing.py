@@ -39,7 +39,7 @@ from pneucore.sizing import (Choices, Requirement, build_model, direction_metric
                              size)
 from pneucore.sizing.series import (dead_length, nominal_flow, resolve_cylinders, resolve_tubes,
                                      resolve_valves)
-from pneucore.spec.effects import effective_model
+from pneucore.spec.effects import EFFECTS, effective_model
 from pneucore.spec.model import Jack, Model
 from pneucore.spec.validation import FieldError
 
@@ -435,6 +435,52 @@ def test_a_malformed_catalogue_figure_names_its_field(valve, path):
     with pytest.raises(FieldError) as e:
         resolve_valves([valve])
     assert e.value.path == path
+
+
+@pytest.mark.parametrize("tube,text", [
+    (1e-4, "must be >= 0.0005"), (0.06, "must be <= 0.05"), (-0.004, "must be >= 0.0005"),
+    ("pu-tube:XX", "TU0604"), ("nope", "pu-tube")])
+def test_a_tube_the_designs_model_would_refuse_is_refused_up_front(tube, text):
+    # the tube's bounds are the tubing effect's (one source): a tube the design's model would
+    # refuse is a 422 naming the choice, not a family failing with "simulation"; and a bad
+    # tube is refused even when the requirement has no tube_length and the tubes go unused
+    bound = EFFECTS["tubing"].param("diameter_a")
+    assert (bound.min, bound.max) == (5e-4, 0.05)
+    for req in (_requirement(tube_length=1.0), _requirement()):
+        with pytest.raises(FieldError) as e:
+            size(req, {"bore": [{"bore": BORE, "rod": ROD}], "valve": [{"C": 1e-8, "b": 0.3}],
+                       "tube_inner_diameter": [tube]}, workers=1)
+        assert e.value.path == "choices.tube_inner_diameter[0]" and text in e.value.detail
+
+
+def test_a_tube_longer_than_the_tubing_effect_takes_is_refused_up_front():
+    # the requirement's tube_length bound is the tubing effect's length bound (one source):
+    # a line of 60 m once passed the requirement and failed every family as "simulation"
+    top = EFFECTS["tubing"].param("length_a").max
+    Requirement.from_dict(_requirement(tube_length=top))
+    with pytest.raises(FieldError) as e:
+        Requirement.from_dict(_requirement(tube_length=1.2 * top))
+    assert e.value.path == "requirement.tube_length"
+    assert f"must be <= {top:g}" in e.value.detail and "(unit: m)" in e.value.detail
+
+
+def test_a_smallest_throttle_above_the_effects_bound_leaves_the_stroke_fully_open():
+    # min_meter_out 1 on an exhaust edge of twice the meter_out_throttle effect's largest
+    # conductance: every throttle the user allows is above what the effect takes, i.e. none
+    # (path_throttle's rule), so the stroke stays fully open; this family once failed as
+    # "simulation" (the model refused its throttle). Below the bound the throttle is solved.
+    top = EFFECTS["meter_out_throttle"].param("C_a").max
+    req = _requirement(extend_time=0.6, retract_time=0.6)
+    for C, mmo, throttle in ((2 * top, 1.0, 0.0), (2 * top, 0.4, 0.8 * top)):
+        ans = size(req, {"bore": ["iso15552:32"], "valve": [{"C": C, "b": 0.3}],
+                         "min_meter_out": mmo}, workers=1)
+        (d,) = ans["designs"]
+        assert d["feasible"] and not ans["infeasible"]
+        # the slowest stroke allowed is still far faster than required: the throttle stays at
+        # the smallest allowed (exact: C_min is returned as it is)
+        assert d["settings"]["extend_meter_out_C"] == pytest.approx(throttle, rel=1e-12)
+        assert d["metrics"]["extend"]["full_stroke_time"] < 0.6
+        Model.from_dict(d["model"])     # the model the API would take as it is
 
 
 def _cycle_requirement(cycle_time, dwell):
