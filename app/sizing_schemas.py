@@ -11,7 +11,7 @@ from __future__ import annotations
 import copy
 from typing import Any, Optional, Union
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, StrictBool
 
 from pneucore.sizing.requirement import Choices, Requirement
 from pneucore.sizing.search import REASONS
@@ -98,7 +98,7 @@ class ChoicesSpec(_Strict):
     bore: list[Union[Name, CylinderSpec]] = _lib(Choices, _CH, "bore")
     valve: list[Union[Name, ValveSpec]] = _lib(Choices, _CH, "valve")
     tube_inner_diameter: list[Union[Name, float]] = _lib(Choices, _CH, "tube_inner_diameter")
-    meter_out: bool = _lib(Choices, _CH, "meter_out")
+    meter_out: StrictBool = _lib(Choices, _CH, "meter_out")
     min_meter_out: float = _lib(Choices, _CH, "min_meter_out")
 
     def plain(self):

@@ -217,3 +217,11 @@ def test_a_cushion_in_the_requirement_gets_its_needles_solved(client):
 def test_a_bad_cushion_is_a_422_naming_the_field_and_unit(client, change, field, unit):
     r = client.post("/api/sizing", json=_body(**change))
     assert_field_error(r, field, msg_contains=f"(unit: {unit})")
+
+
+@pytest.mark.parametrize("value", ["yes", 1, "true"])
+def test_meter_out_takes_a_json_boolean_only(client, value):
+    """``choices.meter_out`` is true or false: a string or a number is refused naming the field
+    (the Python library refuses them too; lax coercion once turned "yes" into true)."""
+    body = {"requirement": REQ, "choices": {**CHOICES, "meter_out": value}}
+    assert_field_error(client.post("/api/sizing", json=body), "choices.meter_out")
