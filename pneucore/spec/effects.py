@@ -117,6 +117,17 @@ class Effect:
     #: ``warn(params, model, time_scale) -> [message, ...]``: where the effect's model is not
     #: adequate for a command that changes on ``time_scale`` [s] (:func:`effect_warnings`)
     warn: Optional[Callable] = None
+    #: ``fit_max(model) -> {parameter: upper bound}``: tighter upper bounds a fit on ``model``
+    #: keeps to, where ``check`` ties a parameter to the model (a cushion within the stroke),
+    #: so that a fit never ends on a model ``check`` refuses
+    fit_max: Optional[Callable] = None
+
+    def fit_bounds(self, name, model):
+        """Bounds ``(min, max)`` of parameter ``name`` in a fit on ``model`` (SI): the
+        parameter's own, the upper one tightened by :attr:`fit_max`."""
+        par = self.param(name)
+        hi = (self.fit_max(model) if self.fit_max is not None else {}).get(name, par.max)
+        return par.min, min(par.max, hi)
 
     def unused_in(self, model):
         """Parameters ``model`` has no place for (held at their ``off`` value)."""
@@ -606,6 +617,13 @@ def _pack_cushion(p, build):
     build.prm[L.P_CUSHION_B] = p["b"]
 
 
+def _cushion_fit_max(model):
+    # each cushion within half the stroke: the pair never overlaps, whatever the other's fit
+    # (a fit once stretched a cushion past the stroke to stand in for a meter-out throttle)
+    half = 0.5 * model.jack.stroke
+    return {"length_a": half, "length_b": half}
+
+
 def _check_cushion(p, model, path):
     """A cushion longer than the stroke, two cushions that overlap, or a cushion on a port the
     valve does not drive is refused, naming the parameter and its unit."""
@@ -911,6 +929,7 @@ for _e in [
                       "given): the stroke metrics check each impact against it")],
            strength="length_a", transform=_cushion_transform, pack=_pack_cushion,
            check=_check_cushion, unused=_missing_ports("length"), observable_in=("free",),
+           fit_max=_cushion_fit_max,
            fit_params=("length_a", "length_b", "C_a", "C_b"),
            probe={"length_a": 0.015, "length_b": 0.015}),
 ]:

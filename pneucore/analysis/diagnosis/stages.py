@@ -534,7 +534,7 @@ def effect_specs(model, name, values):
     """The fit parameters of effect ``name`` (its diagnosis parameters that act on ``model``)
     starting at ``values``."""
     eff = EFFECTS[name]
-    return [ParameterSpec(f"effects.{name}.{p}", values[p], eff.param(p).min, eff.param(p).max,
+    return [ParameterSpec(f"effects.{name}.{p}", values[p], *eff.fit_bounds(p, model),
                           True, eff.param(p).unit) for p in eff.diagnosis_params
             if p not in eff.unused_in(model)]
 
