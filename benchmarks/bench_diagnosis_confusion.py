@@ -21,7 +21,12 @@ declared: :func:`pneucore.analysis.history.refine`. A case is right when
   (:data:`LONG_CASES`: the catalogue model right, a hidden leak, a 1 s locked hold beside a
   20 s free cyclic record whose logged command, sampled at 1 kHz, puts some pulse edges a
   sample late: the replayed position drifts over the cycles, a misfit no catalog effect
-  reaches, which the remainder may call outside the catalog or not).
+  reaches, which the remainder may call outside the catalog or not; and hidden meter-out
+  throttles on a machine cycling through full strokes for 20 s).
+
+For every hidden effect the loop names, the table and the JSON (``recovered``, and
+``worst_recovery``, the largest relative error) give its fitted parameters against the truth,
+and for a line its equivalent volume and conductance (:data:`EQUIVALENTS`).
 
 ``--before PATH`` loads an older ``diagnose.py`` (e.g. ``git show REV:pneucore/diagnose.py``)
 as a submodule of this package and runs its loop (diagnose, add the verdict, repeat), to
