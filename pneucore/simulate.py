@@ -17,7 +17,7 @@ from pneucore.physics.heat import HEAT_MODELS
 from pneucore.core.integrator import ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES, core_for, integrate
 from pneucore.spec.model import Model, check_resolvable
 from pneucore.spec.validation import choice
-from pneucore.result import SimulationResult
+from pneucore.result import CoreRun
 from pneucore.core.rhs import law_table, no_terms
 from pneucore.spec.scenario import Scenario
 from pneucore.physics.valve import pack_tables
@@ -279,6 +279,33 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
     >>> res.p_a.shape
     (1001,)
     """
+    run = simulate_run(model, scenario, t_out)
+    res = run.result()
+    if run.status != OK and raise_on_error:
+        raise SimulationError(f"simulation stopped at t = {run.t_reached:.6g} s: "
+                              f"{STATUS_MESSAGES[run.status]}", res)
+    return res
+
+
+def simulate_run(model, scenario, t_out=None):
+    """:func:`simulate`'s work, its outputs not yet wrapped: a :class:`pneucore.result.CoreRun`
+    (:meth:`~pneucore.result.CoreRun.result` gives the :class:`SimulationResult`; a solver failure
+    is in its ``status``, never raised).
+
+    Parameters
+    ----------
+    model : Model or dict
+        The actuator (see :func:`simulate`)
+    scenario : Scenario or dict
+        Command, duration, sampling, initial state (see :func:`simulate`)
+    t_out : array_like or None
+        Sample times [s] (see :func:`simulate`)
+
+    Returns
+    -------
+    run : CoreRun
+        The compiled core's outputs, with the inputs and the effects' warnings
+    """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     if isinstance(scenario, Scenario):
         # built, hence validated, by Scenario.from_dict: only the checks that need this
@@ -331,19 +358,12 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
         aux_out[bad] = np.nan
         u_out[bad] = np.nan
         mode_out[bad] = -1
-    res = SimulationResult.from_core(model, scenario, core, t_out, y_out, aux_out, mode_out, u_out,
-                                     ev_t[:n_ev], ev_kind[:n_ev], ev_mode[:n_ev], stats,
-                                     status, t_reached)
     # only an effect that can warn needs the command's time scale (a scan of the command)
     time_scale = (command_time_scale(scenario)
                   if any(EFFECTS[n].warn is not None for n in model.effects) else None)
     warnings = [] if time_scale is None else effect_warnings(model, time_scale)
-    if warnings:
-        res.stats["warnings"] = warnings
-    if status != OK and raise_on_error:
-        raise SimulationError(f"simulation stopped at t = {t_reached:.6g} s: {STATUS_MESSAGES[status]}",
-                              res)
-    return res
+    return CoreRun(model, scenario, core, t_out, y_out, aux_out, mode_out, u_out, ev_t[:n_ev],
+                   ev_kind[:n_ev], ev_mode[:n_ev], stats, status, t_reached, warnings)
 
 
 def warm_up():

@@ -77,10 +77,10 @@ def experiment_excess(before, after):
                 den[s] = den.get(s, 0.0) + float(np.sum(m[ok] ** 2))
     n_sig = len(den)
 
-    def energy(rp):
-        # this experiment's term of the pooled squared overall error, and of its floor
+    def energy(rp, fl):
+        # this experiment's term of the pooled squared overall error, and of its floor (with
+        # the floors ``fl`` of its signals; None: the error's term alone)
         e = f = 0.0
-        fl = noise_floor([rp])
         for s in rp.measured:
             m = rp.experiment.measurement.signals[s]
             g = np.full(m.shape, np.nan)
@@ -88,13 +88,14 @@ def experiment_excess(before, after):
             ok = np.isfinite(m) & np.isfinite(g)
             if den.get(s, 0.0) > 0:
                 e += float(np.sum((m[ok] - g[ok]) ** 2)) / den[s] / n_sig
-                f += fl[s] ** 2 * float(np.sum(m[np.isfinite(m)] ** 2)) / den[s] / n_sig
+                if fl is not None:
+                    f += fl[s] ** 2 * float(np.sum(m[np.isfinite(m)] ** 2)) / den[s] / n_sig
         return e, f
 
     terms = []
     for r0, r1 in zip(before, after):
-        (e0, f), (e1, _) = energy(r0), energy(r1)
-        fl = noise_floor([r0])
+        fl = noise_floor([r0])   # the record's floors, found once for both replays' terms
+        (e0, f), (e1, _) = energy(r0, fl), energy(r1, None)
         floor = float(math.sqrt(np.mean([v * v for v in fl.values()]))) if fl else float("nan")
         c0, c1 = own_error(r0), own_error(r1)
         whole = r1.t.shape[0] == r0.t.shape[0]   # the candidate's replay reached the end
