@@ -34,7 +34,7 @@ import numpy as np
 
 from pneucore.data.measurement import Measurement, MeasurementError
 from pneucore.spec.scenario import Scenario
-from pneucore.simulate import simulate, simulate_run
+from pneucore.simulate import checked_sample_times, simulate, simulate_run
 from pneucore.spec.validation import FieldError, known_keys, mapping, number
 
 #: A record may start at most this many record lengths after the model's t = 0 (the model
@@ -326,7 +326,14 @@ class Experiment:
         :class:`pneucore.result.CoreRun`, a solver failure in its ``status``."""
         m = self.model_for(model)
         scen = self.scenario_for(m)
-        return simulate_run(m, scen, self._times_to(scen.duration))
+        key = ("times", self.measurement, self.t0, scen.duration)
+        hit = self._first_cache.get(key[0])
+        if hit is None or hit[0] is not key[1] or hit[1:3] != key[2:]:
+            # checked once for the record and the duration replayed (the measurement is not
+            # edited afterwards, as for the first-sample estimates)
+            hit = self._first_cache[key[0]] = key[1:] + (
+                checked_sample_times(self._times_to(scen.duration), scen.duration),)
+        return simulate_run(m, scen, hit[3], checked_times=True)
 
     def _times_to(self, duration):
         """The sample times up to ``duration`` on the model's time axis [s]."""
