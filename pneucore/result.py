@@ -26,7 +26,7 @@ _MODE_TEXT = np.array(L.MODE_NAMES + ("",))
 
 
 def _m_b(c):
-    eff = c.core["effective_model"]
+    eff = c.effective_model
     if eff.b_chamber_pressure is not None:
         return c.aux_out[:, L.AUX_PB] * c.aux_out[:, L.AUX_VB] / (eff.gas.r * c.y_out[:, L.Y_TB])
     return c.y_out[:, L.Y_MB]
@@ -34,7 +34,7 @@ def _m_b(c):
 
 def _rod_force(c):
     # Eq. 17 with the moving mass on the load's side (see :class:`SimulationResult`)
-    j = c.core["effective_model"].jack
+    j = c.effective_model.jack
     load = j.total_load
     return np.where(c.mode_out == L.MODE_LOCKED, c.aux_out[:, L.AUX_FNET] + load,
                     j.moving_mass * c.aux_out[:, L.AUX_ACC] + load)
@@ -74,14 +74,17 @@ class CoreRun:
 
     def __init__(self, model, scenario, core, t_out, y_out, aux_out, mode_out, u_out,
                  ev_t, ev_kind, ev_mode, stats, status, t_reached, warnings=None):
-        self.model, self.scenario, self.core = model, scenario, core
+        # of the core's inputs only what the series need (the compiled hook and law tables
+        # stay out: a replay may be pickled to a cluster)
+        self.model, self.scenario = model, scenario
+        self.effective_model, self.state_names = core["effective_model"], core["state_names"]
         self.t_out, self.y_out, self.aux_out, self.mode_out, self.u_out = \
             t_out, y_out, aux_out, mode_out, u_out
         self.ev_t, self.ev_kind, self.ev_mode, self.stats = ev_t, ev_kind, ev_mode, stats
         self.status, self.t_reached, self.warnings = status, t_reached, warnings
 
     def _state(self, name):
-        names = self.core["state_names"]
+        names = self.state_names
         for i in range(L.N_BASE_STATES, len(names)):
             if names[i] == name:
                 return self.y_out[:, i]
@@ -103,7 +106,7 @@ class CoreRun:
     def result(self):
         """The :class:`SimulationResult` (a new one each call)."""
         s = {name: f(self) for name, f in _SERIES.items()}
-        for i, name in enumerate(self.core["state_names"][L.N_BASE_STATES:]):
+        for i, name in enumerate(self.state_names[L.N_BASE_STATES:]):
             s[name] = self.y_out[:, L.N_BASE_STATES + i]
         events = [{"t": float(t[0]), "kind": L.EVENT_NAMES[k], "mode": L.MODE_DETAIL[m]}
                   for t, k, m in zip(self.ev_t, self.ev_kind, self.ev_mode)]
