@@ -25,6 +25,140 @@ OBSERVED_SERIES = {"F": "rod_force", "q_s": "q_supply", "p_s": "p_supply"}
 _MODE_TEXT = np.array(L.MODE_NAMES + ("",))
 
 
+def _m_b(c):
+    eff = c.effective_model
+    if eff.b_chamber_pressure is not None:
+        return c.aux_out[:, L.AUX_PB] * c.aux_out[:, L.AUX_VB] / (eff.gas.r * c.y_out[:, L.Y_TB])
+    return c.y_out[:, L.Y_MB]
+
+
+def _rod_force(c):
+    # Eq. 17 with the moving mass on the load's side (see :class:`SimulationResult`)
+    j = c.effective_model.jack
+    load = j.total_load
+    return np.where(c.mode_out == L.MODE_LOCKED, c.aux_out[:, L.AUX_FNET] + load,
+                    j.moving_mass * c.aux_out[:, L.AUX_ACC] + load)
+
+
+def _aux(k):
+    return lambda c: c.aux_out[:, k]
+
+
+def _y(k):
+    return lambda c: c.y_out[:, k]
+
+
+#: Every result's sampled series, in their order, each read off a :class:`CoreRun`'s output
+#: arrays (the effect states follow, one column each): one source for the full result and for
+#: the signals a replay reads alone
+_SERIES = {
+    "t": lambda c: c.t_out, "u": lambda c: c.u_out,
+    "p_a": _aux(L.AUX_PA), "p_b": _aux(L.AUX_PB), "T_a": _y(L.Y_TA), "T_b": _y(L.Y_TB),
+    "m_a": _y(L.Y_MA), "m_b": _m_b, "x": _y(L.Y_X), "v": _y(L.Y_V), "a": _aux(L.AUX_ACC),
+    "q_a": _aux(L.AUX_QA), "q_b": _aux(L.AUX_QB), "friction": _aux(L.AUX_FRICTION),
+    "mode": lambda c: _MODE_TEXT[c.mode_out],      # code -1 (sample not reached) -> ""
+    "u_eff": _aux(L.AUX_UEFF), "p_supply": _aux(L.AUX_PSUP), "q_supply": _aux(L.AUX_QSUP),
+    "net_force": _aux(L.AUX_FNET), "heat_a": _aux(L.AUX_HEAT_A), "heat_b": _aux(L.AUX_HEAT_B),
+    "V_a": _aux(L.AUX_VA), "V_b": _aux(L.AUX_VB), "rod_force": _rod_force,
+}
+
+
+class CoreRun:
+    """What the compiled core returned for one simulation, before it is wrapped.
+
+    :meth:`result` builds the :class:`SimulationResult` (every series, the events, the
+    statistics); :meth:`observed` reads one measured signal's series alone, as the full result's
+    :meth:`SimulationResult.observed` gives it (the same arrays): a calibration replays an
+    experiment hundreds of times and reads only its measured signals.
+    """
+
+    def __init__(self, model, scenario, core, t_out, y_out, aux_out, mode_out, u_out,
+                 ev_t, ev_kind, ev_mode, stats, status, t_reached, warnings=None):
+        # of the core's inputs only what the series need (the compiled hook and law tables
+        # stay out: a replay may be pickled to a cluster)
+        self.model, self.scenario = model, scenario
+        self.effective_model, self.state_names = core["effective_model"], core["state_names"]
+        self.t_out, self.y_out, self.aux_out, self.mode_out, self.u_out = \
+            t_out, y_out, aux_out, mode_out, u_out
+        self.ev_t, self.ev_kind, self.ev_mode, self.stats = ev_t, ev_kind, ev_mode, stats
+        self.status, self.t_reached, self.warnings = status, t_reached, warnings
+
+    def _state(self, name):
+        names = self.state_names
+        for i in range(L.N_BASE_STATES, len(names)):
+            if names[i] == name:
+                return self.y_out[:, i]
+        return None
+
+    def observed(self, name):
+        """:meth:`SimulationResult.observed` of the result this run gives."""
+        name = OBSERVED_SERIES.get(name, name)
+        lagged = self._state(f"{name}_sensor")
+        if lagged is not None:
+            return lagged
+        if name in _SERIES:
+            return _SERIES[name](self)
+        state = self._state(name)
+        if state is None:
+            raise KeyError(name)
+        return state
+
+    def result(self):
+        """The :class:`SimulationResult` (a new one each call)."""
+        s = {name: f(self) for name, f in _SERIES.items()}
+        for i, name in enumerate(self.state_names[L.N_BASE_STATES:]):
+            s[name] = self.y_out[:, L.N_BASE_STATES + i]
+        events = [{"t": float(t[0]), "kind": L.EVENT_NAMES[k], "mode": L.MODE_DETAIL[m]}
+                  for t, k, m in zip(self.ev_t, self.ev_kind, self.ev_mode)]
+        for e, t in zip(events, self.ev_t):
+            if e["kind"] == "stop":
+                e["v"] = float(t[1])     # the piston's velocity at the impact [m/s]
+        stats = self.stats
+        st = {"steps": int(stats[ST_STEPS]), "rejected": int(stats[ST_REJECTED]),
+              "rhs_evaluations": int(stats[ST_FEVALS]), "jacobians": int(stats[ST_JACOBIANS]),
+              "events": int(stats[ST_EVENTS]), "backsteps": int(stats[ST_BACKSTEPS]),
+              "t_reached": float(self.t_reached),
+              "method": "RODAS4 (Rosenbrock, order 4, L-stable)",
+              "rtol": self.scenario.solver.rtol}
+        if self.warnings:
+            st["warnings"] = self.warnings
+        return SimulationResult(s, events, st, self.model, self.scenario, self.status,
+                                STATUS_MESSAGES[self.status])
+
+
+class LazyResult:
+    """A :class:`SimulationResult` built on first use of anything but its status and its
+    measured signals (:meth:`observed`), which are read off the :class:`CoreRun` directly.
+
+    What a replay holds: a fit reads only the measured signals of most of its replays; the
+    phase labels, the events and the report read the full result, built then (once).
+    """
+
+    def __init__(self, run):
+        self._run = run
+        self._full = None
+        self.status = run.status
+        self.message = STATUS_MESSAGES[run.status]
+
+    def observed(self, name):
+        """:meth:`SimulationResult.observed`."""
+        if self._full is not None:
+            return self._full.observed(name)
+        return self._run.observed(name)
+
+    @property
+    def full(self):
+        """The :class:`SimulationResult` (built once)."""
+        if self._full is None:
+            self._full = self._run.result()
+        return self._full
+
+    def __getattr__(self, name):
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return getattr(self.full, name)
+
+
 class SimulationResult:
     """Sampled series, events and solver statistics of one simulation.
 
@@ -96,50 +230,8 @@ class SimulationResult:
     @classmethod
     def from_core(cls, model, scenario, core, t_out, y_out, aux_out, mode_out, u_out,
                   ev_t, ev_kind, ev_mode, stats, status, t_reached):
-        eff = core["effective_model"]
-        s = {"t": t_out, "u": u_out}
-        s["p_a"] = aux_out[:, L.AUX_PA]
-        s["p_b"] = aux_out[:, L.AUX_PB]
-        s["T_a"] = y_out[:, L.Y_TA]
-        s["T_b"] = y_out[:, L.Y_TB]
-        s["m_a"] = y_out[:, L.Y_MA]
-        V_b = aux_out[:, L.AUX_VB]
-        if eff.b_chamber_pressure is not None:
-            s["m_b"] = s["p_b"] * V_b / (eff.gas.r * s["T_b"])
-        else:
-            s["m_b"] = y_out[:, L.Y_MB]
-        s["x"] = y_out[:, L.Y_X]
-        s["v"] = y_out[:, L.Y_V]
-        s["a"] = aux_out[:, L.AUX_ACC]
-        s["q_a"] = aux_out[:, L.AUX_QA]
-        s["q_b"] = aux_out[:, L.AUX_QB]
-        s["friction"] = aux_out[:, L.AUX_FRICTION]
-        s["mode"] = _MODE_TEXT[mode_out]      # code -1 (sample not reached) -> ""
-        s["u_eff"] = aux_out[:, L.AUX_UEFF]
-        s["p_supply"] = aux_out[:, L.AUX_PSUP]
-        s["q_supply"] = aux_out[:, L.AUX_QSUP]
-        s["net_force"] = aux_out[:, L.AUX_FNET]
-        s["heat_a"] = aux_out[:, L.AUX_HEAT_A]
-        s["heat_b"] = aux_out[:, L.AUX_HEAT_B]
-        s["V_a"] = aux_out[:, L.AUX_VA]
-        s["V_b"] = V_b
-        # Eq. 17 with the moving mass on the load's side (see the class docstring)
-        load = eff.jack.total_load
-        s["rod_force"] = np.where(mode_out == L.MODE_LOCKED, s["net_force"] + load,
-                                  eff.jack.moving_mass * s["a"] + load)
-        for i, name in enumerate(core["state_names"][L.N_BASE_STATES:]):
-            s[name] = y_out[:, L.N_BASE_STATES + i]
-        events = [{"t": float(t[0]), "kind": L.EVENT_NAMES[k], "mode": L.MODE_DETAIL[m]}
-                  for t, k, m in zip(ev_t, ev_kind, ev_mode)]
-        for e, t in zip(events, ev_t):
-            if e["kind"] == "stop":
-                e["v"] = float(t[1])     # the piston's velocity at the impact [m/s]
-        st = {"steps": int(stats[ST_STEPS]), "rejected": int(stats[ST_REJECTED]),
-              "rhs_evaluations": int(stats[ST_FEVALS]), "jacobians": int(stats[ST_JACOBIANS]),
-              "events": int(stats[ST_EVENTS]), "backsteps": int(stats[ST_BACKSTEPS]),
-              "t_reached": float(t_reached), "method": "RODAS4 (Rosenbrock, order 4, L-stable)",
-              "rtol": scenario.solver.rtol}
-        return cls(s, events, st, model, scenario, status, STATUS_MESSAGES[status])
+        return CoreRun(model, scenario, core, t_out, y_out, aux_out, mode_out, u_out, ev_t,
+                       ev_kind, ev_mode, stats, status, t_reached).result()
 
     # -- views -------------------------------------------------------------------
     def observed(self, name):

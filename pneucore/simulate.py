@@ -17,7 +17,7 @@ from pneucore.physics.heat import HEAT_MODELS
 from pneucore.core.integrator import ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES, core_for, integrate
 from pneucore.spec.model import Model, check_resolvable
 from pneucore.spec.validation import choice
-from pneucore.result import SimulationResult
+from pneucore.result import CoreRun
 from pneucore.core.rhs import law_table, no_terms
 from pneucore.spec.scenario import Scenario
 from pneucore.physics.valve import pack_tables
@@ -84,6 +84,13 @@ def _compose_hooks(hooks):
     return fn
 
 
+#: The core's slot of each friction coefficient, per direction: ``(side, ((key, slot), ...))``
+_FRICTION_SLOTS = tuple(
+    (side, tuple((key, L.PRM_INDEX[f"{code}_{key.upper().replace('_', '')}"])
+                 for key in ("fc0", "fc_a", "fc_b", "kv0", "kv_a", "kv_b")))
+    for side, code in (("extend", "FE"), ("retract", "FR")))
+
+
 def build_core(model, scenario):
     """Assemble the flat arrays of the compiled core.
 
@@ -121,9 +128,10 @@ def build_core(model, scenario):
     heat = HEAT_MODELS[eff.heat.model]
     for slot, value in heat.core_values(eff.heat).items():
         prm[P[slot]] = value
-    for side, fs in (("FE", eff.friction.extend), ("FR", eff.friction.retract)):
-        for key in ("fc0", "fc_a", "fc_b", "kv0", "kv_a", "kv_b"):
-            prm[P[f"{side}_{key.upper().replace('_', '')}"]] = getattr(fs, key)
+    for side, slots in _FRICTION_SLOTS:
+        fs = getattr(eff.friction, side)
+        for key, slot in slots:
+            prm[slot] = getattr(fs, key)
     prm[P["STRIBECK_RATIO"]] = 1.0
     prm[P["STRIBECK_V"]] = 0.01
     # the laws by name, through the registries (a law may have been unregistered since
@@ -279,6 +287,59 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
     >>> res.p_a.shape
     (1001,)
     """
+    run = simulate_run(model, scenario, t_out)
+    res = run.result()
+    if run.status != OK and raise_on_error:
+        raise SimulationError(f"simulation stopped at t = {run.t_reached:.6g} s: "
+                              f"{STATUS_MESSAGES[run.status]}", res)
+    return res
+
+
+def checked_sample_times(t_out, duration):
+    """``t_out`` as a new float array, checked: finite, increasing, within [0, ``duration``].
+
+    Parameters
+    ----------
+    t_out : array_like
+        Sample times [s]
+    duration : float
+        Simulated time [s]
+
+    Returns
+    -------
+    t_out : ndarray
+        The sample times (a copy) [s]
+    """
+    t_out = np.array(t_out, dtype=float)
+    if t_out.shape[0] == 0 or not np.all(np.isfinite(t_out)) \
+            or np.any(np.diff(t_out) <= 0) or t_out[0] < 0 or t_out[-1] > duration * (1 + 1e-12):
+        raise ValueError("t_out: sample times must be finite, increasing and within "
+                         "[0, scenario.duration]")
+    return t_out
+
+
+def simulate_run(model, scenario, t_out=None, checked_times=False):
+    """:func:`simulate`'s work, its outputs not yet wrapped: a :class:`pneucore.result.CoreRun`
+    (:meth:`~pneucore.result.CoreRun.result` gives the :class:`SimulationResult`; a solver failure
+    is in its ``status``, never raised).
+
+    Parameters
+    ----------
+    model : Model or dict
+        The actuator (see :func:`simulate`)
+    scenario : Scenario or dict
+        Command, duration, sampling, initial state (see :func:`simulate`)
+    t_out : array_like or None
+        Sample times [s] (see :func:`simulate`)
+    checked_times : bool
+        ``t_out`` comes from :func:`checked_sample_times` for this scenario's duration (an
+        experiment replayed many times checks its times once): used as it is, not copied [-]
+
+    Returns
+    -------
+    run : CoreRun
+        The compiled core's outputs, with the inputs and the effects' warnings
+    """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     if isinstance(scenario, Scenario):
         # built, hence validated, by Scenario.from_dict: only the checks that need this
@@ -292,13 +353,11 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
         n_out = output_samples(scenario.duration, scenario.sample_period)
         t_out = np.arange(n_out) * scenario.sample_period
         t_out[-1] = min(t_out[-1], scenario.duration)
-    else:
-        t_out = np.array(t_out, dtype=float)
+    elif checked_times:
         n_out = t_out.shape[0]
-        if n_out == 0 or not np.all(np.isfinite(t_out)) or np.any(np.diff(t_out) <= 0) \
-                or t_out[0] < 0 or t_out[-1] > scenario.duration * (1 + 1e-12):
-            raise ValueError("t_out: sample times must be finite, increasing and within "
-                             "[0, scenario.duration]")
+    else:
+        t_out = checked_sample_times(t_out, scenario.duration)
+        n_out = t_out.shape[0]
     n = core["y0"].shape[0]
     y_out = np.empty((n_out, n))
     aux_out = np.empty((n_out, L.N_AUX))
@@ -331,19 +390,12 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
         aux_out[bad] = np.nan
         u_out[bad] = np.nan
         mode_out[bad] = -1
-    res = SimulationResult.from_core(model, scenario, core, t_out, y_out, aux_out, mode_out, u_out,
-                                     ev_t[:n_ev], ev_kind[:n_ev], ev_mode[:n_ev], stats,
-                                     status, t_reached)
     # only an effect that can warn needs the command's time scale (a scan of the command)
     time_scale = (command_time_scale(scenario)
                   if any(EFFECTS[n].warn is not None for n in model.effects) else None)
     warnings = [] if time_scale is None else effect_warnings(model, time_scale)
-    if warnings:
-        res.stats["warnings"] = warnings
-    if status != OK and raise_on_error:
-        raise SimulationError(f"simulation stopped at t = {t_reached:.6g} s: {STATUS_MESSAGES[status]}",
-                              res)
-    return res
+    return CoreRun(model, scenario, core, t_out, y_out, aux_out, mode_out, u_out, ev_t[:n_ev],
+                   ev_kind[:n_ev], ev_mode[:n_ev], stats, status, t_reached, warnings)
 
 
 def warm_up():

@@ -184,7 +184,7 @@ def signal_sigmas(experiment):
         if given is not None and math.isfinite(float(given)) and float(given) > 0:
             out[s] = float(given)
         else:
-            out[s] = max(noise_sigma(sig[s]), 1e-6 * np.nanmax(np.abs(sig[s])),
+            out[s] = max(experiment.noise(s), 1e-6 * np.nanmax(np.abs(sig[s])),
                          SIGMA_FLOOR.get(s, 1e-12))
     return out
 

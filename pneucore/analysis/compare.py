@@ -18,6 +18,7 @@ from pneucore.data.experiment import as_experiments
 from pneucore.analysis.metrics import (command_phases, eq25_error, noise_sigma, ordered_labels,
                                        phase_errors, piston_phases, worst_windows)
 from pneucore.analysis.phase_excess import describe, explain_residual
+from pneucore.result import LazyResult
 from pneucore.spec.model import Model
 
 
@@ -58,12 +59,13 @@ class Replay:
 
 def replay(model, experiment):
     """Simulate ``experiment`` on ``model`` and align the signals (no exception on solver failure)."""
-    res = experiment.simulate(model, raise_on_error=False)
-    n = len(res.t)
+    run = experiment.run(model)
+    res = LazyResult(run)   # the full result built only when something reads it
+    n = len(run.t_out)
     meas = {s: experiment.measurement.signals[s][:n] for s in experiment.signals}
-    sim = {s: np.asarray(res.observed(s), float) for s in experiment.signals}
+    sim = {s: np.asarray(run.observed(s), float) for s in experiment.signals}
     u = experiment.command_samples[:n]
-    return Replay(experiment, res, res.t, meas, sim, u)
+    return Replay(experiment, res, run.t_out, meas, sim, u)
 
 
 #: A measured position whose spread (1st to 99th percentile) stays below this never moved [m]:
@@ -171,6 +173,16 @@ def errors(model, experiments):
     return errs, _overall(errs)
 
 
+def _noise(rp, name, measured):
+    """:func:`pneucore.analysis.metrics.noise_sigma` of a replay's measured series: the
+    experiment's own, found once (:meth:`Experiment.noise`), when the replay holds the whole
+    record [SI]."""
+    full = rp.experiment.measurement.signals.get(name)
+    if full is not None and full.shape == measured.shape and hasattr(rp.experiment, "noise"):
+        return rp.experiment.noise(name)
+    return noise_sigma(measured)
+
+
 def noise_floor(replays):
     """Eq. 25 error that white measurement noise alone would give, per signal [-].
 
@@ -182,7 +194,7 @@ def noise_floor(replays):
     for rp in replays:
         for s, m in rp.measured.items():
             ok = np.isfinite(m)
-            sig = noise_sigma(m)
+            sig = _noise(rp, s, m)
             a = acc.setdefault(s, [0.0, 0.0])
             a[0] += ok.sum() * sig * sig
             a[1] += np.sum(m[ok] ** 2)
@@ -228,7 +240,7 @@ def phase_explanations(replays):
                 continue
             m = np.asarray(rp.measured[s], float)
             g = np.asarray(rp.simulated[s], float)
-            sigma = noise_sigma(m)
+            sigma = _noise(rp, s, m)
             dg = np.gradient(g, t) if t.size > 1 else np.zeros_like(g)
             for labels in (rp.cmd_labels, rp.piston_labels):
                 for lab in ordered_labels(labels):

@@ -242,7 +242,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         sensitivities, the candidates' joint refits, the per-experiment consistency fits):
         None = this machine's threads; a Dask scheduler address, ``Client`` or cluster
         object = one task each on that cluster (the same answer, to round-off;
-        :mod:`pneucore.analysis.parallel`). A cluster that loses every worker or stops
+        :mod:`pneucore.analysis.parallel`), or an open :class:`pneucore.analysis.parallel.Runner`
+        (a refinement's rounds share one). A cluster that loses every worker or stops
         answering is given up after the studies' grace time and the rest runs here
         (``cluster["lost"]`` says why). A service passes only the address configured on the
         server, never one from a request

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 from pneucore.analysis.compare import compare
 from pneucore.analysis.diagnose import check_request, diagnose
-from pneucore.analysis.diagnosis.stages import cluster_client
+from pneucore.analysis import parallel as P
 from pneucore.data.experiment import as_experiments
 from pneucore.spec.model import Model
 
@@ -218,12 +218,14 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
     history = history or RefinementHistory()
     if not history.versions:
         history.add(model, compare(model, exps))
-    with cluster_client(scheduler, scheduler_timeout) as client:
+    # one runner for every round: the cluster reached and probed once, and, once lost, not
+    # tried again by the next round
+    with P.running(scheduler, scheduler_timeout, progress) as runner:
         diagnoses = []
         dropped_in = {}        # effect -> round in which the data dropped it
         for k in range(max_rounds):
             d = diagnose(model, exps, uncertain=uncertain, progress=progress, validated=True,
-                         known=known, scheduler=client)
+                         known=known, scheduler=runner)
             diagnoses.append(d)
             if d.initial_state:
                 # the records imply an initial state their context does not declare (a rig left

@@ -480,12 +480,13 @@ def offered(model, candidates=(), exclude=()):
 
 
 
-def sensitivity_column(model, experiments, objective, r0, replay, h):
+def sensitivity_column(model, objective, r0, replay, h):
     """``(h, dv, column)``: hypothesis ``h`` moved by its step ``dv`` on ``model``, the change
-    of ``objective``'s weighted residual from ``r0`` (one column of :func:`identifiable`)."""
+    of ``objective``'s weighted residual from ``r0`` on its experiments (one column of
+    :func:`identifiable`; the objective holds the experiments, sent to a cluster once)."""
     dv = _signed_step(model, h)
     mp = set_values(model, {h.path: get_value(model, h.path) + dv})
-    return h, dv, objective.weighted([replay(mp, e) for e in experiments]) - r0
+    return h, dv, objective.weighted([replay(mp, e) for e in objective.experiments]) - r0
 
 
 def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBLE,
@@ -499,7 +500,7 @@ def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBL
     experiments : list
         Prepared experiments
     objective : pneucore.analysis.calibrate.Objective
-        Gives noise-weighted residuals
+        Gives noise-weighted residuals (built on ``experiments``)
     r0 : ndarray
         Its weighted residual at ``model``
     hyps : list of BaseHypothesis
@@ -528,7 +529,9 @@ def identifiable(model, experiments, objective, r0, hyps, replay, visible=VISIBL
     # one simulation per hypothesis and experiment, in the fit's worker threads (the compiled
     # integrator runs outside the GIL), or one task each on the diagnosis's Dask cluster
     from pneucore.analysis.parallel import pmap
-    for h, dv, col in pmap(sensitivity_column, hyps, (model, experiments, objective, r0, replay),
+    if [id(e) for e in experiments] != [id(e) for e in objective.experiments]:
+        raise ValueError("identifiable: the objective must be built on the experiments")
+    for h, dv, col in pmap(sensitivity_column, hyps, (model, objective, r0, replay),
                            "sensitivities of the base hypotheses"):
         cols[h.path] = col / dv
         norms[h.path] = float(col @ col)

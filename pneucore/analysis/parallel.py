@@ -246,7 +246,9 @@ def running(scheduler=None, timeout=None, report=None):
     """A :class:`Runner` for ``scheduler``, current in this thread until the block ends.
 
     ``scheduler`` is None (this machine's threads), a Dask scheduler address, a
-    ``distributed.Client`` or a cluster object, as for a study
+    ``distributed.Client`` or a cluster object, as for a study, or an open :class:`Runner`
+    (used as it is, and left open: several diagnoses on one cluster, which is reached and
+    probed once, and once lost stays lost)
     (:func:`pneucore.study.execute.connect_scheduler`, whose ``SchedulerError`` names
     ``scheduler`` when it cannot be reached or has no worker); a service passes only the
     address configured on the server, never one from a request (a client unpickles what the
@@ -254,6 +256,19 @@ def running(scheduler=None, timeout=None, report=None):
     against a scheduler that stopped answering. ``timeout`` [s]: time to reach it (None = the
     studies' default).
     """
+    if isinstance(scheduler, Runner):
+        # an open runner handed over (a refinement's rounds share one): the same client, its
+        # lost cluster still lost; this block's progress callback while it is current
+        prev = scheduler.report
+        if report is not None:
+            scheduler.report = report
+        token = _CURRENT.set(scheduler)
+        try:
+            yield scheduler
+        finally:
+            _CURRENT.reset(token)
+            scheduler.report = prev
+        return
     if scheduler is None:
         r = Runner(report=report)
         token = _CURRENT.set(r)

@@ -34,7 +34,7 @@ import numpy as np
 
 from pneucore.data.measurement import Measurement, MeasurementError
 from pneucore.spec.scenario import Scenario
-from pneucore.simulate import simulate
+from pneucore.simulate import checked_sample_times, simulate, simulate_run
 from pneucore.spec.validation import FieldError, known_keys, mapping, number
 
 #: A record may start at most this many record lengths after the model's t = 0 (the model
@@ -181,15 +181,32 @@ class Experiment:
         return names
 
     def model_for(self, model):
-        """The model with this experiment's load and supply pressure applied."""
+        """The model with this experiment's load and supply pressure applied.
+
+        A new model with its own jack and supply where it changes them, sharing the rest with
+        ``model`` (a calibration replays thousands of models: a deep copy of each cost more
+        than its simulation's setting up); ``model`` itself when nothing changes.
+        """
         if self.load_force is None and self.supply_pressure is None:
             return model
-        m = model.copy()
+        m = copy.copy(model)
         if self.load_force is not None:
+            m.jack = copy.copy(model.jack)
             m.jack.load_force = self.load_force
         if self.supply_pressure is not None:
+            m.supply = copy.copy(model.supply)
             m.supply.pressure = self.supply_pressure
         return m
+
+    def noise(self, name):
+        """:func:`pneucore.analysis.metrics.noise_sigma` of a measured signal, found once per
+        experiment and signal (every fit on the experiment weighs its residuals by it; like the
+        first-sample estimates, this assumes the measurement is not edited afterwards) [SI]."""
+        key = ("noise", name)
+        if key not in self._first_cache:
+            from pneucore.analysis.metrics import noise_sigma
+            self._first_cache[key] = noise_sigma(self.measurement.signals[name])
+        return self._first_cache[key]
 
     def _first(self, name, max_window=200):
         """Initial value of a signal, estimated from the quiet samples at the start.
@@ -302,9 +319,26 @@ class Experiment:
         """Run ``model`` on this experiment, sampled at the measurement's times."""
         m = self.model_for(model)
         scen = self.scenario_for(m)
+        return simulate(m, scen, raise_on_error=raise_on_error, t_out=self._times_to(scen.duration))
+
+    def run(self, model):
+        """:meth:`simulate`'s outputs unwrapped (:func:`pneucore.simulate.simulate_run`): a
+        :class:`pneucore.result.CoreRun`, a solver failure in its ``status``."""
+        m = self.model_for(model)
+        scen = self.scenario_for(m)
+        key = ("times", self.measurement, self.t0, scen.duration)
+        hit = self._first_cache.get(key[0])
+        if hit is None or hit[0] is not key[1] or hit[1:3] != key[2:]:
+            # checked once for the record and the duration replayed (the measurement is not
+            # edited afterwards, as for the first-sample estimates)
+            hit = self._first_cache[key[0]] = key[1:] + (
+                checked_sample_times(self._times_to(scen.duration), scen.duration),)
+        return simulate_run(m, scen, hit[3], checked_times=True)
+
+    def _times_to(self, duration):
+        """The sample times up to ``duration`` on the model's time axis [s]."""
         t = self.times
-        t = t[t <= scen.duration * (1 + 1e-12)]
-        return simulate(m, scen, raise_on_error=raise_on_error, t_out=t)
+        return t[t <= duration * (1 + 1e-12)]
 
 
 def as_experiments(experiments, ambient_pressure=101300.0, datasets=None):

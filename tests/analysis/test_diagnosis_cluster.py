@@ -48,8 +48,9 @@ def test_the_refits_on_the_cluster_are_those_of_the_threads(client):
     st = _leak_stages()
     model, exps, _ = _leak_case()
     calls = []
-    remote = S.joint_refits(model, exps, st["null"], st["lead"], 30,
-                            lambda f, s: calls.append((f, s)), client)
+    with P.running(client):
+        remote = S.joint_refits(model, exps, st["null"], st["lead"], 30,
+                                lambda f, s: calls.append((f, s)))
     assert list(remote) == list(st["refits"]) == list(st["lead"])   # the same order
     for name, cal in st["refits"].items():
         other = remote[name]
@@ -96,6 +97,33 @@ def test_a_refinement_reaches_the_cluster_once_for_all_its_rounds(client):
         final_l.effects["piston_leakage"]["conductance"], rel=SAME_RTOL)
 
 
+def test_a_refinements_rounds_share_one_runner_and_a_lost_cluster_stays_lost(monkeypatch):
+    """Every round of a refinement runs on the runner it opened (the cluster reached and probed
+    once); a cluster lost in one round is not tried again by the next: its work runs here."""
+    from pneucore.analysis import history
+    model, exps, _ = _leak_case()
+    seen = []
+
+    def one_round(m, e, scheduler=None, **kw):
+        seen.append((scheduler, scheduler.on_cluster, P.current()))
+        if len(seen) == 1:
+            scheduler.lost = "the Dask cluster's scheduler has no worker (for 10 s)"
+        # a round that proposes the model as it is: the loop goes on to the next round
+        return dataclasses.replace(_local_small(), model=m, verdict="piston_leakage",
+                                   recalibrate=False, initial_state=[], dropped=[],
+                                   remaining={}) if len(seen) == 1 else \
+            dataclasses.replace(_local_small(), verdict=None, recalibrate=False,
+                                initial_state=[])
+    monkeypatch.setattr(history, "diagnose", one_round)
+    # a runner on a "cluster" nothing can reach: were any work sent to it, it would fail
+    runner = P.Runner(client=object(), address=None)
+    history.refine(model, exps, max_rounds=3, scheduler=runner, validated=True)
+    assert len(seen) == 2
+    assert all(r is runner and cur is runner for r, _, cur in seen)
+    assert [on for _, on, _ in seen] == [True, False]   # lost in round 1, not tried in round 2
+    assert P.current() is None                          # nothing left current after it
+
+
 def test_a_progress_callback_that_stops_cancels_the_cluster_refits(client):
     st = _leak_stages()
     model, exps, _ = _leak_case()
@@ -106,8 +134,8 @@ def test_a_progress_callback_that_stops_cancels_the_cluster_refits(client):
     def stop(fraction, step):
         raise Stop(step)
 
-    with pytest.raises(Stop, match="Dask cluster"):
-        S.joint_refits(model, exps, st["null"], st["lead"], 30, stop, client)
+    with pytest.raises(Stop, match="Dask cluster"), P.running(client):
+        S.joint_refits(model, exps, st["null"], st["lead"], 30, stop)
     # nothing of this call is left on the cluster (cancelled and released)
     deadline = time.monotonic() + 10.0   # the scheduler forgets released tasks within ms; 10 s: a loaded machine
     while client.run_on_scheduler(lambda dask_scheduler: len(dask_scheduler.tasks)) and \
@@ -180,6 +208,26 @@ def test_the_consistency_fits_on_the_cluster_are_those_of_the_threads(client):
         for p, v in est.items():
             for k in ("value", "stderr"):
                 assert there["per_experiment"][e][p][k] == pytest.approx(v[k], rel=SAME_RTOL), (e, p, k)
+
+
+def test_the_held_out_folds_on_the_cluster_are_those_of_the_threads(client):
+    """The held-out folds (blocks in time, and experiments left out when they run) as Dask
+    tasks: the same held-out energies as on this machine's threads."""
+    st = _leak_stages()
+    model, exps, _ = _leak_case()
+    name = st["verdict"]
+    here = S.held_out_evidence(model, exps, st["null"], name, st["refits"][name], 30)
+    steps, rec = _recorder()
+    with P.running(client, report=rec):
+        there = S.held_out_evidence(model, exps, st["null"], name, st["refits"][name], 30)
+    assert any("held-out blocks (on the Dask cluster)" in s for s in steps)
+    assert there["used"] == here["used"]
+    for key in ("folds", "experiment_folds"):
+        assert len(there[key]) == len(here[key])
+        for a, b in zip(here[key], there[key]):
+            for k in ("null", "candidate"):
+                assert b[k] == pytest.approx(a[k], rel=SAME_RTOL), (key, k)
+    assert here["folds"]
 
 
 # ------------------------------------------------------------------ a cluster lost midway

@@ -5,11 +5,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from pneucore.analysis import calibrate as _calibrate
 from pneucore.analysis import hypotheses as H
 from pneucore.analysis.calibrate import fit
 from pneucore.analysis.compare import noise_floor, replay
@@ -77,10 +75,10 @@ def experiment_excess(before, after):
                 den[s] = den.get(s, 0.0) + float(np.sum(m[ok] ** 2))
     n_sig = len(den)
 
-    def energy(rp):
-        # this experiment's term of the pooled squared overall error, and of its floor
+    def energy(rp, fl):
+        # this experiment's term of the pooled squared overall error, and of its floor (with
+        # the floors ``fl`` of its signals; None: the error's term alone)
         e = f = 0.0
-        fl = noise_floor([rp])
         for s in rp.measured:
             m = rp.experiment.measurement.signals[s]
             g = np.full(m.shape, np.nan)
@@ -88,13 +86,14 @@ def experiment_excess(before, after):
             ok = np.isfinite(m) & np.isfinite(g)
             if den.get(s, 0.0) > 0:
                 e += float(np.sum((m[ok] - g[ok]) ** 2)) / den[s] / n_sig
-                f += fl[s] ** 2 * float(np.sum(m[np.isfinite(m)] ** 2)) / den[s] / n_sig
+                if fl is not None:
+                    f += fl[s] ** 2 * float(np.sum(m[np.isfinite(m)] ** 2)) / den[s] / n_sig
         return e, f
 
     terms = []
     for r0, r1 in zip(before, after):
-        (e0, f), (e1, _) = energy(r0), energy(r1)
-        fl = noise_floor([r0])
+        fl = noise_floor([r0])   # the record's floors, found once for both replays' terms
+        (e0, f), (e1, _) = energy(r0, fl), energy(r1, None)
         floor = float(math.sqrt(np.mean([v * v for v in fl.values()]))) if fl else float("nan")
         c0, c1 = own_error(r0), own_error(r1)
         whole = r1.t.shape[0] == r0.t.shape[0]   # the candidate's replay reached the end
@@ -377,50 +376,63 @@ def held_out(null_model, null_specs, cand_model, cand_specs, exps, scales, prior
         ``null``, ``candidate``}], ``experiment_wins``, ``experiment_drop`` likewise for the
         experiments left out (empty, 0 and 0 without them); ``used``: the folds in words
     """
-    def one(k):
-        cut = [masked(e, k, n_folds) for e in exps]
-        train = [c for c, _ in cut]
-        blocks = {e.name: b for e, (_, b) in zip(exps, cut)}
-        out = {}
-        for key, m, specs in (("null", null_model, null_specs), ("candidate", cand_model, cand_specs)):
-            mk = m
-            if specs:
-                mk = fit(m, train, specs, max_nfev=max_nfev, compute_before=False, reweight=True,
-                         prior=prior).model
-            out[key] = block_energy(mk, exps, blocks, scales)
-        return out
-
-    def left_out(i):
-        held, train = exps[i], exps[:i] + exps[i + 1:]
-        out = {"experiment": held.name}
-        for key, m, specs in (("null",) + tuple(loeo[:2]), ("candidate",) + tuple(loeo[2:])):
-            mk = m
-            if specs:
-                # from the model as given: the budget of a joint refit, which starts there too
-                mk = fit(m, train, specs, max_nfev=2 * max_nfev, compute_before=False,
-                         reweight=True, prior=prior).model
-            out[key] = block_energy(mk, [held], {held.name: (0, held.measurement.t.size)}, scales)
-        return out
-
-    with ThreadPoolExecutor(_calibrate.THREADS) as pool:
-        folds = list(pool.map(one, range(n_folds)))
-        out = {"folds": folds, "n_folds": n_folds}
-        out["wins"], out["drop"] = _vote(folds)
-        used = f"{n_folds} blocks in time of each of {len(exps)} experiment{'s' * (len(exps) != 1)}"
-        efolds = []
-        if loeo is None:
-            used += "; no experiment left out"
-        elif len(exps) < 2:
-            used += "; no experiment left out (one experiment)"
-        elif enough is not None and enough(out):
-            used += "; no experiment left out (the blocks in time already show it)"
-        else:
-            efolds = list(pool.map(left_out, range(len(exps))))
-            used += (f"; each of the {len(efolds)} experiments left out in turn, fitted on the "
-                     "others from the model as given")
+    # each fold a piece of work of its own: on this machine's threads, or one task each on the
+    # diagnosis's Dask cluster, the common arguments sent there once
+    folds = pmap(block_fold, range(n_folds), (null_model, null_specs, cand_model, cand_specs, exps,
+                                              scales, prior, n_folds, max_nfev),
+                 "held-out blocks")
+    out = {"folds": folds, "n_folds": n_folds}
+    out["wins"], out["drop"] = _vote(folds)
+    used = f"{n_folds} blocks in time of each of {len(exps)} experiment{'s' * (len(exps) != 1)}"
+    efolds = []
+    if loeo is None:
+        used += "; no experiment left out"
+    elif len(exps) < 2:
+        used += "; no experiment left out (one experiment)"
+    elif enough is not None and enough(out):
+        used += "; no experiment left out (the blocks in time already show it)"
+    else:
+        efolds = pmap(experiment_fold, range(len(exps)),
+                      (tuple(loeo), exps, scales, prior, max_nfev), "held-out experiments")
+        used += (f"; each of the {len(efolds)} experiments left out in turn, fitted on the "
+                 "others from the model as given")
     out["experiment_folds"] = efolds
     out["experiment_wins"], out["experiment_drop"] = _vote(efolds)
     out["used"] = used
+    return out
+
+
+def block_fold(null_model, null_specs, cand_model, cand_specs, exps, scales, prior, n_folds,
+               max_nfev, k):
+    """Fold ``k`` of :func:`held_out`'s blocks in time: ``{"null", "candidate"}`` held-out
+    energies, each model refitted with the ``k``-th block of every experiment marked missing
+    (a piece of work for :func:`pneucore.analysis.parallel.pmap`) [-]."""
+    cut = [masked(e, k, n_folds) for e in exps]
+    train = [c for c, _ in cut]
+    blocks = {e.name: b for e, (_, b) in zip(exps, cut)}
+    out = {}
+    for key, m, specs in (("null", null_model, null_specs), ("candidate", cand_model, cand_specs)):
+        mk = m
+        if specs:
+            mk = fit(m, train, specs, max_nfev=max_nfev, compute_before=False, reweight=True,
+                     prior=prior).model
+        out[key] = block_energy(mk, exps, blocks, scales)
+    return out
+
+
+def experiment_fold(loeo, exps, scales, prior, max_nfev, i):
+    """Experiment ``i`` left out of :func:`held_out`'s fits: ``{"experiment", "null",
+    "candidate"}``, each model fitted on the others from its start in ``loeo`` and predicting
+    it whole (a piece of work for :func:`pneucore.analysis.parallel.pmap`) [-]."""
+    held, train = exps[i], exps[:i] + exps[i + 1:]
+    out = {"experiment": held.name}
+    for key, m, specs in (("null",) + tuple(loeo[:2]), ("candidate",) + tuple(loeo[2:])):
+        mk = m
+        if specs:
+            # from the model as given: the budget of a joint refit, which starts there too
+            mk = fit(m, train, specs, max_nfev=2 * max_nfev, compute_before=False,
+                     reweight=True, prior=prior).model
+        out[key] = block_energy(mk, [held], {held.name: (0, held.measurement.t.size)}, scales)
     return out
 
 

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 from concurrent.futures import ThreadPoolExecutor
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -598,24 +597,11 @@ def remote_joint_refit(model, exps, null, max_nfev, name):
     return joint_refit(model, exps, null, name, max_nfev, lambda f, s: None)
 
 
-@contextmanager
-def cluster_client(scheduler, timeout=None):
-    """A ``distributed.Client`` for ``scheduler`` (None = none: yields None), closed at the end
-    if opened here: the client of :func:`pneucore.analysis.parallel.running` (which see), for
-    a caller that runs several diagnoses on one cluster (a refinement's rounds)."""
-    with P.running(scheduler, timeout) as runner:
-        yield runner.client
-
-
-def joint_refits(model, exps, null, lead, max_nfev, report, client=None):
+def joint_refits(model, exps, null, lead, max_nfev, report):
     """``{name: calibration}`` of :func:`joint_refit` for each leading candidate (in parallel):
-    one Dask task each on the cluster of ``client`` (a ``distributed.Client``) when one is
-    given, else on the current diagnosis's cluster
+    one Dask task each on the current diagnosis's cluster
     (:func:`pneucore.analysis.parallel.current`), else on this machine's threads."""
-    runner = P.Runner(client, getattr(client.scheduler, "address", None), report=report) \
-        if client is not None else P.current()
-    if client is not None:
-        runner.probe_or_not()
+    runner = P.current()
     if runner is not None and runner.on_cluster and lead:
         prev = runner.report
         runner.report = report
