@@ -58,7 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pneucore.physics.gas import GAMMA_AIR, R_AIR, T_REF
-from pneucore.physics.tube import RE_LAMINAR, air_viscosity_sutherland, darcy_friction
+from pneucore.physics.tube import MAX_SEGMENTS, RE_LAMINAR, air_viscosity_sutherland, darcy_friction
 
 #: Ratio of the signal's time scale to the line's quarter-wave period ``4 L / c`` above which
 #: the lumped line is adequate [-]. Measured (tests/physics/test_tube_line.py, a volume filled
@@ -104,6 +104,43 @@ def sound_speed(T=T_REF, thermo="adiabatic", r=R_AIR, gamma=GAMMA_AIR):
     if thermo not in _THERMO:
         raise ValueError(f"thermo: one of {_THERMO}, not {thermo!r}")
     return math.sqrt((gamma if thermo == "adiabatic" else 1.0) * r * T)
+
+
+def delay_cells(length, sample_period, T=T_REF):
+    """Finite volumes that resolve a line's transport delay to one sample of a record.
+
+    A record sampled every ``dt`` sees a line's delay ``L / c`` once it spans more than a
+    sample: a chamber's pressure stays put for ``L / c`` after the valve opens, where the
+    lumped line (no delay) has it rising at once. A line in ``N`` finite volumes passes a
+    front one cell per ``L / (N c)``; with that no longer than a sample the delay is
+    resolved to one sample: ``N = ceil(L / (c dt))``, 1 (lumped) where the delay is within a
+    sample, at most :data:`pneucore.physics.tube.MAX_SEGMENTS`.
+
+    Parameters
+    ----------
+    length : float
+        Line length [m]
+    sample_period : float
+        The record's sample period [s]
+    T : float
+        Gas temperature [K]
+
+    Returns
+    -------
+    cells : int
+        Finite volumes [-]
+
+    Examples
+    --------
+    2.5 m of tube at 1 kHz: a delay of 7.3 ms, 8 cells; 0.3 m: within a sample, lumped:
+
+    >>> delay_cells(2.5, 1e-3, 293.15), delay_cells(0.3, 1e-3, 293.15)
+    (8, 1)
+    """
+    if not (length > 0.0 and sample_period > 0.0):
+        return 1
+    n = math.ceil(length / (sound_speed(T) * sample_period) - 1e-9)
+    return int(min(max(n, 1), MAX_SEGMENTS))
 
 
 def line_regime(diameter, length, time_scale, T=T_REF):

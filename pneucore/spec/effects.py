@@ -36,7 +36,7 @@ import math
 
 from pneucore.core import layout as L
 from pneucore.physics.heat import HEAT_PARAMETERS, add_wall
-from pneucore.physics.line import LUMPED_MARGIN, line_regime
+from pneucore.physics.line import LUMPED_MARGIN, delay_cells, line_regime
 from pneucore.physics.sensors import PRESSURE_SENSOR
 from pneucore.physics.series import combine_table
 from pneucore.physics.tube import (LINE_STATES, MAX_SEGMENTS, SEGMENTED_LINE, line_slots,
@@ -121,6 +121,11 @@ class Effect:
     #: keeps to, where ``check`` ties a parameter to the model (a cushion within the stroke),
     #: so that a fit never ends on a model ``check`` refuses
     fit_max: Optional[Callable] = None
+    #: ``forms(values, model, sample_period) -> [overrides, ...]``: structural variants of the
+    #: effect besides its default (parameters that shape the model and are not fitted, e.g. a
+    #: line's segments), for records sampled every ``sample_period`` [s]; the diagnosis tries
+    #: each and keeps the one the data favour (:meth:`forms_for`)
+    forms: Optional[Callable] = None
 
     def fit_bounds(self, name, model):
         """Bounds ``(min, max)`` of parameter ``name`` in a fit on ``model`` (SI): the
@@ -128,6 +133,13 @@ class Effect:
         par = self.param(name)
         hi = (self.fit_max(model) if self.fit_max is not None else {}).get(name, par.max)
         return par.min, min(par.max, hi)
+
+    def forms_for(self, values, model, sample_period):
+        """The structural forms to try at parameter ``values``: ``[{}]`` (the values as they
+        are) followed by the overrides :attr:`forms` gives for records sampled every
+        ``sample_period`` [s]."""
+        extra = self.forms(values, model, sample_period) if self.forms is not None else []
+        return [{}] + [f for f in extra if f]
 
     def unused_in(self, model):
         """Parameters ``model`` has no place for (held at their ``off`` value)."""
@@ -641,6 +653,14 @@ def _check_cushion(p, model, path):
             raise FieldError(f"{path}.length_{sfx}",
                              f"the {model.valve.kind} valve has no port {port}: set length_{sfx} "
                              f"to 0 (no cushion) [m]")
+def _tubing_forms(p, model, sample_period):
+    # a line whose delay L / c spans more than a sample shows it in the records, which the
+    # lumped line (no delay) cannot: the line in segments resolving it to a sample
+    # (physics.line.delay_cells) is the other form
+    n = delay_cells(max(p["length_a"], p["length_b"]), sample_period, model.supply.temperature)
+    return [{"segments": n}] if n > 1 else []
+
+
 def _tubing_warn(p, model, time_scale):
     # the chosen segments against those the command's time scale needs
     # (physics.line.line_regime): warned only where the line is too coarse
@@ -888,7 +908,7 @@ for _e in [
            strength="length_a", transform=_tubing_transform, series=_tubing_series,
            pack=_pack_tubing,
            check=_check_line_ports, unused=_missing_ports("length"), fit_params=("length_a", "length_b"),
-           probe={"length_a": 1.0, "length_b": 1.0}, warn=_tubing_warn),
+           probe={"length_a": 1.0, "length_b": 1.0}, warn=_tubing_warn, forms=_tubing_forms),
     Effect("exhaust_silencer",
            "a silencer on the valve's exhaust ports: an ISO 6358 restriction in series with "
            "each exhaust edge, with no volume between (ISO 6358-3)",

@@ -479,18 +479,39 @@ def uncertain_column(exps, base, keys, y0, s):
     return (stack([replay(mp, e) for e in exps], keys) - y0) / h
 
 
+def sample_period(exps):
+    """The finest sample period of the experiments' records [s] (their median spacing)."""
+    dts = [float(np.median(np.diff(e.times))) for e in exps if e.times.size > 1]
+    return min(dts) if dts else 0.0
+
+
 def probe(model, exps, null, Ju, name):
     """The score of candidate ``name`` (see :func:`candidate_scores`): ``{effect, lm, dof,
-    p_value, score_params}``; ``Ju`` the base parameters' sensitivities (or None)."""
+    p_value, score_params, form}``; ``Ju`` the base parameters' sensitivities (or None).
+    An effect with several structural forms (:meth:`pneucore.spec.effects.Effect.forms_for`:
+    a line lumped or in segments) is probed in each, and scored by the form whose change
+    explains most of the residual (``form``: its overrides, ``{}`` for the default)."""
+    eff = EFFECTS[name]
+    best = None
+    for form in eff.forms_for(eff.probe_values(model), model, sample_period(exps)):
+        res = _probe_form(model, exps, null, Ju, name, form)
+        if best is None or res["lm"] > best["lm"]:
+            best = res
+    return best
+
+
+def _probe_form(model, exps, null, Ju, name, form):
+    """:func:`probe` in one form (``form``: overrides of the probe values)."""
     eff = EFFECTS[name]
     sp = eff.score_params
-    vals_off = eff.probe_values(model)
+    dose = {**eff.probe_values(model), **form}
+    vals_off = dict(dose)
     for p in sp:
         vals_off[p] = eff.param(p).off
     cols, one_sided = [], []
     for p in sp:
         v = dict(vals_off)
-        v[p] = eff.probe_values(model)[p]
+        v[p] = dose[p]
         mp = with_effect(null.base, name, v)
         yp = stack([replay(mp, e) for e in exps], null.keys)
         cols.append(yp - null.y)
@@ -502,7 +523,7 @@ def probe(model, exps, null, Ju, name):
     dof = max(len(used), 1)
     p_lm = float(stats.chi2.sf(lm, dof)) if used else 1.0
     return {"effect": name, "lm": lm, "dof": len(used), "p_value": p_lm,
-            "score_params": list(sp)}
+            "score_params": list(sp), "form": dict(form)}
 
 
 def candidate_scores(model, exps, null, cands, report):
@@ -551,14 +572,41 @@ def moved_back(model, cal, paths):
     return out
 
 
+def _rss(cal):
+    """Residual energy a calibration ends with (its experiments together)."""
+    return sum(r for _, _, r, _ in cal.rss_after)
+
+
 def joint_refit(model, exps, null, name, max_nfev, report):
     """Candidate ``name`` fitted with the null's base parameters, from the model as given
-    (the null's values are biased by what is missing). Base parameters the joint fit leaves
-    at their catalogue values (within :data:`RECAL_MIN`) are not mis-set: they are held
-    there and the rest refitted from this point, so that they do not blur the effect's
-    parameters (kept unless the fit gets materially worse)."""
+    (the null's values are biased by what is missing), in each of its structural forms
+    (:meth:`pneucore.spec.effects.Effect.forms_for`: a line lumped, or in segments where
+    its delay spans more than a sample); the form that fits best is kept. A form chosen at
+    the probe's values and calling for another at the fitted ones (a line found longer
+    needs more cells to resolve its delay) is fitted once more in that one, from there."""
     eff = EFFECTS[name]
-    start = eff.probe_values(model)
+    dt = sample_period(exps)
+    probe_at = eff.probe_values(model)
+    best = None
+    for form in eff.forms_for(probe_at, model, dt):
+        cal = _joint_refit_from(model, exps, null, name, {**probe_at, **form}, max_nfev, report)
+        if form:
+            fitted = dict(cal.model.effects[name])
+            again = eff.forms_for(fitted, model, dt)[-1]
+            if again and any(fitted.get(k) != v for k, v in again.items()):
+                cal2 = _joint_refit_from(model, exps, null, name, {**fitted, **again}, max_nfev,
+                                         report)
+                cal = cal2 if _rss(cal2) <= _rss(cal) else cal
+        if best is None or _rss(cal) < _rss(best):
+            best = cal
+    return best
+
+
+def _joint_refit_from(model, exps, null, name, start, max_nfev, report):
+    """:func:`joint_refit` in one form, the effect starting at ``start``. Base parameters the
+    joint fit leaves at their catalogue values (within :data:`RECAL_MIN`) are not mis-set:
+    they are held there and the rest refitted from this point, so that they do not blur the
+    effect's parameters (kept unless the fit gets materially worse)."""
     m = with_effect(model, name, start)
     specs = effect_specs(model, name, start) + null.specs_start
     # the refit checks the time limit at each evaluation (progress stays at its level)
@@ -584,7 +632,7 @@ def joint_refit(model, exps, null, name, max_nfev, report):
         cal2 = fit(m2, exps, specs2, max_nfev=max_nfev, compute_before=False, reweight=True,
                    prior=H.prior_for(model, [q.path for q in specs2], scale))
         # kept unless materially worse (2 % of the residual energy: 1 % of the Eq. 25 error)
-        if sum(r for _, _, r, _ in cal2.rss_after) <= 1.02 * sum(r for _, _, r, _ in cal.rss_after):
+        if _rss(cal2) <= 1.02 * _rss(cal):
             cal = cal2
     return cal
 
@@ -748,8 +796,11 @@ def held_out_evidence(model, exps, null, name, cal, max_nfev):
     cand = effect_specs(model, name, cal.model.effects[name]) + fitted_specs(cal.model,
                                                                             null.specs_start)
     # the experiments left out in turn start where the null fit and the joint refit start:
-    # the model as given, the effect at its probe dose
-    start = EFFECTS[name].probe_values(model)
+    # the model as given, the effect at its probe dose in the form the refit kept (its values
+    # the diagnosis does not fit, a line's segments)
+    eff = EFFECTS[name]
+    start = {**eff.probe_values(model), **{k: v for k, v in cal.model.effects[name].items()
+                                           if k not in eff.diagnosis_params}}
     loeo = (model, list(null.specs_start), with_effect(model, name, start),
             effect_specs(model, name, start) + list(null.specs_start))
     return held_out(null.base, base, cal.model, cand, exps, scales, null.prior,
