@@ -40,7 +40,7 @@ sys.path.insert(0, os.path.dirname(HERE))
 
 from machine import machine_info, save_figures  # noqa: E402
 from pneucore.analysis.heat_compare import record_errors, transfer  # noqa: E402
-from pneucore.physics.vessel import (FILLING_TEST, VESSEL_WALL, filling_test,  # noqa: E402
+from pneucore.physics.vessel import (FILLING_TEST, VESSEL_ACCURACY, VESSEL_WALL, filling_test,  # noqa: E402
                                      read_vessel_record, reference_inner_coefficient,
                                      reference_records, vessel_dimensions, vessel_experiment,
                                      published_vessel)
@@ -236,7 +236,7 @@ def main():
         if args.discharge:
             t, p, T = read_vessel_record(args.discharge)
             dis = vessel_experiment("recorded discharge", t, p, T, args.discharge_p0,
-                                    FILLING_TEST["T_atm"])
+                                    FILLING_TEST["T_atm"], accuracy=VESSEL_ACCURACY)
             rows = [transfer(published_vessel(h), real, dis, fit, name=n) for n, h, fit in MODELS]
             show("recorded discharge predicted by the models fitted on the whole filling", rows,
                  ("filling", "discharge"))

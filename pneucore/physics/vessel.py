@@ -423,7 +423,7 @@ def vessel_dimensions(test=None):
 VESSEL_ACCURACY = {"p_a": 300.0, "T_a": 1.0}
 
 
-def vessel_experiment(name, t, p, T, p0, T0, max_step=0.5):
+def vessel_experiment(name, t, p, T, p0, T0, max_step=0.5, accuracy=None):
     """Experiment JSON of a vessel record: pressure and gas temperature at times ``t``.
 
     Parameters
@@ -438,6 +438,9 @@ def vessel_experiment(name, t, p, T, p0, T0, max_step=0.5):
         Initial pressure [Pa] and temperature [K] at t = 0
     max_step : float
         Largest solver step [s]
+    accuracy : dict or None
+        The sensors' stated accuracy, ``{signal: one standard deviation [SI]}`` (the
+        measurement's ``meta.accuracy``); None: none stated (the fits estimate the noise)
 
     Returns
     -------
@@ -447,14 +450,17 @@ def vessel_experiment(name, t, p, T, p0, T0, max_step=0.5):
     def col(v):
         return [None if not math.isfinite(x) else float(x) for x in v]
     meas = {"name": name, "t": [float(x) for x in t], "u": [1.0] * len(t), "p_a": col(p),
-            "T_a": col(T), "meta": {"accuracy": dict(VESSEL_ACCURACY)}}
+            "T_a": col(T)}
+    if accuracy is not None:
+        meas["meta"] = {"accuracy": dict(accuracy)}
     return {"name": name, "measurement": meas,
             "scenario": {"locked": True, "x0": 0.0, "initial": {"p_a": float(p0), "T_a": float(T0)},
                          "solver": {"max_step": max_step}}}
 
 
 def reference_records(h_inner, sensor_time_constant, p_discharge=7.9e5, filling_end=80.0,
-                      discharge_end=60.0, period=0.5, noise=(200.0, 0.3), seed=0, **wall):
+                      discharge_end=60.0, period=0.5, noise=(200.0, 0.3), seed=0,
+                      accuracy=VESSEL_ACCURACY, **wall):
     """A filling and a discharge of the published vessel by :func:`reference_vessel_run`.
 
     The filling is the published test (3.7 kPa to the 1.00 bar atmosphere, 295 K); the
@@ -478,6 +484,9 @@ def reference_records(h_inner, sensor_time_constant, p_discharge=7.9e5, filling_
         Standard deviations of pressure [Pa] and temperature [K]
     seed : int
         Random seed
+    accuracy : dict or None
+        The sensors' stated accuracy (:func:`vessel_experiment`): by default the published
+        record's, the same sensors; None: none stated
     **wall
         Overrides of :func:`reference_vessel_run`'s wall arguments
 
@@ -498,7 +507,8 @@ def reference_records(h_inner, sensor_time_constant, p_discharge=7.9e5, filling_
                                    sensor_time_constant=sensor_time_constant, **kw)
         p = run["p"] + noise[0] * rng.standard_normal(t.size)
         T = run["T_sensor"] + noise[1] * rng.standard_normal(t.size)
-        out.append(vessel_experiment(f"reference {name}", t, p, T, p0, g["T_atm"]))
+        out.append(vessel_experiment(f"reference {name}", t, p, T, p0, g["T_atm"],
+                                     accuracy=accuracy))
     return out[0], out[1]
 
 

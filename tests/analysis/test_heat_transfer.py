@@ -176,11 +176,12 @@ def test_real_filling_predicts_its_held_out_relaxation():
 def test_the_vessel_records_state_their_accuracy_and_the_fit_weighs_by_it():
     """The heat fit divides each residual by the accuracy the record's metadata states (one
     source: :data:`pneucore.physics.vessel.VESSEL_ACCURACY`), not by a table of its own; a
-    record stating another accuracy is weighed by that one."""
+    record stating another accuracy is weighed by that one; one stating none, by its noise."""
     from pneucore.analysis.calibrate import Objective
     from pneucore.data.experiment import as_experiments
     from pneucore.physics.vessel import VESSEL_ACCURACY, vessel_experiment
-    e = vessel_experiment("r", [0.1 * k for k in range(12)], [1e5] * 12, [295.0] * 12, 1e5, 295.0)
+    e = vessel_experiment("r", [0.1 * k for k in range(12)], [1e5] * 12, [295.0] * 12, 1e5, 295.0,
+                          accuracy=VESSEL_ACCURACY)
     stated = as_experiments([e])[0]
     assert Objective(published_vessel(PHYSICAL), [stated], []).sigma == [VESSEL_ACCURACY]
     e["measurement"]["meta"]["accuracy"] = {"p_a[bar]": 0.01, "T_a[K]": 2.0}
@@ -188,3 +189,6 @@ def test_the_vessel_records_state_their_accuracy_and_the_fit_weighs_by_it():
     # 0.01 bar is 1,000 Pa exactly (a difference: no gauge zero), 2 K is 2 K
     assert Objective(published_vessel(PHYSICAL), [other], []).sigma == [{"p_a": 1000.0,
                                                                          "T_a": 2.0}]
+    del e["measurement"]["meta"]
+    none = Objective(published_vessel(PHYSICAL), [as_experiments([e])[0]], []).sigma[0]
+    assert none["p_a"] != VESSEL_ACCURACY["p_a"]
