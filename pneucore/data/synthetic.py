@@ -483,11 +483,11 @@ RIG_CASES = [
     ("base/angle-right", dict(seed=42, declared={"jack.mounting_angle": 30.0, "jack.moving_mass": 8.0})),
     # made by a model that is not the one diagnosed (issue 23): 2.5 m of 4 mm tube on each port
     # simulated as a line in 8 finite volumes (its transport delay L/c = 7.3 ms and its waves),
-    # which the diagnosis offers lumped. Named wrong today (a diagnosis limit, kept as such):
-    # the lumped line has no delay, the best one (length and bore free, base right) leaves
-    # 1.1 % against a floor of 0.08 %, and the loop names a sensor lag of 7.5 ms (the line's
-    # L/c) and a dead volume; a tubing hypothesis in 8 segments names tubing, 2.501 m, at the
-    # floor (s5 circuit report)
+    # which the diagnosis tries lumped and in segments (Effect.forms). Lumped only, it was
+    # named wrong: the lumped line has no delay, the best one (length and bore free, base
+    # right) leaves 1.1 % against a floor of 0.08 %, and the loop named a sensor lag of
+    # 7.5 ms (the line's L/c) and a dead volume; tried in segments resolving the delay to a
+    # sample, tubing is named, 2.501 m, at the floor
     ("effect/circuit/tubing/finite-volume", dict(seed=36, effects=("tubing",), effect_values={
         "tubing": {"length_a": 2.5, "length_b": 2.5, "segments": 8}})),
     # a vertical jack, rod up (90 deg, declared: nothing else is), lifted and lowered against
