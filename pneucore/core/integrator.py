@@ -62,7 +62,7 @@ from pneucore.core import layout as L
 from pneucore.physics.chamber import chamber_pressure
 from pneucore.physics.friction import coulomb_level
 from pneucore.physics.jack import chamber_volumes, net_pressure_force, spring_force
-from pneucore.core.rhs import rhs, static_friction
+from pneucore.core.rhs import call_line_cells, line_terms, rhs, static_friction
 from numba.core.registry import CPUDispatcher
 
 
@@ -377,6 +377,218 @@ def _jacobian(t, y, f0, mode, seg_t0, seg_u0, seg_slope, model, scale, J, ft,
 
 
 @_internal
+def _sparsity(prm, iy, n, S, cell, port):
+    """Structural sparsity of the Jacobian: ``S[i, j] = 1`` where the derivative of state ``i``
+    may depend on state ``j``, from the model's layout (never from an evaluation: a choked
+    edge's flow has an exactly zero derivative in its downstream pressure that becomes
+    nonzero once it unchokes).
+
+    The states of a line term keep the registry's contract (:mod:`pneucore.physics.states`):
+    a state of cell ``c`` depends on the states of cells ``c - 1`` to ``c + 1`` of its port,
+    the first cell's also on the valve's flow into the port and the last cell's on the
+    chamber. What those read is the right-hand side's (:func:`pneucore.core.rhs.rhs`):
+
+    * the valve's flow into a port with a line reads, besides the line's first cell (its
+      node), the spool's states and the supply line's mass (the edges' opening and upstream
+      pressure); a cushion's needle on such a port sits at the chamber's end;
+    * the chamber end reads the chamber's pressure and temperature: its mass, temperature
+      and the piston's position (the volume, the cushion);
+    * of the other states, only the supply line's mass reads a line's first cell (the
+      valve's draw), and any may read its last cell (the flow into the chamber, its
+      enthalpy, the jet-convection heat model and what reads the heat flow).
+
+    Every other state may depend on every other (the chambers, the piston, the spool, walls
+    and sensors: a dense block); a model with a user hook, which sees the whole state
+    vector, is dense throughout. ``tests/core/test_jacobian_groups.py`` checks that no
+    dependence is missed (a structural zero where the plain differences find none).
+
+    Parameters
+    ----------
+    prm : ndarray
+        Model parameters
+    iy : ndarray of int
+        Positions of optional states
+    n : int
+        Number of states [-]
+    S : ndarray of uint8
+        Output, ``(n, n)``
+    cell, port : ndarray of int
+        Work vectors of ``n``: the cell and port of each line state (-1 elsewhere)
+    """
+    for i in range(n):
+        cell[i] = -1
+        port[i] = -1
+    last0 = -1
+    last1 = -1
+    if iy[L.IY_HOOK] <= 0:
+        for k in range(2):
+            i0, ns, nc = call_line_cells(line_terms, k, iy, prm, cell)
+            for i in range(i0, i0 + ns):
+                port[i] = k
+            if k == 0:
+                last0 = nc - 1
+            else:
+                last1 = nc - 1
+    i_sp = iy[L.IY_SPOOL]
+    i_sr = iy[L.IY_SPOOL_RATE]
+    i_ms = iy[L.IY_SUPPLY_M]
+    for i in range(n):
+        for j in range(n):
+            pi = port[i]
+            pj = port[j]
+            if pi < 0 and pj < 0:
+                dep = True
+            elif pi < 0:
+                # the rest of the model reading a line: its last cell, anything; its first
+                # cell, the supply line's mass
+                cj = cell[j]
+                dep = cj == (last0 if pj == 0 else last1) or (cj == 0 and i == i_ms)
+            elif pj < 0:
+                # a line reading the rest: its first cell the valve's other inputs, its last
+                # cell the chamber of its port and the piston's position
+                ci = cell[i]
+                dep = False
+                if ci == 0:
+                    dep = j == i_sp or j == i_sr or j == i_ms
+                if ci == (last0 if pi == 0 else last1):
+                    if pi == 0:
+                        dep = dep or j == L.Y_MA or j == L.Y_TA or j == L.Y_X
+                    else:
+                        dep = dep or j == L.Y_MB or j == L.Y_TB or j == L.Y_X
+            else:
+                dep = pi == pj and abs(cell[i] - cell[j]) <= 1
+            S[i, j] = 1 if dep else 0
+
+
+@_internal
+def _colour(S, n, active, colour, used):
+    """Curtis-Powell-Reid grouping of the Jacobian's columns (Curtis, Powell & Reid, J. Inst.
+    Maths Applics 13, 1974, 117): greedily, each active column takes the first group none of
+    whose columns shares a row with it, so that one evaluation with all of a group's columns
+    perturbed gives each of them its own rows. Inactive (frozen) columns get group -1.
+
+    Parameters
+    ----------
+    S : ndarray of uint8
+        Structural sparsity (:func:`_sparsity`)
+    n : int
+        Number of states [-]
+    active : ndarray of uint8
+        1 for the columns to group [-]
+    colour : ndarray of int
+        Output: each column's group [-]
+    used : ndarray of uint8
+        Work matrix ``(n, n)``: rows taken by each group
+
+    Returns
+    -------
+    n_groups : int
+        Number of groups [-]
+    """
+    for g in range(n):
+        for i in range(n):
+            used[g, i] = 0
+    n_groups = 0
+    for j in range(n):
+        colour[j] = -1
+        if active[j] == 0:
+            continue
+        g = 0
+        while True:
+            free = True
+            for i in range(n):
+                if S[i, j] != 0 and used[g, i] != 0:
+                    free = False
+                    break
+            if free:
+                break
+            g += 1
+        colour[j] = g
+        for i in range(n):
+            if S[i, j] != 0:
+                used[g, i] = 1
+        if g + 1 > n_groups:
+            n_groups = g + 1
+    return n_groups
+
+
+@_internal
+def _jacobian_grouped(t, y, f0, mode, seg_t0, seg_u0, seg_slope, model, scale, J, ft,
+                      ytmp, ftmp, aux, stats, S, colours, n_groups, dcol):
+    """Forward-difference Jacobian by column groups (:func:`_colour`): one evaluation per
+    group, each column's increment the one :func:`_jacobian` takes; entries outside the
+    structural pattern ``S`` stay zero (``J`` is zero there on entry).
+
+    ``colours`` holds the groupings of :func:`_groups` (``-1`` for a frozen column, whose
+    column is zeroed), ``n_groups`` their numbers of groups; the mode picks one.
+    """
+    n = y.shape[0]
+    k = 0 if mode == L.MODE_SLIDE_POS or mode == L.MODE_SLIDE_NEG else 1
+    colour = colours[k]
+    for i in range(n):
+        ytmp[i] = y[i]
+    for j in range(n):
+        if colour[j] < 0:
+            for i in range(n):
+                J[i, j] = 0.0
+    for g in range(n_groups[k]):
+        for j in range(n):
+            if colour[j] == g:
+                yj = y[j]
+                d = 1.5e-8 * max(abs(yj), scale[j])
+                ytmp[j] = yj + d
+                dcol[j] = 1.0 / (ytmp[j] - yj)
+        _feval(t, ytmp, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+        stats[ST_FEVALS] += 1
+        for j in range(n):
+            if colour[j] == g:
+                dinv = dcol[j]
+                for i in range(n):
+                    if S[i, j] != 0:
+                        J[i, j] = (ftmp[i] - f0[i]) * dinv
+                ytmp[j] = y[j]
+    if seg_slope != 0.0:
+        dt = 1.5e-8 * max(abs(t), 1e-3)
+        _feval(t + dt, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+        dtinv = 1.0 / dt
+        for i in range(n):
+            ft[i] = (ftmp[i] - f0[i]) * dtinv
+        stats[ST_FEVALS] += 1
+    else:
+        for i in range(n):
+            ft[i] = 0.0
+    stats[ST_JACOBIANS] += 1
+
+
+@_internal
+def _groups(prm, iy, n, S, colours, n_groups, cell, port, active, used):
+    """The structural pattern (:func:`_sparsity`) into ``S`` and the column groups
+    (:func:`_colour`) of the two sets of frozen states into ``colours``: row 0 for the
+    sliding modes, row 1 for the others (the piston's states frozen).
+
+    Each grouping's number of groups goes into ``n_groups[0]``, ``n_groups[1]``.
+
+    Returns
+    -------
+    sparse : bool
+        Whether the pattern has a structural zero. A dense pattern (a model without a line
+        in segments) gives every column a group of its own, and the core then keeps the
+        plain forward differences (:func:`_jacobian`), bit for bit as before the groups
+    """
+    _sparsity(prm, iy, n, S, cell, port)
+    for k in range(2):
+        mode = L.MODE_SLIDE_POS if k == 0 else L.MODE_STICK
+        for j in range(n):
+            active[j] = 0 if _frozen(j, mode, prm) else 1
+        n_groups[k] = _colour(S, n, active, colours[k], used)
+    for i in range(n):
+        for j in range(n):
+            if S[i, j] == 0:
+                return True
+    return False
+
+
+@_internal
 def _rest_forces(y, prm, aux):
     """Net force and static limits of a resting piston from the state alone (no valve flows).
 
@@ -590,6 +802,67 @@ def _back_step(t, t_ev, theta, h, y, f0, y1, f1, J, ft, mode, seg_t0, seg_u0, se
         y[i] = yh[i]
 
 
+@njit(cache=True, error_model="numpy")
+def finite_difference_jacobians(t, y, mode, u, model, atol, rtol):
+    """The core's two forward-difference Jacobians at one state, for checks: the plain one
+    (:func:`_jacobian`, one evaluation per active column) and the grouped one
+    (:func:`_jacobian_grouped`, one evaluation per column group), with the increments the
+    integrator takes. Compiled on first call (not part of the integration core).
+
+    Parameters
+    ----------
+    t : float
+        Time [s]
+    y : ndarray
+        State (state units)
+    mode : int
+        Piston mode (``layout.MODE_*``)
+    u : float
+        Valve command, held [-]
+    model : tuple
+        The core's model tuple (:func:`pneucore.simulate.build_core`), without user effects
+    atol : ndarray
+        Absolute tolerance per state (state units)
+    rtol : float
+        Relative tolerance [-]
+
+    Returns
+    -------
+    J_dense, J_grouped : ndarray
+        ``(n, n)`` Jacobians [state unit / (s state unit)]
+    S : ndarray of uint8
+        Structural pattern (:func:`_sparsity`)
+    n_groups : ndarray of int
+        Groups of the sliding modes and of the others [-]
+    n_evaluations : ndarray of int
+        Right-hand side evaluations each Jacobian took [-]
+    """
+    n = y.shape[0]
+    scale = atol / rtol
+    f0 = np.empty(n)
+    aux = np.zeros(L.N_AUX)
+    _feval(t, y, mode, 0.0, u, 0.0, model, f0, aux)
+    S = np.empty((n, n), np.uint8)
+    colours = np.empty((2, n), np.int64)
+    n_groups = np.zeros(2, np.int64)
+    _groups(model[0], model[1], n, S, colours, n_groups, np.empty(n, np.int64),
+            np.empty(n, np.int64), np.empty(n, np.uint8), np.empty((n, n), np.uint8))
+    Jd = np.zeros((n, n))
+    Jg = np.zeros((n, n))
+    ft = np.zeros(n)
+    ytmp = np.empty(n)
+    ftmp = np.empty(n)
+    stats_d = np.zeros(N_STATS, np.int64)
+    stats_g = np.zeros(N_STATS, np.int64)
+    _jacobian(t, y, f0, mode, 0.0, u, 0.0, model, scale, Jd, ft, ytmp, ftmp, aux, stats_d)
+    _jacobian_grouped(t, y, f0, mode, 0.0, u, 0.0, model, scale, Jg, ft, ytmp, ftmp, aux,
+                      stats_g, S, colours, n_groups, np.empty(n))
+    evals = np.empty(2, np.int64)
+    evals[0] = stats_d[ST_FEVALS]
+    evals[1] = stats_g[ST_FEVALS]
+    return Jd, Jg, S, n_groups, evals
+
+
 # Counters and indices typed as plain int64: a variable first assigned a constant
 # (``n_ev = 0``, ``k_ev = -1``) would otherwise be typed as a literal and have every
 # callee it reaches compiled once more for that literal (four extra compiles, ~2 s of
@@ -658,8 +931,15 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
     ytmp = np.empty(n)
     ysave = np.empty(n)
     K = np.empty((6, n))
-    J = np.empty((n, n))
+    J = np.zeros((n, n))          # zero: the grouped Jacobian writes its pattern only
     W = np.empty((n, n))
+    # the Jacobian's structure and column groups (_groups), fixed for the run
+    S = np.empty((n, n), np.uint8)
+    colours = np.empty((2, n), np.int64)
+    n_groups = np.zeros(2, np.int64)
+    sparse = _groups(prm, model[1], n, S, colours, n_groups, np.empty(n, np.int64),
+                     np.empty(n, np.int64), np.empty(n, np.uint8), np.empty((n, n), np.uint8))
+    dcol = np.empty(n)
     ft = np.zeros(n)
     piv = np.empty(n, np.int64)
     dinv = np.empty(n)
@@ -716,8 +996,12 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
             hh = t_stop - t
             last = True
 
-        _jacobian(t, y, f0, mode, seg_t0, seg_u0, seg_slope, model, scale, J, ft,
-                  ytmp, ftmp, aux, stats)
+        if sparse:
+            _jacobian_grouped(t, y, f0, mode, seg_t0, seg_u0, seg_slope, model, scale, J, ft,
+                              ytmp, ftmp, aux, stats, S, colours, n_groups, dcol)
+        else:
+            _jacobian(t, y, f0, mode, seg_t0, seg_u0, seg_slope, model, scale, J, ft,
+                      ytmp, ftmp, aux, stats)
         # --- attempt steps until one is accepted --------------------------------
         while True:
             ok = _rodas_step(t, y, hh, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,

@@ -76,6 +76,7 @@ import math
 from numba import njit
 
 from pneucore.physics.chamber import chamber_rates, enthalpy_flow
+from pneucore.physics.cushion import cushioned_outflow
 from pneucore.physics.gas import GAMMA_AIR, R_AIR, RHO_REF, T_REF
 from pneucore.physics.states import LineTerm, register_line_term
 
@@ -361,15 +362,21 @@ def line_node(y, i0, prm, k0, r):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def line_rates(y, dy, i0, prm, k0, q_v, H_v, p_c, T_c, r, cp, cv, isothermal):
+def line_rates(y, dy, i0, prm, k0, q_v, H_v, p_c, T_c, r, cp, cv, isothermal, C_end, b_end,
+               r_lam, gamma):
     """Derivatives of a segmented line's states; the mass and enthalpy flows into the chamber.
 
     The states of a port's line, from ``y[i0]``: the gas mass of each cell [kg], its
     temperature [K], then the mass flow through the face downstream of each cell [kg/s]
     (module section "The line in segments"). The valve's flow ``q_v`` [kg/s], with its
     enthalpy ``H_v`` [W], enters the first cell; the last face opens into the chamber at
-    ``p_c`` [Pa], ``T_c`` [K]. Returns the mass flow [kg/s] and enthalpy flow [W] into the
-    chamber (line term ``rate``, :mod:`pneucore.physics.states`).
+    ``p_c`` [Pa], ``T_c`` [K]. With ``C_end`` > 0 [m^3/(s Pa)] an end cushion's needle
+    (critical ratio ``b_end`` [-], laminar ratio ``r_lam`` [-], ratio of specific heats
+    ``gamma`` [-]) sits between the chamber and the last cell: the gas leaving the chamber
+    passes it, bounded by the last face's flow, the gas entering passes the check valve
+    (:func:`pneucore.physics.cushion.cushioned_outflow`, as at a valve edge without a line).
+    Returns the mass flow [kg/s] and enthalpy flow [W] into the chamber (line term
+    ``rate``, :mod:`pneucore.physics.states`).
     """
     n = int(prm[k0])
     V = prm[k0 + 1]
@@ -381,13 +388,21 @@ def line_rates(y, dy, i0, prm, k0, q_v, H_v, p_c, T_c, r, cp, cv, isothermal):
     T_w = prm[k0 + 7]
     iT = i0 + n
     iq = i0 + 2 * n
+    # the flow into the chamber: the last face's, through the cushion's needle where the gas
+    # leaves a cushioned chamber
+    q_c = y[iq + n - 1]
+    T_last = y[iT + n - 1]
+    if C_end > 0.0 and q_c < 0.0:
+        p_last = y[iT - 1] * r * T_last / V
+        q_c = -cushioned_outflow(-q_c, p_c, T_c, p_last, T_last, C_end, b_end, r_lam, r, gamma)
     q_prev = q_v
     for i in range(n):
         m = y[i0 + i]
         T = y[iT + i]
         p = m * r * T / V
         rho = m / V
-        q_out = y[iq + i]
+        q_face = y[iq + i]
+        q_out = q_face if i + 1 < n else q_c
         # mass and energy of the cell (paper Eq. 14-15 with a fixed volume, heat from its
         # wall by Eq. 9)
         if i == 0:
@@ -408,16 +423,46 @@ def line_rates(y, dy, i0, prm, k0, q_v, H_v, p_c, T_c, r, cp, cv, isothermal):
         else:
             p2 = p_c
             rho2 = p_c / (r * T_c)
-        dy[iq + i] = A * (p - p2) / dx - segment_friction(q_out, 0.5 * (rho + rho2), A, d, mu)
+        dy[iq + i] = A * (p - p2) / dx - segment_friction(q_face, 0.5 * (rho + rho2), A, d, mu)
         q_prev = q_out
-    q_c = y[iq + n - 1]
-    T_last = y[iT + n - 1]
     return q_c, enthalpy_flow(q_c, T_last, T_c, cp)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def line_cells(prm, k0, i0, cell):
+    """The cell of each state of a segmented line (line term ``cells``,
+    :mod:`pneucore.physics.states`): cell ``i`` holds ``m_i``, ``T_i`` and the flow of the face
+    downstream of it, ``q_i`` (the last face, into the chamber, belongs to the last cell).
+
+    :func:`line_rates` keeps the registry's contract: a cell's rates read the states of the
+    cell itself, of the face upstream (the cell before) and of the cell downstream; only
+    the first cell reads the valve's flow and only the last cell reads the chamber.
+
+    Parameters
+    ----------
+    prm : ndarray
+        The core's parameter vector (the port's slots from ``prm[k0]``)
+    k0 : int
+        First parameter slot of the port [-]
+    i0 : int
+        Position of the port's first state [-]
+    cell : ndarray of int
+        Output: ``cell[i0 + k]``, the cell of the port's ``k``-th state [-]
+
+    Returns
+    -------
+    n_states, n_cells : int
+        The port's states and cells [-]
+    """
+    n = int(prm[k0])
+    for k in range(3 * n):
+        cell[i0 + k] = k % n
+    return 3 * n, n
 
 
 #: The line in segments (effect ``tubing`` with ``segments`` > 1): states per port
 #: ``line_<port>_m<i>``, ``line_<port>_T<i>``, ``line_<port>_q<i>``
 SEGMENTED_LINE = register_line_term(LineTerm(
-    "line", line_node, line_rates, LINE_PARAMETERS,
+    "line", line_node, line_rates, line_cells, LINE_PARAMETERS,
     description="the line between valve and chamber in segments: mass and energy per cell, "
                 "momentum per face"))
