@@ -246,7 +246,7 @@ def call_line_rates(table, port, iy, y, dy, prm, q, H, p, T, r, cp, cv, isotherm
     """In compiled code: a line term's rates on port ``port`` where one is present, and the
     mass flow [kg/s] and enthalpy flow [W] into the chamber it gives from the valve's ``q``,
     ``H`` into the port (with a cushion's needle of conductance ``C_end`` at the chamber's
-    end, 0 = none); ``(q, H)`` unchanged without one.
+    end, < 0 = none); ``(q, H)`` unchanged without one.
 
     Generated from the table's type when a caller is compiled (as :func:`_table_dispatch`).
     """
@@ -367,10 +367,11 @@ def _cushion(x, prm, p_sup, T_sup, p_a, T_a, p_b, T_b, p_atm, T_atm, q_pa, q_ar,
 @njit(cache=True, error_model="numpy", _nrt=False, inline="always")
 def _needle(x, prm, end, line):
     """Conductance [m^3/(s Pa)] of the cushion needle between the chamber of ``end`` (0 = A)
-    and its line in segments (``line``) while the piston is in that cushion; 0 otherwise."""
+    and its line in segments (``line``) while the piston is in that cushion (0: closed);
+    -1 otherwise (no restriction)."""
     if not line or not in_cushion(x, prm[L.P_STROKE], prm[L.P_CUSHION_LA], prm[L.P_CUSHION_LB],
                                   end):
-        return 0.0
+        return -1.0
     return prm[L.P_CUSHION_CA + end]
 
 

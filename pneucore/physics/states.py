@@ -105,7 +105,7 @@ class LineTerm:
         r_lam, gamma) -> (q_c, H_c)``: writes the derivatives of the port's states given the
         valve's mass flow ``q`` [kg/s] and enthalpy flow ``H`` [W] into the port and the
         chamber's ``p`` [Pa] and ``T`` [K]; a restriction at the chamber's end of conductance
-        ``C_end`` [m^3/(s Pa)] (0 = none) and critical ratio ``b_end`` [-] (an end cushion's
+        ``C_end`` [m^3/(s Pa)] (< 0: none) and critical ratio ``b_end`` [-] (an end cushion's
         needle) passes the gas leaving the chamber; returns the mass flow [kg/s] and
         enthalpy flow [W] into the chamber
     cells : callable

@@ -370,11 +370,12 @@ def line_rates(y, dy, i0, prm, k0, q_v, H_v, p_c, T_c, r, cp, cv, isothermal, C_
     temperature [K], then the mass flow through the face downstream of each cell [kg/s]
     (module section "The line in segments"). The valve's flow ``q_v`` [kg/s], with its
     enthalpy ``H_v`` [W], enters the first cell; the last face opens into the chamber at
-    ``p_c`` [Pa], ``T_c`` [K]. With ``C_end`` > 0 [m^3/(s Pa)] an end cushion's needle
+    ``p_c`` [Pa], ``T_c`` [K]. With ``C_end`` >= 0 [m^3/(s Pa)] an end cushion's needle
     (critical ratio ``b_end`` [-], laminar ratio ``r_lam`` [-], ratio of specific heats
     ``gamma`` [-]) sits between the chamber and the last cell: the gas leaving the chamber
     passes it, bounded by the last face's flow, the gas entering passes the check valve
-    (:func:`pneucore.physics.cushion.cushioned_outflow`, as at a valve edge without a line).
+    (:func:`pneucore.physics.cushion.cushioned_outflow`, as at a valve edge without a line);
+    ``C_end`` < 0: no cushion (a closed needle is ``C_end`` = 0).
     Returns the mass flow [kg/s] and enthalpy flow [W] into the chamber (line term
     ``rate``, :mod:`pneucore.physics.states`).
     """
@@ -392,7 +393,7 @@ def line_rates(y, dy, i0, prm, k0, q_v, H_v, p_c, T_c, r, cp, cv, isothermal, C_
     # leaves a cushioned chamber
     q_c = y[iq + n - 1]
     T_last = y[iT + n - 1]
-    if C_end > 0.0 and q_c < 0.0:
+    if C_end >= 0.0 and q_c < 0.0:
         p_last = y[iT - 1] * r * T_last / V
         q_c = -cushioned_outflow(-q_c, p_c, T_c, p_last, T_last, C_end, b_end, r_lam, r, gamma)
     q_prev = q_v
