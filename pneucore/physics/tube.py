@@ -23,7 +23,8 @@ the choked mass flow is the isentropic inlet's at ``M1``, which gives
 ``C = q / (rho_0 p_0)``, and the critical ratio ``b`` is the outlet pressure of
 the choked line over the inlet stagnation pressure, ``b = (p_1/p_0) (p*/p_1)``.
 The Darcy friction factor is Hagen-Poiseuille's ``64 / Re`` below Re = 2300 and
-Haaland's smooth-tube relation above (Haaland, J. Fluids Eng. 105, 1983, 89),
+Haaland's smooth-tube relation above Re = 4000 (Haaland, J. Fluids Eng. 105, 1983, 89),
+linear in Re between (:func:`darcy_friction`, the one law of both lines),
 evaluated at the choked flow from the given upstream pressure. A tube of length
 zero is the ideal nozzle of its bore (b = 0.528, Eq. 3).
 
@@ -52,7 +53,8 @@ the two cell centres, ``L/N`` long:
     - \frac{f q |q|}{2 d \rho A},
 
 the wall friction the same Darcy law as the lumped line's Fanno flow (Hagen-Poiseuille
-``64 / Re`` below :data:`RE_LAMINAR`, Haaland above, :func:`segment_friction`), the
+``64 / Re`` below :data:`RE_LAMINAR`, Haaland above :data:`RE_TURBULENT`, linear between:
+:func:`darcy_friction`, :func:`segment_friction`), the
 density the mean of the two cells'. The valve's edges feed the first cell with their own
 law (their table without the line in series: the line's resistance is now along it);
 the chamber keeps its own dead volume. The convective momentum flux ``d(rho u^2 A)/dx``
@@ -83,7 +85,7 @@ from pneucore.physics.states import LineTerm, register_line_term
 #: Reynolds number below which the flow in the line is laminar [-]
 RE_LAMINAR = 2300.0
 #: Reynolds number above which the line in segments takes the turbulent friction; between
-#: the two its friction factor is interpolated linearly in Re (:func:`segment_friction`), the
+#: the two its friction factor is interpolated linearly in Re (:func:`darcy_friction`), the
 #: transition zone of Moody's chart, where a tube's friction is intermittent and not
 #: predictable to better than this [-]
 RE_TURBULENT = 4000.0
@@ -130,8 +132,15 @@ def air_viscosity_sutherland(T):
     return 1.716e-5 * (T / 273.15) ** 1.5 * (273.15 + 110.4) / (T + 110.4)
 
 
+@njit(cache=True, error_model="numpy", _nrt=False)
 def darcy_friction(Re):
-    """Darcy friction factor of a smooth tube: ``64 / Re`` (laminar), Haaland's relation above.
+    """Darcy friction factor of a smooth tube, the one law of both lines (the lumped line's
+    Fanno characteristic, :func:`tube_characteristic`, and the segments' wall friction,
+    :func:`segment_friction`): Hagen-Poiseuille's ``64 / Re`` below :data:`RE_LAMINAR`,
+    Haaland's smooth-tube relation (J. Fluids Eng. 105, 1983, 89) above
+    :data:`RE_TURBULENT`, and between the two linear in Re from the one to the other, the
+    transition zone of Moody's chart (continuous: a jump makes the integrator's step
+    control reject steps, and the lumped line's fixed-point iteration oscillate).
 
     Parameters
     ----------
@@ -142,10 +151,23 @@ def darcy_friction(Re):
     -------
     f : float
         Darcy friction factor [-]
+
+    Examples
+    --------
+    Laminar, and Haaland's 0.0233 at Re = 3e4 (Blasius's smooth-tube ``0.3164 Re^-1/4``
+    gives 0.0240 there):
+
+    >>> round(darcy_friction(1000.0), 4), round(darcy_friction(3e4), 4)
+    (0.064, 0.0233)
     """
     if Re < RE_LAMINAR:
         return 64.0 / Re
-    return (-1.8 * math.log10(6.9 / Re)) ** -2
+    x = 1.8 * math.log10(6.9 / max(Re, RE_TURBULENT))
+    f = 1.0 / (x * x)
+    if Re < RE_TURBULENT:
+        w = (Re - RE_LAMINAR) / (RE_TURBULENT - RE_LAMINAR)
+        f = (1.0 - w) * 64.0 / RE_LAMINAR + w * f
+    return f
 
 
 def fanno_length(M, gamma=GAMMA_AIR):
@@ -315,8 +337,8 @@ def line_slots(diameter, length, segments, T0=T_REF, h=0.0, T_wall=T_REF):
 @njit(cache=True, error_model="numpy", _nrt=False)
 def segment_friction(q, rho, A, d, mu):
     """Wall friction on the gas of one segment, per unit length, as a rate of its mass flow
-    [kg/s^2]: ``f q |q| / (2 d rho A)``, Darcy's ``f`` of :func:`darcy_friction`'s law, which
-    is Hagen-Poiseuille's ``32 mu q / (rho d^2)`` below :data:`RE_LAMINAR`.
+    [kg/s^2]: ``f q |q| / (2 d rho A)``, Darcy's ``f`` of :func:`darcy_friction`, which is
+    Hagen-Poiseuille's ``32 mu q / (rho d^2)`` below :data:`RE_LAMINAR`.
 
     Parameters
     ----------
@@ -341,14 +363,8 @@ def segment_friction(q, rho, A, d, mu):
     """
     Re = abs(q) * d / (A * mu)
     if Re < RE_LAMINAR:
-        return 32.0 * mu * q / (rho * d * d)
-    x = 1.8 * math.log10(6.9 / max(Re, RE_TURBULENT))     # Haaland, smooth tube
-    f = 1.0 / (x * x)
-    if Re < RE_TURBULENT:
-        # the transition zone, linear in Re from the laminar value to the turbulent one: the
-        # law continuous (a jump makes the integrator's step control reject steps)
-        w = (Re - RE_LAMINAR) / (RE_TURBULENT - RE_LAMINAR)
-        f = (1.0 - w) * 64.0 / RE_LAMINAR + w * f
+        return 32.0 * mu * q / (rho * d * d)      # 64 / Re written out: finite at q = 0
+    f = darcy_friction(Re)
     return f * q * abs(q) / (2.0 * d * rho * A)
 
 
