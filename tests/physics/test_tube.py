@@ -107,7 +107,7 @@ def test_one_friction_law_for_both_lines_continuous_through_the_transition():
     and that law is continuous from 64/Re to Haaland's through Re 2300-4000: the lumped
     line's characteristic then varies smoothly with its length where its choked flow crosses
     the transition (1 mm at 2 bar, around 9 m). With a jump in the law (64/Re to Haaland at
-    2300, the lumped line's law before) C stepped by 14 % between two lengths 5 cm apart,
+    2300, the lumped line's law before) C stepped by 14 % between two lengths 5 cm apart;
     here no step exceeds twice the mean of its neighbours
     (measured 1.3; with the jump, 28)."""
     from pneucore.physics.tube import segment_friction
