@@ -357,13 +357,58 @@ def _hermite(theta, h, y0, f0, y1, f1, out):
 
 @_internal
 def _rodas_step(t, y, h, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
-                ynew, err, K, W, piv, dinv, ytmp, ftmp, aux, stats, sparse):
-    """One RODAS4 step of size h from (t, y); returns False if W is singular or the result is not finite.
+                ynew, err, K, W, piv, dinv, ytmp, ftmp, aux, stats):
+    """One RODAS4 step of size h from (t, y); returns False if W is singular or the result is not finite."""
+    n = y.shape[0]
+    hinv = 1.0 / h
+    fac = hinv / _GAMMA
+    for i in range(n):
+        for j in range(n):
+            W[i, j] = -J[i, j]
+        W[i, i] += fac
+    if not _lu_factor(W, piv, dinv, n):
+        return False
+    for s in range(6):
+        if s == 0:
+            for i in range(n):
+                ftmp[i] = f0[i]
+        else:
+            for i in range(n):
+                acc = y[i]
+                for j in range(s):
+                    acc += _A[s, j] * K[j, i]
+                ytmp[i] = acc
+            _feval(t + _ALPHA[s] * h, ytmp, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+            stats[ST_FEVALS] += 1
+        for i in range(n):
+            acc = ftmp[i] + _GAMMAS[s] * h * ft[i]
+            for j in range(s):
+                acc += _C[s, j] * hinv * K[j, i]
+            K[s, i] = acc
+        _lu_solve(W, piv, dinv, K[s], n)
+    for i in range(n):
+        acc = y[i]
+        for s in range(6):
+            acc += _M[s] * K[s, i]
+        ynew[i] = acc
+        err[i] = K[5, i]
+        if not math.isfinite(acc):
+            return False
+    return True
+
+
+@_internal
+def _rodas_step_profile(t, y, h, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
+                        ynew, err, K, W, piv, dinv, ytmp, ftmp, aux, stats, sparse):
+    """:func:`_rodas_step` for a model with lines in segments when ``sparse[0]``, else the
+    same as it.
 
     ``sparse = (on, order, lo, hi, work, lo0, hi0, rowptr, cols)``: with ``on`` the matrix ``W``
     is assembled from the structural pattern with its rows and columns in the order
     ``order`` (:func:`_profile`) and factorised over its profile (:func:`_lu_factor_profile`),
-    else as it stands (:func:`_lu_factor`).
+    else as it stands (:func:`_lu_factor`). A function of its own so that the dense path's
+    call stays that of :func:`_rodas_step` (passing the profile's arrays with every step
+    made the base model 3.6 % slower on the pulse benchmark).
     """
     n = y.shape[0]
     hinv = 1.0 / h
@@ -957,8 +1002,8 @@ def _back_step(t, t_ev, theta, h, y, f0, y1, f1, J, ft, mode, seg_t0, seg_u0, se
         ysave[i] = y[i]
     ok = False
     if hb > 0.0:
-        ok = _rodas_step(t, ysave, hb, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
-                         yh, err, K, W, piv, dinv, ytmp, ftmp, aux, stats, sparse)
+        ok = _rodas_step_profile(t, ysave, hb, f0, J, ft, mode, seg_t0, seg_u0, seg_slope,
+                                 model, yh, err, K, W, piv, dinv, ytmp, ftmp, aux, stats, sparse)
         stats[ST_BACKSTEPS] += 1
     if not ok:
         _hermite(theta, h, y, f0, y1, f1, yh)
@@ -1181,8 +1226,13 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
                       ytmp, ftmp, aux, stats)
         # --- attempt steps until one is accepted --------------------------------
         while True:
-            ok = _rodas_step(t, y, hh, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
-                             y1, err, K, W, piv, dinv, ytmp, ftmp, aux, stats, lin)
+            if sparse:
+                ok = _rodas_step_profile(t, y, hh, f0, J, ft, mode, seg_t0, seg_u0, seg_slope,
+                                         model, y1, err, K, W, piv, dinv, ytmp, ftmp, aux, stats,
+                                         lin)
+            else:
+                ok = _rodas_step(t, y, hh, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
+                                 y1, err, K, W, piv, dinv, ytmp, ftmp, aux, stats)
             enorm = np.inf
             if ok and y1[L.Y_MA] > 0.0 and y1[L.Y_TA] > 0.0 and y1[L.Y_MB] > 0.0 and y1[L.Y_TB] > 0.0:
                 s = 0.0

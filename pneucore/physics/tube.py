@@ -259,9 +259,10 @@ def tube_characteristic(diameter, length, p0, T0=T_REF, r=R_AIR, gamma=GAMMA_AIR
 
 
 # --- the line in segments, inside the compiled core ----------------------------------------
-#: Most segments a line may have per port [-]: the core's Jacobian is dense (forward
-#: differences, one right-hand side per state, and an LU factorisation in the cube of the
-#: states), and 3 states a segment on two ports at 32 segments already make 198 states;
+#: Most segments a line may have per port [-]: the core stores its Jacobian and the step's
+#: matrix dense (the evaluations are grouped and the factorisation follows the profile,
+#: :mod:`pneucore.core.integrator`, but assembling them costs the square of the states), and
+#: 3 states a segment on two ports at 32 segments already make 198 states;
 #: 32 segments resolve a signal of one quarter-wave period of the line at
 #: :data:`pneucore.physics.line.CELLS_PER_QUARTER_WAVE` cells per quarter wave four times over
 MAX_SEGMENTS = 32
