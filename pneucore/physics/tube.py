@@ -162,8 +162,7 @@ def darcy_friction(Re):
     """
     if Re < RE_LAMINAR:
         return 64.0 / Re
-    x = 1.8 * math.log10(6.9 / max(Re, RE_TURBULENT))
-    f = 1.0 / (x * x)
+    f = (-1.8 * math.log10(6.9 / max(Re, RE_TURBULENT))) ** -2
     if Re < RE_TURBULENT:
         w = (Re - RE_LAMINAR) / (RE_TURBULENT - RE_LAMINAR)
         f = (1.0 - w) * 64.0 / RE_LAMINAR + w * f
@@ -249,7 +248,10 @@ def tube_characteristic(diameter, length, p0, T0=T_REF, r=R_AIR, gamma=GAMMA_AIR
         M = _inlet_mach(f * length / diameter, gamma)
         q = A * p0 * math.sqrt(gamma / (r * T0)) * M * (1.0 + 0.5 * k * M * M) ** (
             -(gamma + 1.0) / (2.0 * k))
-        f_new = darcy_friction(4.0 * q / (math.pi * diameter * mu))
+        # the law's Python text (``py_func``): outside the transition zone the lumped line's
+        # characteristic is then the one computed before the law was compiled, bit for bit
+        # (numba's log10 and power round differently from CPython's in the last bit)
+        f_new = darcy_friction.py_func(4.0 * q / (math.pi * diameter * mu))
         if abs(f_new - f) <= 1e-12 * f:
             break
         f = 0.5 * (f + f_new)        # damped: the laminar-turbulent switch would oscillate
