@@ -400,40 +400,31 @@ def _rodas_step(t, y, h, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
 @_internal
 def _rodas_step_profile(t, y, h, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
                         ynew, err, K, W, piv, dinv, ytmp, ftmp, aux, stats, sparse):
-    """:func:`_rodas_step` for a model with lines in segments when ``sparse[0]``, else the
-    same as it.
+    """:func:`_rodas_step` for a model with lines in segments.
 
-    ``sparse = (on, order, lo, hi, work, lo0, hi0, rowptr, cols)``: with ``on`` the matrix ``W``
-    is assembled from the structural pattern with its rows and columns in the order
-    ``order`` (:func:`_profile`) and factorised over its profile (:func:`_lu_factor_profile`),
-    else as it stands (:func:`_lu_factor`). A function of its own so that the dense path's
-    call stays that of :func:`_rodas_step` (passing the profile's arrays with every step
-    made the base model 3.6 % slower on the pulse benchmark).
+    ``sparse = (on, order, lo, hi, work, lo0, hi0, rowptr, cols)`` (``on`` True): the matrix
+    ``W`` is assembled from the structural pattern with its rows and columns in the order
+    ``order`` (:func:`_profile`) and factorised over its profile (:func:`_lu_factor_profile`).
+    A function of its own so that the dense path's call stays that of :func:`_rodas_step`
+    (passing the profile's arrays with every step made the base model 3.6 % slower on the
+    pulse benchmark).
     """
     n = y.shape[0]
     hinv = 1.0 / h
     fac = hinv / _GAMMA
     on, order, lo, hi, work, lo0, hi0, rowptr, cols = sparse
-    if on:
-        for a in range(n):
-            for b in range(n):
-                W[a, b] = 0.0
-            ia = order[a]
-            for q in range(rowptr[a], rowptr[a + 1]):
-                b = cols[q]
-                W[a, b] = -J[ia, order[b]]
-            W[a, a] += fac
-            lo[a] = lo0[a]
-            hi[a] = hi0[a]
-        if not _lu_factor_profile(W, piv, dinv, n, lo, hi):
-            return False
-    else:
-        for i in range(n):
-            for j in range(n):
-                W[i, j] = -J[i, j]
-            W[i, i] += fac
-        if not _lu_factor(W, piv, dinv, n):
-            return False
+    for a in range(n):
+        for b in range(n):
+            W[a, b] = 0.0
+        ia = order[a]
+        for q in range(rowptr[a], rowptr[a + 1]):
+            b = cols[q]
+            W[a, b] = -J[ia, order[b]]
+        W[a, a] += fac
+        lo[a] = lo0[a]
+        hi[a] = hi0[a]
+    if not _lu_factor_profile(W, piv, dinv, n, lo, hi):
+        return False
     for s in range(6):
         if s == 0:
             for i in range(n):
@@ -451,14 +442,11 @@ def _rodas_step_profile(t, y, h, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, mod
             for j in range(s):
                 acc += _C[s, j] * hinv * K[j, i]
             K[s, i] = acc
-        if on:
-            for a in range(n):
-                work[a] = K[s, order[a]]
-            _lu_solve_profile(W, piv, dinv, work, n, lo, hi)
-            for a in range(n):
-                K[s, order[a]] = work[a]
-        else:
-            _lu_solve(W, piv, dinv, K[s], n)
+        for a in range(n):
+            work[a] = K[s, order[a]]
+        _lu_solve_profile(W, piv, dinv, work, n, lo, hi)
+        for a in range(n):
+            K[s, order[a]] = work[a]
     for i in range(n):
         acc = y[i]
         for s in range(6):
@@ -1002,8 +990,13 @@ def _back_step(t, t_ev, theta, h, y, f0, y1, f1, J, ft, mode, seg_t0, seg_u0, se
         ysave[i] = y[i]
     ok = False
     if hb > 0.0:
-        ok = _rodas_step_profile(t, ysave, hb, f0, J, ft, mode, seg_t0, seg_u0, seg_slope,
-                                 model, yh, err, K, W, piv, dinv, ytmp, ftmp, aux, stats, sparse)
+        if sparse[0]:
+            ok = _rodas_step_profile(t, ysave, hb, f0, J, ft, mode, seg_t0, seg_u0, seg_slope,
+                                     model, yh, err, K, W, piv, dinv, ytmp, ftmp, aux, stats,
+                                     sparse)
+        else:
+            ok = _rodas_step(t, ysave, hb, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
+                             yh, err, K, W, piv, dinv, ytmp, ftmp, aux, stats)
         stats[ST_BACKSTEPS] += 1
     if not ok:
         _hermite(theta, h, y, f0, y1, f1, yh)
