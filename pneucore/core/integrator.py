@@ -399,12 +399,13 @@ def _rodas_step(t, y, h, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
 
 @_internal
 def _rodas_step_profile(t, y, h, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
-                        ynew, err, K, W, piv, dinv, ytmp, ftmp, aux, stats, sparse):
+                        ynew, err, K, W, piv, dinv, ytmp, ftmp, aux, stats, lin):
     """:func:`_rodas_step` for a model with lines in segments.
 
-    ``sparse = (on, order, lo, hi, work, lo0, hi0, rowptr, cols)`` (``on`` True): the matrix
-    ``W`` is assembled from the structural pattern with its rows and columns in the order
-    ``order`` (:func:`_profile`) and factorised over its profile (:func:`_lu_factor_profile`).
+    ``lin`` (:func:`integrate_lines`) holds the profile: ``order, lo, hi, work, lo0, hi0,
+    rowptr, cols`` first; the matrix ``W`` is assembled from the structural pattern with its
+    rows and columns in the order ``order`` (:func:`_profile`) and factorised over its
+    profile (:func:`_lu_factor_profile`).
     A function of its own so that the dense path's call stays that of :func:`_rodas_step`
     (passing the profile's arrays with every step made the base model 3.6 % slower on the
     pulse benchmark).
@@ -412,7 +413,8 @@ def _rodas_step_profile(t, y, h, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, mod
     n = y.shape[0]
     hinv = 1.0 / h
     fac = hinv / _GAMMA
-    on, order, lo, hi, work, lo0, hi0, rowptr, cols = sparse
+    order, lo, hi, work, lo0, hi0, rowptr, cols = lin[0], lin[1], lin[2], lin[3], lin[4], \
+        lin[5], lin[6], lin[7]
     for a in range(n):
         for b in range(n):
             W[a, b] = 0.0
@@ -980,20 +982,21 @@ def _locate_event(theta_p, k, mode, h, y0, f0, y1, f1, t0, stroke, seg_t0, seg_u
 
 @_internal
 def _back_step(t, t_ev, theta, h, y, f0, y1, f1, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
-               yh, ysave, err, K, W, piv, dinv, ytmp, ftmp, aux, stats, sparse):
+               yh, ysave, err, K, W, piv, dinv, ytmp, ftmp, aux, stats, lin):
     """Redo the step from ``(t, y)`` exactly to the event time ``t_ev`` (the paper's ACSL
     back-step) and put the state there into ``y``; the step's interpolant at ``theta``
-    when that step fails."""
+    when that step fails. ``lin``: the profile of a model with lines in segments
+    (:func:`integrate_lines`), or None."""
     n = y.shape[0]
     hb = t_ev - t
     for i in range(n):
         ysave[i] = y[i]
     ok = False
     if hb > 0.0:
-        if sparse[0]:
+        if lin is not None:
             ok = _rodas_step_profile(t, ysave, hb, f0, J, ft, mode, seg_t0, seg_u0, seg_slope,
                                      model, yh, err, K, W, piv, dinv, ytmp, ftmp, aux, stats,
-                                     sparse)
+                                     lin)
         else:
             ok = _rodas_step(t, ysave, hb, f0, J, ft, mode, seg_t0, seg_u0, seg_slope, model,
                              yh, err, K, W, piv, dinv, ytmp, ftmp, aux, stats)
@@ -1073,53 +1076,14 @@ _INT_LOCALS = {"n_ev": types.int64, "k_ev": types.int64, "k0": types.int64}
 
 
 @njit(cache=True, nogil=True, error_model="numpy", locals=_INT_LOCALS)
-def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
-              h_max, h_init, max_steps, y_out, aux_out, mode_out, u_out,
-              ev_t, ev_kind, ev_mode, stats):
-    """Integrate from t = 0 to ``t_end`` and sample at ``t_out``.
-
-    Parameters
-    ----------
-    y0 : ndarray
-        Initial state (copied)
-    mode0 : int
-        Initial piston mode (``layout.MODE_*``); resting modes are
-        released at once if the force allows
-    model : tuple
-        ``(prm, iy, tx, tC, tb, tm, toff, prm_user, scratch)``, see :mod:`pneucore.core.rhs`
-    cmd_t, cmd_u : ndarray
-        Command breakpoints [s], [-]
-    linear : bool
-        Linear interpolation of the command (else zero-order hold)
-    t_end : float
-        End time [s]
-    t_out : ndarray
-        Increasing sample times in [0, t_end] [s]
-    rtol : float
-        Relative tolerance [-]
-    atol : ndarray
-        Absolute tolerance per state (state units)
-    h_max, h_init : float
-        Largest and first step [s]
-    max_steps : int
-        Step budget
-    y_out, aux_out, mode_out, u_out : ndarray
-        Outputs at ``t_out``
-    ev_t, ev_kind, ev_mode : ndarray
-        Event log: ``ev_t[k] = (time [s], piston velocity at an end stop's impact [m/s])``
-        (the second column is written for ``stop`` events only), ``layout.EV_*``, mode after
-    stats : ndarray of int
-        Solver statistics (``ST_*`` slots)
-
-    Returns
-    -------
-    status : int
-        ``OK`` or an ``ERR_*`` code (see ``STATUS_MESSAGES``)
-    n_events : int
-        Number of events (may exceed the log size on overflow)
-    t_reached : float
-        Time reached [s]
-    """
+def _run(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
+         h_max, h_init, max_steps, y_out, aux_out, mode_out, u_out,
+         ev_t, ev_kind, ev_mode, stats, lin):
+    """The integration of :func:`integrate` (its arguments and returns), with ``lin`` the
+    structure of a model with lines in segments (:func:`integrate_lines`) or None. Compiled
+    once for each: with None, numba prunes the branches on ``lin`` before typing them, so
+    the core of a model without a line compiles none of the grouped Jacobian and profile
+    factorisation (they made the first compile a third longer)."""
     prm = model[0]
     n = y0.shape[0]
     stroke = prm[L.P_STROKE]
@@ -1135,26 +1099,6 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
     K = np.empty((6, n))
     J = np.zeros((n, n))          # zero: the grouped Jacobian writes its pattern only
     W = np.empty((n, n))
-    # the Jacobian's structure and column groups (_groups), fixed for the run
-    S = np.empty((n, n), np.uint8)
-    colours = np.empty((2, n), np.int64)
-    n_groups = np.zeros(2, np.int64)
-    cell = np.empty(n, np.int64)
-    port = np.empty(n, np.int64)
-    sparse = _groups(prm, model[1], n, S, colours, n_groups, cell, port, np.empty(n, np.uint8),
-                     np.empty((n, n), np.uint8))
-    dcol = np.empty(n)
-    order = np.arange(n)
-    lo0 = np.empty(n, np.int64)
-    hi0 = np.empty(n, np.int64)
-    rowptr = np.zeros(n + 1, np.int64)
-    cols = np.empty(0, np.int64)
-    if sparse:
-        _profile_order(n, cell, port, order)
-        cols = np.empty(_profile(S, n, order, lo0, hi0, rowptr, cols, False), np.int64)
-        _profile(S, n, order, lo0, hi0, rowptr, cols, True)
-    lin = (sparse, order, np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n), lo0, hi0,
-           rowptr, cols)
     ft = np.zeros(n)
     piv = np.empty(n, np.int64)
     dinv = np.empty(n)
@@ -1211,15 +1155,15 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
             hh = t_stop - t
             last = True
 
-        if sparse:
+        if lin is not None:
             _jacobian_grouped(t, y, f0, mode, seg_t0, seg_u0, seg_slope, model, scale, J, ft,
-                              ytmp, ftmp, aux, stats, S, colours, n_groups, dcol)
+                              ytmp, ftmp, aux, stats, lin[8], lin[9], lin[10], lin[11])
         else:
             _jacobian(t, y, f0, mode, seg_t0, seg_u0, seg_slope, model, scale, J, ft,
                       ytmp, ftmp, aux, stats)
         # --- attempt steps until one is accepted --------------------------------
         while True:
-            if sparse:
+            if lin is not None:
                 ok = _rodas_step_profile(t, y, hh, f0, J, ft, mode, seg_t0, seg_u0, seg_slope,
                                          model, y1, err, K, W, piv, dinv, ytmp, ftmp, aux, stats,
                                          lin)
@@ -1359,6 +1303,113 @@ def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
     return OK, n_ev, t
 
 
+@njit(cache=True, nogil=True, error_model="numpy", locals=_INT_LOCALS)
+def integrate(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
+              h_max, h_init, max_steps, y_out, aux_out, mode_out, u_out,
+              ev_t, ev_kind, ev_mode, stats):
+    """Integrate from t = 0 to ``t_end`` and sample at ``t_out``.
+
+    Parameters
+    ----------
+    y0 : ndarray
+        Initial state (copied)
+    mode0 : int
+        Initial piston mode (``layout.MODE_*``); resting modes are
+        released at once if the force allows
+    model : tuple
+        ``(prm, iy, tx, tC, tb, tm, toff, prm_user, scratch)``, see :mod:`pneucore.core.rhs`
+    cmd_t, cmd_u : ndarray
+        Command breakpoints [s], [-]
+    linear : bool
+        Linear interpolation of the command (else zero-order hold)
+    t_end : float
+        End time [s]
+    t_out : ndarray
+        Increasing sample times in [0, t_end] [s]
+    rtol : float
+        Relative tolerance [-]
+    atol : ndarray
+        Absolute tolerance per state (state units)
+    h_max, h_init : float
+        Largest and first step [s]
+    max_steps : int
+        Step budget
+    y_out, aux_out, mode_out, u_out : ndarray
+        Outputs at ``t_out``
+    ev_t, ev_kind, ev_mode : ndarray
+        Event log: ``ev_t[k] = (time [s], piston velocity at an end stop's impact [m/s])``
+        (the second column is written for ``stop`` events only), ``layout.EV_*``, mode after
+    stats : ndarray of int
+        Solver statistics (``ST_*`` slots)
+
+    Returns
+    -------
+    status : int
+        ``OK`` or an ``ERR_*`` code (see ``STATUS_MESSAGES``)
+    n_events : int
+        Number of events (may exceed the log size on overflow)
+    t_reached : float
+        Time reached [s]
+    """
+    return _run(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol, h_max, h_init,
+                max_steps, y_out, aux_out, mode_out, u_out, ev_t, ev_kind, ev_mode, stats, None)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def integrate_lines(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
+                    h_max, h_init, max_steps, y_out, aux_out, mode_out, u_out,
+                    ev_t, ev_kind, ev_mode, stats):
+    """:func:`integrate` for a model with lines in segments (same arguments and returns): the
+    Jacobian's columns grouped on its structural sparsity (:func:`_groups`), the step's
+    linear systems factorised over their profile (:func:`_profile`). A core of its own,
+    compiled on first use, so that the core of a model without a line compiles none of it;
+    a model whose pattern is dense after all (a user hook) runs the plain core.
+    """
+    n = y0.shape[0]
+    S = np.empty((n, n), np.uint8)
+    colours = np.empty((2, n), np.int64)
+    n_groups = np.zeros(2, np.int64)
+    cell = np.empty(n, np.int64)
+    port = np.empty(n, np.int64)
+    if not _groups(model[0], model[1], n, S, colours, n_groups, cell, port,
+                   np.empty(n, np.uint8), np.empty((n, n), np.uint8)):
+        return _run(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol, h_max,
+                    h_init, max_steps, y_out, aux_out, mode_out, u_out, ev_t, ev_kind, ev_mode,
+                    stats, None)
+    order = np.arange(n)
+    lo0 = np.empty(n, np.int64)
+    hi0 = np.empty(n, np.int64)
+    rowptr = np.zeros(n + 1, np.int64)
+    _profile_order(n, cell, port, order)
+    cols = np.empty(_profile(S, n, order, lo0, hi0, rowptr, order, False), np.int64)
+    _profile(S, n, order, lo0, hi0, rowptr, cols, True)
+    lin = (order, np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n), lo0, hi0, rowptr,
+           cols, S, colours, n_groups, np.empty(n))
+    return _run(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol, h_max, h_init,
+                max_steps, y_out, aux_out, mode_out, u_out, ev_t, ev_kind, ev_mode, stats, lin)
+
+
+def has_lines(model):
+    """Whether a core model tuple (:func:`pneucore.simulate.build_core`) holds a line in
+    segments on either port (a line term's state position set), which
+    :func:`integrate_lines` integrates.
+
+    Parameters
+    ----------
+    model : tuple
+        ``(prm, iy, ...)``
+
+    Returns
+    -------
+    lines : bool
+        A line term is present [-]
+    """
+    from pneucore.physics.states import LINE_TERMS
+
+    iy = model[1]
+    return any(iy[L.STATE_IY0[name] + k] >= 0 for name in LINE_TERMS for k in range(2))
+
+
 _SPECIALIZED = {}
 
 #: Names a specialised core rebinds in :mod:`pneucore.core.rhs`: the user hook and the law tables
@@ -1413,8 +1464,9 @@ def _clone(dispatcher, glb):
                                           f.__closure__))
 
 
-def specialize(hook=None, flow_laws=None, friction_laws=None):
-    """A compiled copy of :func:`integrate` with another user hook or other law tables.
+def specialize(hook=None, flow_laws=None, friction_laws=None, lines=False):
+    """A compiled copy of :func:`integrate` (or :func:`integrate_lines`) with another user hook
+    or other law tables.
 
     The default core (``rhs.user_terms = no_terms``, the built-in laws'
     tables ``rhs.flow_laws`` and ``rhs.friction_laws``) is compiled once and
@@ -1437,6 +1489,8 @@ def specialize(hook=None, flow_laws=None, friction_laws=None):
         Flow-law table ``((code, law), ...)``; None: the built-in one
     friction_laws : tuple or None
         Friction-law table ``((code, force, static), ...)``; None: the built-in one
+    lines : bool
+        The copy of :func:`integrate_lines` (a model with lines in segments) [-]
 
     Returns
     -------
@@ -1449,8 +1503,9 @@ def specialize(hook=None, flow_laws=None, friction_laws=None):
     flow_laws = rhs_module.flow_laws if flow_laws is None else tuple(flow_laws)
     friction_laws = rhs_module.friction_laws if friction_laws is None else tuple(friction_laws)
     key = (hook, flow_laws, friction_laws)
+    entry = "integrate_lines" if lines else "integrate"
     if key in _SPECIALIZED:
-        return _SPECIALIZED[key]
+        return _SPECIALIZED[key][entry]
     # the rhs module's own names: the component laws as published, each cached on disk
     # (a process that loaded the default core from the cache has not compiled the
     # wrapper-less copies, and these would be compiled afresh in every process)
@@ -1467,13 +1522,14 @@ def specialize(hook=None, flow_laws=None, friction_laws=None):
         glb[name] = rhs_globals[name]
     for name in _chain(globals(), __name__, imported):
         glb[name] = _clone(globals()[name], glb)
-    _SPECIALIZED[key] = glb["integrate"]
-    return glb["integrate"]
+    _SPECIALIZED[key] = {name: glb[name] for name in ("integrate", "integrate_lines")}
+    return glb[entry]
 
 
-def core_for(hook, flow_laws, friction_laws):
+def core_for(hook, flow_laws, friction_laws, lines=False):
     """The compiled core for a user hook and law tables: :func:`integrate` itself when they
-    are the defaults (cached on disk), else :func:`specialize`'s copy.
+    are the defaults (cached on disk), else :func:`specialize`'s copy; :func:`integrate_lines`
+    (or its copy) for a model with lines in segments.
 
     Parameters
     ----------
@@ -1481,10 +1537,12 @@ def core_for(hook, flow_laws, friction_laws):
         User-effect hook (``rhs.no_terms`` when the model has none)
     flow_laws, friction_laws : tuple
         Law tables (:func:`pneucore.core.rhs.law_table`)
+    lines : bool
+        The model holds a line in segments (:func:`has_lines`) [-]
     """
     from pneucore.core import rhs as rhs_module
 
     if hook is rhs_module.no_terms and flow_laws == rhs_module.flow_laws \
             and friction_laws == rhs_module.friction_laws:
-        return integrate
-    return specialize(hook, flow_laws, friction_laws)
+        return integrate_lines if lines else integrate
+    return specialize(hook, flow_laws, friction_laws, lines)

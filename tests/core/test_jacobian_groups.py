@@ -127,3 +127,23 @@ def test_the_groups_do_not_grow_with_the_segments(segments):
         0.0, y, L.MODE_SLIDE_POS, 1.0, core["model"], core["atol"], 1e-6)
     assert evals[0] == y.shape[0] == 6 + 6 * segments
     assert evals[1] == n_groups[0] == 12
+
+
+def test_a_simulation_with_lines_in_segments_runs_the_grouped_core(case):
+    """``simulate`` picks :func:`integrate_lines` for a model with lines in segments and the
+    plain core otherwise; the grouped Jacobian shows in the evaluations per step (each step:
+    one Jacobian, 5 stage evaluations, the samples' and the events' own; the plain
+    differences alone would take one per state)."""
+    from pneucore.core import integrator, rhs
+
+    segments, core, _, res = case
+    run = integrator.core_for(rhs.no_terms, core["flow_laws"], core["friction_laws"],
+                              integrator.has_lines(core["model"]))
+    n = core["y0"].shape[0]
+    if segments == 1:
+        assert run is integrator.integrate
+    else:
+        assert run is integrator.integrate_lines
+        per_step = res.stats["rhs_evaluations"] / res.stats["jacobians"]
+        if n >= 30:
+            assert per_step < n - 4, (per_step, n)
