@@ -394,7 +394,12 @@ def line_rates(y, dy, i0, prm, k0, q_v, H_v, p_c, T_c, r, cp, cv, isothermal, C_
     ``gamma`` [-]) sits between the chamber and the last cell: the gas leaving the chamber
     passes it, bounded by the last face's flow, the gas entering passes the check valve
     (:func:`pneucore.physics.cushion.cushioned_outflow`, as at a valve edge without a line);
-    ``C_end`` < 0: no cushion (a closed needle is ``C_end`` = 0).
+    ``C_end`` < 0: no cushion (a closed needle is ``C_end`` = 0). The last face keeps its
+    momentum equation meanwhile (driven by the chamber's pressure over the last cell's): a
+    needle with a volume of gas between it and the line's gas is not modelled, so while the
+    needle bounds the flow the face's state is the flow the line would carry without it,
+    not the flow that passes, and the check valve opens once that turns towards the
+    chamber.
     Returns the mass flow [kg/s] and enthalpy flow [W] into the chamber (line term
     ``rate``, :mod:`pneucore.physics.states`).
     """
