@@ -177,7 +177,10 @@ class SimulationResult:
     x, v, a : ndarray
         Position [m], velocity [m/s], acceleration [m/s^2]
     q_a, q_b : ndarray
-        Net valve mass flow into each chamber [kg/s]
+        The valve's net mass flow into each port [kg/s] (what a flow meter at the valve
+        reads): into the chamber without a line or with a lumped one (whose volume is the
+        chamber's), into the line with a line in segments (the flow into the chamber is then
+        the last face's state ``line_<port>_q<N>``)
     friction : ndarray
         Friction force, positive towards -x [N] (holding force while stuck, 0 at a stop)
     rod_force : ndarray
@@ -238,7 +241,8 @@ class SimulationResult:
         """The series a sensor would report for the measured signal ``name``: ``p_a``/``p_b``
         through the transducer lag if modelled; ``F`` the rod force (``rod_force``), ``q_s`` the
         supply flow (``q_supply``), ``p_s`` the supply pressure (``p_supply``)
-        (:data:`OBSERVED_SERIES`); ``q_a``/``q_b`` the valve's net mass flow into each chamber."""
+        (:data:`OBSERVED_SERIES`); ``q_a``/``q_b`` the valve's net mass flow into each port
+        (into the line where a line in segments sits between valve and chamber)."""
         name = OBSERVED_SERIES.get(name, name)
         lagged = f"{name}_sensor"
         if lagged in self.series:

@@ -14,7 +14,8 @@ from pneucore.physics.flow import FLOW_LAWS
 from pneucore.physics.friction import FRICTION_LAWS
 from pneucore.physics.gas import density
 from pneucore.physics.heat import HEAT_MODELS
-from pneucore.core.integrator import ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES, core_for, integrate
+from pneucore.core.integrator import (ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES, core_for,
+                                     has_lines, integrate)
 from pneucore.spec.model import Model, check_resolvable
 from pneucore.spec.validation import choice
 from pneucore.result import CoreRun
@@ -367,7 +368,8 @@ def simulate_run(model, scenario, t_out=None, checked_times=False):
     cmd = np.asarray(scenario.command, float)
     # the event log starts small and is redone once with the exact size if it overflows
     cap = min(max_ev, 256 + 4 * len(cmd))
-    run = core_for(core["hook"], core["flow_laws"], core["friction_laws"])
+    run = core_for(core["hook"], core["flow_laws"], core["friction_laws"],
+                   has_lines(core["model"]))
     while True:
         ev_t = np.full((cap, 2), np.nan)    # time [s], impact velocity of a stop [m/s]
         ev_kind = np.empty(cap, np.int64)

@@ -150,6 +150,8 @@ IY_WALL_B = IY_WALL_A + 1
 N_PORTS = len(PORT_NAMES)
 
 # --- auxiliary outputs computed by the right-hand side --------------------------
+# q_a, q_b: the valve's net mass flow into each port [kg/s], before a line in segments (the
+# flow into the chamber is then the line's last face); into the chamber otherwise
 AUX_NAMES = ("p_a", "p_b", "q_a", "q_b", "friction", "a", "u_eff", "p_supply",
              "net_force", "heat_a", "heat_b", "static_limit_ext", "static_limit_ret",
              "V_a", "V_b", "q_supply")

@@ -199,8 +199,8 @@ def _generate_state_rates(table, iy, y, dy, prm, sa, sb, T_amb, b_const):
 
 def line_table(terms=None):
     """The core's table of line terms (:mod:`pneucore.physics.states`): ``((iy slot of port
-    A's first state, first parameter slot of port A, parameter slots per port, node, rate),
-    ...)`` in registration order, slots from :mod:`pneucore.core.layout`.
+    A's first state, first parameter slot of port A, parameter slots per port, node, rate,
+    cells), ...)`` in registration order, slots from :mod:`pneucore.core.layout`.
 
     Parameters
     ----------
@@ -208,8 +208,8 @@ def line_table(terms=None):
         Terms by name (default :data:`pneucore.physics.states.LINE_TERMS`)
     """
     terms = LINE_TERMS if terms is None else terms
-    return tuple((L.STATE_IY0[name], L.STATE_PRM0[name], len(t.parameters), t.node, t.rate)
-                 for name, t in terms.items())
+    return tuple((L.STATE_IY0[name], L.STATE_PRM0[name], len(t.parameters), t.node, t.rate,
+                  t.cells) for name, t in terms.items())
 
 
 #: Line terms compiled into the core: every registered term (its slots, node and rate)
@@ -217,9 +217,10 @@ line_terms = line_table()
 
 
 def call_line_node(table, port, iy, y, prm, p, T, r):
-    """In compiled code: ``(p, T)`` of the node port ``port`` (0 = A, 1 = B) connects the valve
-    edges to: a line term's first cell where one is present on that port (its ``iy`` slot
-    >= 0), else the chamber's ``p`` [Pa], ``T`` [K] themselves.
+    """In compiled code: ``(p, T, line)`` of the node port ``port`` (0 = A, 1 = B) connects the
+    valve edges to: a line term's first cell where one is present on that port (its ``iy``
+    slot >= 0; ``line`` True), else the chamber's ``p`` [Pa], ``T`` [K] themselves (``line``
+    False).
 
     Generated from the table's type when a caller is compiled (as :func:`_table_dispatch`).
     """
@@ -232,17 +233,20 @@ def _generate_line_node(table, port, iy, y, prm, p, T, r):
     for i in range(len(table)):
         lines += [f"    i = iy[table[{i}][0] + port]",
                   "    if i >= 0:",
-                  f"        return table[{i}][3](y, i, prm, table[{i}][1] + port * table[{i}][2], r)"]
-    lines.append("    return p, T")
+                  f"        pn, Tn = table[{i}][3](y, i, prm, table[{i}][1] + port * table[{i}][2], r)",
+                  "        return pn, Tn, True"]
+    lines.append("    return p, T, False")
     namespace = {}
     exec("\n".join(lines), namespace)   # text built from integers only
     return namespace["impl"]
 
 
-def call_line_rates(table, port, iy, y, dy, prm, q, H, p, T, r, cp, cv, isothermal):
+def call_line_rates(table, port, iy, y, dy, prm, q, H, p, T, r, cp, cv, isothermal, C_end, b_end,
+                    r_lam, gamma):
     """In compiled code: a line term's rates on port ``port`` where one is present, and the
     mass flow [kg/s] and enthalpy flow [W] into the chamber it gives from the valve's ``q``,
-    ``H`` into the port; ``(q, H)`` unchanged without one.
+    ``H`` into the port (with a cushion's needle of conductance ``C_end`` at the chamber's
+    end, < 0 = none); ``(q, H)`` unchanged without one.
 
     Generated from the table's type when a caller is compiled (as :func:`_table_dispatch`).
     """
@@ -250,14 +254,40 @@ def call_line_rates(table, port, iy, y, dy, prm, q, H, p, T, r, cp, cv, isotherm
 
 
 @overload(call_line_rates)
-def _generate_line_rates(table, port, iy, y, dy, prm, q, H, p, T, r, cp, cv, isothermal):
-    lines = ["def impl(table, port, iy, y, dy, prm, q, H, p, T, r, cp, cv, isothermal):"]
+def _generate_line_rates(table, port, iy, y, dy, prm, q, H, p, T, r, cp, cv, isothermal, C_end,
+                         b_end, r_lam, gamma):
+    lines = ["def impl(table, port, iy, y, dy, prm, q, H, p, T, r, cp, cv, isothermal, C_end, "
+             "b_end, r_lam, gamma):"]
     for i in range(len(table)):
         lines += [f"    i = iy[table[{i}][0] + port]",
                   "    if i >= 0:",
                   f"        return table[{i}][4](y, dy, i, prm, table[{i}][1] + port * table[{i}][2], "
-                  "q, H, p, T, r, cp, cv, isothermal)"]
+                  "q, H, p, T, r, cp, cv, isothermal, C_end, b_end, r_lam, gamma)"]
     lines.append("    return q, H")
+    namespace = {}
+    exec("\n".join(lines), namespace)   # text built from integers only
+    return namespace["impl"]
+
+
+def call_line_cells(table, port, iy, prm, cell):
+    """In compiled code: ``(i0, n_states, n_cells)`` of the line term on port ``port``, its
+    states' cells written into ``cell[i0:i0 + n_states]`` (line term ``cells``); ``(-1, 0, 0)``
+    where no line term is present on that port.
+
+    Generated from the table's type when a caller is compiled (as :func:`_table_dispatch`).
+    """
+    raise NotImplementedError("called from compiled code only")
+
+
+@overload(call_line_cells)
+def _generate_line_cells(table, port, iy, prm, cell):
+    lines = ["def impl(table, port, iy, prm, cell):"]
+    for i in range(len(table)):
+        lines += [f"    i = iy[table[{i}][0] + port]",
+                  "    if i >= 0:",
+                  f"        ns, nc = table[{i}][5](prm, table[{i}][1] + port * table[{i}][2], i, cell)",
+                  "        return i, ns, nc"]
+    lines.append("    return -1, 0, 0")
     namespace = {}
     exec("\n".join(lines), namespace)   # text built from integers only
     return namespace["impl"]
@@ -310,10 +340,12 @@ def _edge(k, u, p1, T1, p2, T2, prm, tx, tC, tb, tm, toff):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def _cushion(x, prm, p_sup, T_sup, p_a, T_a, p_b, T_b, p_atm, T_atm, q_pa, q_ar, q_pb, q_br):
+def _cushion(x, prm, p_sup, T_sup, p_a, T_a, p_b, T_b, p_atm, T_atm, q_pa, q_ar, q_pb, q_br,
+             line_a, line_b):
     """The valve edges' flows with the end cushions (:mod:`pneucore.physics.cushion`): inside
     a cushion, the gas leaving that chamber passes the needle (bounded by the edge), the gas
-    entering it the check valve."""
+    entering it the check valve. A port with a line in segments (``line_a``, ``line_b``) is
+    left alone: its needle sits at the line's chamber end (:func:`_needle`)."""
     stroke = prm[L.P_STROKE]
     r_lam = prm[L.P_R_LAM]
     r = prm[L.P_R]
@@ -321,15 +353,26 @@ def _cushion(x, prm, p_sup, T_sup, p_a, T_a, p_b, T_b, p_atm, T_atm, q_pa, q_ar,
     b = prm[L.P_CUSHION_B]
     la = prm[L.P_CUSHION_LA]
     lb = prm[L.P_CUSHION_LB]
-    if in_cushion(x, stroke, la, lb, 0):
+    if not line_a and in_cushion(x, stroke, la, lb, 0):
         C = prm[L.P_CUSHION_CA]
         q_ar = cushioned_outflow(q_ar, p_a, T_a, p_atm, T_atm, C, b, r_lam, r, gamma)
         q_pa = -cushioned_outflow(-q_pa, p_a, T_a, p_sup, T_sup, C, b, r_lam, r, gamma)
-    if in_cushion(x, stroke, la, lb, 1):
+    if not line_b and in_cushion(x, stroke, la, lb, 1):
         C = prm[L.P_CUSHION_CB]
         q_br = cushioned_outflow(q_br, p_b, T_b, p_atm, T_atm, C, b, r_lam, r, gamma)
         q_pb = -cushioned_outflow(-q_pb, p_b, T_b, p_sup, T_sup, C, b, r_lam, r, gamma)
     return q_pa, q_ar, q_pb, q_br
+
+
+@njit(cache=True, error_model="numpy", _nrt=False, inline="always")
+def _needle(x, prm, end, line):
+    """Conductance [m^3/(s Pa)] of the cushion needle between the chamber of ``end`` (0 = A)
+    and its line in segments (``line``) while the piston is in that cushion (0: closed);
+    -1 otherwise (no restriction)."""
+    if not line or not in_cushion(x, prm[L.P_STROKE], prm[L.P_CUSHION_LA], prm[L.P_CUSHION_LB],
+                                  end):
+        return -1.0
+    return prm[L.P_CUSHION_CA + end]
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -413,8 +456,8 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
         u_eff = u
 
     # --- the nodes the valve edges see: the chambers, or a line's first cell ------------
-    pn_a, Tn_a = call_line_node(line_terms, 0, iy, y, prm, p_a, T_a, r)
-    pn_b, Tn_b = call_line_node(line_terms, 1, iy, y, prm, p_b, T_b, r)
+    pn_a, Tn_a, line_a = call_line_node(line_terms, 0, iy, y, prm, p_a, T_a, r)
+    pn_b, Tn_b, line_b = call_line_node(line_terms, 1, iy, y, prm, p_b, T_b, r)
 
     # --- valve edges (Eq. 4-5) --------------------------------------------------
     q_pa = _edge(0, u_eff, p_sup, T_sup, pn_a, Tn_a, prm, tx, tC, tb, tm, toff)   # P -> A
@@ -423,7 +466,7 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
     q_br = _edge(3, u_eff, pn_b, Tn_b, p_atm, T_atm, prm, tx, tC, tb, tm, toff)   # B -> R
     if prm[L.P_CUSHION_LA] > 0.0 or prm[L.P_CUSHION_LB] > 0.0:
         q_pa, q_ar, q_pb, q_br = _cushion(x, prm, p_sup, T_sup, pn_a, Tn_a, pn_b, Tn_b, p_atm,
-                                          T_atm, q_pa, q_ar, q_pb, q_br)
+                                          T_atm, q_pa, q_ar, q_pb, q_br, line_a, line_b)
     q_a = q_pa - q_ar
     q_b = q_pb - q_br
     H_a = enthalpy_flow(q_pa, T_sup, Tn_a, cp) + enthalpy_flow(-q_ar, T_atm, Tn_a, cp)
@@ -432,11 +475,22 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
     aux[L.AUX_QB] = q_b
     isothermal = prm[L.P_ISOTHERMAL] > 0.0
 
-    # --- lines in segments (pneucore.physics.tube): valve flow in, chamber flow out ----------
-    q_a, H_a = call_line_rates(line_terms, 0, iy, y, dy, prm, q_a, H_a, p_a, T_a, r, cp, cv,
-                               isothermal)
-    q_b, H_b = call_line_rates(line_terms, 1, iy, y, dy, prm, q_b, H_b, p_b, T_b, r, cp, cv,
-                               isothermal)
+    # --- lines in segments (pneucore.physics.tube): valve flow in, chamber flow out (through
+    # a cushion's needle at the chamber's end) ------------------------------------------
+    # what enters each chamber, for the jet-convection heat model: the valve edges' inflows,
+    # or a line's flow into the chamber
+    qin_a = max(q_pa, 0.0) + max(-q_ar, 0.0)
+    qin_b = max(q_pb, 0.0) + max(-q_br, 0.0)
+    if line_a:
+        q_a, H_a = call_line_rates(line_terms, 0, iy, y, dy, prm, q_a, H_a, p_a, T_a, r, cp, cv,
+                                   isothermal, _needle(x, prm, 0, line_a), prm[L.P_CUSHION_B],
+                                   prm[L.P_R_LAM], gamma)
+        qin_a = max(q_a, 0.0)
+    if line_b:
+        q_b, H_b = call_line_rates(line_terms, 1, iy, y, dy, prm, q_b, H_b, p_b, T_b, r, cp, cv,
+                                   isothermal, _needle(x, prm, 1, line_b), prm[L.P_CUSHION_B],
+                                   prm[L.P_R_LAM], gamma)
+        qin_b = max(q_b, 0.0)
 
     # --- laminar leaks: across the piston, and to ambient ------------------------
     g_ab = prm[L.P_G_AB]
@@ -506,16 +560,14 @@ def rhs(t, y, mode, u, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy, aux
         Tw_a = y[i_wa]
         Tw_b = y[iy[L.IY_WALL_B]]
     if prm[L.P_HEAT_NAT] > 0.0 or prm[L.P_HEAT_JET] > 0.0:
-        # inflow jet: what enters through the valve edges
+        # inflow jet: what enters the chamber (through the valve edges, or from a line)
         h0 = prm[L.P_H]
         c_n = prm[L.P_HEAT_NAT]
         c_j = prm[L.P_HEAT_JET]
         d_in = prm[L.P_HEAT_D_IN]
         D = prm[L.P_BORE]
-        h_a = exchange_coefficient(h0, c_n, c_j, d_in, D, r, gamma, p_a, T_a, Tw_a,
-                                   max(q_pa, 0.0) + max(-q_ar, 0.0))
-        h_b = exchange_coefficient(h0, c_n, c_j, d_in, D, r, gamma, p_b, T_b, Tw_b,
-                                   max(q_pb, 0.0) + max(-q_br, 0.0))
+        h_a = exchange_coefficient(h0, c_n, c_j, d_in, D, r, gamma, p_a, T_a, Tw_a, qin_a)
+        h_b = exchange_coefficient(h0, c_n, c_j, d_in, D, r, gamma, p_b, T_b, Tw_b, qin_b)
     Qw_a = convective_heat_flow(h_a, S_a, Tw_a, T_a)
     Qw_b = convective_heat_flow(h_b, S_b, Tw_b, T_b)
     Q_a = Qw_a + t_qa_heat

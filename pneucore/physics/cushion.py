@@ -15,7 +15,11 @@ volume between: the flow out of the chamber through an edge is the needle's flow
 that edge's far node, bounded by the edge's own flow (in series the flow is at most
 either element's; a cushion needle is a small fraction of the port's conductance,
 so the needle sets it). Flow into the chamber passes the check valve as the valve
-lets it.
+lets it. With a ``tubing`` line in segments on the port the needle sits at the line's
+chamber end instead, between the chamber and the line's last cell, bounded by the last
+face's flow (:func:`pneucore.physics.tube.line_rates`); with a lumped line it stays in
+series with the edge, and the line's volume, part of the chamber's dead volume, is then
+inside the trapped cushion volume.
 
 Stroke-end energy: the piston meets the end stop with the kinetic energy
 ``E = m v^2 / 2``; catalogues give the energy a cushion absorbs at most

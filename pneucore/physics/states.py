@@ -27,8 +27,14 @@ with a variable number of states on each port, between the valve's edges and the
 of parameter slots per port and one state position per port (its first state); the core
 asks it for the state of the node the valve edges see (``node``) and hands it the valve's
 flow into the port, from which it returns the flow into the chamber (``rate``), calling
-both from one table (:data:`pneucore.core.rhs.line_terms`). This module imports nothing
-from the core: physics stays below it.
+both from one table (:data:`pneucore.core.rhs.line_terms`). A line term also states its
+structure (``cells``): the cell each of its states belongs to. Its contract, from which the
+core derives the Jacobian's structural sparsity (:mod:`pneucore.core.integrator`): the
+rates of a state of cell ``i`` read only the states of cells ``i - 1`` to ``i + 1`` of
+the same port, the first cell's and the last cell's also the rest of the model (the valve
+at one end, the chamber at the other), and the rest of the model reads only the states of
+the first and the last cells. This module imports nothing from the core: physics stays
+below it.
 """
 from __future__ import annotations
 
@@ -95,10 +101,18 @@ class LineTerm:
         of the node the port's valve edges see, the port's states starting at ``y[i0]``
         and its parameters at ``prm[k0]``
     rate : callable
-        Compiled ``rate(y, dy, i0, prm, k0, q, H, p, T, r, cp, cv, isothermal) -> (q_c, H_c)``:
-        writes the derivatives of the port's states given the valve's mass flow ``q`` [kg/s]
-        and enthalpy flow ``H`` [W] into the port and the chamber's ``p`` [Pa] and
-        ``T`` [K]; returns the mass flow [kg/s] and enthalpy flow [W] into the chamber
+        Compiled ``rate(y, dy, i0, prm, k0, q, H, p, T, r, cp, cv, isothermal, C_end, b_end,
+        r_lam, gamma) -> (q_c, H_c)``: writes the derivatives of the port's states given the
+        valve's mass flow ``q`` [kg/s] and enthalpy flow ``H`` [W] into the port and the
+        chamber's ``p`` [Pa] and ``T`` [K]; a restriction at the chamber's end of conductance
+        ``C_end`` [m^3/(s Pa)] (< 0: none) and critical ratio ``b_end`` [-] (an end cushion's
+        needle) passes the gas leaving the chamber; returns the mass flow [kg/s] and
+        enthalpy flow [W] into the chamber
+    cells : callable
+        Compiled ``cells(prm, k0, i0, cell) -> (n_states, n_cells)``: writes into
+        ``cell[i0 + k]`` the cell (0 at the valve) of the port's ``k``-th state, and returns
+        the port's number of states and of cells (module docstring: the structure the core's
+        Jacobian relies on)
     parameters : tuple
         ``(name, unit)`` of each parameter of one port, in the order of its slots
     description : str
@@ -107,6 +121,7 @@ class LineTerm:
     name: str
     node: Callable
     rate: Callable
+    cells: Callable
     parameters: tuple
     description: str = ""
 

@@ -23,7 +23,8 @@ the choked mass flow is the isentropic inlet's at ``M1``, which gives
 ``C = q / (rho_0 p_0)``, and the critical ratio ``b`` is the outlet pressure of
 the choked line over the inlet stagnation pressure, ``b = (p_1/p_0) (p*/p_1)``.
 The Darcy friction factor is Hagen-Poiseuille's ``64 / Re`` below Re = 2300 and
-Haaland's smooth-tube relation above (Haaland, J. Fluids Eng. 105, 1983, 89),
+Haaland's smooth-tube relation above Re = 4000 (Haaland, J. Fluids Eng. 105, 1983, 89),
+linear in Re between (:func:`darcy_friction`, the one law of both lines),
 evaluated at the choked flow from the given upstream pressure. A tube of length
 zero is the ideal nozzle of its bore (b = 0.528, Eq. 3).
 
@@ -52,7 +53,8 @@ the two cell centres, ``L/N`` long:
     - \frac{f q |q|}{2 d \rho A},
 
 the wall friction the same Darcy law as the lumped line's Fanno flow (Hagen-Poiseuille
-``64 / Re`` below :data:`RE_LAMINAR`, Haaland above, :func:`segment_friction`), the
+``64 / Re`` below :data:`RE_LAMINAR`, Haaland above :data:`RE_TURBULENT`, linear between:
+:func:`darcy_friction`, :func:`segment_friction`), the
 density the mean of the two cells'. The valve's edges feed the first cell with their own
 law (their table without the line in series: the line's resistance is now along it);
 the chamber keeps its own dead volume. The convective momentum flux ``d(rho u^2 A)/dx``
@@ -76,13 +78,14 @@ import math
 from numba import njit
 
 from pneucore.physics.chamber import chamber_rates, enthalpy_flow
+from pneucore.physics.cushion import cushioned_outflow
 from pneucore.physics.gas import GAMMA_AIR, R_AIR, RHO_REF, T_REF
 from pneucore.physics.states import LineTerm, register_line_term
 
 #: Reynolds number below which the flow in the line is laminar [-]
 RE_LAMINAR = 2300.0
 #: Reynolds number above which the line in segments takes the turbulent friction; between
-#: the two its friction factor is interpolated linearly in Re (:func:`segment_friction`), the
+#: the two its friction factor is interpolated linearly in Re (:func:`darcy_friction`), the
 #: transition zone of Moody's chart, where a tube's friction is intermittent and not
 #: predictable to better than this [-]
 RE_TURBULENT = 4000.0
@@ -129,8 +132,15 @@ def air_viscosity_sutherland(T):
     return 1.716e-5 * (T / 273.15) ** 1.5 * (273.15 + 110.4) / (T + 110.4)
 
 
+@njit(cache=True, error_model="numpy", _nrt=False)
 def darcy_friction(Re):
-    """Darcy friction factor of a smooth tube: ``64 / Re`` (laminar), Haaland's relation above.
+    """Darcy friction factor of a smooth tube, the one law of both lines (the lumped line's
+    Fanno characteristic, :func:`tube_characteristic`, and the segments' wall friction,
+    :func:`segment_friction`): Hagen-Poiseuille's ``64 / Re`` below :data:`RE_LAMINAR`,
+    Haaland's smooth-tube relation (J. Fluids Eng. 105, 1983, 89) above
+    :data:`RE_TURBULENT`, and between the two linear in Re from the one to the other, the
+    transition zone of Moody's chart (continuous: a jump makes the integrator's step
+    control reject steps, and the lumped line's fixed-point iteration oscillate).
 
     Parameters
     ----------
@@ -141,10 +151,22 @@ def darcy_friction(Re):
     -------
     f : float
         Darcy friction factor [-]
+
+    Examples
+    --------
+    Laminar, and Haaland's 0.0233 at Re = 3e4 (Blasius's smooth-tube ``0.3164 Re^-1/4``
+    gives 0.0240 there):
+
+    >>> round(darcy_friction(1000.0), 4), round(darcy_friction(3e4), 4)
+    (0.064, 0.0233)
     """
     if Re < RE_LAMINAR:
         return 64.0 / Re
-    return (-1.8 * math.log10(6.9 / Re)) ** -2
+    f = (-1.8 * math.log10(6.9 / max(Re, RE_TURBULENT))) ** -2
+    if Re < RE_TURBULENT:
+        w = (Re - RE_LAMINAR) / (RE_TURBULENT - RE_LAMINAR)
+        f = (1.0 - w) * 64.0 / RE_LAMINAR + w * f
+    return f
 
 
 def fanno_length(M, gamma=GAMMA_AIR):
@@ -226,7 +248,10 @@ def tube_characteristic(diameter, length, p0, T0=T_REF, r=R_AIR, gamma=GAMMA_AIR
         M = _inlet_mach(f * length / diameter, gamma)
         q = A * p0 * math.sqrt(gamma / (r * T0)) * M * (1.0 + 0.5 * k * M * M) ** (
             -(gamma + 1.0) / (2.0 * k))
-        f_new = darcy_friction(4.0 * q / (math.pi * diameter * mu))
+        # the law's Python text (``py_func``): outside the transition zone the lumped line's
+        # characteristic is then the one computed before the law was compiled, bit for bit
+        # (numba's log10 and power round differently from CPython's in the last bit)
+        f_new = darcy_friction.py_func(4.0 * q / (math.pi * diameter * mu))
         if abs(f_new - f) <= 1e-12 * f:
             break
         f = 0.5 * (f + f_new)        # damped: the laminar-turbulent switch would oscillate
@@ -236,9 +261,10 @@ def tube_characteristic(diameter, length, p0, T0=T_REF, r=R_AIR, gamma=GAMMA_AIR
 
 
 # --- the line in segments, inside the compiled core ----------------------------------------
-#: Most segments a line may have per port [-]: the core's Jacobian is dense (forward
-#: differences, one right-hand side per state, and an LU factorisation in the cube of the
-#: states), and 3 states a segment on two ports at 32 segments already make 198 states;
+#: Most segments a line may have per port [-]: the core stores its Jacobian and the step's
+#: matrix dense (the evaluations are grouped and the factorisation follows the profile,
+#: :mod:`pneucore.core.integrator`, but assembling them costs the square of the states), and
+#: 3 states a segment on two ports at 32 segments already make 198 states;
 #: 32 segments resolve a signal of one quarter-wave period of the line at
 #: :data:`pneucore.physics.line.CELLS_PER_QUARTER_WAVE` cells per quarter wave four times over
 MAX_SEGMENTS = 32
@@ -314,8 +340,8 @@ def line_slots(diameter, length, segments, T0=T_REF, h=0.0, T_wall=T_REF):
 @njit(cache=True, error_model="numpy", _nrt=False)
 def segment_friction(q, rho, A, d, mu):
     """Wall friction on the gas of one segment, per unit length, as a rate of its mass flow
-    [kg/s^2]: ``f q |q| / (2 d rho A)``, Darcy's ``f`` of :func:`darcy_friction`'s law, which
-    is Hagen-Poiseuille's ``32 mu q / (rho d^2)`` below :data:`RE_LAMINAR`.
+    [kg/s^2]: ``f q |q| / (2 d rho A)``, Darcy's ``f`` of :func:`darcy_friction`, which is
+    Hagen-Poiseuille's ``32 mu q / (rho d^2)`` below :data:`RE_LAMINAR`.
 
     Parameters
     ----------
@@ -340,14 +366,8 @@ def segment_friction(q, rho, A, d, mu):
     """
     Re = abs(q) * d / (A * mu)
     if Re < RE_LAMINAR:
-        return 32.0 * mu * q / (rho * d * d)
-    x = 1.8 * math.log10(6.9 / max(Re, RE_TURBULENT))     # Haaland, smooth tube
-    f = 1.0 / (x * x)
-    if Re < RE_TURBULENT:
-        # the transition zone, linear in Re from the laminar value to the turbulent one: the
-        # law continuous (a jump makes the integrator's step control reject steps)
-        w = (Re - RE_LAMINAR) / (RE_TURBULENT - RE_LAMINAR)
-        f = (1.0 - w) * 64.0 / RE_LAMINAR + w * f
+        return 32.0 * mu * q / (rho * d * d)      # 64 / Re written out: finite at q = 0
+    f = darcy_friction(Re)
     return f * q * abs(q) / (2.0 * d * rho * A)
 
 
@@ -361,15 +381,27 @@ def line_node(y, i0, prm, k0, r):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def line_rates(y, dy, i0, prm, k0, q_v, H_v, p_c, T_c, r, cp, cv, isothermal):
+def line_rates(y, dy, i0, prm, k0, q_v, H_v, p_c, T_c, r, cp, cv, isothermal, C_end, b_end,
+               r_lam, gamma):
     """Derivatives of a segmented line's states; the mass and enthalpy flows into the chamber.
 
     The states of a port's line, from ``y[i0]``: the gas mass of each cell [kg], its
     temperature [K], then the mass flow through the face downstream of each cell [kg/s]
     (module section "The line in segments"). The valve's flow ``q_v`` [kg/s], with its
     enthalpy ``H_v`` [W], enters the first cell; the last face opens into the chamber at
-    ``p_c`` [Pa], ``T_c`` [K]. Returns the mass flow [kg/s] and enthalpy flow [W] into the
-    chamber (line term ``rate``, :mod:`pneucore.physics.states`).
+    ``p_c`` [Pa], ``T_c`` [K]. With ``C_end`` >= 0 [m^3/(s Pa)] an end cushion's needle
+    (critical ratio ``b_end`` [-], laminar ratio ``r_lam`` [-], ratio of specific heats
+    ``gamma`` [-]) sits between the chamber and the last cell: the gas leaving the chamber
+    passes it, bounded by the last face's flow, the gas entering passes the check valve
+    (:func:`pneucore.physics.cushion.cushioned_outflow`, as at a valve edge without a line);
+    ``C_end`` < 0: no cushion (a closed needle is ``C_end`` = 0). The last face keeps its
+    momentum equation meanwhile (driven by the chamber's pressure over the last cell's): a
+    needle with a volume of gas between it and the line's gas is not modelled, so while the
+    needle bounds the flow the face's state is the flow the line would carry without it,
+    not the flow that passes, and the check valve opens once that turns towards the
+    chamber.
+    Returns the mass flow [kg/s] and enthalpy flow [W] into the chamber (line term
+    ``rate``, :mod:`pneucore.physics.states`).
     """
     n = int(prm[k0])
     V = prm[k0 + 1]
@@ -381,13 +413,21 @@ def line_rates(y, dy, i0, prm, k0, q_v, H_v, p_c, T_c, r, cp, cv, isothermal):
     T_w = prm[k0 + 7]
     iT = i0 + n
     iq = i0 + 2 * n
+    # the flow into the chamber: the last face's, through the cushion's needle where the gas
+    # leaves a cushioned chamber
+    q_c = y[iq + n - 1]
+    T_last = y[iT + n - 1]
+    if C_end >= 0.0 and q_c < 0.0:
+        p_last = y[iT - 1] * r * T_last / V
+        q_c = -cushioned_outflow(-q_c, p_c, T_c, p_last, T_last, C_end, b_end, r_lam, r, gamma)
     q_prev = q_v
     for i in range(n):
         m = y[i0 + i]
         T = y[iT + i]
         p = m * r * T / V
         rho = m / V
-        q_out = y[iq + i]
+        q_face = y[iq + i]
+        q_out = q_face if i + 1 < n else q_c
         # mass and energy of the cell (paper Eq. 14-15 with a fixed volume, heat from its
         # wall by Eq. 9)
         if i == 0:
@@ -408,16 +448,46 @@ def line_rates(y, dy, i0, prm, k0, q_v, H_v, p_c, T_c, r, cp, cv, isothermal):
         else:
             p2 = p_c
             rho2 = p_c / (r * T_c)
-        dy[iq + i] = A * (p - p2) / dx - segment_friction(q_out, 0.5 * (rho + rho2), A, d, mu)
+        dy[iq + i] = A * (p - p2) / dx - segment_friction(q_face, 0.5 * (rho + rho2), A, d, mu)
         q_prev = q_out
-    q_c = y[iq + n - 1]
-    T_last = y[iT + n - 1]
     return q_c, enthalpy_flow(q_c, T_last, T_c, cp)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def line_cells(prm, k0, i0, cell):
+    """The cell of each state of a segmented line (line term ``cells``,
+    :mod:`pneucore.physics.states`): cell ``i`` holds ``m_i``, ``T_i`` and the flow of the face
+    downstream of it, ``q_i`` (the last face, into the chamber, belongs to the last cell).
+
+    :func:`line_rates` keeps the registry's contract: a cell's rates read the states of the
+    cell itself, of the face upstream (the cell before) and of the cell downstream; only
+    the first cell reads the valve's flow and only the last cell reads the chamber.
+
+    Parameters
+    ----------
+    prm : ndarray
+        The core's parameter vector (the port's slots from ``prm[k0]``)
+    k0 : int
+        First parameter slot of the port [-]
+    i0 : int
+        Position of the port's first state [-]
+    cell : ndarray of int
+        Output: ``cell[i0 + k]``, the cell of the port's ``k``-th state [-]
+
+    Returns
+    -------
+    n_states, n_cells : int
+        The port's states and cells [-]
+    """
+    n = int(prm[k0])
+    for k in range(3 * n):
+        cell[i0 + k] = k % n
+    return 3 * n, n
 
 
 #: The line in segments (effect ``tubing`` with ``segments`` > 1): states per port
 #: ``line_<port>_m<i>``, ``line_<port>_T<i>``, ``line_<port>_q<i>``
 SEGMENTED_LINE = register_line_term(LineTerm(
-    "line", line_node, line_rates, LINE_PARAMETERS,
+    "line", line_node, line_rates, line_cells, LINE_PARAMETERS,
     description="the line between valve and chamber in segments: mass and energy per cell, "
                 "momentum per face"))

@@ -521,24 +521,6 @@ def _check_line_ports(p, model, path):
             raise FieldError(f"{path}.length_{sfx}",
                              f"the {model.valve.kind} valve has no port {port}: set length_{sfx} "
                              f"to 0 (no line) [m]")
-    cushion = (model.effects or {}).get("end_cushion")
-    if _segments(p) > 1 and isinstance(cushion, dict) and any(
-            _as_float(cushion.get(k, EFFECTS["end_cushion"].param(k).default)) > 0.0
-            for k in ("length_a", "length_b")):
-        # the cushion's needle acts on the valve's edges (core.rhs._cushion); with a line in
-        # segments it would sit at the line's valve end, not at the chamber: not modelled
-        raise FieldError(f"{path}.segments",
-                         "a line in segments with end cushions is not modelled (the needle "
-                         "would act at the valve's end of the line): use segments 1 with "
-                         "end_cushion [-]")
-
-
-def _as_float(v):
-    """A raw value as a number, NaN when it is none (the cushion's own check names it)."""
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        return math.nan
 
 
 def _segments(p):

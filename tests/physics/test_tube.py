@@ -100,3 +100,24 @@ def test_a_line_on_a_port_the_valve_does_not_have():
     assert e.value.path == "effects.tubing.length_b" and "[m]" in str(e.value)
     d["effects"] = {"tubing": {"length_a": 1.0, "length_b": 0.0}}
     Model.from_dict(d)
+
+
+def test_one_friction_law_for_both_lines_continuous_through_the_transition():
+    """The segments' wall friction is :func:`darcy_friction` (64/Re written out below 2300),
+    and that law is continuous from 64/Re to Haaland's through Re 2300-4000: the lumped
+    line's characteristic then varies smoothly with its length where its choked flow crosses
+    the transition (1 mm at 2 bar, around 9 m). With a jump in the law (64/Re to Haaland at
+    2300, the lumped line's law before) C stepped by 14 % between two lengths 5 cm apart;
+    here no step exceeds twice the mean of its neighbours
+    (measured 1.3; with the jump, 28)."""
+    from pneucore.physics.tube import segment_friction
+
+    d, A, mu, rho = 4e-3, math.pi * 4e-6, 1.8e-5, 1.2
+    for Re in (500.0, 2299.0, 2301.0, 3000.0, 3999.0, 4001.0, 3e4):
+        q = Re * A * mu / d
+        f = segment_friction(q, rho, A, d, mu) * 2.0 * d * rho * A / (q * q)
+        assert f == pytest.approx(darcy_friction(Re), rel=1e-12)   # the same law, to rounding
+    lengths = np.linspace(6.0, 12.0, 121)
+    C = np.array([tube_characteristic(1e-3, length, 2e5)[0] for length in lengths])
+    step = np.abs(np.diff(np.log(C)))
+    assert np.all(step[1:-1] < (step[:-2] + step[2:]))          # twice the neighbours' mean
