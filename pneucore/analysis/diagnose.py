@@ -288,7 +288,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         def weigh(null):
             score = S.candidate_scores(model, exps, null, cands, report)
             lead = S.leading(score, n_refit)
-            refits = S.joint_refits(model, exps, null, lead, max_nfev, report)
+            refits = S.joint_refits(model, exps, null, lead, max_nfev, report,
+                                    {c["effect"]: c.get("form", {}) for c in score})
             ranking = S.evidence(null, refits)
             return (score, lead, refits, ranking) + S.verdict(model, exps, ranking, refits, null,
                                                               alpha, max_nfev, report)

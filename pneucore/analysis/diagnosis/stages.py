@@ -577,23 +577,25 @@ def _rss(cal):
     return sum(r for _, _, r, _ in cal.rss_after)
 
 
-def joint_refit(model, exps, null, name, max_nfev, report):
+def joint_refit(model, exps, null, name, max_nfev, report, form=None):
     """Candidate ``name`` fitted with the null's base parameters, from the model as given
-    (the null's values are biased by what is missing), in each of its structural forms
-    (:meth:`pneucore.spec.effects.Effect.forms_for`: a line lumped, or in segments where
-    its delay spans more than a sample); the form that fits best is kept. A form chosen at
-    the probe's values and calling for another at the fitted ones (a line found longer
-    needs more cells to resolve its delay) is fitted once more in that one, from there."""
+    (the null's values are biased by what is missing), in the structural form ``form``
+    (overrides of its probe values, :meth:`pneucore.spec.effects.Effect.forms_for`: a line
+    lumped, or in segments where its delay spans more than a sample; the one the score pass
+    preferred, :func:`probe`), or, with ``form`` None, in each form, the best kept. A form
+    that at the fitted values calls for another (a line found longer needs more cells to
+    resolve its delay, one found within a sample none) is fitted once more in that one, from
+    there, and the better of the two kept."""
     eff = EFFECTS[name]
     dt = sample_period(exps)
     probe_at = eff.probe_values(model)
     best = None
-    for form in eff.forms_for(probe_at, model, dt):
-        cal = _joint_refit_from(model, exps, null, name, {**probe_at, **form}, max_nfev, report)
-        if form:
+    for f in (eff.forms_for(probe_at, model, dt) if form is None else [form]):
+        cal = _joint_refit_from(model, exps, null, name, {**probe_at, **f}, max_nfev, report)
+        if f:
             fitted = dict(cal.model.effects[name])
-            again = eff.forms_for(fitted, model, dt)[-1]
-            if again and any(fitted.get(k) != v for k, v in again.items()):
+            again = eff.forms_for(fitted, model, dt)[-1] or {k: probe_at[k] for k in f}
+            if any(fitted.get(k) != v for k, v in again.items()):
                 cal2 = _joint_refit_from(model, exps, null, name, {**fitted, **again}, max_nfev,
                                          report)
                 cal = cal2 if _rss(cal2) <= _rss(cal) else cal
@@ -637,33 +639,37 @@ def _joint_refit_from(model, exps, null, name, start, max_nfev, report):
     return cal
 
 
-def remote_joint_refit(model, exps, null, max_nfev, name):
+def remote_joint_refit(model, exps, null, max_nfev, forms, name):
     """:func:`joint_refit` as a Dask task (:func:`pneucore.analysis.parallel.pmap`): every
     argument and the result are plain picklable objects (the model, the experiments, the
     :class:`Null`, the calibration); the progress callback stays with the caller (the runner
     calls it while it waits)."""
-    return joint_refit(model, exps, null, name, max_nfev, lambda f, s: None)
+    return joint_refit(model, exps, null, name, max_nfev, lambda f, s: None, forms.get(name))
 
 
-def joint_refits(model, exps, null, lead, max_nfev, report):
+def joint_refits(model, exps, null, lead, max_nfev, report, forms=None):
     """``{name: calibration}`` of :func:`joint_refit` for each leading candidate (in parallel):
     one Dask task each on the current diagnosis's cluster
-    (:func:`pneucore.analysis.parallel.current`), else on this machine's threads."""
+    (:func:`pneucore.analysis.parallel.current`), else on this machine's threads; ``forms``:
+    ``{name: form}`` the score pass preferred (:func:`probe`; a name absent: every form)."""
+    forms = forms or {}
     runner = P.current()
     if runner is not None and runner.on_cluster and lead:
         prev = runner.report
         runner.report = report
         try:
-            cals = runner.map(remote_joint_refit, lead, (model, exps, null, max_nfev),
+            cals = runner.map(remote_joint_refit, lead, (model, exps, null, max_nfev, forms),
                               "refit: " + ", ".join(lead), 0.4,
-                              local=lambda n: joint_refit(model, exps, null, n, max_nfev, report))
+                              local=lambda n: joint_refit(model, exps, null, n, max_nfev, report,
+                                                          forms.get(n)))
         finally:
             runner.report = prev
         return dict(zip(lead, cals))
     refits = {}
     with ThreadPoolExecutor(_calibrate.THREADS) as pool:
         for done, (name, cal) in enumerate(pool.map(
-                lambda n: (n, joint_refit(model, exps, null, n, max_nfev, report)), lead), 1):
+                lambda n: (n, joint_refit(model, exps, null, n, max_nfev, report, forms.get(n))),
+                lead), 1):
             refits[name] = cal
             report(0.4 + 0.55 * done / max(len(lead), 1), f"refit: {name}")
     return refits
