@@ -139,7 +139,8 @@ def delay_cells(length, sample_period, T=T_REF):
     """
     if not (length > 0.0 and sample_period > 0.0):
         return 1
-    n = math.ceil(length / (sound_speed(T) * sample_period) - 1e-9)
+    # a part in a million below a whole number counts as it (a fit ending on the bound c dt)
+    n = math.ceil(length / (sound_speed(T) * sample_period) - 1e-6)
     return int(min(max(n, 1), MAX_SEGMENTS))
 
 

@@ -36,7 +36,7 @@ import math
 
 from pneucore.core import layout as L
 from pneucore.physics.heat import HEAT_PARAMETERS, add_wall
-from pneucore.physics.line import LUMPED_MARGIN, delay_cells, line_regime
+from pneucore.physics.line import LUMPED_MARGIN, delay_cells, line_regime, sound_speed
 from pneucore.physics.sensors import PRESSURE_SENSOR
 from pneucore.physics.series import combine_table
 from pneucore.physics.tube import (LINE_STATES, MAX_SEGMENTS, SEGMENTED_LINE, line_slots,
@@ -126,6 +126,10 @@ class Effect:
     #: line's segments), for records sampled every ``sample_period`` [s]; the diagnosis tries
     #: each and keeps the one the data favour (:meth:`forms_for`)
     forms: Optional[Callable] = None
+    #: ``form_min(form, model, sample_period) -> {parameter: lower bound}``: tighter lower
+    #: bounds a fit keeps to in a structural form of :attr:`forms` (a line in segments no
+    #: shorter than a sample's delay: shorter, the lumped form is the one)
+    form_min: Optional[Callable] = None
 
     def fit_bounds(self, name, model):
         """Bounds ``(min, max)`` of parameter ``name`` in a fit on ``model`` (SI): the
@@ -140,6 +144,15 @@ class Effect:
         ``sample_period`` [s]."""
         extra = self.forms(values, model, sample_period) if self.forms is not None else []
         return [{}] + [f for f in extra if f]
+
+    def form_bounds(self, name, model, form, sample_period):
+        """:meth:`fit_bounds` of parameter ``name`` in structural form ``form`` (overrides,
+        :meth:`forms_for`) for records sampled every ``sample_period`` [s]: the lower bound
+        raised by :attr:`form_min`."""
+        lo, hi = self.fit_bounds(name, model)
+        if form and self.form_min is not None:
+            lo = max(lo, self.form_min(form, model, sample_period).get(name, lo))
+        return lo, hi
 
     def unused_in(self, model):
         """Parameters ``model`` has no place for (held at their ``off`` value)."""
@@ -643,6 +656,15 @@ def _tubing_forms(p, model, sample_period):
     return [{"segments": n}] if n > 1 else []
 
 
+def _tubing_form_min(form, model, sample_period):
+    # in segments, a line no shorter than one sample's delay c dt: a shorter one is within a
+    # sample, the lumped form's (and its cells, L / N each, would make the core's steps tiny)
+    if _segments(form) <= 1:
+        return {}
+    shortest = sound_speed(model.supply.temperature) * sample_period
+    return {"length_a": shortest, "length_b": shortest}
+
+
 def _tubing_warn(p, model, time_scale):
     # the chosen segments against those the command's time scale needs
     # (physics.line.line_regime): warned only where the line is too coarse
@@ -890,7 +912,8 @@ for _e in [
            strength="length_a", transform=_tubing_transform, series=_tubing_series,
            pack=_pack_tubing,
            check=_check_line_ports, unused=_missing_ports("length"), fit_params=("length_a", "length_b"),
-           probe={"length_a": 1.0, "length_b": 1.0}, warn=_tubing_warn, forms=_tubing_forms),
+           probe={"length_a": 1.0, "length_b": 1.0}, warn=_tubing_warn, forms=_tubing_forms,
+           form_min=_tubing_form_min),
     Effect("exhaust_silencer",
            "a silencer on the valve's exhaust ports: an ISO 6358 restriction in series with "
            "each exhaust edge, with no volume between (ISO 6358-3)",

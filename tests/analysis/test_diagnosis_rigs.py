@@ -341,3 +341,23 @@ def test_calibrated_error_recovers_a_transducer_gain_and_offset():
     # the corrected error is the plain one's (noise), within a few percent (the gain scales it)
     assert e_gain == pytest.approx(e_plain, rel=0.1)
     assert np.isfinite(e_gain)
+
+
+# ------------------------------------------------------------ a line the model lumps by default
+
+def test_a_tube_simulated_in_finite_volumes_is_named_tubing_with_its_length():
+    """2.5 m of 4 mm tube on each port, simulated as a line in 8 finite volumes (its delay
+    L / c = 7.3 ms, two samples and more at 1 kHz), base parameters off, nothing declared:
+    the lumped line alone (no delay) was beaten by a 7.5 ms sensor lag and a dead volume;
+    tried in segments too (Effect.forms), ``tubing`` is named with its length."""
+    name = "effect/circuit/tubing/finite-volume"
+    c, exps, floor = case(name)
+    d = diagnosis(name)
+    assert d.verdict == "tubing", describe(d)
+    fitted = d.model.effects["tubing"]
+    # the issue asks the length within 10 % where the data identify it; here it comes back
+    # within 0.1 % (the fitted form resolves the delay to a sample)
+    for sfx in ("a", "b"):
+        assert fitted[f"length_{sfx}"] == pytest.approx(2.5, rel=PARAM_RTOL)
+    assert fitted["segments"] > 1
+    assert compare(d.model, exps).overall <= FLOOR_FACTOR * floor, describe(d)

@@ -550,13 +550,20 @@ def leading(score, n_refit):
 
 # -- 5. joint refits ----------------------------------------------------------------------
 
-def effect_specs(model, name, values):
+def effect_specs(model, name, values, form=None, sample_period=0.0):
     """The fit parameters of effect ``name`` (its diagnosis parameters that act on ``model``)
-    starting at ``values``."""
+    starting at ``values``, in structural form ``form`` (overrides; its bounds,
+    :meth:`pneucore.spec.effects.Effect.form_bounds`, for records sampled every
+    ``sample_period`` [s])."""
     eff = EFFECTS[name]
-    return [ParameterSpec(f"effects.{name}.{p}", values[p], *eff.fit_bounds(p, model),
-                          True, eff.param(p).unit) for p in eff.diagnosis_params
-            if p not in eff.unused_in(model)]
+    out = []
+    for p in eff.diagnosis_params:
+        if p in eff.unused_in(model):
+            continue
+        lo, hi = eff.form_bounds(p, model, form, sample_period)
+        v = min(max(values[p], lo), hi) if form else values[p]
+        out.append(ParameterSpec(f"effects.{name}.{p}", v, lo, hi, True, eff.param(p).unit))
+    return out
 
 
 def moved_back(model, cal, paths):
@@ -591,26 +598,31 @@ def joint_refit(model, exps, null, name, max_nfev, report, form=None):
     probe_at = eff.probe_values(model)
     best = None
     for f in (eff.forms_for(probe_at, model, dt) if form is None else [form]):
-        cal = _joint_refit_from(model, exps, null, name, {**probe_at, **f}, max_nfev, report)
+        cal = _joint_refit_from(model, exps, null, name, {**probe_at, **f}, max_nfev, report,
+                                f, dt)
         if f:
             fitted = dict(cal.model.effects[name])
             again = eff.forms_for(fitted, model, dt)[-1] or {k: probe_at[k] for k in f}
             if any(fitted.get(k) != v for k, v in again.items()):
                 cal2 = _joint_refit_from(model, exps, null, name, {**fitted, **again}, max_nfev,
-                                         report)
+                                         report, again, dt)
                 cal = cal2 if _rss(cal2) <= _rss(cal) else cal
         if best is None or _rss(cal) < _rss(best):
             best = cal
     return best
 
 
-def _joint_refit_from(model, exps, null, name, start, max_nfev, report):
-    """:func:`joint_refit` in one form, the effect starting at ``start``. Base parameters the
+def _joint_refit_from(model, exps, null, name, start, max_nfev, report, form=None,
+                      sample_period=0.0):
+    """:func:`joint_refit` in one form (``form``: its overrides, within its bounds for records
+    sampled every ``sample_period`` [s]), the effect starting at ``start``. Base parameters the
     joint fit leaves at their catalogue values (within :data:`RECAL_MIN`) are not mis-set:
     they are held there and the rest refitted from this point, so that they do not blur the
     effect's parameters (kept unless the fit gets materially worse)."""
+    specs = effect_specs(model, name, start, form, sample_period) + null.specs_start
+    start = {**start, **{s.path.rsplit(".", 1)[1]: s.value for s in specs
+                         if s.path.startswith(f"effects.{name}.")}}
     m = with_effect(model, name, start)
-    specs = effect_specs(model, name, start) + null.specs_start
     # the refit checks the time limit at each evaluation (progress stays at its level)
     cal = fit(m, exps, specs, max_nfev=max_nfev, compute_before=False,
               progress=lambda f, s: report(0.4, f"refit: {name}"), reweight=True, prior=null.prior)
@@ -799,16 +811,18 @@ def held_out_evidence(model, exps, null, name, cal, max_nfev):
     refit ``cal``) against the null, each refitted from its own fit without each block."""
     scales = {(e, s): rms for e, s, _, rms in null.keys}
     base = fitted_specs(null.base, null.specs_start)
-    cand = effect_specs(model, name, cal.model.effects[name]) + fitted_specs(cal.model,
-                                                                            null.specs_start)
-    # the experiments left out in turn start where the null fit and the joint refit start:
-    # the model as given, the effect at its probe dose in the form the refit kept (its values
-    # the diagnosis does not fit, a line's segments)
+    # the candidate in the form its refit kept (the values the diagnosis does not fit: a
+    # line's segments), within that form's bounds
     eff = EFFECTS[name]
-    start = {**eff.probe_values(model), **{k: v for k, v in cal.model.effects[name].items()
-                                           if k not in eff.diagnosis_params}}
+    form = {k: v for k, v in cal.model.effects[name].items() if k not in eff.diagnosis_params}
+    dt = sample_period(exps)
+    cand = effect_specs(model, name, cal.model.effects[name], form, dt) + fitted_specs(
+        cal.model, null.specs_start)
+    # the experiments left out in turn start where the null fit and the joint refit start:
+    # the model as given, the effect at its probe dose in the form the refit kept
+    start = {**eff.probe_values(model), **form}
     loeo = (model, list(null.specs_start), with_effect(model, name, start),
-            effect_specs(model, name, start) + list(null.specs_start))
+            effect_specs(model, name, start, form, dt) + list(null.specs_start))
     return held_out(null.base, base, cal.model, cand, exps, scales, null.prior,
                     R.HELD_OUT_FOLDS, max(max_nfev // 2, 8), loeo=loeo,
                     enough=R.blocks_predict)
