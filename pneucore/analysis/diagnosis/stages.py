@@ -589,7 +589,8 @@ def joint_refit(model, exps, null, name, max_nfev, report, form=None):
     (the null's values are biased by what is missing), in the structural form ``form``
     (overrides of its probe values, :meth:`pneucore.spec.effects.Effect.forms_for`: a line
     lumped, or in segments where its delay spans more than a sample; the one the score pass
-    preferred, :func:`probe`), or, with ``form`` None, in each form, the best kept. A form
+    preferred, :func:`probe`) and in its default form, or, with ``form`` None, in each form;
+    the best kept. A form
     that at the fitted values calls for another (a line found longer needs more cells to
     resolve its delay, one found within a sample none) is fitted once more in that one, from
     there, and the better of the two kept."""
@@ -597,7 +598,10 @@ def joint_refit(model, exps, null, name, max_nfev, report, form=None):
     dt = sample_period(exps)
     probe_at = eff.probe_values(model)
     best = None
-    for f in (eff.forms_for(probe_at, model, dt) if form is None else [form]):
+    # the default form always (a lumped line is cheap to fit, and a truth in it may score
+    # better in another form at the probe's dose), the preferred one beside it
+    tried = eff.forms_for(probe_at, model, dt) if form is None else [{}] + ([form] if form else [])
+    for f in tried:
         cal = _joint_refit_from(model, exps, null, name, {**probe_at, **f}, max_nfev, report,
                                 f, dt)
         if f:
