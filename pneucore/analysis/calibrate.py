@@ -387,7 +387,6 @@ def window(experiments, seconds=PREFIT_SECONDS):
     window : list of Experiment or None
         The cut experiments (None when the records hold no more than ``seconds``) [-]
     """
-    from pneucore.data.experiment import Experiment
     lengths = np.array([_duration(e) for e in experiments], float)
     if lengths.sum() <= seconds:
         return None
@@ -403,16 +402,10 @@ def window(experiments, seconds=PREFIT_SECONDS):
         if d <= cut:
             out.append(e)
             continue
-        scen = dict(e.scenario)
-        if "duration" in scen:
-            scen["duration"] = cut
         try:
-            meas = e.measurement.slice(None, e.t0 + cut)
+            out.append(e.cut(cut))
         except Exception:   # noqa: BLE001 - too few samples in the window: keep it whole
             out.append(e)
-            continue
-        out.append(Experiment(meas, scen, e.name, e.load_force, e.supply_pressure, None,
-                              e.time_offset))
     return out
 
 

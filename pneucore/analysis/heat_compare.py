@@ -173,17 +173,6 @@ TRANSFER_BOUNDS = {p: (floor, min(HEAT_PARAMETERS[p].max, FIT_CAP)) for p, floor
 AT_BOUND_LOG = 0.01
 
 
-def _up_to(experiment, t_max):
-    """``experiment`` with its samples after ``t_max`` [s] left out (its start kept)."""
-    from pneucore.data.experiment import Experiment
-    e = experiment
-    scen = dict(e.scenario)
-    if "duration" in scen:
-        scen["duration"] = min(float(scen["duration"]), t_max)
-    return Experiment(e.measurement.slice(None, t_max), scen, e.name, e.load_force,
-                      e.supply_pressure, None, e.time_offset)
-
-
 def fit_heat(model, experiments, parameters, t_max=None, max_nfev=200):
     """Fit heat parameters on records, every sample weighted by its signal's stated accuracy.
 
@@ -219,7 +208,7 @@ def fit_heat(model, experiments, parameters, t_max=None, max_nfev=200):
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     exps = as_experiments(experiments, model.ambient.pressure)
     if t_max is not None:
-        exps = [_up_to(e, t_max) for e in exps]
+        exps = [e.cut(t_max) for e in exps]
     lo = np.log([TRANSFER_BOUNDS[p][0] for p in parameters])
     hi = np.log([TRANSFER_BOUNDS[p][1] for p in parameters])
     x0 = np.clip(np.log([max(getattr(model.heat, p), 1e-2) for p in parameters]), lo + 1e-9,

@@ -133,6 +133,26 @@ class Experiment:
             d["time_offset"] = self.time_offset
         return d
 
+    def cut(self, seconds):
+        """This experiment cut to its first ``seconds`` on the model's time axis (its start:
+        initial state, first command, kept); a scenario duration is shortened to match.
+
+        Parameters
+        ----------
+        seconds : float
+            Time kept from the model's t = 0 [s]
+
+        Returns
+        -------
+        experiment : Experiment
+            The cut experiment (the dataset reference dropped: it holds the cut series)
+        """
+        scen = dict(self.scenario)
+        if "duration" in scen:
+            scen["duration"] = min(float(scen["duration"]), seconds)
+        return Experiment(self.measurement.slice(None, self.t0 + seconds), scen, self.name,
+                          self.load_force, self.supply_pressure, None, self.time_offset)
+
     # ------------------------------------------------------------------
     @property
     def t0(self):

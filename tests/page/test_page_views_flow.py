@@ -48,6 +48,16 @@ def history_rows(page):
         .map(r => r.querySelector('td:nth-child(2)').textContent.trim())""")
 
 
+def assert_model_and_test_kept(page):
+    """The model view shows the named model with the leak added; the data view, the test."""
+    go(page, "model")
+    assert page.input_value("#model-name-input") == NAME
+    assert page.locator("#effects-list .effect[data-field='model.effects.piston_leakage']").count() == 1
+    go(page, "data")
+    assert page.evaluate("[...document.getElementById('dataset-select').selectedOptions].map(o => o.value)") == [
+        f"ds:{DATASET}"]
+
+
 def test_model_view_names_the_model(page):
     go(page, "model")
     assert page.input_value("#model-preset") == "paper-4way"
@@ -124,12 +134,7 @@ def test_the_history_shows_both_versions_with_the_error_falling(page):
 
 
 def test_the_state_carries_back_to_the_earlier_views(page):
-    go(page, "model")
-    assert page.input_value("#model-name-input") == NAME
-    assert page.locator("#effects-list .effect[data-field='model.effects.piston_leakage']").count() == 1
-    go(page, "data")
-    assert page.evaluate("[...document.getElementById('dataset-select').selectedOptions].map(o => o.value)") == [
-        f"ds:{DATASET}"]
+    assert_model_and_test_kept(page)
     go(page, "compare")                 # the comparison redone with the leak, not the stale one
     assert not page.is_visible("#compare-stale")
     assert "piston_leakage" in page.inner_text("#compare-summary")
@@ -161,9 +166,4 @@ def test_a_reload_reopens_the_view_the_session_and_everything_in_it(page):
     assert page.inner_text("#session-id") == sid
     assert len(history_rows(page)) == 2
     assert not page.is_visible("#draft-bar")           # the edits were stored as versions: nothing unsaved
-    go(page, "model")
-    assert page.input_value("#model-name-input") == NAME
-    assert page.locator("#effects-list .effect[data-field='model.effects.piston_leakage']").count() == 1
-    go(page, "data")
-    assert page.evaluate("[...document.getElementById('dataset-select').selectedOptions].map(o => o.value)") == [
-        f"ds:{DATASET}"]
+    assert_model_and_test_kept(page)
