@@ -368,7 +368,7 @@ def _duration(e):
     return float(min(t[-1], e.scenario.get("duration", np.inf))) if t.size else 0.0
 
 
-def window(experiments, seconds=PREFIT_SECONDS):
+def window(experiments, seconds=None):
     """The experiments cut to their first seconds, ``seconds`` in all, or None when they are shorter.
 
     Each record keeps its start (initial state, first command) and the same cut
@@ -379,14 +379,16 @@ def window(experiments, seconds=PREFIT_SECONDS):
     ----------
     experiments : list of Experiment
         Prepared experiments [-]
-    seconds : float
-        Simulated time over all experiments to keep [s]
+    seconds : float or None
+        Simulated time over all experiments to keep (None = :data:`PREFIT_SECONDS`, read when
+        called) [s]
 
     Returns
     -------
     window : list of Experiment or None
         The cut experiments (None when the records hold no more than ``seconds``) [-]
     """
+    seconds = PREFIT_SECONDS if seconds is None else seconds
     lengths = np.array([_duration(e) for e in experiments], float)
     if lengths.sum() <= seconds:
         return None
@@ -476,7 +478,8 @@ class Calibration:
 
 @single_threaded_blas
 def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=None,
-        span=(0.0, 1.0), step="fitting", reweight=False, prior=None, statistics=True):
+        span=(0.0, 1.0), step="fitting", reweight=False, prior=None, statistics=True,
+        warm=False):
     """Fit ``specs`` on prepared experiments (shared by :func:`calibrate` and the diagnosis).
 
     ``progress(fraction, step)`` is reported within ``span`` as the optimiser's
@@ -508,6 +511,11 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     the guard against ending worse than the model as given are the full records' and the
     given model's. The window's fit computes no statistics of its own (``statistics=False``:
     only the point reached, ``success`` and ``message``, all the full fit reads of it).
+
+    ``warm``: the starting values are already a fit's end point on these same records (a refit
+    from it with a few parameters put back, say): on long records the window's fit is skipped
+    and the polish starts there, since the window's own optimum lies farther from the full
+    records' than the start does. Records within :data:`PREFIT_SECONDS` are fitted as usual.
     """
     def check():
         if progress is not None:
@@ -532,7 +540,8 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     if short is not None and not (sum(_duration(e) for e in short)
                                   < sum(_duration(e) for e in experiments)):
         short = None   # nothing could be cut (too few samples in a window): fit the records whole
-    if short is not None:
+    pre = None
+    if short is not None and not warm:
         pre = fit(model, short, specs, max_nfev=max_nfev, compute_before=False, progress=progress,
                   span=span, step=step, reweight=reweight, prior=prior, statistics=False)
         z_first = np.clip(np.array([pre.values[s.path]["value"] for s in vs], float),
@@ -600,9 +609,10 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
             success = sol.status > 0
             message = sol.message if success else f"did not converge: {sol.message}"
             if broyden is not None and sol.status == 0:   # the polish's budget, by design
-                success = pre.success
+                success = pre.success if pre is not None else True
                 message = (f"{pre.message} (on the records' first {PREFIT_SECONDS:g} s in all), "
-                           f"then {budget} evaluations a pass on the full records")
+                           if pre is not None else "started from a fit on these records, ") + \
+                    f"then {budget} evaluations a pass on the full records"
         except Cancelled:
             raise
         except Exception as exc:  # keep the best point found, never NaN

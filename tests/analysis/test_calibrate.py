@@ -333,3 +333,46 @@ def test_long_records_are_fitted_from_a_window_to_the_same_optimum(monkeypatch):
         assert abs(a["value"] - b["value"]) <= 0.1 * b["stderr"], (path, a, b)
         # the covariance is differenced afresh at the end point either way
         assert a["stderr"] == pytest.approx(b["stderr"], rel=0.05), (path, a, b)
+
+
+def test_a_warm_refit_of_long_records_goes_straight_to_its_polish(monkeypatch):
+    """A refit started from a fit's end point on the same long records (``warm``: the diagnosis
+    puts back a base parameter a joint fit left within 2 % of its catalogue value and refits
+    the rest from there) skips the window's fit and ends at the optimum of the plain fit on the
+    full records, at least as near as the windowed fit from the model as given."""
+    from pneucore.analysis import calibrate as C
+    from pneucore.data.experiment import as_experiments
+    from pneucore.spec.paths import parse_parameters
+    exps = as_experiments(long_records())
+    first = C.fit(Model.from_dict(model_preset("paper-4way")), exps,
+                  parse_parameters(Model.from_dict(model_preset("paper-4way")), dict(BOUNDS)),
+                  compute_before=False)
+    # the mass put back 1 % from where the first fit left it (the diagnosis's RECAL_MIN is 2 %)
+    # and held there; heat and friction refitted from the first fit's values
+    two = {p: BOUNDS[p] for p in ("heat.coefficient", "friction.extend.fc0")}
+    held = set_values(Model.from_dict(model_preset("paper-4way")),
+                      {"jack.moving_mass": 1.01 * first.values["jack.moving_mass"]["value"]})
+    start = set_values(held, {p: first.values[p]["value"] for p in two})
+    fits = []
+    real_fit = C.fit
+
+    def counting(model, experiments, *a, **k):
+        fits.append(sum(e.measurement.duration for e in experiments))
+        return real_fit(model, experiments, *a, **k)
+    monkeypatch.setattr(C, "fit", counting)
+    warm = counting(start, exps, parse_parameters(start, two), compute_before=False, warm=True)
+    assert fits == [9.0], fits                    # the full records only: no window's fit
+    assert warm.success, warm.message
+    fits.clear()
+    cold = counting(held, exps, parse_parameters(held, two), compute_before=False)
+    assert fits == [9.0, C.PREFIT_SECONDS], fits  # the usual path: the window's fit first
+    monkeypatch.setattr(C, "PREFIT_SECONDS", math.inf)
+    plain = C.fit(held, exps, parse_parameters(held, two), compute_before=False)
+    for path in two:
+        w, c, p = (f.values[path]["value"] for f in (warm, cold, plain))
+        # the plain fit's optimum: within a tenth of a standard error (a different optimum is
+        # many errors away; the polish stops at xtol = 1e-8 in scaled units), and no farther
+        # than the windowed fit ends (plus 1 % of an error: the two polishes' own stops)
+        se = plain.values[path]["stderr"]
+        assert abs(w - p) <= 0.1 * se, (path, w, p, se)
+        assert abs(w - p) <= abs(c - p) + 0.01 * se, (path, w, c, p, se)

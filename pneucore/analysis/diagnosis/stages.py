@@ -647,8 +647,9 @@ def _joint_refit_from(model, exps, null, name, start, max_nfev, report, form=Non
             else:
                 specs2.append(ParameterSpec(q.path, v, q.min, q.max, True, q.unit))
         scale = {q: vals[q] for q in vals if q.startswith("valve.")}
+        # from the first fit's end point (on long records straight to its polish)
         cal2 = fit(m2, exps, specs2, max_nfev=max_nfev, compute_before=False, reweight=True,
-                   prior=H.prior_for(model, [q.path for q in specs2], scale))
+                   prior=H.prior_for(model, [q.path for q in specs2], scale), warm=True)
         # kept unless materially worse (2 % of the residual energy: 1 % of the Eq. 25 error)
         if _rss(cal2) <= 1.02 * _rss(cal):
             cal = cal2
