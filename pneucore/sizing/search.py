@@ -90,6 +90,8 @@ REASONS = {
                "needle pair searched that meets the time (with meter_out false: even with the "
                "needle closed as far as the time allows)",
     "simulation": "the simulation of this family failed",
+    "model": "the simulator refuses this family's model (the detail names the field and why: "
+             "a moving mass too light to resolve, say)",
 }
 DIRECTIONS = ("extend", "retract")
 #: The valve edge each direction exhausts through
@@ -758,7 +760,7 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
     try:
         model = Model.from_dict(d)
     except FieldError as exc:
-        return {**family, "feasible": False, "reason": "simulation", "direction": None,
+        return {**family, "feasible": False, "reason": "model", "direction": None,
                 "detail": f"the model of this family is refused: {exc}"}
     weak = _force_reason(requirement, cylinder, model)
     if weak is not None:
@@ -815,9 +817,9 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
                         "detail": f"{k}: kinetic energy at the end stop {energy:.3g} J{how}, "
                                   f"cushion capacity {cap:.3g} J",
                         "shortfall": energy / cap, "design": {**design, "feasible": False}}
-    except FieldError as exc:
-        return {**family, "feasible": False, "reason": "simulation", "direction": None,
-                "detail": str(exc)}
+    except FieldError as exc:   # a run's own check (the mass the solver resolves, say)
+        return {**family, "feasible": False, "reason": "model", "direction": None,
+                "detail": f"the model of this family is refused: {exc}"}
     design = _design(requirement, cylinder, valve, tube, settings, metrics, base,
                      {k: dirs[k].t_req for k in DIRECTIONS}, needles)
     checks = (("end_speed", "stroke-end speed", requirement.max_end_speed, "m/s"),

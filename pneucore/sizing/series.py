@@ -21,7 +21,7 @@ from pneucore.physics.flow import (P_ANR, QN_DP, QN_P1_GAUGE, R_LAMINAR, anr_vol
                                    iso6358_mass_flow)
 from pneucore.physics.gas import GAMMA_AIR, R_AIR, T_REF
 from pneucore.spec.effects import EFFECTS
-from pneucore.spec.model import Jack
+from pneucore.spec.model import VALVE_C_MAX, Jack
 from pneucore.spec.valve_data import CONVERSIONS as VALVE_CONVERSIONS
 from pneucore.spec.valve_data import FIELDS as VALVE_FIELDS
 from pneucore.spec.valve_data import convert_valve_data
@@ -186,10 +186,10 @@ def _given_valve(item, p):
         fig = figures[0]
         label = f"{fig} {item[fig]:g} {valve_unit(fig)}"
     else:
-        C = number(item.get("C"), f"{p}.C", positive=True)
+        C = number(item.get("C"), f"{p}.C", positive=True, high=VALVE_C_MAX)
         b = number(item.get("b"), f"{p}.b", low=0.0, high=1.0, high_open=True)
         label = f"C {C:.3g} m^3/(s Pa)"
-    Ce = number(item.get("C_exhaust", C), f"{p}.C_exhaust", positive=True)
+    Ce = number(item.get("C_exhaust", C), f"{p}.C_exhaust", positive=True, high=VALVE_C_MAX)
     be = number(item.get("b_exhaust", b), f"{p}.b_exhaust", low=0.0, high=1.0, high_open=True)
     return {"name": str(item.get("name") or label), "C": C, "b": b, "C_exhaust": Ce,
             "b_exhaust": be}

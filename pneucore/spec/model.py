@@ -193,6 +193,15 @@ class Jack:
         return d
 
 
+#: Largest sonic conductance a valve edge may have [m^3/(s Pa)]: what this package's own
+#: conversions (:mod:`pneucore.spec.valve_data`) give for a Cv of about 2,600 (a large process
+#: valve) or a nominal flow of about 2.5 million NL/min, hundreds of times the largest
+#: directional valves' (nominal flows of some 10^4 NL/min). Beyond it the number is a slip (a
+#: catalogue's dm^3/(s bar) typed as SI), and a table a thousand times too large makes a
+#: solver grind for seconds before it fails
+VALVE_C_MAX = 1e-4
+
+
 @dataclass
 class PortTable:
     """One metering edge: sonic conductance and critical ratio against spool opening.
@@ -202,7 +211,7 @@ class PortTable:
     opening : list of float
         Strictly increasing spool openings, at least two (one point would never close the valve) [-]
     C : list of float
-        Sonic conductance at each opening [m^3/(s Pa)]
+        Sonic conductance at each opening, at most :data:`VALVE_C_MAX` [m^3/(s Pa)]
     b : list of float
         Critical pressure ratio at each opening, in [0, 1) [-]
     m : list of float or None
@@ -229,7 +238,7 @@ class PortTable:
                 raise FieldError(f"{path}.opening[{i}]",
                                  f"openings must be strictly increasing ({opening[i - 1]:g} then {opening[i]:g})")
         n = len(opening)
-        C = number_list(d["C"], f"{path}.C", nonnegative=True)
+        C = number_list(d["C"], f"{path}.C", nonnegative=True, high=VALVE_C_MAX)
         b = number_list(d["b"], f"{path}.b", low=0.0, high=1.0, high_open=True)
         m = d.get("m")
         if m is not None:

@@ -18,6 +18,7 @@ from pneucore.physics.flow import (QN_DP, QN_P1_GAUGE, conductance_from_area,
                                    conductance_from_qn)
 from pneucore.physics.gas import T_REF
 from pneucore.spec.effects import EFFECTS
+from pneucore.spec.model import VALVE_C_MAX
 from pneucore.spec.validation import FieldError, known_keys, mapping, number
 
 #: Unit of a sonic conductance, as the model's effects state it
@@ -142,5 +143,8 @@ def convert_valve_data(d, path="valve"):
         raise FieldError(f"{path}.p2", f"must be below p1 = {values['p1']:g} Pa, got "
                                        f"{values['p2']:g} [Pa]")
     C = conv.convert(values)
+    if not C <= VALVE_C_MAX:   # the valve table's own bound (one source)
+        raise FieldError(f"{path}.{name}", f"gives a sonic conductance of {C:.3g} m^3/(s Pa), "
+                                           f"above the largest a valve may have ({VALVE_C_MAX:g})")
     return {"C": C, "b": values["b"], "conversion": name, "source": conv.source,
             "units": {"C": C_UNIT, "b": unit("b")}}

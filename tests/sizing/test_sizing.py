@@ -40,7 +40,8 @@ from pneucore.sizing import (Choices, Requirement, build_model, direction_metric
 from pneucore.sizing.series import (dead_length, nominal_flow, resolve_cylinders, resolve_tubes,
                                      resolve_valves)
 from pneucore.spec.effects import EFFECTS, effective_model
-from pneucore.spec.model import Jack, Model
+from pneucore.sizing.search import REASONS
+from pneucore.spec.model import VALVE_C_MAX, Jack, Model
 from pneucore.spec.validation import FieldError
 
 BORE, ROD, STROKE, LOAD, P_S, P_ATM, T_REQ = 0.032, 0.012, 0.2, 100.0, 6e5, 1.013e5, 0.5
@@ -481,6 +482,34 @@ def test_a_smallest_throttle_above_the_effects_bound_leaves_the_stroke_fully_ope
         assert d["settings"]["extend_meter_out_C"] == pytest.approx(throttle, rel=1e-12)
         assert d["metrics"]["extend"]["full_stroke_time"] < 0.6
         Model.from_dict(d["model"])     # the model the API would take as it is
+
+
+@pytest.mark.parametrize("valve,path", [
+    ({"C": 1.0, "b": 0.3}, "choices.valve[0].C"),                       # 1 m^3/(s Pa)
+    ({"C": 1e-8, "b": 0.3, "C_exhaust": 2e-4}, "choices.valve[0].C_exhaust"),
+    ({"cv": 5000.0, "b": 0.3}, "choices.valve[0].cv"),                  # C 1.9e-4 m^3/(s Pa)
+])
+def test_a_valve_beyond_any_catalogue_is_refused_up_front(valve, path):
+    # the valve table's own bound (VALVE_C_MAX, one source): C = 1 m^3/(s Pa) once passed and
+    # its family failed as "simulation" after some 10 s of a grinding solver
+    with pytest.raises(FieldError) as e:
+        size(_requirement(), {"bore": [{"bore": BORE, "rod": ROD}], "valve": [valve]}, workers=1)
+    assert e.value.path == path and f"{VALVE_C_MAX:g}" in e.value.detail
+    # at the bound itself the valve is taken (a 32 mm jack then meets the time fully open)
+    ans = size(_requirement(), {"bore": [{"bore": BORE, "rod": ROD}],
+                                "valve": [{"C": VALVE_C_MAX, "b": 0.3}]}, workers=1)
+    assert ans["designs"] and ans["designs"][0]["feasible"], ans["summary"]
+
+
+def test_a_family_whose_model_the_simulator_refuses_says_so():
+    # a moving mass the solver cannot resolve (check_resolvable) is the model's refusal, named
+    # with its field and the least mass it takes, not a failed simulation
+    ans = size({**_requirement(), "moving_mass": 1e-6},
+               {"bore": [{"bore": BORE, "rod": ROD}], "valve": [{"C": 1e-7, "b": 0.3}]}, workers=1)
+    (bad,) = ans["infeasible"]
+    assert bad["reason"] == "model" and ans["reasons"] == {"model": 1}
+    assert "jack.moving_mass" in bad["detail"] and "use at least" in bad["detail"]
+    assert REASONS["model"] in ans["summary"]
 
 
 def _cycle_requirement(cycle_time, dwell):

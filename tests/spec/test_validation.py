@@ -178,6 +178,9 @@ case("b=1-3way", three_way(M("valve.ports.A-R.b[1]", 1.0)), "valve.ports.A-R.b[1
 case("C<0", M("valve.ports.A-R.C[1]", -1e-9), "valve.ports.A-R.C[1]")
 case("C<0-P-B", M("valve.ports.P-B.C[0]", -1e-12), "valve.ports.P-B.C[0]")
 case("C<0-3way", three_way(M("valve.ports.P-A.C[1]", -3.2e-9)), "valve.ports.P-A.C[1]")
+# --- C beyond any valve (VALVE_C_MAX: a catalogue's dm^3/(s bar) typed as SI, say)
+case("C>max", M("valve.ports.P-A.C[4]", 1.0), "valve.ports.P-A.C[4]")
+case("C>max-3way", three_way(M("valve.ports.A-R.C[0]", 1.01e-4)), "valve.ports.A-R.C[0]")
 
 # --- non-increasing openings, openings outside the valve's range
 case("opening-equal", M("valve.ports.P-A.opening", [0.15, 0.3, 0.3, 0.75, 1.0]),
