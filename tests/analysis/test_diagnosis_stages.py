@@ -365,3 +365,27 @@ def test_the_end_cushion_rig_keeps_its_load_and_says_what_it_is_confounded_with(
     assert set(load["with"]) == {"friction.extend.fc0", "friction.retract.fc0"}
     alt = next(a for a in d.alternatives if a.get("path") == "jack.load_force")
     assert alt["held"] and "Coulomb" in alt["note"] and "force gauge" in alt["note"]
+
+
+def test_a_valve_scale_refitted_from_a_scaled_table_is_reported_against_the_model_as_given():
+    """The rig's exhaust edges pass 0.7 of the catalogue's and a piston leak is hidden, every
+    other base value right: the joint refit moves the exhaust scale and leaves the rest at the
+    catalogue, so it refits from its end point with those held (a table already multiplied by
+    0.7). The report once said "1 -> 1.0001" (the factor relative to that table) and no mis-set
+    valve while the next model carried the -30 %; now both say 0.7."""
+    from pneucore.analysis.diagnose import diagnose
+    from pneucore.data.synthetic import rig_case
+    case = rig_case("exhaust+leak", seed=8, base_errors={"valve.ports.*-R.C": -0.3},
+                    effects=("piston_leakage",))
+    start = Model.from_dict(case.start)
+    d = diagnose(start, case.experiments)
+    assert d.verdict == "piston_leakage"
+    rec = {r["path"]: r for r in d.recalibrate}
+    assert "valve.ports.*-R.C" in rec, d.message
+    # the fit's standard error is about 1e-4; 1 % leaves room for the 12-bit records' bias
+    assert rec["valve.ports.*-R.C"]["after"] == pytest.approx(0.7, rel=0.01)
+    assert rec["valve.ports.*-R.C"]["stderr"] < 0.01
+    # the report and the next model are one change (the edge's largest conductance)
+    ratio = d.model.valve.ports["A-R"].C_max / start.valve.ports["A-R"].C_max
+    assert ratio == pytest.approx(rec["valve.ports.*-R.C"]["after"], rel=1e-9)
+    assert "exhaust edges" in d.message

@@ -650,10 +650,27 @@ def _joint_refit_from(model, exps, null, name, start, max_nfev, report, form=Non
         # from the first fit's end point (on long records straight to its polish)
         cal2 = fit(m2, exps, specs2, max_nfev=max_nfev, compute_before=False, reweight=True,
                    prior=H.prior_for(model, [q.path for q in specs2], scale), warm=True)
+        absolute_scales(cal2, scale)
         # kept unless materially worse (2 % of the residual energy: 1 % of the Eq. 25 error)
         if _rss(cal2) <= 1.02 * _rss(cal):
             cal = cal2
     return cal
+
+
+def absolute_scales(cal, scale):
+    """Report ``cal``'s valve scale factors against the model as given, in place: a fit started
+    from a table already multiplied by ``f`` (``scale``: ``{path: f}``) found its factor
+    relative to that table, so its value, initial value, bounds and standard errors are
+    multiplied by ``f`` (the correlations are unchanged). Without it a refit that moved the
+    exhaust conductance by -30 % in its first pass reported "1 -> 1.0001" and no mis-set valve
+    while the next model carried the change."""
+    for path, f in scale.items():
+        v = cal.values.get(path)
+        if v is None:
+            continue
+        for key in ("value", "initial", "min", "max", "stderr", "stderr_prior"):
+            if isinstance(v.get(key), (int, float)) and not isinstance(v.get(key), bool):
+                v[key] = v[key] * f
 
 
 def remote_joint_refit(model, exps, null, max_nfev, forms, name):
