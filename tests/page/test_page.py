@@ -113,6 +113,20 @@ def _open(ctx, url, errors, view="all"):
     return page
 
 
+def show_view(page, view):
+    """Click the workspace nav's step ``view`` and wait until its view is shown (its plots
+    resized: static/workspace.js sets ``body.dataset.shown`` last)."""
+    page.click(f"#workspace-nav a[data-view='{view}']")
+    page.wait_for_function(f"() => document.body.dataset.shown === {view!r}")
+
+
+def workspace_ready(page):
+    """Wait until the workspace is ready: the address's view and session opened, the draft read
+    (static/workspace.js sets the nav's ``data-ready`` to "true")."""
+    page.wait_for_function("() => document.getElementById('workspace-nav').dataset.ready === 'true'",
+                           timeout=TIMEOUT_MS)
+
+
 @pytest.fixture(autouse=True)
 def no_script_errors(page_errors):
     """Every test also fails on an uncaught script error or a console error of the page."""

@@ -13,7 +13,8 @@ import urllib.request
 
 import pytest
 
-from test_page import TIMEOUT_MS, _open, browser, no_script_errors, page_errors, server  # noqa: F401
+from test_page import (TIMEOUT_MS, _open, browser, no_script_errors, page_errors, server,  # noqa: F401
+                       show_view, workspace_ready)
 
 KEY = "pneucore.modelDraft"     # static/draft.js
 PRESET_BORE_MM = "32"           # paper-4way (Table 1 of the paper)
@@ -23,22 +24,16 @@ PRESET_BORE_MM = "32"           # paper-4way (Table 1 of the paper)
 def page(browser, server, page_errors):  # noqa: F811
     ctx = browser.new_context(viewport={"width": 1366, "height": 768})
     p = _open(ctx, server, page_errors, view="model")
-    _ready(p)
+    workspace_ready(p)
     yield p
     p.close()
     ctx.close()
 
 
-def _ready(p):
-    """The page and its workspace are ready: the address's session opened, the draft read."""
-    p.wait_for_function("() => document.getElementById('workspace-nav').dataset.ready === 'true'",
-                        timeout=TIMEOUT_MS)
-
-
 def _reload(p):
     p.reload()
     p.wait_for_function("() => document.body.dataset.ready === 'true'", timeout=TIMEOUT_MS)
-    _ready(p)
+    workspace_ready(p)
 
 
 def _plant(p, value):
@@ -129,7 +124,7 @@ def test_a_session_named_by_the_address_wins_and_the_draft_is_only_offered(page,
     page.wait_for_function("() => document.getElementById('draft-msg').textContent.includes('Restored')")
     assert page.input_value("#jack-bore") == "45" and page.inner_text("#session-id") == sid
     # recording the edits as a version of the session leaves nothing unsaved
-    page.click("#workspace-nav a[data-view='diagnose']")
+    show_view(page, "diagnose")
     page.click("#btn-record-version")
     page.wait_for_function("() => /Recorded/.test(document.getElementById('status-msg').textContent)")
     page.wait_for_function(f"() => sessionStorage.getItem({KEY!r}) === null")

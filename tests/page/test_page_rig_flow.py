@@ -21,7 +21,7 @@ from pneucore.data.synthetic import synthetic_experiments
 from pneucore.spec.model import Model
 from pneucore.spec.presets import model_preset
 from test_page import (ARTIFACTS, TIMEOUT_MS, _open, browser, no_script_errors, page_errors, server,  # noqa: F401
-                       wait_status)
+                       show_view, wait_status, workspace_ready)
 
 MODEL_NAME = "DSNU-32 rig (catalogue)"
 LEAK = 8e-11            # the hidden piston-seal leak's conductance [kg/(s Pa)], the shipped piston-leak sample's
@@ -84,12 +84,6 @@ def page(ctx, server, page_errors):  # noqa: F811
     p.close()
 
 
-def go(page, view):
-    """Click the nav's step and wait until its view is shown."""
-    page.click(f"#workspace-nav a[data-view='{view}']")
-    page.wait_for_function(f"() => document.body.dataset.shown === {view!r}")
-
-
 def shot(page, name):
     """The page as shown, to artifacts/rig-flow-<name>.png for review."""
     ARTIFACTS.mkdir(exist_ok=True)
@@ -122,7 +116,7 @@ def upload(page, path, name, x0, locked):
 
 
 def test_the_catalogue_model_comes_in_as_a_json_file(page, rig):
-    go(page, "model")
+    show_view(page, "model")
     if not page.evaluate("document.getElementById('model-io').open"):
         page.click("#model-io summary")
     page.set_input_files("#model-file", str(rig["model"]))
@@ -133,7 +127,7 @@ def test_the_catalogue_model_comes_in_as_a_json_file(page, rig):
 
 
 def test_the_two_rig_files_go_in_through_the_mapping(page, rig):
-    go(page, "data")
+    show_view(page, "data")
     for key in (HOLD, FREE):
         path, x0, locked = rig[key]
         IDS[key] = upload(page, path, key, x0, locked)
@@ -165,13 +159,13 @@ def test_the_two_rig_files_go_in_through_the_mapping(page, rig):
 
 
 def test_both_tests_compared_and_diagnosed_together_find_the_leak(page):
-    go(page, "compare")
+    show_view(page, "compare")
     page.click("#btn-compare")
     wait_status(page, "Comparison done")
     table = page.inner_text("#error-table-data")
     assert HOLD in table and FREE in table, table
     shot(page, "3-compare")
-    go(page, "diagnose")
+    show_view(page, "diagnose")
     # record the request bodies the page sends (which experiments the diagnosis is asked for)
     page.evaluate("""() => { window.__bodies = {}; const f = window.fetch;
         window.fetch = (u, o) => { if (o && o.body && typeof o.body === 'string') window.__bodies[new URL(u, location).pathname] = JSON.parse(o.body); return f(u, o); }; }""")
@@ -238,25 +232,24 @@ def test_the_session_report_opens_offline_and_names_the_effect(page, ctx, tmp_pa
 def test_a_reload_brings_the_workspace_back(page):
     sid = page.evaluate("S.session.id")
     page.reload()
-    page.wait_for_function("() => document.getElementById('workspace-nav').dataset.ready === 'true'",
-                           timeout=TIMEOUT_MS)
+    workspace_ready(page)
     assert page.evaluate("document.body.dataset.view") == "diagnose"
     assert page.inner_text("#session-id") == sid
     assert page.locator("#history-table tbody tr").count() == 2
-    go(page, "data")
+    show_view(page, "data")
     assert page.evaluate("[...document.getElementById('dataset-select').selectedOptions].map(o => o.value)") == [
         IDS[HOLD], IDS[FREE]]
-    go(page, "model")
+    show_view(page, "model")
     assert page.input_value("#model-name-input") == MODEL_NAME
     assert page.locator("#effects-list .effect[data-field='model.effects.piston_leakage']").count() == 1
     shot(page, "7-reloaded")
 
 
 def test_the_hold_test_declared_free_gets_its_hint(page, rig):
-    go(page, "data")
+    show_view(page, "data")
     path, x0, _ = rig[HOLD]
     upload(page, path, "hold-declared-free", x0, False)     # selected alone, as stored
-    go(page, "compare")
+    show_view(page, "compare")
     page.click("#btn-compare")
     hint = page.wait_for_selector(".context-hint[data-kind='declared_free_never_moves']", timeout=TIMEOUT_MS)
     # the measured position stays at the lock (0.02 mm of noise), the free model's moves

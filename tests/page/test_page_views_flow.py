@@ -14,7 +14,7 @@ import re
 import pytest
 
 from test_page import (ARTIFACTS, TIMEOUT_MS, _open, browser, no_script_errors, page_errors, server,  # noqa: F401
-                       wait_status)
+                       show_view, wait_status, workspace_ready)
 
 DATASET = "sample-piston-leak-locked-hold"   # the shipped sample: a leak across the piston
 NAME = "rig A"
@@ -34,8 +34,7 @@ def page(browser, server, page_errors):  # noqa: F811
 
 def go(page, view):
     """Click the nav's step; check that its panel shows and the other steps' do not."""
-    page.click(f"#workspace-nav a[data-view='{view}']")
-    page.wait_for_function(f"() => document.body.dataset.shown === {view!r}")
+    show_view(page, view)
     assert f"view={view}" in page.evaluate("location.hash")
     for other, sel in SHOWN.items():
         assert page.is_visible(sel) == (other == view), (view, other)
@@ -160,8 +159,7 @@ def test_a_reload_reopens_the_view_the_session_and_everything_in_it(page):
     go(page, "diagnose")
     sid = page.evaluate("S.session.id")
     page.reload()
-    page.wait_for_function("() => document.getElementById('workspace-nav').dataset.ready === 'true'",
-                           timeout=TIMEOUT_MS)
+    workspace_ready(page)
     assert page.evaluate("document.body.dataset.view") == "diagnose"
     assert page.inner_text("#session-id") == sid
     assert len(history_rows(page)) == 2

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import pytest
 
-from test_page import ARTIFACTS, TIMEOUT_MS, _open, browser, page_errors, server  # noqa: F401
+from test_page import (ARTIFACTS, TIMEOUT_MS, _open, browser, page_errors, server,  # noqa: F401
+                       show_view, workspace_ready)
 
 WIDTH, HEIGHT = 1366, 768
 VIEWS = ["model", "simulate", "data", "identify", "compare", "diagnose", "heat", "studies", "sizing"]
@@ -42,12 +43,6 @@ def no_script_errors(page_errors):  # noqa: F811
     assert page_errors[n:] == [], page_errors[n:]
 
 
-def show(page, view):
-    """Click the nav's step and wait until its view is shown with its plots resized."""
-    page.click(f"#workspace-nav a[data-view='{view}']")
-    page.wait_for_function(f"() => document.body.dataset.shown === {view!r}")
-
-
 def view_of(page):
     return page.evaluate("document.body.dataset.view")
 
@@ -55,7 +50,7 @@ def view_of(page):
 def test_one_view_at_a_time_from_the_nav_with_the_view_in_the_address(page):
     assert view_of(page) == "model"          # no view in the address, none used before: the model
     for view in VIEWS:
-        show(page, view)
+        show_view(page, view)
         assert view_of(page) == view
         assert f"view={view}" in page.evaluate("location.hash")
         assert page.get_attribute(f"#workspace-nav a[data-view='{view}']", "aria-current") == "page"
@@ -69,7 +64,7 @@ def test_one_view_at_a_time_from_the_nav_with_the_view_in_the_address(page):
 
 
 def test_the_keyboard_moves_along_the_steps_and_opens_one(page):
-    show(page, "model")
+    show_view(page, "model")
     page.focus("#workspace-nav a[data-view='model']")
     page.keyboard.press("ArrowDown")
     page.keyboard.press("ArrowDown")
@@ -85,9 +80,9 @@ def test_the_keyboard_moves_along_the_steps_and_opens_one(page):
 
 
 def test_diagnose_view_shows_the_residual_plot_beside_the_findings(page):
-    show(page, "data")
+    show_view(page, "data")
     page.select_option("#dataset-select", "sample:piston-leak")
-    show(page, "diagnose")
+    show_view(page, "diagnose")
     page.click("#btn-diagnose")
     page.wait_for_function("() => document.getElementById('diag-progress').dataset.done === 'true'",
                            timeout=4 * TIMEOUT_MS)
@@ -112,18 +107,18 @@ def test_diagnose_view_shows_the_residual_plot_beside_the_findings(page):
     assert abs(width - (res["right"] - res["left"])) <= 2, (width, res)   # 2 px: borders/rounding
     assert page.evaluate("(document.getElementById('residual-plot').data || []).length") > 0
     # the comparison view gets its residual plot back under the comparison plot
-    show(page, "compare")
+    show_view(page, "compare")
     assert page.evaluate("document.getElementById('residual-block').parentElement.id") == "residual-home"
     page.screenshot(path=str(ARTIFACTS / "workspace-compare.png"))
 
 
 def test_reload_reopens_the_view_and_the_session(page):
-    show(page, "diagnose")
+    show_view(page, "diagnose")
     sid = page.inner_text("#session-id")
     assert f"session={sid}" in page.evaluate("location.hash")
     assert page.get_attribute("#workspace-link", "href") == f"#view=diagnose&session={sid}"
     page.reload()
-    page.wait_for_function("() => document.getElementById('workspace-nav').dataset.ready")
+    workspace_ready(page)
     assert view_of(page) == "diagnose"
     assert page.inner_text("#session-id") == sid
     assert page.is_visible("#residual-plot")
@@ -135,7 +130,7 @@ def test_a_shared_link_opens_the_session_in_another_browser(browser, server, pag
     try:
         p = other.new_page()
         p.goto(f"{server}/#view=compare&session={sid}")
-        p.wait_for_function("() => document.getElementById('workspace-nav').dataset.ready", timeout=TIMEOUT_MS)
+        workspace_ready(p)
         assert p.evaluate("document.body.dataset.view") == "compare"
         assert p.inner_text("#session-id") == sid
         assert p.input_value("#dataset-select") == "sample:piston-leak"
@@ -155,7 +150,7 @@ def test_an_unknown_or_hostile_link_says_so_as_text(browser, server, hash_, says
         p = other.new_page()
         p.on("pageerror", lambda exc: errors.append(str(exc)))
         p.goto(f"{server}/{hash_}")
-        p.wait_for_function("() => document.getElementById('workspace-nav').dataset.ready", timeout=TIMEOUT_MS)
+        workspace_ready(p)
         p.wait_for_function(f"() => document.getElementById('status-msg').textContent.includes({says!r})")
         assert p.evaluate("document.body.dataset.ready") == "true"
         assert p.locator("#status img, #status b").count() == 0       # shown as text, never parsed
@@ -173,7 +168,7 @@ def test_an_error_on_a_field_of_another_view_leads_there(browser, server):  # no
         p = other.new_page()
         p.on("pageerror", lambda exc: errors.append(str(exc)))
         p.goto(f"{server}/#view=diagnose")
-        p.wait_for_function("() => document.getElementById('workspace-nav').dataset.ready", timeout=TIMEOUT_MS)
+        workspace_ready(p)
         p.click("#btn-diagnose")
         link = p.locator("#status-errors li.link", has_text="experiments")
         link.wait_for()
@@ -189,7 +184,7 @@ def test_an_error_on_a_field_of_another_view_leads_there(browser, server):  # no
 
 def test_using_a_sized_design_shows_the_model_it_went_into(page):
     """Last: it replaces the page's model."""
-    show(page, "sizing")
+    show_view(page, "sizing")
     page.wait_for_function("() => document.getElementById('panel-sizing').dataset.ready === 'true'")
     page.fill("#sz-bore", "iso15552:32")
     page.fill("#sz-valve", "ckd-4ga")
