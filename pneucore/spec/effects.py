@@ -130,6 +130,17 @@ class Effect:
     #: bounds a fit keeps to in a structural form of :attr:`forms` (a line in segments no
     #: shorter than a sample's delay: shorter, the lumped form is the one)
     form_min: Optional[Callable] = None
+    #: ``form_finer(new, old) -> bool``: does structural form ``new`` resolve more than ``old``
+    #: (a line in more segments)? A fit whose values call for a coarser form is not fitted
+    #: again in it: the finer form it has is at least as accurate, and the default form is
+    #: fitted beside it anyway (:meth:`needs_refit_in`); None = every other form is refitted
+    form_finer: Optional[Callable] = None
+
+    def needs_refit_in(self, new, old):
+        """Must a fit in structural form ``old`` whose values call for form ``new`` (both
+        overrides, :meth:`forms_for`) be fitted again in ``new``? Only where ``new`` is finer
+        (:attr:`form_finer`), or where the effect orders no forms."""
+        return self.form_finer is None or bool(self.form_finer(new, old))
 
     def fit_bounds(self, name, model):
         """Bounds ``(min, max)`` of parameter ``name`` in a fit on ``model`` (SI): the
@@ -656,6 +667,12 @@ def _tubing_forms(p, model, sample_period):
     return [{"segments": n}] if n > 1 else []
 
 
+def _tubing_form_finer(new, old):
+    # more segments resolve the line's delay and waves more finely; fewer (or the lumped line)
+    # only cost less: a line fitted in more cells than its fitted length needs is accurate
+    return _segments(new) > _segments(old)
+
+
 def _tubing_form_min(form, model, sample_period):
     # in segments, a line no shorter than one sample's delay c dt: a shorter one is within a
     # sample, the lumped form's (and its cells, L / N each, would make the core's steps tiny)
@@ -913,7 +930,7 @@ for _e in [
            pack=_pack_tubing,
            check=_check_line_ports, unused=_missing_ports("length"), fit_params=("length_a", "length_b"),
            probe={"length_a": 1.0, "length_b": 1.0}, warn=_tubing_warn, forms=_tubing_forms,
-           form_min=_tubing_form_min),
+           form_min=_tubing_form_min, form_finer=_tubing_form_finer),
     Effect("exhaust_silencer",
            "a silencer on the valve's exhaust ports: an ISO 6358 restriction in series with "
            "each exhaust edge, with no volume between (ISO 6358-3)",

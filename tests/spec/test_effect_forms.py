@@ -43,3 +43,42 @@ def test_tubing_is_tried_in_segments_where_its_delay_spans_a_sample():
 def test_other_effects_have_one_form(name):
     eff = EFFECTS[name]
     assert eff.forms_for(eff.probe_values(), MODEL, 1e-3) == [{}]
+
+
+def test_only_a_finer_form_is_fitted_again():
+    # more segments resolve more; fewer, or the lumped line, only cost less
+    eff = EFFECTS["tubing"]
+    assert eff.needs_refit_in({"segments": 5}, {"segments": 3})
+    assert not eff.needs_refit_in({"segments": 2}, {"segments": 3})
+    assert not eff.needs_refit_in({"segments": 1}, {"segments": 3})
+    assert all(EFFECTS[n].needs_refit_in({}, {}) for n in EFFECTS if n != "tubing")
+
+
+@pytest.mark.parametrize("fitted_length,refitted", [
+    (2.0, [{}, {"segments": 3}, {"segments": 6}]),   # found longer: 6 cells resolve its delay
+    (0.5, [{}, {"segments": 3}]),                     # found shorter: its 3 cells stay
+    (0.2, [{}, {"segments": 3}]),                     # within a sample: the lumped fit stands
+])
+def test_the_joint_refit_fits_a_line_again_only_in_more_segments(monkeypatch, fitted_length,
+                                                                 refitted):
+    """:func:`joint_refit` fits the default form and the preferred one (3 segments for the 1 m
+    probe at 1 kHz), then, at the fitted length, the form that length calls for only when it
+    has more segments (each fit stubbed: the forms it is asked for are recorded)."""
+    from types import SimpleNamespace
+
+    from pneucore.analysis.diagnosis import stages as S
+    from pneucore.data.experiment import as_experiments
+    from pneucore.data.synthetic import synthetic_experiments
+    exps = as_experiments(synthetic_experiments(model_preset("paper-4way"), seed=1))
+    asked = []
+
+    def fake(model, exps, null, name, start, max_nfev, report, form=None, sample_period=0.0):
+        asked.append(dict(form or {}))
+        values = {**start, "length_a": fitted_length, "length_b": fitted_length,
+                  **(form or {})}
+        return SimpleNamespace(model=SimpleNamespace(effects={name: values}),
+                               rss_after=[("e", "p_a", float(len(asked)), 1)])
+    monkeypatch.setattr(S, "_joint_refit_from", fake)
+    S.joint_refit(MODEL, exps, None, "tubing", 30, lambda f, s: None, {"segments": 3})
+    assert S.sample_period(exps) == pytest.approx(1e-3)
+    assert asked == refitted
