@@ -477,9 +477,18 @@ class Calibration:
 
 
 @single_threaded_blas
+def window_fit(model, short, specs, max_nfev=40, progress=None, span=(0.0, 1.0), step="fitting",
+               reweight=False, prior=None):
+    """The fit on the records' first seconds (``short``: :func:`window` of them) that
+    :func:`fit` starts the full records' fit from: the point reached, ``success``, ``message``
+    and the window's residual energy (``rss_after``), no statistics."""
+    return fit(model, short, specs, max_nfev=max_nfev, compute_before=False, progress=progress,
+               span=span, step=step, reweight=reweight, prior=prior, statistics=False)
+
+
 def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=None,
         span=(0.0, 1.0), step="fitting", reweight=False, prior=None, statistics=True,
-        warm=False):
+        warm=False, prefit=None):
     """Fit ``specs`` on prepared experiments (shared by :func:`calibrate` and the diagnosis).
 
     ``progress(fraction, step)`` is reported within ``span`` as the optimiser's
@@ -516,6 +525,12 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     from it with a few parameters put back, say): on long records the window's fit is skipped
     and the polish starts there, since the window's own optimum lies farther from the full
     records' than the start does. Records within :data:`PREFIT_SECONDS` are fitted as usual.
+
+    ``prefit``: the window's fit already made by the caller (:func:`window_fit` with these
+    model, specs and options), used instead of making it again: the diagnosis fits a
+    candidate's structural forms on the window, compares them there, and goes on with the
+    better (:func:`pneucore.analysis.diagnosis.stages.joint_refit`); the result is the one
+    this call would reach on its own.
     """
     def check():
         if progress is not None:
@@ -542,8 +557,8 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         short = None   # nothing could be cut (too few samples in a window): fit the records whole
     pre = None
     if short is not None and not warm:
-        pre = fit(model, short, specs, max_nfev=max_nfev, compute_before=False, progress=progress,
-                  span=span, step=step, reweight=reweight, prior=prior, statistics=False)
+        pre = prefit if prefit is not None else window_fit(
+            model, short, specs, max_nfev, progress, span, step, reweight, prior)
         z_first = np.clip(np.array([pre.values[s.path]["value"] for s in vs], float),
                           lo, hi) / sc
     last_jac = {}
@@ -625,10 +640,12 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         if obj.best[1] is not None and obj.best[0] < float(r_end @ r_end):
             theta = obj.best[1]
             rps1 = obj.replays(theta)
-    if not statistics:   # the point alone: what a fit started from it reads
+    if not statistics:   # the point alone (and its residual energy): what a fit started from
+        # it reads, and what the forms' comparison on the window reads
         return Calibration(obj.model_at(theta), {s.path: {"value": float(theta[i])}
                                                  for i, s in enumerate(vs)}, {}, before, None,
-                           math.nan, math.nan, math.nan, 0, len(vs), success, message, obj.n_eval)
+                           math.nan, math.nan, math.nan, 0, len(vs), success, message, obj.n_eval,
+                           rss_after=obj.rss(rps1))
     after = summarise(rps1)
     rss1 = obj.rss(rps1)
     m2ll, aic, bic, n_all = information_criteria(rss1, len(vs))

@@ -72,7 +72,8 @@ def test_the_joint_refit_fits_a_line_again_only_in_more_segments(monkeypatch, fi
     exps = as_experiments(synthetic_experiments(model_preset("paper-4way"), seed=1))
     asked = []
 
-    def fake(model, exps, null, name, start, max_nfev, report, form=None, sample_period=0.0):
+    def fake(model, exps, null, name, start, max_nfev, report, form=None, sample_period=0.0,
+             prefit=None):
         asked.append(dict(form or {}))
         values = {**start, "length_a": fitted_length, "length_b": fitted_length,
                   **(form or {})}
