@@ -368,6 +368,38 @@ def _duration(e):
     return float(min(t[-1], e.scenario.get("duration", np.inf))) if t.size else 0.0
 
 
+def prefit_window(experiments, n_params):
+    """The records' window (:func:`window`) that a fit of ``n_params`` parameters on them starts
+    from, or None where it fits them whole: records within :data:`PREFIT_SECONDS`, nothing
+    to fit, nothing that could be cut (too few samples in a window), or a window holding no more
+    measured samples than parameters, too few to determine them (a held-out fold that marks
+    the records' first seconds missing left it none, and the fit crashed).
+
+    Parameters
+    ----------
+    experiments : list of Experiment
+        Prepared experiments [-]
+    n_params : int
+        Parameters fitted [-]
+
+    Returns
+    -------
+    window : list of Experiment or None
+        The cut experiments, or None [-]
+    """
+    short = window(experiments) if n_params else None
+    if short is None or not (sum(_duration(e) for e in short)
+                             < sum(_duration(e) for e in experiments)):
+        return None
+    return short if _window_samples(short) > n_params else None
+
+
+def _window_samples(experiments):
+    """Finite samples of the compared signals the experiments hold [-]."""
+    return sum(int(np.isfinite(e.measurement.signals[s]).sum()) for e in experiments
+               for s in e.signals)
+
+
 def window(experiments, seconds=None):
     """The experiments cut to their first seconds, ``seconds`` in all, or None when they are shorter.
 
@@ -551,10 +583,7 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
     success, message = True, "converged"
     theta = theta0
     z_first = theta0 / sc
-    short = window(experiments) if vs else None
-    if short is not None and not (sum(_duration(e) for e in short)
-                                  < sum(_duration(e) for e in experiments)):
-        short = None   # nothing could be cut (too few samples in a window): fit the records whole
+    short = prefit_window(experiments, len(vs))
     pre = None
     if short is not None and not warm:
         pre = prefit if prefit is not None else window_fit(

@@ -150,3 +150,25 @@ def test_a_line_in_finite_volumes_wins_its_window_and_is_named_on_long_records(m
     for sfx in ("a", "b"):
         assert fitted[f"length_{sfx}"] == pytest.approx(2.5, rel=0.10)
     assert fitted["segments"] > 1
+
+
+def test_a_window_left_without_a_measured_sample_is_not_fitted_on(monkeypatch):
+    """A held-out fold marks a block of every record missing; where that block is the whole
+    window (ten 2 s tests, the window 0.4 s of each, the first of five blocks held out) the
+    window's fit had no residual at all and crashed the diagnosis (``need at least one array to
+    concatenate``). Such records are fitted whole."""
+    from pneucore.analysis.diagnosis.evidence import masked
+    true = model_preset("paper-4way")
+    true["effects"] = {"piston_leakage": {"conductance": 1.5e-10}}
+    exps = as_experiments(synthetic_experiments(true, seed=4))
+    monkeypatch.setattr(C, "PREFIT_SECONDS", 0.4)      # the window: the first 0.2 s of each
+    held = [masked(e, 0, 4)[0] for e in exps]          # the first quarter of each: missing
+    assert C.window(held) is not None and C.prefit_window(held, 1) is None
+    assert C.prefit_window(exps, 1) is not None
+    m = S.with_effect(MODEL, "piston_leakage", {"conductance": 1e-11})
+    spec = ParameterSpec("effects.piston_leakage.conductance", 1e-11, 0.0, 1e-8, True,
+                         "kg/(s Pa)")
+    cal = C.fit(m, held, [spec], max_nfev=10, compute_before=False, reweight=True)
+    found = cal.values[spec.path]["value"]
+    # the leak comes back from the three quarters left (white noise on 1,500 samples a signal)
+    assert found == pytest.approx(1.5e-10, rel=0.1)

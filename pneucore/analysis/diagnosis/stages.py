@@ -596,13 +596,16 @@ def joint_refit(model, exps, null, name, max_nfev, report, form=None):
     kept; one that calls for a coarser form (a line found shorter, or within a sample) is not:
     the finer form fitted is at least as accurate, and the default form is fitted beside it
     (on a 1 s hold + 60 s cyclic record that second fit, in 2 segments after 3, cost 43 s of
-    the round's 118)."""
+    the round's 118). On long records the forms are first compared on the window's fit, and
+    only those within :data:`FORM_MARGIN` of the best are fitted on the full records
+    (:func:`forms_on_window`)."""
     eff = EFFECTS[name]
     dt = sample_period(exps)
     probe_at = eff.probe_values(model)
     best = None
     # the default form always (a lumped line is cheap to fit, and a truth in it may score
-    # better in another form at the probe's dose), the preferred one beside it
+    # better in another form at the probe's dose), the preferred one beside it; on long
+    # records those the window's fits leave far behind are dropped there
     tried = eff.forms_for(probe_at, model, dt) if form is None else [{}] + ([form] if form else [])
     # on long records the forms are compared on the window first (:func:`forms_on_window`)
     pre = forms_on_window(model, exps, null, name, probe_at, tried, max_nfev, report, dt)
@@ -643,7 +646,7 @@ def forms_on_window(model, exps, null, name, start, forms, max_nfev, report, sam
     dropped before its fit on the full records (the forms have the same parameters: the
     comparison needs no penalty). The kept forms' fits go on from these window fits, so they
     end where they would have. On a 1 s hold + 60 s cyclic record the line in 3 segments,
-    which the score pass preferred at the probe's dose, ended its window 1.3 times above the
+    which the score pass preferred at the probe's dose, ended its window 1.67 times above the
     lumped line, and its fit on the full records (53 replays of 1 s each) was the round's
     largest cost; the lumped line won there too.
 
@@ -671,14 +674,19 @@ def forms_on_window(model, exps, null, name, start, forms, max_nfev, report, sam
     Returns
     -------
     kept : dict
-        ``{form as a hashable key: window fit}`` in ``forms``' order; ``{}`` when not compared
+        ``{form as a hashable key: (form, its window's fit)}`` in ``forms``' order; ``{}``
+        when not compared (the window :func:`pneucore.analysis.calibrate.prefit_window`)
     """
-    short = _calibrate.window(exps)
-    if short is None or len(forms) < 2:
+    if len(forms) < 2:
         return {}
     pre = {}
     for f in forms:
         m, specs, _ = _refit_setup(model, null, name, {**start, **f}, f, sample_period)
+        # the window the form's fit would start from (the same for every form: the same
+        # parameters)
+        short = _calibrate.prefit_window(exps, len(specs))
+        if short is None:
+            return {}
         pre[_form_key(f)] = (f, _calibrate.window_fit(
             m, short, specs, max_nfev, lambda fr, s: report(0.4, f"refit: {name}"), reweight=True,
             prior=null.prior))
