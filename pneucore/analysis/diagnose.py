@@ -51,7 +51,9 @@
    (:func:`pneucore.analysis.diagnosis.evidence.held_out`,
    ``ranking[i]["held_out"]``, whose ``used`` names the folds). Candidates
    are judged in order of evidence: a stand-in that fails does not hide the
-   next; the first that passes is named (and ranked first). Otherwise
+   next; the first that passes is named (and ranked first), and those after it are
+   flagged without their held-out prediction, which can no longer change the verdict
+   (``ranking[i]["held_out_not_run"]`` says so). Otherwise
    the verdict is ``None``: "no catalog effect explains the remaining
    residual".
 4b. **A recalibration that is a symptom.** With no verdict, a base parameter
