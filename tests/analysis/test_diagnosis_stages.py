@@ -454,3 +454,13 @@ def test_a_pair_still_reads_every_candidate_flagged_with_its_held_out_prediction
     assert "held_out_not_run" not in stand_in
     # the stand-in predicts nothing: no second significant candidate, no pair, no verdict
     assert verdict is None
+
+
+def test_an_alternative_behind_the_named_candidate_keeps_its_held_out_prediction(monkeypatch):
+    # within 10 of the leak's BIC the records cannot tell the two apart: significant, it is
+    # reported as an alternative, so whether it predicts held-out data is still asked
+    leak = _candidate("piston_leakage", 1e-12, -500.0, 0.9)
+    twin = _candidate("external_leakage", 0.5, -495.0, 0.9)
+    verdict, calls = _judged(monkeypatch, [leak, twin])
+    assert verdict == "piston_leakage"
+    assert ("held_out", "external_leakage") in calls and "held_out_not_run" not in twin

@@ -13,7 +13,7 @@ from pneucore.analysis import hypotheses as H
 from pneucore.analysis.calibrate import Objective, fit
 from pneucore.analysis.compare import replay, summarise
 from pneucore.analysis.diagnosis.evidence import excess_drop as _excess_drop
-from pneucore.analysis.diagnosis.rules import AT_FLOOR, DELTA_BIC, EXCESS_MAJOR
+from pneucore.analysis.diagnosis.rules import AT_FLOOR, EXCESS_MAJOR, indistinct
 from pneucore.analysis.diagnosis.stages import RECAL_MIN, with_effect as _with_effect
 from pneucore.analysis.engineering import in_words
 from pneucore.analysis.metrics import cross_correlation_test, ljung_box
@@ -275,7 +275,7 @@ def _alternatives(ranking, verdict, refits=None, exps=None):
     best = ranking[0]
     out = []
     for c in ranking[1:]:
-        if c["significant"] and c["material"] and c["delta_bic"] - best["delta_bic"] < -DELTA_BIC:
+        if c["significant"] and c["material"] and indistinct(c, best):
             eff_b, eff_c = EFFECTS[best["effect"]], EFFECTS[c["effect"]]
             note = (f"{c['effect']} explains the data about as well as {best['effect']} "
                     f"(delta BIC {c['delta_bic']:.1f} against {best['delta_bic']:.1f})")

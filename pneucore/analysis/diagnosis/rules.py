@@ -118,6 +118,14 @@ def _predicts(c, ctx):
     return h["predicts"]
 
 
+def indistinct(c, best):
+    """Can the records not tell candidate ``c`` from ``best``: its BIC within ``|DELTA_BIC|``
+    of ``best``'s? Such a candidate, significant and material, is reported as an alternative
+    to the verdict (:func:`pneucore.analysis.diagnosis.findings.findings`), so its held-out
+    prediction is made even behind a named candidate."""
+    return c["delta_bic"] - best["delta_bic"] < -DELTA_BIC
+
+
 def blocks_predict(h):
     """The vote of the blocks in time of a held-out report
     (:func:`pneucore.analysis.diagnosis.evidence.held_out`)."""

@@ -677,7 +677,7 @@ def forms_on_window(model, exps, null, name, start, forms, max_nfev, report, sam
         ``{form as a hashable key: (form, its window's fit)}`` in ``forms``' order; ``{}``
         when not compared (the window :func:`pneucore.analysis.calibrate.prefit_window`)
     """
-    if len(forms) < 2:
+    if len(forms) < 2 or _calibrate.window(exps) is None:
         return {}
     pre = {}
     for f in forms:
@@ -904,8 +904,10 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
     # contender (significant and strong) that passes every rule is named, as if all were
     # flagged first; the candidates after it are flagged without the held-out prediction,
     # whose refits (32 of the 37 s of a round on ten 2 s tests, for a stand-in behind a named
-    # leak) cannot change the verdict any more
+    # leak) cannot change the verdict any more, unless the records cannot tell them from it
+    # (an alternative, reported when significant: R.indistinct)
     named = None
+    predicts = ctx.held_out
     for c in ranking:
         # physical plausibility: a strength at its fit bound, or not distinguishable from off by
         # its own standard error, is no evidence of the effect however much the fit improves
@@ -916,9 +918,10 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
             model) or H.first_against_direction(model, c["uncertain_params"])
     for c in ranking:
         if named is not None and id(c) not in flagged:
-            ctx.held_out = None
-            c["held_out_not_run"] = (f"{named['effect']}, ahead of it, was named: its flags "
-                                     "are its likelihood ratio's and its BIC's alone")
+            ctx.held_out = predicts if R.indistinct(c, named) else None
+            if ctx.held_out is None:
+                c["held_out_not_run"] = (f"{named['effect']}, ahead of it, was named: its "
+                                         "flags are its likelihood ratio's and its BIC's alone")
         flag(c)
         if named is None and c["significant"] and c["strong"] and R.judge(c, ctx):
             named = c
