@@ -81,7 +81,7 @@ def colored_noise(rng, sigma, n, dt, corr_time):
 
 
 #: Command times at most this fraction of a sample period after a sample instant are moved
-#: onto it when a rig is synthesised [-]. A time written as a sum (``k + 0.1 + 0.06``) lands a
+#: onto it when a rig is synthesised [-]. A time written as a sum (``9.55 + 0.06``) lands a
 #: few 1e-15 s off the instant it names; just after it, the sample there still read the command
 #: before the edge, so the logged command held the pulse a sample longer (or shorter) than the
 #: truth was simulated with: on a 20 s record of 60 ms pulses, from the ninth cycle on, and the
@@ -111,10 +111,10 @@ def on_sample_grid(command, sample_period):
 
     Examples
     --------
-    >>> t = 9 + 0.1 + 0.06          # meant 9.16 s: 9.160000000000002 in binary
-    >>> t > 9160 * 0.001
+    >>> t = 9.55 + 0.06             # meant 9.61 s: 9.610000000000001 in binary
+    >>> t > 9610 * 0.001
     True
-    >>> on_sample_grid([[t, 0.7]], 0.001)[0][0] == 9160 * 0.001
+    >>> on_sample_grid([[t, 0.7]], 0.001)[0][0] == 9610 * 0.001
     True
     """
     out = []

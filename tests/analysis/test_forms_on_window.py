@@ -154,7 +154,7 @@ def test_a_line_in_finite_volumes_wins_its_window_and_is_named_on_long_records(m
 
 def test_a_window_left_without_a_measured_sample_is_not_fitted_on(monkeypatch):
     """A held-out fold marks a block of every record missing; where that block is the whole
-    window (ten 2 s tests, the window 0.4 s of each, the first of five blocks held out) the
+    window (ten 2 s tests, the window 0.4 s of each, the first of four blocks held out) the
     window's fit had no residual at all and crashed the diagnosis (``need at least one array to
     concatenate``). Such records are fitted whole."""
     from pneucore.analysis.diagnosis.evidence import masked

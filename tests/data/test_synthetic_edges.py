@@ -1,7 +1,7 @@
 """A synthesised rig logs the command its truth was simulated with (issue 26, found on the way).
 
 A machine cycling once a second with 60 ms pulses at ``k + 0.1`` and ``k + 0.55`` s: the pulse
-ends, sums like ``9 + 0.1 + 0.06``, land a few 1e-15 s after the sample instant they name, so the
+ends, sums like ``9.55 + 0.06``, land a few 1e-15 s after the sample instant they name, so the
 sample there read the command before the edge, and the logged pulses were 60 or 61 samples
 while the truth was simulated with 60 ms. Replayed from its own record, the truth then left
 0.36 % on 1.7 s and 1.95 % on 20 s (a floor of 0.06 %), and the diagnosis rightly called the
@@ -49,12 +49,13 @@ def test_every_logged_pulse_is_as_long_as_the_simulated_one_and_the_truth_replay
 
 
 def test_only_times_just_after_an_instant_move_and_the_order_holds():
-    t_after = 9 + 0.1 + 0.06                 # 9.160000000000002
-    t_before = 9160 * DT - 1e-12             # just before: the sample there already reads it
-    t_far = 9160 * DT + 10 * EDGE_SNAP * DT  # a sub-sample time meant as such
+    t_after = 9.55 + 0.06                    # 9.610000000000001
+    assert t_after > 9610 * DT
+    t_before = 9610 * DT - 1e-12             # just before: the sample there already reads it
+    t_far = 9610 * DT + 10 * EDGE_SNAP * DT  # a sub-sample time meant as such
     out = on_sample_grid([[0.0, 0.0], [t_before, 0.5], [t_after, 0.7], [t_far, 0.0]], DT)
     assert out[1][0] == t_before
-    assert out[2][0] == 9160 * DT             # the product the simulator samples at
+    assert out[2][0] == 9610 * DT             # the product the simulator samples at
     assert out[3][0] == t_far
     assert [p[1] for p in out] == [0.0, 0.5, 0.7, 0.0]
     ts = [p[0] for p in out]
