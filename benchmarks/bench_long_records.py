@@ -3,7 +3,8 @@
 Run from the repository root::
 
     python benchmarks/bench_long_records.py [--lengths 1,1.7,5,20,60] [--counts 2,5,10]
-                                            [--refine-lengths 20] [--memory] [--json PATH]
+                                            [--refine-lengths 20] [--pairs 20] [--memory]
+                                            [--json PATH]
                                             [--scheduler local|dask|tcp://host:8786]
                                             [--workers N | --workers 1,2,4,8,16]
 
@@ -21,7 +22,9 @@ declared:
   (a machine cycling once a second: extend pulse, dwell, retract pulse, dwell), 1 kHz,
   pressures and position recorded;
 * **number of experiments**: ``n`` tests of 2 s each at supply pressures from 5 to 7 bar
-  (abs), every other one locked (a hold), the others free and cycling.
+  (abs), every other one locked (a hold), the others free and cycling;
+* **pairs** (``--pairs T``): a locked hold and a free cyclic record of ``T`` seconds each (the
+  issue's 2 x 20 s), the round and the refinement loop timed.
 
 For each it prints the wall time of one diagnosis round (and with ``--memory`` its peak
 memory: the most the round holds above what it started with, traced by :mod:`tracemalloc`,
@@ -208,14 +211,23 @@ def same_answer(d, ref):
     return bool(same)
 
 
-def cases(true, lengths, counts, duration, ref_len, ref_cnt):
-    """``[(key, label, experiments, refine too)]``: the length set, then the count set."""
+def pair_set(true, T):
+    """A locked hold and a free cyclic record, ``T`` seconds each (the issue's 2 x 20 s)."""
+    return as_experiments([experiment(true, hold(true, T), "hold", 1),
+                           experiment(true, cyclic(T), "cyclic", 2)])
+
+
+def cases(true, lengths, counts, duration, ref_len, ref_cnt, pairs=()):
+    """``[(key, label, experiments, refine too)]``: the length set, the count set, then the
+    pairs of ``T`` s records (their refinement loop timed too)."""
     out = []
     for T in lengths:
         out.append((("length", T), "1 s hold + %g s cyclic" % T, length_set(true, T), T in ref_len))
     for n in counts:
         out.append((("count", n), "%d x %g s" % (n, duration), count_set(true, n, duration),
                     n in ref_cnt))
+    for T in pairs:
+        out.append((("pair", T), "%g s hold + %g s cyclic" % (T, T), pair_set(true, T), True))
     return out
 
 
@@ -236,6 +248,8 @@ def run_config(start, todo, scheduler, workers, memory, refs, repeat):
             refs.setdefault(key, d)
             if key[0] == "length":
                 row.update(cyclic_s=key[1], simulated_s=1.0 + key[1])
+            elif key[0] == "pair":
+                row.update(pair_s=key[1], simulated_s=2.0 * key[1])
             else:
                 row.update(experiments=key[1], simulated_s=sum(e.measurement.duration for e in exps))
             if with_refine:
@@ -299,6 +313,9 @@ def main(argv=None):
                          "with several --workers, none; '' for none)")
     ap.add_argument("--refine-counts", default="",
                     help="numbers of experiments whose refinement loop is timed too")
+    ap.add_argument("--pairs", default="",
+                    help="lengths T of a T s locked hold plus a T s cyclic record, round and "
+                         "refinement loop timed [s] (the issue's 2 x 20 s: --pairs 20)")
     ap.add_argument("--memory", action="store_true",
                     help="also trace each round's peak memory (a second, untimed round)")
     ap.add_argument("--json", default=None, help="write the figures to this file")
@@ -330,7 +347,8 @@ def main(argv=None):
     print("load average:", load())
     # compile and warm the caches outside the timings
     diagnose(start, length_set(true, 1.0)[:1])
-    todo = cases(true, lengths, counts, a.duration, ref_len, ref_cnt)
+    pairs = [float(x) for x in a.pairs.split(",") if x]
+    todo = cases(true, lengths, counts, a.duration, ref_len, ref_cnt, pairs)
 
     figures = {"machine": info, "scheduler": a.scheduler if a.scheduler in ("local", "dask")
                else "a Dask scheduler", "load_average_start": load(), "configs": []}
@@ -345,6 +363,7 @@ def main(argv=None):
     first = figures["configs"][0]["rows"]
     figures["length"] = [r for r in first if "cyclic_s" in r]
     figures["count"] = [r for r in first if "experiments" in r]
+    figures["pair"] = [r for r in first if "pair_s" in r]
     for key in ("length", "count"):
         mem = [r for r in figures[key] if "peak_mb" in r]
         if len(mem) >= 2:
