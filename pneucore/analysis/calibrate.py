@@ -508,7 +508,6 @@ class Calibration:
         })
 
 
-@single_threaded_blas
 def window_fit(model, short, specs, max_nfev=40, progress=None, span=(0.0, 1.0), step="fitting",
                reweight=False, prior=None):
     """The fit on the records' first seconds (``short``: :func:`window` of them) that
@@ -518,6 +517,7 @@ def window_fit(model, short, specs, max_nfev=40, progress=None, span=(0.0, 1.0),
                span=span, step=step, reweight=reweight, prior=prior, statistics=False)
 
 
+@single_threaded_blas
 def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=None,
         span=(0.0, 1.0), step="fitting", reweight=False, prior=None, statistics=True,
         warm=False, prefit=None):

@@ -61,3 +61,14 @@ def test_a_failing_call_restores_the_setting():
     except RuntimeError:
         pass
     assert blas_threads() == before
+
+
+def test_the_fit_and_the_diagnosis_are_the_wrapped_entry_points():
+    # a function inserted above ``fit`` once took its decorator, and the fit ran with every
+    # BLAS thread again: each entry point must carry it itself
+    import inspect
+
+    from pneucore.analysis import calibrate, diagnose
+    for fn in (calibrate.fit, diagnose.diagnose):
+        assert inspect.unwrap(fn) is not fn, fn.__name__
+        assert inspect.getsource(fn).lstrip().startswith("@single_threaded_blas"), fn.__name__
