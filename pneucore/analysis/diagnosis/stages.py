@@ -907,7 +907,6 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
     # leak) cannot change the verdict any more, unless the records cannot tell them from it
     # (an alternative, reported when significant: R.indistinct)
     named = None
-    predicts = ctx.held_out
     for c in ranking:
         # physical plausibility: a strength at its fit bound, or not distinguishable from off by
         # its own standard error, is no evidence of the effect however much the fit improves
