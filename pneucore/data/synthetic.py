@@ -156,8 +156,7 @@ def synthesize(model, scenario, signals=("p_a", "p_b", "x"), noise=None, bits=12
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     # the command's edges on the samples they name (:data:`EDGE_SNAP`): the truth is simulated
     # with the command its record logs
-    scenario = Scenario.from_dict(scenario).to_dict() if isinstance(scenario, Scenario) \
-        else copy.deepcopy(scenario)
+    scenario = scenario.to_dict() if isinstance(scenario, Scenario) else copy.deepcopy(scenario)
     sc = Scenario.from_dict(scenario)
     scenario["command"] = on_sample_grid(sc.command, sc.sample_period)
     res = simulate(model, scenario)
