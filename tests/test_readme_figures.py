@@ -1,9 +1,11 @@
-"""The README's loop figures are what the code prints (issue 24, item 9: they had drifted:
-heat coefficient 37.5 against 35.3, 0.711 against 0.714 %, p and delta BIC).
+"""The loop's figures, in the README and in the docs' loop guide, are what the code prints
+(issue 24, item 9: they had drifted: heat coefficient 37.5 against 35.3, 0.711 against 0.714 %,
+p and delta BIC).
 
-Every figure-bearing fragment quoted in the README's loop section (curl walk-through, Python
-loop, shell loop) must be printed by the code on the same sample today, its words the same and
-each number equal *at the precision the README quotes it* (issue 40, item 2): the same code
+Every figure-bearing fragment quoted in the loop guide (``docs/guides/loop.md``: curl
+walk-through, Python loop, shell loop; the README's loop section until issue 40 moved it there)
+and in the README's worked loop must be printed by the code on the same sample today, its words
+the same and each number equal *at the precision the README quotes it* (issue 40, item 2): the same code
 and packages print other last digits on another processor (OpenBLAS picks its kernels by CPU,
 and a fit's end point moves within the optimiser's tolerance), so the README quotes a fitted
 figure only to the digits that hold on any machine, and the test compares each quoted number
@@ -20,7 +22,17 @@ from pneucore.analysis.diagnose import diagnose
 from pneucore.analysis.history import refine
 from pneucore.data.samples import load_sample
 
-README = Path(__file__).resolve().parent.parent / "README.md"
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
+
+#: Where the loop's figures are quoted: (file, the section's first heading, the text that ends
+#: it or None for the end of the file, the least number of figures the section quotes)
+SOURCES = {
+    "loop-guide": (ROOT / "docs" / "guides" / "loop.md",
+                   "# The loop: compare, diagnose, add, the error falls", None, 12),
+    "readme": (README, "## One worked loop: compare, diagnose, add, the error falls",
+               "## Documentation", 6),
+}
 
 #: Fragments of the loop's text that carry figures
 FIGURES = [
@@ -38,10 +50,11 @@ FIGURES = [
 ]
 
 
-def _loop_section():
-    text = README.read_text()
-    start = text.index("## The loop: compare, diagnose, add, the error falls")
-    end = text.index("## What is inside")
+def _loop_section(source="loop-guide"):
+    path, first, last, _ = SOURCES[source]
+    text = path.read_text()
+    start = text.index(first) + len(first)   # the heading itself is no quoted output
+    end = text.index(last, start) if last else len(text)
     # the quoted output: comment lines, with the comment marks and continuation indents removed
     lines = [re.sub(r"^\s*#\s*", "", ln) for ln in text[start:end].splitlines()
              if ln.lstrip().startswith("#") and not ln.startswith("##")]
@@ -117,8 +130,9 @@ def test_agreement_at_the_quoted_precision():
     assert not agrees("time_constant = 0.0060 ± 0.0001 s", "time_constant = 0.00497 ± 0.00011 s")
 
 
-def test_every_figure_the_readme_quotes_is_printed_by_the_code(printed):
-    lines = _loop_section()
+@pytest.mark.parametrize("source", sorted(SOURCES))
+def test_every_figure_the_readme_quotes_is_printed_by_the_code(printed, source):
+    lines = _loop_section(source)
     # a fragment broken over two comment lines is read as one line
     joined = " ".join(lines)
     found = []
@@ -126,8 +140,10 @@ def test_every_figure_the_readme_quotes_is_printed_by_the_code(printed):
         anchored = pattern.startswith("^")
         for src in (lines if anchored else [joined]):
             found += [m.group(0) for m in re.finditer(pattern, src, flags=re.M)]
-    assert len(found) >= 12, f"the README's loop section lost its figures: {found}"
+    least = SOURCES[source][3]
+    assert len(found) >= least, f"the {source}'s loop section lost its figures: {found}"
     missing = [f for f in found if not any(agrees(f, p) for p in printed)]
-    assert not missing, ("README figures that the code no longer prints at their quoted precision "
-                         f"(update the README's loop section): {missing}\ncode prints:\n"
+    assert not missing, (f"{source} figures that the code no longer prints at their quoted "
+                         f"precision (update {SOURCES[source][0].name}'s loop section): "
+                         f"{missing}\ncode prints:\n"
                          + "\n".join(printed))

@@ -1,0 +1,333 @@
+"""MkDocs hook: the pages generated at build time, never hand-copied.
+
+* ``reference/api/<module>.md``: one page per module of ``pneucore`` (found on disk, so a new
+  module gets its page without an edit here), each a mkdocstrings ``::: module`` block: the
+  API reference is the docstrings, units included. ``reference/api/index.md`` lists them
+  with each module's first docstring line, and the nav's "Python API" section is filled
+  with them, grouped by subpackage.
+* ``reference/rest.md``: every endpoint of the service with its request and response
+  schemas, and every schema's fields with their descriptions (where the units are), from the
+  OpenAPI document of ``app.main.app``; ``openapi.json`` beside it is that document.
+"""
+from __future__ import annotations
+
+import ast
+import json
+import re
+import sys
+from pathlib import Path
+
+from markdown import Extension
+from markdown.preprocessors import Preprocessor
+from mkdocs.plugins import event_priority
+from mkdocs.structure.files import File
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGE = "pneucore"
+#: the nav section the module pages go into (a title in mkdocs.yml's nav)
+API_SECTION = "Python API"
+API_DIR = "reference/api"
+
+
+# ---------------------------------------------------------------------------- docstrings as Markdown
+
+#: ``[0, t_end] [s]``, ``[-1, 1] [-]``: a range and a unit, which Markdown reads as a reference link
+_RANGE_UNIT = re.compile(r"(?<!\\)\](\s+)\[")
+
+
+def plain_brackets(text: str) -> str:
+    """Escape the ``] [`` of a range followed by a unit (outside code spans)."""
+    parts = text.split("`")
+    return "`".join(_RANGE_UNIT.sub(r"\\]\1[", p) if i % 2 == 0 else p for i, p in enumerate(parts))
+
+
+class _Docstrings(Preprocessor):
+    """Docstrings are numpydoc, read as Markdown: a doctest outside an ``Examples`` section
+    (``>>> f(x)[:3]``) becomes a code block, and a range followed by its unit stays text."""
+
+    def run(self, lines):
+        return plain_brackets_outside_code(self._fence_doctests(lines))
+
+    @staticmethod
+    def _fence_doctests(lines):
+        out, fence, block = [], False, False
+        for line in lines:
+            stripped = line.lstrip()
+            if stripped.startswith(("```", "~~~")):
+                if block:
+                    out.append("```")
+                    block = False
+                fence = not fence
+                out.append(line)
+                continue
+            if fence:
+                out.append(line)
+                continue
+            if block and not stripped:
+                out += ["```", line]
+                block = False
+                continue
+            if not block and stripped.startswith(">>>"):
+                if out and out[-1].strip():
+                    out.append("")
+                out.append("```python")
+                block = True
+            out.append(line)
+        if block:
+            out.append("```")
+        return out
+
+
+def plain_brackets_outside_code(lines):
+    """:func:`plain_brackets` on every run of lines outside code fences (a range and its
+    unit may be on two lines)."""
+    out, run, fence = [], [], False
+    for line in lines + ["```"]:
+        if line.lstrip().startswith(("```", "~~~")):
+            if not fence and run:
+                out += plain_brackets("\n".join(run)).split("\n")
+            run = []
+            fence = not fence
+            out.append(line)
+        elif fence:
+            out.append(line)
+        else:
+            run.append(line)
+    return out[:-1]
+
+
+class DocstringExtension(Extension):
+    def extendMarkdown(self, md):
+        # before fenced_code (25), which turns the blocks made here into code
+        md.preprocessors.register(_Docstrings(md), "pneucore_docstrings", 27)
+
+
+# ---------------------------------------------------------------------------- modules
+
+def modules(package: str = PACKAGE) -> list[str]:
+    """Every module of the package, dotted, in path order (packages by their ``__init__``)."""
+    base = ROOT / package
+    names = []
+    for path in sorted(base.rglob("*.py")):
+        if "__pycache__" in path.parts:
+            continue
+        rel = path.relative_to(ROOT).with_suffix("")
+        parts = list(rel.parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        names.append(".".join(parts))
+    return sorted(set(names))
+
+
+def _is_package(name: str) -> bool:
+    return (ROOT / Path(*name.split(".")) / "__init__.py").exists()
+
+
+def _source(name: str) -> Path:
+    p = ROOT / Path(*name.split("."))
+    return p / "__init__.py" if p.is_dir() else p.with_suffix(".py")
+
+
+def summary(name: str) -> str:
+    """The first line of a module's docstring (read without importing it)."""
+    try:
+        doc = ast.get_docstring(ast.parse(_source(name).read_text(encoding="utf-8")))
+    except (OSError, SyntaxError):
+        doc = None
+    if not doc:
+        return ""
+    first = doc.strip().split("\n\n")[0]
+    return " ".join(first.split())
+
+
+def page_path(name: str) -> str:
+    return f"{API_DIR}/{name}.md"
+
+
+def _group(name: str) -> str:
+    """The subpackage a module's page is listed under in the nav."""
+    parts = name.split(".")
+    if len(parts) == 1:
+        return PACKAGE
+    if _is_package(name) and len(parts) == 2:
+        return name
+    return ".".join(parts[:2]) if _is_package(".".join(parts[:2])) else PACKAGE
+
+
+def _api_nav() -> list:
+    groups: dict[str, list] = {}
+    for name in modules():
+        groups.setdefault(_group(name), []).append({name: page_path(name)})
+    return [{"Overview": f"{API_DIR}/index.md"}] + [{g: items} for g, items in groups.items()]
+
+
+def _module_page(name: str) -> str:
+    return (f"# `{name}`\n\n"
+            f"Source: `{_source(name).relative_to(ROOT).as_posix()}`\n\n"
+            f"::: {name}\n")
+
+
+def _api_index() -> str:
+    lines = ["# Python API", "",
+             "One page per module of `pneucore`, generated from the docstrings at build time "
+             "(units in brackets, as the code states them). `import pneucore` gives the public "
+             "API: `simulate`, `Model`, `Scenario`, the presets and the registries; the "
+             "[package layout](../layout.md) says what each subpackage holds.", "",
+             "| module | summary |", "|---|---|"]
+    for name in modules():
+        lines.append(f"| [`{name}`]({name}.md) | {_cell(summary(name))} |")
+    return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------------------- REST
+
+def _cell(text) -> str:
+    text = " ".join(str(text).split())
+    return text.replace("|", "\\|").replace("<", "&lt;").replace(">", "&gt;")
+
+
+def _anchor(name: str) -> str:
+    return "schema-" + "".join(c if c.isalnum() else "-" for c in name).lower()
+
+
+def _type(schema: dict) -> str:
+    """A schema's type in a few words, with links to the named schemas it uses."""
+    if not isinstance(schema, dict):
+        return ""
+    if "$ref" in schema:
+        name = schema["$ref"].rsplit("/", 1)[-1]
+        return f"[{name}](#{_anchor(name)})"
+    for key in ("anyOf", "oneOf", "allOf"):
+        if key in schema:
+            parts = [_type(s) for s in schema[key]]
+            return " or ".join(p for p in parts if p) or "any"
+    t = schema.get("type")
+    if t == "array":
+        return f"array of {_type(schema.get('items', {})) or 'any'}"
+    if t == "object" and isinstance(schema.get("additionalProperties"), dict):
+        return f"object of {_type(schema['additionalProperties']) or 'any'}"
+    if "enum" in schema:
+        return " \\| ".join(f"`{json.dumps(v)}`" for v in schema["enum"])
+    if "const" in schema:
+        return f"`{json.dumps(schema['const'])}`"
+    if isinstance(t, list):
+        return " or ".join(t)
+    return t or "any"
+
+
+def _content_types(body: dict) -> list[tuple[str, dict]]:
+    return list((body or {}).get("content", {}).items())
+
+
+def openapi_document() -> dict:
+    """The service's OpenAPI document, as ``GET /openapi.json`` answers it."""
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
+    from app.main import app
+    return app.openapi()
+
+
+def rest_page(spec: dict) -> str:
+    info = spec.get("info", {})
+    out = ["# REST reference", "",
+           f"Generated at build time from the service's OpenAPI document ({_cell(info.get('title', ''))} "
+           f"{_cell(info.get('version', ''))}; the same document the running service answers at "
+           "`/openapi.json` and draws at `/docs` and `/redoc`; [download it](openapi.json)). "
+           "Units are in each field's description; pressures are absolute in Pa unless a field "
+           "says otherwise. The [REST API overview](rest-api.md) groups the endpoints by task "
+           "and gives the error codes.", ""]
+    paths = spec.get("paths", {})
+    by_tag: dict[str, list] = {}
+    for path, ops in paths.items():
+        for method, op in ops.items():
+            if method not in ("get", "post", "put", "patch", "delete"):
+                continue
+            tag = (op.get("tags") or ["other"])[0]
+            by_tag.setdefault(tag, []).append((path, method, op))
+    out += ["## Endpoints", "", "| endpoint | does |", "|---|---|"]
+    for tag in sorted(by_tag):
+        for path, method, op in by_tag[tag]:
+            out.append(f"| [`{method.upper()} {path}`](#{_op_anchor(method, path)}) | {_cell(op.get('summary', ''))} |")
+    out.append("")
+    for tag in sorted(by_tag):
+        out += [f"## {tag}", ""]
+        for path, method, op in by_tag[tag]:
+            out += [f"### `{method.upper()} {path}` {{#{_op_anchor(method, path)}}}", ""]
+            if op.get("summary"):
+                out += [f"**{_cell(op['summary'])}**", ""]
+            if op.get("description"):
+                out += [op["description"].strip(), ""]
+            params = op.get("parameters") or []
+            if params:
+                out += ["| parameter | in | type | required | description |", "|---|---|---|---|---|"]
+                for p in params:
+                    out.append(f"| `{p.get('name')}` | {p.get('in')} | {_type(p.get('schema', {}))} | "
+                               f"{'yes' if p.get('required') else 'no'} | "
+                               f"{_cell(p.get('description') or p.get('schema', {}).get('description', ''))} |")
+                out.append("")
+            body = op.get("requestBody")
+            if body:
+                out += ["Request body:", ""]
+                for ctype, c in _content_types(body):
+                    out.append(f"- `{ctype}`: {_type(c.get('schema', {}))}")
+                out.append("")
+            out += ["| status | answer |", "|---|---|"]
+            for code, resp in (op.get("responses") or {}).items():
+                kinds = "; ".join(f"`{ct}` {_type(c.get('schema', {}))}".strip()
+                                  for ct, c in _content_types(resp))
+                out.append(f"| {code} | {_cell(resp.get('description', ''))}{': ' + kinds if kinds else ''} |")
+            out.append("")
+    out += ["## Schemas", ""]
+    for name, schema in sorted(spec.get("components", {}).get("schemas", {}).items()):
+        out += [f"### {name} {{#{_anchor(name)}}}", ""]
+        if schema.get("description"):
+            out += [_cell(schema["description"]), ""]
+        props = schema.get("properties") or {}
+        required = set(schema.get("required") or [])
+        if props:
+            out += ["| field | type | required | default | description |", "|---|---|---|---|---|"]
+            for field, fs in props.items():
+                default = f"`{_cell(json.dumps(fs['default']))}`" if "default" in fs else ""
+                out.append(f"| `{field}` | {_type(fs)} | {'yes' if field in required else 'no'} | "
+                           f"{default} | {_cell(fs.get('description', fs.get('title', '')))} |")
+            out.append("")
+        elif "enum" in schema or "type" in schema:
+            out += [f"Type: {_type(schema)}", ""]
+    return "\n".join(out) + "\n"
+
+
+def _op_anchor(method: str, path: str) -> str:
+    return "op-" + method + "".join(c if c.isalnum() else "-" for c in path).lower()
+
+
+# ---------------------------------------------------------------------------- hooks
+
+@event_priority(100)   # before mkdocstrings reads the Markdown extensions
+def on_config(config, **kwargs):
+    config.markdown_extensions.append(DocstringExtension())
+    for entry in config.get("nav") or []:
+        _fill(entry)
+    return config
+
+
+def _fill(entry):
+    """Put the module pages into the nav section titled ``API_SECTION``, wherever it is."""
+    if not isinstance(entry, dict):
+        return
+    for title, value in entry.items():
+        if title == API_SECTION:
+            entry[title] = _api_nav()
+        elif isinstance(value, list):
+            for sub in value:
+                _fill(sub)
+
+
+def on_files(files, config, **kwargs):
+    for name in modules():
+        files.append(File.generated(config, page_path(name), content=_module_page(name)))
+    files.append(File.generated(config, f"{API_DIR}/index.md", content=_api_index()))
+    spec = openapi_document()
+    files.append(File.generated(config, "reference/rest.md", content=rest_page(spec)))
+    files.append(File.generated(config, "reference/openapi.json",
+                                content=json.dumps(spec, indent=1, ensure_ascii=False)))
+    return files
