@@ -244,10 +244,11 @@ def rest_page(spec: dict) -> str:
                 continue
             tag = (op.get("tags") or ["other"])[0]
             by_tag.setdefault(tag, []).append((path, method, op))
-    out += ["## Endpoints", "", "| endpoint | does |", "|---|---|"]
+    out += ["## Endpoints", "", "| group | endpoint | does |", "|---|---|---|"]
     for tag in sorted(by_tag):
         for path, method, op in by_tag[tag]:
-            out.append(f"| [`{method.upper()} {path}`](#{_op_anchor(method, path)}) | {_cell(op.get('summary', ''))} |")
+            out.append(f"| {tag} | [`{method.upper()} {path}`](#{_op_anchor(method, path)}) | "
+                       f"{_cell(op.get('summary', ''))} |")
     out.append("")
     for tag in sorted(by_tag):
         out += [f"## {tag}", ""]
@@ -273,8 +274,7 @@ def rest_page(spec: dict) -> str:
                 out.append("")
             out += ["| status | answer |", "|---|---|"]
             for code, resp in (op.get("responses") or {}).items():
-                kinds = "; ".join(f"`{ct}` {_type(c.get('schema', {}))}".strip()
-                                  for ct, c in _content_types(resp))
+                kinds = "; ".join(_content(ct, c) for ct, c in _content_types(resp))
                 out.append(f"| {code} | {_cell(resp.get('description', ''))}{': ' + kinds if kinds else ''} |")
             out.append("")
     out += ["## Schemas", ""]
@@ -294,6 +294,15 @@ def rest_page(spec: dict) -> str:
         elif "enum" in schema or "type" in schema:
             out += [f"Type: {_type(schema)}", ""]
     return "\n".join(out) + "\n"
+
+
+def _content(ctype: str, content: dict) -> str:
+    """A response's media type, its schema and, where the schema says it, what it holds."""
+    schema = content.get("schema", {})
+    text = f"`{ctype}` {_type(schema)}"
+    if "$ref" not in schema and schema.get("description"):
+        text += f" ({_cell(schema['description'])})"
+    return text
 
 
 def _op_anchor(method: str, path: str) -> str:
