@@ -95,3 +95,18 @@ def test_the_moved_readme_content_keeps_its_figures():
     assert "Thorncroft, Patton & Gordon" in validation and "| **natural_and_jet + sensor** |" in validation
     server = (ROOT / "docs" / "guides" / "server.md").read_text()
     assert "Memory per request" in server and "benchmarks/bench_request_memory.py" in server
+
+
+def test_the_getting_started_example_prints_what_it_says():
+    """The first Python example of the getting-started page runs, and prints the figures
+    quoted under it (the ``# ...`` line after each ``print``)."""
+    import contextlib
+    import io
+    text = (ROOT / "docs" / "getting-started.md").read_text()
+    section = text[text.index("## A first simulation from Python"):]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    quoted = [ln[2:].strip() for ln in code.splitlines() if ln.startswith("# ")]
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(code, "getting-started.md", "exec"), {})
+    assert out.getvalue().split("\n")[:-1] == quoted
