@@ -41,6 +41,22 @@ def plain_brackets(text: str) -> str:
     return "`".join(_RANGE_UNIT.sub(r"\\]\1[", p) if i % 2 == 0 else p for i, p in enumerate(parts))
 
 
+#: a Sphinx role of the docstrings: :class:`~pneucore.spec.model.Model`, :func:`simulate`
+_ROLE = re.compile(r":(?:py:)?(?:class|func|meth|mod|data|attr|obj|exc|const):`(~?)([^`<>]+)`")
+
+
+def _role(m) -> str:
+    """A role as a link where mkdocstrings documents its target (autorefs' optional reference:
+    plain code where it does not, e.g. a name relative to its module)."""
+    target = m.group(2).strip().removesuffix("()")
+    title = target.rsplit(".", 1)[-1] if m.group(1) else target
+    return f'<autoref identifier="{target}" optional><code>{title}</code></autoref>'
+
+
+def sphinx_roles(text: str) -> str:
+    return _ROLE.sub(_role, text)
+
+
 class _Docstrings(Preprocessor):
     """Docstrings are numpydoc, read as Markdown: a doctest outside an ``Examples`` section
     (``>>> f(x)[:3]``) becomes a code block, and a range followed by its unit stays text."""
@@ -85,7 +101,7 @@ def plain_brackets_outside_code(lines):
     for line in lines + ["```"]:
         if line.lstrip().startswith(("```", "~~~")):
             if not fence and run:
-                out += plain_brackets("\n".join(run)).split("\n")
+                out += sphinx_roles(plain_brackets("\n".join(run))).split("\n")
             run = []
             fence = not fence
             out.append(line)
