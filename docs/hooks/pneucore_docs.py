@@ -260,6 +260,15 @@ def rest_page(spec: dict) -> str:
                 continue
             tag = (op.get("tags") or ["other"])[0]
             by_tag.setdefault(tag, []).append((path, method, op))
+    # the error answers most operations share, listed once
+    counts: dict = {}
+    n_ops = sum(len(v) for v in by_tag.values())
+    for ops in by_tag.values():
+        for _, _, op in ops:
+            for code, resp in (op.get("responses") or {}).items():
+                if not str(code).startswith("2"):
+                    counts[_response_key(code, resp)] = (counts.get(_response_key(code, resp), (0, resp))[0] + 1, resp)
+    common = {k: resp for k, (n, resp) in counts.items() if n > n_ops / 2}
     out += ["## Endpoints", "", "| group | endpoint | does |", "|---|---|---|"]
     for tag in sorted(by_tag):
         for path, method, op in by_tag[tag]:
@@ -289,10 +298,20 @@ def rest_page(spec: dict) -> str:
                     out.append(f"- `{ctype}`: {_type(c.get('schema', {}))}")
                 out.append("")
             out += ["| status | answer |", "|---|---|"]
+            shared = []
             for code, resp in (op.get("responses") or {}).items():
-                kinds = "; ".join(_content(ct, c) for ct, c in _content_types(resp))
-                out.append(f"| {code} | {_cell(resp.get('description', ''))}{': ' + kinds if kinds else ''} |")
+                if _response_key(code, resp) in common:
+                    shared.append(code)
+                else:
+                    out.append(_response_row(code, resp))
             out.append("")
+            if shared:
+                out += [f"Also the [common errors](#common-errors): {', '.join(sorted(shared))}.", ""]
+    out += ["## Common errors {#common-errors}", "",
+            "The error answers most operations share (each operation names those it may give).", "",
+            "| status | answer |", "|---|---|"]
+    out += [_response_row(k[0], resp) for k, resp in sorted(common.items())]
+    out.append("")
     out += ["## Schemas", ""]
     for name, schema in sorted(spec.get("components", {}).get("schemas", {}).items()):
         out += [f"### {name} {{#{_anchor(name)}}}", ""]
@@ -319,6 +338,15 @@ def _content(ctype: str, content: dict) -> str:
     if "$ref" not in schema and schema.get("description"):
         text += f" ({_cell(schema['description'])})"
     return text
+
+
+def _response_key(code, resp: dict) -> tuple:
+    return (str(code), json.dumps(resp, sort_keys=True))
+
+
+def _response_row(code, resp: dict) -> str:
+    kinds = "; ".join(_content(ct, c) for ct, c in _content_types(resp))
+    return f"| {code} | {_cell(resp.get('description', ''))}{': ' + kinds if kinds else ''} |"
 
 
 def _op_anchor(method: str, path: str) -> str:
