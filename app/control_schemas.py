@@ -4,9 +4,13 @@ from __future__ import annotations
 
 from typing import Any, Optional
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, ConfigDict, Field
 
-from .schemas import ModelIn, Number, _Strict
+from .schemas import ModelIn, Number
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
 
 
 class OperatingPointIn(_Strict):
