@@ -6,7 +6,7 @@ from __future__ import annotations
 from pneucore.control.linearize import linearize, to_json
 from pneucore.spec.validation import FieldError
 
-from .deps import parse_model
+from .deps import parse_model, parse_scenario
 
 
 def linearize_answer(req):
@@ -30,3 +30,48 @@ def linearize_answer(req):
         if bad:
             raise FieldError(f"frequencies[{bad[0]}]", "must be a finite frequency > 0 [Hz]")
     return to_json(linearize(model, op.x, op.p_a, op.p_b, op.u, freq))
+
+
+def closed_loop_simulation(req, limits, max_steps=None, form="json"):
+    """POST /api/simulate with a scenario's ``controller``: the closed loop
+    (:func:`pneucore.control.closed_loop.simulate_closed_loop`), answered as an open-loop run
+    is, with ``series.x_ref`` [m] and ``stats.control``. An unstable loop is a 422 naming
+    ``scenario.controller.gains``.
+
+    Parameters
+    ----------
+    req : app.schemas.SimulateRequest
+        The request
+    limits : app.config.Limits
+        The API's limits
+    max_steps : int or None
+        A step budget below the request's own (not used: the express lane never takes a
+        closed loop)
+    form : {"json", "npz"}
+        The answer's form
+    """
+    from pneucore.control.closed_loop import ControlError, simulate_closed_loop
+    from .services import result_json, result_npz
+
+    if "command" in req.scenario.model_fields_set and req.scenario.command is not None:
+        raise FieldError("scenario.command", "give either a command (open loop) or a "
+                         "controller (closed loop), not both")
+    model = parse_model(req.model)
+    d = req.scenario.plain()
+    controller = d.pop("controller")
+    d.pop("command", None)
+    scen = parse_scenario(d, model, limits)
+    try:
+        res = simulate_closed_loop(model, scen, controller)
+    except ControlError as exc:
+        raise FieldError("scenario.controller.gains", str(exc)) from None
+    series = req.series
+    if series is None:
+        from .services import DEFAULT_SERIES
+        series = [s for s in DEFAULT_SERIES if s in res.series] + ["x_ref"]
+    if form == "npz":
+        return result_npz(res, series)
+    out = result_json(res, series)
+    if "x_ref" in out["units"]:
+        out["units"]["x_ref"] = "m"
+    return out

@@ -158,7 +158,13 @@ def simulate_closed_loop(model, scenario, controller=None, raise_on_error=True, 
                   ev_kind[:n_ev], ev_mode[:n_ev], stats, status, t_reached, []).result()
     x_ref = sp.evaluate(res.t)[0]
     res.series["x_ref"] = x_ref
-    metrics = control_metrics(res.t, res.series["x"], x_ref, sp.moves(),
+    moves = sp.moves()
+    x_start = float(res.series["x"][0])
+    if sp.kind in ("step", "multi_step", "recorded") and sp.pts[0, 1] != x_start \
+            and (not moves or moves[0][0] > sp.pts[0, 0]):
+        # the first setpoint away from where the piston starts is a move too
+        moves.insert(0, (float(sp.pts[0, 0]), x_start, float(sp.pts[0, 1])))
+    metrics = control_metrics(res.t, res.series["x"], x_ref, moves,
                               res.series.get("q_supply"), int(cst[C.CST_SWITCHES]), band)
     metrics.update(kind=kind.name, sample_period=Ts,
                    gains={g.name: float(gains[i]) for i, g in enumerate(kind.gains)})

@@ -131,7 +131,8 @@ def linearize(model, x=None, p_a=None, p_b=None, u=0.0, frequencies=None):
     x : float or None
         Position [m]; None = mid-stroke
     p_a, p_b : float or None
-        Chamber pressures [Pa abs]; None = the equilibrium (:func:`equilibrium_pressures`)
+        Chamber pressures [Pa abs]; None = the equilibrium (:func:`equilibrium_pressures`):
+        both None, the valve's null (:func:`_null_pressures`) where it has flow gain
     u : float
         Valve command at the operating point [-]
     frequencies : array_like or None
@@ -171,9 +172,12 @@ def linearize(model, x=None, p_a=None, p_b=None, u=0.0, frequencies=None):
                          f"[{lo:g}, {hi:g}] [-]")
     if eff.b_chamber_pressure is not None:
         p_b = eff.b_chamber_pressure
+    null = p_a is None and p_b is None
     p_a, p_b = equilibrium_pressures(eff, x, p_a, p_b)
     if eff.b_chamber_pressure is not None:
         p_b = eff.b_chamber_pressure
+    if null:
+        p_a, p_b = _null_pressures(model, eff, x, u, p_a, p_b)
     initial = {"p_a": p_a} if eff.b_chamber_pressure is not None else {"p_a": p_a, "p_b": p_b}
     scen = Scenario.from_dict({"x0": x, "initial": initial, "command": [[0.0, u]],
                                "duration": 1.0}, model)
@@ -224,6 +228,54 @@ def linearize(model, x=None, p_a=None, p_b=None, u=0.0, frequencies=None):
             "isothermal": closed_form_natural_frequency(eff, x, p_a, p_b, 1.0) / (2 * math.pi),
             "adiabatic": closed_form_natural_frequency(eff, x, p_a, p_b, gamma) / (2 * math.pi)},
     }
+
+
+def _null_pressures(model, eff, x, u, p_a, p_b):
+    """The valve's null pressures at the command ``u``: the force balance (Eq. 17) with chamber
+    A's pressure where the flow into it for ``u + DU`` is the opposite of that for ``u - DU``
+    (supply and exhaust edges pass the same flow, paper Eq. 4-5), found by bisection between
+    ambient and supply. A valve with no flow either side (inside an overlap) keeps ``p_a``,
+    ``p_b`` (:func:`equilibrium_pressures`). This is the operating point of a critically
+    lapped valve at rest, about which its flow gain is the same both ways."""
+    from pneucore.simulate import build_core
+    from pneucore.spec.scenario import Scenario
+
+    lo_u, hi_u = model.valve.opening_range
+    if eff.b_chamber_pressure is not None or u - DU < lo_u or u + DU > hi_u:
+        return p_a, p_b
+    scen = Scenario.from_dict({"x0": x, "initial": {"p_a": p_a, "p_b": p_b},
+                               "command": [[0.0, u]], "duration": 1.0}, model)
+    core = build_core(model, scen)
+    y0 = core["y0"]
+    prm, iy, tx, tC, tb, tm, toff, prm_user, scratch = core["model"]
+    aux = np.zeros(L.N_AUX)
+    n = y0.shape[0]
+
+    def imbalance(pa):
+        pa, pb = equilibrium_pressures(eff, x, pa, None)
+        y = y0.copy()
+        y[L.Y_MA] *= pa / p_a
+        y[L.Y_MB] *= pb / p_b
+        q = []
+        for uu in (u + DU, u - DU):
+            dy = np.zeros(n)
+            rhs(0.0, y, L.MODE_STICK, uu, prm, iy, tx, tC, tb, tm, toff, prm_user, scratch, dy,
+                aux)
+            q.append(dy[L.Y_MA])
+        return q[0] + q[1], q[0] - q[1]
+    lo, hi = eff.ambient.pressure * 1.001, eff.supply.pressure * 0.999
+    f_lo, gain = imbalance(lo)
+    f_hi, _ = imbalance(hi)
+    if gain == 0.0 or f_lo * f_hi > 0.0:
+        return p_a, p_b
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        f_mid, _ = imbalance(mid)
+        if (f_mid > 0.0) == (f_lo > 0.0):
+            lo, f_lo = mid, f_mid
+        else:
+            hi = mid
+    return equilibrium_pressures(eff, x, 0.5 * (lo + hi), None)
 
 
 def _mechanical_mode(A, scale):

@@ -1,0 +1,133 @@
+"""The loop closed inside the compiled core (issue 42): a P step against the linearised closed
+loop, PID without and with Coulomb friction, the dead band and the sliding law, bad input."""
+import math
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+from pneucore import model_preset
+from pneucore.control.closed_loop import ControlError, simulate_closed_loop
+from pneucore.control.linearize import linearize
+from pneucore.control.metrics import control_metrics
+from pneucore.control.models import servo_model
+from pneucore.spec.validation import FieldError
+
+TS = 1e-3       # the default controller sample period [s]
+
+
+def run(model, controller, duration=1.5, x0=0.1, p=5.3e5, **kw):
+    scen = {"duration": duration, "sample_period": TS, "x0": x0,
+            "initial": {"p_a": p, "p_b": p}, "controller": controller}
+    return simulate_closed_loop(model, scen, **kw)
+
+
+def test_small_p_step_matches_the_linearised_closed_loop():
+    # the linear plant at the valve's null (A, B, C from the core's right-hand side), sampled
+    # with the same zero-order hold, under the same P law: a 0.5 mm step. Settling time and
+    # overshoot within the issue's 5 % (measured 1.9 % and 0.6 %: the flow's dependence on
+    # the chamber pressure at a nonzero opening is of second order in the step)
+    m = servo_model()
+    x0, step, kp = 0.1, 5e-4, 15.0
+    lin = linearize(m, x=x0)
+    op = lin["operating_point"]
+    A, B, C = lin["A"], lin["B"], lin["C"]
+    n = A.shape[0]
+    M = np.zeros((n + 1, n + 1))
+    M[:n, :n] = A * TS
+    M[:n, n:] = B * TS
+    E = expm(M)
+    Ad, Bd = E[:n, :n], E[:n, n]
+    N = 1500
+    z = np.zeros(n)
+    xs = np.empty(N)
+    for k in range(N):
+        xs[k] = x0 + C[0] @ z
+        z = Ad @ z + Bd * (kp * (x0 + step - xs[k]))
+    t = np.arange(N) * TS
+    ml = control_metrics(t, xs, np.full(N, x0 + step), [(0.0, x0, x0 + step)])
+    res = run(m, {"kind": "pid", "gains": {"kp": kp}, "setpoint": [[0, x0 + step]]},
+              duration=(N - 1) * TS, p=op["p_a"])
+    mn = res.stats["control"]
+    assert ml["overshoot"] > 0.1                    # an underdamped loop: overshoot to compare
+    assert mn["overshoot"] == pytest.approx(ml["overshoot"], rel=0.05)
+    assert mn["settling_time"] == pytest.approx(ml["settling_time"], rel=0.05)
+    assert np.allclose(res.series["x_ref"], x0 + step)
+
+
+def test_pid_on_a_frictionless_jack_reaches_zero_steady_state_error():
+    # a 10 mm step; the remaining error below 10 um: 0.1 % of the move, above the solver's
+    # position tolerance (rtol 1e-5 x 0.25 m stroke = 2.5 um). The integral's unwinding
+    # decays with a time constant of ~0.3 s (measured), hence 3 s (0.3 um left at the end)
+    res = run(servo_model(), {"kind": "pid", "gains": {"kp": 15, "ki": 40, "kd": 0.1},
+                              "setpoint": [[0, 0.1], [0.05, 0.11]]}, duration=3.0)
+    c = res.stats["control"]
+    assert abs(c["steady_state_error"]) < 1e-5
+    assert c["settling_time"] is not None and c["rise_time"] > 0
+    assert res.stats["control"]["stable"]
+
+
+CF_GAINS = {"kp": 15, "ki": 60}
+
+
+def test_coulomb_friction_makes_the_pid_hunt_and_the_dead_band_or_sliding_law_stop_it():
+    # stick-slip with integral action: a limit cycle (measured 1 mm at 1.1 Hz). Thresholds:
+    # hunting above 0.2 mm (a fifth of it), none below 1 um (the position tolerance's order)
+    m = servo_model(coulomb=True)
+    sp = [[0, 0.1], [0.1, 0.11]]
+    hunt = run(m, {"kind": "pid", "gains": CF_GAINS, "setpoint": sp}, duration=3.0)
+    c = hunt.stats["control"]
+    assert c["hunting_amplitude"] > 2e-4 and c["hunting_frequency"] > 0.2
+    band = run(m, {"kind": "pid", "gains": dict(CF_GAINS, deadband=5e-4), "setpoint": sp},
+               duration=3.0).stats["control"]
+    assert band["hunting_amplitude"] < 1e-6
+    assert abs(band["steady_state_error"]) <= 5e-4 + 1e-6      # within the dead band
+    sliding = run(m, {"kind": "sliding_mode", "gains": {"lambda": 20, "k": 1.0, "phi": 0.1},
+                      "setpoint": sp}, duration=3.0).stats["control"]
+    assert sliding["hunting_amplitude"] < 1e-6
+
+
+def test_onoff_and_setpoint_shapes_run():
+    m = servo_model()
+    res = run(m, {"kind": "onoff", "gains": {"deadband": 1e-3, "level": 0.2},
+                  "setpoint": {"kind": "jerk_limited", "x0": 0.1, "x1": 0.15, "t0": 0.1,
+                               "v_max": 0.2, "a_max": 2.0, "j_max": 50.0}}, duration=1.0)
+    assert res.stats["control"]["switchings"] >= 2
+    assert res.series["x_ref"][-1] == pytest.approx(0.15)
+    for sp in ({"kind": "ramp", "x0": 0.1, "x1": 0.12, "t0": 0.1, "t1": 0.3},
+               {"kind": "sine", "center": 0.1, "amplitude": 0.005, "frequency": 2.0},
+               {"kind": "recorded", "t": [0, 0.2, 0.4], "x": [0.1, 0.11, 0.105]}):
+        r = run(m, {"kind": "pva", "gains": {"kp": 15, "kv": 0.05, "ff_v": 0.02},
+                    "setpoint": sp}, duration=0.6)
+        assert r.stats["control"]["rms_error"] < 5e-3
+
+
+def test_unstable_gains_end_with_a_clear_message():
+    # a gain 100x the tuned one on a 50 mm step: the piston slams between the end stops
+    with pytest.raises(ControlError) as exc:
+        run(servo_model(), {"kind": "pid", "gains": {"kp": 1500, "ki": 5000},
+                            "setpoint": [[0, 0.1], [0.05, 0.15]]}, duration=1.0)
+    assert "unstable" in str(exc.value) and "gains" in str(exc.value)
+
+
+@pytest.mark.parametrize("ctl,field", [
+    ({"kind": "pid", "gains": {"kp": float("nan")}, "setpoint": [[0, 0.1]]}, "scenario.controller.gains.kp"),
+    ({"kind": "pid", "gains": {}, "setpoint": [[0, 0.1]]}, "scenario.controller.gains.kp"),
+    ({"kind": "pid", "gains": {"kp": 1, "kq": 2}, "setpoint": [[0, 0.1]]}, "scenario.controller.gains.kq"),
+    ({"kind": "pid", "gains": {"kp": 1}, "setpoint": [[0, 0.1], [0.1, 0.3]]}, "scenario.controller.setpoint[1][1]"),
+    ({"kind": "pid", "gains": {"kp": 1}, "setpoint": {"kind": "sine", "center": 0.2, "amplitude": 0.1, "frequency": 1}}, "scenario.controller.setpoint"),
+    ({"kind": "nope", "gains": {}, "setpoint": [[0, 0.1]]}, "scenario.controller.kind"),
+    ({"kind": "pid", "gains": {"kp": 1}, "setpoint": [[0, 0.1]], "sample_period": 0}, "scenario.controller.sample_period"),
+])
+def test_bad_controller_input_names_the_field(ctl, field):
+    with pytest.raises(FieldError) as exc:
+        run(servo_model(), ctl, duration=0.1)
+    assert exc.value.path == field
+
+
+def test_a_proportional_controller_on_an_onoff_valve_is_refused():
+    with pytest.raises(FieldError) as exc:
+        simulate_closed_loop(model_preset("paper-3way"), {
+            "duration": 0.1, "x0": 0.1, "controller": {"kind": "pid", "gains": {"kp": 10},
+                                                       "setpoint": [[0, 0.1]]}})
+    assert exc.value.path == "scenario.controller.kind" and "3/2" in str(exc.value)
