@@ -24,3 +24,56 @@ def test_linearize_outside_the_stroke_is_a_422_naming_the_field(client):
                                             "operating_point": {"x": 0.5}})
     assert_field_error(r, "operating_point.x")
     assert "[m]" in r.text or " m " in r.text
+
+
+def servo():
+    from pneucore.control.models import servo_model
+    return servo_model()
+
+
+def closed(controller, **scen):
+    return {"model": servo(), "scenario": {"duration": 0.5, "sample_period": 0.001, "x0": 0.1,
+                                           "initial": {"p_a": 5.3e5, "p_b": 5.3e5},
+                                           "controller": controller, **scen}}
+
+
+def test_simulate_with_a_controller_answers_x_ref_and_control_stats(client):
+    r = client.post("/api/simulate", json=closed(
+        {"kind": "pid", "gains": {"kp": 15.0, "ki": 0.0, "kd": 0.0},
+         "setpoint": [[0, 0.1], [0.05, 0.11]]}))
+    assert r.status_code == 200, r.text
+    ans = r.json()
+    assert ans["units"]["x_ref"] == "m"
+    assert ans["series"]["x_ref"][-1] == 0.11
+    ctl = ans["stats"]["control"]
+    for k in ("rise_time", "settling_time", "overshoot", "steady_state_error"):
+        assert k in ctl
+    assert ctl["rise_time"] > 0 and ctl["overshoot"] >= 0
+    assert max(abs(u) for u in ans["series"]["u"]) <= 1.0     # clipped to the valve's range
+
+
+def test_unstable_gains_are_a_422_naming_the_gains(client):
+    r = client.post("/api/simulate", json=closed(
+        {"kind": "pid", "gains": {"kp": 1500, "ki": 5000}, "setpoint": [[0, 0.1], [0.05, 0.15]]},
+        duration=1.0))
+    assert_field_error(r, "scenario.controller.gains", msg_contains="unstable")
+
+
+def test_bad_gains_and_setpoints_are_422s_naming_field_and_unit(client):
+    r = client.post("/api/simulate", json=closed({"kind": "pid", "gains": {"kp": "inf"},
+                                                  "setpoint": [[0, 0.1]]}))
+    assert r.status_code == 422
+    r = client.post("/api/simulate", json=closed({"kind": "pid", "gains": {},
+                                                  "setpoint": [[0, 0.1]]}))
+    assert_field_error(r, "scenario.controller.gains.kp", msg_contains="1/m")
+    r = client.post("/api/simulate", json=closed({"kind": "pid", "gains": {"kp": 10},
+                                                  "setpoint": [[0, 0.4]]}))
+    assert_field_error(r, "scenario.controller.setpoint[0][1]", msg_contains="stroke")
+    m = model_preset("paper-3way")
+    r = client.post("/api/simulate", json={"model": m, "scenario": {
+        "duration": 0.1, "x0": 0.1, "controller": {"kind": "sliding_mode", "gains": {"lambda": 10},
+                                                   "setpoint": [[0, 0.1]]}}})
+    assert_field_error(r, "scenario.controller.kind", msg_contains="3/2")
+    body = closed({"kind": "pid", "gains": {"kp": 10}, "setpoint": [[0, 0.1]]})
+    body["scenario"]["command"] = [[0, 0.5]]
+    assert_field_error(client.post("/api/simulate", json=body), "scenario.command")
