@@ -24,7 +24,9 @@ from pneucore.control.setpoints import Setpoint
 from pneucore.core import controllers as C
 from pneucore.core import layout as L
 from pneucore.core.integrator import (ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES,
-                                     closed_core_for)
+                                     closed_core_for, closed_core_with_law)
+from pneucore.core import rhs as rhs_module
+from pneucore.core.rhs import no_terms
 from pneucore.result import CoreRun
 from pneucore.simulate import SimulationError, build_core, checked_sample_times, output_samples
 from pneucore.spec.model import Model, check_resolvable
@@ -129,7 +131,14 @@ def simulate_closed_loop(model, scenario, controller=None, raise_on_error=True, 
     cst = np.zeros(C.N_CST)
     ctl = (np.int64(kind.code), gains, ref, Ts, cst, np.array([lo, hi], float),
            np.int64(i_sens), np.zeros(C.N_MEAS))
-    run = closed_core_for(core["hook"], core["flow_laws"], core["friction_laws"])
+    if kind.law is not None:
+        if core["hook"] is not no_terms or core["flow_laws"] != rhs_module.flow_laws \
+                or core["friction_laws"] != rhs_module.friction_laws:
+            raise FieldError("scenario.controller.kind", "a user's controller runs on a model "
+                             "with the built-in laws and no effect adding compiled terms [-]")
+        run = closed_core_with_law(kind.law)
+    else:
+        run = closed_core_for(core["hook"], core["flow_laws"], core["friction_laws"])
     max_ev = scenario.solver.max_events
     cap = min(max_ev, 256)
     while True:

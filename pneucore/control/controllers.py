@@ -49,6 +49,8 @@ class ControllerKind:
     valves: tuple
     description: str
     slots: dict = field(default_factory=dict)
+    #: A user's compiled law (:func:`register_user_controller`); None for the built-in ones
+    law: object = None
 
     def pack(self, gains, path):
         """Checked gains as the core's vector (``G_*`` slots); errors name ``path.<gain>``."""
@@ -126,3 +128,57 @@ def controller_kind(name, path="controller.kind"):
     if name not in CONTROLLERS:
         raise FieldError(path, f"unknown controller {name!r}; registered: {sorted(CONTROLLERS)}")
     return CONTROLLERS[name]
+
+
+def register_user_controller(name, law, gains=(), valves=("4/2",), description=""):
+    """Register a user's own controller, compiled with numba, under ``name``.
+
+    Parameters
+    ----------
+    name : str
+        Its name (``controller.kind``) [-]
+    law : numba dispatcher
+        ``@njit`` function ``law(g, x_ref, v_ref, a_ref, meas, cst, Ts, u_lo, u_hi) -> u``:
+        gains vector (in the order of ``gains``), reference position [m], velocity [m/s],
+        acceleration [m/s^2], measured signals (``pneucore.core.controllers.MEAS_*``: x [m],
+        v [m/s], a [m/s^2], p_a, p_b [Pa abs], A_a, A_b [m^2], t [s]), memory (slots from
+        ``CST_USER0`` are the law's), sample period [s], valve range [-]; returns the valve
+        command (clipped to the range after it). No allocation, no Python objects.
+    gains : sequence of (name, unit, default) or Gain
+        Its gains, at most ``N_GAINS`` [-]
+    valves : tuple of str
+        Valve kinds it can drive [-]
+    description : str
+        One line [-]
+
+    Returns
+    -------
+    kind : ControllerKind
+        The registered kind; the first run compiles a core for it (about the first compile
+        of the core)
+
+    Examples
+    --------
+    >>> from numba import njit
+    >>> @njit
+    ... def bang(g, x_ref, v_ref, a_ref, meas, cst, Ts, u_lo, u_hi):
+    ...     return u_hi if x_ref > meas[0] + g[0] else (u_lo if x_ref < meas[0] - g[0] else 0.0)
+    >>> kind = register_user_controller("my_bang", bang, [("band", "m", 1e-3)])
+    >>> kind.code == C.CTL_USER
+    True
+    >>> unregister_controller("my_bang")
+    """
+    if name in CONTROLLERS and CONTROLLERS[name].law is None:
+        raise ValueError(f"{name!r} is a built-in controller")
+    gs = tuple(g if isinstance(g, Gain) else Gain(g[0], g[1], g[2] if len(g) > 2 else None,
+                                                   -math.inf) for g in gains)
+    if len(gs) > C.N_GAINS:
+        raise ValueError(f"at most {C.N_GAINS} gains")
+    return register_controller(ControllerKind(name, C.CTL_USER, gs, tuple(valves),
+                                              description or "user controller", law=law))
+
+
+def unregister_controller(name):
+    """Remove a user's controller (a built-in one stays)."""
+    if name in CONTROLLERS and CONTROLLERS[name].law is not None:
+        del CONTROLLERS[name]

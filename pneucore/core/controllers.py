@@ -27,7 +27,7 @@ import math
 
 from numba import njit
 
-CTL_PID, CTL_SLIDING, CTL_ONOFF, CTL_PVA, CTL_FORCE = range(5)
+CTL_PID, CTL_SLIDING, CTL_ONOFF, CTL_PVA, CTL_FORCE, CTL_USER = range(6)
 
 # measured signals
 MEAS_X, MEAS_V, MEAS_A, MEAS_PA, MEAS_PB, MEAS_AA, MEAS_AB, MEAS_T = range(8)
@@ -36,7 +36,9 @@ N_MEAS = 8
 # controller memory: integral [m s], previous error [m], filtered derivative [-], last
 # output [-], valve switchings [-] (changes of the sign of the output), started flag
 CST_INT, CST_EPREV, CST_DFILT, CST_ULAST, CST_SWITCHES, CST_STARTED = range(6)
-N_CST = 8
+N_CST = 16
+#: First memory slot free for a user's law (slots CST_USER0 .. N_CST - 1)
+CST_USER0 = 8
 
 # gains of each kind (slots in ``g``)
 G_KP, G_KI, G_KD, G_TF, G_DEADBAND, G_KFF = range(6)                 # pid
@@ -50,6 +52,16 @@ N_GAINS = 8
 @njit(cache=True, error_model="numpy", _nrt=False)
 def _clip(u, lo, hi):
     return lo if u < lo else (hi if u > hi else u)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def user_law(g, x_ref, v_ref, a_ref, meas, cst, Ts, u_lo, u_hi):
+    """The user law slot (``CTL_USER``): the valve's centre. A user's controller
+    (:func:`pneucore.control.controllers.register_user_controller`) runs in a core compiled
+    with this name bound to its own law (:func:`pneucore.core.integrator.closed_core_with_law`),
+    same signature: gains, reference [m, m/s, m/s^2], measured signals (``MEAS_*``), memory
+    (slots from ``CST_USER0`` free), sample period [s], valve range [-]; returns the command."""
+    return 0.5 * (u_lo + u_hi)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -119,6 +131,8 @@ def control_law(code, g, x_ref, v_ref, a_ref, meas, cst, Ts, u_lo, u_hi):
     elif code == CTL_PVA:
         u = mid + g[G_PVA_KP] * e + g[G_PVA_KV] * (v_ref - v) + g[G_PVA_KA] * (a_ref - meas[MEAS_A]) \
             + g[G_FFV] * v_ref + g[G_FFA] * a_ref
+    elif code == CTL_USER:
+        u = user_law(g, x_ref, v_ref, a_ref, meas, cst, Ts, u_lo, u_hi)
     else:
         f_ref = g[G_KX] * e + g[G_FKD] * (v_ref - v)
         f_meas = meas[MEAS_PA] * meas[MEAS_AA] - meas[MEAS_PB] * meas[MEAS_AB]

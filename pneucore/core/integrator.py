@@ -1476,6 +1476,41 @@ def closed_core_for(hook, flow_laws, friction_laws):
     return _SPECIALIZED[(hook, tuple(flow_laws), tuple(friction_laws))]["integrate_closed"]
 
 
+_WITH_LAW = {}
+
+
+def closed_core_with_law(law):
+    """A compiled copy of :func:`integrate_closed` whose controller code ``CTL_USER`` calls
+    ``law`` (a user's controller, :func:`pneucore.control.controllers.register_user_controller`):
+    :func:`pneucore.core.controllers.control_law` re-created with ``user_law`` bound to it, and
+    every function of this module on the way to it (:func:`_chain`) re-created to call the
+    copy, as :func:`specialize` does for a user hook. Compiled in memory on first use (about
+    the first compile of the core), memoised per law; the default hook and law tables only.
+
+    Parameters
+    ----------
+    law : numba dispatcher
+        ``law(g, x_ref, v_ref, a_ref, meas, cst, Ts, u_lo, u_hi) -> u``
+
+    Returns
+    -------
+    integrate_closed : numba dispatcher
+        Same signature as :func:`integrate_closed`
+    """
+    from pneucore.core import controllers as ctl_module
+
+    if law in _WITH_LAW:
+        return _WITH_LAW[law]
+    ctl_globals = dict(ctl_module.__dict__)
+    ctl_globals["user_law"] = law
+    glb = dict(globals())
+    glb["control_law"] = _clone(ctl_module.control_law, ctl_globals)
+    for name in _chain(globals(), __name__, ("control_law",)):
+        glb[name] = _clone(globals()[name], glb)
+    _WITH_LAW[law] = glb["integrate_closed"]
+    return _WITH_LAW[law]
+
+
 def has_lines(model):
     """Whether a core model tuple (:func:`pneucore.simulate.build_core`) holds a line in
     segments on either port (a line term's state position set), which
