@@ -75,3 +75,10 @@ def closed_loop_simulation(req, limits, max_steps=None, form="json"):
     if "x_ref" in out["units"]:
         out["units"]["x_ref"] = "m"
     return out
+
+
+def controllers_answer():
+    """GET /api/controllers: each registered controller kind, its gains (unit, default) and
+    the valve kinds it drives."""
+    from pneucore.control.controllers import CONTROLLERS
+    return {"controllers": [k.describe() for k in CONTROLLERS.values()]}

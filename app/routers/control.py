@@ -5,7 +5,7 @@ from fastapi import APIRouter
 
 from ..control_schemas import LinearizeRequest, LinearizeResponse
 from ..responses import JSON
-from ..services import linearize_answer
+from ..services import controllers_answer, linearize_answer
 
 router = APIRouter(prefix="/api", tags=["control"])
 
@@ -14,3 +14,9 @@ router = APIRouter(prefix="/api", tags=["control"])
              summary="Linearise the actuator at an operating point (poles, natural frequency, A, B, C, D)")
 def linearize_endpoint(req: LinearizeRequest):
     return JSON(linearize_answer(req))
+
+
+@router.get("/controllers", response_class=JSON,
+            summary="Controller kinds for a scenario's controller: gains (unit, default), valves")
+def controllers_endpoint():
+    return JSON(controllers_answer())

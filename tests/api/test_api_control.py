@@ -77,3 +77,12 @@ def test_bad_gains_and_setpoints_are_422s_naming_field_and_unit(client):
     body = closed({"kind": "pid", "gains": {"kp": 10}, "setpoint": [[0, 0.1]]})
     body["scenario"]["command"] = [[0, 0.5]]
     assert_field_error(client.post("/api/simulate", json=body), "scenario.command")
+
+
+def test_controllers_are_listed_with_their_gains_units(client):
+    r = client.get("/api/controllers")
+    assert r.status_code == 200
+    kinds = {c["kind"]: c for c in r.json()["controllers"]}
+    assert {"pid", "sliding_mode", "onoff", "pva", "force_pid"} <= set(kinds)
+    assert kinds["pid"]["gains"]["kp"]["unit"] == "1/m"
+    assert "3/2" in kinds["onoff"]["valves"] and "3/2" not in kinds["pid"]["valves"]
