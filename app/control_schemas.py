@@ -54,3 +54,13 @@ class ControllerInfo(BaseModel):
     description: str
     gains: dict[str, Any]
     valves: list[str]
+
+
+class ControlStudyRequest(_Strict):
+    study: dict[str, Any] = Field(..., description="A robustness study (model, scenario with a controller, parameters by path with grids or distributions, samples, seed); see docs/control.md")
+
+
+class TuneRequest(_Strict):
+    study: dict[str, Any] = Field(..., description="The ensemble: a closed-loop study (its controller's gains are the base)")
+    gains: dict[str, list[Number]] = Field(..., description="Gain values to try, full factorial, SI units of the controller's gains")
+    objective: str = Field("rms_error", max_length=64, description="Metric whose worst |value| over the ensemble is minimised: rise_time, settling_time [s], overshoot [-], steady_state_error, rms_error, hunting_amplitude [m], ...")

@@ -82,3 +82,21 @@ def controllers_answer():
     the valve kinds it drives."""
     from pneucore.control.controllers import CONTROLLERS
     return {"controllers": [k.describe() for k in CONTROLLERS.values()]}
+
+
+def check_control_study(req):
+    """A closed-loop study or tuning request checked before its job starts (422 now)."""
+    from pneucore.control.robustness import check_study
+    check_study(req.study)
+
+
+def run_control_study(req, progress=None):
+    """The closed-loop study job's work (:func:`pneucore.control.robustness.closed_loop_study`)."""
+    from pneucore.control.robustness import closed_loop_study
+    return closed_loop_study(req.study, progress)
+
+
+def run_tune(req, progress=None):
+    """The tuning job's work (:func:`pneucore.control.robustness.tune_controller`)."""
+    from pneucore.control.robustness import tune_controller
+    return tune_controller(req.study, dict(req.gains), req.objective, progress)

@@ -1,11 +1,14 @@
 """POST /api/linearize: the actuator's state-space model at an operating point (issue 42,
 item 5; :mod:`pneucore.control.linearize`). Closed-loop runs go through POST /api/simulate
 with a scenario's ``controller``."""
-from fastapi import APIRouter
+from fastapi import APIRouter, HTTPException
 
-from ..control_schemas import LinearizeRequest, LinearizeResponse
+from ..control_schemas import ControlStudyRequest, LinearizeRequest, LinearizeResponse, TuneRequest
+from ..deps import JobsDep
 from ..responses import JSON
-from ..services import controllers_answer, linearize_answer
+from ..schemas import JobResponse
+from ..services import (check_control_study, controllers_answer, linearize_answer,
+                        run_control_study, run_tune)
 
 router = APIRouter(prefix="/api", tags=["control"])
 
@@ -20,3 +23,24 @@ def linearize_endpoint(req: LinearizeRequest):
             summary="Controller kinds for a scenario's controller: gains (unit, default), valves")
 def controllers_endpoint():
     return JSON(controllers_answer())
+
+
+def _job(jobs, kind, fn):
+    try:
+        return jobs.submit(kind, fn).to_dict(with_result=False)
+    except RuntimeError as exc:
+        raise HTTPException(429, str(exc)) from None
+
+
+@router.post("/jobs/control-study", status_code=202, response_model=JobResponse,
+             summary="Closed-loop robustness over a study's parameter sets, as a job")
+def control_study_job(req: ControlStudyRequest, jobs: JobsDep):
+    check_control_study(req)
+    return _job(jobs, "control-study", lambda job: run_control_study(req, job.report))
+
+
+@router.post("/jobs/tune-controller", status_code=202, response_model=JobResponse,
+             summary="Rank controller gains on their worst case over a study's ensemble, as a job")
+def tune_job(req: TuneRequest, jobs: JobsDep):
+    check_control_study(req)
+    return _job(jobs, "tune-controller", lambda job: run_tune(req, job.report))

@@ -31,6 +31,17 @@ STUDY_METRICS = ("rise_time", "settling_time", "overshoot", "steady_state_error"
 MAX_TUNING_RUNS = 5000
 
 
+def check_study(definition):
+    """The closed-loop study checked (a FieldError naming the field), before any run: the
+    :class:`pneucore.study.definition.Study` and the controller, checked against the nominal
+    model."""
+    from pneucore.control.closed_loop import parse_controller
+
+    study, controller = _split(definition)
+    parse_controller(controller, study.model, study.scenario.duration)
+    return study, controller
+
+
 def _split(definition):
     from pneucore.study.definition import Study
 

@@ -86,3 +86,24 @@ def test_controllers_are_listed_with_their_gains_units(client):
     assert {"pid", "sliding_mode", "onoff", "pva", "force_pid"} <= set(kinds)
     assert kinds["pid"]["gains"]["kp"]["unit"] == "1/m"
     assert "3/2" in kinds["onoff"]["valves"] and "3/2" not in kinds["pid"]["valves"]
+
+
+def _study():
+    return {"model": servo(), "parameters": {"jack.moving_mass": {"grid": [1.0, 4.0]}},
+            "scenario": {"duration": 0.5, "x0": 0.1, "initial": {"p_a": 5.3e5, "p_b": 5.3e5},
+                         "controller": {"kind": "pid", "gains": {"kp": 15},
+                                        "setpoint": [[0, 0.1], [0.05, 0.11]]}}}
+
+
+def test_tuning_runs_as_a_job_and_bad_studies_are_422s_now(client):
+    from api_conftest import wait_job
+    r = client.post("/api/jobs/tune-controller", json={"study": _study(), "gains": {"kp": [5, 10]},
+                                                        "objective": "overshoot"})
+    assert r.status_code == 202, r.text
+    job, _ = wait_job(client, r.json()["id"])
+    assert job["status"] == "done", job
+    assert job["result"]["best"]["gains"]["kp"] in (5, 10)
+    bad = _study()
+    bad["scenario"]["controller"]["gains"] = {"kp": -1}
+    assert_field_error(client.post("/api/jobs/control-study", json={"study": bad}),
+                       "scenario.controller.gains.kp")
