@@ -50,10 +50,14 @@ class ControllerIn(_Strict):
 
 
 class ControllerInfo(BaseModel):
-    kind: str
-    description: str
-    gains: dict[str, Any]
-    valves: list[str]
+    kind: str = Field(..., description="Name, for scenario.controller.kind")
+    description: str = Field(..., description="The law, in words")
+    gains: dict[str, Any] = Field(..., description="Each gain's unit, default (null: required) and description")
+    valves: list[str] = Field(..., description="Valve kinds it can drive")
+
+
+class ControllersResponse(BaseModel):
+    controllers: list[ControllerInfo] = Field(..., description="The registered controller kinds")
 
 
 class ControlStudyRequest(_Strict):

@@ -3,7 +3,8 @@ item 5; :mod:`pneucore.control.linearize`). Closed-loop runs go through POST /ap
 with a scenario's ``controller``."""
 from fastapi import APIRouter, HTTPException
 
-from ..control_schemas import ControlStudyRequest, LinearizeRequest, LinearizeResponse, TuneRequest
+from ..control_schemas import (ControllersResponse, ControlStudyRequest, LinearizeRequest,
+                               LinearizeResponse, TuneRequest)
 from ..deps import JobsDep
 from ..responses import JSON
 from ..schemas import JobResponse
@@ -19,7 +20,7 @@ def linearize_endpoint(req: LinearizeRequest):
     return JSON(linearize_answer(req))
 
 
-@router.get("/controllers", response_class=JSON,
+@router.get("/controllers", response_class=JSON, response_model=ControllersResponse,
             summary="Controller kinds for a scenario's controller: gains (unit, default), valves")
 def controllers_endpoint():
     return JSON(controllers_answer())
