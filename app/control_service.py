@@ -84,10 +84,13 @@ def controllers_answer():
     return {"controllers": [k.describe() for k in CONTROLLERS.values()]}
 
 
-def check_control_study(req):
-    """A closed-loop study or tuning request checked before its job starts (422 now)."""
+def check_control_study(req, limits):
+    """A closed-loop study or tuning request checked before its job starts (422 now): the
+    study, its controller, and its scenario within the API's limits (duration, samples)."""
     from pneucore.control.robustness import check_study
-    check_study(req.study)
+    from .deps import check_scenario_limits
+    study, _ = check_study(req.study)
+    check_scenario_limits(study.scenario, limits, "study.scenario")
 
 
 def run_control_study(req, progress=None):

@@ -5,7 +5,7 @@ from fastapi import APIRouter, HTTPException
 
 from ..control_schemas import (ControllersResponse, ControlStudyRequest, LinearizeRequest,
                                LinearizeResponse, TuneRequest)
-from ..deps import JobsDep
+from ..deps import JobsDep, LimitsDep
 from ..responses import JSON
 from ..schemas import JobResponse
 from ..services import (check_control_study, controllers_answer, linearize_answer,
@@ -35,13 +35,13 @@ def _job(jobs, kind, fn):
 
 @router.post("/jobs/control-study", status_code=202, response_model=JobResponse,
              summary="Closed-loop robustness over a study's parameter sets, as a job")
-def control_study_job(req: ControlStudyRequest, jobs: JobsDep):
-    check_control_study(req)
+def control_study_job(req: ControlStudyRequest, jobs: JobsDep, limits: LimitsDep):
+    check_control_study(req, limits)
     return _job(jobs, "control-study", lambda job: run_control_study(req, job.report))
 
 
 @router.post("/jobs/tune-controller", status_code=202, response_model=JobResponse,
              summary="Rank controller gains on their worst case over a study's ensemble, as a job")
-def tune_job(req: TuneRequest, jobs: JobsDep):
-    check_control_study(req)
+def tune_job(req: TuneRequest, jobs: JobsDep, limits: LimitsDep):
+    check_control_study(req, limits)
     return _job(jobs, "tune-controller", lambda job: run_tune(req, job.report))

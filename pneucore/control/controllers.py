@@ -125,7 +125,7 @@ register_controller(ControllerKind(
 
 def controller_kind(name, path="controller.kind"):
     """The registered kind ``name``; an unknown name is a FieldError listing the kinds."""
-    if name not in CONTROLLERS:
+    if not isinstance(name, str) or name not in CONTROLLERS:
         raise FieldError(path, f"unknown controller {name!r}; registered: {sorted(CONTROLLERS)}")
     return CONTROLLERS[name]
 
