@@ -42,7 +42,6 @@ function ctlRenderGains() {
     input.type = 'number';
     input.step = 'any';
     input.dataset.gain = name;
-    input.dataset.field = `scenario.controller.gains.${name}`;
   }
 }
 
@@ -69,7 +68,10 @@ function ctlRequest() {
     if (input.value.trim() !== '') gains[input.dataset.gain] = Number(input.value);
   }
   let setpoint;
-  try { setpoint = JSON.parse(document.getElementById('control-setpoint').value); } catch (e) {
+  const x0v = Number(document.getElementById('control-x0').value);
+  const text = document.getElementById('control-setpoint').value.trim();
+  // an empty field: a 20 mm step from the start position at 50 ms
+  try { setpoint = text ? JSON.parse(text) : [[0, x0v], [0.05, x0v + 0.02]]; } catch (e) {
     throw new Error('setpoint: not valid JSON ([[t [s], x [m]], ...] or {"kind": ...})');
   }
   const x0 = Number(document.getElementById('control-x0').value);

@@ -34,6 +34,7 @@ def test_a_closed_loop_runs_and_its_metrics_show(page):
     # the paper's valve has a 15 % overlap: a proportional gain large enough to open it
     page.select_option("#control-kind", "sliding_mode")
     page.fill("#control-gain-lambda", "20")
+    page.fill("#control-setpoint", "[[0, 0.1], [0.05, 0.12]]")
     page.click("#btn-control-run")
     page.wait_for_function("""() => document.getElementById('panel-control').dataset.ran
         || document.getElementById('status').classList.contains('error')""")
