@@ -11,6 +11,7 @@ pid             kp [1/m] (valve opening per metre of error), ki [1/(m s)], kd [s
 sliding_mode    lambda [1/s] (surface slope), k [-] (valve opening at the layer's edge),
                 phi [m/s] (boundary layer width)
 onoff           deadband [m], level [-] (fraction of the valve's half range)
+pwm             kp [1/m] (duty per metre of error), period [s], deadband [m], level [-]
 pva             kp [1/m], kv [s/m], ka [s^2/m], ff_v [s/m], ff_a [s^2/m]
 force_pid       kx [N/m], kd [N s/m] (position loop giving the force reference), kf [1/N]
                 (inner pressure-difference loop: opening per newton of force error)
@@ -112,6 +113,13 @@ register_controller(ControllerKind(
     (Gain("deadband", "m", 1e-3, description="error dead band: valve centred inside it"),
      Gain("level", "-", 1.0, _TINY, "opening outside the dead band, fraction of the half range")),
     ("4/2", "3/2"), "on/off with dead band (three positions; a 3/2 valve: supply/exhaust)"))
+register_controller(ControllerKind(
+    "pwm", C.CTL_PWM,
+    (Gain("kp", "1/m", None, _TINY, "duty cycle per metre of error"),
+     Gain("period", "s", 0.01, _TINY, "PWM period (rounded to whole sample periods)"),
+     Gain("deadband", "m", 0.0, description="error dead band: duty zero inside it"),
+     Gain("level", "-", 1.0, _TINY, "opening while on, fraction of the half range")),
+    ("4/2", "3/2"), "PWM of an on/off valve: duty proportional to the error, dead band"))
 register_controller(ControllerKind(
     "pva", C.CTL_PVA,
     (Gain("kp", "1/m", None), Gain("kv", "s/m", 0.0), Gain("ka", "s^2/m", 0.0),

@@ -21,13 +21,16 @@ The laws (codes ``CTL_*``; names, gains and checks in :mod:`pneucore.control.con
 * PVA state feedback with feedforward: ``u = kp e + kv (v_ref - v) + ka (a_ref - a)
   + ff_v v_ref + ff_a a_ref``;
 * force loop: a pressure-difference (force) inner loop under a PD position loop,
-  ``F_ref = kx e + kd (v_ref - v)``, ``u = kf (F_ref - (p_a A_a - p_b A_b))``.
+  ``F_ref = kx e + kd (v_ref - v)``, ``u = kf (F_ref - (p_a A_a - p_b A_b))``;
+* PWM of an on/off valve: at the start of each PWM period (a whole number of samples) the
+  duty ``min(kp |e|, 1)`` towards the error (zero inside the dead band); the valve at
+  ``level`` for that share of the period's samples, centred for the rest.
 """
 import math
 
 from numba import njit
 
-CTL_PID, CTL_SLIDING, CTL_ONOFF, CTL_PVA, CTL_FORCE, CTL_USER = range(6)
+CTL_PID, CTL_SLIDING, CTL_ONOFF, CTL_PVA, CTL_FORCE, CTL_USER, CTL_PWM = range(7)
 
 # measured signals
 MEAS_X, MEAS_V, MEAS_A, MEAS_PA, MEAS_PB, MEAS_AA, MEAS_AB, MEAS_T = range(8)
@@ -35,7 +38,8 @@ N_MEAS = 8
 
 # controller memory: integral [m s], previous error [m], filtered derivative [-], last
 # output [-], valve switchings [-] (changes of the sign of the output), started flag
-CST_INT, CST_EPREV, CST_DFILT, CST_ULAST, CST_SWITCHES, CST_STARTED = range(6)
+CST_INT, CST_EPREV, CST_DFILT, CST_ULAST, CST_SWITCHES, CST_STARTED, CST_PWM_K, \
+    CST_PWM_DUTY = range(8)
 N_CST = 16
 #: First memory slot free for a user's law (slots CST_USER0 .. N_CST - 1)
 CST_USER0 = 8
@@ -46,6 +50,7 @@ G_LAMBDA, G_K, G_PHI = range(3)                                       # sliding 
 G_OO_DEADBAND, G_LEVEL = range(2)                                     # on/off
 G_PVA_KP, G_PVA_KV, G_PVA_KA, G_FFV, G_FFA = range(5)                 # pva
 G_KX, G_FKD, G_KF = range(3)                                          # force loop
+G_PWM_KP, G_PWM_PERIOD, G_PWM_DEADBAND, G_PWM_LEVEL = range(4)        # pwm
 N_GAINS = 8
 
 
@@ -131,6 +136,20 @@ def control_law(code, g, x_ref, v_ref, a_ref, meas, cst, Ts, u_lo, u_hi):
     elif code == CTL_PVA:
         u = mid + g[G_PVA_KP] * e + g[G_PVA_KV] * (v_ref - v) + g[G_PVA_KA] * (a_ref - meas[MEAS_A]) \
             + g[G_FFV] * v_ref + g[G_FFA] * a_ref
+    elif code == CTL_PWM:
+        n = max(1, int(round(g[G_PWM_PERIOD] / Ts)))
+        k = int(cst[CST_PWM_K])
+        if k == 0:
+            duty = min(g[G_PWM_KP] * abs(e), 1.0)
+            if abs(e) <= g[G_PWM_DEADBAND]:
+                duty = 0.0
+            cst[CST_PWM_DUTY] = duty if e >= 0.0 else -duty
+        d = cst[CST_PWM_DUTY]
+        if k < int(round(abs(d) * n)):
+            u = mid + (g[G_PWM_LEVEL] * half if d > 0.0 else -g[G_PWM_LEVEL] * half)
+        else:
+            u = mid
+        cst[CST_PWM_K] = float((k + 1) % n)
     elif code == CTL_USER:
         u = user_law(g, x_ref, v_ref, a_ref, meas, cst, Ts, u_lo, u_hi)
     else:

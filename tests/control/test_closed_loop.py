@@ -169,3 +169,16 @@ def test_a_users_controller_runs_in_the_core_like_the_built_in_one():
         assert mine.stats["control"]["kind"] == "my_p"
     finally:
         unregister_controller("my_p")
+
+
+def test_pwm_drives_the_valve_on_off_and_reaches_the_dead_band():
+    # duty kp |e| over 10 ms periods: the command takes the centre or +-level only, and the
+    # piston ends within the dead band (1 mm) of a 10 mm step; the valve switches many times
+    res = run(servo_model(), {"kind": "pwm", "gains": {"kp": 50, "period": 0.01, "deadband": 1e-3,
+                                                       "level": 0.2},
+                              "setpoint": [[0, 0.1], [0.05, 0.11]]}, duration=1.5)
+    u = set(np.round(res.series["u"], 12))
+    assert u <= {0.0, 0.2, -0.2}
+    c = res.stats["control"]
+    assert abs(c["steady_state_error"]) <= 1e-3 + 1e-6
+    assert c["switchings"] >= 4
