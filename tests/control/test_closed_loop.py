@@ -182,3 +182,44 @@ def test_pwm_drives_the_valve_on_off_and_reaches_the_dead_band():
     c = res.stats["control"]
     assert abs(c["steady_state_error"]) <= 1e-3 + 1e-6
     assert c["switchings"] >= 4
+
+
+def _amplitude(t, y, f, t_from):
+    """Amplitude of the f-Hz component of y over t >= t_from (least squares on sin, cos, 1)."""
+    w = t >= t_from
+    tt = t[w]
+    X = np.column_stack([np.sin(2 * np.pi * f * tt), np.cos(2 * np.pi * f * tt), np.ones_like(tt)])
+    c = np.linalg.lstsq(X, y[w], rcond=None)[0]
+    return float(np.hypot(c[0], c[1]))
+
+
+@pytest.mark.parametrize("f", [2.0, 6.0])
+def test_small_sine_tracking_matches_the_linearised_closed_loop(f):
+    # a 0.3 mm sine setpoint under P control at the valve's null: the tracked amplitude of
+    # the nonlinear run against the linear model under the same law and ZOH, 5 % (the
+    # issue's tolerance for the linear checks; measured gains 0.947 vs 0.950 at 2 Hz, 1.143 vs
+    # 1.148 at 6 Hz: 0.4 %)
+    m = servo_model()
+    x0, amp, kp = 0.1, 3e-4, 15.0
+    lin = linearize(m, x=x0)
+    A, B, C = lin["A"], lin["B"], lin["C"]
+    n = A.shape[0]
+    M = np.zeros((n + 1, n + 1))
+    M[:n, :n] = A * TS
+    M[:n, n:] = B * TS
+    E = expm(M)
+    Ad, Bd = E[:n, :n], E[:n, n]
+    N = 2001
+    t = np.arange(N) * TS
+    ref = x0 + amp * np.sin(2 * np.pi * f * t)
+    z = np.zeros(n)
+    xs = np.empty(N)
+    for k in range(N):
+        xs[k] = x0 + C[0] @ z
+        z = Ad @ z + Bd * (kp * (ref[k] - xs[k]))
+    res = run(m, {"kind": "pid", "gains": {"kp": kp},
+                  "setpoint": {"kind": "sine", "center": x0, "amplitude": amp, "frequency": f}},
+              duration=(N - 1) * TS, p=lin["operating_point"]["p_a"])
+    a_lin = _amplitude(t, xs, f, 1.0)
+    a_sim = _amplitude(res.t, res.series["x"], f, 1.0)
+    assert a_sim == pytest.approx(a_lin, rel=0.05)
