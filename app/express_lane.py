@@ -63,6 +63,8 @@ def loop_candidate(req: SimulateRequest) -> bool:
     :data:`LOOP_MAX_COMMAND_POINTS` breakpoints."""
     if not integrate.overloads:   # not compiled (or loaded from the cache) yet in this process
         return False
+    if getattr(req.scenario, "controller", None) is not None:   # closed loop: its own core
+        return False
     if any(EFFECTS[n].terms is not None for n in (req.model.effects or {}) if n in EFFECTS):
         return False
     if names_runtime_law(req.model):   # a law registered at run time: its core may need compiling

@@ -42,6 +42,7 @@ from .routers import models
 from .routers import identify
 from .routers import sizing
 from .routers import valve
+from .routers import control
 from .schemas import NO_CONTROL, LimitsResponse, SampleInfo
 from .security import Guard
 from .store import DamagedRecord, ServerLock, Store, StoreUnavailable, disk_full, storage_fault
@@ -246,6 +247,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(identify.jobs_router)
     app.include_router(sizing.router)
     app.include_router(valve.router)
+    app.include_router(control.router)
 
     @app.get("/api/limits", tags=["meta"], summary="The documented size and time limits",
              response_model=LimitsResponse)

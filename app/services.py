@@ -49,6 +49,8 @@ from pneucore.study import (Study, check_run_options, delete_study, list_studies
                             study_results, study_status)
 
 from .config import STUDY_CLUSTERS, Limits
+from .control_service import (check_control_study, closed_loop_simulation, controllers_answer,  # noqa: F401
+                              linearize_answer, run_control_study, run_tune)  # (issue 42)
 from .deps import parse_experiments, parse_model, parse_scenario
 from .request_memory import check_file
 from .responses import dumps
@@ -158,6 +160,8 @@ def simulation(req, limits, max_steps=None, run=simulate, form="json"):
     out : dict or bytes
         The body of the answer
     """
+    if getattr(req.scenario, "controller", None) is not None:   # closed loop (issue 42)
+        return closed_loop_simulation(req, limits, max_steps, form)
     model = parse_model(req.model)
     scen = parse_scenario(req.scenario, model, limits)
     budget = scen.solver.max_steps

@@ -85,6 +85,8 @@ def main(argv=None):
     sub.add_parser("presets", help="list the presets")
     sub.add_parser("samples", help="list the shipped samples (rig data hiding known effects)")
     add_loop_commands(sub)
+    from pneucore.control.command_line import add_control_commands
+    add_control_commands(sub)
     ident = sub.add_parser("identify", help="identify a component on its bench (valve, friction)")
     isub = ident.add_subparsers(dest="bench", required=True)
     iv = isub.add_parser("valve", help="an edge's C(u), b(u) tables from flow-bench points")
@@ -125,6 +127,15 @@ def main(argv=None):
         return 0
     if args.cmd in COMMANDS:
         return _loop(args)
+    if args.cmd == "linearize":
+        from pneucore.control.command_line import linearize_lines
+        try:
+            lines = linearize_lines(args)
+        except (LoopArgumentError, FieldError, ValueError, OSError) as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        print("\n".join(lines))
+        return 0
     if args.cmd == "identify":
         try:
             return _identify(args)
@@ -135,7 +146,11 @@ def main(argv=None):
         model = load_model(args.model)
         scenario = load_scenario(args.scenario)
         t0 = time.perf_counter()
-        res = simulate(model, scenario)
+        if isinstance(scenario, dict) and scenario.get("controller") is not None:
+            from pneucore.control.closed_loop import simulate_closed_loop  # issue 42
+            res = simulate_closed_loop(model, scenario)
+        else:
+            res = simulate(model, scenario)
         wall = time.perf_counter() - t0
     except (CliError, FieldError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -144,6 +159,9 @@ def main(argv=None):
         print(f"simulation error: {exc}", file=sys.stderr)
         return 3
     for line in summary_lines(res):
+        print(line)
+    from pneucore.control.command_line import control_lines
+    for line in control_lines(res):
         print(line)
     # a run this slow compiled the numba core (first run of a fresh install or after an edit)
     note = " (includes the one-time compilation of the core)" if wall > COMPILE_NOTE_S else ""

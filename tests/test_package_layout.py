@@ -28,7 +28,10 @@ PUBLIC = [
 LAYOUT = {
     "physics": {"chamber", "cushion", "flow", "friction", "gas", "heat", "jack", "line", "sensors",
                 "series", "states", "tube", "valve", "vessel"},
-    "core": {"cache", "integrator", "layout", "rhs"},
+    "core": {"cache", "controllers", "integrator", "layout", "rhs"},
+    # position control (issue 42): linearisation, controllers, setpoints, metrics, closed loop
+    "control": {"closed_loop", "command_line", "controllers", "linearize", "metrics", "models",
+                "robustness", "setpoints"},
     "spec": {"docstrings", "effects", "model", "paths", "presets", "provenance", "scenario", "units",
              "validation", "valve_data"},
     "data": {"command", "experiment", "export", "fileformats", "matfile", "measurement", "npz", "samples", "synthetic"},

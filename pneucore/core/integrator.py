@@ -63,6 +63,7 @@ from pneucore.physics.chamber import chamber_pressure
 from pneucore.physics.friction import coulomb_level
 from pneucore.physics.jack import chamber_volumes, net_pressure_force, spring_force
 from pneucore.core.rhs import call_line_cells, line_terms, rhs, static_friction
+from pneucore.core.controllers import control_law
 from numba.core.registry import CPUDispatcher
 
 
@@ -1068,18 +1069,53 @@ def finite_difference_jacobians(t, y, mode, u, model, atol, rtol):
     return Jd, Jg, S, n_groups, evals
 
 
+@_internal
+def _control_segment(t, y, mode, seg_t0, seg_u0, seg_slope, model, ctl, k, ftmp, aux):
+    """The held command segment of a closed loop from sample instant ``k`` (``t = k T_s``):
+    the controller's law (:func:`pneucore.core.controllers.control_law`) on the signals
+    measured at ``t`` and the reference at ``t_k``; the segment ends at ``(k + 1) T_s``.
+
+    ``ctl`` is ``(code, gains, ref, T_s, memory, (u_lo, u_hi), i_sensor, meas)``
+    (:func:`integrate_closed`). The pressures are the transducers' states when the model
+    has the pressure-sensor lag (``i_sensor >= 0``), else the chambers'; position,
+    velocity and acceleration are the piston's (ideal sensors).
+    """
+    code, g, ref, Ts, cst, urange, i_sens, meas = ctl
+    # the right-hand side at the held command gives the pressures and the acceleration
+    _feval(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
+    prm = model[0]
+    meas[0] = y[L.Y_X]
+    meas[1] = y[L.Y_V]
+    meas[2] = aux[L.AUX_ACC]
+    if i_sens >= 0:
+        meas[3] = y[i_sens]
+        meas[4] = y[i_sens + 1]
+    else:
+        meas[3] = aux[L.AUX_PA]
+        meas[4] = aux[L.AUX_PB]
+    meas[5] = prm[L.P_A_A]
+    meas[6] = prm[L.P_A_B]
+    meas[7] = t
+    kk = min(k, ref.shape[0] - 1)
+    u = control_law(code, g, ref[kk, 0], ref[kk, 1], ref[kk, 2], meas, cst, Ts, urange[0],
+                    urange[1])
+    return t, u, 0.0, (k + 1) * Ts
+
+
 # Counters and indices typed as plain int64: a variable first assigned a constant
 # (``n_ev = 0``, ``k_ev = -1``) would otherwise be typed as a literal and have every
 # callee it reaches compiled once more for that literal (four extra compiles, ~2 s of
 # the first call).
-_INT_LOCALS = {"n_ev": types.int64, "k_ev": types.int64, "k0": types.int64}
+_INT_LOCALS = {"n_ev": types.int64, "k_ev": types.int64, "k0": types.int64,
+               "k_ctl": types.int64}
 
 
 @njit(cache=True, nogil=True, error_model="numpy", locals=_INT_LOCALS)
 def _run(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
          h_max, h_init, max_steps, y_out, aux_out, mode_out, u_out,
-         ev_t, ev_kind, ev_mode, stats, lin):
-    """The integration of :func:`integrate` (its arguments and returns), with ``lin`` the
+         ev_t, ev_kind, ev_mode, stats, lin, ctl=None):
+    """The integration of :func:`integrate` (its arguments and returns), with ``ctl`` the
+    controller of a closed loop (:func:`integrate_closed`) or None, and ``lin`` the
     structure of a model with lines in segments (:func:`integrate_lines`) or None. Compiled
     once for each: with None, numba prunes the branches on ``lin`` before typing them, so
     the core of a model without a line compiles none of the grouped Jacobian and profile
@@ -1116,7 +1152,12 @@ def _run(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
     n_ev = 0
     h = h_init
     mode = mode0
-    seg_t0, seg_u0, seg_slope, seg_end = command_segment(t, cmd_t, cmd_u, linear)
+    k_ctl = 0
+    if ctl is not None:
+        seg_t0, seg_u0, seg_slope, seg_end = _control_segment(
+            t, y, mode, 0.0, 0.0, 0.0, model, ctl, k_ctl, ftmp, aux)
+    else:
+        seg_t0, seg_u0, seg_slope, seg_end = command_segment(t, cmd_t, cmd_u, linear)
     mode, n_ev = _settle(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux,
                          ev_t, ev_kind, ev_mode, n_ev)
     fresh = True          # f0 must be recomputed (start, event, command switch)
@@ -1290,13 +1331,20 @@ def _run(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol,
         else:
             h = max(h_next, hh)
         if last and t_stop == seg_end and t < t_end:
-            # command breakpoint: new segment, log a switch if the value jumps
-            u_left = seg_u0 + seg_slope * (t - seg_t0)
-            seg_t0, seg_u0, seg_slope, seg_end = command_segment(t, cmd_t, cmd_u, linear)
-            if seg_u0 != u_left:
-                n_ev = _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_COMMAND, mode)
-                stats[ST_EVENTS] += 1
-                h = min(h, 1e-4)
+            if ctl is not None:
+                # controller sample instant: the law's new output, held to the next one (not
+                # logged as an event: a thousand per second would fill the log)
+                k_ctl += 1
+                seg_t0, seg_u0, seg_slope, seg_end = _control_segment(
+                    t, y, mode, seg_t0, seg_u0, seg_slope, model, ctl, k_ctl, ftmp, aux)
+            else:
+                # command breakpoint: new segment, log a switch if the value jumps
+                u_left = seg_u0 + seg_slope * (t - seg_t0)
+                seg_t0, seg_u0, seg_slope, seg_end = command_segment(t, cmd_t, cmd_u, linear)
+                if seg_u0 != u_left:
+                    n_ev = _record(ev_t, ev_kind, ev_mode, n_ev, t, L.EV_COMMAND, mode)
+                    stats[ST_EVENTS] += 1
+                    h = min(h, 1e-4)
             fresh = True
             mode, n_ev = _settle(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux,
                                  ev_t, ev_kind, ev_mode, n_ev)
@@ -1387,6 +1435,80 @@ def integrate_lines(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, 
            cols, S, colours, n_groups, np.empty(n))
     return _run(y0, mode0, model, cmd_t, cmd_u, linear, t_end, t_out, rtol, atol, h_max, h_init,
                 max_steps, y_out, aux_out, mode_out, u_out, ev_t, ev_kind, ev_mode, stats, lin)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def integrate_closed(y0, mode0, model, ctl, t_end, t_out, rtol, atol, h_max, h_init, max_steps,
+                     y_out, aux_out, mode_out, u_out, ev_t, ev_kind, ev_mode, stats):
+    """:func:`integrate` with the loop closed inside the core (issue 42): the valve command is
+    a controller's output, evaluated at the sample instants ``k T_s`` on the measured state and
+    held between them (zero-order hold), in place of a command table. Each instant ends a
+    step exactly, as a command breakpoint does; no event is logged for it.
+
+    Parameters
+    ----------
+    ctl : tuple
+        ``(code, gains, ref, T_s, memory, urange, i_sensor, meas)``: controller code
+        (``pneucore.core.controllers.CTL_*``) [-], gains (SI), reference ``(n, 3)`` of
+        ``x [m], v [m/s], a [m/s^2]`` at ``t_k = k T_s``, sample period [s], controller
+        memory (``CST_*``, updated: the valve switchings are read from it), valve range
+        ``(u_lo, u_hi)`` [-], first pressure-sensor state or -1, work vector of
+        ``N_MEAS`` floats
+
+    The other arguments and the returns are :func:`integrate`'s (``u_out``: the controller's
+    output at the samples [-]). Models with lines in segments run with the dense Jacobian.
+    """
+    cmd = np.zeros(1)
+    return _run(y0, mode0, model, cmd, cmd, False, t_end, t_out, rtol, atol, h_max, h_init,
+                max_steps, y_out, aux_out, mode_out, u_out, ev_t, ev_kind, ev_mode, stats, None,
+                ctl)
+
+
+def closed_core_for(hook, flow_laws, friction_laws):
+    """:func:`integrate_closed`, or its copy for a user hook or other law tables
+    (:func:`specialize`; see :func:`core_for`)."""
+    from pneucore.core import rhs as rhs_module
+
+    if hook is rhs_module.no_terms and flow_laws == rhs_module.flow_laws \
+            and friction_laws == rhs_module.friction_laws:
+        return integrate_closed
+    specialize(hook, flow_laws, friction_laws)
+    return _SPECIALIZED[(hook, tuple(flow_laws), tuple(friction_laws))]["integrate_closed"]
+
+
+_WITH_LAW = {}
+
+
+def closed_core_with_law(law):
+    """A compiled copy of :func:`integrate_closed` whose controller code ``CTL_USER`` calls
+    ``law`` (a user's controller, :func:`pneucore.control.controllers.register_user_controller`):
+    :func:`pneucore.core.controllers.control_law` re-created with ``user_law`` bound to it, and
+    every function of this module on the way to it (:func:`_chain`) re-created to call the
+    copy, as :func:`specialize` does for a user hook. Compiled in memory on first use (about
+    the first compile of the core), memoised per law; the default hook and law tables only.
+
+    Parameters
+    ----------
+    law : numba dispatcher
+        ``law(g, x_ref, v_ref, a_ref, meas, cst, Ts, u_lo, u_hi) -> u``
+
+    Returns
+    -------
+    integrate_closed : numba dispatcher
+        Same signature as :func:`integrate_closed`
+    """
+    from pneucore.core import controllers as ctl_module
+
+    if law in _WITH_LAW:
+        return _WITH_LAW[law]
+    ctl_globals = dict(ctl_module.__dict__)
+    ctl_globals["user_law"] = law
+    glb = dict(globals())
+    glb["control_law"] = _clone(ctl_module.control_law, ctl_globals)
+    for name in _chain(globals(), __name__, ("control_law",)):
+        glb[name] = _clone(globals()[name], glb)
+    _WITH_LAW[law] = glb["integrate_closed"]
+    return _WITH_LAW[law]
 
 
 def has_lines(model):
@@ -1522,7 +1644,8 @@ def specialize(hook=None, flow_laws=None, friction_laws=None, lines=False):
         glb[name] = rhs_globals[name]
     for name in _chain(globals(), __name__, imported):
         glb[name] = _clone(globals()[name], glb)
-    _SPECIALIZED[key] = {name: glb[name] for name in ("integrate", "integrate_lines")}
+    _SPECIALIZED[key] = {name: glb[name] for name in ("integrate", "integrate_lines",
+                                                      "integrate_closed")}
     return glb[entry]
 
 

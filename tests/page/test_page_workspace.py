@@ -15,11 +15,13 @@ from test_page import (ARTIFACTS, TIMEOUT_MS, _open, browser, page_errors, serve
                        show_view, workspace_ready)
 
 WIDTH, HEIGHT = 1366, 768
-VIEWS = ["model", "simulate", "data", "identify", "compare", "diagnose", "heat", "studies", "sizing"]
+VIEWS = ["model", "simulate", "data", "identify", "compare", "diagnose", "heat", "studies", "sizing",
+         "control"]
 # the panel each view must show, and one it must not
 SHOWN = {"model": "#panel-model", "simulate": "#panel-plots", "data": "#dataset-select",
          "identify": "#panel-identify", "compare": "#btn-compare", "diagnose": "#btn-diagnose",
-         "heat": "#panel-heat", "studies": "#panel-study", "sizing": "#panel-sizing"}
+         "heat": "#panel-heat", "studies": "#panel-study", "sizing": "#panel-sizing",
+         "control": "#panel-control"}
 
 
 @pytest.fixture(scope="module")

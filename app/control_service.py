@@ -1,0 +1,105 @@
+"""The control endpoints' work (issue 42): linearisation, and the closed-loop simulations that a
+scenario with a ``controller`` asks POST /api/simulate for. Re-exported by :mod:`app.services`
+(the routers take their work from there)."""
+from __future__ import annotations
+
+from pneucore.control.linearize import linearize, to_json
+from pneucore.spec.validation import FieldError
+
+from .deps import parse_model, parse_scenario
+
+
+def linearize_answer(req):
+    """POST /api/linearize: the model checked, linearised at the operating point.
+
+    Parameters
+    ----------
+    req : app.control_schemas.LinearizeRequest
+        The request
+
+    Returns
+    -------
+    out : dict
+        :func:`pneucore.control.linearize.to_json` of the result
+    """
+    model = parse_model(req.model)
+    op = req.operating_point
+    freq = req.frequencies
+    if freq is not None:
+        bad = [i for i, f in enumerate(freq) if not (f == f and 0.0 < f < 1e7)]
+        if bad:
+            raise FieldError(f"frequencies[{bad[0]}]", "must be a finite frequency > 0 [Hz]")
+    return to_json(linearize(model, op.x, op.p_a, op.p_b, op.u, freq))
+
+
+def closed_loop_simulation(req, limits, max_steps=None, form="json"):
+    """POST /api/simulate with a scenario's ``controller``: the closed loop
+    (:func:`pneucore.control.closed_loop.simulate_closed_loop`), answered as an open-loop run
+    is, with ``series.x_ref`` [m] and ``stats.control``. An unstable loop is a 422 naming
+    ``scenario.controller.gains``.
+
+    Parameters
+    ----------
+    req : app.schemas.SimulateRequest
+        The request
+    limits : app.config.Limits
+        The API's limits
+    max_steps : int or None
+        A step budget below the request's own (not used: the express lane never takes a
+        closed loop)
+    form : {"json", "npz"}
+        The answer's form
+    """
+    from pneucore.control.closed_loop import ControlError, simulate_closed_loop
+    from .services import result_json, result_npz
+
+    if "command" in req.scenario.model_fields_set and req.scenario.command is not None:
+        raise FieldError("scenario.command", "give either a command (open loop) or a "
+                         "controller (closed loop), not both")
+    model = parse_model(req.model)
+    d = req.scenario.plain()
+    controller = d.pop("controller")
+    d.pop("command", None)
+    scen = parse_scenario(d, model, limits)
+    try:
+        res = simulate_closed_loop(model, scen, controller)
+    except ControlError as exc:
+        raise FieldError("scenario.controller.gains", str(exc)) from None
+    series = req.series
+    if series is None:
+        from .services import DEFAULT_SERIES
+        series = [s for s in DEFAULT_SERIES if s in res.series] + ["x_ref"]
+    if form == "npz":
+        return result_npz(res, series)
+    out = result_json(res, series)
+    if "x_ref" in out["units"]:
+        out["units"]["x_ref"] = "m"
+    return out
+
+
+def controllers_answer():
+    """GET /api/controllers: each registered controller kind, its gains (unit, default) and
+    the valve kinds it drives."""
+    from pneucore.control.controllers import CONTROLLERS
+    return {"controllers": [k.describe() for k in CONTROLLERS.values()]}
+
+
+def check_control_study(req, limits):
+    """A closed-loop study or tuning request checked before its job starts (422 now): the
+    study, its controller, and its scenario within the API's limits (duration, samples)."""
+    from pneucore.control.robustness import check_study
+    from .deps import check_scenario_limits
+    study, _ = check_study(req.study)
+    check_scenario_limits(study.scenario, limits, "study.scenario")
+
+
+def run_control_study(req, progress=None):
+    """The closed-loop study job's work (:func:`pneucore.control.robustness.closed_loop_study`)."""
+    from pneucore.control.robustness import closed_loop_study
+    return closed_loop_study(req.study, progress)
+
+
+def run_tune(req, progress=None):
+    """The tuning job's work (:func:`pneucore.control.robustness.tune_controller`)."""
+    from pneucore.control.robustness import tune_controller
+    return tune_controller(req.study, dict(req.gains), req.objective, progress)

@@ -1,0 +1,47 @@
+"""POST /api/linearize: the actuator's state-space model at an operating point (issue 42,
+item 5; :mod:`pneucore.control.linearize`). Closed-loop runs go through POST /api/simulate
+with a scenario's ``controller``."""
+from fastapi import APIRouter, HTTPException
+
+from ..control_schemas import (ControllersResponse, ControlStudyRequest, LinearizeRequest,
+                               LinearizeResponse, TuneRequest)
+from ..deps import JobsDep, LimitsDep
+from ..responses import JSON
+from ..schemas import JobResponse
+from ..services import (check_control_study, controllers_answer, linearize_answer,
+                        run_control_study, run_tune)
+
+router = APIRouter(prefix="/api", tags=["control"])
+
+
+@router.post("/linearize", response_model=LinearizeResponse, response_class=JSON,
+             summary="Linearise the actuator at an operating point (poles, natural frequency, A, B, C, D)")
+def linearize_endpoint(req: LinearizeRequest):
+    return JSON(linearize_answer(req))
+
+
+@router.get("/controllers", response_class=JSON, response_model=ControllersResponse,
+            summary="Controller kinds for a scenario's controller: gains (unit, default), valves")
+def controllers_endpoint():
+    return JSON(controllers_answer())
+
+
+def _job(jobs, kind, fn):
+    try:
+        return jobs.submit(kind, fn).to_dict(with_result=False)
+    except RuntimeError as exc:
+        raise HTTPException(429, str(exc)) from None
+
+
+@router.post("/jobs/control-study", status_code=202, response_model=JobResponse,
+             summary="Closed-loop robustness over a study's parameter sets, as a job")
+def control_study_job(req: ControlStudyRequest, jobs: JobsDep, limits: LimitsDep):
+    check_control_study(req, limits)
+    return _job(jobs, "control-study", lambda job: run_control_study(req, job.report))
+
+
+@router.post("/jobs/tune-controller", status_code=202, response_model=JobResponse,
+             summary="Rank controller gains on their worst case over a study's ensemble, as a job")
+def tune_job(req: TuneRequest, jobs: JobsDep, limits: LimitsDep):
+    check_control_study(req, limits)
+    return _job(jobs, "tune-controller", lambda job: run_tune(req, job.report))

@@ -1,0 +1,211 @@
+"""Closed-loop simulation (issue 42, item 1): the controller evaluated inside the compiled core
+at its own sample period (zero-order hold), on the measured signals, writing the valve command
+(:func:`pneucore.core.integrator.integrate_closed`). No Python runs between two samples.
+
+A controller spec (the scenario's ``controller`` in the API) is::
+
+    {"kind": "pid", "gains": {"kp": 20, "ki": 5, "kd": 0.2},
+     "setpoint": [[0, 0.1], [0.05, 0.15]], "sample_period": 0.001, "settle_band": 0.001}
+
+(SI: m, s; ``kp`` in 1/m is the valve opening per metre of error.) The result is the
+:class:`pneucore.result.SimulationResult` of an open-loop run plus ``series["x_ref"]`` [m] and
+``stats["control"]`` (:func:`pneucore.control.metrics.control_metrics`, and the controller's
+kind, gains and sample period).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pneucore.control.controllers import controller_kind
+from pneucore.control.metrics import control_metrics
+from pneucore.control.setpoints import Setpoint
+from pneucore.core import controllers as C
+from pneucore.core import layout as L
+from pneucore.core.integrator import (ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES,
+                                     closed_core_for, closed_core_with_law)
+from pneucore.core import rhs as rhs_module
+from pneucore.core.rhs import no_terms
+from pneucore.result import CoreRun
+from pneucore.simulate import SimulationError, build_core, checked_sample_times, output_samples
+from pneucore.spec.model import Model, check_resolvable
+from pneucore.spec.scenario import Scenario
+from pneucore.spec.validation import FieldError
+
+#: Shortest controller sample period [s]: 10 us, ten times the solver's smallest useful step
+MIN_SAMPLE_PERIOD = 1e-5
+
+
+class ControlError(SimulationError):
+    """A closed loop that could not be run to its end (unstable gains); ``result`` holds the
+    run up to where it stopped."""
+
+
+def parse_controller(spec, model, duration, path="scenario.controller"):
+    """A controller spec checked against the model: ``(kind, gains vector, setpoint, T_s,
+    band)``; every error a FieldError naming its field and unit."""
+    if not isinstance(spec, dict):
+        raise FieldError(path, "must be an object {kind, gains, setpoint, sample_period}")
+    for k in spec:
+        if k not in ("kind", "gains", "setpoint", "sample_period", "settle_band"):
+            raise FieldError(f"{path}.{k}", "unknown field; fields: kind, gains, setpoint, "
+                                            "sample_period [s], settle_band [m]")
+    kind = controller_kind(spec.get("kind"), f"{path}.kind")
+    if model.valve.kind not in kind.valves:
+        raise FieldError(f"{path}.kind", f"a {kind.name} controller sets a proportional "
+                         f"opening; the {model.valve.kind} valve (range "
+                         f"{list(model.valve.opening_range)} [-]) cannot take it; valves it "
+                         f"drives: {list(kind.valves)} (use onoff for an on/off valve)")
+    gains = kind.pack(spec.get("gains", {}), f"{path}.gains")
+    Ts = spec.get("sample_period", 1e-3)
+    if isinstance(Ts, bool) or not isinstance(Ts, (int, float)) or not math.isfinite(Ts) \
+            or not MIN_SAMPLE_PERIOD <= Ts <= duration:
+        raise FieldError(f"{path}.sample_period", f"must be a finite period within "
+                         f"[{MIN_SAMPLE_PERIOD:g}, duration {duration:g}] s, got {Ts!r}")
+    if "setpoint" not in spec:
+        raise FieldError(f"{path}.setpoint", "is required: [[t [s], x [m]], ...] or a shape")
+    sp = Setpoint(spec["setpoint"], f"{path}.setpoint")
+    sp.check_within(model.jack.stroke, duration)
+    band = spec.get("settle_band")
+    if band is not None and (isinstance(band, bool) or not isinstance(band, (int, float))
+                             or not math.isfinite(band) or band <= 0):
+        raise FieldError(f"{path}.settle_band", f"must be a finite band > 0 [m], got {band!r}")
+    return kind, gains, sp, float(Ts), band
+
+
+def simulate_closed_loop(model, scenario, controller=None, raise_on_error=True, t_out=None):
+    """Simulate the actuator with the loop closed by a controller.
+
+    Parameters
+    ----------
+    model : Model or dict
+        The actuator
+    scenario : Scenario or dict
+        Duration, sampling, initial state, solver (its ``command`` is not used); a dict may
+        carry the ``controller``
+    controller : dict or None
+        The controller spec (see the module); None: ``scenario["controller"]``
+    raise_on_error : bool
+        Raise :class:`ControlError` when the run cannot reach its end
+    t_out : array_like or None
+        Sample times [s]; None = every ``sample_period``
+
+    Returns
+    -------
+    result : SimulationResult
+        With ``series["x_ref"]`` [m] and ``stats["control"]``
+    """
+    model = Model.from_dict(model) if not isinstance(model, Model) else model
+    if isinstance(scenario, Scenario):
+        scenario.check_against(model)
+    else:
+        scenario = dict(scenario)
+        if controller is None:
+            controller = scenario.pop("controller", None)
+        else:
+            scenario.pop("controller", None)
+        scenario = Scenario.from_dict(scenario, model)
+    if controller is None:
+        raise FieldError("scenario.controller", "is required for a closed-loop run")
+    kind, gains, sp, Ts, band = parse_controller(controller, model, scenario.duration)
+    check_resolvable(model, scenario.solver.rtol, scenario.solver.max_step)
+    core = build_core(model, scenario)
+    if t_out is None:
+        n_out = output_samples(scenario.duration, scenario.sample_period)
+        t_out = np.arange(n_out) * scenario.sample_period
+        t_out[-1] = min(t_out[-1], scenario.duration)
+    else:
+        t_out = checked_sample_times(t_out, scenario.duration)
+        n_out = t_out.shape[0]
+    n = core["y0"].shape[0]
+    y_out = np.empty((n_out, n))
+    aux_out = np.empty((n_out, L.N_AUX))
+    mode_out = np.empty(n_out, np.int64)
+    u_out = np.empty(n_out)
+    n_ref = int(math.floor(scenario.duration / Ts + 1e-9)) + 2
+    t_ref = np.arange(n_ref) * Ts
+    ref = np.ascontiguousarray(np.column_stack(sp.evaluate(t_ref)))
+    lo, hi = model.valve.opening_range
+    i_sens = int(core["model"][1][L.STATE_IY0["pressure_sensor"]])
+    cst = np.zeros(C.N_CST)
+    ctl = (np.int64(kind.code), gains, ref, Ts, cst, np.array([lo, hi], float),
+           np.int64(i_sens), np.zeros(C.N_MEAS))
+    if kind.law is not None:
+        if core["hook"] is not no_terms or core["flow_laws"] != rhs_module.flow_laws \
+                or core["friction_laws"] != rhs_module.friction_laws:
+            raise FieldError("scenario.controller.kind", "a user's controller runs on a model "
+                             "with the built-in laws and no effect adding compiled terms [-]")
+        run = closed_core_with_law(kind.law)
+    else:
+        run = closed_core_for(core["hook"], core["flow_laws"], core["friction_laws"])
+    max_ev = scenario.solver.max_events
+    cap = min(max_ev, 256)
+    while True:
+        ev_t = np.full((cap, 2), np.nan)
+        ev_kind = np.empty(cap, np.int64)
+        ev_mode = np.empty(cap, np.int64)
+        stats = np.zeros(N_STATS, np.int64)
+        cst[:] = 0.0
+        status, n_ev, t_reached = run(
+            core["y0"], core["mode0"], core["model"], ctl, scenario.duration, t_out,
+            scenario.solver.rtol, core["atol"], min(scenario.solver.max_step, Ts), 1e-6,
+            scenario.solver.max_steps, y_out, aux_out, mode_out, u_out, ev_t, ev_kind,
+            ev_mode, stats)
+        if status == ERR_EVENTS_OVERFLOW and cap < max_ev:
+            cap = max_ev
+            continue
+        break
+    n_ev = min(n_ev, cap)
+    if status != OK:
+        bad = t_out > t_reached
+        y_out[bad] = np.nan
+        aux_out[bad] = np.nan
+        u_out[bad] = np.nan
+        mode_out[bad] = -1
+    res = CoreRun(model, scenario, core, t_out, y_out, aux_out, mode_out, u_out, ev_t[:n_ev],
+                  ev_kind[:n_ev], ev_mode[:n_ev], stats, status, t_reached, []).result()
+    x_ref = sp.evaluate(res.t)[0]
+    res.series["x_ref"] = x_ref
+    moves = sp.moves()
+    x_start = float(res.series["x"][0])
+    if sp.kind in ("step", "multi_step", "recorded") and sp.pts[0, 1] != x_start \
+            and (not moves or moves[0][0] > sp.pts[0, 0]):
+        # the first setpoint away from where the piston starts is a move too
+        moves.insert(0, (float(sp.pts[0, 0]), x_start, float(sp.pts[0, 1])))
+    metrics = control_metrics(res.t, res.series["x"], x_ref, moves,
+                              res.series.get("q_supply"), int(cst[C.CST_SWITCHES]), band)
+    metrics.update(kind=kind.name, sample_period=Ts,
+                   gains={g.name: float(gains[i]) for i, g in enumerate(kind.gains)})
+    verdict = _stability(res, x_ref, model.jack.stroke, status, sp)
+    metrics["stable"] = verdict is None
+    res.stats["control"] = metrics
+    if verdict is not None and raise_on_error:
+        raise ControlError(verdict, res)
+    if status != OK and raise_on_error:
+        raise ControlError(f"closed-loop simulation stopped at t = {t_reached:.6g} s: "
+                           f"{STATUS_MESSAGES[status]}", res)
+    return res
+
+
+def _stability(res, x_ref, stroke, status, sp):
+    """None for a loop that behaves, else the message of an unstable one: the solver stopped
+    (an oscillation between the end stops exhausts its steps or events), or the piston still
+    swings over more than a tenth of the stroke between the end stops in the last 30 % of the
+    run while the setpoint holds (a limit cycle that gains this large never settles)."""
+    hint = ("the closed loop is unstable with these gains (scenario.controller.gains): "
+            "lower the proportional gain, add damping (kd, or the sliding layer phi), or a "
+            "dead band")
+    if status != OK:
+        return f"{hint}; the solver stopped at t = {res.t_reached if hasattr(res, 't_reached') else float('nan'):.6g} s" \
+            if status in (1, 3, 5) else None
+    t = res.t
+    x = res.series["x"]
+    late = t >= t[0] + 0.7 * (t[-1] - t[0])
+    if sp.kind == "sine" or late.sum() < 3:
+        return None
+    swing = float(np.nanmax(x[late]) - np.nanmin(x[late]))
+    held = float(np.nanmax(x_ref[late]) - np.nanmin(x_ref[late]))
+    if swing - held > 0.1 * stroke:
+        return f"{hint}: the piston still swings over {swing * 1e3:.0f} mm at the end of the run"
+    return None
