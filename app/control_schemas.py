@@ -61,7 +61,7 @@ class ControllersResponse(BaseModel):
 
 
 class ControlStudyRequest(_Strict):
-    study: dict[str, Any] = Field(..., description="A robustness study (model, scenario with a controller, parameters by path with grids or distributions, samples, seed); see docs/control.md")
+    study: dict[str, Any] = Field(..., description="A robustness study (model, scenario with a controller, parameters by path with grids or distributions, samples, seed); see docs/guides/position-control.md")
 
 
 class TuneRequest(_Strict):

@@ -10,5 +10,5 @@
   the compiled core at the controller's sample period;
 * :mod:`pneucore.control.metrics`: rise time, settling time, overshoot, ... of a run.
 
-See docs/control.md.
+See docs/guides/position-control.md.
 """

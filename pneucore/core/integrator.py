@@ -1443,7 +1443,9 @@ def integrate_closed(y0, mode0, model, ctl, t_end, t_out, rtol, atol, h_max, h_i
     """:func:`integrate` with the loop closed inside the core (issue 42): the valve command is
     a controller's output, evaluated at the sample instants ``k T_s`` on the measured state and
     held between them (zero-order hold), in place of a command table. Each instant ends a
-    step exactly, as a command breakpoint does; no event is logged for it.
+    step exactly, as a command breakpoint does; no event is logged for it. The other
+    arguments and the returns are :func:`integrate`'s (``u_out``: the controller's output at
+    the samples [-]). Models with lines in segments run with the dense Jacobian.
 
     Parameters
     ----------
@@ -1454,9 +1456,6 @@ def integrate_closed(y0, mode0, model, ctl, t_end, t_out, rtol, atol, h_max, h_i
         memory (``CST_*``, updated: the valve switchings are read from it), valve range
         ``(u_lo, u_hi)`` [-], first pressure-sensor state or -1, work vector of
         ``N_MEAS`` floats
-
-    The other arguments and the returns are :func:`integrate`'s (``u_out``: the controller's
-    output at the samples [-]). Models with lines in segments run with the dense Jacobian.
     """
     cmd = np.zeros(1)
     return _run(y0, mode0, model, cmd, cmd, False, t_end, t_out, rtol, atol, h_max, h_init,
