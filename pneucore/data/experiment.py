@@ -52,7 +52,9 @@ COMPARABLE = ("p_a", "p_b", "x", "v", "T_a", "T_b", "F", "q_a", "q_b", "q_s", "p
 #: What a record without a command column needs
 NO_COMMAND = ("the record has no valve command column 'u': give the command as scenario.command "
               "(breakpoints [[t [s], u [-]], ...], held between them), or have one proposed from a "
-              "measured pressure's edges (POST /api/datasets/{id}/propose-command) and confirm it")
+              "measured pressure's edges (POST /api/datasets/{id}/propose-command, or on the command line "
+              "`pneucore propose-command FILE`, or --propose-command on compare, diagnose, "
+              "refine) and confirm it")
 
 
 @dataclass
