@@ -103,6 +103,9 @@
     clearErrors();
     await busy(btn, async () => {
       try {
+        // the session on the experiments as they stand first, with the model as it is: the
+        // "before" of the message below is then that model on these experiments
+        await ensureSession();
         S.model = clone(model);
         renderModel();
         setStatus(`Applying the ${what} and recording a new model version…`, 'busy');

@@ -91,6 +91,7 @@ from pneucore.analysis.diagnosis.rules import (ALPHA, CONSISTENT_RTOL, DELTA_BIC
                                                EXCESS_MAJOR, EXCESS_MATERIAL, MATERIAL, N_REFIT,
                                                RULES)
 from pneucore.analysis.diagnosis.stages import NO_EFFECT, RECAL_MIN  # noqa: F401
+from pneucore.analysis.shown import card_badges
 from pneucore.data.experiment import as_experiments
 from pneucore.spec.effects import EFFECTS
 from pneucore.spec.model import Model
@@ -124,6 +125,8 @@ class Diagnosis:
     given: object = field(default=None, repr=False)
     known: list = field(default_factory=list)
     cluster: object = None
+    #: the significance level the candidates were judged at (over their number) [-]
+    alpha: float = ALPHA
 
     def best(self):
         return self.ranking[0] if self.ranking else None
@@ -131,7 +134,10 @@ class Diagnosis:
     def to_dict(self):
         return plain_json({
             "verdict": self.verdict, "message": self.message,
-            "ranking": [{k: v for k, v in r.items() if k != "model_obj"} for r in self.ranking],
+            "ranking": [dict({k: v for k, v in r.items() if k != "model_obj"},
+                             badges=card_badges(r, self.alpha / max(len(self.ranking), 1),
+                                                DELTA_BIC))
+                        for r in self.ranking],
             "score_pass": self.score_pass,
             "error_before": {"errors": self.error_before.errors,
                              "overall": self.error_before.overall,
@@ -357,7 +363,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                          alternatives=f.alternatives, remaining=f.remaining,
                          identifiability=hyp.identifiability, error_start=comp_start,
                          dropped=f.dropped, initial_state=hyp.initial_state, hints=comp_start.hints,
-                         given=model.to_dict(), known=list(known), cluster=runner.describe())
+                         given=model.to_dict(), known=list(known), cluster=runner.describe(),
+                         alpha=alpha)
 
 
 def apply_diagnosis(model, diagnosis, effect=None):
