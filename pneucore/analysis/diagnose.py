@@ -91,7 +91,7 @@ from pneucore.analysis.diagnosis.rules import (ALPHA, CONSISTENT_RTOL, DELTA_BIC
                                                EXCESS_MAJOR, EXCESS_MATERIAL, MATERIAL, N_REFIT,
                                                RULES)
 from pneucore.analysis.diagnosis.stages import NO_EFFECT, RECAL_MIN  # noqa: F401
-from pneucore.analysis.shown import card_badges
+from pneucore.analysis.shown import card_badges, flag_changes
 from pneucore.data.experiment import as_experiments
 from pneucore.spec.effects import EFFECTS
 from pneucore.spec.model import Model
@@ -131,6 +131,10 @@ class Diagnosis:
     def best(self):
         return self.ranking[0] if self.ranking else None
 
+    def _given_model(self):
+        g = self.given
+        return g if isinstance(g, Model) else Model.from_dict(g)
+
     def to_dict(self):
         return plain_json({
             "verdict": self.verdict, "message": self.message,
@@ -147,8 +151,14 @@ class Diagnosis:
             "uncertain": self.uncertain, "known": self.known,
             "recalibrate": self.recalibrate, "refitted": self.refitted,
             "model": self.model.to_dict() if self.model is not None else None,
-            "changes": (model_changes(self.given, self.model) if self.model is not None
-                        and self.given is not None else []),
+            "changes": (flag_changes(self._given_model(), model_changes(self.given, self.model),
+                                     self.known)
+                        if self.model is not None and self.given is not None else []),
+            # what "Apply the recalibration" changes: every value the base model moves, each
+            # flagged where impossible or implausible (issue 39: 2 announced, 7 changed)
+            "recalibration_changes": (
+                flag_changes(self._given_model(), model_changes(self.given, self.base_model),
+                             self.known) if self.given is not None else []),
             "alternatives": self.alternatives, "remaining": self.remaining,
             "identifiability": self.identifiability, "dropped": self.dropped,
             "initial_state": self.initial_state, "hints": self.hints,

@@ -79,3 +79,94 @@ def change_words(before, after):
     if verb == "leaves":
         return f"leaves the overall error at {100 * before:.2f} %"
     return f"{verb} the overall error from {100 * before:.2f} % to {100 * after:.2f} %"
+
+
+#: A dead volume above this many times its chamber's swept volume (piston area x stroke) is
+#: flagged implausible [-]: 3, beyond the longest hose a rig puts between valve and jack
+#: (tens of cm^3 on a 50 cm^3 chamber); issue 39 saw 556-999 cm^3 fitted on a 51 cm^3 one
+DEAD_VOLUME_FACTOR = 3.0
+
+
+def value_flag(model, path, value):
+    """Why a value proposed for ``path`` is impossible or implausible, or ``(None, "")``.
+
+    One check for every value a finding shows or applies (issue 39): physically impossible
+    (against its declared direction, below 0 where it cannot be:
+    :func:`pneucore.analysis.hypotheses.impossible`), outside its field's range (an angle
+    beyond +-90 deg), implausible as a catalogue error
+    (:func:`pneucore.analysis.hypotheses.plausibility`), or a dead volume several times its
+    chamber (:data:`DEAD_VOLUME_FACTOR`).
+
+    Parameters
+    ----------
+    model : Model
+        The model as given (the declared values) [-]
+    path : str
+        Parameter path [-]
+    value : float
+        The value proposed, SI [unit of the path]
+
+    Returns
+    -------
+    flag : tuple
+        ``(severity, reason)``: severity ``"impossible"``, ``"implausible"`` or None [-]
+    """
+    from pneucore.analysis.hypotheses import impossible, plausibility
+    from pneucore.physics.jack import ANGLE_MAX
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+        return None, ""
+    try:
+        why = impossible(model, path, value)
+    except Exception:   # noqa: BLE001 - a path the hypotheses do not read: no verdict from them
+        why = ""
+    if why:
+        return "impossible", why
+    if path == "jack.mounting_angle" and abs(value) > ANGLE_MAX:
+        return "impossible", (f"mounting angle {value:.3g} deg outside the field's range "
+                              f"(+-{ANGLE_MAX:g} deg)")
+    j = model.jack
+    for side, area in (("a", j.area_a), ("b", j.area_b)):
+        if path == f"jack.dead_volume_{side}":
+            swept = area * j.stroke
+            if swept > 0 and value > DEAD_VOLUME_FACTOR * swept:
+                return "implausible", (f"dead volume {1e6 * value:.3g} cm^3 on a "
+                                       f"{1e6 * swept:.3g} cm^3 chamber {side.upper()} "
+                                       f"(more than {DEAD_VOLUME_FACTOR:g} times it)")
+    try:
+        why = plausibility(model, path, value)
+    except Exception:   # noqa: BLE001 - as above
+        why = ""
+    if why:
+        return "implausible", why
+    return None, ""
+
+
+def flag_changes(model, changes, known=()):
+    """``changes`` (:func:`pneucore.spec.paths.model_changes`) each with ``flag`` (severity or
+    None), ``why`` and ``known`` (a value the user declared known moves) added: what the page
+    lists before "Apply", value by value.
+
+    Parameters
+    ----------
+    model : Model
+        The model as given [-]
+    changes : list of dict
+        The changes a finding would make [-]
+    known : list of str
+        Paths declared known [-]
+
+    Returns
+    -------
+    changes : list of dict
+        New dicts, in the same order [-]
+    """
+    out = []
+    for c in changes:
+        c = dict(c)
+        sev, why = (value_flag(model, c["path"], c["after"]) if c.get("kind") == "changed"
+                    else (None, ""))
+        if c["path"] in known:
+            sev, why = "known", f"declared known: {why}" if why else "declared known"
+        c["flag"], c["why"] = sev, why
+        out.append(c)
+    return out

@@ -78,3 +78,57 @@ def test_a_version_recorded_after_the_command_was_edited_is_scored_on_it(page):
     # the recorded version's error is the comparison's on the edited command, not the old one's
     assert versions[-1]["overall"] == pytest.approx(now, rel=1e-9)
     assert versions[-1]["experiments"][0]["scenario"]["command"][2][0] == pytest.approx(edited[2][0])
+
+
+def _recalibration_result():
+    """A diagnosis answer whose recalibration moves 4 values, 3 of them flagged (built with the
+    service's own flag_changes, as Diagnosis.to_dict builds it)."""
+    import copy
+
+    from pneucore.analysis.shown import flag_changes
+    from pneucore.spec.model import Model
+    from pneucore.spec.paths import model_changes
+    given = truth_dict()
+    base = copy.deepcopy(given)
+    base["heat"]["coefficient"] = 30.0                # plausible: applied
+    base["jack"]["dead_volume_a"] = 556e-6            # 556 cm^3 on a 41 cm^3 chamber
+    base["supply"]["pressure"] = 3.9e5                # 10 typical errors off
+    base["jack"]["moving_mass"] = 4.08                # weighed 1.47 kg, declared known
+    changes = flag_changes(Model.from_dict(given), model_changes(given, base),
+                           known=["jack.moving_mass"])
+    return given, {"verdict": None, "message": "mis-set: heat coefficient, dead volume A.",
+                   "ranking": [], "score_pass": [], "error_before": {"overall": 0.2, "errors": {}},
+                   "recalibrate": [{"path": "heat.coefficient", "label": "heat coefficient",
+                                    "before": 25.0, "after": 30.0, "unit": "W/(m^2 K)"},
+                                   {"path": "jack.dead_volume_a", "label": "dead volume A",
+                                    "before": 4e-6, "after": 556e-6, "unit": "m^3"}],
+                   "base_model": base, "recalibration_changes": changes, "remaining": {}}
+
+
+def test_apply_lists_every_value_and_leaves_flagged_ones_unless_ticked(page):
+    given, result = _recalibration_result()
+    page.evaluate("([m, r]) => { S.model = m; renderModel(); "
+                  "S.diag = { result: r, experiments: clone(S.experiments), model: clone(m) }; "
+                  "renderDiagnosis(); }", [given, result])
+    rows = page.locator("#diag-recalibration-changes tbody tr")
+    assert rows.count() == 4
+    ticked = page.evaluate("() => [...document.querySelectorAll('#diag-recalibration-changes tbody tr')]"
+                           ".map((r) => [r.dataset.path, r.querySelector('input').checked, r.innerText])")
+    state = {p: c for p, c, _ in ticked}
+    assert state == {"heat.coefficient": True, "jack.dead_volume_a": False,
+                     "supply.pressure": False, "jack.moving_mass": False}
+    notes = {p: t for p, _, t in ticked}
+    assert "implausible" in notes["jack.dead_volume_a"] and "chamber A" in notes["jack.dead_volume_a"]
+    assert "declared known" in notes["jack.moving_mass"]
+    assert page.inner_text("#btn-apply-recalibration") == "Apply the recalibration (1 value)"
+    # the user's explicit choice, value by value: the dead volume ticked too
+    page.check("#diag-recalibration-changes tr[data-path='jack.dead_volume_a'] input")
+    assert page.inner_text("#btn-apply-recalibration") == "Apply the recalibration (2 values)"
+    page.click("#btn-apply-recalibration")
+    wait_status(page, "Applied the recalibration")
+    m = page.evaluate("() => S.model")
+    assert m["heat"]["coefficient"] == 30.0 and m["jack"]["dead_volume_a"] == 556e-6
+    assert m["supply"]["pressure"] == given["supply"]["pressure"]
+    assert m["jack"]["moving_mass"] == given["jack"]["moving_mass"]
+    msg = page.inner_text("#status-msg")      # what was applied, named
+    assert "heat.coefficient" in msg and "jack.dead_volume_a" in msg and "supply" not in msg
