@@ -643,6 +643,7 @@ class CommandProposal(BaseModel):
     source: str = Field(..., description="'proposed': read from the data, not measured; the user confirms it [-]")
     note: str = Field(..., description="How it was found, in words")
     has_command: bool = Field(..., description="The record has its own command column u (then it is used unless a scenario command is given) [-]")
+    chamber_b: dict[str, Any] = Field({}, description="Chamber B's state proposed for a 3/2 valve from what the record shows: b_chamber (held, vented, closed or null: no proposal), b_chamber_pressure for held [Pa abs], sure [-], why (in words); the user sets valve.b_chamber")
 
 
 class DatasetWithData(DatasetInfo):

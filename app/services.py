@@ -893,7 +893,9 @@ def propose_dataset_command(store, dataset_id, req):
                               switching_time=req.switching_time)
     except ValueError as exc:
         raise FieldError("signal", str(exc)) from None
-    return {**out, "has_command": "u" in meas.signals}
+    from pneucore.data.command import propose_b_chamber
+    return {**out, "has_command": "u" in meas.signals,
+            "chamber_b": propose_b_chamber(meas, out["pulses"])}
 
 
 def inspect_rig_file(data, filename, limits=None):

@@ -102,6 +102,8 @@ async function showDatasetData(list) {
       const p = await api('POST', `/api/datasets/${encodeURIComponent(d.id)}/propose-command`, {});
       RIG.commands[d.id] = p.command;
       RIG.sources[d.id] = 'proposed';
+      RIG.chamberB = RIG.chamberB || {};
+      RIG.chamberB[d.id] = p.chamber_b || null;
       $('#dataset-command-note').textContent = `The record has no valve command (u). Proposed from ${p.signal}: ${p.note}.`;
     } catch (e) {
       RIG.commands[d.id] = [[0, 0]];
@@ -114,8 +116,30 @@ async function showDatasetData(list) {
   $('#dataset-command-source').textContent = RIG.sources[d.id] === 'proposed'
     ? 'command source: proposed from the pressure edges (edit to correct it)' : 'command source: entered on this page';
   box.hidden = false;
+  showChamberB((RIG.chamberB || {})[d.id]);
   applyCommands();
   plotDataset(d.id, meas, RIG.commands[d.id]);
+}
+
+/** Chamber B's state proposed from the record (issue 39), for a 3/2 valve: shown beside the
+ * command with a button that sets it on the model; the model's field shows the choice. */
+function showChamberB(cb) {
+  const el = $('#dataset-chamber-b');
+  if (!el) return;
+  RIG.lastChamberB = cb;   // shown again when the model changes (renderModel)
+  const kind = S.model && S.model.valve && S.model.valve.kind;
+  if (!cb || !cb.b_chamber || kind !== '3/2') { el.hidden = true; return; }
+  const now = (S.model.valve.b_chamber || 'held');
+  $('#dataset-chamber-b-text').textContent = `Chamber B of the 3/2 valve: ${cb.b_chamber} proposed` +
+    `${cb.sure ? '' : ' (likely)'}: ${cb.why}. The model has it ${now}.`;
+  const btn = $('#btn-chamber-b');
+  btn.textContent = `Set chamber B ${cb.b_chamber}`;
+  btn.disabled = now === cb.b_chamber;
+  btn.onclick = () => {
+    setChamberB(cb.b_chamber, cb.b_chamber_pressure);
+    showChamberB(cb);
+  };
+  el.hidden = false;
 }
 
 function onCommandEdit() {

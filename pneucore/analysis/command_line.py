@@ -183,7 +183,13 @@ def propose_lines(args):
                             isolated=False)
     prop = propose_command(meas, args.signal, switching_time=args.switching_time)
     prop["has_command"] = "u" in meas.signals
+    from pneucore.data.command import propose_b_chamber
+    prop["chamber_b"] = propose_b_chamber(meas, prop["pulses"], amb)
     lines = _proposal_lines(path.stem, prop)
+    cb = prop["chamber_b"]
+    if cb["b_chamber"]:
+        lines.append(f"  chamber B of a 3/2 valve: {cb['b_chamber']} proposed"
+                     f"{'' if cb['sure'] else ' (likely)'}: {cb['why']}; set valve.b_chamber")
     if prop["has_command"]:
         lines.append("  the record has its own command column u: it is used unless a "
                      "scenario.command is given")

@@ -278,3 +278,81 @@ def _edge_text(e):
 def _result(pulses, command, signal, thr, note, edges=()):
     return {"command": command, "pulses": pulses, "edges": list(edges), "signal": signal,
             "threshold": float(thr), "source": "proposed", "note": note}
+
+
+#: Ambient pressure assumed where the record does not give one [Pa]
+AMBIENT = 101325.0
+#: A chamber within this of the ambient pressure is at ambient [Pa]: 0.15 bar, above a gauge
+#: sensor's zero error and noise (a few kPa), far below a pulse's rise (bars)
+AMBIENT_BAND = 15000.0
+#: A measured p_b whose spread (standard deviation) is below this is held constant [Pa]
+HELD_SPREAD = 10000.0
+
+
+def propose_b_chamber(measurement: Measurement, pulses=(), ambient: float = AMBIENT) -> dict:
+    """Chamber B's state for a 3/2 valve's record, proposed from what the record shows.
+
+    Measured p_b: at the ambient throughout (within :data:`AMBIENT_BAND`) -> ``vented``;
+    constant above it (spread below :data:`HELD_SPREAD`) -> ``held`` at its mean; moving with
+    the piston -> ``closed`` (an air spring; a restriction if it also leaks back to ambient).
+    Without p_b: chamber A back at the ambient between pulses while the piston falls back (a
+    load returning it, nothing in B needed) -> ``vented``, less sure. Otherwise no proposal.
+
+    Parameters
+    ----------
+    measurement : Measurement
+        The record (SI) [-]
+    pulses : list
+        ``[[t_open, t_close], ...]`` of the proposed command [s]
+    ambient : float
+        The ambient pressure [Pa]
+
+    Returns
+    -------
+    proposal : dict
+        ``b_chamber`` (a mode of :data:`pneucore.spec.model.B_CHAMBER_MODES` or None),
+        ``b_chamber_pressure`` [Pa] for ``held``, ``sure`` [-] and ``why`` (in words)
+    """
+    sig = measurement.signals
+    out = {"b_chamber": None, "b_chamber_pressure": None, "sure": False, "why": ""}
+    if "p_b" in sig:
+        pb = np.asarray(sig["p_b"], float)
+        pb = pb[np.isfinite(pb)]
+        if pb.size:
+            mean, spread = float(np.mean(pb)), float(np.std(pb))
+            if abs(mean - ambient) < AMBIENT_BAND and spread < HELD_SPREAD:
+                out.update(b_chamber="vented", sure=True,
+                           why=f"p_b stays at the ambient ({mean / 1e5:.3g} bar abs)")
+            elif spread < HELD_SPREAD:
+                out.update(b_chamber="held", b_chamber_pressure=mean, sure=True,
+                           why=f"p_b is held at {mean / 1e5:.3g} bar abs (spread "
+                               f"{spread / 1e3:.2g} kPa)")
+            else:
+                out.update(b_chamber="closed", sure=False,
+                           why=f"p_b moves with the piston ({spread / 1e3:.3g} kPa spread): an air "
+                               "spring, or a restriction if it leaks back to the ambient")
+        return out
+    if "p_a" not in sig or "x" not in sig or not len(pulses):
+        return out
+    t, pa, x = measurement.t, np.asarray(sig["p_a"], float), np.asarray(sig["x"], float)
+    between = np.ones(t.shape, bool)
+    for a, b in pulses:
+        between &= ~((t >= a) & (t <= (b if b is not None else t[-1])))
+    at_amb = between & (np.abs(pa - ambient) < AMBIENT_BAND)
+    if at_amb.sum() < 0.5 * between.sum():
+        return out
+    falls = 0
+    for a, b in pulses:
+        if b is None:
+            continue
+        after = (t > b) & at_amb
+        idx = np.flatnonzero(after)
+        if idx.size > 10 and np.nanmax(x[idx[:idx.size // 2]]) - np.nanmin(x[idx]) > 1e-3:
+            falls += 1
+    if falls:
+        out.update(b_chamber="vented", sure=False,
+                   why=f"chamber A is back at the ambient between pulses and the piston falls "
+                       f"back after {falls} of {len(pulses)} pulse(s): a load returns it, "
+                       "nothing needs to be held in B (no p_b recorded to confirm)")
+    return out
+

@@ -78,5 +78,19 @@ def test_the_api_proposes_the_same_edges_from_the_rig_file(tmp_path):
             # the volts' 6 decimals (2 Pa) change no edge
             assert abs(a - ta) <= TOL and abs(b - tb) <= TOL
         assert len(prop["edges"]) == 2 * len(effective_edges())
+        # chamber B proposed from the record: A at ambient between pulses, the load falling back
+        assert prop["chamber_b"]["b_chamber"] == "vented" and not prop["chamber_b"]["sure"]
         bad = c.post(f"/api/datasets/{did}/propose-command", json={"switching_time": -1})
         assert bad.status_code == 422 and "switching_time" in bad.text
+
+
+@pytest.mark.parametrize("pb,mode", [(101325.0, "vented"), (3.5e5, "held")])
+def test_a_measured_p_b_says_chamber_bs_state(pb, mode):
+    from pneucore.data.command import propose_b_chamber
+    m = record()
+    rng = np.random.default_rng(2)
+    sig = dict(m.signals, p_b=pb + rng.normal(0.0, 500.0, m.t.size))   # 0.5 kPa of noise
+    out = propose_b_chamber(Measurement(m.t, sig).validate(), propose_command(m)["pulses"])
+    assert out["b_chamber"] == mode and out["sure"]
+    if mode == "held":
+        assert out["b_chamber_pressure"] == pytest.approx(pb, rel=1e-3)

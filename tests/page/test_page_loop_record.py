@@ -132,3 +132,33 @@ def test_apply_lists_every_value_and_leaves_flagged_ones_unless_ticked(page):
     assert m["jack"]["moving_mass"] == given["jack"]["moving_mass"]
     msg = page.inner_text("#status-msg")      # what was applied, named
     assert "heat.coefficient" in msg and "jack.dead_volume_a" in msg and "supply" not in msg
+
+
+def test_chamber_b_is_a_visible_choice_proposed_from_the_record(page):
+    page.select_option("#model-preset", "paper-3way")
+    page.click("#btn-load-preset")
+    wait_status(page, "Model preset paper-3way loaded")
+    # the default shown as what it is (the select was blank while the schematic said "held")
+    assert page.input_value("#valve-b_chamber") == "held"
+    page.wait_for_selector("#dataset-chamber-b:not([hidden])")
+    text = page.inner_text("#dataset-chamber-b-text")
+    assert "vented proposed" in text and "falls back" in text and "has it held" in text
+    page.click("#btn-chamber-b")
+    m = page.evaluate("() => S.model")
+    assert m["valve"]["b_chamber"] == "vented" and "half the supply" not in m["description"]
+    assert page.input_value("#valve-b_chamber") == "vented"
+    assert page.is_disabled("#btn-chamber-b")
+    # a restriction tried, its critical ratio emptied (the default again), then back to vented:
+    # the comparison goes on each time (it refused "only with b_chamber 'restriction'")
+    page.select_option("#valve-b_chamber", "restriction")
+    page.fill("#valve-b_chamber_conductance", "0.5")
+    page.dispatch_event("#valve-b_chamber_conductance", "change")
+    page.fill("#valve-b_chamber_critical_ratio", "")
+    page.dispatch_event("#valve-b_chamber_critical_ratio", "change")
+    page.click("#btn-compare")
+    wait_status(page, "Comparison done")
+    page.select_option("#valve-b_chamber", "vented")
+    v = page.evaluate("() => S.model.valve")
+    assert "b_chamber_conductance" not in v and "b_chamber_critical_ratio" not in v
+    page.click("#btn-compare")
+    wait_status(page, "Comparison done")
