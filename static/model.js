@@ -23,6 +23,7 @@ function renderModel() {
   plotValve();
   plotFriction();
   if (typeof showChamberB === 'function' && typeof RIG !== 'undefined') showChamberB(RIG.lastChamberB);
+  if (typeof scheduleCalReload === 'function') scheduleCalReload();   // static/calibrate.js
 }
 function writeInput(el, v) {
   if (el.type === 'checkbox') el.checked = !!v;
@@ -55,6 +56,7 @@ function onModelInput(ev) {
   } else setPath(S.model, parts, value);
   clearFieldError(el);
   if (el.dataset.field === 'model.valve.b_chamber') setChamberB(value);
+  if (typeof scheduleCalReload === 'function') scheduleCalReload();   // static/calibrate.js
   plotValve();
   plotFriction();
   markStaleComparison();

@@ -162,3 +162,21 @@ def test_chamber_b_is_a_visible_choice_proposed_from_the_record(page):
     assert "b_chamber_conductance" not in v and "b_chamber_critical_ratio" not in v
     page.click("#btn-compare")
     wait_status(page, "Comparison done")
+
+
+def test_the_calibration_panel_follows_the_model_and_the_known_values(page):
+    # the weighed mass declared known before anything else
+    page.fill("#diag-known", "jack.moving_mass")
+    page.dispatch_event("#diag-known", "change")
+    page.evaluate("(m) => { S.model = m; renderModel(); }", truth_dict())
+    mass = "#cal-params input[data-path='jack.moving_mass'][data-key='value']"
+    supply = "#cal-params input[data-path='supply.pressure'][data-key='value']"
+    # no "Reload parameters": the start values are the model's as it is (1.47 kg, 5.81 bar abs;
+    # the panel showed the preset's 2 kg and 7 bar)
+    page.wait_for_function("(s) => document.querySelector(s) && Number(document.querySelector(s).value) === 1.47",
+                           arg=mass)
+    sup = page.evaluate("(s) => [Number(document.querySelector(s).value), Number(document.querySelector(s).dataset.scale), "
+                        "Number(document.querySelector(s).dataset.offset)]", supply)
+    assert sup[0] * sup[1] + sup[2] == pytest.approx(truth_dict()["supply"]["pressure"], rel=1e-6)
+    # declared known: not ticked for fitting
+    assert not page.is_checked("#cal-params input[type=checkbox][data-path='jack.moving_mass']")
