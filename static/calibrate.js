@@ -18,14 +18,16 @@ let calReloadTimer = null;
 function scheduleCalReload() {
   if (!$('#cal-params')) return;
   clearTimeout(calReloadTimer);
-  calReloadTimer = setTimeout(loadCalOptions, 250);
+  calReloadTimer = setTimeout(() => loadCalOptions({ keepTyped: true }), 250);
 }
 
-async function loadCalOptions() {
+/** ``opts.keepTyped``: bounds the user typed stay (a reload after a model change); "Reload
+ * parameters" puts every field back to the service's. */
+async function loadCalOptions(opts) {
   if (!S.model) return;
   try {
     CAL.options = await api('POST', '/api/calibrate/parameters', { model: S.model });
-    renderCalOptions();
+    renderCalOptions(!!(opts && opts.keepTyped === true));
   } catch (e) { showApiError(e, 'Loading the fittable parameters'); }
 }
 
@@ -49,11 +51,11 @@ function calInput(path, key, value, u) {
   return inp;
 }
 
-function renderCalOptions() {
+function renderCalOptions(keepTyped = true) {
   const box = $('#cal-params');
   // bounds the user typed are kept across a reload (the start values follow the model)
   const typed = {};
-  box.querySelectorAll('input[data-edited]').forEach((inp) => { if (inp.dataset.key !== 'value') typed[`${inp.dataset.path}|${inp.dataset.key}`] = inp.value; });
+  if (keepTyped) box.querySelectorAll('input[data-edited]').forEach((inp) => { if (inp.dataset.key !== 'value') typed[`${inp.dataset.path}|${inp.dataset.key}`] = inp.value; });
   const known = calKnown();
   box.textContent = '';
   const table = document.createElement('table');

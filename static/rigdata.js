@@ -69,11 +69,13 @@ function plotDatasets(list, meass) {
 }
 
 function plotDatasetTraces(traces) {
-  const layout = baseLayout({ height: 360, margin: { l: 64, r: 20, t: 30, b: 46 } });
+  // three stacked axes: tall enough, and short titles, for each title to stay within its own
+  // axis (issue 39: the pressure's and the position's titles ran into each other)
+  const layout = baseLayout({ height: 480, margin: { l: 64, r: 20, t: 30, b: 46 } });
   layout.xaxis = axis('time t [s]', { anchor: 'y3' });
-  layout.yaxis = axis(`pressure [${plotUnit('Pa').label}]`, { domain: [0.68, 1] });
-  layout.yaxis2 = axis(`position [${plotUnit('m').label}]`, { domain: [0.36, 0.64] });
-  layout.yaxis3 = axis('command u [-]', { domain: [0, 0.3] });
+  layout.yaxis = axis(`p [${plotUnit('Pa').label}]`, { domain: [0.66, 1] });
+  layout.yaxis2 = axis(`x [${plotUnit('m').label}]`, { domain: [0.33, 0.6] });
+  layout.yaxis3 = axis('u [-]', { domain: [0, 0.27] });
   plot('dataset-plot', traces, layout);
 }
 

@@ -180,3 +180,25 @@ def test_the_calibration_panel_follows_the_model_and_the_known_values(page):
     assert sup[0] * sup[1] + sup[2] == pytest.approx(truth_dict()["supply"]["pressure"], rel=1e-6)
     # declared known: not ticked for fitting
     assert not page.is_checked("#cal-params input[type=checkbox][data-path='jack.moving_mass']")
+
+
+def test_plots_keep_titles_apart_and_measured_apart_from_simulated(page):
+    page.wait_for_function("() => (document.getElementById('dataset-plot').data || []).length > 0")
+    # every y-axis title of the data plot within its own space: no two boxes overlap
+    boxes = page.evaluate("() => [...document.querySelectorAll('#dataset-plot .g-ytitle text, #dataset-plot .g-y2title text, "
+                          "#dataset-plot .g-y3title text')].map((t) => { const r = t.getBoundingClientRect(); "
+                          "return [t.textContent, r.top, r.bottom]; })")
+    assert len(boxes) == 3, boxes
+    boxes.sort(key=lambda b: b[1])
+    for (_, _, bottom), (name, top, _) in zip(boxes, boxes[1:]):
+        assert top >= bottom, boxes
+    page.click("#btn-compare")
+    wait_status(page, "Comparison done")
+    traces = page.evaluate("() => document.getElementById('compare-plot').data.map((t) => "
+                           "({ name: t.name, mode: t.mode, color: (t.line || t.marker || {}).color, n: t.x.length }))")
+    meas = {t["name"].split()[0]: t for t in traces if t["name"].endswith("measured")}
+    sim = {t["name"].split()[0]: t for t in traces if t["name"].endswith("simulated")}
+    for sig in meas:
+        assert meas[sig]["color"] != sim[sig]["color"]
+        # 4,600 samples: a line, not dots that merge into one
+        assert meas[sig]["n"] > 2000 and meas[sig]["mode"] == "lines"
