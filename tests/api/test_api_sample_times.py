@@ -70,3 +70,14 @@ def test_a_sample_clearly_past_the_duration_is_refused(past):
 def test_a_hair_past_is_the_duration():
     t = checked_sample_times([0.0, 0.1, 0.30000000000000004], 0.3)
     assert t[-1] == 0.3 and math.isfinite(t[-1])
+
+
+@pytest.mark.parametrize("past", [1e-9, 0.05])
+def test_a_record_past_the_declared_duration_is_refused_naming_it(client, past):
+    # samples after the duration were dropped without a word: each is simulated or refused
+    exp = _experiment(700, 0.001, 0.7)
+    exp["measurement"]["t"][-1] = 0.7 + past if past < 0.001 else exp["measurement"]["t"][-1] + past
+    r = client.post("/api/compare", json={"model": model(), "experiments": [exp]})
+    assert r.status_code == 422, r.text[:500]
+    err = r.json()["detail"][0]
+    assert err["field"] == "experiments[0].scenario.duration" and "1 sample(s) after it" in err["msg"]
