@@ -46,3 +46,30 @@ def test_a_recalibration_lists_every_value_it_moves_each_flagged(jack):
     got = {c["path"]: c["flag"] for c in out}
     assert got == {"heat.coefficient": None, "jack.dead_volume_a": "implausible",
                    "jack.moving_mass": "known"}
+
+
+def test_a_known_value_the_data_would_move_beyond_its_field_says_so():
+    # issue 39: "fitted alone it would move to about -174 deg" for an angle limited to +-90
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from loop_record import effective_edges, record
+    from pneucore.analysis.hypotheses import known_disagreements
+    from pneucore.data.experiment import Experiment
+    cmd = [[0.0, 0.0]]
+    for a, b in effective_edges():
+        cmd += [[a, 1.0], [b, 0.0]]
+    exps = [Experiment(record(), {"command": cmd}, "v")]
+    model = Model.from_dict(truth_dict())
+    calls = []
+
+    def weighted(replays):
+        # the base residual, then one that the angle's small step lowers a little everywhere:
+        # a Gauss-Newton step of hundreds of degrees
+        calls.append(1)
+        return np.ones(10) if len(calls) == 1 else np.ones(10) - 1e-3
+    out = known_disagreements(model, exps, ["jack.mounting_angle"], None,
+                              SimpleNamespace(weighted=weighted))
+    assert len(out) == 1 and out[0]["flag"] == "impossible"
+    assert "outside the field's range" in out[0]["description"]
