@@ -124,7 +124,9 @@ async function runCalibration(btn) {
       $('#btn-cal-apply').disabled = false;
       $('#btn-cal-download').disabled = false;
       const r = CAL.result;
-      setStatus(`Fit done: overall error ${pct(r.error_before.overall)} % → ${pct(r.error_after.overall)} %.`, 'ok');
+      // a fit whose values would raise the overall error keeps the model as given and says so
+      setStatus(r.kept_start ? `Fit kept the model as given: ${r.message}.`
+        : `Fit done: overall error ${pct(r.error_before.overall)} % → ${pct(r.error_after.overall)} %.`, r.kept_start ? 'error' : 'ok');
     } catch (e) {
       showApiError(e, 'Fit', (f) => (f.startsWith('experiments') ? 'experiments' : f.startsWith('known') ? 'calibrate.known' : f));
     }

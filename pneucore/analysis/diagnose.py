@@ -365,6 +365,14 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         if held is not None:
             S.attach_held(f, held, odd, hold, model, null)
         report(1.0, "done")
+        named = next((c for c in ranking if c["effect"] == verdict), None) if verdict else None
+        if named is not None:
+            # the verdict's own card warns (a rising error, a fit that did not converge): the
+            # message says it beside the verdict, as the card's badges do (issue 39)
+            warn = [b["why"] for b in card_badges(named, alpha / max(len(ranking), 1), DELTA_BIC)
+                    if b["kind"] == "warning"]
+            if warn:
+                f.message += f" Caution on {verdict}: {'; '.join(warn)}."
         return Diagnosis(verdict, f.message, ranking,
                          score + [{"effect": s["effect"], "skipped": s["reason"]} for s in skipped],
                          null.comp, null.comp.windows, f.tests, null.comp.noise_floor, null.base,
