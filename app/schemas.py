@@ -632,6 +632,7 @@ class CommandProposalRequest(_Strict):
     open_level: Number = Field(1.0, ge=-1.0, le=1.0, description="Command while the pressure is held up, from a rise to the next fall [-]")
     closed_level: Number = Field(0.0, ge=-1.0, le=1.0, description="Command before the first rise and after each fall [-]")
     min_rate: Optional[Number] = Field(None, gt=0, description=f"Smallest pressure rate that opens the valve; null = {100 * _OPEN_SHARE:g} % of the record's fastest rise [Pa/s]")
+    switching_time: Number = Field(0.0, ge=0.0, le=0.5, description="The valve's switching time after its command: the command's edges lead the signal's turns by it; 0 = the edges where the valve switched, for a model without switching time [s]")
 
 
 class CommandProposal(BaseModel):
@@ -639,9 +640,11 @@ class CommandProposal(BaseModel):
     pulses: list[list[Optional[float]]] = Field(..., description="[[t_open [s], t_close [s] or null], ...]")
     signal: str = Field(..., description="The pressure the edges were read from [-]")
     threshold: float = Field(..., description="Pressure rate that made an edge [Pa/s]")
+    edges: list[dict[str, Any]] = Field([], description="Per edge in time order: t (the command's edge) [s], turn (where the signal turns) [s], kind 'open'/'close', uncertainty (half-width of the times the data allow, about two standard errors) [s], sure (within two samples) [-]")
     source: str = Field(..., description="'proposed': read from the data, not measured; the user confirms it [-]")
     note: str = Field(..., description="How it was found, in words")
     has_command: bool = Field(..., description="The record has its own command column u (then it is used unless a scenario command is given) [-]")
+    chamber_b: dict[str, Any] = Field({}, description="Chamber B's state proposed for a 3/2 valve from what the record shows: b_chamber (held, vented, closed or null: no proposal), b_chamber_pressure for held [Pa abs], sure [-], why (in words); the user sets valve.b_chamber")
 
 
 class DatasetWithData(DatasetInfo):

@@ -893,10 +893,13 @@ def propose_dataset_command(store, dataset_id, req):
     meas = Measurement.from_dict(data)
     try:
         out = propose_command(meas, req.signal, open_level=req.open_level,
-                              closed_level=req.closed_level, min_rate=req.min_rate)
+                              closed_level=req.closed_level, min_rate=req.min_rate,
+                              switching_time=req.switching_time)
     except ValueError as exc:
         raise FieldError("signal", str(exc)) from None
-    return {**out, "has_command": "u" in meas.signals}
+    from pneucore.data.command import propose_b_chamber
+    return {**out, "has_command": "u" in meas.signals,
+            "chamber_b": propose_b_chamber(meas, out["pulses"])}
 
 
 def inspect_rig_file(data, filename, limits=None):

@@ -309,13 +309,22 @@ def checked_sample_times(t_out, duration):
     Returns
     -------
     t_out : ndarray
-        The sample times (a copy) [s]
+        The sample times (a copy) [s]; a time past ``duration`` by a rounding (relative 1e-12,
+        e.g. ``1400 * 0.001 = 1.4000000000000001`` for 1.4 s) is set to ``duration``: the
+        integrator stops there and would never write a sample after it
     """
     t_out = np.array(t_out, dtype=float)
+    # 1e-12 relative: a time column built as n * dt is off by a few ulps (2.2e-16 each), far
+    # below any sample period, and anything later is a real sample after the end
     if t_out.shape[0] == 0 or not np.all(np.isfinite(t_out)) \
             or np.any(np.diff(t_out) <= 0) or t_out[0] < 0 or t_out[-1] > duration * (1 + 1e-12):
         raise ValueError("t_out: sample times must be finite, increasing and within "
                          "[0, scenario.duration]")
+    np.minimum(t_out, duration, out=t_out)
+    if t_out.shape[0] > 1 and t_out[-2] >= t_out[-1]:
+        # two samples within a rounding of the end: not increasing once the last is the end
+        raise ValueError("t_out: the last two sample times are both at scenario.duration "
+                         f"({duration:g} s) within a rounding")
     return t_out
 
 
@@ -360,10 +369,12 @@ def simulate_run(model, scenario, t_out=None, checked_times=False):
         t_out = checked_sample_times(t_out, scenario.duration)
         n_out = t_out.shape[0]
     n = core["y0"].shape[0]
-    y_out = np.empty((n_out, n))
-    aux_out = np.empty((n_out, L.N_AUX))
-    mode_out = np.empty(n_out, np.int64)
-    u_out = np.empty(n_out)
+    # filled with "not written" (NaN, mode -1), not left uninitialised: a sample the core
+    # does not reach reads as missing, never as memory's leftovers
+    y_out = np.full((n_out, n), np.nan)
+    aux_out = np.full((n_out, L.N_AUX), np.nan)
+    mode_out = np.full(n_out, -1, np.int64)
+    u_out = np.full(n_out, np.nan)
     max_ev = scenario.solver.max_events
     cmd = np.asarray(scenario.command, float)
     # the event log starts small and is redone once with the exact size if it overflows
@@ -385,6 +396,11 @@ def simulate_run(model, scenario, t_out=None, checked_times=False):
             continue
         break
     n_ev = min(n_ev, cap)
+    if status == OK and n_out and mode_out[-1] < 0:
+        # every sample lies in [0, duration] (checked above): one left unwritten by a run that
+        # reached the end is a bug, not a missing sample to show blank
+        raise RuntimeError(f"simulate: {int((mode_out < 0).sum())} sample(s) not written, the "
+                           f"last at t = {t_out[-1]!r} s of a {scenario.duration!r} s run")
     if status != OK:
         # samples after the point reached were never written: mark them missing
         bad = t_out > t_reached

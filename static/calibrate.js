@@ -7,11 +7,27 @@
 
 const CAL = { options: [], result: null, checked: new Set(['jack.moving_mass']) };
 
-async function loadCalOptions() {
+/** The parameter paths declared known, in the calibration's field or the diagnosis's. */
+function calKnown() {
+  return new Set(['#cal-known', '#diag-known'].flatMap((id) => ($(id) ? $(id).value.split(/[\s,;]+/).filter(Boolean) : [])));
+}
+
+/** The fittable parameters follow the model as it is (issue 39: the panel showed the preset's
+ * mass and supply until "Reload parameters"): reloaded shortly after every model change. */
+let calReloadTimer = null;
+function scheduleCalReload() {
+  if (!$('#cal-params')) return;
+  clearTimeout(calReloadTimer);
+  calReloadTimer = setTimeout(() => loadCalOptions({ keepTyped: true }), 250);
+}
+
+/** ``opts.keepTyped``: bounds the user typed stay (a reload after a model change); "Reload
+ * parameters" puts every field back to the service's. */
+async function loadCalOptions(opts) {
   if (!S.model) return;
   try {
     CAL.options = await api('POST', '/api/calibrate/parameters', { model: S.model });
-    renderCalOptions();
+    renderCalOptions(!!(opts && opts.keepTyped === true));
   } catch (e) { showApiError(e, 'Loading the fittable parameters'); }
 }
 
@@ -35,8 +51,12 @@ function calInput(path, key, value, u) {
   return inp;
 }
 
-function renderCalOptions() {
+function renderCalOptions(keepTyped = true) {
   const box = $('#cal-params');
+  // bounds the user typed are kept across a reload (the start values follow the model)
+  const typed = {};
+  if (keepTyped) box.querySelectorAll('input[data-edited]').forEach((inp) => { if (inp.dataset.key !== 'value') typed[`${inp.dataset.path}|${inp.dataset.key}`] = inp.value; });
+  const known = calKnown();
   box.textContent = '';
   const table = document.createElement('table');
   const head = table.insertRow();
@@ -45,6 +65,8 @@ function renderCalOptions() {
     const tr = table.insertRow();
     tr.dataset.path = o.path;
     const cb = document.createElement('input');
+    // a value declared known is never ticked by default (the weighed mass was)
+    if (known.has(o.path)) { CAL.checked.delete(o.path); tr.classList.add('known'); tr.title = 'declared known: not fitted unless ticked'; }
     cb.type = 'checkbox'; cb.checked = CAL.checked.has(o.path); cb.dataset.path = o.path;
 
     cb.addEventListener('change', () => { if (cb.checked) CAL.checked.add(o.path); else CAL.checked.delete(o.path); });
@@ -55,7 +77,10 @@ function renderCalOptions() {
     tr.insertCell().textContent = unit;
     for (const k of ['value', 'min', 'max']) {
       const td = tr.insertCell();
-      td.appendChild(srLabel(calInput(o.path, k, o[k], u), `${k} of ${o.path} [${unit}]`));
+      const inp = calInput(o.path, k, o[k], u);
+      if (typed[`${o.path}|${k}`] !== undefined) { inp.value = typed[`${o.path}|${k}`]; inp.dataset.edited = '1'; }
+      inp.addEventListener('input', () => { inp.dataset.edited = '1'; });
+      td.appendChild(srLabel(inp, `${k} of ${o.path} [${unit}]`));
       const err = document.createElement('span'); err.className = 'field-error'; err.setAttribute('role', 'alert'); td.appendChild(err);
     }
   }
@@ -99,7 +124,9 @@ async function runCalibration(btn) {
       $('#btn-cal-apply').disabled = false;
       $('#btn-cal-download').disabled = false;
       const r = CAL.result;
-      setStatus(`Fit done: overall error ${pct(r.error_before.overall)} % → ${pct(r.error_after.overall)} %.`, 'ok');
+      // a fit whose values would raise the overall error keeps the model as given and says so
+      setStatus(r.kept_start ? `Fit kept the model as given: ${r.message}.`
+        : `Fit done: overall error ${pct(r.error_before.overall)} % → ${pct(r.error_after.overall)} %.`, r.kept_start ? 'error' : 'ok');
     } catch (e) {
       showApiError(e, 'Fit', (f) => (f.startsWith('experiments') ? 'experiments' : f.startsWith('known') ? 'calibrate.known' : f));
     }
@@ -179,6 +206,7 @@ function wireCalibration() {
   $('#btn-cal-fit').addEventListener('click', (ev) => runCalibration(ev.target));
   $('#btn-cal-apply').addEventListener('click', (ev) => applyCalibration(ev.target));
   $('#btn-cal-refresh').addEventListener('click', loadCalOptions);
+  for (const id of ['#cal-known', '#diag-known']) if ($(id)) $(id).addEventListener('change', () => { if (CAL.options.length) renderCalOptions(); });
   // the parameters follow the model: load them once the page has its model
   const wait = setInterval(() => {
     if (document.body.dataset.ready) { clearInterval(wait); loadCalOptions(); }

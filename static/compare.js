@@ -105,6 +105,10 @@ function stackedLayout(n, left, right, titles, extra = {}) {
   return { layout, rows };
 }
 const SIG_COLORS = { p_a: '#1f77b4', p_b: '#d62728', x: '#2ca02c', v: '#9467bd', T_a: '#17becf', T_b: '#e377c2' };
+/** Measured signals beside simulated ones: a light tone of each signal's colour */
+const MEAS_COLORS = { p_a: '#9ec5e8', p_b: '#f0a3a4', x: '#a3d9a3', v: '#cdb8e0', T_a: '#9ae3ea', T_b: '#f3c1e4' };
+/** Above this many samples a measured signal is drawn as a thin line, not dots [-] */
+const MEASURED_DOTS_MAX = 2000;
 const SIG_SI = { p_a: 'Pa', p_b: 'Pa', p_s: 'Pa', x: 'm', v: 'm/s' };
 /** Signals the comparison's two axes hold (pressures; position, velocity, temperatures): the rod
  * force F [N] and the flows q_a, q_b, q_s [kg/s] have a plot of their own (identify.js) */
@@ -133,11 +137,15 @@ function plotCompare(c, exps) {
       const axisRef = sig.startsWith('p') ? rows[i].y : rows[i].y2;
       const color = SIG_COLORS[sig] || '#555';
       if (meas[sig]) {
-        traces.push({ x: meas.t, y: toDisplay(sig, meas[sig]), xaxis: rows[i].x, yaxis: axisRef, mode: 'markers', name: `${sig} measured`,
-          legendgroup: `${sig}m`, showlegend: first(`${sig}m`), marker: { size: 3.5, color, opacity: 0.35 } });
+        // measured: a light tone of the signal's colour, a thin line once the dots would merge
+        // into one (issue 39: 10,000 dots read as a thick line of the simulation's colour)
+        const many = meas.t.length > MEASURED_DOTS_MAX;
+        traces.push({ x: meas.t, y: toDisplay(sig, meas[sig]), xaxis: rows[i].x, yaxis: axisRef, mode: many ? 'lines' : 'markers', name: `${sig} measured`,
+          legendgroup: `${sig}m`, showlegend: first(`${sig}m`),
+          ...(many ? { line: { color: MEAS_COLORS[sig] || '#aaa', width: 1 } } : { marker: { size: 3.5, color: MEAS_COLORS[sig] || '#aaa' } }) });
       }
       traces.push({ x: e.t, y: toDisplay(sig, e.simulated[sig]), xaxis: rows[i].x, yaxis: axisRef, mode: 'lines', name: `${sig} simulated`,
-        legendgroup: `${sig}s`, showlegend: first(`${sig}s`), line: { color, width: 1.4 } });
+        legendgroup: `${sig}s`, showlegend: first(`${sig}s`), line: { color, width: 1.6, dash: 'dash' } });
     }
   });
   plot('compare-plot', traces, layout);

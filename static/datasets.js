@@ -150,6 +150,18 @@ async function measured(id) {
   if (!S.measured[id]) S.measured[id] = (await api('GET', `/api/datasets/${encodeURIComponent(id)}`)).measurement;
   return S.measured[id];
 }
+/** An experiment as plain JSON with sorted keys and no null fields: what the server stores
+ * (pydantic's exclude_none), so an edited command or context compares as a change. */
+function canonicalJson(x) {
+  if (Array.isArray(x)) return `[${x.map(canonicalJson).join(',')}]`;
+  if (x && typeof x === 'object') {
+    return `{${Object.keys(x).filter((k) => x[k] != null).sort().map((k) => `${JSON.stringify(k)}:${canonicalJson(x[k])}`).join(',')}}`;
+  }
+  return JSON.stringify(x);
+}
+/** The same experiments as they stand: the datasets and everything given with them (the
+ * scenario and its command, loads, offsets), not the dataset ids alone (issue 39: a version
+ * recorded after the command was edited was scored on the session's old command). */
 function sameExperiments(a, b) {
-  return JSON.stringify((a || []).map((e) => e.dataset_id)) === JSON.stringify((b || []).map((e) => e.dataset_id));
+  return canonicalJson(a || []) === canonicalJson(b || []);
 }

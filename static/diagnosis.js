@@ -74,7 +74,9 @@ function renderDiagnosis() {
     card.className = `card${r.effect === d.verdict ? ' top' : ''}`;
     card.id = `card-${r.effect}`;
     card.dataset.effect = r.effect;
-    const badges = ['significant', 'strong', 'material'].filter((k) => r[k]).map((k) => `<span class="badge">${k}</span>`).join(' ');
+    // the server's badges (pneucore/analysis/shown.py), each checked against the figures on
+    // this card: no "significant" beside a p-value above the level, none beside a rising error
+    const badges = (r.badges || []).map((b) => `<span class="badge${b.kind === 'warning' ? ' badge-warn' : ''}" data-badge="${esc(b.name)}" title="${esc(b.why || '')}">${esc(b.name)}</span>`).join(' ');
     const params = Object.entries(r.params || {}).map(([k, p]) => {
       // shown in the page's unit system (static/units.js)
       const u = typeof unitShow === 'function' ? unitShow(p.unit) : { unit: p.unit, scale: 1, offset: 0 };
@@ -157,6 +159,7 @@ async function adoptEffect(ev) {
   clearErrors();
   await busy(btn, async () => {
     try {
+      await ensureSession();   // the model as it is on the experiments as they stand, first
       S.model = clone(r.model);
       renderModel();
       const params = {};

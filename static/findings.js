@@ -66,14 +66,29 @@
     box.appendChild(ul);
     const actions = document.createElement('div');
     actions.className = 'row actions';
+    const given = (S.diag && S.diag.model) || S.model;
     if ((d.recalibrate || []).length && d.base_model) {
+      // every value the recalibration changes, listed before it is applied, one box each: an
+      // impossible, implausible or known value is left unticked (issue 39: "2 parameters"
+      // announced, 7 values changed, among them the ones the message called implausible)
+      const changes = d.recalibration_changes || [];
       const b = document.createElement('button');
       b.type = 'button';
       b.id = 'btn-apply-recalibration';
-      b.textContent = `Apply the recalibration (${d.recalibrate.length} parameter${d.recalibrate.length > 1 ? 's' : ''})`;
-      b.title = 'Take the base model with the mis-set parameters corrected as the new current model';
-      b.addEventListener('click', () => apply(b, d.base_model, null, {}, 'recalibration'));
+      b.title = 'Take the ticked values of the recalibration into the current model';
       actions.appendChild(b);
+      if (changes.length) {
+        box.insertAdjacentHTML('beforeend', choiceTable(changes, 'diag-recalibration-changes',
+          `“Apply the recalibration” changes the ticked values of ${changes.length} (untick any to keep it as it is)`));
+        const tbl = box.lastElementChild;
+        const label = () => { const n = chosenCount(tbl); b.textContent = `Apply the recalibration (${n} value${n === 1 ? '' : 's'})`; b.disabled = n === 0; };
+        tbl.addEventListener('change', label);
+        label();
+        b.addEventListener('click', () => apply(b, chosenModel(d.base_model, given, changes, tbl), null, {}, `recalibration (${chosenPaths(changes, tbl)})`));
+      } else {
+        b.textContent = `Apply the recalibration (${d.recalibrate.length} parameter${d.recalibrate.length > 1 ? 's' : ''})`;
+        b.addEventListener('click', () => apply(b, d.base_model, null, {}, 'recalibration'));
+      }
     }
     if (d.verdict && d.model) {
       const b = document.createElement('button');
@@ -84,25 +99,67 @@
       const top = (d.ranking || []).find((q) => q.effect === d.verdict) || {};
       const params = {};
       for (const [k, p] of Object.entries(top.params || {})) params[k] = p.value;
-      b.addEventListener('click', () => apply(b, d.model, d.verdict, params, d.verdict));
       actions.appendChild(b);
-      // everything the button changes, listed before it is pressed: the effect, the recalibration
-      // and any other value the next model moves (a refitted value below the "mis-set" threshold)
+      // everything the button changes, listed before it is pressed, one box each: the effect,
+      // the recalibration and any other value the next model moves; a flagged value unticked
       const changes = d.changes || [];
+      let tbl = null;
       if (changes.length) {
-        box.insertAdjacentHTML('beforeend', changesTable(changes, `“${b.textContent}” changes ${changes.length} value(s) of the model`));
-        box.lastElementChild.id = 'diag-findings-changes';
+        box.insertAdjacentHTML('beforeend', choiceTable(changes, 'diag-findings-changes', `“${b.textContent}” changes the ticked values of ${changes.length}`));
+        tbl = box.lastElementChild;
       }
+      b.addEventListener('click', () => apply(b, tbl ? chosenModel(d.model, given, changes, tbl) : d.model, d.verdict, params, d.verdict));
     }
     box.appendChild(actions);
     const verdict = document.getElementById('diag-verdict');
     verdict.appendChild(box);
   }
 
+  /** A table of changes with a box per value: ticked unless flagged (impossible, implausible,
+   * declared known), the flag's reason beside it. */
+  function choiceTable(changes, id, summary) {
+    const show = (x, u) => (typeof x !== 'number' ? (x == null ? '–' : esc(String(x))) : num((x - u.offset) / u.scale));
+    const rows = changes.map((c, i) => {
+      const u = c.kind === 'scaled' ? { unit: '× (scale)', scale: 1, offset: 0 }
+        : (typeof unitShow === 'function' ? unitShow(c.unit) : { unit: c.unit, scale: 1, offset: 0 });
+      const flagged = c.flag != null;
+      return `<tr data-path="${esc(c.path)}"${flagged ? ` class="flag-${esc(c.flag)}"` : ''}><td><input type="checkbox" data-index="${i}"${flagged ? '' : ' checked'} aria-label="apply ${esc(c.path)}"></td>` +
+        `<th scope="row">${esc(c.path)}</th><td class="num">${show(c.before, u)}</td><td class="num">${show(c.after, u)}</td><td>${esc(prettyUnit(u.unit || ''))}</td>` +
+        `<td class="small${flagged ? ' warn' : ''}">${flagged ? `${esc(c.flag)}: ${esc(c.why || '')}` : ''}</td></tr>`;
+    }).join('');
+    const n = changes.filter((c) => c.flag != null).length;
+    return `<details class="changes" id="${id}"${n ? ' open' : ''}><summary>${esc(summary)}${n ? ` — ${n} flagged, left unticked` : ''}</summary>` +
+      '<table class="data"><thead><tr><th scope="col">apply</th><th scope="col">parameter</th><th scope="col">now</th><th scope="col">after</th><th scope="col">unit</th><th scope="col">note</th></tr></thead>' +
+      `<tbody>${rows}</tbody></table></details>`;
+  }
+  function chosenCount(tbl) { return tbl.querySelectorAll('input[type=checkbox]:checked').length; }
+  function chosenPaths(changes, tbl) {
+    return [...tbl.querySelectorAll('input[type=checkbox]:checked')].map((x) => changes[Number(x.dataset.index)].path).join(', ') || 'nothing';
+  }
+  /** ``target`` with every unticked change of ``tbl`` put back to ``given``'s value. */
+  function chosenModel(target, given, changes, tbl) {
+    const m = clone(target);
+    tbl.querySelectorAll('input[type=checkbox]').forEach((box) => {
+      if (box.checked) return;
+      const c = changes[Number(box.dataset.index)];
+      const parts = c.path.split('.');
+      if (parts[0] === 'effects' && parts.length === 2 && c.kind === 'added') { delete m.effects[parts[1]]; return; }
+      const old = getPath(given, parts);
+      if (old === undefined) {
+        const parent = getPath(m, parts.slice(0, -1));
+        if (parent && typeof parent === 'object') delete parent[parts[parts.length - 1]];
+      } else setPath(m, parts, clone(old));
+    });
+    return m;
+  }
+
   async function apply(btn, model, added, params, what) {
     clearErrors();
     await busy(btn, async () => {
       try {
+        // the session on the experiments as they stand first, with the model as it is: the
+        // "before" of the message below is then that model on these experiments
+        await ensureSession();
         S.model = clone(model);
         renderModel();
         setStatus(`Applying the ${what} and recording a new model version…`, 'busy');

@@ -22,10 +22,13 @@ function renderModel() {
   renderEffects();
   plotValve();
   plotFriction();
+  if (typeof showChamberB === 'function' && typeof RIG !== 'undefined') showChamberB(RIG.lastChamberB);
+  if (typeof scheduleCalReload === 'function') scheduleCalReload();   // static/calibrate.js
 }
 function writeInput(el, v) {
   if (el.type === 'checkbox') el.checked = !!v;
-  else if (el.tagName === 'SELECT') el.value = v == null ? '' : String(v);
+  // a field left at its default is absent from the model's JSON: the select shows the default
+  else if (el.tagName === 'SELECT') el.value = v == null ? (el.dataset.default || '') : String(v);
   else el.value = displayValue(typeof v === 'number' ? v - Number(el.dataset.offset || 0) : v, Number(el.dataset.scale || 1));
 }
 function readInput(el) {
@@ -44,12 +47,41 @@ function onModelInput(ev) {
   const el = ev.target;
   if (!el.dataset || !el.dataset.field || !el.dataset.field.startsWith('model.')) return;
   const parts = parsePath(el.dataset.field).slice(1);
-  setPath(S.model, parts, readInput(el));
+  const value = readInput(el);
+  if (value === null) {
+    // an emptied field is the default again (absent from the JSON), not a null the service
+    // would refuse as "not a valid number"
+    const parent = getPath(S.model, parts.slice(0, -1));
+    if (parent && typeof parent === 'object') delete parent[parts[parts.length - 1]];
+  } else setPath(S.model, parts, value);
   clearFieldError(el);
+  if (el.dataset.field === 'model.valve.b_chamber') setChamberB(value);
+  if (typeof scheduleCalReload === 'function') scheduleCalReload();   // static/calibrate.js
   plotValve();
   plotFriction();
   markStaleComparison();
   if (typeof refreshCircuit === 'function') refreshCircuit();   // static/circuit.js: fields and schematic
+}
+/** Chamber B of a 3/2 valve set to ``mode``: the fields of the other modes dropped (a
+ * restriction's conductance left behind made the service refuse "vented"), the held pressure
+ * set where given, the description's words about chamber B brought up to date, the fields
+ * shown again. */
+function setChamberB(mode, pressure) {
+  const v = S.model.valve;
+  v.b_chamber = mode;
+  if (mode !== 'restriction') { delete v.b_chamber_conductance; delete v.b_chamber_critical_ratio; }
+  if (mode !== 'held') delete v.b_chamber_pressure;
+  else if (typeof pressure === 'number') v.b_chamber_pressure = pressure;
+  const words = { held: v.b_chamber_pressure ? `chamber B held at ${(v.b_chamber_pressure / 1e5).toPrecision(3)} bar abs` : 'chamber B at half the supply pressure',
+    vented: 'chamber B vented to the ambient', closed: 'chamber B closed (an air spring)', restriction: 'chamber B vented through a restriction' };
+  if (S.model.description) {
+    S.model.description = S.model.description.replace(/chamber B (?:held )?at half (?:the )?supply(?: pressure)?|chamber B held at [0-9.]+ bar abs|chamber B vented to the ambient|chamber B closed \(an air spring\)|chamber B vented through a restriction/gi, words[mode] || `chamber B ${mode}`);
+  }
+  for (const el of fieldInputs('model.valve.b_chamber')) writeInput(el, getPath({ model: S.model }, parsePath(el.dataset.field)));
+  $('#model-name').textContent = S.model.name ? `${S.model.name}${S.model.description ? ' — ' + S.model.description : ''}` : '';
+  plotValve();
+  markStaleComparison();
+  if (typeof refreshCircuit === 'function') refreshCircuit();
 }
 /** A comparison on screen that was made with another model says so (it is kept for reference,
  * not silently taken for the current model's). */

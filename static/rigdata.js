@@ -69,11 +69,13 @@ function plotDatasets(list, meass) {
 }
 
 function plotDatasetTraces(traces) {
-  const layout = baseLayout({ height: 360, margin: { l: 64, r: 20, t: 30, b: 46 } });
+  // three stacked axes: tall enough, and short titles, for each title to stay within its own
+  // axis (issue 39: the pressure's and the position's titles ran into each other)
+  const layout = baseLayout({ height: 480, margin: { l: 64, r: 20, t: 30, b: 46 } });
   layout.xaxis = axis('time t [s]', { anchor: 'y3' });
-  layout.yaxis = axis(`pressure [${plotUnit('Pa').label}]`, { domain: [0.68, 1] });
-  layout.yaxis2 = axis(`position [${plotUnit('m').label}]`, { domain: [0.36, 0.64] });
-  layout.yaxis3 = axis('command u [-]', { domain: [0, 0.3] });
+  layout.yaxis = axis(`p [${plotUnit('Pa').label}]`, { domain: [0.66, 1] });
+  layout.yaxis2 = axis(`x [${plotUnit('m').label}]`, { domain: [0.33, 0.6] });
+  layout.yaxis3 = axis('u [-]', { domain: [0, 0.27] });
   plot('dataset-plot', traces, layout);
 }
 
@@ -102,6 +104,8 @@ async function showDatasetData(list) {
       const p = await api('POST', `/api/datasets/${encodeURIComponent(d.id)}/propose-command`, {});
       RIG.commands[d.id] = p.command;
       RIG.sources[d.id] = 'proposed';
+      RIG.chamberB = RIG.chamberB || {};
+      RIG.chamberB[d.id] = p.chamber_b || null;
       $('#dataset-command-note').textContent = `The record has no valve command (u). Proposed from ${p.signal}: ${p.note}.`;
     } catch (e) {
       RIG.commands[d.id] = [[0, 0]];
@@ -114,8 +118,30 @@ async function showDatasetData(list) {
   $('#dataset-command-source').textContent = RIG.sources[d.id] === 'proposed'
     ? 'command source: proposed from the pressure edges (edit to correct it)' : 'command source: entered on this page';
   box.hidden = false;
+  showChamberB((RIG.chamberB || {})[d.id]);
   applyCommands();
   plotDataset(d.id, meas, RIG.commands[d.id]);
+}
+
+/** Chamber B's state proposed from the record (issue 39), for a 3/2 valve: shown beside the
+ * command with a button that sets it on the model; the model's field shows the choice. */
+function showChamberB(cb) {
+  const el = $('#dataset-chamber-b');
+  if (!el) return;
+  RIG.lastChamberB = cb;   // shown again when the model changes (renderModel)
+  const kind = S.model && S.model.valve && S.model.valve.kind;
+  if (!cb || !cb.b_chamber || kind !== '3/2') { el.hidden = true; return; }
+  const now = (S.model.valve.b_chamber || 'held');
+  $('#dataset-chamber-b-text').textContent = `Chamber B of the 3/2 valve: ${cb.b_chamber} proposed` +
+    `${cb.sure ? '' : ' (likely)'}: ${cb.why}. The model has it ${now}.`;
+  const btn = $('#btn-chamber-b');
+  btn.textContent = `Set chamber B ${cb.b_chamber}`;
+  btn.disabled = now === cb.b_chamber;
+  btn.onclick = () => {
+    setChamberB(cb.b_chamber, cb.b_chamber_pressure);
+    showChamberB(cb);
+  };
+  el.hidden = false;
 }
 
 function onCommandEdit() {

@@ -134,8 +134,19 @@ def templates(short=True):
     exps = [{"dataset_id": "sample-piston-leak-locked-hold"}]
     meas = {"t": [i * 1e-3 for i in range(30)], "u": [0.0] * 10 + [1.0] * 20,
             "p_a": [2e5 + 1e3 * i for i in range(30)]}
+    # a time column built as n * dt: its last sample lies a rounding past the duration typed
+    # (70 * 0.01 = 0.7000000000000001 > 0.7), one at the duration and one clearly past it
+    t_edge = [i * 0.01 for i in range(71)]
+    edge = {"name": "edge", "scenario": {"locked": True, "x0": 0.1, "duration": 0.7},
+            "measurement": {"t": t_edge, "u": [0.0] * 30 + [1.0] * 41,
+                            "p_a": [2e5 + 1e3 * i for i in range(71)]}}
+    past = copy.deepcopy(edge)
+    past["measurement"]["t"][-1] = 0.7 + 1e-9
+    at = copy.deepcopy(edge)
+    at["measurement"]["t"][-1] = 0.7
     return [
         ("POST", "/api/simulate", {"model": m, "scenario": s}),
+        ("POST", "/api/compare", {"model": m, "experiments": [edge, at, past], "residuals": False}),
         ("POST", "/api/compare", {"model": m, "experiments": exps, "residuals": False}),
         ("POST", "/api/calibrate", {"model": m, "experiments": exps, "max_nfev": 2,
                                     "parameters": {"heat.coefficient": {"min": 5, "max": 80}}}),

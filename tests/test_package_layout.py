@@ -37,7 +37,7 @@ LAYOUT = {
     "data": {"command", "experiment", "export", "fileformats", "matfile", "measurement", "npz", "samples", "synthetic"},
     "analysis": {"autocorrelation", "blas_threads", "calibrate", "calibration_options", "compare", "diagnose",
                  "command_line", "engineering", "heat_compare", "history", "hypotheses", "metrics", "parallel", "report",
-                 "phase_excess", "strokes"},
+                 "phase_excess", "shown", "strokes"},
     # the diagnosis's stages, its acceptance rules, its evidence and its findings
     "analysis/diagnosis": {"evidence", "findings", "rules", "stages"},
     "study": {"__main__", "_warm", "_worker", "definition", "execute", "metrics", "results", "store"},

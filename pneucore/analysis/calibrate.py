@@ -487,6 +487,8 @@ class Calibration:
     rss_before: list = field(default_factory=list, repr=False)
     aic_before: float = float("nan")
     bic_before: float = float("nan")
+    #: the fit raised the overall error: the model as given was kept (:func:`kept_better`)
+    kept_start: bool = False
 
     @property
     def autocorrelation_time(self):
@@ -504,7 +506,7 @@ class Calibration:
             "bic_before": self.bic_before, "neg2_loglik": self.neg2_loglik, "n_data": self.n_data,
             "n_params": self.n_params, "success": self.success, "message": self.message,
             "nfev": self.nfev, "autocorrelation_time": self.autocorrelation_time,
-            "failure_windows_after": self.error_after.windows,
+            "failure_windows_after": self.error_after.windows, "kept_start": self.kept_start,
         })
 
 
@@ -853,7 +855,49 @@ def calibrate(model, experiments, parameters, max_nfev=40, datasets=None, progre
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     exps = as_experiments(experiments, model.ambient.pressure, datasets)
     specs = check_parameters(model, exps, parameters)
-    return fit(model, exps, specs, max_nfev=max_nfev, progress=progress, step="calibrating")
+    return kept_better(model, fit(model, exps, specs, max_nfev=max_nfev, progress=progress,
+                                  step="calibrating"))
+
+
+def kept_better(model, cal):
+    """``cal``, or the model as given where the fit raised the overall error (issue 39).
+
+    The fit keeps its best point on its own objective (the weighted residuals); the error the
+    user reads is Eq. 25's overall error, and a fit may lower the one and raise the other (a
+    sensor offset traded against a pressure's shape). Then the model as given is kept: its
+    values, its errors after equal to before, ``kept_start`` set, each fitted value under
+    ``fitted`` (not applied) and the message saying so.
+
+    Parameters
+    ----------
+    model : Model
+        The model the fit started from [-]
+    cal : Calibration
+        The fit's result [-]
+
+    Returns
+    -------
+    calibration : Calibration
+        ``cal`` itself, changed as above where its error is the higher [-]
+    """
+    b = getattr(cal.error_before, "overall", None)
+    a = getattr(cal.error_after, "overall", None)
+    if b is None or not math.isfinite(b) or (a is not None and math.isfinite(a) and a <= b):
+        return cal
+    for v in cal.values.values():
+        if v.get("vary", True) is not False and "initial" in v:
+            v["fitted"] = v["value"]
+            v["value"] = v["initial"]
+    cal.model = model
+    cal.error_after = cal.error_before
+    cal.aic, cal.bic = cal.aic_before, cal.bic_before
+    cal.rss_after = cal.rss_before
+    cal.kept_start = True
+    worse = "not computable" if a is None or not math.isfinite(a) else f"{100 * a:.2f} %"
+    cal.message = (f"{cal.message}; the fitted values raise the overall error (Eq. 25) from "
+                   f"{100 * b:.2f} % to {worse}: the model as given is kept (the fitted values "
+                   f"are listed as 'fitted', not applied)")
+    return cal
 
 
 def check_parameters(model, experiments, parameters):

@@ -11,7 +11,10 @@ Examples
 ``pneucore diagnose --sample leak-and-lag`` (the paper's model on a shipped sample),
 ``pneucore refine --model my_model.json --data hold.csv --scenario '{"locked": true}'
 --data pulses.csv --scenario '{"x0": 0.05}' --report refine.html --model-out fitted.json``,
-``pneucore compare --data rig.csv --columns '{"Zeit": "t", "pA": "p_a[bar(g)]"}' --json out.json``.
+``pneucore compare --data rig.csv --columns '{"Zeit": "t", "pA": "p_a[bar(g)]"}' --json out.json``,
+``pneucore propose-command rig.mat --columns map.json`` (a record without a command column: the
+command read from its pressure's edges, as the page proposes it; ``--propose-command`` on the
+loop's commands uses it directly).
 """
 from __future__ import annotations
 
@@ -25,6 +28,9 @@ COMMANDS = {
     "compare": "compare a model with measurements (Eq. 25 errors per signal, where it fails)",
     "diagnose": "name the physical effect the model misses (one round of the diagnosis)",
     "refine": "diagnose, apply, repeat to the noise floor (the refinement loop)",
+    "propose-command": "propose a valve command from a record's pressure edges (a record "
+                       "without a command column), as the page and POST "
+                       "/api/datasets/{id}/propose-command do",
 }
 
 
@@ -42,6 +48,18 @@ def add_loop_commands(sub):
     """
     for name, helptext in COMMANDS.items():
         p = sub.add_parser(name, help=helptext, description=helptext)
+        if name == "propose-command":
+            p.add_argument("data", metavar="FILE", help="the measurement file (CSV, TDMS, "
+                                                        "MATLAB .mat, .npz)")
+            p.add_argument("--columns", help="column mapping, as inline JSON or a JSON file")
+            p.add_argument("--model", default="paper-4way",
+                           help="preset or model JSON file (its ambient pressure reads gauge "
+                                "columns)")
+            p.add_argument("--signal", choices=("p_a", "p_b"), default=None,
+                           help="the pressure read (default: p_a if measured, else p_b)")
+            _switching_arg(p)
+            p.add_argument("--json", help="write the proposal (the API's JSON) to this file")
+            continue
         p.add_argument("--model", default="paper-4way",
                        help=f"preset ({', '.join(MODEL_PRESETS)}) or a model JSON file "
                             "(the API's model, or a refine/diagnose --json answer holding one)")
@@ -59,6 +77,11 @@ def add_loop_commands(sub):
                                          "or a JSON file: {\"Zeit\": \"t\", \"pA\": \"p_a[bar(g)]\"}")
         p.add_argument("--json", help="write the answer (the API's JSON) to this file")
         p.add_argument("--report", help="write a self-contained HTML report to this file")
+        p.add_argument("--propose-command", action="store_true",
+                       help="a --data file without a command column and without "
+                            "scenario.command gets the command proposed from its pressure's "
+                            "edges (printed; as `pneucore propose-command` gives it)")
+        _switching_arg(p)
         if name in ("diagnose", "refine"):
             p.add_argument("--uncertain", help="base parameter paths refitted along, comma "
                                                "separated (default: chosen automatically)")
@@ -114,6 +137,68 @@ def load_model(arg):
     if not isinstance(d, dict):
         raise LoopArgumentError(f"--model {arg!r}: a JSON object is expected")
     return d
+
+
+def _switching_arg(p):
+    p.add_argument("--switching-time", type=float, default=0.0, metavar="SECONDS",
+                   help="the valve's switching time after its command [s]: a proposed "
+                        "command leads the pressure's turns by it (default 0)")
+
+
+def _proposal_lines(name, prop):
+    """The lines printed for a proposed command: its pulses, its rule, its unsure edges."""
+    pulses = ", ".join(f"{a:.3f}-{'end' if b is None else f'{b:.3f}'} s"
+                       for a, b in prop["pulses"][:12])
+    more = f" (+{len(prop['pulses']) - 12} more)" if len(prop["pulses"]) > 12 else ""
+    return [f"{name}: proposed command, {len(prop['pulses'])} pulse(s): {pulses}{more}",
+            f"  {prop['note']}"]
+
+
+def propose_lines(args):
+    """``pneucore propose-command FILE``: the proposal's lines (and its JSON with ``--json``).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line [-]
+
+    Returns
+    -------
+    lines : list of str
+        The summary printed on the terminal [-]
+    """
+    from pneucore.data.command import propose_command
+    from pneucore.data.fileformats import read_measurement
+    from pneucore.spec.model import Model
+    if not 0.0 <= args.switching_time <= 0.5:
+        raise LoopArgumentError(f"--switching-time {args.switching_time}: between 0 and 0.5 s")
+    amb = Model.from_dict(load_model(args.model)).ambient.pressure
+    path = Path(args.data)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise LoopArgumentError(f"{args.data!r}: {exc.strerror or exc}") from None
+    columns = _json_arg(args.columns, "--columns") if args.columns else None
+    meas = read_measurement(data, filename=path.name, ambient_pressure=amb, columns=columns,
+                            isolated=False)
+    prop = propose_command(meas, args.signal, switching_time=args.switching_time)
+    prop["has_command"] = "u" in meas.signals
+    from pneucore.data.command import propose_b_chamber
+    prop["chamber_b"] = propose_b_chamber(meas, prop["pulses"], amb)
+    lines = _proposal_lines(path.stem, prop)
+    cb = prop["chamber_b"]
+    if cb["b_chamber"]:
+        lines.append(f"  chamber B of a 3/2 valve: {cb['b_chamber']} proposed"
+                     f"{'' if cb['sure'] else ' (likely)'}: {cb['why']}; set valve.b_chamber")
+    if prop["has_command"]:
+        lines.append("  the record has its own command column u: it is used unless a "
+                     "scenario.command is given")
+    lines.append("  give it as --scenario '{\"command\": ...}' (see --json), or run the loop "
+                 "with --propose-command")
+    if args.json:
+        Path(args.json).write_text(json.dumps(prop))
+        lines.append(f"wrote {args.json}")
+    return lines
 
 
 def load_scenario(arg):
@@ -179,6 +264,12 @@ def load_experiments(args, ambient_pressure):
         meas = read_measurement(data, filename=path.name, ambient_pressure=ambient_pressure,
                                 columns=columns, isolated=False)   # the user's own files
         s = load_scenario(scen[0] if len(scen) == 1 else scen[i]) if scen else {}
+        if getattr(args, "propose_command", False) and "u" not in meas.signals \
+                and "command" not in s:
+            from pneucore.data.command import propose_command
+            prop = propose_command(meas, switching_time=args.switching_time)
+            s = dict(s, command=prop["command"])
+            args.proposals = getattr(args, "proposals", []) + _proposal_lines(path.stem, prop)
         out.append({"name": path.stem, "scenario": s, "measurement": meas})
     return out
 
@@ -211,9 +302,14 @@ def run_loop(args):
     from pneucore.data.experiment import as_experiments
     from pneucore.spec.model import Model
 
+    if args.cmd == "propose-command":
+        return propose_lines(args)
+    if not 0.0 <= args.switching_time <= 0.5:
+        raise LoopArgumentError(f"--switching-time {args.switching_time}: between 0 and 0.5 s")
     model = Model.from_dict(load_model(args.model))
+    args.proposals = []
     exps = as_experiments(load_experiments(args, model.ambient.pressure), model.ambient.pressure)
-    lines, model_out = [], None
+    lines, model_out = list(args.proposals), None
     if args.cmd == "compare":
         c = compare(model, exps)
         answer = c.to_dict()

@@ -91,6 +91,7 @@ from pneucore.analysis.diagnosis.rules import (ALPHA, CONSISTENT_RTOL, DELTA_BIC
                                                EXCESS_MAJOR, EXCESS_MATERIAL, MATERIAL, N_REFIT,
                                                RULES)
 from pneucore.analysis.diagnosis.stages import NO_EFFECT, RECAL_MIN  # noqa: F401
+from pneucore.analysis.shown import card_badges, flag_changes
 from pneucore.data.experiment import as_experiments
 from pneucore.spec.effects import EFFECTS
 from pneucore.spec.model import Model
@@ -124,14 +125,23 @@ class Diagnosis:
     given: object = field(default=None, repr=False)
     known: list = field(default_factory=list)
     cluster: object = None
+    #: the significance level the candidates were judged at (over their number) [-]
+    alpha: float = ALPHA
 
     def best(self):
         return self.ranking[0] if self.ranking else None
 
+    def _given_model(self):
+        g = self.given
+        return g if isinstance(g, Model) else Model.from_dict(g)
+
     def to_dict(self):
         return plain_json({
             "verdict": self.verdict, "message": self.message,
-            "ranking": [{k: v for k, v in r.items() if k != "model_obj"} for r in self.ranking],
+            "ranking": [dict({k: v for k, v in r.items() if k != "model_obj"},
+                             badges=card_badges(r, self.alpha / max(len(self.ranking), 1),
+                                                DELTA_BIC))
+                        for r in self.ranking],
             "score_pass": self.score_pass,
             "error_before": {"errors": self.error_before.errors,
                              "overall": self.error_before.overall,
@@ -141,8 +151,14 @@ class Diagnosis:
             "uncertain": self.uncertain, "known": self.known,
             "recalibrate": self.recalibrate, "refitted": self.refitted,
             "model": self.model.to_dict() if self.model is not None else None,
-            "changes": (model_changes(self.given, self.model) if self.model is not None
-                        and self.given is not None else []),
+            "changes": (flag_changes(self._given_model(), model_changes(self.given, self.model),
+                                     self.known)
+                        if self.model is not None and self.given is not None else []),
+            # what "Apply the recalibration" changes: every value the base model moves, each
+            # flagged where impossible or implausible (issue 39: 2 announced, 7 changed)
+            "recalibration_changes": (
+                flag_changes(self._given_model(), model_changes(self.given, self.base_model),
+                             self.known) if self.given is not None else []),
             "alternatives": self.alternatives, "remaining": self.remaining,
             "identifiability": self.identifiability, "dropped": self.dropped,
             "initial_state": self.initial_state, "hints": self.hints,
@@ -349,6 +365,14 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         if held is not None:
             S.attach_held(f, held, odd, hold, model, null)
         report(1.0, "done")
+        named = next((c for c in ranking if c["effect"] == verdict), None) if verdict else None
+        if named is not None:
+            # the verdict's own card warns (a rising error, a fit that did not converge): the
+            # message says it beside the verdict, as the card's badges do (issue 39)
+            warn = [b["why"] for b in card_badges(named, alpha / max(len(ranking), 1), DELTA_BIC)
+                    if b["kind"] == "warning"]
+            if warn:
+                f.message += f" Caution on {verdict}: {'; '.join(warn)}."
         return Diagnosis(verdict, f.message, ranking,
                          score + [{"effect": s["effect"], "skipped": s["reason"]} for s in skipped],
                          null.comp, null.comp.windows, f.tests, null.comp.noise_floor, null.base,
@@ -357,7 +381,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                          alternatives=f.alternatives, remaining=f.remaining,
                          identifiability=hyp.identifiability, error_start=comp_start,
                          dropped=f.dropped, initial_state=hyp.initial_state, hints=comp_start.hints,
-                         given=model.to_dict(), known=list(known), cluster=runner.describe())
+                         given=model.to_dict(), known=list(known), cluster=runner.describe(),
+                         alpha=alpha)
 
 
 def apply_diagnosis(model, diagnosis, effect=None):

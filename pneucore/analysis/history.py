@@ -7,6 +7,7 @@ again, until no catalog effect explains what remains.
 from __future__ import annotations
 
 import copy
+import math
 import datetime as _dt
 from dataclasses import dataclass, field
 
@@ -156,10 +157,10 @@ def from_initial_state(experiments, found):
     return [with_initial(e, by_name[e.name]) if e.name in by_name else e for e in experiments]
 
 
-#: Relative rise of the Eq. 25 error above which a round's proposed model is not taken: 1 %,
-#: the scatter of refits stopped by the optimiser's budget (a proposal worse than that undoes
-#: what an earlier round found)
-WORSE_TOLERANCE = 0.01
+#: Relative rise of the Eq. 25 error above which a round's proposed model is not taken: none
+#: (issue 39: refine never returns a model worse than its start on its own objective, the
+#: overall error on the experiments as they stand; a proposal that raises it is said and left)
+WORSE_TOLERANCE = 0.0
 
 
 def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progress=None,
@@ -227,13 +228,22 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
             d = diagnose(model, exps, uncertain=uncertain, progress=progress, validated=True,
                          known=known, scheduler=runner)
             diagnoses.append(d)
+            # the current version on the experiments as they stand: what a proposal must beat
+            comp_prev = compare(model, exps)
+            new_exps = exps
             if d.initial_state:
                 # the records imply an initial state their context does not declare (a rig left
-                # pressurised): later rounds, and this version's errors, start from it
-                exps = from_initial_state(exps, d.initial_state)
+                # pressurised): later rounds, and this version's errors, start from it, if it
+                # does not raise the error (it is part of the round's proposal)
+                new_exps = from_initial_state(exps, d.initial_state)
             if d.verdict is None and not d.recalibrate:
                 if d.initial_state:
-                    history.add(model, compare(model, exps), note=d.message,
+                    comp_init = compare(model, new_exps)
+                    if _worse(comp_init, comp_prev):
+                        d.message += _not_applied(comp_init, comp_prev, "initial state")
+                        break
+                    exps = new_exps
+                    history.add(model, comp_init, note=d.message,
                                 label="initial state: " + ", ".join(r.get("label", r["path"])
                                                                     for r in d.initial_state))
                 break
@@ -242,20 +252,33 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
                               f"as indistinguishable from off, these records ask for it again.")
             for name in d.dropped:
                 dropped_in[name] = k + 1
-            comp_prev = compare(model, exps)
-            comp_new = compare(d.model, exps)
-            if comp_new.overall > (1.0 + WORSE_TOLERANCE) * comp_prev.overall:
+            comp_new = compare(d.model, new_exps)
+            if _worse(comp_new, comp_prev):
                 # never a version worse than the one before: the round's proposal is not taken
-                d.message += (f" Not applied: the proposed model's error ({100 * comp_new.overall:.2f} %)"
-                              f" is above the current version's ({100 * comp_prev.overall:.2f} %), "
-                              f"which refine keeps.")
+                d.message += _not_applied(comp_new, comp_prev, "proposed model")
                 break
+            exps = new_exps
             model = d.model.copy()
             params = d.ranking[0]["params"] if d.verdict else {}
             history.add(model, comp_new, d.verdict, params, d.message, d.recalibrate)
             if d.verdict is None or d.remaining.get("at_floor"):
                 break
     return model, history, diagnoses
+
+
+def _worse(comp_new, comp_prev):
+    """Whether a proposal's comparison is worse than the current version's (a proposal whose
+    error cannot be computed is worse than one whose error can)."""
+    a, b = comp_new.overall, comp_prev.overall
+    if a is None or not math.isfinite(a):
+        return b is not None and math.isfinite(b)
+    return b is not None and math.isfinite(b) and a > (1.0 + WORSE_TOLERANCE) * b
+
+
+def _not_applied(comp_new, comp_prev, what):
+    a = "not computable" if comp_new.overall is None else f"{100 * comp_new.overall:.2f} %"
+    return (f" Not applied: the {what}'s overall error ({a}) is above the current version's "
+            f"({100 * comp_prev.overall:.2f} %) on the same experiments; refine keeps the better.")
 
 
 def refinement_answer(final, history, diagnoses):

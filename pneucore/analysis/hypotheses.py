@@ -883,13 +883,17 @@ def known_disagreements(model, experiments, known, replays, objective):
         delta = -float(J @ r) / jj
         share = float(J @ r) ** 2 / jj / rr
         if abs(delta) > KNOWN_FAR * step and share >= KNOWN_SHARE:
+            from pneucore.analysis.shown import value_flag
             label = label_of(path)
             unit = unit_of(path)
+            # a value the field cannot hold (an angle beyond +-90 deg) said as such (issue 39)
+            sev, why = value_flag(model, path, v + delta)
+            flag = f", {sev}: {why}" if sev == "impossible" else ""
             out.append({"path": path, "label": label, "declared": v, "data_suggest": v + delta,
-                        "unit": unit, "residual_share": share,
+                        "unit": unit, "residual_share": share, "flag": sev,
                         "description": (
                             f"the data disagree with the declared {label} ({v:.3g} {unit}): "
-                            f"fitted alone it would move to about {v + delta:.3g} {unit} "
+                            f"fitted alone it would move to about {v + delta:.3g} {unit}{flag} "
                             f"(removing {100 * share:.0f} % of the residual, to first order); "
                             "it is held as declared: check the value, or what the model lacks")})
     return out

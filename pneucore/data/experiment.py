@@ -52,7 +52,9 @@ COMPARABLE = ("p_a", "p_b", "x", "v", "T_a", "T_b", "F", "q_a", "q_b", "q_s", "p
 #: What a record without a command column needs
 NO_COMMAND = ("the record has no valve command column 'u': give the command as scenario.command "
               "(breakpoints [[t [s], u [-]], ...], held between them), or have one proposed from a "
-              "measured pressure's edges (POST /api/datasets/{id}/propose-command) and confirm it")
+              "measured pressure's edges (POST /api/datasets/{id}/propose-command, or on the command line "
+              "`pneucore propose-command FILE`, or --propose-command on compare, diagnose, "
+              "refine) and confirm it")
 
 
 @dataclass
@@ -317,7 +319,18 @@ class Experiment:
             cmd = [[t - self.t0, u] for t, u in meas.command_breakpoints()]
             cmd[0][0] = 0.0   # the first measured command is held back to the model's t = 0
             d["command"] = cmd
-        d.setdefault("duration", float(meas.t[-1] - self.t0))
+        end = float(meas.t[-1] - self.t0)
+        d.setdefault("duration", end)
+        dur = d["duration"]
+        # 1e-12 relative: a rounding of n * dt (issue 39); a later sample would be neither
+        # simulated nor compared, silently: refused, naming the duration
+        if isinstance(dur, (int, float)) and not isinstance(dur, bool) and np.isfinite(dur) \
+                and dur > 0 and end > dur * (1 + 1e-12):
+            n_after = int(np.count_nonzero(meas.t - self.t0 > dur * (1 + 1e-12)))
+            raise FieldError("scenario.duration", (
+                f"{dur:g} s ends before the record's last sample at {end:g} s on the model's "
+                f"time axis ({n_after} sample(s) after it would be neither simulated nor "
+                f"compared): give at least {end:g} s, or leave it out (the record's length)"))
         d.setdefault("sample_period", float(np.min(np.diff(meas.t))))
         ini = dict(d.get("initial") or {})
         for key in ("p_a", "p_b", "T_a", "T_b"):

@@ -130,8 +130,9 @@ def explain(eff, cand, floor_overall):
     # the same standard error as the ranking's table (its 95 % interval is ci95 there)
     params = ", ".join(f"{k} = {v['value']:.3g} ± {v['stderr']:.2g} {v['unit']}"
                        for k, v in cand["params"].items())
-    return (f"Adding {eff.name} ({eff.description}) lowers the overall error from "
-            f"{100 * cand['error_before']:.2f} % to {100 * cand['error_after_overall']:.2f} %"
+    from pneucore.analysis.shown import change_words
+    return (f"Adding {eff.name} ({eff.description}) "
+            f"{change_words(cand['error_before'], cand['error_after_overall'])}"
             f" (noise floor about {100 * floor_overall:.2f} %). The improvement lands on {where}. "
             f"This matches the effect's signature: {eff.signature}. Fitted (± standard error): {params}. "
             f"Likelihood-ratio p = {cand['p_value']:.2g}, delta BIC = {cand['delta_bic']:.1f}.")
