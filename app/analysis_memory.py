@@ -1,0 +1,260 @@
+"""Admission of analyses by their memory estimate against a budget (issue 40, item 4).
+
+One analysis at the API's cost limit (200 simulated seconds, 200,000 samples) held 1.5-1.7 GB
+before its replays were slimmed, and the default workers let four run at once: more than a
+small shared server has. Each analysis (compare, calibrate, diagnose, refine, the reports, the
+heat-model comparison; synchronous or as a job) and each simulation routed to a worker thread
+is estimated before it starts from what it will replay, :func:`analysis_estimate`: its samples
+(simulated seconds times the sample rate, over every experiment) times the bytes a sample
+takes at the analysis's peak, measured per kind by ``benchmarks/bench_long_records.py --memory
+--memory-kinds ...`` (:data:`BYTES_PER_SAMPLE`). The estimates of the analyses running are
+summed against ``Limits.analysis_memory_budget`` (``PNEUCORE_ANALYSIS_MEMORY``, default half
+of the machine's memory, :func:`default_budget`):
+
+- a synchronous request that does not fit now is answered **503** with ``Retry-After`` and a
+  JSON body naming the budget, its estimate and what is held (:class:`MemoryBusy`);
+- a job that does not fit waits in the queue (status ``queued``, its ``step`` saying it waits
+  for memory and how much) until the running ones give theirs back;
+- a request whose own estimate exceeds the whole budget is refused at once, **422** naming
+  ``experiments`` (or ``scenario.duration``), its seconds and samples and the budget.
+
+Every estimate held is given back when its work ends: an answer, an error, a client gone,
+a time limit. Simulations answered on the event loop (:mod:`app.express_lane`, at most 5,001
+samples, one at a time) are not counted: a few MB.
+"""
+from __future__ import annotations
+
+import contextvars
+import math
+import os
+import threading
+from contextlib import contextmanager
+
+from pneucore.spec.validation import FieldError
+
+#: Peak resident memory of one analysis per replayed sample, by kind [bytes]: the growth of a
+#: forked server-like process's resident memory while it runs
+#: (``benchmarks/bench_long_records.py --memory --memory-kinds compare,calibrate,refine,heat``,
+#: 2-core AMD EPYC VM, numpy 2.4, after the replays were slimmed: 1 s hold + 20 s cyclic record
+#: at 1 kHz, 21,002 samples, 2-3 signals). The per-sample figure of the 5 s and 20 s records and
+#: of 10 x 2 s agree within about 25 %; each figure below is the largest measured, times
+#: :data:`MARGIN`. The core's outputs (about 30 columns of float64 a sample) and the phase
+#: labels dominate; the 2-6 compared signals are folded into the figure (their share is a few
+#: tens of bytes a sample each).
+BYTES_PER_SAMPLE = {
+    "compare": 1_500,
+    "calibrate": 2_000,
+    "diagnose": 6_000,
+    "refine": 6_000,
+    "heat": 2_500,      # per heat model compared (each is one calibration)
+    "simulate": 1_000,  # per output sample: the core's outputs, the series and the answer
+}
+#: Factor on the measured figures [-]: the peak grew slightly faster than the samples up to
+#: 60 s before the slimming (as samples^1.15); 1.5 covers that growth from the 20 s records
+#: measured to the 200 s of the cost limit ((200 / 21)^0.15 = 1.4) and the allocator's spread
+MARGIN = 1.5
+#: Smallest estimate of an analysis [bytes]: its fixed part (the model, the optimiser, the
+#: answer's structure) whatever its records, about 8 MB of resident growth measured for a
+#: comparison of 2,000 samples
+FLOOR_BYTES = 10_000_000
+#: Share of the machine's memory given to analyses by default [-]: the rest holds the server's
+#: own 300-400 MB (the compiled core, the modules), an upload's decode budget
+#: (``max_request_memory``, 256 MB), the studies' processes, the OS and its page cache
+DEFAULT_SHARE = 0.5
+#: Seconds a refused request is told to wait (``Retry-After``): an analysis of a typical size
+#: takes 1-10 s on 2 cores; one at the cost limit longer, and the client is told again then
+RETRY_AFTER_S = 10
+
+#: The budget of the analysis this context (a synchronous request and its worker thread)
+#: runs, set by :func:`app.sync_pool.sync_slot`; None outside (a job holds its own)
+CURRENT = contextvars.ContextVar("pneucore_memory_budget", default=None)
+
+
+def machine_memory():
+    """Memory this process may use [bytes]: the physical memory, or the container's limit
+    (cgroup v2 ``memory.max``, v1 ``memory.limit_in_bytes``) where smaller; None if unknown."""
+    sizes = []
+    try:
+        sizes.append(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        pass
+    for path in ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"):
+        try:
+            with open(path) as fh:
+                text = fh.read().strip()
+        except OSError:
+            continue
+        if text.isdigit() and int(text) < 1 << 60:   # "max" or a huge number: no limit
+            sizes.append(int(text))
+    return min(sizes) if sizes else None
+
+
+def default_budget():
+    """``Limits.analysis_memory_budget`` unless ``PNEUCORE_ANALYSIS_MEMORY`` says [bytes]:
+    :data:`DEFAULT_SHARE` of :func:`machine_memory` (2 GB where it is unknown)."""
+    total = machine_memory()
+    return int(DEFAULT_SHARE * total) if total else 2_000_000_000
+
+
+def analysis_estimate(kind, experiments, models=1):
+    """Peak memory one analysis of ``kind`` is expected to take [bytes].
+
+    Parameters
+    ----------
+    kind : str
+        A key of :data:`BYTES_PER_SAMPLE` [-]
+    experiments : list of pneucore.data.experiment.Experiment
+        What it replays (each record's samples: its simulated seconds times its sample rate) [-]
+    models : int
+        Heat models compared (``heat``) [-]
+
+    Returns
+    -------
+    estimate : int
+        [bytes]
+    """
+    samples = sum(e.measurement.n for e in experiments)
+    return samples_estimate(kind, samples, models)
+
+
+def samples_estimate(kind, samples, models=1):
+    """:func:`analysis_estimate` from a count of samples [bytes]."""
+    return max(FLOOR_BYTES, int(math.ceil(samples * BYTES_PER_SAMPLE[kind] * MARGIN * models)))
+
+
+def _mb(n):
+    return f"{n / 1e6:,.0f} MB"
+
+
+def check_alone(estimate, budget, field, what):
+    """Refuse at once (422 naming ``field``) a request whose own estimate exceeds the whole
+    budget: it would never be admitted.
+
+    Parameters
+    ----------
+    estimate, budget : int
+        [bytes]
+    field : str
+        The request's field that sets its size (``experiments``, ``scenario.duration``) [-]
+    what : str
+        Its size in words (``200 s of records, 200,000 samples``) [-]
+    """
+    if estimate > budget:
+        raise FieldError(field, f"{what} would take about {_mb(estimate)} of memory, more than the "
+                                f"server's whole analysis memory budget of {_mb(budget)} "
+                                f"(analysis_memory_budget, GET /api/limits); shorten or decimate "
+                                f"the records, or split the analysis")
+
+
+class MemoryBusy(Exception):
+    """The budget has no room for this analysis now: 503 with ``Retry-After`` (see
+    :func:`app.main.create_app`'s handler), nothing started."""
+
+    def __init__(self, what, estimate, budget, held, running):
+        self.estimate, self.budget, self.held, self.running = estimate, budget, held, running
+        self.retry_after = RETRY_AFTER_S
+        super().__init__(
+            f"not enough memory for this {what} now: it needs about {_mb(estimate)}, and "
+            f"{running} running analyses hold {_mb(held)} of the {_mb(budget)} budget "
+            f"(analysis_memory_budget, GET /api/limits); try again in {RETRY_AFTER_S} s, or "
+            f"submit it as a job, which waits for memory in the queue")
+
+    def body(self):
+        """The answer's JSON: the message and the figures [bytes]."""
+        return {"detail": str(self), "memory_budget": self.budget, "estimate": self.estimate,
+                "held": self.held, "running": self.running, "retry_after": self.retry_after}
+
+
+class MemoryBudget:
+    """The analyses' memory estimates held at once, against a budget.
+
+    Parameters
+    ----------
+    budget : int
+        Sum of the estimates of the analyses running at once [bytes]
+    """
+
+    def __init__(self, budget):
+        self.budget = int(budget)
+        self.held = 0       # sum of the estimates held [bytes]
+        self.running = 0    # analyses holding one [-]
+        self._cv = threading.Condition()
+
+    def _fits(self, estimate):
+        # an analysis alone always runs (its estimate was checked against the whole budget)
+        return self.running == 0 or self.held + estimate <= self.budget
+
+    def _take(self, estimate):
+        self.held += estimate
+        self.running += 1
+
+    def release(self, estimate):
+        """Give back what :meth:`hold` or :meth:`wait_for` took."""
+        with self._cv:
+            self.held -= estimate
+            self.running -= 1
+            self._cv.notify_all()
+
+    @contextmanager
+    def hold(self, estimate, what="analysis"):
+        """Hold ``estimate`` [bytes] while the block runs; :class:`MemoryBusy` at once when it
+        does not fit (a synchronous request)."""
+        with self._cv:
+            if not self._fits(estimate):
+                raise MemoryBusy(what, estimate, self.budget, self.held, self.running)
+            self._take(estimate)
+        try:
+            yield
+        finally:
+            self.release(estimate)
+
+    def wait_for(self, estimate, waiting=None, stop=None, period=0.25):
+        """Block until ``estimate`` [bytes] fits, then hold it (:meth:`release` gives it back);
+        False, nothing held, when ``stop()`` turns true meanwhile (a job's queue).
+
+        Parameters
+        ----------
+        waiting : callable or None
+            ``waiting(text)``, called once if it has to wait, with why
+        stop : callable or None
+            Checked every ``period`` seconds while waiting
+        """
+        told = False
+        with self._cv:
+            while not self._fits(estimate):
+                if stop is not None and stop():
+                    return False
+                if not told and waiting is not None:
+                    waiting(f"waiting for memory: needs about {_mb(estimate)}, {self.running} "
+                            f"running analyses hold {_mb(self.held)} of the {_mb(self.budget)} "
+                            f"budget (analysis_memory_budget)")
+                    told = True
+                self._cv.wait(period)
+            self._take(estimate)
+        return True
+
+    def state(self):
+        """``{"budget", "held", "running"}`` now [bytes, bytes, -]."""
+        with self._cv:
+            return {"budget": self.budget, "held": self.held, "running": self.running}
+
+
+@contextmanager
+def admitted(estimate, what):
+    """Hold ``estimate`` on the budget of this context's synchronous request
+    (:data:`CURRENT`), raising :class:`MemoryBusy` when it does not fit; nothing outside one
+    (a job has held its estimate before it started)."""
+    budget = CURRENT.get()
+    if budget is None:
+        yield
+        return
+    with budget.hold(estimate, what):
+        yield
+
+
+def seconds_of(experiments):
+    """The records' size in words, for the messages: simulated seconds and samples [-]."""
+    samples = sum(e.measurement.n for e in experiments)
+    seconds = sum(float(e.measurement.duration) for e in experiments)
+    return f"{seconds:g} s of records ({samples:,} samples)"
+
