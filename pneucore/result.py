@@ -163,21 +163,26 @@ class LazyResult:
             raise AttributeError(name)
         return getattr(self.full, name)
 
-    def summarised(self, keep=()):
+    def summarised(self, keep=(), given=None):
         """:class:`SummarisedResult` of this result: its status, piston modes, events and the
-        ``keep`` observed series (copies), read off the full result if built, else off the core's
-        outputs (the same arrays), which it does not hold."""
-        src = self._full if self._full is not None else self._run
-        mode = self._full.mode if self._full is not None else _SERIES["mode"](self._run)
-        events = self._full.events if self._full is not None else self._run.events()
-        return SummarisedResult(self.status, self.message, mode, events,
-                                _kept_columns(src, keep))
+        ``keep`` observed series (copies; ``given``: those already copied), read off the full result if built, else off the core's
+        outputs (the same arrays), which it does not hold. The modes are kept as the core's
+        codes (8 bytes a sample) and made text on first use, as the full result makes them."""
+        if self._full is not None:
+            return SummarisedResult(self.status, self.message, self._full.mode,
+                                    self._full.events, kept_columns(self._full, keep, given))
+        return SummarisedResult(self.status, self.message, None, self._run.events(),
+                                kept_columns(self._run, keep, given), mode_codes=self._run.mode_out)
 
 
-def _kept_columns(src, keep):
-    """``{name: copy of src.observed(name)}`` for the names of ``keep`` that ``src`` gives."""
+def kept_columns(src, keep, given=None):
+    """``{name: copy of src.observed(name)}`` for the names of ``keep`` that ``src`` gives
+    (``given``: name -> such a copy already made, used as it is)."""
     out = {}
     for name in keep:
+        if given and name in given:
+            out[name] = given[name]
+            continue
         try:
             out[name] = np.array(src.observed(name), float)
         except KeyError:   # a series this model does not produce (p_b of a 3/2 valve)
@@ -207,9 +212,17 @@ class SummarisedResult:
         :attr:`SimulationResult.events`
     """
 
-    def __init__(self, status, message, mode, events, columns):
-        self.status, self.message, self.mode, self.events = status, message, mode, events
-        self._columns = columns
+    def __init__(self, status, message, mode, events, columns, mode_codes=None):
+        self.status, self.message, self._mode, self.events = status, message, mode, events
+        self._columns, self._codes = columns, mode_codes
+
+    @property
+    def mode(self):
+        """The piston mode of each sample as text, made once from the codes if need be [-]"""
+        if self._mode is None:
+            self._mode = _MODE_TEXT[self._codes]   # as _SERIES["mode"]: code -1 -> ""
+            self._codes = None
+        return self._mode
 
     def observed(self, name):
         """:meth:`SimulationResult.observed` for the series kept; KeyError for the others."""
@@ -219,7 +232,7 @@ class SummarisedResult:
             raise KeyError(f"{name}: a summarised replay keeps only the observed series "
                            f"{sorted(self._columns)}") from None
 
-    def summarised(self, keep=()):
+    def summarised(self, keep=(), given=None):
         """Itself (already summarised)."""
         return self
 

@@ -18,7 +18,7 @@ from pneucore.data.experiment import as_experiments
 from pneucore.analysis.metrics import (command_phases, eq25_error, noise_sigma, ordered_labels,
                                        phase_errors, piston_phases, worst_windows)
 from pneucore.analysis.phase_excess import describe, explain_residual
-from pneucore.result import LazyResult, SummarisedResult, _kept_columns
+from pneucore.result import LazyResult, SummarisedResult, kept_columns
 from pneucore.spec.model import Model
 
 
@@ -62,9 +62,23 @@ class Replay:
         the :data:`SUMMARY_SERIES`), and a simulated signal that is a column of the core's outputs
         becomes a copy of it, so that those outputs are freed. Values unchanged."""
         self.cmd_labels, self.piston_labels   # noqa: B018 - made while the modes are at hand
-        self.result = summarised_result(self.result, SUMMARY_SERIES)
-        self.simulated = {s: v.copy() if isinstance(v, np.ndarray) and v.base is not None else v
-                          for s, v in self.simulated.items()}
+        self.drop_core_outputs()
+
+    def drop_core_outputs(self):
+        """Free the compiled core's outputs, keeping what a fit and a summary read of them: the
+        result becomes a :class:`pneucore.result.SummarisedResult` (status, modes, events and the
+        :data:`SUMMARY_SERIES`), and a simulated signal that is a column of those outputs a copy
+        of it (a fit keeps its last replays, :data:`pneucore.analysis.calibrate.RECENT_REPLAYS`,
+        and two fits run at once: their outputs made most of a diagnosis's peak). Values
+        unchanged; the full result can no longer be built."""
+        # a signal that is still a view is the core's column as observed (a sensor's gain or
+        # offset, applied by a fit, makes a new array): its copy serves both
+        copies = {s: v.copy() for s, v in self.simulated.items()
+                  if isinstance(v, np.ndarray) and v.base is not None}
+        self.result = summarised_result(self.result, SUMMARY_SERIES,
+                                        {s: c for s, c in copies.items() if s in SUMMARY_SERIES})
+        self.simulated = {s: copies.get(s, v) for s, v in self.simulated.items()}
+        return self
 
 
 #: Observed series a summarised replay keeps besides its compared signals: the regressors of
@@ -73,12 +87,13 @@ class Replay:
 SUMMARY_SERIES = ("x", "v", "p_a", "p_b")
 
 
-def summarised_result(result, keep=SUMMARY_SERIES):
-    """A replay's result as :class:`pneucore.result.SummarisedResult` (a lazy or full result)."""
+def summarised_result(result, keep=SUMMARY_SERIES, given=None):
+    """A replay's result as :class:`pneucore.result.SummarisedResult` (a lazy or full result);
+    ``given``: copies of some of the ``keep`` series already made (name -> array)."""
     if hasattr(result, "summarised"):
-        return result.summarised(keep)
+        return result.summarised(keep, given)
     return SummarisedResult(result.status, result.message, result.mode, result.events,
-                            _kept_columns(result, keep))
+                            kept_columns(result, keep, given))
 
 
 def replay(model, experiment):
