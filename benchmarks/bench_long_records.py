@@ -218,7 +218,7 @@ def peak_rss(fn):
 
 #: Analyses whose peak ``--memory-kinds`` measures on each case besides the diagnosis round
 #: (the API's memory estimate per kind, app/analysis_memory.py, rests on these figures)
-MEMORY_KINDS = ("compare", "calibrate", "refine", "heat")
+MEMORY_KINDS = ("compare", "calibrate", "refine", "heat", "simulate")
 
 
 def analysis(kind, start, exps, sched=None):
@@ -240,6 +240,15 @@ def analysis(kind, start, exps, sched=None):
     if kind == "heat":
         from pneucore.analysis.heat_compare import compare_heat_models
         return lambda: compare_heat_models(start, exps[:1])
+    if kind == "simulate":   # each record's scenario simulated and answered as POST /api/simulate
+        import orjson
+
+        def answers():
+            for e in exps:
+                res = e.simulate(start)
+                orjson.dumps(res.to_dict(arrays=True, inputs=False),
+                             option=orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS)
+        return answers
     raise ValueError(kind)
 
 
