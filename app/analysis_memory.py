@@ -32,26 +32,37 @@ from contextlib import contextmanager
 
 from pneucore.spec.validation import FieldError
 
-#: Peak resident memory of one analysis per replayed sample, by kind [bytes]: the growth of a
-#: forked server-like process's resident memory while it runs
-#: (``benchmarks/bench_long_records.py --memory --memory-kinds compare,calibrate,refine,heat``,
-#: 2-core AMD EPYC VM, numpy 2.4, after the replays were slimmed: 1 s hold + 20 s cyclic record
-#: at 1 kHz, 21,002 samples, 2-3 signals). The per-sample figure of the 5 s and 20 s records and
-#: of 10 x 2 s agree within about 25 %; each figure below is the largest measured, times
-#: :data:`MARGIN`. The core's outputs (about 30 columns of float64 a sample) and the phase
-#: labels dominate; the 2-6 compared signals are folded into the figure (their share is a few
-#: tens of bytes a sample each).
+#: Peak memory of one analysis per replayed sample, by kind [bytes]: the largest of the
+#: peaks measured by ``benchmarks/bench_long_records.py --memory --memory-kinds
+#: compare,calibrate,refine,heat,simulate`` (2-core AMD EPYC VM, Python 3.11, numpy 2.4, scipy
+#: 1.17, after the replays were slimmed) on a 1 s hold + 5 s cyclic record (6,002 samples),
+#: 1 s + 20 s (21,002) and 10 x 2 s (20,010), at 1 kHz with 2-3 signals each, rounded up:
+#: the traced peak (tracemalloc, numpy's arrays included) and the resident growth of a forked
+#: child, whichever is larger. Measured, bytes a sample:
+#:
+#: - compare 576 / 584 / 537 (resident 1,516 / 676 / 655: 8-14 MB of it fixed, the floor's);
+#: - calibrate 919 / 966 / 697;
+#: - diagnose 5,243 / 3,945 / 4,438 (resident 4,441 / 2,741 / 4,414), 7,990 / 6,147 / 7,852
+#:   before the slimming;
+#: - refine 5,270 / 3,877 / 4,479 (its rounds one after the other);
+#: - heat: one calibration per heat model compared, the calibrate figure each;
+#: - simulate (output samples, the answer's JSON written): 866 on 20 s, 1,115 on 100 s.
+#:
+#: What a sample costs at a diagnosis's peak is now mostly the least-squares algebra
+#: (Jacobians of samples x signals x fitted parameters and their SVD), so the compared
+#: signals (2-6) are in the figure rather than a term of their own.
 BYTES_PER_SAMPLE = {
-    "compare": 1_500,
-    "calibrate": 2_000,
-    "diagnose": 6_000,
-    "refine": 6_000,
-    "heat": 2_500,      # per heat model compared (each is one calibration)
-    "simulate": 1_000,  # per output sample: the core's outputs, the series and the answer
+    "compare": 700,
+    "calibrate": 1_000,
+    "diagnose": 5_300,
+    "refine": 5_300,
+    "heat": 1_000,      # per heat model compared (each is one calibration)
+    "simulate": 1_200,  # per output sample: the core's outputs, the series and the answer
 }
-#: Factor on the measured figures [-]: the peak grew slightly faster than the samples up to
-#: 60 s before the slimming (as samples^1.15); 1.5 covers that growth from the 20 s records
-#: measured to the 200 s of the cost limit ((200 / 21)^0.15 = 1.4) and the allocator's spread
+#: Factor on the measured figures [-]: the records measured reach 21 s, the cost limit 200 s;
+#: before the slimming the peak grew as samples^1.15 from 20 to 60 s, which from 21 s to
+#: 200 s is a factor (200 / 21)^0.15 = 1.4; 1.5 covers it, and the resident growth of a round,
+#: which came out from 0.45 to 1.14 times its traced peak (the allocator's arenas)
 MARGIN = 1.5
 #: Smallest estimate of an analysis [bytes]: its fixed part (the model, the optimiser, the
 #: answer's structure) whatever its records, about 8 MB of resident growth measured for a
