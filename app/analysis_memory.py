@@ -43,7 +43,8 @@ from pneucore.spec.validation import FieldError
 #: - compare 576 / 584 / 537 (resident 1,516 / 676 / 655: 8-14 MB of it fixed, the floor's);
 #: - calibrate 919 / 966 / 697;
 #: - diagnose 5,243 / 3,945 / 4,438 (resident 4,441 / 2,741 / 4,414), 7,990 / 6,147 / 7,852
-#:   before the slimming;
+#:   before the slimming; on 1 s + 60 s (61,002 samples) 4,706 (resident 5,774), the figure
+#:   taken;
 #: - refine 5,270 / 3,877 / 4,479 (its rounds one after the other);
 #: - heat: one calibration per heat model compared, the calibrate figure each;
 #: - simulate (output samples, the answer's JSON written): 866 on 20 s, 1,115 on 100 s.
@@ -54,15 +55,18 @@ from pneucore.spec.validation import FieldError
 BYTES_PER_SAMPLE = {
     "compare": 700,
     "calibrate": 1_000,
-    "diagnose": 5_300,
-    "refine": 5_300,
+    "diagnose": 5_800,
+    "refine": 5_800,
     "heat": 1_000,      # per heat model compared (each is one calibration)
     "simulate": 1_200,  # per output sample: the core's outputs, the series and the answer
 }
-#: Factor on the measured figures [-]: the records measured reach 21 s, the cost limit 200 s;
-#: before the slimming the peak grew as samples^1.15 from 20 to 60 s, which from 21 s to
-#: 200 s is a factor (200 / 21)^0.15 = 1.4; 1.5 covers it, and the resident growth of a round,
-#: which came out from 0.45 to 1.14 times its traced peak (the allocator's arenas)
+#: Factor on the measured figures [-]: a diagnosis's traced peak still grows slightly faster
+#: than its samples (as samples^1.17 from 21,002 to 61,002), which from the 61 s measured to
+#: the 200 s of the cost limit is a factor (200 / 61)^0.17 = 1.22; and four diagnoses of
+#: 1 s + 20 s in one server took 121 MB each (``benchmarks/bench_analysis_budget.py --budget
+#: 0``: 485 MB, 2 malloc arenas), 1.46 times one's traced peak alone. Extrapolated, a
+#: diagnosis at the cost limit takes about 1.15 GB traced, 1.7 GB in a busy server; its
+#: estimate is 200,000 x 5,800 x 1.5 = 1.74 GB
 MARGIN = 1.5
 #: Smallest estimate of an analysis [bytes]: its fixed part (the model, the optimiser, the
 #: answer's structure) whatever its records, about 8 MB of resident growth measured for a
@@ -79,6 +83,39 @@ RETRY_AFTER_S = 10
 #: The budget of the analysis this context (a synchronous request and its worker thread)
 #: runs, set by :func:`app.sync_pool.sync_slot`; None outside (a job holds its own)
 CURRENT = contextvars.ContextVar("pneucore_memory_budget", default=None)
+
+
+#: Malloc arenas of the server's process [-] (glibc's ``M_ARENA_MAX``; its default is 8 per
+#: core): each thread that allocates gets an arena of its own, which keeps its high-water mark
+#: once its analysis is done, so that the resident memory grew as the sum of every thread's
+#: peak rather than of the analyses running at once. Four clients diagnosing 1 s + 20 s at
+#: once, two admitted by a 400 MB budget: the resident memory grew 478 MB with glibc's
+#: default, 215 MB with 2 arenas (``benchmarks/bench_analysis_budget.py``, 2-core VM).
+#: ``MALLOC_ARENA_MAX`` in the environment is the operator's choice and is left as it is.
+MALLOC_ARENAS = 2
+
+
+def limit_malloc_arenas(arenas=MALLOC_ARENAS):
+    """Limit glibc's malloc arenas of this process to ``arenas`` (:data:`MALLOC_ARENAS`), at
+    the app's creation, before its worker threads exist; nothing where ``MALLOC_ARENA_MAX`` is
+    set or the C library is not glibc.
+
+    Returns
+    -------
+    done : bool
+        Whether the limit was set [-]
+    """
+    if os.environ.get("MALLOC_ARENA_MAX"):
+        return False
+    try:
+        import ctypes
+        import ctypes.util
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        mallopt = libc.mallopt
+        libc.gnu_get_libc_version   # noqa: B018 - glibc only (musl's mallopt does nothing)
+    except (OSError, AttributeError):
+        return False
+    return bool(mallopt(-8, int(arenas)))   # -8: M_ARENA_MAX
 
 
 def machine_memory():

@@ -29,7 +29,7 @@ from pneucore.data.measurement import MeasurementError
 from pneucore.simulate import SimulationError, start_warm_up
 from pneucore.spec.validation import FieldError
 
-from .analysis_memory import MemoryBudget, MemoryBusy
+from .analysis_memory import MemoryBudget, MemoryBusy, limit_malloc_arenas
 from .asgi import TrackedSend, send_json
 from .bodies import BodyLimit
 from .config import LOCAL_HOSTS, Settings
@@ -105,6 +105,7 @@ def _unfreeze(stopped):
 
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
+    limit_malloc_arenas()   # before the worker threads (app.analysis_memory.MALLOC_ARENAS)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):

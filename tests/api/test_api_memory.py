@@ -155,3 +155,9 @@ def test_the_estimate_counts_every_experiments_samples():
             self.measurement = type("M", (), {"n": n})()
     assert analysis_estimate("diagnose", [E(100_000), E(100_000)]) == \
         samples_estimate("diagnose", 200_000)
+
+
+def test_the_malloc_arenas_are_the_operators_where_set(monkeypatch):
+    from app.analysis_memory import limit_malloc_arenas
+    monkeypatch.setenv("MALLOC_ARENA_MAX", "4")
+    assert limit_malloc_arenas() is False
