@@ -167,13 +167,22 @@ def simulation(req, limits, max_steps=None, run=simulate, form="json", memory=No
     """
     model = parse_model(req.model)
     scen = parse_scenario(req.scenario, model, limits)
+    with _simulation_held(scen, limits, memory):
+        return _simulated(req, model, scen, max_steps, run, form)
+
+
+def _simulation_held(scen, limits, memory, runs=1):
+    """Context manager: the estimate of ``runs`` simulations of ``scen`` (its output samples,
+    :data:`app.analysis_memory.BYTES_PER_SAMPLE`) held on ``memory`` (503 when it does not fit
+    now; None: not counted); a 422 naming ``scenario.duration`` when it alone exceeds the
+    budget."""
     from pneucore.simulate import output_samples
     samples = output_samples(scen.duration, scen.sample_period)
-    estimate = samples_estimate("simulate", samples)
+    estimate = samples_estimate("simulate", samples, runs)
+    what = f"{runs} simulations" if runs > 1 else "a simulation"
     check_alone(estimate, limits.analysis_memory_budget, "scenario.duration",
-                f"a simulation of {scen.duration:g} s ({samples:,} output samples)")
-    with nullcontext() if memory is None else memory.hold(estimate, "simulation"):
-        return _simulated(req, model, scen, max_steps, run, form)
+                f"{what} of {scen.duration:g} s ({samples:,} output samples)")
+    return nullcontext() if memory is None else memory.hold(estimate, "simulation")
 
 
 def _simulated(req, model, scen, max_steps, run, form):
@@ -197,16 +206,19 @@ def simulation_csv(out):
     return as_csv(out)
 
 
-def simulate_under_heat_models(req, limits):
+def simulate_under_heat_models(req, limits, memory=None):
     """POST /api/simulate/heat-models: one scenario under each requested heat model.
 
     Returns ``{"runs": {heat model: result JSON}}``; an unknown heat model is a FieldError
-    on ``heat_models``, found before any run.
+    on ``heat_models``, found before any run. ``memory``: as for :func:`simulation` (every
+    run's estimate held: their answers are kept together).
     """
     model = parse_model(req.model)
     scen = parse_scenario(req.scenario, model, limits)
-    return {"runs": {name: result_json(simulate(with_heat_model(model, name), scen), req.series)
-                     for name in check_heat_models(req.heat_models)}}
+    names = check_heat_models(req.heat_models)
+    with _simulation_held(scen, limits, memory, max(len(names), 1)):
+        return {"runs": {name: result_json(simulate(with_heat_model(model, name), scen), req.series)
+                         for name in names}}
 
 
 # ------------------------------------------------------------------------------ analyses
@@ -592,16 +604,18 @@ def heat_model_catalog():
     return [m.to_dict() for m in HEAT_MODELS.values()]
 
 
-def simulate_every_heat_model(req, limits):
+def simulate_every_heat_model(req, limits, memory=None):
     """POST /api/heat-models/simulate: one scenario under each requested heat model (all by
-    default); the series default to those of :data:`HEAT_SERIES` every run has."""
+    default); the series default to those of :data:`HEAT_SERIES` every run has. ``memory``: as
+    for :func:`simulate_under_heat_models`."""
     model = parse_model(req.model)
     scen = parse_scenario(req.scenario, model, limits)
-    check_names(req.heat_models)
-    runs = simulate_heat_models(model, scen, req.heat_models)
-    series = req.series if req.series is not None else [
-        s for s in HEAT_SERIES if all(s in r.series for r in runs.values())]
-    return {"runs": {name: result_json(res, series) for name, res in runs.items()}}
+    names = check_names(req.heat_models)
+    with _simulation_held(scen, limits, memory, len(names)):
+        runs = simulate_heat_models(model, scen, req.heat_models)
+        series = req.series if req.series is not None else [
+            s for s in HEAT_SERIES if all(s in r.series for r in runs.values())]
+        return {"runs": {name: result_json(res, series) for name, res in runs.items()}}
 
 
 def check_heat_compare(req, store, limits):

@@ -1,5 +1,5 @@
 """GET /api/heat-models; POST /api/heat-models/simulate, /compare and /compare/job."""
-from fastapi import APIRouter, HTTPException
+from fastapi import APIRouter, HTTPException, Request
 
 from ..deps import JobsDep, LimitsDep, StoreDep
 from ..sync_pool import sync_slot
@@ -20,8 +20,8 @@ def list_heat_models():
 
 @router.post("/simulate", summary="One scenario under every heat model (pressures, temperatures)",
              response_class=JSON, response_model=HeatModelsResponse)
-def simulate_endpoint(req: HeatModelsSimulateRequest, limits: LimitsDep):
-    return JSON(simulate_every_heat_model(req, limits))
+def simulate_endpoint(req: HeatModelsSimulateRequest, limits: LimitsDep, request: Request):
+    return JSON(simulate_every_heat_model(req, limits, getattr(request.app.state, "memory", None)))
 
 
 @router.post("/compare", dependencies=[sync_slot("/api/heat-models/compare/job")],

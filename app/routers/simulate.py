@@ -46,5 +46,5 @@ async def simulate_endpoint(req: SimulateRequest, request: Request):
 
 @router.post("/heat-models", summary="One scenario under several heat models (paper Fig. 8, 11)",
              response_class=JSON, response_model=HeatModelsResponse)
-def heat_models_endpoint(req: HeatModelsRequest, limits: LimitsDep):
-    return JSON(simulate_under_heat_models(req, limits))
+def heat_models_endpoint(req: HeatModelsRequest, limits: LimitsDep, request: Request):
+    return JSON(simulate_under_heat_models(req, limits, getattr(request.app.state, "memory", None)))

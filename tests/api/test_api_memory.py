@@ -161,3 +161,21 @@ def test_the_malloc_arenas_are_the_operators_where_set(monkeypatch):
     from app.analysis_memory import limit_malloc_arenas
     monkeypatch.setenv("MALLOC_ARENA_MAX", "4")
     assert limit_malloc_arenas() is False
+
+
+@pytest.mark.parametrize("path", ["/api/simulate", "/api/simulate/heat-models",
+                                  "/api/heat-models/simulate"])
+def test_a_simulation_in_a_worker_thread_holds_its_estimate(db_path, path):
+    # 10,001 output samples: past the event loop's lane (5,001), run in a worker thread
+    body = {"model": model(), "scenario": scenario(duration=1.0, sample_period=1e-4)}
+    if path != "/api/simulate":
+        body["heat_models"] = ["adiabatic", "isothermal"]
+    with api(db_path, analysis_memory_budget=100_000_000) as c:
+        with c.app.state.memory.hold(90_000_000):   # an analysis holds most of the budget
+            busy = c.post(path, json=body)
+        free = c.post(path, json=body)
+        end = c.app.state.memory.state()
+    assert busy.status_code == 503, busy.text[:300]
+    assert busy.json()["estimate"] >= samples_estimate("simulate", 10_001)
+    assert free.status_code == 200, free.text[:300]
+    assert (end["held"], end["running"]) == (0, 0)
