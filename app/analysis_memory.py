@@ -14,7 +14,8 @@ of the machine's memory, :func:`default_budget`):
 - a synchronous request that does not fit now is answered **503** with ``Retry-After`` and a
   JSON body naming the budget, its estimate and what is held (:class:`MemoryBusy`);
 - a job that does not fit waits in the queue (status ``queued``, its ``step`` saying it waits
-  for memory and how much) until the running ones give theirs back;
+  for memory and how much) until the running ones give theirs back, first come first
+  served; a synchronous request is admitted only besides the first job waiting;
 - a request whose own estimate exceeds the whole budget is refused at once, **422** naming
   ``experiments`` (or ``scenario.duration``), its seconds and samples and the budget.
 
@@ -24,6 +25,7 @@ samples, one at a time) are not counted: a few MB.
 """
 from __future__ import annotations
 
+import collections
 import contextvars
 import math
 import os
@@ -227,10 +229,18 @@ class MemoryBudget:
         self.held = 0       # sum of the estimates held [bytes]
         self.running = 0    # analyses holding one [-]
         self._cv = threading.Condition()
+        self._queue = collections.deque()   # jobs waiting, first come first served: [token, bytes]
 
     def _fits(self, estimate):
         # an analysis alone always runs (its estimate was checked against the whole budget)
         return self.running == 0 or self.held + estimate <= self.budget
+
+    def _fits_now(self, estimate):
+        """Whether a synchronous request fits besides the first job waiting, whose place it
+        must not take (else a steady flow of small requests would hold a large job back)."""
+        if not self._queue:
+            return self._fits(estimate)
+        return self.held + estimate + self._queue[0][1] <= self.budget
 
     def _take(self, estimate):
         self.held += estimate
@@ -248,7 +258,7 @@ class MemoryBudget:
         """Hold ``estimate`` [bytes] while the block runs; :class:`MemoryBusy` at once when it
         does not fit (a synchronous request)."""
         with self._cv:
-            if not self._fits(estimate):
+            if not self._fits_now(estimate):
                 raise MemoryBusy(what, estimate, self.budget, self.held, self.running)
             self._take(estimate)
         try:
@@ -268,23 +278,33 @@ class MemoryBudget:
             Checked every ``period`` seconds while waiting
         """
         told = False
+        place = [object(), estimate]
         with self._cv:
-            while not self._fits(estimate):
-                if stop is not None and stop():
-                    return False
-                if not told and waiting is not None:
-                    waiting(f"waiting for memory: needs about {_mb(estimate)}, {self.running} "
-                            f"running analyses hold {_mb(self.held)} of the {_mb(self.budget)} "
-                            f"budget (analysis_memory_budget)")
-                    told = True
-                self._cv.wait(period)
-            self._take(estimate)
+            self._queue.append(place)
+            try:
+                # first come first served: only the first job waiting may take its place
+                while not (self._queue[0] is place and self._fits(estimate)):
+                    if stop is not None and stop():
+                        return False
+                    if not told and waiting is not None:
+                        ahead = self._queue.index(place)
+                        waiting(f"waiting for memory: needs about {_mb(estimate)}, {self.running} "
+                                f"running analyses hold {_mb(self.held)} of the "
+                                f"{_mb(self.budget)} budget (analysis_memory_budget)"
+                                + (f"; {ahead} jobs ahead" if ahead else ""))
+                        told = True
+                    self._cv.wait(period)
+                self._take(estimate)
+            finally:
+                self._queue.remove(place)
+                self._cv.notify_all()   # the next in line may fit now
         return True
 
     def state(self):
-        """``{"budget", "held", "running"}`` now [bytes, bytes, -]."""
+        """``{"budget", "held", "running", "waiting"}`` now [bytes, bytes, -, -]."""
         with self._cv:
-            return {"budget": self.budget, "held": self.held, "running": self.running}
+            return {"budget": self.budget, "held": self.held, "running": self.running,
+                    "waiting": len(self._queue)}
 
 
 @contextmanager

@@ -86,7 +86,7 @@ def test_a_second_analysis_is_503_while_the_first_runs_and_answered_after(db_pat
                                                                       FLOOR_BYTES)
     assert "analysis_memory_budget" in body["detail"] and "job" in body["detail"]
     assert after.status_code == 200, after.text
-    assert end == {"budget": ONE_FITS, "held": 0, "running": 0}
+    assert end == {"budget": ONE_FITS, "held": 0, "running": 0, "waiting": 0}
 
 
 @pytest.mark.parametrize("error, status", [(ValueError("broken"), 422),
@@ -144,7 +144,7 @@ def test_a_job_waiting_for_memory_ends_interrupted_when_the_server_stops():
     with budget.hold(80):
         told = []
         assert budget.wait_for(50, told.append, stop=lambda: True, period=0.01) is False
-        assert budget.state() == {"budget": 100, "held": 80, "running": 1}
+        assert budget.state() == {"budget": 100, "held": 80, "running": 1, "waiting": 0}
     assert budget.state()["running"] == 0
     assert budget.wait_for(50) is True and budget.state()["held"] == 50
 
@@ -179,3 +179,27 @@ def test_a_simulation_in_a_worker_thread_holds_its_estimate(db_path, path):
     assert busy.json()["estimate"] >= samples_estimate("simulate", 10_001)
     assert free.status_code == 200, free.text[:300]
     assert (end["held"], end["running"]) == (0, 0)
+
+
+def test_jobs_are_served_in_turn_and_a_request_does_not_take_a_waiting_jobs_place():
+    budget = MemoryBudget(100)
+    order, threads = [], []
+    with budget.hold(60):   # an analysis runs
+        for name, size in (("large", 90), ("small", 10)):
+            th = threading.Thread(target=lambda n=name, s=size: (budget.wait_for(s, period=0.01),
+                                                                 order.append(n),
+                                                                 budget.release(s)))
+            th.start()
+            threads.append(th)
+            while budget.state()["waiting"] < len(threads):
+                threading.Event().wait(0.005)
+        # the small job would fit now, but waits behind the large one; so does a request
+        assert order == []
+        from app.analysis_memory import MemoryBusy
+        with pytest.raises(MemoryBusy):
+            with budget.hold(20):
+                pass
+    for th in threads:
+        th.join(30)
+    assert order == ["large", "small"]
+    assert budget.state() == {"budget": 100, "held": 0, "running": 0, "waiting": 0}
