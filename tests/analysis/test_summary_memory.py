@@ -13,12 +13,11 @@ import gc
 import json
 import tracemalloc
 
-import numpy as np
 import pytest
 
 from pneucore import model_preset
 from pneucore.analysis import compare as C
-from pneucore.analysis.compare import compare, replay
+from pneucore.analysis.compare import compare
 from pneucore.analysis.diagnose import diagnose
 from pneucore.data.experiment import as_experiments
 from pneucore.data.samples import load_sample
