@@ -92,7 +92,9 @@ CURRENT = contextvars.ContextVar("pneucore_memory_budget", default=None)
 #: once its analysis is done, so that the resident memory grew as the sum of every thread's
 #: peak rather than of the analyses running at once. Four clients diagnosing 1 s + 20 s at
 #: once, two admitted by a 400 MB budget: the resident memory grew 478 MB with glibc's
-#: default, 215 MB with 2 arenas (``benchmarks/bench_analysis_budget.py``, 2-core VM).
+#: default, 215-288 MB with 2 arenas (``benchmarks/bench_analysis_budget.py``, 2-core VM), in
+#: the same wall time; ``benchmarks/bench_api.py``'s server CPU a simulation request was 2.0-4.1
+#: ms with 2 arenas (two runs) and 2.85-3.85 ms with 16, no difference beyond the noise.
 #: ``MALLOC_ARENA_MAX`` in the environment is the operator's choice and is left as it is.
 MALLOC_ARENAS = 2
 
