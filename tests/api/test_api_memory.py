@@ -203,3 +203,15 @@ def test_jobs_are_served_in_turn_and_a_request_does_not_take_a_waiting_jobs_plac
         th.join(30)
     assert order == ["large", "small"]
     assert budget.state() == {"budget": 100, "held": 0, "running": 0, "waiting": 0}
+
+
+def test_a_failed_job_gives_its_estimate_back(db_path, monkeypatch):
+    held = Held(monkeypatch, RuntimeError("a bug"))
+    held.release.set()
+    with api(db_path, analysis_memory_budget=ONE_FITS) as c:
+        r = c.post("/api/jobs/compare", json=_body())
+        assert r.status_code == 202, r.text
+        done, _ = wait_job(c, r.json()["id"])
+        end = c.app.state.memory.state()
+    assert done["status"] == "error" and "a bug" in done["error"]
+    assert (end["held"], end["running"]) == (0, 0)
