@@ -6,6 +6,8 @@
 ``localhost,127.0.0.1,::1``; ``*`` = any, only behind a proxy that checks the host).
 ``PNEUCORE_TOKEN``: when set, every request needs it (``Authorization: Bearer <token>``, or the
 cookie the page gets from ``/?token=<token>``); see :mod:`app.security`.
+``PNEUCORE_ANALYSIS_MEMORY``: memory the analyses running at once may take together, by
+their estimates [bytes] (default half of the machine's memory; :mod:`app.analysis_memory`).
 ``PNEUCORE_DASK_SCHEDULER``: address of the Dask scheduler that studies may use
 (e.g. ``tcp://10.0.0.5:8786``; also ``python -m app --scheduler``). A request
 never gives an address: it may only name this cluster (``"dask"``) or the
@@ -24,6 +26,11 @@ def _env_int(name, default):
 def _decode_budget():
     from pneucore.data.fileformats import DECODE_BUDGET
     return DECODE_BUDGET
+
+
+def _analysis_memory():
+    from .analysis_memory import default_budget
+    return default_budget()
 
 
 def _machine_workers():
@@ -97,6 +104,14 @@ class Limits:
     #: with 2 workers and 1-2 s a diagnosis the last one waits about 8 s, well inside
     #: request_time_limit; a longer queue only holds clients past what their own timeouts allow
     max_sync_queue: int = 8
+    #: memory the analyses running at once may take together, by their estimates
+    #: (:mod:`app.analysis_memory`: samples times the bytes a sample takes at the kind's peak,
+    #: measured) [bytes]; a synchronous analysis that does not fit now is 503 with Retry-After,
+    #: a job waits for it in the queue, one that alone exceeds it is 422 naming ``experiments``
+    #: (default: half of the machine's memory or of its container's limit;
+    #: ``PNEUCORE_ANALYSIS_MEMORY``)
+    analysis_memory_budget: int = field(default_factory=lambda: _env_int("PNEUCORE_ANALYSIS_MEMORY",
+                                                                         _analysis_memory()))
     max_study_runs: int = 100_000        # runs of one robustness study
     study_time_limit: float = 3600.0     # wall time of one study job [s]
     scheduler_timeout: float = 3.0       # time to reach a Dask scheduler [s]

@@ -106,9 +106,13 @@ class JobManager:
         Default wall-time limit of a job [s]
     store : app.store.Store or None
         Where job records are kept (None = memory only)
+    memory : app.analysis_memory.MemoryBudget or None
+        The analyses' memory budget, shared with the synchronous ones: a job given an estimate
+        (:meth:`submit`'s ``memory``) waits in the queue until it fits (None = not counted)
     """
 
-    def __init__(self, workers=1, max_jobs=16, time_limit=300.0, store=None):
+    def __init__(self, workers=1, max_jobs=16, time_limit=300.0, store=None, memory=None):
+        self.memory = memory
         self.pool = ThreadPoolExecutor(workers, thread_name_prefix="pneucore-job")
         self.pools = {kind: ThreadPoolExecutor(n, thread_name_prefix=f"pneucore-{kind}")
                       for kind, n in POOLS.items()}
@@ -165,8 +169,13 @@ class JobManager:
         except Exception as exc:  # a record that cannot be written must not fail the job
             print(f"pneucore: job {job.id} record not written: {type(exc).__name__}: {exc}")
 
-    def submit(self, kind, fn, time_limit=None):
-        """Queue ``fn(job)``; returns the job. Raises RuntimeError when the queue is full."""
+    def submit(self, kind, fn, time_limit=None, memory=0):
+        """Queue ``fn(job)``; returns the job. Raises RuntimeError when the queue is full.
+
+        ``memory``: the job's memory estimate [bytes] (:mod:`app.analysis_memory`), held on the
+        manager's budget while it runs; the job stays ``queued``, its step saying it waits for
+        memory, until the estimate fits, and a server stopping meanwhile ends it
+        ``interrupted``. Its time limit counts from its start."""
         with self._lock:
             self._prune()
             if self.active() >= self.max_jobs:
@@ -177,6 +186,25 @@ class JobManager:
         self.record(job)
 
         def run():
+            budget = self.memory if memory else None
+            if budget is not None:
+                def waiting(text):
+                    job.step = text
+                    self.record(job)
+                if not budget.wait_for(memory, waiting, stop=lambda: self.stopping):
+                    with self._lock:
+                        job.error = f"the service stopped while the {kind} job waited for memory"
+                        job.finished = time.time()
+                        job.status = "interrupted"
+                    self.record(job, result=True)
+                    return
+            try:
+                work()
+            finally:
+                if budget is not None:
+                    budget.release(memory)
+
+        def work():
             job.status = "running"
             job.started = time.time()
             job.step = "started"

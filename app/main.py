@@ -29,6 +29,7 @@ from pneucore.data.measurement import MeasurementError
 from pneucore.simulate import SimulationError, start_warm_up
 from pneucore.spec.validation import FieldError
 
+from .analysis_memory import MemoryBudget, MemoryBusy, limit_malloc_arenas
 from .asgi import TrackedSend, send_json
 from .bodies import BodyLimit
 from .config import LOCAL_HOSTS, Settings
@@ -105,6 +106,7 @@ def _unfreeze(stopped):
 
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
+    limit_malloc_arenas()   # before the worker threads (app.analysis_memory.MALLOC_ARENAS)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
@@ -129,9 +131,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 # a full disk: the service starts and reads; its writes answer 507 until freed
                 print(f"pneucore: sample datasets not restored, the disk is full ({exc})")
         app.state.store = store
+        # one budget for the synchronous analyses and the jobs (app.analysis_memory)
+        app.state.memory = MemoryBudget(settings.limits.analysis_memory_budget)
         app.state.jobs = JobManager(workers=settings.limits.analysis_workers,
                                     max_jobs=settings.limits.max_jobs,
-                                    time_limit=settings.limits.job_time_limit, store=store)
+                                    time_limit=settings.limits.job_time_limit, store=store,
+                                    memory=app.state.memory)
         app.state.cancelled_studies = set()
         app.state.sync_pool = SyncPool(settings.limits.sync_workers, settings.limits.max_sync_queue,
                                        settings.limits.request_time_limit)
@@ -197,6 +202,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def client_gone(request: Request, exc: ClientGone):
         # nobody reads it: the status (nginx's 499, "client closed request") is for the access log
         return JSONResponse(status_code=499, content={"detail": str(exc)})
+
+    @app.exception_handler(MemoryBusy)
+    async def memory_busy(request: Request, exc: MemoryBusy):
+        # the analyses running hold the memory budget: nothing started, to be tried again
+        return JSONResponse(status_code=503, content=exc.body(),
+                            headers={"Retry-After": str(exc.retry_after)})
 
     @app.exception_handler(JobTimeout)
     async def timeout_error(request: Request, exc: JobTimeout):

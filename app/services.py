@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import time
+from contextlib import nullcontext
 from types import SimpleNamespace
 
 import numpy as np
@@ -48,6 +49,7 @@ from pneucore.study import (Study, check_run_options, delete_study, list_studies
                             requeue_study, run_study, runs_csv, runs_npz, set_study_status,
                             study_results, study_status)
 
+from .analysis_memory import admitted, analysis_estimate, check_alone, samples_estimate, seconds_of
 from .config import STUDY_CLUSTERS, Limits
 from .control_service import (check_control_study, closed_loop_simulation, controllers_answer,  # noqa: F401
                               linearize_answer, run_control_study, run_tune)  # (issue 42)
@@ -135,7 +137,7 @@ def names_runtime_law(model_in):
     return not (flow is not None and flow.builtin and friction is not None and friction.builtin)
 
 
-def simulation(req, limits, max_steps=None, run=simulate, form="json"):
+def simulation(req, limits, max_steps=None, run=simulate, form="json", memory=None):
     """POST /api/simulate: the request checked, simulated, and the result as the API's JSON.
 
     Parameters
@@ -154,6 +156,11 @@ def simulation(req, limits, max_steps=None, run=simulate, form="json"):
     form : {"json", "npz"}
         The answer's form: the dict :func:`result_json` (rendered by
         :class:`app.responses.JSON`, or as CSV), or the bytes of :func:`result_npz`
+    memory : app.analysis_memory.MemoryBudget or None
+        The budget its estimate (output samples, :data:`app.analysis_memory.BYTES_PER_SAMPLE`)
+        is held on while it runs (503 when it does not fit now); None: not counted (the
+        event loop's small runs). An estimate over the whole budget is a 422 naming
+        ``scenario.duration`` either way
 
     Returns
     -------
@@ -164,6 +171,26 @@ def simulation(req, limits, max_steps=None, run=simulate, form="json"):
         return closed_loop_simulation(req, limits, max_steps, form)
     model = parse_model(req.model)
     scen = parse_scenario(req.scenario, model, limits)
+    with _simulation_held(scen, limits, memory):
+        return _simulated(req, model, scen, max_steps, run, form)
+
+
+def _simulation_held(scen, limits, memory, runs=1):
+    """Context manager: the estimate of ``runs`` simulations of ``scen`` (its output samples,
+    :data:`app.analysis_memory.BYTES_PER_SAMPLE`) held on ``memory`` (503 when it does not fit
+    now; None: not counted); a 422 naming ``scenario.duration`` when it alone exceeds the
+    budget."""
+    from pneucore.simulate import output_samples
+    samples = output_samples(scen.duration, scen.sample_period)
+    estimate = samples_estimate("simulate", samples, runs)
+    what = f"{runs} simulations" if runs > 1 else "a simulation"
+    check_alone(estimate, limits.analysis_memory_budget, "scenario.duration",
+                f"{what} of {scen.duration:g} s ({samples:,} output samples)")
+    return nullcontext() if memory is None else memory.hold(estimate, "simulation")
+
+
+def _simulated(req, model, scen, max_steps, run, form):
+    """:func:`simulation`'s run and answer, its estimate held."""
     budget = scen.solver.max_steps
     if max_steps is not None:
         scen.solver.max_steps = min(budget, max_steps)
@@ -183,16 +210,19 @@ def simulation_csv(out):
     return as_csv(out)
 
 
-def simulate_under_heat_models(req, limits):
+def simulate_under_heat_models(req, limits, memory=None):
     """POST /api/simulate/heat-models: one scenario under each requested heat model.
 
     Returns ``{"runs": {heat model: result JSON}}``; an unknown heat model is a FieldError
-    on ``heat_models``, found before any run.
+    on ``heat_models``, found before any run. ``memory``: as for :func:`simulation` (every
+    run's estimate held: their answers are kept together).
     """
     model = parse_model(req.model)
     scen = parse_scenario(req.scenario, model, limits)
-    return {"runs": {name: result_json(simulate(with_heat_model(model, name), scen), req.series)
-                     for name in check_heat_models(req.heat_models)}}
+    names = check_heat_models(req.heat_models)
+    with _simulation_held(scen, limits, memory, max(len(names), 1)):
+        return {"runs": {name: result_json(simulate(with_heat_model(model, name), scen), req.series)
+                         for name in names}}
 
 
 # ------------------------------------------------------------------------------ analyses
@@ -227,6 +257,30 @@ def deadline_progress(limits, what, job_path):
                              f"{limits.request_time_limit:g} s (at step: {step}; {waited:.1f} s of "
                              f"it waiting for a worker); use POST {job_path}")
     return check
+
+
+#: What each analysis is called in the memory messages, by its kind in
+#: :data:`app.analysis_memory.BYTES_PER_SAMPLE`
+_ANALYSIS_WORDS = {"compare": "comparison", "calibrate": "calibration", "diagnose": "diagnosis",
+                   "refine": "refinement", "heat": "heat-model comparison"}
+
+
+def memory_estimate(kind, exps, limits, models=1):
+    """The memory estimate of an analysis of ``kind`` on ``exps`` [bytes]
+    (:func:`app.analysis_memory.analysis_estimate`); a 422 naming ``experiments`` when it alone
+    exceeds ``limits.analysis_memory_budget``. A job passes it to
+    :meth:`app.jobs.JobManager.submit`, which waits until it fits."""
+    estimate = analysis_estimate(kind, exps, models)
+    check_alone(estimate, limits.analysis_memory_budget, "experiments",
+                f"a {_ANALYSIS_WORDS[kind]} of {seconds_of(exps)}")
+    return estimate
+
+
+def _held(kind, exps, limits, models=1):
+    """Context manager: the analysis's estimate held on the synchronous request's budget while
+    it runs (:func:`app.analysis_memory.admitted`: 503 when it does not fit now); nothing held
+    in a job, whose manager held it before the start."""
+    return admitted(memory_estimate(kind, exps, limits, models), _ANALYSIS_WORDS[kind])
 
 
 def check_compare(req: CompareRequest, store, limits):
@@ -307,13 +361,22 @@ def run_compare(req: CompareRequest, store, limits, progress=None, checked=None)
     """The comparison; ``checked``: what :func:`check_compare` returned for ``req`` (a job
     checked at submission), else it is checked here."""
     model, exps = checked or check_compare(req, store, limits)
-    return compare(model, exps, heat_models=req.heat_models,
-                   progress=progress).to_dict(residuals=req.residuals)
+    # under heat models too: each of their comparisons is dropped but for its errors once
+    # summarised, so two at most are alive at once
+    with _held("compare", exps, limits, 2 if check_heat_models(req.heat_models) else 1):
+        return compare(model, exps, heat_models=req.heat_models,
+                       progress=progress).to_dict(residuals=req.residuals)
 
 
 def run_calibrate(req: CalibrateRequest, store, limits, progress=None, checked=None):
     """The calibration; ``checked`` as for :func:`run_compare` (from :func:`check_calibrate`)."""
     model, exps, params = checked or check_calibrate(req, store, limits)
+    with _held("calibrate", exps, limits):
+        return _calibrated(req, model, exps, params, progress)
+
+
+def _calibrated(req, model, exps, params, progress):
+    """:func:`run_calibrate`'s work, its estimate held."""
     known, held = fit_known(req, model, [k for k, p in req.parameters.items() if p.vary])
     cal = calibrate(model, exps, params, max_nfev=req.max_nfev, progress=progress)
     out = cal.summary()
@@ -334,10 +397,11 @@ def run_diagnose(req: DiagnoseRequest, store, limits, progress=None, checked=Non
     ``settings``: the server's (its Dask cluster, :func:`diagnosis_scheduler`)."""
     model, exps = checked or check_diagnose(req, store, limits, settings)
     uncertain, known, held = _uncertain_known(req, model)
-    out = diagnose(model, exps, candidates=req.candidates, uncertain=uncertain,
-                   progress=progress, validated=True, known=known,   # checked above
-                   scheduler=diagnosis_scheduler(req, settings),
-                   scheduler_timeout=limits.scheduler_timeout).to_dict()
+    with _held("diagnose", exps, limits):
+        out = diagnose(model, exps, candidates=req.candidates, uncertain=uncertain,
+                       progress=progress, validated=True, known=known,   # checked above
+                       scheduler=diagnosis_scheduler(req, settings),
+                       scheduler_timeout=limits.scheduler_timeout).to_dict()
     out["bench_held"] = held
     return out
 
@@ -351,10 +415,12 @@ def check_refine(req: RefineRequest, store, limits, settings=None):
     return model, parse_experiments(req.experiments, model, store, limits)
 
 
-def run_refine(req: RefineRequest, store, limits, progress=None, checked=None, settings=None):
+def run_refine(req: RefineRequest, store, limits, progress=None, checked=None, settings=None,
+               memory_held=False):
     """:func:`pneucore.analysis.history.refine` on the request: the versions, each round's diagnosis and
     the refined model (plain JSON); ``checked`` as for :func:`run_compare` (from
-    :func:`check_refine`); ``settings`` as for :func:`run_diagnose`."""
+    :func:`check_refine`); ``settings`` as for :func:`run_diagnose`; ``memory_held``: the
+    caller holds the estimate already (the refinement's report)."""
     from pneucore.analysis.history import refine, refinement_answer
     model, exps = checked or check_refine(req, store, limits, settings)
     uncertain, known, _ = _uncertain_known(req, model)
@@ -367,19 +433,21 @@ def run_refine(req: RefineRequest, store, limits, progress=None, checked=None, s
         if progress is not None:
             progress((state["round"] + min(fraction, 1.0)) / req.max_rounds,
                      f"round {state['round'] + 1}: {step}")
-    final, history, diagnoses = refine(model, exps, max_rounds=req.max_rounds,
-                                       uncertain=uncertain, progress=each_round,
-                                       validated=True, known=known,   # check_refine checked it
-                                       scheduler=diagnosis_scheduler(req, settings),
-                                       scheduler_timeout=limits.scheduler_timeout)
-    return refinement_answer(final, history, diagnoses)
+    with nullcontext() if memory_held else _held("refine", exps, limits):
+        final, history, diagnoses = refine(model, exps, max_rounds=req.max_rounds,
+                                           uncertain=uncertain, progress=each_round,
+                                           validated=True, known=known,   # check_refine checked it
+                                           scheduler=diagnosis_scheduler(req, settings),
+                                           scheduler_timeout=limits.scheduler_timeout)
+        return refinement_answer(final, history, diagnoses)
 
 
 def compare_csv(req: CompareRequest, store, limits, progress=None):
     """POST /api/compare answered as CSV: the comparison's series and errors as text."""
     from pneucore.data.export import comparison_csv
     model, exps = check_compare(req, store, limits)
-    return comparison_csv(compare(model, exps, progress=progress))
+    with _held("compare", exps, limits):
+        return comparison_csv(compare(model, exps, progress=progress))
 
 
 def calibration_parameters(req):
@@ -411,8 +479,9 @@ def comparison_report(req: CompareRequest, store, limits, progress=None):
     """POST /api/reports/compare: the comparison as one self-contained HTML text."""
     from pneucore.analysis.report import comparison_report as html_report
     model, exps = check_compare(req, store, limits)
-    c = compare(model, exps, progress=progress)
-    return html_report(model, c, _provenance(store, exps))
+    with _held("compare", exps, limits):
+        c = compare(model, exps, progress=progress)
+        return html_report(model, c, _provenance(store, exps))
 
 
 def _shown_param(v):
@@ -437,8 +506,16 @@ def diagnosis_report(req: DiagnoseReportRequest, store, limits, progress=None, s
     """POST /api/reports/diagnose: the diagnosis (with the comparisons of the model and of the
     verdict's refined model) as one self-contained HTML text; ``progress`` follows the
     diagnosis (run where ``req.scheduler`` names, as for :func:`run_diagnose`)."""
-    from pneucore.analysis.report import diagnosis_report_on
     model, exps = check_diagnose(req, store, limits, settings)
+    # the diagnosis on screen only needs the two comparisons of the report: a diagnosis's
+    # estimate bounds them too
+    with _held("diagnose", exps, limits):
+        return _diagnosis_report(req, model, exps, store, limits, progress, settings)
+
+
+def _diagnosis_report(req, model, exps, store, limits, progress, settings):
+    """:func:`diagnosis_report`'s work, its estimate held."""
+    from pneucore.analysis.report import diagnosis_report_on
     shown = getattr(req, "diagnosis", None)
     if shown is not None:   # the diagnosis on screen, exported as it is
         d = shown.model_dump()
@@ -492,6 +569,13 @@ def session_report(session_id, store, limits, progress=None):
     if not exps_in:
         raise FieldError("session_id", f"session {session_id!r} has no experiments to compare with")
     exps = parse_experiments(exps_in, models[last], store, limits)
+    with _held("compare", exps, limits):
+        return _session_report(s, versions, models, last, exps, store, progress)
+
+
+def _session_report(s, versions, models, last, exps, store, progress):
+    """:func:`session_report`'s work, its estimate held."""
+    from pneucore.analysis.report import refinement_report as html_report
     n = len(versions)
     answer = {"versions": versions, "diagnoses": [], "model": s["versions"][last]["model"],
               "message": f"Session {s['id']} “{s['name']}”: {n} version{'s' if n != 1 else ''}, each with "
@@ -506,9 +590,12 @@ def refinement_report(req: RefineRequest, store, limits, progress=None, settings
     model against the data) as one self-contained HTML text; ``progress`` follows the loop."""
     from pneucore.analysis.report import refinement_report as html_report
     checked = check_refine(req, store, limits, settings)
-    answer = run_refine(req, store, limits, progress=progress, checked=checked, settings=settings)
     exps = checked[1]
-    return html_report(answer, compare(Model.from_dict(answer["model"]), exps), _provenance(store, exps))
+    with _held("refine", exps, limits):
+        answer = run_refine(req, store, limits, progress=progress, checked=checked,
+                            settings=settings, memory_held=True)
+        return html_report(answer, compare(Model.from_dict(answer["model"]), exps),
+                           _provenance(store, exps))
 
 
 # ------------------------------------------------------------------------------ heat models
@@ -521,16 +608,18 @@ def heat_model_catalog():
     return [m.to_dict() for m in HEAT_MODELS.values()]
 
 
-def simulate_every_heat_model(req, limits):
+def simulate_every_heat_model(req, limits, memory=None):
     """POST /api/heat-models/simulate: one scenario under each requested heat model (all by
-    default); the series default to those of :data:`HEAT_SERIES` every run has."""
+    default); the series default to those of :data:`HEAT_SERIES` every run has. ``memory``: as
+    for :func:`simulate_under_heat_models`."""
     model = parse_model(req.model)
     scen = parse_scenario(req.scenario, model, limits)
-    check_names(req.heat_models)
-    runs = simulate_heat_models(model, scen, req.heat_models)
-    series = req.series if req.series is not None else [
-        s for s in HEAT_SERIES if all(s in r.series for r in runs.values())]
-    return {"runs": {name: result_json(res, series) for name, res in runs.items()}}
+    names = check_names(req.heat_models)
+    with _simulation_held(scen, limits, memory, len(names)):
+        runs = simulate_heat_models(model, scen, req.heat_models)
+        series = req.series if req.series is not None else [
+            s for s in HEAT_SERIES if all(s in r.series for r in runs.values())]
+        return {"runs": {name: result_json(res, series) for name, res in runs.items()}}
 
 
 def check_heat_compare(req, store, limits):
@@ -540,13 +629,19 @@ def check_heat_compare(req, store, limits):
     return model, parse_experiments(req.experiments, model, store, limits)
 
 
+def heat_model_count(req):
+    """Heat models a heat-model comparison calibrates (each one a calibration) [-]."""
+    return len(check_names(req.heat_models))
+
+
 def run_heat_compare(req, store, limits, progress=None, checked=None):
     """POST /api/heat-models/compare: each heat model calibrated on the measurement, the
     errors per model and the measured series; ``checked`` as for :func:`run_compare` (from
     :func:`check_heat_compare`)."""
     model, exps = checked or check_heat_compare(req, store, limits)
-    rows = compare_heat_models(model, exps, req.heat_models, sensor=req.sensor,
-                               max_nfev=req.max_nfev, progress=progress)
+    with _held("heat", exps, limits, heat_model_count(req)):
+        rows = compare_heat_models(model, exps, req.heat_models, sensor=req.sensor,
+                                   max_nfev=req.max_nfev, progress=progress)
     meas = exps[0].measurement
     measured = {"t": np.ascontiguousarray(meas.t - meas.t[0], float),
                 **{s: np.ascontiguousarray(meas.signals[s], float) for s in exps[0].signals}}

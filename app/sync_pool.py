@@ -27,6 +27,8 @@ from fastapi import Depends, HTTPException, Request
 
 from pneucore.progress import Cancelled
 
+from .analysis_memory import CURRENT as MEMORY
+
 
 class ClientGone(Cancelled):
     """The client of a synchronous analysis closed its connection: the work stops (the
@@ -156,7 +158,16 @@ class SyncPool:
 def _admitted(what):
     async def admission(request: Request):
         async with request.app.state.sync_pool.slot(what, request.receive):
-            yield
+            # the analysis holds its memory estimate once its records are read (in its worker
+            # thread, which gets a copy of this context: app.analysis_memory.admitted)
+            token = MEMORY.set(getattr(request.app.state, "memory", None))
+            try:
+                yield
+            finally:
+                try:
+                    MEMORY.reset(token)
+                except ValueError:   # exited in another context: the request's task ends anyway
+                    pass
     return admission
 
 

@@ -29,7 +29,10 @@ declared:
 For each it prints the wall time of one diagnosis round (and with ``--memory`` its peak
 memory: the most the round holds above what it started with, traced by :mod:`tracemalloc`,
 which numpy reports its arrays to, against the bytes of the records' series, so that a
-per-candidate copy of every series would show as a ratio growing with the candidates)
+per-candidate copy of every series would show as a ratio growing with the candidates; and the
+growth of the resident memory of a forked child running the same round, :func:`peak_rss`,
+what a server's process takes; ``--memory-kinds compare,calibrate,refine,heat`` measures
+those analyses too, the figures of the API's memory estimate, app/analysis_memory.py)
 (:func:`pneucore.analysis.diagnose.diagnose`) and, for ``--refine-lengths``, of the
 refinement loop (:func:`pneucore.analysis.history.refine`), with the exponent ``b`` of
 ``time ~ a * size^b`` fitted by least squares on the logarithms (size: simulated seconds
@@ -136,8 +139,15 @@ def exponent(sizes, times):
 def _memory_text(row):
     if "peak_mb" not in row:
         return ""
-    return (f"   peak {row['peak_mb']:.1f} MB for {row['records_mb']:.2f} MB of records "
-            f"({row['peak_mb'] / row['records_mb']:.0f}x)")
+    out = (f"   peak {row['peak_mb']:.1f} MB for {row['records_mb']:.2f} MB of records "
+           f"({row['peak_mb'] / row['records_mb']:.0f}x, "
+           f"{1e6 * row['peak_mb'] / row['samples']:.0f} B a sample)")
+    if row.get("rss_mb") is not None:
+        out += f", resident +{row['rss_mb']:.1f} MB ({1e6 * row['rss_mb'] / row['samples']:.0f} B a sample)"
+    for kind, m in row.get("kinds", {}).items():
+        out += (f"\n{'':>40}{kind}: peak {m['peak_mb']:.1f} MB ({1e6 * m['peak_mb'] / row['samples']:.0f} B "
+                f"a sample)" + (f", resident +{m['rss_mb']:.1f} MB" if m.get("rss_mb") is not None else ""))
+    return out
 
 
 def timed(fn):
@@ -163,6 +173,83 @@ def peak_memory(fn):
     finally:
         tracemalloc.stop()
     return peak - base, out
+
+
+def _vm_kb(field):
+    """A ``Vm...`` line of /proc/self/status [kB]; None where there is none."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith(field + ":"):
+                    return int(line.split()[1])
+    except OSError:
+        pass
+    return None
+
+
+def peak_rss(fn):
+    """Growth of the resident memory (peak minus start) while ``fn()`` runs in a forked child
+    [bytes], what the server's process would take on top of what it holds (the compiled core,
+    the modules: inherited, not counted); None where fork or /proc is missing. The child resets
+    its peak (``/proc/self/clear_refs``) before the work, so the parent's own peak is not read."""
+    if not hasattr(os, "fork") or _vm_kb("VmHWM") is None:
+        return None
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:   # the child: run, write the growth, exit at once
+        os.close(r)
+        grow = -1
+        try:
+            with open("/proc/self/clear_refs", "w") as fh:
+                fh.write("5")   # resets VmHWM to the current resident size
+            start = _vm_kb("VmRSS")
+            fn()
+            grow = (_vm_kb("VmHWM") - start) * 1024
+        finally:
+            os.write(w, str(grow).encode())
+            os._exit(0)
+    os.close(w)
+    with os.fdopen(r) as fh:
+        text = fh.read()
+    os.waitpid(pid, 0)
+    grow = int(text or -1)
+    return grow if grow >= 0 else None
+
+
+#: Analyses whose peak ``--memory-kinds`` measures on each case besides the diagnosis round
+#: (the API's memory estimate per kind, app/analysis_memory.py, rests on these figures)
+MEMORY_KINDS = ("compare", "calibrate", "refine", "heat", "simulate")
+
+
+def analysis(kind, start, exps, sched=None):
+    """A callable running one analysis of ``kind`` on ``exps`` as the API runs it."""
+    if kind == "diagnose":
+        return lambda: diagnose(start, exps, scheduler=sched)
+    if kind == "compare":
+        from pneucore.analysis.compare import compare
+        return lambda: compare(start, exps).to_dict()
+    if kind == "calibrate":
+        from pneucore.analysis.calibrate import calibrate
+        params = {"effects.piston_leakage.conductance": {"value": 1e-10, "min": 0.0,
+                                                         "max": 1e-8}}
+        s = start.copy()
+        s.effects["piston_leakage"] = {"conductance": 1e-10}
+        return lambda: calibrate(s, exps, params).summary()
+    if kind == "refine":
+        return lambda: refine(start, exps, scheduler=sched)
+    if kind == "heat":
+        from pneucore.analysis.heat_compare import compare_heat_models
+        return lambda: compare_heat_models(start, exps[:1])
+    if kind == "simulate":   # each record's scenario simulated and answered as POST /api/simulate
+        import orjson
+
+        def answers():
+            for e in exps:
+                res = e.simulate(start)
+                orjson.dumps(res.to_dict(arrays=True, inputs=False),
+                             option=orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS)
+        return answers
+    raise ValueError(kind)
 
 
 def set_threads(n):
@@ -231,7 +318,7 @@ def cases(true, lengths, counts, duration, ref_len, ref_cnt, pairs=()):
     return out
 
 
-def run_config(start, todo, scheduler, workers, memory, refs, repeat):
+def run_config(start, todo, scheduler, workers, memory, refs, repeat, memory_kinds=()):
     """Every case on one configuration (``scheduler``, ``workers``): its rows."""
     set_threads(workers)
     sched, close = open_cluster(scheduler, workers)
@@ -257,6 +344,15 @@ def run_config(start, todo, scheduler, workers, memory, refs, repeat):
             if memory:
                 peak, _ = peak_memory(lambda: diagnose(start, exps, scheduler=sched))
                 row["peak_mb"], row["records_mb"] = peak / 1e6, record_bytes(exps) / 1e6
+                rss = peak_rss(lambda: diagnose(start, exps, scheduler=sched))
+                row["rss_mb"] = None if rss is None else rss / 1e6
+                row["kinds"] = {}
+                for kind in memory_kinds:
+                    fn = analysis(kind, start, exps, sched)
+                    peak, _ = peak_memory(fn)
+                    rss = peak_rss(fn)
+                    row["kinds"][kind] = {"peak_mb": peak / 1e6,
+                                          "rss_mb": None if rss is None else rss / 1e6}
             rows.append(row)
             print(f"{workers:>7} {label:>22} {n:>8} {t_round:>8.2f} {row['verdict']:>18} "
                   f"{row.get('refine_s', float('nan')):>9.2f} "
@@ -318,6 +414,10 @@ def main(argv=None):
                          "refinement loop timed [s] (the issue's 2 x 20 s: --pairs 20)")
     ap.add_argument("--memory", action="store_true",
                     help="also trace each round's peak memory (a second, untimed round)")
+    ap.add_argument("--memory-kinds", default="",
+                    help="with --memory, also the peak of these analyses on each case, "
+                         "comma-separated among " + ",".join(MEMORY_KINDS) + " (the figures of "
+                         "the API's memory estimate, app/analysis_memory.py)")
     ap.add_argument("--json", default=None, help="write the figures to this file")
     ap.add_argument("--scheduler", default="local",
                     help="where a round's independent work runs: local (this process's "
@@ -356,8 +456,10 @@ def main(argv=None):
           f"{'refine s':>9} {'answer':>9}")
     refs = {}
     for w in workers:
+        kinds = [k for k in a.memory_kinds.split(",") if k] if a.memory else []
         figures["configs"].append({"workers": w, "rows": run_config(start, todo, a.scheduler, w,
-                                                                    a.memory, refs, a.repeat)})
+                                                                    a.memory, refs, a.repeat,
+                                                                    kinds)})
     figures["load_average_end"] = load()
 
     first = figures["configs"][0]["rows"]

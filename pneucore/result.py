@@ -103,16 +103,21 @@ class CoreRun:
             raise KeyError(name)
         return state
 
-    def result(self):
-        """The :class:`SimulationResult` (a new one each call)."""
-        s = {name: f(self) for name, f in _SERIES.items()}
-        for i, name in enumerate(self.state_names[L.N_BASE_STATES:]):
-            s[name] = self.y_out[:, L.N_BASE_STATES + i]
+    def events(self):
+        """:attr:`SimulationResult.events` of the result this run gives (a new list)."""
         events = [{"t": float(t[0]), "kind": L.EVENT_NAMES[k], "mode": L.MODE_DETAIL[m]}
                   for t, k, m in zip(self.ev_t, self.ev_kind, self.ev_mode)]
         for e, t in zip(events, self.ev_t):
             if e["kind"] == "stop":
                 e["v"] = float(t[1])     # the piston's velocity at the impact [m/s]
+        return events
+
+    def result(self):
+        """The :class:`SimulationResult` (a new one each call)."""
+        s = {name: f(self) for name, f in _SERIES.items()}
+        for i, name in enumerate(self.state_names[L.N_BASE_STATES:]):
+            s[name] = self.y_out[:, L.N_BASE_STATES + i]
+        events = self.events()
         stats = self.stats
         st = {"steps": int(stats[ST_STEPS]), "rejected": int(stats[ST_REJECTED]),
               "rhs_evaluations": int(stats[ST_FEVALS]), "jacobians": int(stats[ST_JACOBIANS]),
@@ -157,6 +162,79 @@ class LazyResult:
         if name.startswith("_"):
             raise AttributeError(name)
         return getattr(self.full, name)
+
+    def summarised(self, keep=(), given=None):
+        """:class:`SummarisedResult` of this result: its status, piston modes, events and the
+        ``keep`` observed series (copies; ``given``: those already copied), read off the full result if built, else off the core's
+        outputs (the same arrays), which it does not hold. The modes are kept as the core's
+        codes (8 bytes a sample) and made text on first use, as the full result makes them."""
+        if self._full is not None:
+            return SummarisedResult(self.status, self.message, self._full.mode,
+                                    self._full.events, kept_columns(self._full, keep, given))
+        return SummarisedResult(self.status, self.message, None, self._run.events(),
+                                kept_columns(self._run, keep, given), mode_codes=self._run.mode_out)
+
+
+def kept_columns(src, keep, given=None):
+    """``{name: copy of src.observed(name)}`` for the names of ``keep`` that ``src`` gives
+    (``given``: name -> such a copy already made, used as it is)."""
+    out = {}
+    for name in keep:
+        if given and name in given:
+            out[name] = given[name]
+            continue
+        try:
+            out[name] = np.array(src.observed(name), float)
+        except KeyError:   # a series this model does not produce (p_b of a 3/2 valve)
+            continue
+    return out
+
+
+class SummarisedResult:
+    """What a replay keeps of its simulation once summarised
+    (:func:`pneucore.analysis.compare.summarise`): the status, the piston modes, the events and a
+    few observed series (copies), not the compiled core's outputs.
+
+    A full result holds every series (the core's outputs, about 30 columns of float64 a sample:
+    55 MB of ``aux_out`` and 21 MB of ``y_out`` near the peak of a diagnosis on 1 + 20 s,
+    ``benchmarks/bench_long_records.py --memory``), kept alive as long as a calibration's
+    summary holds its replays; what is read after the summary is only this.
+
+    Attributes
+    ----------
+    status : int
+        The solver's status (0: ok) [-]
+    message : str
+        Its words [-]
+    mode : ndarray of str
+        The piston mode of each sample (:attr:`SimulationResult.mode`) [-]
+    events : list of dict
+        :attr:`SimulationResult.events`
+    """
+
+    def __init__(self, status, message, mode, events, columns, mode_codes=None):
+        self.status, self.message, self._mode, self.events = status, message, mode, events
+        self._columns, self._codes = columns, mode_codes
+
+    @property
+    def mode(self):
+        """The piston mode of each sample as text, made once from the codes if need be [-]"""
+        if self._mode is None:
+            self._mode = _MODE_TEXT[self._codes]   # as _SERIES["mode"]: code -1 -> ""
+            self._codes = None
+        return self._mode
+
+    def observed(self, name):
+        """:meth:`SimulationResult.observed` for the series kept; KeyError for the others."""
+        try:
+            return self._columns[name]
+        except KeyError:
+            raise KeyError(f"{name}: a summarised replay keeps only the observed series "
+                           f"{sorted(self._columns)}") from None
+
+    def summarised(self, keep=(), given=None):
+        """Itself (already summarised)."""
+        return self
 
 
 class SimulationResult:

@@ -28,7 +28,10 @@ SMALL = {
     "bench_request_memory.py": ["--rows", "2000", "--kinds", "csv,npz"],
     "bench_sizing.py": ["--families", "36", "--workers", "1"],
     "bench_long_records.py": ["--lengths", "1", "--counts", "2", "--duration", "1",
-                              "--refine-lengths", "1", "--pairs", "1", "--memory"],
+                              "--refine-lengths", "1", "--pairs", "1", "--memory",
+                              "--memory-kinds", "compare,simulate"],
+    "bench_analysis_budget.py": ["--length", "1", "--clients", "2", "--workers", "2",
+                                 "--budget", "0", "--retry", "0.2"],
     "bench_heat_transfer.py": ["--quick"],
     # the table of the presets as they are (six short runs); --fit adds about 130 more
     "bench_table2_presets.py": [],

@@ -5,17 +5,19 @@ from ..responses import JSON
 from ..bodies import OffLoopRoute
 from ..deps import JobsDep, LimitsDep, SettingsDep, StoreDep, not_found
 from ..schemas import CalibrateRequest, CompareRequest, DiagnoseRequest, JobResponse, RefineRequest
-from ..services import (check_calibrate, check_compare, check_diagnose, check_refine, run_calibrate,
-                        run_compare, run_diagnose, run_refine)
+from ..services import (check_calibrate, check_compare, check_diagnose, check_refine, memory_estimate,
+                        run_calibrate, run_compare, run_diagnose, run_refine)
 from ..sizing_schemas import SizingRequest
 from ..sizing_service import check_sizing, run_sizing
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"], route_class=OffLoopRoute)
 
 
-def _submit(jobs, kind, fn):
+def _submit(jobs, kind, fn, memory=0):
+    """Queue ``fn`` as a job of ``kind``; ``memory``: its estimate [bytes], waited for in the
+    queue (:func:`app.services.memory_estimate`, a 422 now when it alone exceeds the budget)."""
     try:
-        job = jobs.submit(kind, fn)
+        job = jobs.submit(kind, fn, memory=memory)
     except RuntimeError as exc:
         raise HTTPException(429, str(exc)) from None
     return job.to_dict(with_result=False)
@@ -28,15 +30,17 @@ def diagnose_job(req: DiagnoseRequest, store: StoreDep, limits: LimitsDep, jobs:
     # what was checked (validated once), on the cluster the request names
     checked = check_diagnose(req, store, limits, settings)
     return _submit(jobs, "diagnose", lambda job: run_diagnose(req, store, limits, progress=job.report,
-                                                              checked=checked, settings=settings))
+                                                              checked=checked, settings=settings),
+                   memory_estimate("diagnose", checked[1], limits))
 
 
 def _simple(kind, check, runner):
     """A job that validates its request up front, then runs ``runner`` reporting progress."""
     def endpoint(req, store, limits, jobs):
         checked = check(req, store, limits)
+        estimate = memory_estimate(kind, checked[1], limits)
         return _submit(jobs, kind, lambda job: runner(req, store, limits, progress=job.report,
-                                                      checked=checked))
+                                                      checked=checked), estimate)
     return endpoint
 
 
@@ -60,7 +64,8 @@ def refine_job(req: RefineRequest, store: StoreDep, limits: LimitsDep, jobs: Job
                settings: SettingsDep):
     checked = check_refine(req, store, limits, settings)
     return _submit(jobs, "refine", lambda job: run_refine(req, store, limits, progress=job.report,
-                                                          checked=checked, settings=settings))
+                                                          checked=checked, settings=settings),
+                   memory_estimate("refine", checked[1], limits))
 
 
 @router.post("/sizing", status_code=202, response_model=JobResponse,

@@ -24,8 +24,9 @@ from ..services import simulate, simulate_under_heat_models, simulation, simulat
 router = APIRouter(prefix="/api/simulate", tags=["simulate"], route_class=OffLoopRoute)
 
 
-def _answer(req: SimulateRequest, form: str, limits):
-    out = simulation(req, limits, run=simulate, form=form)
+def _answer(req: SimulateRequest, form: str, limits, memory=None):
+    # the run's memory estimate held on the analyses' budget (app.analysis_memory)
+    out = simulation(req, limits, run=simulate, form=form, memory=memory)
     if form == "csv":
         return csv_response(simulation_csv(out), "simulation.csv")
     if form == "npz":
@@ -39,10 +40,11 @@ async def simulate_endpoint(req: SimulateRequest, request: Request):
     # the limits are read here rather than through ``LimitsDep``: a plain (sync)
     # dependency costs a hop through the thread pool on every request
     form = answer_form(request.headers.get("accept", ""), offered=("json", "csv", "npz"))
-    return await run_in_threadpool(_answer, req, form, request.app.state.settings.limits)
+    return await run_in_threadpool(_answer, req, form, request.app.state.settings.limits,
+                                   getattr(request.app.state, "memory", None))
 
 
 @router.post("/heat-models", summary="One scenario under several heat models (paper Fig. 8, 11)",
              response_class=JSON, response_model=HeatModelsResponse)
-def heat_models_endpoint(req: HeatModelsRequest, limits: LimitsDep):
-    return JSON(simulate_under_heat_models(req, limits))
+def heat_models_endpoint(req: HeatModelsRequest, limits: LimitsDep, request: Request):
+    return JSON(simulate_under_heat_models(req, limits, getattr(request.app.state, "memory", None)))

@@ -268,7 +268,8 @@ class Objective:
             if sp is not None:
                 sensors.setdefault(sp[0], {})[sp[1]] = v
         if not sensors:
-            return [replay(m, e) for e in self.experiments]
+            # the core's outputs freed at once: a fit reads the signals, a summary a few more
+            return [replay(m, e).drop_core_outputs() for e in self.experiments]
         amb = self.model.ambient.pressure
         rps = [replay(m, _sensed(e, sensors, amb, m.jack.stroke)) for e in self.experiments]
         if sensors:
@@ -279,7 +280,7 @@ class Objective:
                         zero = sensor_zero(sig, amb)
                         g = rp.simulated[sig]
                         rp.simulated[sig] = g + sv.get("offset", 0.0) + sv.get("gain", 0.0) * (g - zero)
-        return rps
+        return [rp.drop_core_outputs() for rp in rps]
 
     def _finite(self, meas):
         """``(isfinite(meas), all finite)``, found once per measured series (an optimiser

@@ -18,7 +18,7 @@ from pneucore.data.experiment import as_experiments
 from pneucore.analysis.metrics import (command_phases, eq25_error, noise_sigma, ordered_labels,
                                        phase_errors, piston_phases, worst_windows)
 from pneucore.analysis.phase_excess import describe, explain_residual
-from pneucore.result import LazyResult
+from pneucore.result import LazyResult, SummarisedResult, kept_columns
 from pneucore.spec.model import Model
 
 
@@ -55,6 +55,45 @@ class Replay:
     @property
     def ok(self):
         return self.result.status == 0
+
+    def keep_summary(self):
+        """Drop what the summary no longer needs (:func:`summarise`): the phase labels are made,
+        the result becomes a :class:`pneucore.result.SummarisedResult` (status, modes, events and
+        the :data:`SUMMARY_SERIES`), and a simulated signal that is a column of the core's outputs
+        becomes a copy of it, so that those outputs are freed. Values unchanged."""
+        self.cmd_labels, self.piston_labels   # noqa: B018 - made while the modes are at hand
+        self.drop_core_outputs()
+
+    def drop_core_outputs(self):
+        """Free the compiled core's outputs, keeping what a fit and a summary read of them: the
+        result becomes a :class:`pneucore.result.SummarisedResult` (status, modes, events and the
+        :data:`SUMMARY_SERIES`), and a simulated signal that is a column of those outputs a copy
+        of it (a fit keeps its last replays, :data:`pneucore.analysis.calibrate.RECENT_REPLAYS`,
+        and two fits run at once: their outputs made most of a diagnosis's peak). Values
+        unchanged; the full result can no longer be built."""
+        # a signal that is still a view is the core's column as observed (a sensor's gain or
+        # offset, applied by a fit, makes a new array): its copy serves both
+        copies = {s: v.copy() for s, v in self.simulated.items()
+                  if isinstance(v, np.ndarray) and v.base is not None}
+        self.result = summarised_result(self.result, SUMMARY_SERIES,
+                                        {s: c for s, c in copies.items() if s in SUMMARY_SERIES})
+        self.simulated = {s: copies.get(s, v) for s, v in self.simulated.items()}
+        return self
+
+
+#: Observed series a summarised replay keeps besides its compared signals: the regressors of
+#: :func:`pneucore.analysis.hypotheses.residual_signature`, the one reader of a summarised
+#: replay's simulation beyond its status, modes and events
+SUMMARY_SERIES = ("x", "v", "p_a", "p_b")
+
+
+def summarised_result(result, keep=SUMMARY_SERIES, given=None):
+    """A replay's result as :class:`pneucore.result.SummarisedResult` (a lazy or full result);
+    ``given``: copies of some of the ``keep`` series already made (name -> array)."""
+    if hasattr(result, "summarised"):
+        return result.summarised(keep, given)
+    return SummarisedResult(result.status, result.message, result.mode, result.events,
+                            kept_columns(result, keep, given))
 
 
 def replay(model, experiment):
@@ -362,6 +401,10 @@ def summarise(replays, n_windows=5):
     exps = []
     windows = []
     for rp in replays:
+        # the core's outputs (every series of every replay) are not kept by the summary: the
+        # peak of a diagnosis, whose calibrations' summaries each hold their replays
+        rp.keep_summary()
+    for rp in replays:
         errs = {s: eq25_error(rp.measured[s], rp.simulated[s]) for s in rp.measured}
         win = worst_windows(rp.t, rp.measured, rp.simulated, rp.cmd_labels, rp.piston_labels,
                             n_windows=n_windows, experiment=rp.experiment.name)
@@ -376,7 +419,8 @@ def summarise(replays, n_windows=5):
             "t": rp.t, "residuals": {s: rp.simulated[s] - rp.measured[s] for s in rp.measured},
             "simulated": {s: rp.simulated[s] for s in rp.measured},
             "measured": {s: rp.measured[s] for s in rp.measured},
-            "mode": rp.result.mode.tolist(),
+            # the text array, written as a list by to_dict (a list of str: 60 bytes a sample)
+            "mode": rp.result.mode,
             "events": rp.result.events,
         })
     windows.sort(key=lambda w: -w["energy"])
