@@ -57,6 +57,39 @@ def summary_lines(res):
     return lines
 
 
+def _description():
+    """The module docstring's first paragraph, whole (its first line alone stops mid-sentence),
+    with the reST double backquotes dropped for the terminal."""
+    import re
+    first = " ".join(__doc__.strip().split("\n\n")[0].split())
+    return re.sub(r":\w+:`([^`]*)`", r"\1", first).replace("``", "")
+
+
+def stroke_table_lines(res, model):
+    """The stroke table (:func:`pneucore.analysis.strokes.stroke_metrics`, SMC's definitions
+    timed from the valve switching) as lines: one row per command, times [s], speeds [m/s],
+    impact energy [J], air [NL]; ``-`` where undefined (a partial stroke)."""
+    from pneucore.analysis.strokes import stroke_metrics
+    from pneucore.spec.model import Model
+    m = stroke_metrics(res, model if isinstance(model, Model) else Model.from_dict(model))
+    if not m["strokes"]:
+        return ["strokes: none (no command event)"]
+    cols = [("t_command", "t_cmd s", ".4f"), ("direction", "stroke", ""),
+            ("start_up_time", "start-up s", ".4f"), ("full_stroke_time", "full s", ".4f"),
+            ("force_90_time", "90% force s", ".4f"), ("mean_speed", "mean m/s", ".3f"),
+            ("max_speed", "max m/s", ".3f"), ("end_speed", "end m/s", ".3f"),
+            ("end_energy", "end J", ".4f"), ("air_NL", "air NL", ".4f")]
+    width = [max(len(h), 10) for _, h, _ in cols]
+    lines = ["strokes (SMC: times from the valve switching):",
+             "  " + " ".join(f"{h:>{w}}" for (_, h, _), w in zip(cols, width))]
+    for s in m["strokes"]:
+        cells = ["-" if s[k] is None else format(s[k], f) for k, _, f in cols]
+        lines.append("  " + " ".join(f"{c:>{w}}" for c, w in zip(cells, width)))
+    if m["air_per_cycle_NL"] is not None:
+        lines.append(f"  air per cycle {m['air_per_cycle_NL']:.4f} NL (ANR)")
+    return lines
+
+
 def _loop(args):
     """Run a loop command; the exit status (0, or 2 for bad input with its message)."""
     from pneucore.data.measurement import MeasurementError
@@ -71,7 +104,8 @@ def _loop(args):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="pneucore", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="pneucore", description=_description(),
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="cmd")
     run = sub.add_parser("run", help="simulate a model and scenario (presets or JSON files)")
     run.add_argument("--model", default="paper-4way",
@@ -144,6 +178,8 @@ def main(argv=None):
         print(f"simulation error: {exc}", file=sys.stderr)
         return 3
     for line in summary_lines(res):
+        print(line)
+    for line in stroke_table_lines(res, res.model):
         print(line)
     # a run this slow compiled the numba core (first run of a fresh install or after an edit)
     note = " (includes the one-time compilation of the core)" if wall > COMPILE_NOTE_S else ""
