@@ -28,6 +28,10 @@ MAX_SAMPLES = 2_000_001
 #: Most command breakpoints accepted
 MAX_COMMAND_POINTS = 1_000_000
 COMMAND_INTERPOLATIONS = ("hold", "linear")
+#: How a run starts: ``given`` = ``initial`` and ``x0`` as stated; ``cyclic`` = the cyclic
+#: steady state of the scenario repeated with period ``duration`` (the machine running:
+#: :func:`pneucore.simulate.cyclic_start`), ``initial`` and ``x0`` its first guess
+STARTS = ("given", "cyclic")
 
 
 @dataclass
@@ -98,6 +102,10 @@ class Scenario:
         Initial position from the A end [m]
     initial : Initial
         Initial chamber state: pressures [Pa] and temperatures [K]
+    start : str
+        ``given`` (``initial`` and ``x0`` as stated) or ``cyclic`` (the cyclic steady state:
+        the scenario repeated, its command a period of ``duration``, until pressures,
+        temperatures and position repeat; ``initial`` and ``x0`` are the first guess) [-]
     solver : Solver
         Integrator settings
     name : str
@@ -112,6 +120,7 @@ class Scenario:
     locked: bool = False
     x0: float = 0.05
     initial: Initial = field(default_factory=Initial)
+    start: str = "given"
     solver: Solver = field(default_factory=Solver)
     name: str = ""
     description: str = ""
@@ -172,6 +181,7 @@ class Scenario:
         known_keys(ini, Initial.__dataclass_fields__, "scenario.initial")
         s.initial = Initial(*(number(ini.get(k), f"scenario.initial.{k}", positive=True, allow_none=True)
                               for k in Initial.__dataclass_fields__))
+        s.start = choice(d.get("start", s.start), STARTS, "scenario.start")
         sol = optional_mapping(d.get("solver"), "scenario.solver")
         known_keys(sol, Solver.__dataclass_fields__, "scenario.solver")
         d0 = Solver()      # the defaults, stated once on the dataclass
@@ -221,6 +231,8 @@ class Scenario:
              "command": [list(p) for p in self.command],
              "command_interpolation": self.command_interpolation, "locked": self.locked,
              "x0": self.x0, "initial": self.initial.to_dict(), "solver": self.solver.to_dict()}
+        if self.start != "given":     # absent when default: stored scenarios keep their form
+            d["start"] = self.start
         for key in ("name", "description"):
             if getattr(self, key):
                 d[key] = getattr(self, key)
