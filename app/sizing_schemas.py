@@ -219,6 +219,12 @@ class DesignOut(BaseModel):
     cushion: Optional[CushionOut] = Field(None, description="The end cushions and their "
                                                             "needles; null = no cushion in the "
                                                             "requirement")
+    steady_cycle: Optional[dict[str, Any]] = Field(None, description=(
+        "The first ranked designs' strokes in the machine's steady cycle: scenario (the "
+        "design's cycle, start: cyclic, as POST /api/simulate accepts it), full_stroke_time "
+        "{extend, retract} [s], end_speed {extend, retract} [m/s], cycles repeated [-], "
+        "converged [-], start (p_a, p_b [Pa abs], T_a, T_b [K], x0 [m], v0 [m/s]); null "
+        "beyond them"))
     feasible: bool = Field(..., description="Meets the requirement (false: one of the closest "
                                             "families, shown when none meets it) [-]")
 

@@ -297,12 +297,21 @@ def _cushion_cells(c):
     return f" {needle[0] + '/' + needle[1]:>36} {ratio:15.3f}"
 
 
+def _steady_cell(steady):
+    """The steady cycle's full-stroke times, extension/retraction [s] (``-`` where not run)."""
+    if not steady or "full_stroke_time" not in steady:
+        return "-"
+    t = steady["full_stroke_time"]
+    return "/".join("-" if t[k] is None else format(t[k], ".3f") for k in ("extend", "retract"))
+
+
 def sizing_lines(ans, top=10):
     """Human-readable table of a sizing answer (list of lines)."""
     cushioned = any(d.get("cushion") for d in ans["designs"])
     lines = [ans["summary"],
              f"{'rank':>4}  {'cylinder':<14} {'valve':<16} {'tube':<16} {'air NL':>8} "
-             f"{'t_ext s':>8} {'t_ret s':>8} {'v_end m/s':>10} {'meter-out C ' + ans['units']['settings.*_meter_out_C']:>23}"
+             f"{'t_ext s':>8} {'t_ret s':>8} {'steady ext/ret s':>17} {'v_end m/s':>10} "
+             f"{'meter-out C ' + ans['units']['settings.*_meter_out_C']:>23}"
              + (f" {'needle C ext/ret (open: not needed)':>36} {'E_end/capacity':>15}"
                 if cushioned else "")]
     for d in ans["designs"][:top]:
@@ -312,6 +321,7 @@ def sizing_lines(ans, top=10):
             f"{d['rank']:>4}  {d['cylinder']['name']:<14} {d['valve']['name']:<16} "
             f"{(d['tube'] or {}).get('name', '-'):<16} {d['air_per_cycle']:8.3f} "
             f"{fmt(m['extend']['full_stroke_time'], '8.3f')} {fmt(m['retract']['full_stroke_time'], '8.3f')} "
+            f"{_steady_cell(d.get('steady_cycle')):>17} "
             f"{fmt(max(m['extend']['end_speed'] or 0, m['retract']['end_speed'] or 0), '10.3f')} "
             f"{d['settings']['extend_meter_out_C']:11.3g}/{d['settings']['retract_meter_out_C']:<9.3g}"
             + (_cushion_cells(d["cushion"]) if cushioned and d.get("cushion") else "")

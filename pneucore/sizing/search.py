@@ -720,6 +720,81 @@ def robustness_studies(design, requirement, samples=ROBUSTNESS_SAMPLES):
     return out
 
 
+#: The ranked first designs whose steady cycle is simulated (:func:`steady_cycle`): each costs
+#: a few cycle runs (the chambers' state repeats after 2 to 4 cycles) [-]
+STEADY_DESIGNS = 5
+#: A stroke's share of the machine cycle: this many times its time (the larger of the
+#: required and the sized one) plus the dwell, so the piston is at rest at its stop before the
+#: next switching even with dwell 0 [-]
+CYCLE_MARGIN = 1.2
+
+
+def cycle_scenario(design, requirement):
+    """The machine cycle of a design, to simulate from its cyclic steady state.
+
+    Extension switched at the first sample after t = 0, retraction after the extension's
+    share, period = both shares: each share is :data:`CYCLE_MARGIN` times the stroke's time
+    (the required one or, when longer, the sized one) plus the requirement's dwell. The
+    scenario's ``start`` is ``cyclic`` (:func:`pneucore.simulate.cyclic_start`), its first
+    guess the sizing's own start (the extension's exhausting chamber at the supply).
+
+    Parameters
+    ----------
+    design : dict
+        A design of :func:`size` (``required_times`` and ``metrics``)
+    requirement : Requirement
+        The requirement it was sized for
+
+    Returns
+    -------
+    scenario : dict
+        A plain scenario (``POST /api/simulate`` takes it as it is)
+    """
+    share = {}
+    for k in DIRECTIONS:
+        sized = design["metrics"][k]["full_stroke_time"] or 0.0
+        share[k] = CYCLE_MARGIN * max(design["required_times"][k], sized) + requirement.dwell
+    duration = share["extend"] + share["retract"]
+    period = min(duration / (2 * RUN_SAMPLES), MAX_SAMPLE_PERIOD)
+    return {"duration": period + duration, "sample_period": period,
+            "command": [[0.0, -1.0], [period, 1.0], [period + share["extend"], -1.0]],
+            "command_interpolation": "hold", "locked": False, "x0": 0.0,
+            "initial": {"p_a": requirement.ambient_pressure, "p_b": requirement.supply_pressure},
+            "start": "cyclic",
+            "name": f"steady cycle of {design['cylinder']['name']} + {design['valve']['name']}",
+            "description": "extension, dwell, retraction, dwell, repeated until pressures and "
+                           "temperatures repeat (start: cyclic)"}
+
+
+def steady_cycle(design, requirement):
+    """A design's strokes in the machine's running state: :func:`cycle_scenario` simulated from
+    its cyclic steady state.
+
+    Returns
+    -------
+    steady : dict
+        ``scenario`` (:func:`cycle_scenario`), ``full_stroke_time`` and ``end_speed`` per
+        direction [s], [m/s] (None where the stroke did not end within its share),
+        ``cycles`` repeated [-], ``converged`` [-] and the ``start`` state (``p_a``, ``p_b``
+        [Pa abs], ``T_a``, ``T_b`` [K], ``x0`` [m], ``v0`` [m/s])
+    """
+    from pneucore.simulate import SimulationError, simulate
+    scen = cycle_scenario(design, requirement)
+    try:
+        res = simulate(design["model"], scen)
+    except (SimulationError, FieldError, ArithmeticError, ValueError) as exc:
+        return {"scenario": scen, "error": f"{type(exc).__name__}: {exc}"}
+    strokes = res.stroke_metrics()["strokes"]
+    out = {"scenario": scen, "full_stroke_time": dict.fromkeys(DIRECTIONS),
+           "end_speed": dict.fromkeys(DIRECTIONS)}
+    for st in strokes:
+        if st["direction"] in DIRECTIONS and out["full_stroke_time"][st["direction"]] is None:
+            out["full_stroke_time"][st["direction"]] = st["full_stroke_time"]
+            out["end_speed"][st["direction"]] = st["end_speed"]
+    cyc = res.stats["cyclic"]
+    return out | {"cycles": cyc["cycles"], "converged": cyc["converged"], "start": cyc["state"]}
+
+
 def _family_key(cylinder, valve, tube):
     return {"cylinder": cylinder, "valve": valve, "tube": tube}
 
@@ -1138,6 +1213,8 @@ def _answer(req, ch, outcomes):
         counts[o["reason"]] = counts.get(o["reason"], 0) + 1
     for rank, dsg in enumerate(designs, 1):
         dsg["rank"] = rank
+        # the machine running: the first ranked designs' strokes in the steady cycle
+        dsg["steady_cycle"] = steady_cycle(dsg, req) if rank <= STEADY_DESIGNS else None
     summary = (f"{sum(o['feasible'] for o in outcomes)} of {len(outcomes)} families meet the "
                "requirement")
     if not any(o["feasible"] for o in outcomes):
@@ -1147,12 +1224,17 @@ def _answer(req, ch, outcomes):
     return {"summary": summary, "designs": designs, "infeasible": infeasible, "reasons": counts,
             "robustness_studies": robust,
             "reason_meanings": dict(REASONS), "families": len(outcomes),
-            "notes": model_notes(req) + ([
+            "notes": model_notes(req) + [
+                f"steady cycle (the first {STEADY_DESIGNS} designs): the design's cycle "
+                "(extension, dwell, retraction, dwell) repeated until pressures and "
+                "temperatures repeat; the sizing's strokes start at rest, the exhausting "
+                "chamber at the supply, both gases at ambient temperature"] + ([
                 "tube_inner_diameter choices ignored: the requirement has no tube_length."]
                 if ch.tube_inner_diameter and req.tube_length is None else []),
             "requirement": req.to_dict(), "choices": ch.to_dict(),
             "units": {"air_per_cycle": "NL", **{f"metrics.*.{k}": u
                                                   for k, u in STROKE_METRIC_UNITS.items()},
+                      "steady_cycle.full_stroke_time.*": "s", "steady_cycle.end_speed.*": "m/s",
                       "settings.*_meter_out_C": C_UNIT, "settings.*_exhaust_C": C_UNIT,
                       "settings.*_needle_C": C_UNIT, "cushion.length": "m",
                       "cushion.capacity": "J", "cushion.needle_open_C": C_UNIT,
