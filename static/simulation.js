@@ -104,9 +104,27 @@ async function simulate(btn, note = '') {
       const msg = `${res.series.t.length} samples, ${st.steps ?? '?'} steps, ${(res.events || []).length} events, ` +
         `${((performance.now() - t0) / 1000).toFixed(2)} s round trip (${st.method || ''})`;
       $('#sim-summary').textContent = msg + strokeSummary(st.stroke);
+      renderStartState(res);
       setStatus(`${note}Simulation done: ${msg}.${res.status ? ' Solver: ' + res.message : ''}`, res.status ? 'error' : 'ok');
     } catch (e) { showApiError(e, 'Simulation'); }
   });
+}
+/** The state the run started from, in the page's units: the cyclic steady state found (with its
+ * cycles) or the given one (blank fields: ambient), read off the first sample. */
+function renderStartState(res) {
+  const el = $('#sim-start');
+  if (!el) return;
+  const s = res && res.series;
+  if (!s || !s.t || !s.t.length) { el.textContent = ''; return; }
+  const cyc = res.stats && res.stats.cyclic;
+  const P = plotUnit('Pa'), TK = plotUnit('K'), X = plotUnit('m');
+  const st = cyc ? cyc.state : { p_a: s.p_a[0], p_b: s.p_b[0], T_a: s.T_a[0], T_b: s.T_b[0], x0: s.x[0] };
+  const f = (U, v) => `${num(U.val([v])[0], 4)} ${U.label}`;
+  const what = cyc
+    ? `Start state: cyclic steady state after ${cyc.cycles} cycle${cyc.cycles === 1 ? '' : 's'}${cyc.converged ? '' : ' (NOT converged)'}`
+    : 'Start state: as given';
+  el.textContent = `${what}: p_a ${f(P, st.p_a)}, p_b ${f(P, st.p_b)}, T_a ${f(TK, st.T_a)}, T_b ${f(TK, st.T_b)}, x0 ${f(X, st.x0)}.`;
+  el.dataset.start = cyc ? 'cyclic' : 'given';
 }
 /** The stroke metrics of a simulation in words (pneucore/analysis/strokes.py, SMC's definitions), '' if none. */
 function strokeSummary(sm) {

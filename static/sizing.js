@@ -152,7 +152,12 @@ function useChosenDesign() {
   if (!d) return;
   S.model = clone(d.model);
   renderModel();
-  setStatus(`Model panel: design ${d.rank} (${d.cylinder.name} + ${d.valve.name}).`, 'ok');
+  // the design's machine cycle from its steady state: the simulation then times the strokes the
+  // sizing table shows (the first ranked designs carry it)
+  const cyc = d.steady_cycle && d.steady_cycle.scenario;
+  if (cyc) { S.scenario = clone(cyc); renderScenario(); }
+  setStatus(`Model panel: design ${d.rank} (${d.cylinder.name} + ${d.valve.name})` +
+    (cyc ? '; scenario: its steady cycle (start: cyclic steady state).' : '.'), 'ok');
   if (window.showView) showView('model');   // the workspace shows the model it went into
 }
 
