@@ -109,6 +109,9 @@ class ValveIn(_Strict):
     b_chamber: _B_CHAMBER = from_lib(_VALVE, "b_chamber")
     b_chamber_conductance: Number = from_lib(_VALVE, "b_chamber_conductance")
     b_chamber_critical_ratio: Number = from_lib(_VALVE, "b_chamber_critical_ratio")
+    on_time: Number = from_lib(_VALVE, "on_time")
+    off_time: Number = from_lib(_VALVE, "off_time")
+    rest_opening: Optional[Number] = from_lib(_VALVE, "rest_opening")
 
 
 class SourceIn(_Strict):

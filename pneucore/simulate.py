@@ -21,7 +21,7 @@ from pneucore.spec.validation import choice
 from pneucore.result import CoreRun
 from pneucore.core.rhs import law_table, no_terms
 from pneucore.spec.scenario import Scenario
-from pneucore.physics.valve import pack_tables
+from pneucore.physics.valve import pack_tables, switched_command
 
 
 class SimulationError(RuntimeError):
@@ -490,6 +490,12 @@ def simulate_run(model, scenario, t_out=None, checked_times=False, start=None):
     u_out = np.empty(n_out)
     max_ev = scenario.solver.max_events
     cmd = np.asarray(scenario.command, float)
+    valve = core["effective_model"].valve
+    signal_times = None
+    if valve.on_time > 0.0 or valve.off_time > 0.0:
+        # the spool shifts its switching time after each command change (catalogue on/off times)
+        cmd, signal_times = switched_command(cmd, valve.on_time, valve.off_time,
+                                             valve.rest_opening)
     # the event log starts small and is redone once with the exact size if it overflows
     cap = min(max_ev, 256 + 4 * len(cmd))
     run = core_for(core["hook"], core["flow_laws"], core["friction_laws"],
@@ -509,6 +515,9 @@ def simulate_run(model, scenario, t_out=None, checked_times=False, start=None):
             continue
         break
     n_ev = min(n_ev, cap)
+    if signal_times is not None and n_ev:
+        ev_t, ev_kind, ev_mode = _signal_command_events(ev_t[:n_ev], ev_kind[:n_ev],
+                                                        ev_mode[:n_ev], cmd[:, 0], signal_times)
     if status != OK:
         # samples after the point reached were never written: mark them missing
         bad = t_out > t_reached
@@ -522,6 +531,20 @@ def simulate_run(model, scenario, t_out=None, checked_times=False, start=None):
     warnings = [] if time_scale is None else effect_warnings(model, time_scale)
     return CoreRun(model, scenario, core, t_out, y_out, aux_out, mode_out, u_out, ev_t[:n_ev],
                    ev_kind[:n_ev], ev_mode[:n_ev], stats, status, t_reached, warnings)
+
+
+def _signal_command_events(ev_t, ev_kind, ev_mode, spool_t, signal_t):
+    """The ``command`` events at the command signal's times (what SMC's stroke times count
+    from), not at the spool's shift a switching time later; the events re-sorted by time."""
+    ev_t = ev_t.copy()
+    for i in np.flatnonzero(ev_kind == L.EV_COMMAND):
+        j = int(np.argmin(np.abs(spool_t - ev_t[i, 0])))
+        # the core logs the event at the breakpoint's own time (a float equal, or within
+        # its step's rounding)
+        if abs(spool_t[j] - ev_t[i, 0]) <= 1e-9 * max(1.0, abs(spool_t[j])):
+            ev_t[i, 0] = signal_t[j]
+    order = np.argsort(ev_t[:, 0], kind="stable")
+    return ev_t[order], ev_kind[order], ev_mode[order]
 
 
 def warm_up():

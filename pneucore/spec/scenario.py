@@ -213,6 +213,11 @@ class Scenario:
                     raise FieldError(f"scenario.command[{i}][1]",
                                      f"command {u:g} is outside the {model.valve.kind} valve's range "
                                      f"[{lo:g}, {hi:g}]")
+        if (model.valve.on_time > 0.0 or model.valve.off_time > 0.0) and \
+                self.command_interpolation != "hold":
+            raise FieldError("scenario.command_interpolation",
+                             "the valve's switching times (valve.on_time, valve.off_time) shift "
+                             "an on/off command's changes: use a held command ('hold')")
         if model.b_chamber_pressure is not None and self.initial.p_b is not None:
             raise FieldError("scenario.initial.p_b", "chamber B of this 3/2 valve is held at a "
                                                      "constant pressure (valve.b_chamber "
