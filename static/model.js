@@ -340,3 +340,32 @@ async function loadModelPreset(name) {
   modelDraft.markClean(m);   // static/draft.js: edits from here on are unsaved
   return m;
 }
+
+/* ------------------------------------------------------------------ catalogue valve */
+/** The valve of the catalogue form (POST /api/valve/catalogue) into the model panel. */
+async function useCatalogueValve(btn) {
+  clearErrors();
+  const fn = $('#cat-function').value;
+  const fig = $('#cat-figure').value;
+  const val = Number($('#cat-value').value);
+  const b = Number($('#cat-b').value);
+  // the form's units to the API's SI: C in dm³/(s bar), S in mm², times in ms
+  const supply = fig === 'C' ? { C: val * 1e-8, b }
+    : fig === 'effective_area' ? { effective_area: val * 1e-6, b } : { [fig]: val, b };
+  const body = { function: fn.replace('-bistable', ''), supply, bistable: fn.endsWith('-bistable'),
+    on_time: Number($('#cat-on').value) * 1e-3, off_time: Number($('#cat-off').value) * 1e-3 };
+  await busy(btn, async () => {
+    try {
+      const ans = await api('POST', '/api/valve/catalogue', body);
+      S.model.valve = ans.valve;
+      renderModel();
+      setStatus(`Valve: ${ans.description}; ON ${num(body.on_time * 1e3, 3)} ms, OFF ${num(body.off_time * 1e3, 3)} ms.`, 'ok');
+      $('#valve-catalogue').dataset.used = fn;
+    } catch (e) { showApiError(e, 'Catalogue valve'); }
+  });
+}
+function initCatalogueValve() {
+  const b = document.getElementById('btn-catalogue-valve');   // app.js's $ is not loaded yet
+  if (b) b.addEventListener('click', (ev) => useCatalogueValve(ev.target));
+}
+if (document.readyState === 'loading') document.addEventListener('DOMContentLoaded', initCatalogueValve); else initCatalogueValve();

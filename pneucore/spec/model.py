@@ -712,7 +712,8 @@ class Model:
         return Model(
             jack=Jack(**self.jack.__dict__),
             valve=Valve(v.kind, ports, v.b_chamber_pressure, v.flow_law, v.laminar_ratio,
-                        v.b_chamber, v.b_chamber_conductance, v.b_chamber_critical_ratio),
+                        v.b_chamber, v.b_chamber_conductance, v.b_chamber_critical_ratio,
+                        v.on_time, v.off_time, v.rest_opening),
             supply=Source(**self.supply.__dict__), ambient=Source(**self.ambient.__dict__),
             heat=self.heat.copy(),
             friction=Friction(FrictionSet(**f.extend.__dict__), FrictionSet(**f.retract.__dict__), f.law),

@@ -61,3 +61,29 @@ def test_the_given_start_state_is_editable(page):
     page.wait_for_function("() => document.getElementById('panel-plots').dataset.runs")
     assert page.get_attribute("#sim-start", "data-start") == "given"
     assert page.evaluate("S.sim.series.p_b[0]") == pytest.approx(page.evaluate("S.scenario.initial.p_b"), rel=1e-6)
+
+
+def test_a_catalogue_valve_with_its_switching_times_goes_into_the_model(page):
+    page.click("a[data-view=model]")
+    page.select_option("#cat-function", "5/2")
+    page.select_option("#cat-figure", "qn")
+    page.fill("#cat-value", "500")
+    page.fill("#cat-on", "15")
+    page.fill("#cat-off", "25")
+    page.click("#btn-catalogue-valve")
+    page.wait_for_function("() => document.getElementById('valve-catalogue').dataset.used === '5/2'")
+    v = page.evaluate("S.model.valve")
+    assert v["on_time"] == pytest.approx(0.015) and v["off_time"] == pytest.approx(0.025)
+    assert v["rest_opening"] == -1.0
+    assert "[s]" in page.inner_text("label[for='valve-on_time']")
+    assert page.input_value("#valve-on_time") == "0.015"
+    # a stroke commanded at 0.05 s starts at least the ON time later
+    page.click("a[data-view=simulate]")
+    page.select_option("#scn-start", "given")
+    page.evaluate("""() => { S.scenario.command = [[0, -1], [0.05, 1]]; S.scenario.duration = 0.5;
+        S.scenario.x0 = 0; S.scenario.initial = {p_a: null, p_b: null, T_a: null, T_b: null}; renderScenario(); }""")
+    page.evaluate("document.getElementById('panel-plots').dataset.runs = ''")
+    page.click("#btn-simulate")
+    page.wait_for_function("() => document.getElementById('panel-plots').dataset.runs")
+    s = page.evaluate("S.sim.stats.stroke.strokes[0]")
+    assert s["t_command"] == pytest.approx(0.05) and s["start_up_time"] > 0.015

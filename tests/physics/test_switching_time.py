@@ -95,3 +95,17 @@ def test_a_linear_command_with_switching_times_is_refused():
     with pytest.raises(FieldError) as e:
         Model.from_dict(dict(m, valve=dict(m["valve"], off_time=2.0)))
     assert e.value.path == "valve.off_time"
+
+
+def test_switching_times_survive_the_effects_and_the_copy():
+    # an effect rebuilds the model (Model.copy): the times must come along (they were lost)
+    base = _model("5/2", 0.0, 0.0)
+    late = _model("5/2", ON, OFF)
+    for m in (base, late):
+        m["effects"] = {"meter_out_throttle": {"C_a": 5e-9, "b_a": 0.3, "C_b": 5e-9, "b_b": 0.3}}
+    assert Model.from_dict(late).copy().valve.on_time == ON
+    # at rest, chamber B at the supply (as a retraction leaves it): nothing moves before the shift
+    s = {"duration": 0.6, "command": [[0.0, -1.0], [T_CMD, 1.0]], "x0": 0.0,
+         "initial": {"p_b": late["supply"]["pressure"]}}
+    a, b = (simulate(m, s).stroke_metrics()["strokes"][0] for m in (base, late))
+    assert b["start_up_time"] - a["start_up_time"] == pytest.approx(ON, abs=1e-5)
