@@ -59,6 +59,8 @@ class RequirementSpec(_Strict):
     cushion_capacity: Optional[float] = _lib(Requirement, _REQ, "cushion_capacity")
     tube_length: Optional[float] = _lib(Requirement, _REQ, "tube_length")
     ambient_pressure: float = _lib(Requirement, _REQ, "ambient_pressure")
+    valve_on_time: float = _lib(Requirement, _REQ, "valve_on_time")
+    valve_off_time: float = _lib(Requirement, _REQ, "valve_off_time")
 
 
 class CylinderSpec(_Strict):

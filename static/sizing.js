@@ -23,6 +23,8 @@ const SIZING_FIELDS = [
   ['cushion_length', 'Cushion length at each end [m] (blank: no cushion)', ''],
   ['cushion_capacity', 'Cushion capacity, its cushioning energy [J] (with a cushion length)', ''],
   ['tube_length', 'Tube length per port [m] (blank: no tube)', ''],
+  ['valve_on_time', 'Valve switching time ON, catalogue (blank: 0) [s]', ''],
+  ['valve_off_time', 'Valve switching time OFF, spring return (blank: 0) [s]', ''],
 ];
 const SIZING_CHOICES = [
   ['bore', 'Cylinders (series or series:member, comma-separated; blank: all) [-]', 'iso15552, iso6432'],

@@ -264,6 +264,10 @@ def build_model(requirement, cylinder, valve, tube=None, settings=(0.0, 0.0), ba
                             "B-R": _edge((0.0, 1.0), (0.0, C_x), b_x),
                             "P-B": _edge((-1.0, 0.0), (valve["C"], 0.0), valve["b"]),
                             "A-R": _edge((-1.0, 0.0), (C_x, 0.0), b_x)}}
+    if requirement.valve_on_time or requirement.valve_off_time:
+        # a 5/2 monostable solenoid valve: energised extends, the spring (-1) retracts
+        d["valve"].update(on_time=requirement.valve_on_time, off_time=requirement.valve_off_time,
+                          rest_opening=-1.0)
     d["supply"] = {**d.get("supply", {}), "pressure": requirement.supply_pressure}
     d["ambient"] = {**d.get("ambient", {}), "pressure": requirement.ambient_pressure}
     # the throttle first: screwed into the cylinder port, upstream of the tube on the exhaust
@@ -316,7 +320,13 @@ def model_notes(requirement, tube=None):
         "is solved for the required time, its critical ratio the effect's default.",
         f"Dead volume of each chamber: {dead_length() * 1e3:g} mm of bore (the paper's 32 mm jack, "
         "5 cm^3; not in the standards). Seal friction: the base model's, scaled with the bore.",
-        "Valve switching time is not modelled: the valve opens fully at the command.",
+        (f"Valve switching times (ISO 12238, the catalogue's): ON {requirement.valve_on_time * 1e3:g} ms, "
+         f"OFF {requirement.valve_off_time * 1e3:g} ms, a delay of the spool's shift after the "
+         "command (valve.on_time, off_time; 5/2 monostable, spring return on retraction); "
+         "every stroke time counts from the command."
+         if requirement.valve_on_time or requirement.valve_off_time else
+         "Valve switching time 0 (none given): the valve opens fully at the command; give the "
+         "catalogue's ON/OFF times in valve_on_time, valve_off_time."),
     ]
     if requirement.cycle_time is not None:
         notes.append(f"Cycle time {requirement.cycle_time:g} s with a dwell of "

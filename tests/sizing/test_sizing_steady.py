@@ -33,3 +33,26 @@ def test_the_steady_cycle_reproduces_the_sizing_stroke_times():
     m = res.stroke_metrics()
     assert m["full_stroke_time_extend"] == pytest.approx(d["steady_cycle"]["full_stroke_time"]["extend"],
                                                          rel=1e-9)
+
+
+def test_the_valve_switching_times_count_in_the_sizing_strokes():
+    from pneucore.sizing import Requirement
+    from pneucore.sizing.search import _stroke_scenario
+    req = {"stroke": 0.15, "moving_mass": 2.0, "supply_pressure": 6e5, "extend_time": 0.5,
+           "retract_time": 0.5, "valve_on_time": 0.02, "valve_off_time": 0.03}
+    ch = {"bore": ["iso6432:16"], "valve": ["ckd-4ga:M4GA1"]}
+    ans = size(req, ch, workers=1)
+    d = ans["designs"][0]
+    assert d["model"]["valve"]["on_time"] == 0.02 and d["model"]["valve"]["rest_opening"] == -1.0
+    # the same design (same throttles) with an instant valve: each stroke of the sizing
+    # starts and ends the switching time earlier
+    instant = dict(d["model"], valve=dict(d["model"]["valve"], on_time=0.0, off_time=0.0))
+    r = Requirement.from_dict(req)
+    for k, delay in (("extend", 0.02), ("retract", 0.03)):
+        s = simulate(instant, _stroke_scenario(r, k)).stroke_metrics()["strokes"][0]
+        assert d["metrics"][k]["start_up_time"] - s["start_up_time"] == pytest.approx(delay, abs=1e-5)
+        assert d["metrics"][k]["full_stroke_time"] - s["full_stroke_time"] == pytest.approx(delay, abs=1e-4)
+        assert d["metrics"][k]["full_stroke_time"] <= 0.5 * (1 + 1e-3)
+        assert d["steady_cycle"]["full_stroke_time"][k] == pytest.approx(
+            d["metrics"][k]["full_stroke_time"], rel=0.01)
+    assert any("ON 20 ms, OFF 30 ms" in n for n in ans["notes"])
