@@ -46,10 +46,24 @@ function onModelInput(ev) {
   const parts = parsePath(el.dataset.field).slice(1);
   setPath(S.model, parts, readInput(el));
   clearFieldError(el);
+  markModelEdited(parts[0]);
   plotValve();
   plotFriction();
   markStaleComparison();
   if (typeof refreshCircuit === 'function') refreshCircuit();   // static/circuit.js: fields and schematic
+}
+/** A preset's (or a design's) description no longer describes a model whose jack, valve,
+ * supply or friction was changed ("12 mm double rod, 250 mm stroke" after the stroke changed):
+ * it is dropped and the name marked edited (once). */
+function markModelEdited(section) {
+  const m = S.model;
+  if (!m || !['jack', 'valve', 'supply', 'ambient', 'friction', 'heat', 'gas'].includes(section)) return;
+  if (!m.description && /\(edited\)$/.test(m.name || '')) return;
+  m.description = '';
+  if (m.name && !/\(edited\)$/.test(m.name)) m.name = `${m.name} (edited)`;
+  $('#model-name').textContent = m.name || '';
+  const nameInput = $('#model-name-input');
+  if (nameInput) nameInput.value = m.name || '';
 }
 /** A comparison on screen that was made with another model says so (it is kept for reference,
  * not silently taken for the current model's). */
@@ -358,6 +372,7 @@ async function useCatalogueValve(btn) {
     try {
       const ans = await api('POST', '/api/valve/catalogue', body);
       S.model.valve = ans.valve;
+      markModelEdited('valve');
       renderModel();
       setStatus(`Valve: ${ans.description}; ON ${num(body.on_time * 1e3, 3)} ms, OFF ${num(body.off_time * 1e3, 3)} ms.`, 'ok');
       $('#valve-catalogue').dataset.used = fn;

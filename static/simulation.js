@@ -15,6 +15,20 @@ function renderScenario() {
   }
   $('#scn-command').value = (s.command || []).map(([t, u]) => `${num(t, 8)}, ${num(u, 8)}`).join('\n');
   $('#scenario-desc').textContent = s.description || s.name || '';
+  const title = $('#sim-scenario-name');
+  if (title) title.textContent = s.name ? `(scenario ${s.name})` : '(your scenario)';
+}
+/** A preset's name and description no longer describe a scenario the user changed (its
+ * command, duration, start...): both are dropped, and the page says what it was edited from. */
+function markScenarioEdited() {
+  const s = S.scenario;
+  if (!s || (!s.name && !s.description)) return;
+  const from = s.name;
+  s.name = '';
+  s.description = '';
+  $('#scenario-desc').textContent = from ? `Your scenario (edited from ${from}).` : 'Your scenario.';
+  const title = $('#sim-scenario-name');
+  if (title) title.textContent = '(your scenario)';
 }
 function parseCommand(text) {
   const out = [];
@@ -35,6 +49,7 @@ function onScenarioInput(ev) {
   const el = ev.target;
   if (!el.dataset || !el.dataset.field || !el.dataset.field.startsWith('scenario.')) return;
   clearFieldError(el);
+  markScenarioEdited();
   if (el.id === 'scn-command') return;  // parsed on use
   setPath(S.scenario, parsePath(el.dataset.field).slice(1), readInput(el));
 }
@@ -59,12 +74,14 @@ function addStep() {
   cmd.push([t, u]);
   cmd.sort((a, b) => a[0] - b[0]);
   S.scenario.command = cmd;
+  markScenarioEdited();
   $('#scn-command').value = cmd.map(([a, b]) => `${num(a, 8)}, ${num(b, 8)}`).join('\n');
   const next = +(t + 0.1).toFixed(6);
   $('#step-time').value = next;
 }
 function clearCommand() {
   S.scenario.command = [[0, 0]];
+  markScenarioEdited();
   $('#scn-command').value = '0, 0';
 }
 async function loadScenarioPreset(name, btn) {

@@ -87,3 +87,25 @@ def test_a_catalogue_valve_with_its_switching_times_goes_into_the_model(page):
     page.wait_for_function("() => document.getElementById('panel-plots').dataset.runs")
     s = page.evaluate("S.sim.stats.stroke.strokes[0]")
     assert s["t_command"] == pytest.approx(0.05) and s["start_up_time"] > 0.015
+
+
+def test_a_preset_text_goes_once_the_scenario_or_model_is_edited(page):
+    page.click("a[data-view=simulate]")
+    page.click("#btn-fig10")
+    page.wait_for_function("() => S.scenario && S.scenario.name === 'paper-fig10-pulses'")
+    assert "Fig. 10" in page.inner_text("#scenario-desc")
+    assert "paper-fig10-pulses" in page.inner_text("#sim-scenario-name")
+    page.fill("#scn-command", "0, -1\n0.1, 1\n0.6, -1")
+    assert page.evaluate("S.scenario.name") == "" and page.evaluate("S.scenario.description") == ""
+    assert page.inner_text("#scenario-desc") == "Your scenario (edited from paper-fig10-pulses)."
+    assert page.inner_text("#sim-scenario-name") == "(your scenario)"
+    assert "Fig. 10" not in page.inner_text("#panel-plots h2")
+    # the model: its preset description goes with a changed stroke
+    page.click("a[data-view=model]")
+    page.evaluate("loadModelPreset('paper-4way')")
+    page.wait_for_function("() => S.model.name === 'paper-4way' && S.model.description")
+    sel = "[data-field='model.jack.stroke']"
+    page.fill(sel, "150")
+    page.dispatch_event(sel, "input")
+    assert page.evaluate("S.model.description") == ""
+    assert page.evaluate("S.model.name").endswith("(edited)")
