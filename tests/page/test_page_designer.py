@@ -3,6 +3,8 @@ take the design, simulate its steady cycle and get the sizing's stroke time with
 start state is shown and editable. No skipping: a missing Chromium fails loudly."""
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from test_page import browser, page_errors, server, workbench_page  # noqa: F401
@@ -109,3 +111,29 @@ def test_a_preset_text_goes_once_the_scenario_or_model_is_edited(page):
     page.dispatch_event(sel, "input")
     assert page.evaluate("S.model.description") == ""
     assert page.evaluate("S.model.name").endswith("(edited)")
+
+
+#: Units that must not be shown under the engineering system (their engineering forms: bar,
+#: mm, mm/s, °C, dm³/(s bar), L/min ANR, cm³), as a bracketed unit "[...]"
+SI_ONLY = re.compile(r"\[(Pa( abs)?|m|m/s|K|m\^3/\(s Pa\)|m³/\(s Pa\)|kg/s|m\^3|m³)\]")
+ENGINEERING_ONLY = re.compile(r"\[(bar( abs| g)?|mm|mm/s|°C|dm³/\(s bar\)|L/min ANR|cm³)\]")
+
+UNIT_TEXTS = """() => {
+  const out = [];
+  for (const el of document.querySelectorAll('label, th, legend, option, .plot .gtitle, .plot .g-xtitle, .plot .g-ytitle, .plot .g-y2title'))
+    if (el.textContent.includes('[')) out.push(el.textContent.trim());
+  return out;
+}"""
+
+
+@pytest.mark.parametrize("system, forbidden", [("engineering", SI_ONLY), ("si", ENGINEERING_ONLY)])
+def test_every_unit_label_follows_the_chosen_system(page, system, forbidden):
+    page.click("a[data-view=all]")
+    page.select_option("#unit-system", system)
+    page.wait_for_function(f"() => document.body.dataset.units === '{system}'")
+    for _ in range(20):      # plots redrawn after a request (the friction map) take a moment
+        bad = sorted({t for t in page.evaluate(UNIT_TEXTS) if forbidden.search(t)})
+        if not bad:
+            break
+        page.wait_for_timeout(250)
+    assert not bad, bad

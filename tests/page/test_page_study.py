@@ -82,6 +82,14 @@ def state():
     return {}
 
 
+@pytest.fixture(scope="module", autouse=True)
+def si_units(page):
+    """These tests type and read SI values (Pa): the page's unit system set to SI once (the
+    study panel follows the chosen system: tests/page/test_page_designer.py)."""
+    page.select_option("#unit-system", "si")
+    page.wait_for_function("() => document.body.dataset.units === 'si'")
+
+
 def get_json(server, path):
     with urllib.request.urlopen(server + path, timeout=10) as r:
         return json.load(r)
@@ -215,6 +223,10 @@ def test_monte_carlo_study_runs_and_shows_results(page, server, state):
     assert len(sc["x"]) == 40 and all(4 <= x <= 16 for x in sc["x"])
     assert axis_titles(page, "study-scatter")[0] == "friction.extend.fc0 [N]"
 
+    # the results in the engineering units (the parameters were typed in SI)
+    page.select_option("#unit-system", "engineering")
+    page.wait_for_function("() => document.body.dataset.units === 'engineering'")
+    assert axis_titles(page, "study-scatter")[0] == "friction.extend.fc0 [N]"
     # the percentile table: every metric, its unit, 40 runs; the median matches the API
     rows = table_rows(page)
     assert list(rows) == list(METRICS)
@@ -240,6 +252,8 @@ def test_monte_carlo_study_runs_and_shows_results(page, server, state):
     assert row.get_attribute("data-status") == "done"
     assert "40/40" in row.inner_text()
     assert "status ok" in page.get_attribute("#status", "class")
+    page.select_option("#unit-system", "si")      # the next tests type SI values again
+    page.wait_for_function("() => document.body.dataset.units === 'si'")
 
 
 def test_negative_std_is_reported_next_to_its_row(page, server):
