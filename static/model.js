@@ -283,9 +283,13 @@ function renderEffects() {
     const inputs = params.map((p) => {
       const meta = cat ? cat.parameters.find((q) => q.name === p) : null;
       const unit = meta ? meta.unit : '?';
+      // shown in the page's unit system, as every other field (SI kept in the model)
+      const d = meta && typeof unitShow === 'function' ? unitShow(unit) : { unit, scale: 1, offset: 0 };
+      const sc = d.scale || 1, off = d.offset || 0;
+      const v = effs[name][p];
       const id = esc(`eff-${name}-${p}`);
-      return `<div class="field"><label for="${id}" title="${esc(meta ? meta.description : '')}">${esc(p)} [${esc(unit)}]</label>` +
-        `<input id="${id}" type="number" step="any" data-field="model.effects.${esc(name)}.${esc(p)}" value="${esc(displayValue(effs[name][p], 1))}">` +
+      return `<div class="field"><label for="${id}" title="${esc(meta ? meta.description : '')}">${esc(p)} [${esc(prettyUnitText(d.unit))}]</label>` +
+        `<input id="${id}" type="number" step="any" data-field="model.effects.${esc(name)}.${esc(p)}" data-scale="${sc}" data-offset="${off}" value="${esc(displayValue(typeof v === 'number' ? v - off : v, sc))}">` +
         '<span class="field-error" role="alert"></span></div>';
     }).join('');
     div.innerHTML = `<div class="effect-head"><b>${esc(name)}</b> <span class="muted small">${esc(cat ? cat.description : 'not in the catalog')}</span>` +

@@ -137,3 +137,21 @@ def test_every_unit_label_follows_the_chosen_system(page, system, forbidden):
             break
         page.wait_for_timeout(250)
     assert not bad, bad
+
+
+def test_an_effects_parameters_follow_the_unit_system(page):
+    page.select_option("#unit-system", "engineering")
+    page.wait_for_function("() => document.body.dataset.units === 'engineering'")
+    page.click("a[data-view=model]")
+    page.evaluate("""() => { S.model.effects = {tubing: {length_a: 2, diameter_a: 0.004, length_b: 2,
+        diameter_b: 0.004}}; renderModel(); }""")
+    assert page.inner_text("label[for='eff-tubing-diameter_a']").endswith("[mm]")
+    assert page.input_value("#eff-tubing-diameter_a") == "4"
+    page.fill("#eff-tubing-diameter_a", "6")
+    page.dispatch_event("#eff-tubing-diameter_a", "input")
+    assert page.evaluate("S.model.effects.tubing.diameter_a") == pytest.approx(0.006, rel=1e-12)
+    page.select_option("#unit-system", "si")
+    page.wait_for_function("() => document.body.dataset.units === 'si'")
+    assert page.inner_text("label[for='eff-tubing-diameter_a']").endswith("[m]")
+    assert page.input_value("#eff-tubing-diameter_a") == "0.006"
+    page.evaluate("() => { S.model.effects = {}; renderModel(); }")
