@@ -402,6 +402,7 @@ async function onStudyListClick(ev) {
       if (btn.classList.contains('study-load')) {
         await loadStudyResults(id);
         const r = S.study.res;
+        fillStudyForm(r.definition);
         if (!S.study.following) {   // the bar shows the study on screen unless another one is running
           setStudyProgress(r.stored, r.n_runs, `study ${id} loaded (${r.status})`);
           $('#study-progress').dataset.study = id;
@@ -425,6 +426,43 @@ async function onStudyListClick(ev) {
       }
     } catch (e) { showApiError(e, `Study ${id}`); }
   });
+}
+/** The share of the runs whose selected metric meets "at most / at least" a value typed in the
+ * metric's shown unit (the page's unit system); runs that leave the metric undefined count
+ * as not meeting it. */
+function renderStudyRequirement() {
+  const res = S.study.res;
+  const out = $('#study-req-share');
+  if (!out) return;
+  const m = S.study.metric;
+  const info = res && res.metrics[m];
+  const lab = $('#study-req-value-label');
+  const d = info && typeof unitShow === 'function' ? unitShow(info.unit) : { unit: info ? info.unit : '-', scale: 1, offset: 0 };
+  if (lab) lab.textContent = `${m || 'metric'} value [${prettyUnitText(d.unit || '-')}]`;
+  const raw = $('#study-req-value').value.trim();
+  if (!info || raw === '' || !Number.isFinite(Number(raw))) { out.textContent = info ? `Type a value of ${m} to count the runs meeting it.` : ''; delete out.dataset.share; return; }
+  const lim = Number(raw) * (d.scale || 1) + (d.offset || 0);
+  const le = $('#study-req-op').value === 'le';
+  const vals = res.runs.metrics[m] || [];
+  const ok = vals.filter((v) => v != null && (le ? v <= lim : v >= lim)).length;
+  const share = vals.length ? ok / vals.length : 0;
+  out.dataset.share = String(share);
+  out.textContent = `${ok} of ${vals.length} runs (${num(100 * share, 3)} %) have ${m} ${le ? '≤' : '≥'} ${raw} ${prettyUnitText(d.unit || '')}` +
+    `${vals.some((v) => v == null) ? '; a run leaving it undefined does not meet it' : ''}.`;
+}
+/** A stored study's definition back into the form: its parameters, samples and seed. */
+function fillStudyForm(def) {
+  if (!def || !def.parameters) return;
+  S.study.rows = Object.entries(def.parameters).map(([path, spec]) => {
+    const kind = spec.grid ? 'grid' : (spec.distribution || 'uniform');
+    const f = {};
+    if (spec.grid) f.grid = spec.grid.join(', ');
+    else for (const [k] of STUDY_FIELDS[kind] || []) if (spec[k] != null) f[k] = String(spec[k]);
+    return { path, custom: !studyPathOptions().some(([p]) => p === path), kind, f };
+  });
+  if (def.samples != null) $('#study-samples').value = String(def.samples);
+  if (def.seed != null) $('#study-seed').value = String(def.seed);
+  renderStudyRows();
 }
 async function loadStudyResults(id) {
   const res = await api('GET', `/api/studies/${encodeURIComponent(id)}/results`);
@@ -503,6 +541,7 @@ function renderStudyResults() {
 function renderStudyMetric() {
   const res = S.study.res;
   const d = res.metrics[S.study.metric];
+  renderStudyRequirement();
   $('#study-metric-def').innerHTML = d ? `<b>${esc(S.study.metric)}</b>: ${esc(d.definition)} (SI unit ${esc(d.unit)})` : '';
   $$('#study-table-data tbody tr').forEach((tr) => tr.classList.toggle('selected', tr.dataset.metric === S.study.metric));
   plotStudyHist();
@@ -621,6 +660,10 @@ function selectStudyParam(path) {
 }
 function wireStudy() {
   $('#btn-study-add').addEventListener('click', () => addStudyRow());
+  for (const id of ['#study-req-op', '#study-req-value']) {
+    const el = $(id);
+    if (el) { el.addEventListener('input', renderStudyRequirement); el.addEventListener('change', renderStudyRequirement); }
+  }
   const rows = $('#study-param-rows');
   rows.addEventListener('change', onStudyRowChange);
   rows.addEventListener('input', onStudyRowInput);
