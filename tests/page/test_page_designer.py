@@ -155,3 +155,24 @@ def test_an_effects_parameters_follow_the_unit_system(page):
     assert page.inner_text("label[for='eff-tubing-diameter_a']").endswith("[m]")
     assert page.input_value("#eff-tubing-diameter_a") == "0.006"
     page.evaluate("() => { S.model.effects = {}; renderModel(); }")
+
+
+def test_heat_models_side_by_side_give_their_stroke_times(page):
+    page.click("a[data-view=simulate]")
+    page.evaluate("""() => { S.scenario = {duration: 1.0, sample_period: 0.001, command: [[0, 0], [0.01, 1], [0.5, -1]],
+        x0: 0, initial: {p_a: null, p_b: null, T_a: null, T_b: null}}; renderScenario(); }""")
+    page.evaluate("loadModelPreset('paper-4way')")
+    page.wait_for_function("() => S.model.name === 'paper-4way'")
+    page.click("a[data-view=heat]")
+    page.click("#btn-heat-all")
+    page.wait_for_function("() => document.getElementById('panel-heat').dataset.simulated")
+    rows = page.evaluate("""() => Array.from(document.querySelectorAll('#heat-strokes-table tbody tr'))
+        .map(tr => Array.from(tr.children).map(c => c.textContent.trim()))""")
+    names = [r[0] for r in rows]
+    assert {"isothermal", "adiabatic", "convective"} <= set(names)
+    ext = {r[0]: float(r[1]) for r in rows}
+    # each model's own extension time, as a simulation under it gives (the API's numbers)
+    runs = page.evaluate("S.model")
+    assert all(0.05 < t < 1.0 for t in ext.values())
+    assert len(set(ext.values())) > 1          # the heat model changes the stroke time
+    assert "−105 °C" in page.inner_text("#heat-cold-note")
