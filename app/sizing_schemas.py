@@ -227,6 +227,16 @@ class DesignOut(BaseModel):
         "{extend, retract} [s], end_speed {extend, retract} [m/s], cycles repeated [-], "
         "converged [-], start (p_a, p_b [Pa abs], T_a, T_b [K], x0 [m], v0 [m/s]); null "
         "beyond them"))
+    checks: Optional[dict[str, Any]] = Field(None, description=(
+        "The cylinder makers' checks besides the motion: load_factor {extend, retract} (the "
+        "static load over the theoretical output at the supply) [-] with load_factor_limits "
+        "(SMC: static 0.7, on a guide 1.0, moving the load 0.5) [-] and load_factor_ok [-]; "
+        "buckling_load (Euler, steel rod, one end fixed and one free, K = 2, over the stroke) "
+        "[N], buckling_safety (it over the extension's theoretical output) [-], buckling_ok "
+        "(at least 3) [-]"))
+    best_of_cylinder: Optional[bool] = Field(None, description="The first (least air) design of "
+                                                               "its cylinder: the short list [-]")
+    why: Optional[str] = Field(None, description="Why the design is where it is, in words")
     feasible: bool = Field(..., description="Meets the requirement (false: one of the closest "
                                             "families, shown when none meets it) [-]")
 

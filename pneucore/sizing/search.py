@@ -1042,8 +1042,85 @@ def _design(requirement, cylinder, valve, tube, settings, metrics, base, times=N
         "required_times": {k: requirement.time_bound(k) if times is None else times[k]
                            for k in DIRECTIONS},
         "cushion": None if needles is None else _cushion_out(requirement, valve, needles, metrics),
+        "checks": load_checks(requirement, cylinder, Model.from_dict(model)),
         "feasible": True,
     }
+
+
+#: SMC's load factor limits (load over the theoretical output at the supply), by the purpose of
+#: the operation (SMC, Air Cylinders Model Selection, step 1): static (clamping) 0.7, a load
+#: moved on a guide 1.0, a load moved vertically or horizontally (the cylinder carries it) 0.5;
+#: lower still for high speeds [-]
+LOAD_FACTOR_LIMITS = {"static": 0.7, "guided": 1.0, "dynamic": 0.5}
+#: Young's modulus of a steel piston rod [Pa] and the Euler buckling length factor of the
+#: worst common mounting, one end fixed and the rod end free (Euler case 1, K = 2): the
+#: catalogues' buckling charts (SMC, Festo) assume mountings between K = 0.5 and 2 [-]
+ROD_YOUNG_MODULUS = 206e9
+BUCKLING_K = 2.0
+#: Safety factor on the Euler load a rod is held to (machine design practice: 3 to 5) [-]
+BUCKLING_SAFETY = 3.0
+
+
+def load_checks(requirement, cylinder, model):
+    """The checks cylinder makers ask for besides the motion: the load factor of each stroke
+    and the rod's buckling on a long stroke.
+
+    Parameters
+    ----------
+    requirement : Requirement
+        Supply and ambient pressures, stroke
+    cylinder : dict
+        ``bore`` and ``rod`` [m]
+    model : Model
+        The design's model (its load, gravity along the rod included)
+
+    Returns
+    -------
+    checks : dict
+        ``load_factor``: per direction, the static load the stroke works against over the
+        theoretical output ``(p_s - p_atm) A`` [-], with ``load_factor_limits``
+        (:data:`LOAD_FACTOR_LIMITS`) and ``load_factor_ok`` (within the dynamic limit, 0.5);
+        ``buckling_load``: Euler's ``pi^2 E I / (K L)^2`` of the rod over the stroke [N],
+        ``buckling_safety``: it over the extension's theoretical output (the rod takes the whole
+        output stalled at the stop) [-], ``buckling_ok`` (at least :data:`BUCKLING_SAFETY`)
+    """
+    j = model.jack
+    dp = requirement.supply_pressure - requirement.ambient_pressure
+    load = j.total_load          # pushes the rod in (towards x = 0), gravity included [N]
+    out = {"extend": dp * j.area_a, "retract": dp * j.area_b}
+    lf = {"extend": max(load, 0.0) / out["extend"] if out["extend"] > 0 else None,
+          "retract": max(-load, 0.0) / out["retract"] if out["retract"] > 0 else None}
+    d = cylinder["rod"]
+    I = math.pi * d ** 4 / 64.0
+    L = max(requirement.stroke, 1e-9)
+    f_cr = math.pi ** 2 * ROD_YOUNG_MODULUS * I / (BUCKLING_K * L) ** 2 if d > 0 else None
+    safety = f_cr / out["extend"] if f_cr is not None and out["extend"] > 0 else None
+    return {"load_factor": lf, "load_factor_limits": dict(LOAD_FACTOR_LIMITS),
+            "load_factor_ok": all(v is None or v <= LOAD_FACTOR_LIMITS["dynamic"] for v in lf.values()),
+            "buckling_load": f_cr, "buckling_safety": safety,
+            "buckling_ok": safety is None or safety >= BUCKLING_SAFETY}
+
+
+def _why(design, first_of_bore):
+    """Why this design is where it is, in words (the answer's ``why``)."""
+    c, v = design["cylinder"]["name"], design["valve"]["name"]
+    bits = [f"{design['air_per_cycle']:.3g} NL of air per cycle (the ranking's first key)"]
+    if first_of_bore:
+        bits.append(f"the least air of the {c} designs")
+    m = design["metrics"]
+    bits.append(f"strokes {m['extend']['full_stroke_time']:.3g} / {m['retract']['full_stroke_time']:.3g} s "
+                f"within {design['required_times']['extend']:.3g} / {design['required_times']['retract']:.3g} s"
+                if m["extend"]["full_stroke_time"] is not None and m["retract"]["full_stroke_time"] is not None
+                else "a stroke not completed")
+    ch = design.get("checks") or {}
+    if ch:
+        lf = [x for x in ch["load_factor"].values() if x is not None]
+        bits.append(f"load factor {max(lf) if lf else 0:.2g} "
+                    f"({'within' if ch['load_factor_ok'] else 'ABOVE'} SMC's 0.5 for a moving load)")
+        if ch["buckling_safety"] is not None:
+            bits.append(f"rod buckling safety {ch['buckling_safety']:.3g} "
+                        f"({'at least' if ch['buckling_ok'] else 'BELOW'} {BUCKLING_SAFETY:g})")
+    return f"{c} + {v}: " + "; ".join(bits)
 
 
 def _cushion_out(requirement, valve, needles, metrics):
@@ -1221,8 +1298,15 @@ def _answer(req, ch, outcomes):
     counts = {}
     for o in infeasible:
         counts[o["reason"]] = counts.get(o["reason"], 0) + 1
+    seen_bores = set()
     for rank, dsg in enumerate(designs, 1):
         dsg["rank"] = rank
+        first = dsg["cylinder"]["name"] not in seen_bores
+        seen_bores.add(dsg["cylinder"]["name"])
+        # the short list: the first (least air) design of each cylinder; the others are
+        # near-identical valve sizes of the same bore
+        dsg["best_of_cylinder"] = first
+        dsg["why"] = _why(dsg, first)
         # the machine running: the first ranked designs' strokes in the steady cycle
         dsg["steady_cycle"] = steady_cycle(dsg, req) if rank <= STEADY_DESIGNS else None
     summary = (f"{sum(o['feasible'] for o in outcomes)} of {len(outcomes)} families meet the "

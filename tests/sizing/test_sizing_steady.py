@@ -56,3 +56,21 @@ def test_the_valve_switching_times_count_in_the_sizing_strokes():
         assert d["steady_cycle"]["full_stroke_time"][k] == pytest.approx(
             d["metrics"][k]["full_stroke_time"], rel=0.01)
     assert any("ON 20 ms, OFF 30 ms" in n for n in ans["notes"])
+
+
+def test_load_factor_and_buckling_checks_are_the_closed_forms():
+    import math
+    req = {"stroke": 0.5, "moving_mass": 2.0, "load_force": 100.0, "supply_pressure": 7e5,
+           "extend_time": 0.8, "retract_time": 0.8}
+    ans = size(req, {"bore": ["iso6432:20"], "valve": ["ckd-4ga:M4GA1"]}, workers=1)
+    d = ans["designs"][0]
+    bore, rod = d["cylinder"]["bore"], d["cylinder"]["rod"]
+    out = (7e5 - 101300.0) * math.pi * bore ** 2 / 4
+    # SMC's load factor: the load over the theoretical output at the supply
+    assert d["checks"]["load_factor"]["extend"] == pytest.approx(100.0 / out, rel=1e-12)
+    assert d["checks"]["load_factor_ok"] is (100.0 / out <= 0.5)
+    # Euler, one end fixed and one free (K = 2), steel rod, over the stroke
+    f_cr = math.pi ** 2 * 206e9 * (math.pi * rod ** 4 / 64) / (2 * 0.5) ** 2
+    assert d["checks"]["buckling_load"] == pytest.approx(f_cr, rel=1e-12)
+    assert d["checks"]["buckling_safety"] == pytest.approx(f_cr / out, rel=1e-12)
+    assert d["best_of_cylinder"] and "load factor" in d["why"] and "buckling" in d["why"]
