@@ -135,7 +135,17 @@ function renderSizing() {
   const VU = metricDisplay('m/s');
   const steady = (d) => (d.steady_cycle && d.steady_cycle.full_stroke_time
     ? ['extend', 'retract'].map((k) => (d.steady_cycle.full_stroke_time[k] == null ? '–' : num(d.steady_cycle.full_stroke_time[k], 3))).join(' / ') : '–');
-  const rows = ans.designs.map((d, i) => `<tr data-rank="${d.rank}">
+  // the short list: the least-air design of each cylinder (others: near-identical valve sizes)
+  const shortList = ans.designs.some((d) => d.best_of_cylinder === false) && !SZ.showAll;
+  const shown = ans.designs.map((d, i) => [d, i]).filter(([d, i]) => !shortList || d.best_of_cylinder || i === SZ.chosen);
+  const checks = (d) => {
+    const c = d.checks;
+    if (!c) return '–';
+    const lf = Object.values(c.load_factor).filter((v) => v != null);
+    return `<span class="${c.load_factor_ok ? '' : 'warn'}">${num(lf.length ? Math.max(...lf) : 0, 2)}</span> / ` +
+      `<span class="${c.buckling_ok ? '' : 'warn'}">${c.buckling_safety == null ? '–' : num(c.buckling_safety, 3)}</span>`;
+  };
+  const rows = shown.map(([d, i]) => `<tr data-rank="${d.rank}" title="${esc(d.why || '')}">
     <td><input type="radio" name="sz-pick" value="${i}" ${i === SZ.chosen ? 'checked' : ''} aria-label="choose design ${d.rank}"></td>
     <td>${d.rank}</td><td>${esc(d.cylinder.name)}</td><td>${esc(d.valve.name)}</td>
     <td>${esc(d.tube ? d.tube.name : '–')}</td><td>${num(d.air_per_cycle, 3)}</td>
@@ -144,18 +154,28 @@ function renderSizing() {
     <td>${metric(d, 'extend', 'end_speed')}</td><td>${metric(d, 'retract', 'end_speed')}</td>
     <td>${num(CU.val(d.settings.extend_meter_out_C), 3)} / ${num(CU.val(d.settings.retract_meter_out_C), 3)}</td>
     ${cushioned ? cushionCells(d) : ''}
+    <td class="sz-checks">${checks(d)}</td>
     <td>${d.feasible ? 'yes' : 'no'}</td></tr>`).join('');
   const reasons = Object.entries(ans.reasons).map(([r, n]) => `${n} ${esc(r)} (${esc(ans.reason_meanings[r] || '')})`).join('; ');
   document.getElementById('sizing-table').innerHTML = `<table id="sizing-designs"><thead><tr><th></th><th>rank</th>
     <th>cylinder</th><th>valve</th><th>tube</th><th>air per cycle [NL]</th><th>extend [s]</th><th>retract [s]</th>
     <th>steady cycle ext / ret [s]</th>
-    <th>end speed out [${esc(VU.label)}]</th><th>end speed in [${esc(VU.label)}]</th><th>meter-out throttle C ext / ret [${esc(CU.label)}] (0: none)</th>${cushioned ? `<th>cushion needle C ext / ret [${esc(CU.label)}] (open: not needed)</th><th>impact energy ext / ret / capacity [J]</th>` : ''}<th>feasible</th></tr></thead>
+    <th>end speed out [${esc(VU.label)}]</th><th>end speed in [${esc(VU.label)}]</th><th>meter-out throttle C ext / ret [${esc(CU.label)}] (0: none)</th>${cushioned ? `<th>cushion needle C ext / ret [${esc(CU.label)}] (open: not needed)</th><th>impact energy ext / ret / capacity [J]</th>` : ''}<th title="SMC load factor (limit 0.5 moving a load) / Euler buckling safety of the rod (at least 3)">load factor / buckling safety [-]</th><th>feasible</th></tr></thead>
     <tbody>${rows}</tbody></table>
+    <p class="small" id="sizing-shortlist">${shortList ? `Short list: the best design of each cylinder (${shown.length} of ${ans.designs.length}). <button type="button" id="btn-size-all">Show all ${ans.designs.length}</button>`
+      : (ans.designs.some((d) => d.best_of_cylinder === false) ? `All ${ans.designs.length} designs. <button type="button" id="btn-size-all">Short list</button>` : '')}</p>
+    <p class="small" id="sizing-why">${esc((ans.designs[SZ.chosen] || {}).why || '')}</p>
     <p class="muted small">${ans.families} families; failing: ${reasons || 'none'}.</p>
     <ul class="muted small">${ans.notes.map((n) => `<li>${esc(n)}</li>`).join('')}</ul>`;
   for (const r of document.querySelectorAll('input[name="sz-pick"]')) {
-    r.addEventListener('change', (ev) => { SZ.chosen = Number(ev.target.value); plotChosenDesign(); });
+    r.addEventListener('change', (ev) => {
+      SZ.chosen = Number(ev.target.value);
+      document.getElementById('sizing-why').textContent = (SZ.ans.designs[SZ.chosen] || {}).why || '';
+      plotChosenDesign();
+    });
   }
+  const all = document.getElementById('btn-size-all');
+  if (all) all.addEventListener('click', () => { SZ.showAll = !SZ.showAll; renderSizing(); });
   const none = !ans.designs.length;
   document.getElementById('btn-size-use').disabled = none;
   document.getElementById('btn-size-export').disabled = none;

@@ -51,6 +51,12 @@ def test_the_form_sizes_and_ranks_designs_and_plots_the_chosen_one(page):
     page.fill("#sz-valve", "ckd-4ga")
     _size(page)
     assert page.get_attribute("#panel-sizing", "data-sized") == "6", page.inner_text("#status")
+    # the short list first: the best design of each cylinder, with why it was chosen
+    ranks = page.eval_on_selector_all("#sizing-designs tbody tr", "rs => rs.map(r => r.dataset.rank)")
+    best = page.evaluate("SZ.ans.designs.filter(d => d.best_of_cylinder).map(d => String(d.rank))")
+    assert ranks == best and len(best) == 2
+    assert "NL of air per cycle" in page.inner_text("#sizing-why")
+    page.click("#btn-size-all")
     ranks = page.eval_on_selector_all("#sizing-designs tbody tr", "rs => rs.map(r => r.dataset.rank)")
     assert ranks == ["1", "2", "3", "4", "5", "6"]
     assert "families meet the requirement" in page.inner_text("#sizing-summary")
