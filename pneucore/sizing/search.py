@@ -890,7 +890,7 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
             needles, failed = _solve_needles(requirement, valve, dirs, settings, metrics, pair)
             if failed is not None:
                 k, (C_t, energy) = failed
-                cap = requirement.cushion_capacity
+                cap = cushion_energy_limit(requirement)
                 design = _design(requirement, cylinder, valve, tube, settings, metrics, base,
                                  {n: dirs[n].t_req for n in DIRECTIONS}, needles)
                 how = (f", the least over the meter-out throttle and needle pairs searched that "
@@ -900,7 +900,9 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
                        f"{dirs[k].t_req:.4g} s allows (no meter-out throttle: meter_out false)")
                 return {**family, "feasible": False, "reason": "cushion", "direction": k,
                         "detail": f"{k}: kinetic energy at the end stop {energy:.3g} J{how}, "
-                                  f"cushion capacity {cap:.3g} J",
+                                  f"cushion capacity {requirement.cushion_capacity:.3g} J"
+                                  + (f" (the end limits allow {cap:.3g} J)"
+                                     if cap < requirement.cushion_capacity else ""),
                         "shortfall": energy / cap, "design": {**design, "feasible": False}}
     except FieldError as exc:   # a run's own check (the mass the solver resolves, say)
         return {**family, "feasible": False, "reason": "model", "direction": None,
@@ -924,6 +926,19 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
     return {**family, "feasible": True, "design": design}
 
 
+def cushion_energy_limit(requirement):
+    """The impact energy the cushion needles are solved for [J]: the cushion's capacity, and
+    below it the requirement's own end limits where given (``max_end_energy``, and
+    ``max_end_speed`` as the moving mass's ``m v^2 / 2``): a needle closed for the end speed
+    is what a fitter does with an end speed too high."""
+    limits = [requirement.cushion_capacity]
+    if requirement.max_end_energy is not None:
+        limits.append(requirement.max_end_energy)
+    if requirement.max_end_speed is not None:
+        limits.append(0.5 * requirement.moving_mass * requirement.max_end_speed ** 2)
+    return min(limits)
+
+
 def _solve_needles(requirement, valve, dirs, settings, metrics, pair=None):
     """Each direction's cushion needle: fully open where the stroke sized by its meter-out
     throttle already meets the end within the cushion's capacity, else solved without the
@@ -938,7 +953,7 @@ def _solve_needles(requirement, valve, dirs, settings, metrics, pair=None):
         The needle per direction [m^3/(s Pa)]; ``(direction, (needle, energy))`` of the first
         direction no needle brings within the capacity in its time, else None
     """
-    cap = requirement.cushion_capacity
+    cap = cushion_energy_limit(requirement)
     C_open = needle_open(valve)
     needles = {k: C_open for k in DIRECTIONS}
     solved, paired = [], set()

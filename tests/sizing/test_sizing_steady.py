@@ -74,3 +74,18 @@ def test_load_factor_and_buckling_checks_are_the_closed_forms():
     assert d["checks"]["buckling_load"] == pytest.approx(f_cr, rel=1e-12)
     assert d["checks"]["buckling_safety"] == pytest.approx(f_cr / out, rel=1e-12)
     assert d["best_of_cylinder"] and "load factor" in d["why"] and "buckling" in d["why"]
+
+
+def test_the_end_speed_limit_sets_the_cushion_needle():
+    # a generous cushion (1 J) and an end speed of 0.3 m/s: the needles are closed for the
+    # speed (0.225 J on 5 kg) instead of the family failing on the end speed (0.366 m/s before)
+    req = {"stroke": 0.2, "moving_mass": 5.0, "load_force": 50.0, "supply_pressure": 7e5,
+           "extend_time": 0.6, "retract_time": 0.6, "max_end_speed": 0.3,
+           "cushion_length": 0.02, "cushion_capacity": 1.0}
+    ans = size(req, {"bore": ["iso15552:32"], "valve": ["ckd-4ga:M4GA1"]}, workers=1)
+    d = ans["designs"][0]
+    assert d["feasible"], ans["infeasible"]
+    for k in ("extend", "retract"):
+        assert d["cushion"][k]["needle_solved"]
+        # at the limit within the needle's root tolerance (the energy's 1e-3 or so)
+        assert 0.29 <= d["metrics"][k]["end_speed"] <= 0.3
