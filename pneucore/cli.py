@@ -52,6 +52,13 @@ def summary_lines(res):
         f"v    [m/s]      min {res.v.min():7.3f}  max {res.v.max():7.3f}",
         "events: " + (", ".join(f"{k} x{n}" for k, n in sorted(ev.items())) or "none"),
     ]
+    cyc = res.stats.get("cyclic")
+    if cyc:
+        st = cyc["state"]
+        lines.insert(2, f"start: cyclic steady state after {cyc['cycles']} cycles"
+                        f"{'' if cyc['converged'] else ' (NOT converged)'}: p_a {st['p_a'] / 1e5:.4f}, "
+                        f"p_b {st['p_b'] / 1e5:.4f} bar abs, T_a {st['T_a'] - T_ZERO_CELSIUS:.2f}, "
+                        f"T_b {st['T_b'] - T_ZERO_CELSIUS:.2f} degC, x0 {st['x0'] * 1e3:.3f} mm")
     for e in res.events[:40]:
         lines.append(f"  {e['t']:9.6f} s  {e['kind']:<8s} -> {e['mode']}")
     return lines
