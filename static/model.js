@@ -44,6 +44,7 @@ function onModelInput(ev) {
   const el = ev.target;
   if (!el.dataset || !el.dataset.field || !el.dataset.field.startsWith('model.')) return;
   const parts = parsePath(el.dataset.field).slice(1);
+  rememberModelOrigin();
   setPath(S.model, parts, readInput(el));
   clearFieldError(el);
   markModelEdited(parts[0]);
@@ -55,12 +56,25 @@ function onModelInput(ev) {
 /** A preset's (or a design's) description no longer describes a model whose jack, valve,
  * supply or friction was changed ("12 mm double rod, 250 mm stroke" after the stroke changed):
  * it is dropped and the name marked edited (once). */
+function physicalModelKey(m) { const c = Object.assign({}, m); delete c.name; delete c.description; return JSON.stringify(c); }
+/** The loaded model's name, description and physics, before its first edit (a model loaded
+ * anew is another object: its own origin). */
+function rememberModelOrigin() {
+  const m = S.model;
+  if (!m || (S.modelOrigin && S.modelOrigin.ref === m)) return;
+  S.modelOrigin = { ref: m, name: m.name, description: m.description, key: physicalModelKey(m) };
+}
 function markModelEdited(section) {
   const m = S.model;
   if (!m || !['jack', 'valve', 'supply', 'ambient', 'friction', 'heat', 'gas'].includes(section)) return;
-  if (!m.description && /\(edited\)$/.test(m.name || '')) return;
-  m.description = '';
-  if (m.name && !/\(edited\)$/.test(m.name)) m.name = `${m.name} (edited)`;
+  const o = S.modelOrigin && S.modelOrigin.ref === m ? S.modelOrigin : null;
+  if (o && physicalModelKey(m) === o.key) {      // edited back: the preset's text is true again
+    m.name = o.name;
+    m.description = o.description;
+  } else {
+    m.description = '';
+    if (m.name && !/\(edited\)$/.test(m.name)) m.name = `${m.name} (edited)`;
+  }
   $('#model-name').textContent = m.name || '';
   const nameInput = $('#model-name-input');
   if (nameInput) nameInput.value = m.name || '';
@@ -402,6 +416,7 @@ async function useCatalogueValve(btn) {
   await busy(btn, async () => {
     try {
       const ans = await api('POST', '/api/valve/catalogue', body);
+      rememberModelOrigin();
       S.model.valve = ans.valve;
       markModelEdited('valve');
       renderModel();

@@ -107,10 +107,16 @@ def test_a_preset_text_goes_once_the_scenario_or_model_is_edited(page):
     page.evaluate("loadModelPreset('paper-4way')")
     page.wait_for_function("() => S.model.name === 'paper-4way' && S.model.description")
     sel = "[data-field='model.jack.stroke']"
+    before = page.input_value(sel)
+    desc = page.evaluate("S.model.description")
     page.fill(sel, "150")
     page.dispatch_event(sel, "input")
     assert page.evaluate("S.model.description") == ""
     assert page.evaluate("S.model.name").endswith("(edited)")
+    # edited back: the preset's name and text are true again (nothing unsaved, no stale compare)
+    page.fill(sel, before)
+    page.dispatch_event(sel, "input")
+    assert page.evaluate("S.model.name") == "paper-4way" and page.evaluate("S.model.description") == desc
 
 
 #: Units that must not be shown under the engineering system (their engineering forms: bar,
