@@ -257,8 +257,21 @@ function exportChosenDesign() {
   saveBlob(new Blob([JSON.stringify(d.model, null, 1)], { type: 'application/json' }), `design-${d.rank}-model.json`);
 }
 
+/** The accepted series names under the choice fields (GET /api/sizing/series). */
+async function showSizingSeries() {
+  let s;
+  try { s = await api('GET', '/api/sizing/series'); } catch (e) { return; }
+  const box = document.getElementById('sizing-form');
+  const p = document.createElement('p');
+  p.id = 'sz-series-hint';
+  p.className = 'muted small';
+  const list = (kind) => Object.entries(s[kind]).map(([n, v]) => `${n} (${v.members.join(', ')})`).join('; ');
+  p.textContent = `Series you may name (a series, or series:member): cylinders ${list('cylinders')}; valves ${list('valves')}; tubes ${list('tubes')}.`;
+  box.append(p);
+}
 function initSizing() {
   buildSizingForm();
+  showSizingSeries();
   document.getElementById('sizing-form').addEventListener('input', sizingInput);
   // the form starts from the model panel's design once the page holds it
   const wait = setInterval(() => { if (document.body.dataset.ready && S.model) { clearInterval(wait); sizingFromModel(); } }, 100);

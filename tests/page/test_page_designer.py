@@ -182,3 +182,10 @@ def test_heat_models_side_by_side_give_their_stroke_times(page):
     assert all(0.05 < t < 1.0 for t in ext.values())
     assert len(set(ext.values())) > 1          # the heat model changes the stroke time
     assert "−105 °C" in page.inner_text("#heat-cold-note")
+
+
+def test_the_sizing_form_lists_the_accepted_series(page):
+    page.click("a[data-view=sizing]")
+    page.wait_for_selector("#sz-series-hint")
+    hint = page.inner_text("#sz-series-hint")
+    assert "iso15552 (32, 40" in hint and "ckd-4ga (M4GA1" in hint and "pu-tube" in hint
