@@ -270,3 +270,16 @@ class SizingResponse(BaseModel):
     requirement: dict[str, Any] = Field(..., description="The requirement as checked")
     choices: dict[str, Any] = Field(..., description="The choices as checked")
     units: dict[str, str] = Field(..., description="Unit of each number of the answer")
+
+
+class SeriesOut(BaseModel):
+    label: str = Field(..., description="The series in words")
+    source: str = Field(..., description="Where its figures come from")
+    members: list[Optional[str]] = Field(..., description="Its members' names (choices name them "
+                                                           "as series:member) [-]")
+
+
+class SizingSeriesResponse(BaseModel):
+    cylinders: dict[str, SeriesOut] = Field(..., description="Cylinder series by name")
+    valves: dict[str, SeriesOut] = Field(..., description="Valve series by name")
+    tubes: dict[str, SeriesOut] = Field(..., description="Tube series by name")

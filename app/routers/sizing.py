@@ -6,7 +6,7 @@ from ..bodies import OffLoopRoute
 from ..deps import LimitsDep
 from ..responses import JSON, ErrorOut
 from ..services import deadline_progress
-from ..sizing_schemas import SizingRequest, SizingResponse
+from ..sizing_schemas import SizingRequest, SizingResponse, SizingSeriesResponse
 from ..sizing_service import run_sizing, sizing_series
 from ..sync_pool import sync_slot
 
@@ -32,7 +32,7 @@ def sizing_endpoint(req: SizingRequest, limits: LimitsDep):
                                                                    "/api/jobs/sizing")))
 
 
-@router.get("/sizing/series", summary="The shipped cylinder, valve and tube series a sizing's "
+@router.get("/sizing/series", response_model=SizingSeriesResponse, summary="The shipped cylinder, valve and tube series a sizing's "
                                       "choices may name (series or series:member)")
 def sizing_series_endpoint():
     return sizing_series()
