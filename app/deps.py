@@ -75,7 +75,14 @@ def check_scenario_limits(scen, limits: Limits, prefix="scenario"):
     if scen.duration > limits.max_duration:
         raise FieldError(f"{prefix}.duration", f"{scen.duration:g} s exceeds the API limit of "
                                               f"{limits.max_duration:g} s")
-    from pneucore.simulate import output_samples
+    from pneucore.simulate import CYCLIC_MAX_CYCLES, output_samples
+    if scen.start == "cyclic" and scen.duration * CYCLIC_MAX_CYCLES > limits.max_duration:
+        # the cyclic steady state repeats the cycle up to CYCLIC_MAX_CYCLES times
+        raise FieldError(f"{prefix}.start", f"a cyclic start repeats the {scen.duration:g} s cycle "
+                                            f"up to {CYCLIC_MAX_CYCLES} times, beyond the API "
+                                            f"limit of {limits.max_duration:g} s simulated; "
+                                            f"shorten the cycle to "
+                                            f"{limits.max_duration / CYCLIC_MAX_CYCLES:g} s [s]")
     n = output_samples(scen.duration, scen.sample_period)   # what the run would produce
     if n > limits.max_samples:
         raise FieldError(f"{prefix}.sample_period", f"{n} samples exceed the API limit of "

@@ -18,7 +18,7 @@ from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
 from pneucore.spec.docstrings import api_description
 from pneucore.spec.model import (B_CHAMBER_MODES, VALVE_KINDS, Friction, FrictionSet, Gas, Heat, Jack, Model,
                                  PortTable, Source, Valve)
-from pneucore.spec.scenario import COMMAND_INTERPOLATIONS, Initial, Scenario, Solver
+from pneucore.spec.scenario import COMMAND_INTERPOLATIONS, STARTS, Initial, Scenario, Solver
 from pneucore.study.definition import DISTRIBUTIONS
 
 Number = float
@@ -73,6 +73,7 @@ _SCENARIO, _SOLVER = Scenario(), Solver()
 _VALVE_KIND = Literal[tuple(VALVE_KINDS)]
 _B_CHAMBER = Literal[tuple(B_CHAMBER_MODES)]
 _INTERPOLATION = Literal[tuple(COMMAND_INTERPOLATIONS)]
+_START = Literal[tuple(STARTS)]
 _DISTRIBUTION_FIELDS = "; ".join(f"{name}: {', '.join(d.required + d.optional)}"
                                  for name, d in DISTRIBUTIONS.items())
 
@@ -108,6 +109,9 @@ class ValveIn(_Strict):
     b_chamber: _B_CHAMBER = from_lib(_VALVE, "b_chamber")
     b_chamber_conductance: Number = from_lib(_VALVE, "b_chamber_conductance")
     b_chamber_critical_ratio: Number = from_lib(_VALVE, "b_chamber_critical_ratio")
+    on_time: Number = from_lib(_VALVE, "on_time")
+    off_time: Number = from_lib(_VALVE, "off_time")
+    rest_opening: Optional[Number] = from_lib(_VALVE, "rest_opening")
 
 
 class SourceIn(_Strict):
@@ -188,6 +192,7 @@ class ScenarioIn(_Strict):
     locked: bool = from_lib(_SCENARIO, "locked")
     x0: Optional[Number] = from_lib(_SCENARIO, "x0")
     initial: InitialIn = Field(default_factory=InitialIn, description=described(Scenario, "initial"))
+    start: _START = from_lib(_SCENARIO, "start")
     solver: Optional[SolverIn] = Field(None, description=described(Scenario, "solver"))
     name: Name = Field("", description=described(Scenario, "name"))
     description: Text = Field("", description=described(Scenario, "description"))

@@ -1393,6 +1393,15 @@ def read_friction_files(files, fields, limits):
             "ambient_pressure": p_atm, "warnings": warnings}
 
 
+def catalogue_valve(req):
+    """POST /api/valve/catalogue: an on/off valve from catalogue figures (422 naming a bad field)."""
+    from pneucore.spec.valve_data import CATALOGUE_VALVES, catalogue_valve as build
+    d = req.model_dump(exclude_none=True)
+    valve = build(d, path="body")
+    return {"valve": valve, "description": CATALOGUE_VALVES[d["function"]]["description"],
+            "functions": {k: v["description"] for k, v in CATALOGUE_VALVES.items()}}
+
+
 def convert_valve(req):
     """POST /api/valve/convert: catalogue valve data to C and b (a bad field: 422 naming it)."""
     return convert_valve_data(req.model_dump(exclude_unset=True), path="body")

@@ -59,6 +59,8 @@ class RequirementSpec(_Strict):
     cushion_capacity: Optional[float] = _lib(Requirement, _REQ, "cushion_capacity")
     tube_length: Optional[float] = _lib(Requirement, _REQ, "tube_length")
     ambient_pressure: float = _lib(Requirement, _REQ, "ambient_pressure")
+    valve_on_time: float = _lib(Requirement, _REQ, "valve_on_time")
+    valve_off_time: float = _lib(Requirement, _REQ, "valve_off_time")
 
 
 class CylinderSpec(_Strict):
@@ -219,6 +221,22 @@ class DesignOut(BaseModel):
     cushion: Optional[CushionOut] = Field(None, description="The end cushions and their "
                                                             "needles; null = no cushion in the "
                                                             "requirement")
+    steady_cycle: Optional[dict[str, Any]] = Field(None, description=(
+        "The first ranked designs' strokes in the machine's steady cycle: scenario (the "
+        "design's cycle, start: cyclic, as POST /api/simulate accepts it), full_stroke_time "
+        "{extend, retract} [s], end_speed {extend, retract} [m/s], cycles repeated [-], "
+        "converged [-], start (p_a, p_b [Pa abs], T_a, T_b [K], x0 [m], v0 [m/s]); null "
+        "beyond them"))
+    checks: Optional[dict[str, Any]] = Field(None, description=(
+        "The cylinder makers' checks besides the motion: load_factor {extend, retract} (the "
+        "static load over the theoretical output at the supply) [-] with load_factor_limits "
+        "(SMC: static 0.7, on a guide 1.0, moving the load 0.5) [-] and load_factor_ok [-]; "
+        "buckling_load (Euler, steel rod, one end fixed and one free, K = 2, over the stroke) "
+        "[N], buckling_safety (it over the extension's theoretical output) [-], buckling_ok "
+        "(at least 3) [-]"))
+    best_of_cylinder: Optional[bool] = Field(None, description="The first (least air) design of "
+                                                               "its cylinder: the short list [-]")
+    why: Optional[str] = Field(None, description="Why the design is where it is, in words")
     feasible: bool = Field(..., description="Meets the requirement (false: one of the closest "
                                             "families, shown when none meets it) [-]")
 
@@ -252,3 +270,16 @@ class SizingResponse(BaseModel):
     requirement: dict[str, Any] = Field(..., description="The requirement as checked")
     choices: dict[str, Any] = Field(..., description="The choices as checked")
     units: dict[str, str] = Field(..., description="Unit of each number of the answer")
+
+
+class SeriesOut(BaseModel):
+    label: str = Field(..., description="The series in words")
+    source: str = Field(..., description="Where its figures come from")
+    members: list[Optional[str]] = Field(..., description="Its members' names (choices name them "
+                                                           "as series:member) [-]")
+
+
+class SizingSeriesResponse(BaseModel):
+    cylinders: dict[str, SeriesOut] = Field(..., description="Cylinder series by name")
+    valves: dict[str, SeriesOut] = Field(..., description="Valve series by name")
+    tubes: dict[str, SeriesOut] = Field(..., description="Tube series by name")

@@ -6,7 +6,7 @@ then sized on the request's limits (:func:`run_sizing`).
 """
 from __future__ import annotations
 
-from pneucore.sizing import check, size
+from pneucore.sizing import check, load_series, size
 from pneucore.spec.validation import FieldError
 
 from .deps import prefixed
@@ -53,3 +53,14 @@ def run_sizing(req, limits, progress=None, checked=None):
     requirement, choices = req.plain()
     return size(requirement, choices, workers=limits.max_workers, progress=progress,
                 checked=checked)
+
+
+def sizing_series():
+    """GET /api/sizing/series: the shipped series a sizing's choices may name, each with its
+    label, source and members (sizes in SI: bore and rod [m], C [m^3/(s Pa)], tube diameters
+    [m])."""
+    s = load_series()
+    return {kind: {name: {"label": v.get("label", ""), "source": v.get("source", ""),
+                          "members": [m.get("name") for m in v.get("members", [])]}
+                   for name, v in s[kind].items()}
+            for kind in ("cylinders", "valves", "tubes")}

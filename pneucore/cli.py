@@ -52,8 +52,48 @@ def summary_lines(res):
         f"v    [m/s]      min {res.v.min():7.3f}  max {res.v.max():7.3f}",
         "events: " + (", ".join(f"{k} x{n}" for k, n in sorted(ev.items())) or "none"),
     ]
+    cyc = res.stats.get("cyclic")
+    if cyc:
+        st = cyc["state"]
+        lines.insert(2, f"start: cyclic steady state after {cyc['cycles']} cycles"
+                        f"{'' if cyc['converged'] else ' (NOT converged)'}: p_a {st['p_a'] / 1e5:.4f}, "
+                        f"p_b {st['p_b'] / 1e5:.4f} bar abs, T_a {st['T_a'] - T_ZERO_CELSIUS:.2f}, "
+                        f"T_b {st['T_b'] - T_ZERO_CELSIUS:.2f} degC, x0 {st['x0'] * 1e3:.3f} mm")
     for e in res.events[:40]:
         lines.append(f"  {e['t']:9.6f} s  {e['kind']:<8s} -> {e['mode']}")
+    return lines
+
+
+def _description():
+    """The module docstring's first paragraph, whole (its first line alone stops mid-sentence),
+    with the reST double backquotes dropped for the terminal."""
+    import re
+    first = " ".join(__doc__.strip().split("\n\n")[0].split())
+    return re.sub(r":\w+:`([^`]*)`", r"\1", first).replace("``", "")
+
+
+def stroke_table_lines(res, model):
+    """The stroke table (:func:`pneucore.analysis.strokes.stroke_metrics`, SMC's definitions
+    timed from the valve switching) as lines: one row per command, times [s], speeds [m/s],
+    impact energy [J], air [NL]; ``-`` where undefined (a partial stroke)."""
+    from pneucore.analysis.strokes import stroke_metrics
+    from pneucore.spec.model import Model
+    m = stroke_metrics(res, model if isinstance(model, Model) else Model.from_dict(model))
+    if not m["strokes"]:
+        return ["strokes: none (no command event)"]
+    cols = [("t_command", "t_cmd s", ".4f"), ("direction", "stroke", ""),
+            ("start_up_time", "start-up s", ".4f"), ("full_stroke_time", "full s", ".4f"),
+            ("force_90_time", "90% force s", ".4f"), ("mean_speed", "mean m/s", ".3f"),
+            ("max_speed", "max m/s", ".3f"), ("end_speed", "end m/s", ".3f"),
+            ("end_energy", "end J", ".4f"), ("air_NL", "air NL", ".4f")]
+    width = [max(len(h), 10) for _, h, _ in cols]
+    lines = ["strokes (SMC: times from the valve switching):",
+             "  " + " ".join(f"{h:>{w}}" for (_, h, _), w in zip(cols, width))]
+    for s in m["strokes"]:
+        cells = ["-" if s[k] is None else format(s[k], f) for k, _, f in cols]
+        lines.append("  " + " ".join(f"{c:>{w}}" for c, w in zip(cells, width)))
+    if m["air_per_cycle_NL"] is not None:
+        lines.append(f"  air per cycle {m['air_per_cycle_NL']:.4f} NL (ANR)")
     return lines
 
 
@@ -71,7 +111,8 @@ def _loop(args):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="pneucore", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="pneucore", description=_description(),
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="cmd")
     run = sub.add_parser("run", help="simulate a model and scenario (presets or JSON files)")
     run.add_argument("--model", default="paper-4way",
@@ -162,6 +203,8 @@ def main(argv=None):
         print(line)
     from pneucore.control.command_line import control_lines
     for line in control_lines(res):
+        print(line)
+    for line in stroke_table_lines(res, res.model):
         print(line)
     # a run this slow compiled the numba core (first run of a fresh install or after an edit)
     note = " (includes the one-time compilation of the core)" if wall > COMPILE_NOTE_S else ""
@@ -279,12 +322,21 @@ def _cushion_cells(c):
     return f" {needle[0] + '/' + needle[1]:>36} {ratio:15.3f}"
 
 
+def _steady_cell(steady):
+    """The steady cycle's full-stroke times, extension/retraction [s] (``-`` where not run)."""
+    if not steady or "full_stroke_time" not in steady:
+        return "-"
+    t = steady["full_stroke_time"]
+    return "/".join("-" if t[k] is None else format(t[k], ".3f") for k in ("extend", "retract"))
+
+
 def sizing_lines(ans, top=10):
     """Human-readable table of a sizing answer (list of lines)."""
     cushioned = any(d.get("cushion") for d in ans["designs"])
     lines = [ans["summary"],
              f"{'rank':>4}  {'cylinder':<14} {'valve':<16} {'tube':<16} {'air NL':>8} "
-             f"{'t_ext s':>8} {'t_ret s':>8} {'v_end m/s':>10} {'meter-out C ' + ans['units']['settings.*_meter_out_C']:>23}"
+             f"{'t_ext s':>8} {'t_ret s':>8} {'steady ext/ret s':>17} {'v_end m/s':>10} "
+             f"{'meter-out C ' + ans['units']['settings.*_meter_out_C']:>23}"
              + (f" {'needle C ext/ret (open: not needed)':>36} {'E_end/capacity':>15}"
                 if cushioned else "")]
     for d in ans["designs"][:top]:
@@ -294,6 +346,7 @@ def sizing_lines(ans, top=10):
             f"{d['rank']:>4}  {d['cylinder']['name']:<14} {d['valve']['name']:<16} "
             f"{(d['tube'] or {}).get('name', '-'):<16} {d['air_per_cycle']:8.3f} "
             f"{fmt(m['extend']['full_stroke_time'], '8.3f')} {fmt(m['retract']['full_stroke_time'], '8.3f')} "
+            f"{_steady_cell(d.get('steady_cycle')):>17} "
             f"{fmt(max(m['extend']['end_speed'] or 0, m['retract']['end_speed'] or 0), '10.3f')} "
             f"{d['settings']['extend_meter_out_C']:11.3g}/{d['settings']['retract_meter_out_C']:<9.3g}"
             + (_cushion_cells(d["cushion"]) if cushioned and d.get("cushion") else "")

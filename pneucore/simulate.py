@@ -21,7 +21,7 @@ from pneucore.spec.validation import choice
 from pneucore.result import CoreRun
 from pneucore.core.rhs import law_table, no_terms
 from pneucore.spec.scenario import Scenario
-from pneucore.physics.valve import pack_tables
+from pneucore.physics.valve import pack_tables, switched_command
 
 
 class SimulationError(RuntimeError):
@@ -279,7 +279,10 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
     Returns
     -------
     result : SimulationResult
-        Sampled series, events and solver statistics
+        Sampled series, events and solver statistics; a scenario with ``start: cyclic``
+        starts from :func:`cyclic_start`'s state, reported in ``stats["cyclic"]`` (``state``:
+        ``p_a``, ``p_b`` [Pa abs], ``T_a``, ``T_b`` [K], ``x0`` [m], ``v0`` [m/s]; ``cycles``,
+        ``residual``, ``converged``, ``tolerance``)
 
     Examples
     --------
@@ -288,12 +291,31 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
     >>> res.p_a.shape
     (1001,)
     """
-    run = simulate_run(model, scenario, t_out)
+    cyclic = None
+    if _start_of(scenario) == "cyclic":
+        cyclic = cyclic_start(model, scenario)
+        run = simulate_run(model, scenario, t_out, start=(cyclic["y0"], cyclic["mode0"]))
+    else:
+        run = simulate_run(model, scenario, t_out)
     res = run.result()
+    if cyclic is not None:
+        res.stats["cyclic"] = {k: cyclic[k] for k in ("state", "cycles", "residual", "converged",
+                                                        "tolerance")}
+        if not cyclic["converged"]:
+            res.stats.setdefault("warnings", []).append(
+                f"cyclic steady state not reached in {cyclic['cycles']} cycles: the last cycle's "
+                f"end differs from its start by {cyclic['residual']} (SI units)")
     if run.status != OK and raise_on_error:
         raise SimulationError(f"simulation stopped at t = {run.t_reached:.6g} s: "
                               f"{STATUS_MESSAGES[run.status]}", res)
     return res
+
+
+def _start_of(scenario):
+    """The scenario's ``start`` (a dict's, or a Scenario's), ``given`` when absent."""
+    if isinstance(scenario, Scenario):
+        return scenario.start
+    return scenario.get("start", "given") if isinstance(scenario, dict) else "given"
 
 
 def checked_sample_times(t_out, duration):
@@ -328,7 +350,104 @@ def checked_sample_times(t_out, duration):
     return t_out
 
 
-def simulate_run(model, scenario, t_out=None, checked_times=False):
+#: The cyclic steady state's tolerances (:func:`cyclic_start`): the start and end of a cycle
+#: agree within these. A pressure 1e-4 of the supply (70 Pa at 7 bar) changes the drive force
+#: by about 1e-4 of its value, a gas temperature of 0.01 K the chamber's mass by 3e-5: the
+#: next cycle's stroke times then move by well under 0.1 % (the test against 40 repeated
+#: cycles checks it). Position: 1e-5 of the stroke; velocity 1e-4 m/s (at rest, in practice).
+#: Every other state (wall temperatures, tube segments, spool): 1e-4 of its size plus 100 of
+#: its integration tolerances
+CYCLIC_P_TOL = 1e-4        # fraction of the supply pressure [-]
+CYCLIC_T_TOL = 0.01        # [K]
+CYCLIC_X_TOL = 1e-5        # fraction of the stroke [-]
+CYCLIC_V_TOL = 1e-4        # [m/s]
+CYCLIC_REL_TOL = 1e-4      # other states, relative [-]
+#: Most cycles :func:`cyclic_start` repeats before it gives up (without wall heat capacity
+#: the chambers' state repeats within a few cycles; a wall's thermal mass needs more) [-]
+CYCLIC_MAX_CYCLES = 30
+#: The base states compared with their own tolerances: mass, temperature A; B; x; v
+_CYCLIC_BASE = 6
+
+
+def cyclic_start(model, scenario, max_cycles=CYCLIC_MAX_CYCLES):
+    """The cyclic steady state: the start state that a cycle of ``scenario`` brings back.
+
+    One cycle is the scenario's command over ``[0, duration]``; it is repeated from the end
+    state of the previous one (a fixed-point iteration: the machine left running) until
+    the start and the end of a cycle agree within :data:`CYCLIC_P_TOL` (pressures),
+    :data:`CYCLIC_T_TOL` (gas temperatures), :data:`CYCLIC_X_TOL` (position),
+    :data:`CYCLIC_V_TOL` (velocity) and :data:`CYCLIC_REL_TOL` (every other state). The first
+    cycle starts from the scenario's ``initial`` and ``x0``. Every state is carried over
+    (wall temperatures, tube segments, spool position included).
+
+    Parameters
+    ----------
+    model : Model or dict
+        The actuator
+    scenario : Scenario or dict
+        The cycle: its command over ``duration`` is one period (put the first switching
+        after t = 0 for the stroke metrics to time it: a change at t = 0 is the initial
+        command, no event)
+    max_cycles : int
+        Most cycles repeated [-]
+
+    Returns
+    -------
+    start : dict
+        ``y0`` (the full state vector) and ``mode0`` (the core's friction mode) to start from;
+        ``state``: ``p_a``, ``p_b`` [Pa abs], ``T_a``, ``T_b`` [K], ``x0`` [m], ``v0`` [m/s];
+        ``cycles`` repeated [-]; ``residual``: the last cycle's end minus its start, ``p_a``,
+        ``p_b`` [Pa], ``T_a``, ``T_b`` [K], ``x`` [m], ``v`` [m/s]; ``converged`` [-];
+        ``tolerance``: the bounds it was held to (same keys and units)
+
+    Raises
+    ------
+    SimulationError
+        A cycle the solver could not finish
+    """
+    model = Model.from_dict(model) if not isinstance(model, Model) else model
+    scenario = Scenario.from_dict(scenario, model)
+    check_resolvable(model, scenario.solver.rtol, scenario.solver.max_step)
+    core = build_core(model, scenario)
+    eff = core["effective_model"]
+    j, r = eff.jack, eff.gas.r
+    tol = {"p_a": CYCLIC_P_TOL * eff.supply.pressure, "p_b": CYCLIC_P_TOL * eff.supply.pressure,
+           "T_a": CYCLIC_T_TOL, "T_b": CYCLIC_T_TOL, "x": CYCLIC_X_TOL * j.stroke,
+           "v": CYCLIC_V_TOL}
+    t_out = np.array([0.0, scenario.duration])
+
+    def chambers(y):
+        V_a, V_b = j.volumes(min(max(y[4], 0.0), j.stroke))
+        return {"p_a": y[0] * r * y[1] / V_a, "p_b": y[2] * r * y[3] / V_b, "T_a": y[1],
+                "T_b": y[3], "x": y[4], "v": y[5]}
+
+    y0, mode0 = core["y0"].copy(), core["mode0"]
+    residual, converged, cycles = None, False, 0
+    while cycles < max_cycles:
+        run = simulate_run(model, scenario, t_out, start=(y0, mode0))
+        cycles += 1
+        if run.status != OK:
+            raise SimulationError(f"cycle {cycles} of the cyclic steady state stopped at "
+                                  f"t = {run.t_reached:.6g} s: {STATUS_MESSAGES[run.status]}",
+                                  run.result())
+        y1, mode1 = run.y_out[-1].copy(), int(run.mode_out[-1])
+        a, b = chambers(y0), chambers(y1)
+        residual = {k: float(b[k] - a[k]) for k in tol}
+        extra = np.abs(y1[_CYCLIC_BASE:] - y0[_CYCLIC_BASE:])
+        extra_tol = CYCLIC_REL_TOL * np.maximum(np.abs(y0[_CYCLIC_BASE:]), np.abs(y1[_CYCLIC_BASE:])) \
+            + 100.0 * core["atol"][_CYCLIC_BASE:]
+        y0, mode0 = y1, mode1
+        if all(abs(residual[k]) <= tol[k] for k in tol) and bool(np.all(extra <= extra_tol)):
+            converged = True
+            break
+    s = chambers(y0)
+    return {"y0": y0, "mode0": mode0, "cycles": cycles, "residual": residual,
+            "converged": converged, "tolerance": tol,
+            "state": {"p_a": float(s["p_a"]), "p_b": float(s["p_b"]), "T_a": float(s["T_a"]),
+                      "T_b": float(s["T_b"]), "x0": float(s["x"]), "v0": float(s["v"])}}
+
+
+def simulate_run(model, scenario, t_out=None, checked_times=False, start=None):
     """:func:`simulate`'s work, its outputs not yet wrapped: a :class:`pneucore.result.CoreRun`
     (:meth:`~pneucore.result.CoreRun.result` gives the :class:`SimulationResult`; a solver failure
     is in its ``status``, never raised).
@@ -344,6 +463,9 @@ def simulate_run(model, scenario, t_out=None, checked_times=False):
     checked_times : bool
         ``t_out`` comes from :func:`checked_sample_times` for this scenario's duration (an
         experiment replayed many times checks its times once): used as it is, not copied [-]
+    start : tuple or None
+        ``(y0, mode0)``: the full state vector and friction mode to start from instead of the
+        scenario's initial state (:func:`cyclic_start`'s); None = the scenario's
 
     Returns
     -------
@@ -369,6 +491,8 @@ def simulate_run(model, scenario, t_out=None, checked_times=False):
         t_out = checked_sample_times(t_out, scenario.duration)
         n_out = t_out.shape[0]
     n = core["y0"].shape[0]
+    y_start, mode_start = (core["y0"], core["mode0"]) if start is None else \
+        (np.asarray(start[0], float), int(start[1]))
     # filled with "not written" (NaN, mode -1), not left uninitialised: a sample the core
     # does not reach reads as missing, never as memory's leftovers
     y_out = np.full((n_out, n), np.nan)
@@ -377,6 +501,12 @@ def simulate_run(model, scenario, t_out=None, checked_times=False):
     u_out = np.full(n_out, np.nan)
     max_ev = scenario.solver.max_events
     cmd = np.asarray(scenario.command, float)
+    valve = core["effective_model"].valve
+    signal_times = None
+    if valve.on_time > 0.0 or valve.off_time > 0.0:
+        # the spool shifts its switching time after each command change (catalogue on/off times)
+        cmd, signal_times = switched_command(cmd, valve.on_time, valve.off_time,
+                                             valve.rest_opening)
     # the event log starts small and is redone once with the exact size if it overflows
     cap = min(max_ev, 256 + 4 * len(cmd))
     run = core_for(core["hook"], core["flow_laws"], core["friction_laws"],
@@ -387,7 +517,7 @@ def simulate_run(model, scenario, t_out=None, checked_times=False):
         ev_mode = np.empty(cap, np.int64)
         stats = np.zeros(N_STATS, np.int64)
         status, n_ev, t_reached = run(
-            core["y0"], core["mode0"], core["model"], cmd[:, 0].copy(),
+            y_start, mode_start, core["model"], cmd[:, 0].copy(),
             cmd[:, 1].copy(), scenario.command_interpolation == "linear", scenario.duration, t_out,
             scenario.solver.rtol, core["atol"], scenario.solver.max_step, 1e-6,
             scenario.solver.max_steps, y_out, aux_out, mode_out, u_out, ev_t, ev_kind, ev_mode, stats)
@@ -401,6 +531,9 @@ def simulate_run(model, scenario, t_out=None, checked_times=False):
         # reached the end is a bug, not a missing sample to show blank
         raise RuntimeError(f"simulate: {int((mode_out < 0).sum())} sample(s) not written, the "
                            f"last at t = {t_out[-1]!r} s of a {scenario.duration!r} s run")
+    if signal_times is not None and n_ev:
+        ev_t, ev_kind, ev_mode = _signal_command_events(ev_t[:n_ev], ev_kind[:n_ev],
+                                                        ev_mode[:n_ev], cmd[:, 0], signal_times)
     if status != OK:
         # samples after the point reached were never written: mark them missing
         bad = t_out > t_reached
@@ -414,6 +547,20 @@ def simulate_run(model, scenario, t_out=None, checked_times=False):
     warnings = [] if time_scale is None else effect_warnings(model, time_scale)
     return CoreRun(model, scenario, core, t_out, y_out, aux_out, mode_out, u_out, ev_t[:n_ev],
                    ev_kind[:n_ev], ev_mode[:n_ev], stats, status, t_reached, warnings)
+
+
+def _signal_command_events(ev_t, ev_kind, ev_mode, spool_t, signal_t):
+    """The ``command`` events at the command signal's times (what SMC's stroke times count
+    from), not at the spool's shift a switching time later; the events re-sorted by time."""
+    ev_t = ev_t.copy()
+    for i in np.flatnonzero(ev_kind == L.EV_COMMAND):
+        j = int(np.argmin(np.abs(spool_t - ev_t[i, 0])))
+        # the core logs the event at the breakpoint's own time (a float equal, or within
+        # its step's rounding)
+        if abs(spool_t[j] - ev_t[i, 0]) <= 1e-9 * max(1.0, abs(spool_t[j])):
+            ev_t[i, 0] = signal_t[j]
+    order = np.argsort(ev_t[:, 0], kind="stable")
+    return ev_t[order], ev_kind[order], ev_mode[order]
 
 
 def warm_up():

@@ -290,7 +290,8 @@ function plotUnit(si) {
   return { label: prettyUnit(d.unit), val: conv(d.offset || 0), diff: conv(0) };
 }
 function metricDisplay(unit) {
-  if (unit === 'm' || unit === 'Pa' || unit === 'K') {
+  // every unit the chosen system shows otherwise (m, Pa, K, m/s, kg/s, m^3/(s Pa), ...)
+  if (unit && typeof unitShow === 'function' && unitShow(unit).unit !== unit) {
     const u = plotUnit(unit);
     return { label: u.label, val: (v) => u.val([v])[0], diff: (v) => u.diff([v])[0] };
   }

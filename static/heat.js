@@ -80,18 +80,47 @@ async function heatSimulateAll() {
   setStatus('Simulating the scenario under every heat model…', 'busy');
   await busy(document.getElementById('btn-heat-all'), async () => {
     try {
-      const res = await api('POST', '/api/heat-models/simulate', { model: S.model, scenario });
+      // t and q_supply among the series: each run's stats then carry its stroke metrics
+      const series = ['t', 'u', 'p_a', 'p_b', 'T_a', 'T_b', 'x', 'v', 'q_supply'];
+      const res = await api('POST', '/api/heat-models/simulate', { model: S.model, scenario, series });
       const runs = res.runs;
       const b = S.model.valve && S.model.valve.kind === '4/2';
-      const P = plotUnit('Pa').val, K = plotUnit('K').val;
-      plot('heat-plot-pressure', [...heatTraces(runs, 'p_a', P, 'solid'), ...(b ? heatTraces(runs, 'p_b', P, 'dot') : [])],
-        baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`pressure [${plotUnit('Pa').label}]`) }));
-      plot('heat-plot-temperature', [...heatTraces(runs, 'T_a', K, 'solid'), ...(b ? heatTraces(runs, 'T_b', K, 'dot') : [])],
-        baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`gas temperature [${plotUnit('K').label}]`) }));
+      HEAT.redraw = () => drawHeatRuns(runs, b);
+      HEAT.redraw();
       document.getElementById('panel-heat').dataset.simulated = String(Object.keys(runs).length);
       setStatus(`Scenario run under ${Object.keys(runs).length} heat models: ${Object.keys(runs).join(', ')}.`, 'ok');
     } catch (e) { showApiError(e, 'Heat models side by side'); }
   });
+}
+
+/** The heat models' runs of one scenario: pressures, temperatures (the page's units) and each
+ * model's stroke times and end speeds side by side (SMC's, from the valve switching). */
+function drawHeatRuns(runs, b) {
+  const P = plotUnit('Pa').val, K = plotUnit('K').val;
+  plot('heat-plot-pressure', [...heatTraces(runs, 'p_a', P, 'solid'), ...(b ? heatTraces(runs, 'p_b', P, 'dot') : [])],
+    baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`pressure [${plotUnit('Pa').label}]`) }));
+  plot('heat-plot-temperature', [...heatTraces(runs, 'T_a', K, 'solid'), ...(b ? heatTraces(runs, 'T_b', K, 'dot') : [])],
+    baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`gas temperature [${plotUnit('K').label}]`) }));
+  const V = metricDisplay('m/s'), T = metricDisplay('K');
+  const f = (v, d = 4) => (v == null ? '–' : num(v, d));
+  const rows = Object.entries(runs).map(([name, r]) => {
+    const sm = (r.stats && r.stats.stroke) || {};
+    const tmin = Math.min(...(r.series.T_a || []).concat(r.series.T_b || []).filter((v) => v != null));
+    return `<tr><th scope="row">${esc(name)}</th><td>${f(sm.full_stroke_time_extend)}</td><td>${f(sm.full_stroke_time_retract)}</td>` +
+      `<td>${sm.end_speed_max == null ? '–' : num(V.val(sm.end_speed_max), 4)}</td><td>${f(sm.air_per_cycle_NL)}</td>` +
+      `<td>${Number.isFinite(tmin) ? num(T.val(tmin), 4) : '–'}</td></tr>`;
+  }).join('');
+  const box = document.getElementById('heat-strokes');
+  if (box) {
+    box.innerHTML = `<table class="data" id="heat-strokes-table"><caption>Strokes under each heat model (SMC's times from the valve switching)</caption>` +
+      `<thead><tr><th scope="col">heat model</th><th scope="col">full stroke extending [s]</th><th scope="col">full stroke retracting [s]</th>` +
+      `<th scope="col">stroke end speed [${esc(V.label)}]</th><th scope="col">air per cycle [NL]</th><th scope="col">lowest gas temperature [${esc(T.label)}]</th></tr></thead>` +
+      `<tbody>${rows}</tbody></table>`;
+  }
+}
+function drawHeatEmpty() {
+  plot('heat-plot-pressure', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`pressure [${plotUnit('Pa').label}]`), annotations: emptyNote('Run every heat model') }));
+  plot('heat-plot-temperature', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`gas temperature [${plotUnit('K').label}]`), annotations: emptyNote('Run every heat model') }));
 }
 
 /* ------------------------------------------------------------ side by side: one measurement */
@@ -136,6 +165,16 @@ async function heatCompareAll() {
       const wrap = document.getElementById('heat-table');
       wrap.textContent = '';
       wrap.append(heatTable(res.models));
+      HEAT.redraw = () => drawHeatCompare(res);
+      HEAT.redraw();
+      document.getElementById('panel-heat').dataset.compared = String(res.models.length);
+      setStatus(`Every heat model calibrated on ${res.experiment || 'the measurement'}; errors in the table.`, 'ok');
+    } catch (e) { showApiError(e, 'Heat models against the measurement', (f) => (f.startsWith('experiments') ? 'experiments' : f)); }
+  });
+}
+function drawHeatCompare(res) {
+  {
+    {
       const m = res.measured;
       const P = plotUnit('Pa').val, K = plotUnit('K').val;   // as the header's unit system
       const meas = (sig, show) => ({ x: m.t, y: show(m[sig]), name: `measured ${sig}`, mode: 'markers', marker: { color: '#000', size: 5 } });
@@ -148,10 +187,8 @@ async function heatCompareAll() {
         baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`pressure [${plotUnit('Pa').label}]`), annotations: pSig.length ? [] : emptyNote('no pressure measured') }));
       plot('heat-plot-temperature', tSig.flatMap((s) => [meas(s, K), ...sim(s, K)]),
         baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`gas temperature [${plotUnit('K').label}]`), annotations: tSig.length ? [] : emptyNote('no gas temperature measured') }));
-      document.getElementById('panel-heat').dataset.compared = String(res.models.length);
-      setStatus(`Every heat model calibrated on ${res.experiment || 'the measurement'}; errors in the table.`, 'ok');
-    } catch (e) { showApiError(e, 'Heat models against the measurement', (f) => (f.startsWith('experiments') ? 'experiments' : f)); }
-  });
+    }
+  }
 }
 
 async function initHeat() {
@@ -177,8 +214,8 @@ async function initHeat() {
   renderHeatParams();
   document.getElementById('btn-heat-all').addEventListener('click', heatSimulateAll);
   document.getElementById('btn-heat-compare').addEventListener('click', heatCompareAll);
-  plot('heat-plot-pressure', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`pressure [${plotUnit('Pa').label}]`), annotations: emptyNote('Run every heat model') }));
-  plot('heat-plot-temperature', [], baseLayout({ xaxis: axis('time t [s]'), yaxis: axis(`gas temperature [${plotUnit('K').label}]`), annotations: emptyNote('Run every heat model') }));
+  HEAT.redraw = drawHeatEmpty;
+  drawHeatEmpty();
   document.getElementById('panel-heat').dataset.ready = 'true';
 }
 

@@ -47,6 +47,7 @@ function onModelInput(ev) {
   const el = ev.target;
   if (!el.dataset || !el.dataset.field || !el.dataset.field.startsWith('model.')) return;
   const parts = parsePath(el.dataset.field).slice(1);
+  rememberModelOrigin();
   const value = readInput(el);
   if (value === null) {
     // an emptied field is the default again (absent from the JSON), not a null the service
@@ -55,6 +56,7 @@ function onModelInput(ev) {
     if (parent && typeof parent === 'object') delete parent[parts[parts.length - 1]];
   } else setPath(S.model, parts, value);
   clearFieldError(el);
+  markModelEdited(parts[0]);
   if (el.dataset.field === 'model.valve.b_chamber') setChamberB(value);
   if (typeof scheduleCalReload === 'function') scheduleCalReload();   // static/calibrate.js
   plotValve();
@@ -82,6 +84,32 @@ function setChamberB(mode, pressure) {
   plotValve();
   markStaleComparison();
   if (typeof refreshCircuit === 'function') refreshCircuit();
+}
+/** A preset's (or a design's) description no longer describes a model whose jack, valve,
+ * supply or friction was changed ("12 mm double rod, 250 mm stroke" after the stroke changed):
+ * it is dropped and the name marked edited (once). */
+function physicalModelKey(m) { const c = Object.assign({}, m); delete c.name; delete c.description; return JSON.stringify(c); }
+/** The loaded model's name, description and physics, before its first edit (a model loaded
+ * anew is another object: its own origin). */
+function rememberModelOrigin() {
+  const m = S.model;
+  if (!m || (S.modelOrigin && S.modelOrigin.ref === m)) return;
+  S.modelOrigin = { ref: m, name: m.name, description: m.description, key: physicalModelKey(m) };
+}
+function markModelEdited(section) {
+  const m = S.model;
+  if (!m || !['jack', 'valve', 'supply', 'ambient', 'friction', 'heat', 'gas'].includes(section)) return;
+  const o = S.modelOrigin && S.modelOrigin.ref === m ? S.modelOrigin : null;
+  if (o && physicalModelKey(m) === o.key) {      // edited back: the preset's text is true again
+    m.name = o.name;
+    m.description = o.description;
+  } else {
+    m.description = '';
+    if (m.name && !/\(edited\)$/.test(m.name)) m.name = `${m.name} (edited)`;
+  }
+  $('#model-name').textContent = m.name || '';
+  const nameInput = $('#model-name-input');
+  if (nameInput) nameInput.value = m.name || '';
 }
 /** A comparison on screen that was made with another model says so (it is kept for reference,
  * not silently taken for the current model's). */
@@ -191,17 +219,41 @@ function renderFriction() {
     return `<tr><th scope="row">${esc(label)} [${esc(unit)}]</th>${cell('extend')}${cell('retract')}</tr>`;
   }).join('');
 }
+/** The friction map's pressures as typed, in the page's pressure unit (FRICTION.unit: the one
+ * the text was written in), and in SI (Pa abs). */
 function parseFrictionPressures() {
   const raw = $('#friction-pressures').value;
+  const d = FRICTION.unit || frictionPressureUnit();
   const out = [];
   for (const tok of raw.split(/[,;]+/).map((s) => s.trim()).filter(Boolean)) {
     const [a, b] = tok.split('/').map((s) => Number(s.trim()));
-    if (!Number.isFinite(a) || (tok.includes('/') && !Number.isFinite(b))) return { error: `"${tok}" is not a pressure in bar` };
+    if (!Number.isFinite(a) || (tok.includes('/') && !Number.isFinite(b))) return { error: `"${tok}" is not a pressure in ${d.unit}` };
     out.push([a, tok.includes('/') ? b : a]);
   }
-  return { pairs: out.length ? out : [[1.013, 1.013]] };
+  const pairs = out.length ? out : [[(101300 - d.offset) / d.scale, (101300 - d.offset) / d.scale]];
+  return { pairs, si: pairs.map(([a, b]) => [a * d.scale + d.offset, b * d.scale + d.offset]), unit: d.unit };
 }
-const FRICTION = { timer: null, seq: 0, waiters: [] };
+function frictionPressureUnit() {
+  const d = typeof unitShow === 'function' ? unitShow('Pa') : { unit: 'Pa', scale: 1, offset: 0 };
+  return { unit: d.unit, scale: d.scale || 1, offset: d.offset || 0 };
+}
+/** The friction map's pressures rewritten in the newly chosen unit, its label too. */
+function applyFrictionUnits() {
+  const el = $('#friction-pressures');
+  if (!el) return;
+  const p = parseFrictionPressures();
+  const now = frictionPressureUnit();
+  if (!p.error) {
+    const show = (v) => String(+((v - now.offset) / now.scale).toPrecision(6));
+    el.value = p.si.map(([a, b]) => (a === b ? show(a) : `${show(a)}/${show(b)}`)).join(', ');
+  }
+  FRICTION.unit = now;
+  const lab = $('label[for="friction-pressures"]');
+  if (lab) lab.textContent = lab.textContent.replace(/\[[^\]]*\]/, `[${prettyUnitText(now.unit)}]`);
+  plotFriction();
+}
+// unit: the friction map text's pressure unit (the HTML's bar abs until the unit system applies)
+const FRICTION = { timer: null, seq: 0, waiters: [], unit: { unit: 'bar abs', scale: 1e5, offset: 0 } };
 /** Redraw the friction map once typing pauses; the promise settles when the map is drawn
  *  (or refused). Every call in the pause shares the one request. */
 function plotFriction() {
@@ -225,7 +277,7 @@ async function drawFriction() {
   let res;
   try {
     res = await api('POST', '/api/friction/preview', {
-      model: S.model, pressures: parsed.pairs.map(([a, b]) => ({ p_a: a * BAR, p_b: b * BAR })),
+      model: S.model, pressures: parsed.si.map(([a, b]) => ({ p_a: a, p_b: b })),
     });
   } catch (e) {
     if (seq !== FRICTION.seq) return;
@@ -235,19 +287,21 @@ async function drawFriction() {
   }
   if (seq !== FRICTION.seq) return;   // a newer request is on its way
   const palette = ['#1f77b4', '#ff7f0e', '#2ca02c', '#d62728', '#9467bd', '#8c564b', '#e377c2'];
+  const VX = plotUnit('m/s');
   const traces = res.curves.map((c, k) => {
     const [a, b] = parsed.pairs[k];
     const x = []; const y = [];
     res.velocities.forEach((v, i) => {
       if (v === 0 || c.force[i] == null) { x.push(0, 0); y.push(-c.static_retract, c.static_extend); return; }
-      x.push(v); y.push(c.force[i]);
+      x.push(VX.val([v])[0]); y.push(c.force[i]);
     });
-    return { x, y, mode: 'lines', name: a === b ? `p = ${a} bar` : `p_a ${a} / p_b ${b} bar`, line: { color: palette[k % palette.length] } };
+    const pu = prettyUnitText(parsed.unit);
+    return { x, y, mode: 'lines', name: a === b ? `p = ${a} ${pu}` : `p_a ${a} / p_b ${b} ${pu}`, line: { color: palette[k % palette.length] } };
   });
   plot('friction-plot', traces, baseLayout({
     height: 260, title: { text: 'Friction force map (paper Fig. 4)', font: { size: 12 }, x: 0.01, y: 0.98 },
     margin: { l: 64, r: 20, t: 58, b: 44 }, legend: { orientation: 'h', y: 1.03, yanchor: 'bottom', x: 0, font: { size: 10 }, bgcolor: 'rgba(255,255,255,0)' },
-    xaxis: axis('piston velocity v [m/s]', { zeroline: true, zerolinecolor: '#bbb' }), yaxis: axis('friction force F [N]', { zeroline: true, zerolinecolor: '#bbb' }),
+    xaxis: axis(`piston velocity v [${VX.label}]`, { zeroline: true, zerolinecolor: '#bbb' }), yaxis: axis('friction force F [N]', { zeroline: true, zerolinecolor: '#bbb' }),
     hovermode: 'closest',
   }));
 }
@@ -275,9 +329,13 @@ function renderEffects() {
     const inputs = params.map((p) => {
       const meta = cat ? cat.parameters.find((q) => q.name === p) : null;
       const unit = meta ? meta.unit : '?';
+      // shown in the page's unit system, as every other field (SI kept in the model)
+      const d = meta && typeof unitShow === 'function' ? unitShow(unit) : { unit, scale: 1, offset: 0 };
+      const sc = d.scale || 1, off = d.offset || 0;
+      const v = effs[name][p];
       const id = esc(`eff-${name}-${p}`);
-      return `<div class="field"><label for="${id}" title="${esc(meta ? meta.description : '')}">${esc(p)} [${esc(unit)}]</label>` +
-        `<input id="${id}" type="number" step="any" data-field="model.effects.${esc(name)}.${esc(p)}" value="${esc(displayValue(effs[name][p], 1))}">` +
+      return `<div class="field"><label for="${id}" title="${esc(meta ? meta.description : '')}">${esc(p)} [${esc(prettyUnitText(d.unit))}]</label>` +
+        `<input id="${id}" type="number" step="any" data-field="model.effects.${esc(name)}.${esc(p)}" data-scale="${sc}" data-offset="${off}" value="${esc(displayValue(typeof v === 'number' ? v - off : v, sc))}">` +
         '<span class="field-error" role="alert"></span></div>';
     }).join('');
     div.innerHTML = `<div class="effect-head"><b>${esc(name)}</b> <span class="muted small">${esc(cat ? cat.description : 'not in the catalog')}</span>` +
@@ -371,4 +429,42 @@ async function loadModelPreset(name) {
   markStaleComparison();
   modelDraft.markClean(m);   // static/draft.js: edits from here on are unsaved
   return m;
+}
+
+/* ------------------------------------------------------------------ catalogue valve */
+/** The valve of the catalogue form (POST /api/valve/catalogue) into the model panel. */
+async function useCatalogueValve(btn) {
+  clearErrors();
+  const fn = $('#cat-function').value;
+  const fig = $('#cat-figure').value;
+  const val = Number($('#cat-value').value);
+  const b = Number($('#cat-b').value);
+  // the form's units to the API's SI: C in dm³/(s bar), S in mm², times in ms
+  const CU = typeof unitShow === 'function' ? unitShow('m^3/(s Pa)') : { scale: 1 };
+  const supply = fig === 'C' ? { C: val * (CU.scale || 1), b }
+    : fig === 'effective_area' ? { effective_area: val * 1e-6, b } : { [fig]: val, b };
+  const body = { function: fn.replace('-bistable', ''), supply, bistable: fn.endsWith('-bistable'),
+    on_time: Number($('#cat-on').value) * 1e-3, off_time: Number($('#cat-off').value) * 1e-3 };
+  await busy(btn, async () => {
+    try {
+      const ans = await api('POST', '/api/valve/catalogue', body);
+      rememberModelOrigin();
+      S.model.valve = ans.valve;
+      markModelEdited('valve');
+      renderModel();
+      setStatus(`Valve: ${ans.description}; ON ${num(body.on_time * 1e3, 3)} ms, OFF ${num(body.off_time * 1e3, 3)} ms.`, 'ok');
+      $('#valve-catalogue').dataset.used = fn;
+    } catch (e) { showApiError(e, 'Catalogue valve'); }
+  });
+}
+function initCatalogueValve() {
+  const b = document.getElementById('btn-catalogue-valve');   // app.js's $ is not loaded yet
+  if (b) b.addEventListener('click', (ev) => useCatalogueValve(ev.target));
+}
+if (document.readyState === 'loading') document.addEventListener('DOMContentLoaded', initCatalogueValve); else initCatalogueValve();
+
+/** The catalogue form's C option in the page's conductance unit. */
+function applyCatalogueUnits() {
+  const o = document.querySelector('#cat-figure option[value="C"]');
+  if (o && typeof unitShow === 'function') o.textContent = `sonic conductance C [${prettyUnitText(unitShow('m^3/(s Pa)').unit)}]`;
 }

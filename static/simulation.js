@@ -15,6 +15,20 @@ function renderScenario() {
   }
   $('#scn-command').value = (s.command || []).map(([t, u]) => `${num(t, 8)}, ${num(u, 8)}`).join('\n');
   $('#scenario-desc').textContent = s.description || s.name || '';
+  const title = $('#sim-scenario-name');
+  if (title) title.textContent = s.name ? `(scenario ${s.name})` : '(your scenario)';
+}
+/** A preset's name and description no longer describe a scenario the user changed (its
+ * command, duration, start...): both are dropped, and the page says what it was edited from. */
+function markScenarioEdited() {
+  const s = S.scenario;
+  if (!s || (!s.name && !s.description)) return;
+  const from = s.name;
+  s.name = '';
+  s.description = '';
+  $('#scenario-desc').textContent = from ? `Your scenario (edited from ${from}).` : 'Your scenario.';
+  const title = $('#sim-scenario-name');
+  if (title) title.textContent = '(your scenario)';
 }
 function parseCommand(text) {
   const out = [];
@@ -35,6 +49,7 @@ function onScenarioInput(ev) {
   const el = ev.target;
   if (!el.dataset || !el.dataset.field || !el.dataset.field.startsWith('scenario.')) return;
   clearFieldError(el);
+  markScenarioEdited();
   if (el.id === 'scn-command') return;  // parsed on use
   setPath(S.scenario, parsePath(el.dataset.field).slice(1), readInput(el));
 }
@@ -59,12 +74,14 @@ function addStep() {
   cmd.push([t, u]);
   cmd.sort((a, b) => a[0] - b[0]);
   S.scenario.command = cmd;
+  markScenarioEdited();
   $('#scn-command').value = cmd.map(([a, b]) => `${num(a, 8)}, ${num(b, 8)}`).join('\n');
   const next = +(t + 0.1).toFixed(6);
   $('#step-time').value = next;
 }
 function clearCommand() {
   S.scenario.command = [[0, 0]];
+  markScenarioEdited();
   $('#scn-command').value = '0, 0';
 }
 async function loadScenarioPreset(name, btn) {
@@ -104,9 +121,27 @@ async function simulate(btn, note = '') {
       const msg = `${res.series.t.length} samples, ${st.steps ?? '?'} steps, ${(res.events || []).length} events, ` +
         `${((performance.now() - t0) / 1000).toFixed(2)} s round trip (${st.method || ''})`;
       $('#sim-summary').textContent = msg + strokeSummary(st.stroke);
+      renderStartState(res);
       setStatus(`${note}Simulation done: ${msg}.${res.status ? ' Solver: ' + res.message : ''}`, res.status ? 'error' : 'ok');
     } catch (e) { showApiError(e, 'Simulation'); }
   });
+}
+/** The state the run started from, in the page's units: the cyclic steady state found (with its
+ * cycles) or the given one (blank fields: ambient), read off the first sample. */
+function renderStartState(res) {
+  const el = $('#sim-start');
+  if (!el) return;
+  const s = res && res.series;
+  if (!s || !s.t || !s.t.length) { el.textContent = ''; return; }
+  const cyc = res.stats && res.stats.cyclic;
+  const P = plotUnit('Pa'), TK = plotUnit('K'), X = plotUnit('m');
+  const st = cyc ? cyc.state : { p_a: s.p_a[0], p_b: s.p_b[0], T_a: s.T_a[0], T_b: s.T_b[0], x0: s.x[0] };
+  const f = (U, v) => `${num(U.val([v])[0], 4)} ${U.label}`;
+  const what = cyc
+    ? `Start state: cyclic steady state after ${cyc.cycles} cycle${cyc.cycles === 1 ? '' : 's'}${cyc.converged ? '' : ' (NOT converged)'}`
+    : 'Start state: as given';
+  el.textContent = `${what}: p_a ${f(P, st.p_a)}, p_b ${f(P, st.p_b)}, T_a ${f(TK, st.T_a)}, T_b ${f(TK, st.T_b)}, x0 ${f(X, st.x0)}.`;
+  el.dataset.start = cyc ? 'cyclic' : 'given';
 }
 /** The stroke metrics of a simulation in words (pneucore/analysis/strokes.py, SMC's definitions), '' if none. */
 function strokeSummary(sm) {

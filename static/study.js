@@ -85,20 +85,41 @@ function renderStudyRows() {
     : '<p class="muted small">No parameter yet: add one.</p>';
   updateRunCount();
 }
+/** How the row's values are shown: the chosen unit system's {unit, scale, offset} for the path's
+ * SI unit (a std is a difference: scale only, no offset). The rows keep SI. */
+function studyShown(path) {
+  const si = paramUnit(path);
+  const d = si && typeof unitShow === 'function' ? unitShow(si) : { unit: si || 'SI unit', scale: 1, offset: 0 };
+  return { label: prettyUnit(d.unit) || 'SI unit', scale: d.scale || 1, offset: d.offset || 0 };
+}
+function studyValueShown(v, d, key) {
+  if (v == null || String(v).trim() === '') return '';
+  const off = key === 'std' ? 0 : d.offset;
+  const one = (x) => { const n = Number(x); return Number.isFinite(n) && String(x).trim() !== '' ? String(+((n - off) / d.scale).toPrecision(10)) : String(x).trim(); };
+  return key === 'grid' ? String(v).split(',').map(one).join(', ') : one(v);
+}
+function studyValueSI(text, d, key) {
+  const off = key === 'std' ? 0 : d.offset;
+  const one = (x) => { const n = Number(x); return Number.isFinite(n) && String(x).trim() !== '' ? String(+(n * d.scale + off).toPrecision(12)) : String(x).trim(); };
+  return key === 'grid' ? String(text).split(',').map(one).join(', ') : one(text);
+}
 function studyRowHtml(r, i) {
   const opts = studyPathOptions();
   const custom = r.custom || !opts.some(([p]) => p === r.path);
-  const unit = prettyUnit(paramUnit(r.path)) || 'SI unit';
+  const shown = studyShown(r.path);
+  const unit = shown.label;
   const id = (k) => `sp-${i}-${k}`;
   const pathSel = opts.map(([p, d]) => `<option value="${esc(p)}"${!custom && p === r.path ? ' selected' : ''}>${esc(p)} — ${esc(d)}</option>`).join('') +
     `<option value="${STUDY_CUSTOM}"${custom ? ' selected' : ''}>other path (type it)…</option>`;
   const kindSel = STUDY_KINDS.map(([k, d]) => `<option value="${k}"${k === r.kind ? ' selected' : ''}>${esc(d)}</option>`).join('');
   const fields = STUDY_FIELDS[r.kind].map(([k, label, req, u]) => {
     const grid = k === 'grid';
-    return `<div class="field${grid ? ' sp-wide' : ''}"><label for="${id(k)}">${esc(label)} [${esc(u || unit)}]` +
+    // a std is a difference: its unit without abs/g (static/units.js)
+    const lu = u || (k === 'std' ? unit.replace(/ (abs|g)$/, '') : unit);
+    return `<div class="field${grid ? ' sp-wide' : ''}"><label for="${id(k)}">${esc(label)} [${esc(lu)}]` +
       `${grid ? ', comma-separated' : ''}${req ? '' : ' <span class="muted">(optional)</span>'}</label>` +
       `<input id="${id(k)}" type="${grid ? 'text' : 'number'}" step="any" data-key="${k}" data-field="parameters.${esc(r.path)}.${k}"` +
-      ` value="${esc(r.f[k] ?? '')}"${req ? '' : ' placeholder="none"'}${grid ? ' spellcheck="false"' : ''}><span class="field-error" role="alert"></span></div>`;
+      ` value="${esc(u ? (r.f[k] ?? '') : studyValueShown(r.f[k], shown, k))}"${req ? '' : ' placeholder="none"'}${grid ? ' spellcheck="false"' : ''}><span class="field-error" role="alert"></span></div>`;
   }).join('');
   return `<div class="study-param field" id="study-param-${i}" data-row="${i}" data-field="parameters.${esc(r.path)}">` +
     '<div class="sp-head">' +
@@ -171,7 +192,9 @@ function onStudyRowInput(ev) {
   const r = S.study.rows[i];
   if (el.classList.contains('sp-custom')) { r.path = el.value.trim(); retargetStudyRow(i); return; }
   if (el.dataset.key) {
-    r.f[el.dataset.key] = el.value;
+    const k = el.dataset.key;
+    const raw = (STUDY_FIELDS[r.kind].find((f) => f[0] === k) || [])[3];   // a unit override: as typed
+    r.f[k] = raw ? el.value : studyValueSI(el.value, studyShown(r.path), k);
     clearFieldError(el);
     const slot = $(':scope > .field-error', el.closest('.study-param'));
     if (slot) { slot.textContent = ''; slot.removeAttribute('data-error-for'); }
@@ -379,6 +402,7 @@ async function onStudyListClick(ev) {
       if (btn.classList.contains('study-load')) {
         await loadStudyResults(id);
         const r = S.study.res;
+        fillStudyForm(r.definition);
         if (!S.study.following) {   // the bar shows the study on screen unless another one is running
           setStudyProgress(r.stored, r.n_runs, `study ${id} loaded (${r.status})`);
           $('#study-progress').dataset.study = id;
@@ -402,6 +426,43 @@ async function onStudyListClick(ev) {
       }
     } catch (e) { showApiError(e, `Study ${id}`); }
   });
+}
+/** The share of the runs whose selected metric meets "at most / at least" a value typed in the
+ * metric's shown unit (the page's unit system); runs that leave the metric undefined count
+ * as not meeting it. */
+function renderStudyRequirement() {
+  const res = S.study.res;
+  const out = $('#study-req-share');
+  if (!out) return;
+  const m = S.study.metric;
+  const info = res && res.metrics[m];
+  const lab = $('#study-req-value-label');
+  const d = info && typeof unitShow === 'function' ? unitShow(info.unit) : { unit: info ? info.unit : '-', scale: 1, offset: 0 };
+  if (lab) lab.textContent = `${m || 'metric'} value [${prettyUnitText(d.unit || '-')}]`;
+  const raw = $('#study-req-value').value.trim();
+  if (!info || raw === '' || !Number.isFinite(Number(raw))) { out.textContent = info ? `Type a value of ${m} to count the runs meeting it.` : ''; delete out.dataset.share; return; }
+  const lim = Number(raw) * (d.scale || 1) + (d.offset || 0);
+  const le = $('#study-req-op').value === 'le';
+  const vals = res.runs.metrics[m] || [];
+  const ok = vals.filter((v) => v != null && (le ? v <= lim : v >= lim)).length;
+  const share = vals.length ? ok / vals.length : 0;
+  out.dataset.share = String(share);
+  out.textContent = `${ok} of ${vals.length} runs (${num(100 * share, 3)} %) have ${m} ${le ? '≤' : '≥'} ${raw} ${prettyUnitText(d.unit || '')}` +
+    `${vals.some((v) => v == null) ? '; a run leaving it undefined does not meet it' : ''}.`;
+}
+/** A stored study's definition back into the form: its parameters, samples and seed. */
+function fillStudyForm(def) {
+  if (!def || !def.parameters) return;
+  S.study.rows = Object.entries(def.parameters).map(([path, spec]) => {
+    const kind = spec.grid ? 'grid' : (spec.distribution || 'uniform');
+    const f = {};
+    if (spec.grid) f.grid = spec.grid.join(', ');
+    else for (const [k] of STUDY_FIELDS[kind] || []) if (spec[k] != null) f[k] = String(spec[k]);
+    return { path, custom: !studyPathOptions().some(([p]) => p === path), kind, f };
+  });
+  if (def.samples != null) $('#study-samples').value = String(def.samples);
+  if (def.seed != null) $('#study-seed').value = String(def.seed);
+  renderStudyRows();
 }
 async function loadStudyResults(id) {
   const res = await api('GET', `/api/studies/${encodeURIComponent(id)}/results`);
@@ -428,6 +489,19 @@ function short(v) {
   const a = Math.abs(t);
   return a !== 0 && (a >= 1e5 || a < 1e-3) ? t.toExponential().replace('e+', 'e') : String(t);
 }
+/** specText in the chosen unit system (a std or a lognormal sigma: scale only / none). */
+function specTextShown(spec, unit) {
+  const d = metricDisplay(unit);
+  if (d.label === (unit || '-')) return specText(spec, unit);
+  const s = {};
+  for (const [k, v] of Object.entries(spec)) {
+    if (typeof v !== 'number' && !Array.isArray(v)) { s[k] = v; continue; }
+    if (k === 'sigma') s[k] = v;
+    else if (k === 'std') s[k] = d.diff(v);
+    else s[k] = Array.isArray(v) ? v.map((x) => d.val(x)) : d.val(v);
+  }
+  return specText(s, null) + ` ${d.label}`;
+}
 function specText(spec, unit) {
   const num = short;   // the summary echoes the definition as typed
   const u = unit && unit !== '-' ? ` ${prettyUnit(unit)}` : '';
@@ -449,13 +523,13 @@ function renderStudyResults() {
   $('#study-summary').innerHTML = `${esc(DESIGN_NAMES[res.design] || res.design)}: <b>${res.stored}/${res.n_runs}</b> runs stored, ` +
     `<b>${res.failed}</b> failed, status ${esc(res.status)}${res.missing ? ` (${res.missing} missing: resume it)` : ''}. ` +
     `Model <i>${esc(m.name || 'custom')}${Object.keys(m.effects || {}).length ? ` + ${esc(Object.keys(m.effects).join(' + '))}` : ''}</i>, scenario <i>${esc(sc.name || 'custom')}</i> (${num(sc.duration)} s), seed ${esc(def.seed ?? 0)}. ` +
-    'Parameters: ' + res.parameters.map((p) => `<code>${esc(p.path)}</code> ${esc(specText(p.spec, p.unit))}`).join('; ') + '.' +
+    'Parameters: ' + res.parameters.map((p) => `<code>${esc(p.path)}</code> ${esc(specTextShown(p.spec, p.unit))}`).join('; ') + '.' +
     ` <a id="study-csv" href="${esc(`/api/studies/${encodeURIComponent(res.id)}/runs.csv`)}" download>Download the runs (CSV, units in the headers)</a>` +
     ` · <a id="study-npz" href="${esc(`/api/studies/${encodeURIComponent(res.id)}/runs.npz`)}" download title="NumPy archive: params and metrics matrices with their names and units; numpy.load reads it">(.npz)</a>`;
   $('#study-metric').innerHTML = Object.entries(res.metrics).map(([k, d]) =>
     `<option value="${esc(k)}"${k === S.study.metric ? ' selected' : ''}>${esc(k)} [${esc(metricDisplay(d.unit).label)}]</option>`).join('');
   $('#study-xparam').innerHTML = res.parameters.map((p) =>
-    `<option value="${esc(p.path)}"${p.path === S.study.param ? ' selected' : ''}>${esc(p.path)} [${esc(prettyUnit(p.unit) || '-')}]</option>`).join('');
+    `<option value="${esc(p.path)}"${p.path === S.study.param ? ' selected' : ''}>${esc(p.path)} [${esc(metricDisplay(p.unit).label)}]</option>`).join('');
   $('#study-metric').disabled = false;
   $('#study-xparam').disabled = false;
   renderStudyTable();
@@ -467,6 +541,7 @@ function renderStudyResults() {
 function renderStudyMetric() {
   const res = S.study.res;
   const d = res.metrics[S.study.metric];
+  renderStudyRequirement();
   $('#study-metric-def').innerHTML = d ? `<b>${esc(S.study.metric)}</b>: ${esc(d.definition)} (SI unit ${esc(d.unit)})` : '';
   $$('#study-table-data tbody tr').forEach((tr) => tr.classList.toggle('selected', tr.dataset.metric === S.study.metric));
   plotStudyHist();
@@ -513,10 +588,11 @@ function plotStudyScatter() {
   const xs = res.runs.params[p.path];
   const ys = res.runs.metrics[m];
   const x = [], y = [], idx = [];
-  ys.forEach((v, k) => { if (v != null && xs[k] != null) { x.push(xs[k]); y.push(dsp.val(v)); idx.push(res.runs.index[k]); } });
+  const pd = metricDisplay(p.unit);
+  ys.forEach((v, k) => { if (v != null && xs[k] != null) { x.push(pd.val(xs[k])); y.push(dsp.val(v)); idx.push(res.runs.index[k]); } });
   const e = ((res.sensitivity.ranking[m] || {}).entries || []).find((q) => q.parameter === p.path);
   const corr = e && e.prcc != null ? `: PRCC ${num(e.prcc, 3)}, Spearman ${num(e.spearman, 3)}` : '';
-  const pu = prettyUnit(p.unit) || '-';
+  const pu = pd.label;
   plot('study-scatter', x.length ? [{
     type: 'scatter', mode: 'markers', x, y, customdata: idx, name: m,
     marker: { size: 7, color: '#2ca02c', opacity: 0.75, line: { color: '#1b6e1b', width: 0.5 } },
@@ -533,7 +609,7 @@ function renderStudyRanking() {
   const rk = res.sensitivity.ranking[m];
   if (!rk) { $('#study-ranking').innerHTML = '<p class="muted small">No ranking for this metric.</p>'; return; }
   const anova = rk.method === 'factorial_variance';
-  const units = Object.fromEntries(res.parameters.map((p) => [p.path, prettyUnit(p.unit) || '-']));
+  const units = Object.fromEntries(res.parameters.map((p) => [p.path, metricDisplay(p.unit).label]));
   const bar = (v) => (v == null ? '' : `<span class="sbar-wrap" aria-hidden="true"><span class="sbar ${v < 0 ? 'neg' : 'pos'}" style="${v < 0
     ? `right:50%;width:${(50 * Math.min(1, -v)).toFixed(1)}%` : `left:50%;width:${(50 * Math.min(1, v)).toFixed(1)}%`}"></span></span>`);
   const sbar = (v) => (v == null ? '' : `<span class="sbar-wrap" aria-hidden="true"><span class="sbar tot" style="left:0;width:${(100 * Math.max(0, Math.min(1, v))).toFixed(1)}%"></span></span>`);
@@ -584,6 +660,10 @@ function selectStudyParam(path) {
 }
 function wireStudy() {
   $('#btn-study-add').addEventListener('click', () => addStudyRow());
+  for (const id of ['#study-req-op', '#study-req-value']) {
+    const el = $(id);
+    if (el) { el.addEventListener('input', renderStudyRequirement); el.addEventListener('change', renderStudyRequirement); }
+  }
   const rows = $('#study-param-rows');
   rows.addEventListener('change', onStudyRowChange);
   rows.addEventListener('input', onStudyRowInput);

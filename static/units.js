@@ -53,6 +53,12 @@ function applyUnits() {
   if (typeof plotSimulation === 'function') plotSimulation();
   if (typeof renderCompare === 'function' && S.compare) renderCompare();
   if (typeof renderStudyResults === 'function' && S.study && S.study.res) renderStudyResults();
+  if (typeof applySizingUnits === 'function') applySizingUnits();
+  if (typeof HEAT !== 'undefined' && HEAT.redraw) HEAT.redraw();
+  if (typeof plotEmptyCompare === 'function' && typeof S !== 'undefined' && !S.compare) plotEmptyCompare();
+  if (typeof applyFrictionUnits === 'function') applyFrictionUnits();
+  if (typeof applyCatalogueUnits === 'function') applyCatalogueUnits();
+  if (typeof renderStudyRows === 'function' && typeof S !== 'undefined' && S.study && S.study.rows) renderStudyRows();
   if (typeof renderCalOptions === 'function' && typeof CAL !== 'undefined' && CAL.options.length) renderCalOptions();
   if (typeof renderCalReport === 'function' && typeof CAL !== 'undefined' && CAL.result) renderCalReport();
   document.body.dataset.units = UNITS.system;

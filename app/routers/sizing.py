@@ -6,8 +6,8 @@ from ..bodies import OffLoopRoute
 from ..deps import LimitsDep
 from ..responses import JSON, ErrorOut
 from ..services import deadline_progress
-from ..sizing_schemas import SizingRequest, SizingResponse
-from ..sizing_service import run_sizing
+from ..sizing_schemas import SizingRequest, SizingResponse, SizingSeriesResponse
+from ..sizing_service import run_sizing, sizing_series
 from ..sync_pool import sync_slot
 
 router = APIRouter(prefix="/api", tags=["sizing"], route_class=OffLoopRoute)
@@ -30,3 +30,9 @@ _SYNC_ERRORS = {
 def sizing_endpoint(req: SizingRequest, limits: LimitsDep):
     return JSON(run_sizing(req, limits, progress=deadline_progress(limits, "sizing",
                                                                    "/api/jobs/sizing")))
+
+
+@router.get("/sizing/series", response_model=SizingSeriesResponse, summary="The shipped cylinder, valve and tube series a sizing's "
+                                      "choices may name (series or series:member)")
+def sizing_series_endpoint():
+    return sizing_series()

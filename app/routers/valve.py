@@ -3,8 +3,9 @@ area, Cv, Kv, one flow point) converted to the model's sonic conductance C and c
 (issue 23, item 7; :mod:`pneucore.spec.valve_data`)."""
 from fastapi import APIRouter
 
-from ..services import convert_valve
-from ..valve_schemas import SUMMARY, ValveConvertRequest, ValveConvertResponse
+from ..services import catalogue_valve, convert_valve
+from ..valve_schemas import (CATALOGUE_SUMMARY, SUMMARY, CatalogueValveRequest,
+                             CatalogueValveResponse, ValveConvertRequest, ValveConvertResponse)
 
 router = APIRouter(prefix="/api", tags=["valve"])
 
@@ -12,3 +13,8 @@ router = APIRouter(prefix="/api", tags=["valve"])
 @router.post("/valve/convert", response_model=ValveConvertResponse, summary=SUMMARY)
 def valve_convert(req: ValveConvertRequest):
     return convert_valve(req)
+
+
+@router.post("/valve/catalogue", response_model=CatalogueValveResponse, summary=CATALOGUE_SUMMARY)
+def valve_catalogue(req: CatalogueValveRequest):
+    return catalogue_valve(req)

@@ -116,3 +116,70 @@ def edge_characteristic(port, u):
     """
     u = np.asarray(u, float)
     return np.interp(u, port.opening, port.C), np.interp(u, port.opening, port.b)
+
+
+def switched_command(command, on_time, off_time, rest=None):
+    """The spool's positions over time from a held (on/off) command and the valve's switching
+    times: each change of the command takes effect ``on_time`` later (``off_time`` for a
+    return to the rest position ``rest``), as a solenoid valve's catalogue switching times say
+    (ISO 12238: from the electrical signal to the spool's shift).
+
+    A change overtaken by the next one (a pulse shorter than the difference of the two times)
+    never reaches the spool: it is dropped. Changes at t <= 0 are the start position (no
+    delay).
+
+    Parameters
+    ----------
+    command : array_like, shape (n, 2)
+        Breakpoints ``[t [s], u [-]]``, held between breakpoints, times not decreasing
+    on_time : float
+        Delay of a change to a position other than ``rest`` [s]
+    off_time : float
+        Delay of a change to ``rest`` [s]
+    rest : float or None
+        De-energised position; None = every change takes ``on_time`` (bistable) [-]
+
+    Returns
+    -------
+    spool : ndarray, shape (m, 2)
+        Breakpoints ``[t [s], u [-]]`` of the spool, held
+    signal_times : ndarray, shape (m,)
+        For each breakpoint of ``spool``, the command's time that caused it [s]
+
+    Examples
+    --------
+    A 5/2 monostable valve (rest -1), on 15 ms, off 25 ms: extend at 0.1 s, return at 0.5 s
+
+    >>> spool, sig = switched_command([[0, -1], [0.1, 1], [0.5, -1]], 0.015, 0.025, rest=-1)
+    >>> spool.round(4).tolist(), sig.tolist()
+    ([[0.0, -1.0], [0.115, 1.0], [0.525, -1.0]], [0.0, 0.1, 0.5])
+    """
+    cmd = np.asarray(command, float).reshape(-1, 2)
+    out_t, out_u, sig = [], [], []
+    u_prev = None
+    for t, u in cmd:
+        if t <= 0.0 or u_prev is None:
+            if out_t and out_t[-1] <= 0.0:
+                out_u[-1] = u
+            else:
+                out_t.append(max(t, 0.0) if t <= 0.0 else t)
+                out_u.append(u)
+                sig.append(t)
+            u_prev = u
+            continue
+        if u == u_prev:
+            continue
+        td = t + (off_time if rest is not None and u == rest else on_time)
+        # a later change that overtakes an earlier one cancels it (the spool never got there)
+        while len(out_t) > 1 and out_t[-1] >= td:
+            out_t.pop()
+            out_u.pop()
+            sig.pop()
+        if out_u[-1] == u:      # back where the spool already is: no change at all
+            u_prev = u
+            continue
+        out_t.append(td)
+        out_u.append(u)
+        sig.append(t)
+        u_prev = u
+    return np.column_stack([out_t, out_u]), np.asarray(sig, float)

@@ -13,6 +13,7 @@ from typing import Optional
 from pneucore.physics.gas import P_ATM
 from pneucore.physics.jack import ANGLE_MAX
 from pneucore.spec.effects import EFFECTS
+from pneucore.spec.model import MAX_SWITCHING_TIME
 from pneucore.spec.validation import FieldError, known_keys, mapping, number
 
 #: Upper bounds of the requirement's fields, in their units: well beyond any pneumatic drive
@@ -26,7 +27,8 @@ BOUNDS = {"stroke": 10.0, "moving_mass": 1e5, "load_force": 1e7, "supply_pressur
           # one source: a design's model carries them, and a longer line would be refused there)
           "tube_length": EFFECTS["tubing"].param("length_a").max,
           "cushion_length": EFFECTS["end_cushion"].param("length_a").max,
-          "cushion_capacity": EFFECTS["end_cushion"].param("capacity").max}
+          "cushion_capacity": EFFECTS["end_cushion"].param("capacity").max,
+          "valve_on_time": MAX_SWITCHING_TIME, "valve_off_time": MAX_SWITCHING_TIME}
 
 
 def _checked(value, path, unit, **bounds):
@@ -94,6 +96,12 @@ class Requirement:
         cylinder [m]
     ambient_pressure : float
         Absolute ambient (exhaust) pressure [Pa]
+    valve_on_time : float
+        The valve's switching time energising, as its catalogue gives it (ISO 12238): the
+        extension starts this long after the command; it counts in the extension's time [s]
+    valve_off_time : float
+        The valve's switching time de-energising (the 5/2 valve's spring return): the
+        retraction starts this long after the command; it counts in the retraction's time [s]
     """
     stroke: float = 0.1
     moving_mass: float = 1.0
@@ -110,6 +118,8 @@ class Requirement:
     cushion_capacity: Optional[float] = None
     tube_length: Optional[float] = None
     ambient_pressure: float = P_ATM
+    valve_on_time: float = 0.0
+    valve_off_time: float = 0.0
 
     #: fields a request must give (the others have their defaults)
     REQUIRED = ("stroke", "moving_mass", "supply_pressure")
@@ -195,6 +205,8 @@ class Requirement:
                              f"stroke of {r.stroke:g} m (unit: {u('cushion_length')})")
         r.tube_length = None if d.get("tube_length") is None else _checked(
             d["tube_length"], f"{path}.tube_length", u("tube_length"), positive=True)
+        for key in ("valve_on_time", "valve_off_time"):
+            setattr(r, key, _checked(d.get(key, 0.0), f"{path}.{key}", u(key), nonnegative=True))
         return r
 
     def to_dict(self):

@@ -264,6 +264,10 @@ def build_model(requirement, cylinder, valve, tube=None, settings=(0.0, 0.0), ba
                             "B-R": _edge((0.0, 1.0), (0.0, C_x), b_x),
                             "P-B": _edge((-1.0, 0.0), (valve["C"], 0.0), valve["b"]),
                             "A-R": _edge((-1.0, 0.0), (C_x, 0.0), b_x)}}
+    if requirement.valve_on_time or requirement.valve_off_time:
+        # a 5/2 monostable solenoid valve: energised extends, the spring (-1) retracts
+        d["valve"].update(on_time=requirement.valve_on_time, off_time=requirement.valve_off_time,
+                          rest_opening=-1.0)
     d["supply"] = {**d.get("supply", {}), "pressure": requirement.supply_pressure}
     d["ambient"] = {**d.get("ambient", {}), "pressure": requirement.ambient_pressure}
     # the throttle first: screwed into the cylinder port, upstream of the tube on the exhaust
@@ -316,7 +320,13 @@ def model_notes(requirement, tube=None):
         "is solved for the required time, its critical ratio the effect's default.",
         f"Dead volume of each chamber: {dead_length() * 1e3:g} mm of bore (the paper's 32 mm jack, "
         "5 cm^3; not in the standards). Seal friction: the base model's, scaled with the bore.",
-        "Valve switching time is not modelled: the valve opens fully at the command.",
+        (f"Valve switching times (ISO 12238, the catalogue's): ON {requirement.valve_on_time * 1e3:g} ms, "
+         f"OFF {requirement.valve_off_time * 1e3:g} ms, a delay of the spool's shift after the "
+         "command (valve.on_time, off_time; 5/2 monostable, spring return on retraction); "
+         "every stroke time counts from the command."
+         if requirement.valve_on_time or requirement.valve_off_time else
+         "Valve switching time 0 (none given): the valve opens fully at the command; give the "
+         "catalogue's ON/OFF times in valve_on_time, valve_off_time."),
     ]
     if requirement.cycle_time is not None:
         notes.append(f"Cycle time {requirement.cycle_time:g} s with a dwell of "
@@ -720,6 +730,81 @@ def robustness_studies(design, requirement, samples=ROBUSTNESS_SAMPLES):
     return out
 
 
+#: The ranked first designs whose steady cycle is simulated (:func:`steady_cycle`): each costs
+#: a few cycle runs (the chambers' state repeats after 2 to 4 cycles) [-]
+STEADY_DESIGNS = 5
+#: A stroke's share of the machine cycle: this many times its time (the larger of the
+#: required and the sized one) plus the dwell, so the piston is at rest at its stop before the
+#: next switching even with dwell 0 [-]
+CYCLE_MARGIN = 1.2
+
+
+def cycle_scenario(design, requirement):
+    """The machine cycle of a design, to simulate from its cyclic steady state.
+
+    Extension switched at the first sample after t = 0, retraction after the extension's
+    share, period = both shares: each share is :data:`CYCLE_MARGIN` times the stroke's time
+    (the required one or, when longer, the sized one) plus the requirement's dwell. The
+    scenario's ``start`` is ``cyclic`` (:func:`pneucore.simulate.cyclic_start`), its first
+    guess the sizing's own start (the extension's exhausting chamber at the supply).
+
+    Parameters
+    ----------
+    design : dict
+        A design of :func:`size` (``required_times`` and ``metrics``)
+    requirement : Requirement
+        The requirement it was sized for
+
+    Returns
+    -------
+    scenario : dict
+        A plain scenario (``POST /api/simulate`` takes it as it is)
+    """
+    share = {}
+    for k in DIRECTIONS:
+        sized = design["metrics"][k]["full_stroke_time"] or 0.0
+        share[k] = CYCLE_MARGIN * max(design["required_times"][k], sized) + requirement.dwell
+    duration = share["extend"] + share["retract"]
+    period = min(duration / (2 * RUN_SAMPLES), MAX_SAMPLE_PERIOD)
+    return {"duration": period + duration, "sample_period": period,
+            "command": [[0.0, -1.0], [period, 1.0], [period + share["extend"], -1.0]],
+            "command_interpolation": "hold", "locked": False, "x0": 0.0,
+            "initial": {"p_a": requirement.ambient_pressure, "p_b": requirement.supply_pressure},
+            "start": "cyclic",
+            "name": f"steady cycle of {design['cylinder']['name']} + {design['valve']['name']}",
+            "description": "extension, dwell, retraction, dwell, repeated until pressures and "
+                           "temperatures repeat (start: cyclic)"}
+
+
+def steady_cycle(design, requirement):
+    """A design's strokes in the machine's running state: :func:`cycle_scenario` simulated from
+    its cyclic steady state.
+
+    Returns
+    -------
+    steady : dict
+        ``scenario`` (:func:`cycle_scenario`), ``full_stroke_time`` and ``end_speed`` per
+        direction [s], [m/s] (None where the stroke did not end within its share),
+        ``cycles`` repeated [-], ``converged`` [-] and the ``start`` state (``p_a``, ``p_b``
+        [Pa abs], ``T_a``, ``T_b`` [K], ``x0`` [m], ``v0`` [m/s])
+    """
+    from pneucore.simulate import SimulationError, simulate
+    scen = cycle_scenario(design, requirement)
+    try:
+        res = simulate(design["model"], scen)
+    except (SimulationError, FieldError, ArithmeticError, ValueError) as exc:
+        return {"scenario": scen, "error": f"{type(exc).__name__}: {exc}"}
+    strokes = res.stroke_metrics()["strokes"]
+    out = {"scenario": scen, "full_stroke_time": dict.fromkeys(DIRECTIONS),
+           "end_speed": dict.fromkeys(DIRECTIONS)}
+    for st in strokes:
+        if st["direction"] in DIRECTIONS and out["full_stroke_time"][st["direction"]] is None:
+            out["full_stroke_time"][st["direction"]] = st["full_stroke_time"]
+            out["end_speed"][st["direction"]] = st["end_speed"]
+    cyc = res.stats["cyclic"]
+    return out | {"cycles": cyc["cycles"], "converged": cyc["converged"], "start": cyc["state"]}
+
+
 def _family_key(cylinder, valve, tube):
     return {"cylinder": cylinder, "valve": valve, "tube": tube}
 
@@ -805,7 +890,7 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
             needles, failed = _solve_needles(requirement, valve, dirs, settings, metrics, pair)
             if failed is not None:
                 k, (C_t, energy) = failed
-                cap = requirement.cushion_capacity
+                cap = cushion_energy_limit(requirement)
                 design = _design(requirement, cylinder, valve, tube, settings, metrics, base,
                                  {n: dirs[n].t_req for n in DIRECTIONS}, needles)
                 how = (f", the least over the meter-out throttle and needle pairs searched that "
@@ -815,7 +900,9 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
                        f"{dirs[k].t_req:.4g} s allows (no meter-out throttle: meter_out false)")
                 return {**family, "feasible": False, "reason": "cushion", "direction": k,
                         "detail": f"{k}: kinetic energy at the end stop {energy:.3g} J{how}, "
-                                  f"cushion capacity {cap:.3g} J",
+                                  f"cushion capacity {requirement.cushion_capacity:.3g} J"
+                                  + (f" (the end limits allow {cap:.3g} J)"
+                                     if cap < requirement.cushion_capacity else ""),
                         "shortfall": energy / cap, "design": {**design, "feasible": False}}
     except FieldError as exc:   # a run's own check (the mass the solver resolves, say)
         return {**family, "feasible": False, "reason": "model", "direction": None,
@@ -839,6 +926,19 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
     return {**family, "feasible": True, "design": design}
 
 
+def cushion_energy_limit(requirement):
+    """The impact energy the cushion needles are solved for [J]: the cushion's capacity, and
+    below it the requirement's own end limits where given (``max_end_energy``, and
+    ``max_end_speed`` as the moving mass's ``m v^2 / 2``): a needle closed for the end speed
+    is what a fitter does with an end speed too high."""
+    limits = [requirement.cushion_capacity]
+    if requirement.max_end_energy is not None:
+        limits.append(requirement.max_end_energy)
+    if requirement.max_end_speed is not None:
+        limits.append(0.5 * requirement.moving_mass * requirement.max_end_speed ** 2)
+    return min(limits)
+
+
 def _solve_needles(requirement, valve, dirs, settings, metrics, pair=None):
     """Each direction's cushion needle: fully open where the stroke sized by its meter-out
     throttle already meets the end within the cushion's capacity, else solved without the
@@ -853,7 +953,7 @@ def _solve_needles(requirement, valve, dirs, settings, metrics, pair=None):
         The needle per direction [m^3/(s Pa)]; ``(direction, (needle, energy))`` of the first
         direction no needle brings within the capacity in its time, else None
     """
-    cap = requirement.cushion_capacity
+    cap = cushion_energy_limit(requirement)
     C_open = needle_open(valve)
     needles = {k: C_open for k in DIRECTIONS}
     solved, paired = [], set()
@@ -957,8 +1057,85 @@ def _design(requirement, cylinder, valve, tube, settings, metrics, base, times=N
         "required_times": {k: requirement.time_bound(k) if times is None else times[k]
                            for k in DIRECTIONS},
         "cushion": None if needles is None else _cushion_out(requirement, valve, needles, metrics),
+        "checks": load_checks(requirement, cylinder, Model.from_dict(model)),
         "feasible": True,
     }
+
+
+#: SMC's load factor limits (load over the theoretical output at the supply), by the purpose of
+#: the operation (SMC, Air Cylinders Model Selection, step 1): static (clamping) 0.7, a load
+#: moved on a guide 1.0, a load moved vertically or horizontally (the cylinder carries it) 0.5;
+#: lower still for high speeds [-]
+LOAD_FACTOR_LIMITS = {"static": 0.7, "guided": 1.0, "dynamic": 0.5}
+#: Young's modulus of a steel piston rod [Pa] and the Euler buckling length factor of the
+#: worst common mounting, one end fixed and the rod end free (Euler case 1, K = 2): the
+#: catalogues' buckling charts (SMC, Festo) assume mountings between K = 0.5 and 2 [-]
+ROD_YOUNG_MODULUS = 206e9
+BUCKLING_K = 2.0
+#: Safety factor on the Euler load a rod is held to (machine design practice: 3 to 5) [-]
+BUCKLING_SAFETY = 3.0
+
+
+def load_checks(requirement, cylinder, model):
+    """The checks cylinder makers ask for besides the motion: the load factor of each stroke
+    and the rod's buckling on a long stroke.
+
+    Parameters
+    ----------
+    requirement : Requirement
+        Supply and ambient pressures, stroke
+    cylinder : dict
+        ``bore`` and ``rod`` [m]
+    model : Model
+        The design's model (its load, gravity along the rod included)
+
+    Returns
+    -------
+    checks : dict
+        ``load_factor``: per direction, the static load the stroke works against over the
+        theoretical output ``(p_s - p_atm) A`` [-], with ``load_factor_limits``
+        (:data:`LOAD_FACTOR_LIMITS`) and ``load_factor_ok`` (within the dynamic limit, 0.5);
+        ``buckling_load``: Euler's ``pi^2 E I / (K L)^2`` of the rod over the stroke [N],
+        ``buckling_safety``: it over the extension's theoretical output (the rod takes the whole
+        output stalled at the stop) [-], ``buckling_ok`` (at least :data:`BUCKLING_SAFETY`)
+    """
+    j = model.jack
+    dp = requirement.supply_pressure - requirement.ambient_pressure
+    load = j.total_load          # pushes the rod in (towards x = 0), gravity included [N]
+    out = {"extend": dp * j.area_a, "retract": dp * j.area_b}
+    lf = {"extend": max(load, 0.0) / out["extend"] if out["extend"] > 0 else None,
+          "retract": max(-load, 0.0) / out["retract"] if out["retract"] > 0 else None}
+    d = cylinder["rod"]
+    I = math.pi * d ** 4 / 64.0
+    L = max(requirement.stroke, 1e-9)
+    f_cr = math.pi ** 2 * ROD_YOUNG_MODULUS * I / (BUCKLING_K * L) ** 2 if d > 0 else None
+    safety = f_cr / out["extend"] if f_cr is not None and out["extend"] > 0 else None
+    return {"load_factor": lf, "load_factor_limits": dict(LOAD_FACTOR_LIMITS),
+            "load_factor_ok": all(v is None or v <= LOAD_FACTOR_LIMITS["dynamic"] for v in lf.values()),
+            "buckling_load": f_cr, "buckling_safety": safety,
+            "buckling_ok": safety is None or safety >= BUCKLING_SAFETY}
+
+
+def _why(design, first_of_bore):
+    """Why this design is where it is, in words (the answer's ``why``)."""
+    c, v = design["cylinder"]["name"], design["valve"]["name"]
+    bits = [f"{design['air_per_cycle']:.3g} NL of air per cycle (the ranking's first key)"]
+    if first_of_bore:
+        bits.append(f"the least air of the {c} designs")
+    m = design["metrics"]
+    bits.append(f"strokes {m['extend']['full_stroke_time']:.3g} / {m['retract']['full_stroke_time']:.3g} s "
+                f"within {design['required_times']['extend']:.3g} / {design['required_times']['retract']:.3g} s"
+                if m["extend"]["full_stroke_time"] is not None and m["retract"]["full_stroke_time"] is not None
+                else "a stroke not completed")
+    ch = design.get("checks") or {}
+    if ch:
+        lf = [x for x in ch["load_factor"].values() if x is not None]
+        bits.append(f"load factor {max(lf) if lf else 0:.2g} "
+                    f"({'within' if ch['load_factor_ok'] else 'ABOVE'} SMC's 0.5 for a moving load)")
+        if ch["buckling_safety"] is not None:
+            bits.append(f"rod buckling safety {ch['buckling_safety']:.3g} "
+                        f"({'at least' if ch['buckling_ok'] else 'BELOW'} {BUCKLING_SAFETY:g})")
+    return f"{c} + {v}: " + "; ".join(bits)
 
 
 def _cushion_out(requirement, valve, needles, metrics):
@@ -1136,8 +1313,17 @@ def _answer(req, ch, outcomes):
     counts = {}
     for o in infeasible:
         counts[o["reason"]] = counts.get(o["reason"], 0) + 1
+    seen_bores = set()
     for rank, dsg in enumerate(designs, 1):
         dsg["rank"] = rank
+        first = dsg["cylinder"]["name"] not in seen_bores
+        seen_bores.add(dsg["cylinder"]["name"])
+        # the short list: the first (least air) design of each cylinder; the others are
+        # near-identical valve sizes of the same bore
+        dsg["best_of_cylinder"] = first
+        dsg["why"] = _why(dsg, first)
+        # the machine running: the first ranked designs' strokes in the steady cycle
+        dsg["steady_cycle"] = steady_cycle(dsg, req) if rank <= STEADY_DESIGNS else None
     summary = (f"{sum(o['feasible'] for o in outcomes)} of {len(outcomes)} families meet the "
                "requirement")
     if not any(o["feasible"] for o in outcomes):
@@ -1147,12 +1333,17 @@ def _answer(req, ch, outcomes):
     return {"summary": summary, "designs": designs, "infeasible": infeasible, "reasons": counts,
             "robustness_studies": robust,
             "reason_meanings": dict(REASONS), "families": len(outcomes),
-            "notes": model_notes(req) + ([
+            "notes": model_notes(req) + [
+                f"steady cycle (the first {STEADY_DESIGNS} designs): the design's cycle "
+                "(extension, dwell, retraction, dwell) repeated until pressures and "
+                "temperatures repeat; the sizing's strokes start at rest, the exhausting "
+                "chamber at the supply, both gases at ambient temperature"] + ([
                 "tube_inner_diameter choices ignored: the requirement has no tube_length."]
                 if ch.tube_inner_diameter and req.tube_length is None else []),
             "requirement": req.to_dict(), "choices": ch.to_dict(),
             "units": {"air_per_cycle": "NL", **{f"metrics.*.{k}": u
                                                   for k, u in STROKE_METRIC_UNITS.items()},
+                      "steady_cycle.full_stroke_time.*": "s", "steady_cycle.end_speed.*": "m/s",
                       "settings.*_meter_out_C": C_UNIT, "settings.*_exhaust_C": C_UNIT,
                       "settings.*_needle_C": C_UNIT, "cushion.length": "m",
                       "cushion.capacity": "J", "cushion.needle_open_C": C_UNIT,

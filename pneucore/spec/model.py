@@ -25,6 +25,10 @@ VALVE_KINDS = {
     "3/2": {"ports": ("P-A", "A-R"), "range": (0.0, 1.0)},
 }
 
+#: Longest valve switching time accepted [s]: solenoid valves switch in 5 to 100 ms (SMC,
+#: Festo catalogues); a large pilot-operated valve or a process valve in a few tenths
+MAX_SWITCHING_TIME = 1.0
+
 #: What is on chamber B of a 3/2 valve (``valve.b_chamber``): ``dynamic`` says whether
 #: chamber B is a gas volume with its own mass and energy balance (Eq. 14-15) or a node
 #: held at a constant pressure
@@ -295,6 +299,17 @@ class Valve:
         the ambient (ISO 6358) [m^3/(s Pa)]
     b_chamber_critical_ratio : float
         3/2 mode ``restriction``: critical pressure ratio b of that restriction [-]
+    on_time : float
+        Switching time on energising, as solenoid-valve catalogues give it (ISO 12238): from
+        the command to the spool's shift, for every command change to a position other than
+        rest_opening; 0 = the valve shifts at the command [s]
+    off_time : float
+        Switching time on de-energising: from the command back to rest_opening to the spool's
+        return (the spring's); with rest_opening null, on_time applies to every change [s]
+    rest_opening : float or None
+        Opening the valve rests at de-energised (a monostable valve's spring position: -1 for
+        a 5/2 valve returning the rod, 0 for a 5/3 valve's centre or a normally closed 3/2);
+        null = bistable (double solenoid: every change takes on_time) [-]
     """
     kind: str = "4/2"
     ports: dict = field(default_factory=dict)
@@ -304,6 +319,9 @@ class Valve:
     b_chamber: str = "held"
     b_chamber_conductance: float = 0.0
     b_chamber_critical_ratio: float = 0.5
+    on_time: float = 0.0
+    off_time: float = 0.0
+    rest_opening: Optional[float] = None
 
     @classmethod
     def from_dict(cls, d, path="valve"):
@@ -342,7 +360,13 @@ class Valve:
         if mode != "restriction" and b_C != dflt.b_chamber_conductance:
             raise FieldError(f"{path}.b_chamber_conductance",
                              f"only with b_chamber 'restriction' (chamber B is {mode}) [m^3/(s Pa)]")
-        return cls(kind, ports, bcp, law, r_lam, mode, b_C, b_b)
+        on = number(d.get("on_time", dflt.on_time), f"{path}.on_time", nonnegative=True,
+                    high=MAX_SWITCHING_TIME)
+        off = number(d.get("off_time", dflt.off_time), f"{path}.off_time", nonnegative=True,
+                     high=MAX_SWITCHING_TIME)
+        rest = number(d.get("rest_opening"), f"{path}.rest_opening", allow_none=True,
+                      low=spec["range"][0], high=spec["range"][1])
+        return cls(kind, ports, bcp, law, r_lam, mode, b_C, b_b, on, off, rest)
 
     def to_dict(self):
         """Plain JSON; the chamber-B fields only when not at their defaults (the JSON of
@@ -350,7 +374,8 @@ class Valve:
         d = {"kind": self.kind, "ports": {k: p.to_dict() for k, p in self.ports.items()},
              "b_chamber_pressure": self.b_chamber_pressure, "flow_law": self.flow_law,
              "laminar_ratio": self.laminar_ratio}
-        for key in ("b_chamber", "b_chamber_conductance", "b_chamber_critical_ratio"):
+        for key in ("b_chamber", "b_chamber_conductance", "b_chamber_critical_ratio",
+                    "on_time", "off_time", "rest_opening"):
             if getattr(self, key) != getattr(Valve, key):
                 d[key] = getattr(self, key)
         return d
@@ -687,7 +712,8 @@ class Model:
         return Model(
             jack=Jack(**self.jack.__dict__),
             valve=Valve(v.kind, ports, v.b_chamber_pressure, v.flow_law, v.laminar_ratio,
-                        v.b_chamber, v.b_chamber_conductance, v.b_chamber_critical_ratio),
+                        v.b_chamber, v.b_chamber_conductance, v.b_chamber_critical_ratio,
+                        v.on_time, v.off_time, v.rest_opening),
             supply=Source(**self.supply.__dict__), ambient=Source(**self.ambient.__dict__),
             heat=self.heat.copy(),
             friction=Friction(FrictionSet(**f.extend.__dict__), FrictionSet(**f.retract.__dict__), f.law),

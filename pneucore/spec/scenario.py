@@ -28,6 +28,10 @@ MAX_SAMPLES = 2_000_001
 #: Most command breakpoints accepted
 MAX_COMMAND_POINTS = 1_000_000
 COMMAND_INTERPOLATIONS = ("hold", "linear")
+#: How a run starts: ``given`` = ``initial`` and ``x0`` as stated; ``cyclic`` = the cyclic
+#: steady state of the scenario repeated with period ``duration`` (the machine running:
+#: :func:`pneucore.simulate.cyclic_start`), ``initial`` and ``x0`` its first guess
+STARTS = ("given", "cyclic")
 
 
 @dataclass
@@ -98,6 +102,10 @@ class Scenario:
         Initial position from the A end [m]
     initial : Initial
         Initial chamber state: pressures [Pa] and temperatures [K]
+    start : str
+        ``given`` (``initial`` and ``x0`` as stated) or ``cyclic`` (the cyclic steady state:
+        the scenario repeated, its command a period of ``duration``, until pressures,
+        temperatures and position repeat; ``initial`` and ``x0`` are the first guess) [-]
     solver : Solver
         Integrator settings
     name : str
@@ -112,6 +120,7 @@ class Scenario:
     locked: bool = False
     x0: float = 0.05
     initial: Initial = field(default_factory=Initial)
+    start: str = "given"
     solver: Solver = field(default_factory=Solver)
     name: str = ""
     description: str = ""
@@ -172,6 +181,7 @@ class Scenario:
         known_keys(ini, Initial.__dataclass_fields__, "scenario.initial")
         s.initial = Initial(*(number(ini.get(k), f"scenario.initial.{k}", positive=True, allow_none=True)
                               for k in Initial.__dataclass_fields__))
+        s.start = choice(d.get("start", s.start), STARTS, "scenario.start")
         sol = optional_mapping(d.get("solver"), "scenario.solver")
         known_keys(sol, Solver.__dataclass_fields__, "scenario.solver")
         d0 = Solver()      # the defaults, stated once on the dataclass
@@ -203,6 +213,11 @@ class Scenario:
                     raise FieldError(f"scenario.command[{i}][1]",
                                      f"command {u:g} is outside the {model.valve.kind} valve's range "
                                      f"[{lo:g}, {hi:g}]")
+        if (model.valve.on_time > 0.0 or model.valve.off_time > 0.0) and \
+                self.command_interpolation != "hold":
+            raise FieldError("scenario.command_interpolation",
+                             "the valve's switching times (valve.on_time, valve.off_time) shift "
+                             "an on/off command's changes: use a held command ('hold')")
         if model.b_chamber_pressure is not None and self.initial.p_b is not None:
             raise FieldError("scenario.initial.p_b", "chamber B of this 3/2 valve is held at a "
                                                      "constant pressure (valve.b_chamber "
@@ -221,6 +236,8 @@ class Scenario:
              "command": [list(p) for p in self.command],
              "command_interpolation": self.command_interpolation, "locked": self.locked,
              "x0": self.x0, "initial": self.initial.to_dict(), "solver": self.solver.to_dict()}
+        if self.start != "given":     # absent when default: stored scenarios keep their form
+            d["start"] = self.start
         for key in ("name", "description"):
             if getattr(self, key):
                 d[key] = getattr(self, key)

@@ -148,3 +148,132 @@ def convert_valve_data(d, path="valve"):
                                            f"above the largest a valve may have ({VALVE_C_MAX:g})")
     return {"C": C, "b": values["b"], "conversion": name, "source": conv.source,
             "units": {"C": C_UNIT, "b": unit("b")}}
+
+
+#: On/off valves as catalogues sell them (:func:`catalogue_valve`): the model's valve kind, the
+#: rest (de-energised, spring) position, and each edge's conductance over the openings -1, 0, 1
+#: as fractions of the catalogue's supply (``s``) or exhaust (``x``) figure. u = +1 drives
+#: chamber A (extends), -1 chamber B; a 5/3 valve's centre is u = 0.
+CATALOGUE_VALVES = {
+    "3/2": {"kind": "3/2", "rest": 0.0, "monostable": True,
+            "description": "3/2 on/off, normally closed: energised P-A, at rest A-R",
+            "edges": {"P-A": ((0.0, 1.0), "s", (0.0, 1.0)), "A-R": ((0.0, 1.0), "x", (1.0, 0.0))}},
+    "5/2": {"kind": "4/2", "rest": -1.0, "monostable": True,
+            "description": "5/2 on/off: energised P-A and B-R (extends), at rest (spring) P-B "
+                           "and A-R (retracts); bistable (double solenoid): no rest",
+            "edges": {"P-A": ((-1.0, 1.0), "s", (0.0, 1.0)), "B-R": ((-1.0, 1.0), "x", (0.0, 1.0)),
+                      "P-B": ((-1.0, 1.0), "s", (1.0, 0.0)), "A-R": ((-1.0, 1.0), "x", (1.0, 0.0))}},
+    "5/3-closed": {"kind": "4/2", "rest": 0.0, "monostable": True,
+                   "description": "5/3 closed centre: at rest every port closed (the piston held "
+                                  "by the trapped air)",
+                   "edges": {"P-A": ((-1.0, 0.0, 1.0), "s", (0.0, 0.0, 1.0)),
+                             "B-R": ((-1.0, 0.0, 1.0), "x", (0.0, 0.0, 1.0)),
+                             "P-B": ((-1.0, 0.0, 1.0), "s", (1.0, 0.0, 0.0)),
+                             "A-R": ((-1.0, 0.0, 1.0), "x", (1.0, 0.0, 0.0))}},
+    "5/3-exhausted": {"kind": "4/2", "rest": 0.0, "monostable": True,
+                      "description": "5/3 exhausted (open) centre: at rest A and B to exhaust, "
+                                     "P closed (the piston free)",
+                      "edges": {"P-A": ((-1.0, 0.0, 1.0), "s", (0.0, 0.0, 1.0)),
+                                "B-R": ((-1.0, 0.0, 1.0), "x", (0.0, 1.0, 1.0)),
+                                "P-B": ((-1.0, 0.0, 1.0), "s", (1.0, 0.0, 0.0)),
+                                "A-R": ((-1.0, 0.0, 1.0), "x", (1.0, 1.0, 0.0))}},
+    "5/3-pressurised": {"kind": "4/2", "rest": 0.0, "monostable": True,
+                        "description": "5/3 pressurised centre: at rest P to A and B, exhausts "
+                                       "closed (a single-rod piston pushed out by the area "
+                                       "difference)",
+                        "edges": {"P-A": ((-1.0, 0.0, 1.0), "s", (0.0, 1.0, 1.0)),
+                                  "B-R": ((-1.0, 0.0, 1.0), "x", (0.0, 0.0, 1.0)),
+                                  "P-B": ((-1.0, 0.0, 1.0), "s", (1.0, 1.0, 0.0)),
+                                  "A-R": ((-1.0, 0.0, 1.0), "x", (1.0, 0.0, 0.0))}},
+}
+#: Fields of a catalogue valve besides the flow figures (unit, description)
+CATALOGUE_FIELDS = {
+    "function": ("-", "valve function: " + ", ".join(CATALOGUE_VALVES)),
+    "on_time": ("s", "switching time energising (catalogue 'response time ON', ISO 12238 "
+                     "shifting time)"),
+    "off_time": ("s", "switching time de-energising (catalogue 'response time OFF': the "
+                      "spring's return)"),
+    "bistable": ("-", "5/2 only: double solenoid (no spring, every change takes on_time)"),
+    "supply": ("-", "flow figure of the P to A/B paths: {C [m^3/(s Pa)], b [-]} or a "
+                    "conversion's fields (qn [NL/min], cv, kv, effective_area, flow_rate; b)"),
+    "exhaust": ("-", "flow figure of the A/B to R paths, same form; null = the supply's"),
+}
+
+
+def _flow_figure(d, path):
+    """C [m^3/(s Pa)] and b [-] from ``{C, b}`` or one catalogue conversion's fields."""
+    mapping(d, path)
+    if "C" in d:
+        known_keys(d, ("C", "b"), path)
+        C = number(d.get("C"), f"{path}.C", positive=True, high=VALVE_C_MAX)
+        b = number(d.get("b"), f"{path}.b", low=0.0, high=1.0, high_open=True)
+        return C, b
+    ans = convert_valve_data(d, path)
+    return ans["C"], ans["b"]
+
+
+def catalogue_valve(d, path="valve"):
+    """A model valve from a catalogue's figures: function, flow, switching times.
+
+    The switching times are ISO 12238's shifting times as solenoid-valve catalogues give them
+    ("response time ON / OFF", SMC, Festo, CKD: 5 to 50 ms), taken as a pure delay from the
+    command to the spool's full shift (:func:`pneucore.physics.valve.switched_command`). ISO
+    12238 measures to a pressure change at the outlet port (the national standards before it
+    to its first change, 50 % or 90 %: Dyksterhouse, Fluid Power Journal), so a catalogue
+    time already holds a few ms of a test volume's filling: read it as an upper bound of the
+    spool's delay.
+
+    Parameters
+    ----------
+    d : dict
+        ``function`` (a key of :data:`CATALOGUE_VALVES`), ``supply`` and optional ``exhaust``
+        flow figures (``{C [m^3/(s Pa)], b [-]}``, or ``qn`` [NL/min], ``cv`` [US gal/min],
+        ``kv`` [m^3/h], ``effective_area`` [m^2] or a flow point, each with ``b`` [-]: the
+        ISO 6358 conversions of :data:`CONVERSIONS`), ``on_time`` and ``off_time`` [s],
+        ``bistable`` (5/2 only) [-]
+    path : str
+        Field path named in errors
+
+    Returns
+    -------
+    valve : dict
+        The model's ``valve`` (``Model.from_dict`` accepts it): edge tables, ``on_time``,
+        ``off_time``, ``rest_opening``
+
+    Examples
+    --------
+    A 5/2 valve of C = 1 dm^3/(s bar), b = 0.3, ON 12 ms, OFF 20 ms:
+
+    >>> v = catalogue_valve({"function": "5/2", "supply": {"C": 1e-8, "b": 0.3},
+    ...                      "on_time": 0.012, "off_time": 0.02})
+    >>> v["kind"], v["ports"]["P-A"]["C"], v["rest_opening"]
+    ('4/2', [0.0, 1e-08], -1.0)
+    """
+    from pneucore.spec.model import MAX_SWITCHING_TIME
+    mapping(d, path)
+    known_keys(d, CATALOGUE_FIELDS, path)
+    fn = d.get("function")
+    if fn not in CATALOGUE_VALVES:
+        raise FieldError(f"{path}.function", f"must be one of {list(CATALOGUE_VALVES)}, got {fn!r}")
+    spec = CATALOGUE_VALVES[fn]
+    Cs, bs = _flow_figure(d.get("supply"), f"{path}.supply")
+    Cx, bx = (Cs, bs) if d.get("exhaust") is None else _flow_figure(d["exhaust"], f"{path}.exhaust")
+    times = {k: number(d.get(k, 0.0), f"{path}.{k}", nonnegative=True, high=MAX_SWITCHING_TIME)
+             for k in ("on_time", "off_time")}
+    bistable = d.get("bistable", False)
+    if not isinstance(bistable, bool):
+        raise FieldError(f"{path}.bistable", f"must be true or false, got {bistable!r}")
+    if bistable and fn != "5/2":
+        raise FieldError(f"{path}.bistable", "only a 5/2 valve comes bistable (double "
+                                             "solenoid); a 3/2 or 5/3 valve has a spring")
+    ports = {}
+    for edge, (opening, which, frac) in spec["edges"].items():
+        C, b = (Cs, bs) if which == "s" else (Cx, bx)
+        ports[edge] = {"opening": list(opening), "C": [f * C for f in frac],
+                       "b": [b] * len(opening)}
+    out = {"kind": spec["kind"], "ports": ports, **times,
+           "rest_opening": None if bistable else spec["rest"]}
+    if spec["kind"] == "3/2":
+        out["b_chamber"] = "vented"    # a single-acting cylinder: chamber B open to the air
+        out["b_chamber_pressure"] = None
+    return out

@@ -161,9 +161,22 @@ for _name, _unit, _definition, _compute in (
     ("air_per_cycle", "NL", "air drawn from the supply per extension + retraction (ANR), mean "
                             "over the full strokes each way; null without one each way",
      lambda r: r.res.stroke_metrics()["air_per_cycle_NL"]),
+    ("end_energy_max", "J", "largest kinetic energy of the moving mass at a stroke end, m v^2 / 2 "
+                            "(SMC's allowable kinetic energy check); null without a full stroke",
+     lambda r: r.res.stroke_metrics()["end_energy_max"]),
+    ("energy_ratio_max", "-", "largest stroke-end energy over the end cushion's capacity (effect "
+                              "end_cushion; above 1 the cushion is too weak); null without a "
+                              "capacity or a full stroke",
+     lambda r: _energy_ratio_max(r)),
 ):
     register_metric(_name, _unit, _definition, _compute)
 del _name, _unit, _definition, _compute
+
+
+def _energy_ratio_max(r):
+    ratios = [s["energy_ratio"] for s in r.res.stroke_metrics()["strokes"]
+              if s["energy_ratio"] is not None]
+    return max(ratios) if ratios else None
 
 
 def _first_stroke(r, key):

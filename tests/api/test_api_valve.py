@@ -110,3 +110,27 @@ def test_unknown_and_non_numeric_fields_are_422s(client):
     assert r.status_code == 422 and "qn" in r.text
     r = client.post("/api/valve/convert", json={"cd": 1.0, "b": 0.3})
     assert r.status_code == 422 and "cd" in r.text
+
+
+def test_a_catalogue_valve_goes_into_a_model_that_simulates(client):
+    from pneucore import model_preset
+    r = client.post("/api/valve/catalogue", json={"function": "5/3-closed",
+                                                  "supply": {"qn": 500.0, "b": 0.3},
+                                                  "on_time": 0.015, "off_time": 0.02})
+    assert r.status_code == 200, r.text
+    v = r.json()["valve"]
+    assert v["on_time"] == 0.015 and v["rest_opening"] == 0.0
+    assert set(r.json()["functions"]) == {"3/2", "5/2", "5/3-closed", "5/3-exhausted", "5/3-pressurised"}
+    m = dict(model_preset("paper-4way"), valve=v)
+    s = {"duration": 0.3, "command": [[0, 0], [0.05, 1]], "x0": 0.0}
+    d = client.post("/api/simulate", json={"model": m, "scenario": s}).json()
+    assert d["stats"]["stroke"]["strokes"][0]["t_command"] == 0.05
+
+
+@pytest.mark.parametrize("body,field", [
+    ({"function": "4/4", "supply": {"C": 1e-8, "b": 0.3}}, "body.function"),
+    ({"function": "5/2", "supply": {"qn": -1.0, "b": 0.3}}, "body.supply.qn"),
+    ({"function": "5/2", "supply": {"C": 1e-8, "b": 0.3}, "off_time": 5.0}, "body.off_time"),
+])
+def test_bad_catalogue_valve_is_a_422_naming_the_field(client, body, field):
+    assert_field_error(client.post("/api/valve/catalogue", json=body), field)

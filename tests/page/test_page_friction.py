@@ -42,9 +42,9 @@ def _drawn_equals_service(page, server):
                 want_x += [0, 0]
                 want_y += [-c["static_retract"], c["static_extend"]]
             else:
-                want_x.append(v)
+                want_x.append(v * 1e3)      # drawn in the page's velocity unit: mm/s (engineering)
                 want_y.append(f)
-        assert t["x"] == want_x
+        assert t["x"] == pytest.approx(want_x, rel=1e-12)
         assert t["y"] == pytest.approx(want_y, rel=1e-12)   # the same JSON numbers, drawn as sent
     return ref
 

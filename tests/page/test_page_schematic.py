@@ -125,7 +125,7 @@ def test_a_tube_typed_into_the_circuit_panel_changes_the_schematic(page):
     # added with port B off, A's bore at its catalog default; the effect list shows it
     assert tube["length_a"] == pytest.approx(1.5) and tube["length_b"] == 0.0
     assert page.locator("#effect-tubing").count() == 1
-    assert page.input_value("#eff-tubing-length_a") == "1.5"
+    assert page.input_value("#eff-tubing-length_a") == "1500"   # the effect list in mm too
     ids = _ids(page)
     assert "schem-tube-a" in ids and "schem-tube-b" not in ids
     assert page.inner_html("#schematic") != before

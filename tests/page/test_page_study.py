@@ -35,7 +35,8 @@ if str(ROOT) not in sys.path:  # pneucore seeds the database from this process
 SWEEP_ID = "sweep-interrupted"
 #: the stroke metrics of the user's circuit (issue 23; SMC's definitions)
 STROKE_METRICS = ("start_up_time", "full_stroke_time_extend", "full_stroke_time_retract",
-                  "mean_speed", "max_speed", "end_speed_max", "air_per_cycle")
+                  "mean_speed", "max_speed", "end_speed_max", "air_per_cycle", "end_energy_max",
+                  "energy_ratio_max")
 METRICS = ("x_final", "x_max", "x_min", "t95", "overshoot", "settling_time", "p_a_max", "p_b_max",
            "T_max", "T_min", "stick_events", "air_consumption") + STROKE_METRICS
 #: metric -> unit shown by the page (SI converted like the rest of the page)
@@ -80,6 +81,19 @@ def server(tmp_path_factory):
 def state():
     """Values handed from one test to the next (the Monte Carlo study's id)."""
     return {}
+
+
+@pytest.fixture(scope="module", autouse=True)
+def si_units(page):
+    """These tests type and read SI values (Pa): the page's unit system set to SI once (the
+    study panel follows the chosen system: tests/page/test_page_designer.py)."""
+    page.select_option("#unit-system", "si")
+    page.wait_for_function("() => document.body.dataset.units === 'si'")
+
+
+def get_json_runs(page, sid):
+    """The stored study's per-run metrics, as the page holds them from the API."""
+    return page.evaluate("S.study.res.runs.metrics")
 
 
 def get_json(server, path):
@@ -215,6 +229,10 @@ def test_monte_carlo_study_runs_and_shows_results(page, server, state):
     assert len(sc["x"]) == 40 and all(4 <= x <= 16 for x in sc["x"])
     assert axis_titles(page, "study-scatter")[0] == "friction.extend.fc0 [N]"
 
+    # the results in the engineering units (the parameters were typed in SI)
+    page.select_option("#unit-system", "engineering")
+    page.wait_for_function("() => document.body.dataset.units === 'engineering'")
+    assert axis_titles(page, "study-scatter")[0] == "friction.extend.fc0 [N]"
     # the percentile table: every metric, its unit, 40 runs; the median matches the API
     rows = table_rows(page)
     assert list(rows) == list(METRICS)
@@ -240,6 +258,8 @@ def test_monte_carlo_study_runs_and_shows_results(page, server, state):
     assert row.get_attribute("data-status") == "done"
     assert "40/40" in row.inner_text()
     assert "status ok" in page.get_attribute("#status", "class")
+    page.select_option("#unit-system", "si")      # the next tests type SI values again
+    page.wait_for_function("() => document.body.dataset.units === 'si'")
 
 
 def test_negative_std_is_reported_next_to_its_row(page, server):
@@ -324,6 +344,25 @@ def test_load_a_previous_study(page, state):
     assert page.inner_text("#study-progress-text") == "40/40"   # the bar follows the study on screen
     assert page.get_attribute("#study-method", "data-method") == "prcc"
     assert "selected" in (page.get_attribute(f"#study-row-{sid}", "class") or "")
+    # its form comes back: the two parameters as defined, samples and seed (issue 41 item 7)
+    rows = page.evaluate("S.study.rows.map(r => [r.path, r.kind])")
+    assert rows == [["friction.extend.fc0", "uniform"], ["supply.pressure", "normal"]]
+    assert page.input_value("#sp-1-mean") == "600000" and page.input_value("#sp-1-std") == "40000"
+    assert page.input_value("#study-samples") == "40" and page.input_value("#study-seed") == "1"
+    # the share of runs meeting a requirement on the selected metric (t95), counted here from
+    # the API's own values
+    page.select_option("#study-metric", "t95")
+    t95 = sorted(v for v in get_json_runs(page, sid)["t95"] if v is not None)
+    limit = t95[len(t95) // 2]
+    page.select_option("#study-req-op", "le")
+    page.fill("#study-req-value", repr(limit))
+    share = float(page.get_attribute("#study-req-share", "data-share"))
+    assert share == pytest.approx(sum(v <= limit for v in t95) / 40, abs=1e-12)
+    assert "of 40 runs" in page.inner_text("#study-req-share")
+    # the percentile table fits its panel (it was cut off on the right)
+    fits = page.evaluate("""() => { const t = document.getElementById('study-table-data');
+        const p = document.getElementById('panel-study'); return t.getBoundingClientRect().right <= p.getBoundingClientRect().right + 1; }""")
+    assert fits
 
 
 def test_screenshot(page, page_errors):
