@@ -268,7 +268,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         check_request(model, candidates, uncertain, known)
     with P.running(scheduler, scheduler_timeout, report) as runner:
         known = tuple(known or ())
-        cands, skipped = S.candidate_effects(model, names)
+        cands, skipped = S.candidate_effects(model, names, uncertain)
 
         report(0.01, "simulating the model as given")
         rps_start = [replay(model, e) for e in exps]
@@ -292,7 +292,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
             lead = S.leading(score, n_refit)
             refits = S.joint_refits(model, exps, null, lead, max_nfev, report,
                                     {c["effect"]: c.get("form", {}) for c in score})
-            ranking = S.evidence(null, refits)
+            ranking = S.evidence(null, refits, skipped)
             return (score, lead, refits, ranking) + S.verdict(model, exps, ranking, refits, null,
                                                               alpha, max_nfev, report)
 
@@ -350,7 +350,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
             S.attach_held(f, held, odd, hold, model, null)
         report(1.0, "done")
         return Diagnosis(verdict, f.message, ranking,
-                         score + [{"effect": s["effect"], "skipped": s["reason"]} for s in skipped],
+                         score + [{"effect": e, "skipped": why} for e, why in
+                                  {s["effect"]: s["reason"] for s in skipped}.items()],
                          null.comp, null.comp.windows, f.tests, null.comp.noise_floor, null.base,
                          [s.path for s in null.specs], refits,
                          recalibrate=f.recalibrate, refitted=f.refitted, model=f.model,

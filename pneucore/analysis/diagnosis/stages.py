@@ -104,9 +104,13 @@ def project_out(J, Ju):
 
 # -- 1. candidates ------------------------------------------------------------------------
 
-def candidate_effects(model, names):
+def candidate_effects(model, names, uncertain=()):
     """``(candidates, skipped)``: the effects of ``names`` not in the model and applicable to
-    it; ``skipped`` lists the others with the reason."""
+    it; ``skipped`` lists the others with the reason. An effect whose physics the declared
+    ``uncertain`` paths already fit (the quadrant effect beside both directions' friction
+    levels declared uncertain: :attr:`pneucore.spec.effects.Effect.ties`) is skipped too: fitted
+    beside them it is the same freedom twice, and a model carrying both cannot be built."""
+    unc = set(uncertain if isinstance(uncertain, (list, tuple)) else dict(uncertain))
     cands, skipped = [], []
     for n in names:
         if n in model.effects:
@@ -116,8 +120,28 @@ def candidate_effects(model, names):
         if not ok:
             skipped.append({"effect": n, "reason": why})
             continue
+        twice = sorted({q for src, dst in EFFECTS[n].ties.items() if src in unc
+                        for q in dst if q in unc})
+        if twice:
+            skipped.append({"effect": n, "reason": "the parameters declared uncertain already "
+                            "fit what it adds (" + ", ".join(twice) + " beside "
+                            + ", ".join(sorted(k for k in EFFECTS[n].ties if k in unc)) + ")"})
+            continue
         cands.append(n)
     return cands, skipped
+
+
+def buildable(cal, name):
+    """Why candidate ``name``'s refit ``cal`` is no model a user could be given, or ``""``:
+    its model must read back as the API reads a model (a candidate the diagnosis built is
+    skipped with the reason, never answered as the user's error)."""
+    from pneucore.spec.model import Model
+    from pneucore.spec.validation import FieldError
+    try:
+        Model.from_dict(cal.model.to_dict())
+    except (FieldError, ValueError) as exc:
+        return f"cannot be built on this model: {getattr(exc, 'detail', exc)}"
+    return ""
 
 
 # -- 2. base hypotheses -------------------------------------------------------------------
@@ -303,7 +327,8 @@ def demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report,
                                       [p for p in fitted | set(freed_paths) if p in hyp.id_cols])
         vals = out.fit.values if out.fit is not None else {}
         t = {"path": path, "orthogonal": frac, "with": with_,
-             "at_bound": [p for p in with_ if (vals.get(p) or {}).get("at_bound")]}
+             "at_bound": [p for p in with_ if (vals.get(p) or {}).get("at_bound")],
+             "error_held": out.error, "floor": out.floor_overall}
 
         def freed(t, path=path, ref=out):
             report(0.045, "refitting the base model with " + H.label_of(path) + " freed")
@@ -314,6 +339,7 @@ def demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report,
             value = trial.fit.values[path]["value"] if trial.fit is not None else None
             t.update(p_value=float(stats.chi2.sf(max(lr, 0.0), 1)), lr_statistic=lr,
                      delta_bic=-lr + math.log(max(n_eff, 1.0)), trial=trial, value=value,
+                     error_freed=trial.error,
                      impossible=H.against_direction(model, path, value) if value is not None
                      else "")
 
@@ -851,9 +877,16 @@ def candidate_evidence(name, cal, null, taus, e0_cal):
     return cand
 
 
-def evidence(null, refits):
+def evidence(null, refits, skipped=None):
     """The ranking: :func:`candidate_evidence` of every refit, by delta BIC (same null, same
-    effective samples: delta BIC is monotone in the evidence shown)."""
+    effective samples: delta BIC is monotone in the evidence shown). A refit whose model
+    cannot be built (:func:`buildable`) leaves ``refits`` and joins ``skipped`` with why."""
+    for name in list(refits):
+        why = buildable(refits[name], name)
+        if why:
+            refits.pop(name)
+            if skipped is not None:
+                skipped.append({"effect": name, "reason": why})
     taus = common_times(refits, null)
     # the null's error once each signal's best transducer gain and offset are removed: what a
     # catalog effect must explain when a sensor calibration error is also present
