@@ -135,6 +135,10 @@ class Effect:
     #: again in it: the finer form it has is at least as accurate, and the default form is
     #: fitted beside it anyway (:meth:`needs_refit_in`); None = every other form is refitted
     form_finer: Optional[Callable] = None
+    #: Catalog effects this one becomes in a limit of its parameters (a line whose resistance
+    #: vanishes is a dead volume): the simpler physics, named instead where the records cannot
+    #: tell the two apart (:func:`pneucore.analysis.diagnosis.rules.simpler`)
+    reduces_to: tuple = ()
 
     def needs_refit_in(self, new, old):
         """Must a fit in structural form ``old`` whose values call for form ``new`` (both
@@ -930,7 +934,8 @@ for _e in [
            pack=_pack_tubing,
            check=_check_line_ports, unused=_missing_ports("length"), fit_params=("length_a", "length_b"),
            probe={"length_a": 1.0, "length_b": 1.0}, warn=_tubing_warn, forms=_tubing_forms,
-           form_min=_tubing_form_min, form_finer=_tubing_form_finer),
+           form_min=_tubing_form_min, form_finer=_tubing_form_finer,
+           reduces_to=("dead_volume",)),
     Effect("exhaust_silencer",
            "a silencer on the valve's exhaust ports: an ISO 6358 restriction in series with "
            "each exhaust edge, with no volume between (ISO 6358-3)",

@@ -838,13 +838,34 @@ def common_times(refits, null):
     return null.fit.residual_times if null.fit is not None else residual_times(null.replays)
 
 
+def prior_cost(values, prior):
+    """``sum ((value - centre) / sigma)^2`` of the fitted base parameters under the catalogue
+    prior (:func:`pneucore.analysis.hypotheses.prior_for`): the part of -2 ln(posterior) the
+    fit paid to move them from the user's values [-]."""
+    out = 0.0
+    for path, (c, sg) in (prior or {}).items():
+        v = values.get(path)
+        if v is not None:
+            out += ((v["value"] if isinstance(v, dict) else v) - c) ** 2 / sg ** 2
+    return out
+
+
 def candidate_evidence(name, cal, null, taus, e0_cal):
     """The evidence of one refit against the null: error drop, share of the excess over the
     floor (also once the sensors' gains and offsets are removed), LR with its p-value,
-    delta BIC / AIC on the common effective samples, fitted parameters, explanation."""
+    delta BIC / AIC on the common effective samples, fitted parameters, explanation.
+
+    The LR counts what each fit paid under the catalogue prior to move the base parameters
+    (:func:`prior_cost`), the objective both fits minimised: a candidate that needs the
+    valve's conductance at x1.75 to stand (a line whose resistance the records do not see,
+    taken back by the valve) pays for it against one that leaves the catalogue as it is
+    (least change)."""
     eff = EFFECTS[name]
     k_eff = len(eff.diagnosis_params)
     lr_eff, n_eff = effective_lr(null.rss, cal.rss_after, taus)
+    cost_null = prior_cost(null.fit.values, null.prior) if null.fit is not None else 0.0
+    cost = prior_cost(cal.values, null.prior)
+    lr_eff += cost_null - cost
     lr = max(lr_eff, 0.0)
     p = float(stats.chi2.sf(lr, k_eff))
     params = {p_: v for p_, v in cal.values.items() if p_.startswith(f"effects.{name}.")}
@@ -864,6 +885,7 @@ def candidate_evidence(name, cal, null, taus, e0_cal):
             "delta_aic": -lr_eff + 2 * k_eff,
             "lr_statistic_white": max(null.m2ll - cal.neg2_loglik, 0.0),
             "effective_samples": n_eff, "n_samples": null.n_all,
+            "prior_cost": cost, "prior_cost_null": cost_null,
             "autocorrelation_time": times_report(taus),
             "params": params,
             "uncertain_params": {k: v for k, v in cal.values.items() if not k.startswith("effects.")},
@@ -960,12 +982,26 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
     contenders = [c for c in ranking if c["significant"] and c["strong"]]
     if named is None and not contenders and R.judge(ranking[0], ctx):
         named = ranking[0]
+    # parsimony: of candidates the records cannot tell apart (BIC within 10), the one that
+    # says less about the rig is named, if it passes every rule; the other is an alternative
+    if named is not None:
+        for c in sorted((c for c in ranking if R.simpler(c, named)),
+                        key=lambda c: (R.complexity(c["effect"]), c["delta_bic"])):
+            ctx.held_out = predicts
+            flag(c)
+            if c["significant"] and c["strong"] and R.judge(c, ctx):
+                c["simpler_than"] = named["effect"]
+                named = c
+                break
     if named is not None:
         ranking.remove(named)
         ranking.insert(0, named)
+        simpler = (f" Named before {named['simpler_than']}, which the records cannot tell "
+                   f"from it (BIC within {-R.DELTA_BIC:g}) and which says more about the rig."
+                   if named.get("simpler_than") else "")
         return named["effect"], (f"{named['effect']}: {named['description']}. Error "
                                  f"{100 * named['error_before']:.2f} % -> "
-                                 f"{100 * named['error_after_overall']:.2f} %.")
+                                 f"{100 * named['error_after_overall']:.2f} %.{simpler}")
     return None, NO_EFFECT + " (" + "; ".join(why_not(ranking[0])) + ")"
 
 
