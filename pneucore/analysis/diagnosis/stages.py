@@ -569,6 +569,12 @@ def candidate_scores(model, exps, null, cands, report):
     return score
 
 
+def at_noise_floor(null):
+    """Is the null's error at or below its noise floor? (No excess left for an effect:
+    :func:`pneucore.analysis.diagnosis.evidence.excess_drop` is 0 for every candidate.)"""
+    return bool(null.floor_overall == null.floor_overall and null.error <= null.floor_overall)
+
+
 def leading(score, n_refit):
     """The ``n_refit`` best-scored candidates with a testable strength."""
     return [s["effect"] for s in score if s["dof"] > 0][:n_refit]
@@ -954,6 +960,10 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
         return held_out_evidence(model, exps, null, c["effect"], refits[c["effect"]], max_nfev)
     ctx.held_out = predicts
     if not ranking:
+        if at_noise_floor(null):
+            return None, (NO_EFFECT + f" (the base model's error, {100 * null.error:.3f} %, is at "
+                          f"the noise floor, {100 * null.floor_overall:.3f} %: nothing is left "
+                          "for an effect to explain)")
         return None, NO_EFFECT
     # judged in evidence order, each candidate flagged just before it is judged: the first
     # contender (significant and strong) that passes every rule is named, as if all were
