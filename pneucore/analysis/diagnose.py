@@ -83,6 +83,7 @@ from pneucore.analysis import parallel as P
 from pneucore.analysis.blas_threads import single_threaded_blas
 from pneucore.analysis.compare import plain_json, replay, summarise
 from pneucore.analysis.diagnosis import stages as S
+from pneucore.analysis.diagnosis.circuits import restricted_paths
 from pneucore.analysis.diagnosis.evidence import consistency, excess_drop as _excess_drop  # noqa: F401
 from pneucore.analysis.diagnosis.evidence import undetermined as _undetermined  # noqa: F401
 from pneucore.analysis.diagnosis.findings import (AT_FLOOR, DROP_TOLERANCE, OUTSIDE_FACTOR,  # noqa: F401
@@ -342,6 +343,13 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         score, lead, refits, ranking, verdict, message = weighed
         f = findings(model, exps, verdict, message, ranking, refits, null, hyp, comp_start,
                      rps_start, known, lead, max_nfev, report)
+        # a valve path passing far less than the catalogue: the components that could do it
+        # and the test that separates them (never a leak or a line the records cannot see)
+        paths = restricted_paths(f.recalibrate)
+        if paths:
+            f.remaining["restricted_paths"] = paths
+            f.message += " " + " ".join(p["description"][0].upper() + p["description"][1:] + "."
+                                        for p in paths)
         # a value the user knows, moved on the data's demand: what it cannot be told from
         words = S.demanded_words(model, hyp, f.recalibrate, f.refitted)
         if words:

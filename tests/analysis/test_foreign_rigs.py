@@ -112,3 +112,20 @@ def test_the_prior_a_fit_pays_to_move_the_catalogue_is_counted():
     assert S.prior_cost(vals, prior) == pytest.approx((0.75 / 0.15) ** 2)
     assert S.prior_cost({}, prior) == 0.0
     assert np.isfinite(S.prior_cost(vals, {}))
+
+
+def test_an_exhaust_path_far_below_the_catalogue_names_what_could_do_it_and_the_test():
+    """Issue 43 item 5: meter-out throttles on both ports came out as the exhaust edges'
+    conductance x0.4, nothing said; a designer is told what could restrict the path."""
+    from pneucore.analysis.diagnosis.circuits import restricted_paths
+    rec = [{"path": "valve.ports.*-R.C", "before": 1.0, "after": 0.41},
+           {"path": "valve.ports.P-*.C", "before": 1.0, "after": 0.9},   # a catalogue error
+           {"path": "heat.coefficient", "before": 25.0, "after": 5.0}]
+    (p,) = restricted_paths(rec)
+    assert p["path"] == "valve.ports.*-R.C" and p["factor"] == pytest.approx(0.41)
+    text = p["description"]
+    assert "passes 0.41 of the catalogue value" in text and "meter-out" in text
+    assert "silencer" in text and "cannot tell which" in text and "this test would" in text
+    assert "leak" not in text
+    # a conductance above the catalogue restricts nothing
+    assert restricted_paths([{"path": "valve.ports.*-R.C", "before": 1.0, "after": 2.5}]) == []
