@@ -139,6 +139,11 @@ class Effect:
     #: vanishes is a dead volume): the simpler physics, named instead where the records cannot
     #: tell the two apart (:func:`pneucore.analysis.diagnosis.rules.simpler`)
     reduces_to: tuple = ()
+    #: Parameters held at their defaults while the effect is sought (a strength and a shape
+    #: fitted together on records that barely separate them wander) and refitted with its
+    #: diagnosis parameters once it is in the model (a supply line's volume: the rounds after
+    #: the regulator's conductance was named bring the model to the noise floor)
+    refit_params: tuple = ()
 
     def needs_refit_in(self, new, old):
         """Must a fit in structural form ``old`` whose values call for form ``new`` (both
@@ -872,7 +877,8 @@ for _e in [
            [Parameter("C", "m^3/(s Pa)", 2e-8, 0.0, 1e-6, 0.0, "regulator sonic conductance (0 = ideal supply)"),
             Parameter("b", "-", 0.3, 0.0, 0.99, None, "regulator critical ratio"),
             Parameter("volume", "m^3", 1e-4, 1e-7, 1e-2, None, "supply-line volume")],
-           strength="C", pack=_pack_supply, fit_params=("C",), probe={"C": 5e-8}),
+           strength="C", pack=_pack_supply, fit_params=("C",), probe={"C": 5e-8},
+           refit_params=("volume",)),
     Effect("sensor_lag",
            "first-order lag of the pressure transducers",
            "measured pressures trail the model by a fixed delay at every fast transient",

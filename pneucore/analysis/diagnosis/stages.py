@@ -231,7 +231,7 @@ def uncertain_paths(model, hyp, known, refit_existing):
     unc = dict(hyp.unc)
     if refit_existing:
         for name in model.effects:
-            for p in EFFECTS[name].diagnosis_params:
+            for p in EFFECTS[name].diagnosis_params + tuple(EFFECTS[name].refit_params):
                 if f"effects.{name}.{p}" not in known:
                     unc.setdefault(f"effects.{name}.{p}", {})
     return unc
