@@ -479,6 +479,20 @@ def _quadrant_applies(m):
     return True, ""
 
 
+def _static_b(*names):
+    """``unused`` of an effect on chamber B: its ``names`` where chamber B holds no gas of its
+    own (a 3/2 valve's B held at a pressure or vented: ``B_CHAMBER_MODES``, not dynamic), so
+    that they act on nothing and a fit would leave them wherever it starts or wanders (a dead
+    volume on a held B fitted at 202 cm^3, beyond the chamber, then called impossible)."""
+    def unused(model):
+        from pneucore.spec.model import B_CHAMBER_MODES
+        v = model.valve
+        if v.kind == "3/2" and not B_CHAMBER_MODES[v.b_chamber]["dynamic"]:
+            return names
+        return ()
+    return unused
+
+
 def _dead_transform(m, p):
     m.jack.dead_volume_a += p["volume_a"]
     m.jack.dead_volume_b += p["volume_b"]
@@ -868,7 +882,7 @@ for _e in [
            "paper Eq. 23-24 (dead volumes v_m)",
            [Parameter("volume_a", "m^3", 5e-6, 0.0, 1e-3, 0.0, "extra volume on A"),
             Parameter("volume_b", "m^3", 5e-6, 0.0, 1e-3, 0.0, "extra volume on B")],
-           strength="volume_a", transform=_dead_transform,
+           strength="volume_a", transform=_dead_transform, unused=_static_b("volume_b"),
            probe={"volume_a": 5e-6, "volume_b": 5e-6}),
     Effect("supply_pressure_drop",
            "finite supply: a regulator conductance feeding an (isothermal) supply-line volume",

@@ -129,3 +129,21 @@ def test_an_exhaust_path_far_below_the_catalogue_names_what_could_do_it_and_the_
     assert "leak" not in text
     # a conductance above the catalogue restricts nothing
     assert restricted_paths([{"path": "valve.ports.*-R.C", "before": 1.0, "after": 2.5}]) == []
+
+
+def test_a_dead_volume_on_a_chamber_b_that_holds_no_gas_is_not_fitted():
+    """set2/C3-dead-volume (3/2 valve, B held at 3.5 bar): the B volume acts on nothing, and
+    its fit wandered to 202 cm^3, beyond the chamber, which made the dead volume impossible and
+    named a line instead."""
+    from pneucore.spec.effects import EFFECTS
+    m = model_preset("paper-4way")
+    assert EFFECTS["dead_volume"].unused_in(Model.from_dict(m)) == ()
+    m["valve"] = {"kind": "3/2", "ports": {
+        "P-A": {"opening": [0.0, 1.0], "C": [0.0, 3e-9], "b": [0.35, 0.35]},
+        "A-R": {"opening": [0.0, 1.0], "C": [3e-9, 0.0], "b": [0.4, 0.4]}}}
+    m3 = Model.from_dict(m)
+    assert EFFECTS["dead_volume"].unused_in(m3) == ("volume_b",)
+    assert [s.path for s in S.effect_specs(m3, "dead_volume", EFFECTS["dead_volume"].defaults())] \
+        == ["effects.dead_volume.volume_a"]
+    m["valve"]["b_chamber"] = "closed"     # an air spring: a gas volume of its own
+    assert EFFECTS["dead_volume"].unused_in(Model.from_dict(m)) == ()
