@@ -163,6 +163,7 @@ class Hypotheses:
     initial_state: list = field(default_factory=list)
     user_known: list = field(default_factory=list)
     held: set = field(default_factory=set)
+    carried: list = field(default_factory=list)
 
 
 def base_hypotheses(model, exps, cands, uncertain, known, automatic, rps_start, report):
@@ -188,6 +189,19 @@ def base_hypotheses(model, exps, cands, uncertain, known, automatic, rps_start, 
         model, hyp.exps, obj_s, obj_s.weighted(rps_id), offered, replay, last=hyp.user_known)
     hyp.identifiability = base_report + hyp.identifiability
     hyp.auto_specs = [H.spec_for(model, h) for h in chosen]
+    # what a candidate effect carries beside a level of both directions (the quadrant effect:
+    # the retract level alone): a value the user knows is confounded with it too (a load
+    # shifts the two Coulomb levels, one up and one down, as the quadrant difference does), so
+    # that it is not freed to stand in for the effect (:func:`demand`)
+    if hyp.user_known:
+        beside = {h.only_beside for h in offered if h.only_beside}
+        carried = [h for h in H.BASE_HYPOTHESES.values() if h.same_as_effect in beside
+                   and h.path not in hyp.id_cols and (h.applies is None or h.applies(model))]
+        r0 = obj_s.weighted(rps_id)
+        for h in carried:
+            _, dv, col = H.sensitivity_column(model, obj_s, r0, replay, h)
+            hyp.id_cols[h.path] = col / dv
+            hyp.carried.append(h.path)
     return hyp
 
 
@@ -324,7 +338,8 @@ def demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report,
     out = null
     for path in waiting:
         frac, with_ = orthogonal_part(hyp.id_cols, path,
-                                      [p for p in fitted | set(freed_paths) if p in hyp.id_cols])
+                                      [p for p in fitted | set(freed_paths) | set(hyp.carried)
+                                       if p in hyp.id_cols])
         vals = out.fit.values if out.fit is not None else {}
         t = {"path": path, "orthogonal": frac, "with": with_,
              "at_bound": [p for p in with_ if (vals.get(p) or {}).get("at_bound")],
