@@ -28,6 +28,11 @@ For every hidden effect the loop names, the table and the JSON (``recovered``, a
 ``worst_recovery``, the largest relative error) give its fitted parameters against the truth,
 and for a line its equivalent volume and conductance (:data:`EQUIVALENTS`).
 
+``--foreign`` adds the foreign rigs of issue 43 (``../shared/foreign-rigs`` beside the clone,
+made by an independent simulator; :mod:`foreign_rigs`), judged as each case says, as the
+categories ``foreign/set1``, ``foreign/set2``, ``foreign/set3``; ``--only-foreign`` runs them
+alone. A folder that is missing is said and skipped.
+
 ``--before PATH`` loads an older ``diagnose.py`` (e.g. ``git show REV:pneucore/diagnose.py``)
 as a submodule of this package and runs its loop (diagnose, add the verdict, repeat), to
 print the table before a change.
@@ -259,12 +264,18 @@ def main(argv=None):
     ap.add_argument("--json", metavar="PATH")
     ap.add_argument("--cases", default="*", help="glob on case names")
     ap.add_argument("--before", metavar="DIAGNOSE_PY", help="run an older diagnose.py instead")
+    ap.add_argument("--foreign", action="store_true",
+                    help="add the foreign rigs (../shared/foreign-rigs) as categories of their own")
+    ap.add_argument("--only-foreign", action="store_true", help="the foreign rigs alone")
     a = ap.parse_args(argv)
+    if a.only_foreign:
+        a.foreign = True
     old = _load_old(a.before) if a.before else None
     rows = []
     t_all = time.perf_counter()
-    for name, kw, make in ([(n, k, rig_case) for n, k in RIG_CASES]
-                           + [(n, k, long_case) for n, k in LONG_CASES]):
+    own = [] if a.only_foreign else ([(n, k, rig_case) for n, k in RIG_CASES]
+                                     + [(n, k, long_case) for n, k in LONG_CASES])
+    for name, kw, make in own:
         if not fnmatch.fnmatch(name, a.cases):
             continue
         case = make(name, **kw)
@@ -286,12 +297,25 @@ def main(argv=None):
               f"; {res['seconds']:.1f} s", flush=True)
         if res.get("recovered"):
             print(recovery_text(res["recovered"]), flush=True)
-    print("\ncategory   right / cases")
-    for cat in ("base", "effect", "outside", "long"):
+    cats = ["base", "effect", "outside", "long"]
+    if a.foreign:
+        import foreign_rigs as F
+        if not F.available():
+            print(f"foreign rigs: {os.path.abspath(F.ROOT)} is missing, skipped")
+        else:
+            for entry in F.index(pattern=a.cases if a.cases != "*" else "*"):
+                row = F.run_case(entry)
+                rows.append(row)
+                print(F.line(row), flush=True)
+                cats += [row["category"]] if row["category"] not in cats else []
+    print("\ncategory      right / cases  (foreign: at 1.5x the truth's floor / cases)")
+    for cat in cats:
         rs = [r for r in rows if r["category"] == cat]
         if rs:
-            print(f"{cat:10s} {sum(r['ok'] for r in rs):2d} / {len(rs)}")
-    print(f"all        {sum(r['ok'] for r in rows):2d} / {len(rows)}   "
+            floor = (f"   ({sum(r['at_floor'] for r in rs)} / {len(rs)} at the floor, slowest "
+                     f"{max(r['seconds'] for r in rs):.0f} s)" if cat.startswith("foreign") else "")
+            print(f"{cat:13s} {sum(r['ok'] for r in rs):2d} / {len(rs)}{floor}")
+    print(f"all           {sum(r['ok'] for r in rows):2d} / {len(rows)}   "
           f"({time.perf_counter() - t_all:.0f} s, cpu {os.cpu_count()}, "
           f"load {os.getloadavg()[0]:.1f})")
     save_figures(a.json, rows)

@@ -38,8 +38,9 @@ LAYOUT = {
     "analysis": {"autocorrelation", "blas_threads", "calibrate", "calibration_options", "compare", "diagnose",
                  "command_line", "engineering", "heat_compare", "history", "hypotheses", "metrics", "parallel", "report",
                  "phase_excess", "shown", "strokes"},
-    # the diagnosis's stages, its acceptance rules, its evidence and its findings
-    "analysis/diagnosis": {"evidence", "findings", "rules", "stages"},
+    # the diagnosis's stages, its acceptance rules, its evidence and its findings (and what a
+    # designer can act on for a restricted valve path: circuits)
+    "analysis/diagnosis": {"circuits", "evidence", "findings", "rules", "stages"},
     "study": {"__main__", "_warm", "_worker", "definition", "execute", "metrics", "results", "store"},
     "identify": {"friction_bench", "valve_bench"},
     "sizing": {"requirement", "search", "series", "stroke"},

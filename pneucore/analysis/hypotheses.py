@@ -97,6 +97,12 @@ class BaseHypothesis:
         ``typical``, ``lo`` and ``hi`` are in the parameter's own unit, not relative to its
         value: a quantity for which 0 is no special value and an error is a difference, not
         a factor (a mounting angle: 5 deg off at 30 deg as at 60 deg)
+    only_beside, not_beside : str or None
+        Catalog effect beside which (a candidate, not yet in the model) this hypothesis is
+        the only one offered for its physics, or is not offered: while the quadrant effect
+        is a candidate, a friction level is recalibrated on both directions at once
+        (``friction.*.fc0``), so that a level off by the same amount both ways is a
+        recalibration before it is an effect, and the effect carries the difference alone
     """
     path: str
     label: str
@@ -110,6 +116,8 @@ class BaseHypothesis:
     user_knows: Optional[Callable] = None
     separated_by: str = ""
     additive: bool = False
+    only_beside: Optional[str] = None
+    not_beside: Optional[str] = None
 
 
 def _span(model, hyp):
@@ -140,10 +148,19 @@ def _convective(m):
 
 #: The base parameters offered as hypotheses (one source: bounds and typical errors live here)
 BASE_HYPOTHESES = {h.path: h for h in [
-    BaseHypothesis("friction.extend.fc0", "Coulomb friction extending", 0.3, 0.0, 5.0, 20.0),
+    # beside the quadrant effect (a candidate), a level is recalibrated on both directions at
+    # once: a catalogue level off by the same factor both ways (the commonest catalogue error)
+    # is a change the base parameters make, not a difference between the directions
+    BaseHypothesis("friction.*.fc0", "Coulomb friction (both directions)", 0.3, 0.0, 5.0, 20.0,
+                   only_beside="quadrant_friction"),
+    BaseHypothesis("friction.extend.fc0", "Coulomb friction extending", 0.3, 0.0, 5.0, 20.0,
+                   not_beside="quadrant_friction"),
     BaseHypothesis("friction.retract.fc0", "Coulomb friction retracting", 0.3, 0.0, 5.0, 20.0,
                    same_as_effect="quadrant_friction"),
-    BaseHypothesis("friction.extend.kv0", "viscous friction extending", 0.3, 0.0, 5.0, 100.0),
+    BaseHypothesis("friction.*.kv0", "viscous friction (both directions)", 0.3, 0.0, 5.0, 100.0,
+                   only_beside="quadrant_friction"),
+    BaseHypothesis("friction.extend.kv0", "viscous friction extending", 0.3, 0.0, 5.0, 100.0,
+                   not_beside="quadrant_friction"),
     BaseHypothesis("friction.retract.kv0", "viscous friction retracting", 0.3, 0.0, 5.0, 100.0,
                    same_as_effect="quadrant_friction"),
     BaseHypothesis("jack.moving_mass", "moving mass", 0.15, 0.2, 5.0),
@@ -473,6 +490,13 @@ def offered(model, candidates=(), exclude=()):
         if h.same_as_effect and (h.same_as_effect in candidates
                                  or h.same_as_effect in model.effects):
             continue
+        # a level of both directions is offered beside its effect (a candidate not yet in the
+        # model) instead of the one direction's: the effect then carries the difference alone
+        beside = (h.only_beside or h.not_beside)
+        if beside:
+            candidate = beside in candidates and beside not in model.effects
+            if candidate != bool(h.only_beside):
+                continue
         if get_value(model, h.path) == 0.0 and not _span(model, h):
             continue
         out.append(h)

@@ -135,6 +135,15 @@ class Effect:
     #: again in it: the finer form it has is at least as accurate, and the default form is
     #: fitted beside it anyway (:meth:`needs_refit_in`); None = every other form is refitted
     form_finer: Optional[Callable] = None
+    #: Catalog effects this one becomes in a limit of its parameters (a line whose resistance
+    #: vanishes is a dead volume): the simpler physics, named instead where the records cannot
+    #: tell the two apart (:func:`pneucore.analysis.diagnosis.rules.simpler`)
+    reduces_to: tuple = ()
+    #: Parameters held at their defaults while the effect is sought (a strength and a shape
+    #: fitted together on records that barely separate them wander) and refitted with its
+    #: diagnosis parameters once it is in the model (a supply line's volume: the rounds after
+    #: the regulator's conductance was named bring the model to the noise floor)
+    refit_params: tuple = ()
 
     def needs_refit_in(self, new, old):
         """Must a fit in structural form ``old`` whose values call for form ``new`` (both
@@ -468,6 +477,20 @@ def _quadrant_applies(m):
     if m.friction.extend.to_dict() != m.friction.retract.to_dict():
         return False, "the model already has separate extend and retract friction"
     return True, ""
+
+
+def _static_b(*names):
+    """``unused`` of an effect on chamber B: its ``names`` where chamber B holds no gas of its
+    own (a 3/2 valve's B held at a pressure or vented: ``B_CHAMBER_MODES``, not dynamic), so
+    that they act on nothing and a fit would leave them wherever it starts or wanders (a dead
+    volume on a held B fitted at 202 cm^3, beyond the chamber, then called impossible)."""
+    def unused(model):
+        from pneucore.spec.model import B_CHAMBER_MODES
+        v = model.valve
+        if v.kind == "3/2" and not B_CHAMBER_MODES[v.b_chamber]["dynamic"]:
+            return names
+        return ()
+    return unused
 
 
 def _dead_transform(m, p):
@@ -859,7 +882,7 @@ for _e in [
            "paper Eq. 23-24 (dead volumes v_m)",
            [Parameter("volume_a", "m^3", 5e-6, 0.0, 1e-3, 0.0, "extra volume on A"),
             Parameter("volume_b", "m^3", 5e-6, 0.0, 1e-3, 0.0, "extra volume on B")],
-           strength="volume_a", transform=_dead_transform,
+           strength="volume_a", transform=_dead_transform, unused=_static_b("volume_b"),
            probe={"volume_a": 5e-6, "volume_b": 5e-6}),
     Effect("supply_pressure_drop",
            "finite supply: a regulator conductance feeding an (isothermal) supply-line volume",
@@ -868,7 +891,8 @@ for _e in [
            [Parameter("C", "m^3/(s Pa)", 2e-8, 0.0, 1e-6, 0.0, "regulator sonic conductance (0 = ideal supply)"),
             Parameter("b", "-", 0.3, 0.0, 0.99, None, "regulator critical ratio"),
             Parameter("volume", "m^3", 1e-4, 1e-7, 1e-2, None, "supply-line volume")],
-           strength="C", pack=_pack_supply, fit_params=("C",), probe={"C": 5e-8}),
+           strength="C", pack=_pack_supply, fit_params=("C",), probe={"C": 5e-8},
+           refit_params=("volume",)),
     Effect("sensor_lag",
            "first-order lag of the pressure transducers",
            "measured pressures trail the model by a fixed delay at every fast transient",
@@ -930,7 +954,8 @@ for _e in [
            pack=_pack_tubing,
            check=_check_line_ports, unused=_missing_ports("length"), fit_params=("length_a", "length_b"),
            probe={"length_a": 1.0, "length_b": 1.0}, warn=_tubing_warn, forms=_tubing_forms,
-           form_min=_tubing_form_min, form_finer=_tubing_form_finer),
+           form_min=_tubing_form_min, form_finer=_tubing_form_finer,
+           reduces_to=("dead_volume",)),
     Effect("exhaust_silencer",
            "a silencer on the valve's exhaust ports: an ISO 6358 restriction in series with "
            "each exhaust edge, with no volume between (ISO 6358-3)",

@@ -5,6 +5,9 @@ Paths name numeric fields of :class:`pneucore.spec.model.Model`:
 * ``jack.<field>``, ``supply.pressure``, ``ambient.temperature``, ``heat.coefficient`` and the
   other parameters of the model's heat model (``heat.natural_multiplier``, ... :mod:`pneucore.physics.heat`),
   ``friction.extend.fc0`` ... ``friction.retract.kv_b``, ``gas.r``, ``gas.gamma``;
+  ``friction.*.<field>`` (:data:`BOTH_DIRECTIONS`) is a level of both directions at once: it
+  reads the extend value and writes both (a catalogue level off by the same amount extending
+  and retracting is one recalibration, not a difference between the directions);
 * ``effects.<name>.<parameter>`` for a catalog effect (added with its defaults if absent);
 * ``valve.ports.<edge>.C`` and ``valve.ports.<edge>.b``: a *scale factor* on the
   whole table (1 = as given); ``valve.ports.*.C`` scales every edge together, and an
@@ -27,6 +30,18 @@ _SECTIONS = {"jack", "supply", "ambient", "heat", "friction", "gas"}
 #: :data:`pneucore.spec.model.VALVE_KINDS`): the edges from the supply P, and the edges to
 #: the exhaust R
 VALVE_GROUPS = {"supply": "P-*", "exhaust": "*-R"}
+
+
+#: The direction of a friction path that names both directions at once (``friction.*.fc0``)
+BOTH_DIRECTIONS = "*"
+
+
+def both_directions(path):
+    """``(extend path, retract path)`` of a ``friction.*.<field>`` path, else None."""
+    parts = path.split(".")
+    if len(parts) == 3 and parts[0] == "friction" and parts[1] == BOTH_DIRECTIONS:
+        return f"friction.extend.{parts[2]}", f"friction.retract.{parts[2]}"
+    return None
 
 
 def valve_edges(model, pattern):
@@ -93,6 +108,10 @@ def get_value(model, path):
     if parts[0] == "valve":
         _check_valve_path(model, path)
         return 1.0
+    both = both_directions(path)
+    if both:
+        # the level both directions share: the extend value (written to both by set_values)
+        return get_value(model, both[0])
     if parts[0] == "effects":
         if len(parts) != 3 or parts[1] not in EFFECTS:
             raise FieldError(f"parameters.{path}", f"unknown effect; the catalog has {sorted(EFFECTS)}")
@@ -150,6 +169,11 @@ def set_values(model, values, copy=True):
     for name in m.effects:
         for src, dst in getattr(EFFECTS.get(name), "ties", {}).items():
             ties.setdefault(src, []).extend(dst)
+    for path, v in list(values.items()):
+        both = both_directions(path)
+        if both:
+            values = {**{k: w for k, w in values.items() if k != path},
+                      **{q: v for q in both if q not in values}}
     for path, v in values.items():
         for q in ties.get(path, ()):
             if q not in values:

@@ -303,13 +303,17 @@ def test_orthogonal_part_of_a_combination_is_nothing_and_names_its_parts():
     assert S.orthogonal_part(cols, "free", ["a", "b"])[0] > 0.9
 
 
+#: A null with the known value held at 1 % against a floor of 0.1 %: misfit to demand it
+_MISFIT = {"error_held": 0.01, "floor": 0.001}
+
+
 def _demand_case(orthogonal, p_value, delta_bic):
     calls = []
 
     def freed(t):
         calls.append(1)
-        t.update(p_value=p_value, delta_bic=delta_bic)
-    t = {"orthogonal": orthogonal}
+        t.update(p_value=p_value, delta_bic=delta_bic, error_freed=0.002)
+    t = {"orthogonal": orthogonal, **_MISFIT}
     return R.demanded(t, R.Judging(R.ALPHA, 1), freed), t, calls
 
 
@@ -323,8 +327,8 @@ def test_a_confounded_known_value_whose_partner_sits_at_a_bound_goes_to_the_like
 
     def freed(t):
         calls.append(1)
-        t.update(p_value=1e-12, delta_bic=-100.0)
-    t = {"orthogonal": 0.05, "at_bound": ["friction.retract.fc0"]}
+        t.update(p_value=1e-12, delta_bic=-100.0, error_freed=0.002)
+    t = {"orthogonal": 0.05, "at_bound": ["friction.retract.fc0"], **_MISFIT}
     assert R.demanded(t, R.Judging(R.ALPHA, 1), freed) and t["failed"] is None
     assert calls == [1]
 
@@ -346,7 +350,7 @@ def test_a_known_value_freed_against_its_declared_direction_is_never_significant
         calls.append(1)
         t.update(p_value=1e-30, delta_bic=-500.0, value=-51.0,
                  impossible="load against its declared direction: 14.4 N ...")
-    t = {"orthogonal": 0.9}
+    t = {"orthogonal": 0.9, **_MISFIT}
     assert not R.demanded(t, R.Judging(R.ALPHA, 1), freed)
     assert t["failed"] == "possible" and "significant" not in t["rules"] and calls == [1]
 
@@ -464,3 +468,21 @@ def test_an_alternative_behind_the_named_candidate_keeps_its_held_out_prediction
     verdict, calls = _judged(monkeypatch, [leak, twin])
     assert verdict == "piston_leakage"
     assert ("held_out", "external_leakage") in calls and "held_out_not_run" not in twin
+
+
+def test_a_known_value_is_not_demanded_by_a_null_already_at_the_noise_floor():
+    """Issue 43 (set3/N-fc140): with both Coulomb levels recalibrated the null sat at the floor,
+    and a load of 0.03 N was still "significant" on 16,000 samples: at the floor the data demand
+    nothing, and no refit is made to find that out."""
+    calls = []
+    t = {"orthogonal": 0.9, "error_held": 0.00063, "floor": 0.00063}
+    assert not R.demanded(t, R.Judging(R.ALPHA, 1), lambda t: calls.append(1))
+    assert t["failed"] == "misfit" and not calls
+
+
+def test_a_known_value_that_removes_little_of_the_excess_is_not_demanded():
+    def freed(t):
+        t.update(p_value=1e-30, delta_bic=-500.0, error_freed=0.0099)
+    t = {"orthogonal": 0.9, "error_held": 0.01, "floor": 0.001}
+    assert not R.demanded(t, R.Judging(R.ALPHA, 1), freed)
+    assert t["failed"] == "material"

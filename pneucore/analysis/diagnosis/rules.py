@@ -126,6 +126,27 @@ def indistinct(c, best):
     return c["delta_bic"] - best["delta_bic"] < -DELTA_BIC
 
 
+def complexity(name):
+    """``(fitted parameters, parameters)`` of catalog effect ``name``: what a fit frees (the
+    ``k`` of its BIC), then what it asserts about the rig (a line: length, bore, segments)."""
+    from pneucore.spec.effects import EFFECTS
+    eff = EFFECTS[name]
+    return len(eff.diagnosis_params), len(eff.parameters)
+
+
+def simpler(c, named):
+    """Does candidate ``c`` say less than ``named`` where the records cannot tell them apart
+    (parsimony)? Its BIC within ``|DELTA_BIC|`` of ``named``'s, and it frees fewer
+    parameters, or ``named`` becomes it in a limit of its own parameters
+    (:attr:`pneucore.spec.effects.Effect.reduces_to`: a line whose resistance the records do
+    not see is a dead volume). The simpler one is named, the other an alternative."""
+    from pneucore.spec.effects import EFFECTS
+    if c is named or abs(c["delta_bic"] - named["delta_bic"]) >= -DELTA_BIC:
+        return False
+    return (complexity(c["effect"])[0] < complexity(named["effect"])[0]
+            or c["effect"] in EFFECTS[named["effect"]].reduces_to)
+
+
 def blocks_predict(h):
     """The vote of the blocks in time of a held-out report
     (:func:`pneucore.analysis.diagnosis.evidence.held_out`)."""
@@ -253,6 +274,22 @@ def _unconfounded(t, ctx):
     return t["orthogonal"] >= CONFOUNDED or bool(t.get("at_bound"))
 
 
+def _misfit(t, ctx):
+    # with the known value held, the null already at the noise floor leaves the data nothing
+    # to demand (an LR on 16,000 samples still finds a 0.03 N load "significant" there)
+    return not t["error_held"] <= AT_FLOOR * t["floor"]
+
+
+def _demand_material(t, ctx):
+    # the share an effect must remove to be named (MATERIAL, EXCESS_MATERIAL): a known value
+    # moves for a material part of the misfit, as an effect is named for one
+    e0, e1, floor = t["error_held"], t["error_freed"], t["floor"]
+    if not e0 > 0.0:
+        return False
+    excess = e0 - floor
+    return (e0 - e1) / e0 >= MATERIAL and excess > 0.0 and (e0 - e1) / excess >= EXCESS_MATERIAL
+
+
 def _possible(t, ctx):
     return not t.get("impossible")
 
@@ -273,6 +310,8 @@ DEMAND_RULES = (
     Rule("unconfounded", "what it changes is no combination of the parameters fitted beside "
          "it (a load against the two Coulomb levels), or the fit with it held drove one of them "
          "to a bound: otherwise the records cannot tell which moved", _unconfounded),
+    Rule("misfit", f"with it held, the misfit is above the noise floor (more than {AT_FLOOR:g} "
+         "times it): at the floor the data demand nothing", _misfit),
     Rule("possible", "freed, it keeps its declared direction (a load that would turn the "
          "declared load or the weight along the rod around is impossible, never significant)",
          _possible, deferred=True),
@@ -280,6 +319,9 @@ DEMAND_RULES = (
          "(counted on n / tau effective samples)", _lr_significant, deferred=True),
     Rule("strong", f"delta BIC of it freed against it held below {DELTA_BIC:g}", _bic_strong,
          deferred=True),
+    Rule("material", f"freed, it removes at least {100 * MATERIAL:g} % of the error and "
+         f"{100 * EXCESS_MATERIAL:g} % of its excess over the noise floor (what an effect must "
+         "remove to be named)", _demand_material, deferred=True),
 )
 
 

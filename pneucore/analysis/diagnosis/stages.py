@@ -104,9 +104,13 @@ def project_out(J, Ju):
 
 # -- 1. candidates ------------------------------------------------------------------------
 
-def candidate_effects(model, names):
+def candidate_effects(model, names, uncertain=()):
     """``(candidates, skipped)``: the effects of ``names`` not in the model and applicable to
-    it; ``skipped`` lists the others with the reason."""
+    it; ``skipped`` lists the others with the reason. An effect whose physics the declared
+    ``uncertain`` paths already fit (the quadrant effect beside both directions' friction
+    levels declared uncertain: :attr:`pneucore.spec.effects.Effect.ties`) is skipped too: fitted
+    beside them it is the same freedom twice, and a model carrying both cannot be built."""
+    unc = set(uncertain if isinstance(uncertain, (list, tuple)) else dict(uncertain))
     cands, skipped = [], []
     for n in names:
         if n in model.effects:
@@ -116,8 +120,28 @@ def candidate_effects(model, names):
         if not ok:
             skipped.append({"effect": n, "reason": why})
             continue
+        twice = sorted({q for src, dst in EFFECTS[n].ties.items() if src in unc
+                        for q in dst if q in unc})
+        if twice:
+            skipped.append({"effect": n, "reason": "the parameters declared uncertain already "
+                            "fit what it adds (" + ", ".join(twice) + " beside "
+                            + ", ".join(sorted(k for k in EFFECTS[n].ties if k in unc)) + ")"})
+            continue
         cands.append(n)
     return cands, skipped
+
+
+def buildable(cal, name):
+    """Why candidate ``name``'s refit ``cal`` is no model a user could be given, or ``""``:
+    its model must read back as the API reads a model (a candidate the diagnosis built is
+    skipped with the reason, never answered as the user's error)."""
+    from pneucore.spec.model import Model
+    from pneucore.spec.validation import FieldError
+    try:
+        Model.from_dict(cal.model.to_dict())
+    except (FieldError, ValueError) as exc:
+        return f"cannot be built on this model: {getattr(exc, 'detail', exc)}"
+    return ""
 
 
 # -- 2. base hypotheses -------------------------------------------------------------------
@@ -139,6 +163,7 @@ class Hypotheses:
     initial_state: list = field(default_factory=list)
     user_known: list = field(default_factory=list)
     held: set = field(default_factory=set)
+    carried: list = field(default_factory=list)
 
 
 def base_hypotheses(model, exps, cands, uncertain, known, automatic, rps_start, report):
@@ -164,6 +189,19 @@ def base_hypotheses(model, exps, cands, uncertain, known, automatic, rps_start, 
         model, hyp.exps, obj_s, obj_s.weighted(rps_id), offered, replay, last=hyp.user_known)
     hyp.identifiability = base_report + hyp.identifiability
     hyp.auto_specs = [H.spec_for(model, h) for h in chosen]
+    # what a candidate effect carries beside a level of both directions (the quadrant effect:
+    # the retract level alone): a value the user knows is confounded with it too (a load
+    # shifts the two Coulomb levels, one up and one down, as the quadrant difference does), so
+    # that it is not freed to stand in for the effect (:func:`demand`)
+    if hyp.user_known:
+        beside = {h.only_beside for h in offered if h.only_beside}
+        carried = [h for h in H.BASE_HYPOTHESES.values() if h.same_as_effect in beside
+                   and h.path not in hyp.id_cols and (h.applies is None or h.applies(model))]
+        r0 = obj_s.weighted(rps_id)
+        for h in carried:
+            _, dv, col = H.sensitivity_column(model, obj_s, r0, replay, h)
+            hyp.id_cols[h.path] = col / dv
+            hyp.carried.append(h.path)
     return hyp
 
 
@@ -207,7 +245,7 @@ def uncertain_paths(model, hyp, known, refit_existing):
     unc = dict(hyp.unc)
     if refit_existing:
         for name in model.effects:
-            for p in EFFECTS[name].diagnosis_params:
+            for p in EFFECTS[name].diagnosis_params + tuple(EFFECTS[name].refit_params):
                 if f"effects.{name}.{p}" not in known:
                     unc.setdefault(f"effects.{name}.{p}", {})
     return unc
@@ -300,10 +338,12 @@ def demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report,
     out = null
     for path in waiting:
         frac, with_ = orthogonal_part(hyp.id_cols, path,
-                                      [p for p in fitted | set(freed_paths) if p in hyp.id_cols])
+                                      [p for p in fitted | set(freed_paths) | set(hyp.carried)
+                                       if p in hyp.id_cols])
         vals = out.fit.values if out.fit is not None else {}
         t = {"path": path, "orthogonal": frac, "with": with_,
-             "at_bound": [p for p in with_ if (vals.get(p) or {}).get("at_bound")]}
+             "at_bound": [p for p in with_ if (vals.get(p) or {}).get("at_bound")],
+             "error_held": out.error, "floor": out.floor_overall}
 
         def freed(t, path=path, ref=out):
             report(0.045, "refitting the base model with " + H.label_of(path) + " freed")
@@ -314,6 +354,7 @@ def demand(model, exps, hyp, unc, null, comp_start, rps_start, max_nfev, report,
             value = trial.fit.values[path]["value"] if trial.fit is not None else None
             t.update(p_value=float(stats.chi2.sf(max(lr, 0.0), 1)), lr_statistic=lr,
                      delta_bic=-lr + math.log(max(n_eff, 1.0)), trial=trial, value=value,
+                     error_freed=trial.error,
                      impossible=H.against_direction(model, path, value) if value is not None
                      else "")
 
@@ -541,6 +582,12 @@ def candidate_scores(model, exps, null, cands, report):
     for i, s in enumerate(score):
         s["rank"] = i + 1
     return score
+
+
+def at_noise_floor(null):
+    """Is the null's error at or below its noise floor? (No excess left for an effect:
+    :func:`pneucore.analysis.diagnosis.evidence.excess_drop` is 0 for every candidate.)"""
+    return bool(null.floor_overall == null.floor_overall and null.error <= null.floor_overall)
 
 
 def leading(score, n_refit):
@@ -812,13 +859,34 @@ def common_times(refits, null):
     return null.fit.residual_times if null.fit is not None else residual_times(null.replays)
 
 
+def prior_cost(values, prior):
+    """``sum ((value - centre) / sigma)^2`` of the fitted base parameters under the catalogue
+    prior (:func:`pneucore.analysis.hypotheses.prior_for`): the part of -2 ln(posterior) the
+    fit paid to move them from the user's values [-]."""
+    out = 0.0
+    for path, (c, sg) in (prior or {}).items():
+        v = values.get(path)
+        if v is not None:
+            out += ((v["value"] if isinstance(v, dict) else v) - c) ** 2 / sg ** 2
+    return out
+
+
 def candidate_evidence(name, cal, null, taus, e0_cal):
     """The evidence of one refit against the null: error drop, share of the excess over the
     floor (also once the sensors' gains and offsets are removed), LR with its p-value,
-    delta BIC / AIC on the common effective samples, fitted parameters, explanation."""
+    delta BIC / AIC on the common effective samples, fitted parameters, explanation.
+
+    The LR counts what each fit paid under the catalogue prior to move the base parameters
+    (:func:`prior_cost`), the objective both fits minimised: a candidate that needs the
+    valve's conductance at x1.75 to stand (a line whose resistance the records do not see,
+    taken back by the valve) pays for it against one that leaves the catalogue as it is
+    (least change)."""
     eff = EFFECTS[name]
     k_eff = len(eff.diagnosis_params)
     lr_eff, n_eff = effective_lr(null.rss, cal.rss_after, taus)
+    cost_null = prior_cost(null.fit.values, null.prior) if null.fit is not None else 0.0
+    cost = prior_cost(cal.values, null.prior)
+    lr_eff += cost_null - cost
     lr = max(lr_eff, 0.0)
     p = float(stats.chi2.sf(lr, k_eff))
     params = {p_: v for p_, v in cal.values.items() if p_.startswith(f"effects.{name}.")}
@@ -838,6 +906,7 @@ def candidate_evidence(name, cal, null, taus, e0_cal):
             "delta_aic": -lr_eff + 2 * k_eff,
             "lr_statistic_white": max(null.m2ll - cal.neg2_loglik, 0.0),
             "effective_samples": n_eff, "n_samples": null.n_all,
+            "prior_cost": cost, "prior_cost_null": cost_null,
             "autocorrelation_time": times_report(taus),
             "params": params,
             "uncertain_params": {k: v for k, v in cal.values.items() if not k.startswith("effects.")},
@@ -851,9 +920,16 @@ def candidate_evidence(name, cal, null, taus, e0_cal):
     return cand
 
 
-def evidence(null, refits):
+def evidence(null, refits, skipped=None):
     """The ranking: :func:`candidate_evidence` of every refit, by delta BIC (same null, same
-    effective samples: delta BIC is monotone in the evidence shown)."""
+    effective samples: delta BIC is monotone in the evidence shown). A refit whose model
+    cannot be built (:func:`buildable`) leaves ``refits`` and joins ``skipped`` with why."""
+    for name in list(refits):
+        why = buildable(refits[name], name)
+        if why:
+            refits.pop(name)
+            if skipped is not None:
+                skipped.append({"effect": name, "reason": why})
     taus = common_times(refits, null)
     # the null's error once each signal's best transducer gain and offset are removed: what a
     # catalog effect must explain when a sensor calibration error is also present
@@ -899,6 +975,10 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
         return held_out_evidence(model, exps, null, c["effect"], refits[c["effect"]], max_nfev)
     ctx.held_out = predicts
     if not ranking:
+        if at_noise_floor(null):
+            return None, (NO_EFFECT + f" (the base model's error, {100 * null.error:.3f} %, is at "
+                          f"the noise floor, {100 * null.floor_overall:.3f} %: nothing is left "
+                          "for an effect to explain)")
         return None, NO_EFFECT
     # judged in evidence order, each candidate flagged just before it is judged: the first
     # contender (significant and strong) that passes every rule is named, as if all were
@@ -927,12 +1007,26 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
     contenders = [c for c in ranking if c["significant"] and c["strong"]]
     if named is None and not contenders and R.judge(ranking[0], ctx):
         named = ranking[0]
+    # parsimony: of candidates the records cannot tell apart (BIC within 10), the one that
+    # says less about the rig is named, if it passes every rule; the other is an alternative
+    if named is not None:
+        for c in sorted((c for c in ranking if R.simpler(c, named)),
+                        key=lambda c: (R.complexity(c["effect"]), c["delta_bic"])):
+            ctx.held_out = predicts
+            flag(c)
+            if c["significant"] and c["strong"] and R.judge(c, ctx):
+                c["simpler_than"] = named["effect"]
+                named = c
+                break
     if named is not None:
         ranking.remove(named)
         ranking.insert(0, named)
+        simpler = (f" Named before {named['simpler_than']}, which the records cannot tell "
+                   f"from it (BIC within {-R.DELTA_BIC:g}) and which says more about the rig."
+                   if named.get("simpler_than") else "")
         return named["effect"], (f"{named['effect']}: {named['description']}. Error "
                                  f"{100 * named['error_before']:.2f} % -> "
-                                 f"{100 * named['error_after_overall']:.2f} %.")
+                                 f"{100 * named['error_after_overall']:.2f} %.{simpler}")
     return None, NO_EFFECT + " (" + "; ".join(why_not(ranking[0])) + ")"
 
 
