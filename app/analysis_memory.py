@@ -32,7 +32,7 @@ import os
 import threading
 from contextlib import contextmanager
 
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 #: Peak memory of one analysis per replayed sample, by kind [bytes]: the largest of the
 #: peaks measured by ``benchmarks/bench_long_records.py --memory --memory-kinds

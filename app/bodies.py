@@ -119,7 +119,7 @@ async def read_file_upload(request: Request, limit: int):
     """
     from starlette.datastructures import UploadFile
 
-    from pneucore.spec.validation import FieldError
+    from pneucore.description.validation import FieldError
     body = await request.body()
     if request.headers.get("content-type", "").startswith("multipart/form-data"):
         form = await read_multipart(request, body, limit)

@@ -4,7 +4,7 @@ scenario with a ``controller`` asks POST /api/simulate for. Re-exported by :mod:
 from __future__ import annotations
 
 from pneucore.control.linearize import linearize, to_json
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 from .deps import parse_model, parse_scenario
 

@@ -9,9 +9,9 @@ from typing import Annotated
 from fastapi import Depends, HTTPException, Request
 
 from pneucore.data.experiment import as_experiments
-from pneucore.spec.model import Model, check_resolvable
-from pneucore.spec.scenario import Scenario
-from pneucore.spec.validation import FieldError
+from pneucore.description.model import Model, check_resolvable
+from pneucore.description.scenario import Scenario
+from pneucore.description.validation import FieldError
 
 from .config import Limits, Settings
 from .jobs import JobManager

@@ -27,7 +27,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from pneucore.data.measurement import MeasurementError
 from pneucore.simulate import SimulationError, start_warm_up
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 from .analysis_memory import MemoryBudget, MemoryBusy, limit_malloc_arenas
 from .asgi import TrackedSend, send_json

@@ -15,10 +15,10 @@ from pydantic.fields import FieldInfo
 
 from pneucore.analysis.phase_excess import START_SAMPLES
 from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
-from pneucore.spec.docstrings import api_description
-from pneucore.spec.model import (B_CHAMBER_MODES, VALVE_KINDS, Friction, FrictionSet, Gas, Heat, Jack, Model,
+from pneucore.description.docstrings import api_description
+from pneucore.description.model import (B_CHAMBER_MODES, VALVE_KINDS, Friction, FrictionSet, Gas, Heat, Jack, Model,
                                  PortTable, Source, Valve)
-from pneucore.spec.scenario import COMMAND_INTERPOLATIONS, STARTS, Initial, Scenario, Solver
+from pneucore.description.scenario import COMMAND_INTERPOLATIONS, STARTS, Initial, Scenario, Solver
 from pneucore.study.definition import DISTRIBUTIONS
 
 Number = float
@@ -842,7 +842,7 @@ LimitsResponse = _limits_response()
 # ---------------------------------------------------------------------------- request examples
 def _examples():
     """Request examples built from the presets (one source for the numbers)."""
-    from pneucore.spec.presets import model_preset, scenario_preset
+    from pneucore.description.presets import model_preset, scenario_preset
     m4 = model_preset("paper-4way")
     exps = [{"dataset_id": "sample-leak-and-lag-locked-hold"},
             {"dataset_id": "sample-leak-and-lag-free-pulses"}]

@@ -5,7 +5,7 @@ call a function of this module and shape the HTTP answer (JSON or CSV, status co
 import nothing from pneucore and nothing from one another (tests/test_layering.py). What
 is here turns a request into pneucore's objects (through :mod:`app.deps`: the model, the
 scenario and the experiments validated once, within the API's limits), runs the work and
-returns plain data. Errors are pneucore's own (a :class:`~pneucore.spec.validation.FieldError`
+returns plain data. Errors are pneucore's own (a :class:`~pneucore.description.validation.FieldError`
 is a 422 naming the field, see :mod:`app.main`) or those of this module,
 :class:`QueueFull` (429) and :class:`PastBudget` (the event loop's step budget ran out).
 
@@ -36,14 +36,14 @@ from pneucore.physics.friction import FRICTION_LAWS
 from pneucore.physics.heat import HEAT_MODELS
 from pneucore.progress import Cancelled
 from pneucore.simulate import SimulationError, simulate
-from pneucore.spec.effects import EFFECTS
-from pneucore.spec.model import Model
-from pneucore.spec.provenance import bench_known
-from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
-from pneucore.spec.scenario import Scenario
-from pneucore.spec.units import unit_systems
-from pneucore.spec.validation import FieldError, choice, finite_json, mapping, number
-from pneucore.spec.valve_data import convert_valve_data
+from pneucore.description.effects import EFFECTS
+from pneucore.description.model import Model
+from pneucore.description.provenance import bench_known
+from pneucore.description.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
+from pneucore.description.scenario import Scenario
+from pneucore.description.units import unit_systems
+from pneucore.description.validation import FieldError, choice, finite_json, mapping, number
+from pneucore.description.valve_data import convert_valve_data
 from pneucore.analysis.strokes import STROKE_FIELDS
 from pneucore.study import (Study, check_run_options, delete_study, list_studies, queue_study,
                             requeue_study, run_study, runs_csv, runs_npz, set_study_status,
@@ -91,7 +91,7 @@ def result_json(res, series):
         A completed simulation
     series : list of str or None
         Series to return (None = :data:`DEFAULT_SERIES`); an unknown name or an
-        empty list is a :class:`~pneucore.spec.validation.FieldError` on ``series``
+        empty list is a :class:`~pneucore.description.validation.FieldError` on ``series``
     """
     return res.to_dict(series=series_names(res, series), arrays=True, inputs=False)
 
@@ -106,7 +106,7 @@ def result_npz(res, series):
 def series_names(res, series):
     """The series an answer carries: ``series`` checked against the result's, or
     :data:`DEFAULT_SERIES` (those the result has) when None; an unknown name or an empty
-    list is a :class:`~pneucore.spec.validation.FieldError` on ``series``."""
+    list is a :class:`~pneucore.description.validation.FieldError` on ``series``."""
     if series is not None and len(series) == 0:
         raise FieldError("series", "give at least one series name, or omit the field for the default set")
     if series:
@@ -295,7 +295,7 @@ def fit_known(req, model, listed=()):
 
     ``known`` is the request's ``known`` plus, unless ``bench_known`` is false, every path the
     model's ``provenance`` says was identified on a bench (a flow bench, a friction bench:
-    :func:`pneucore.spec.provenance.bench_known`) and that is a parameter of this model;
+    :func:`pneucore.description.provenance.bench_known`) and that is a parameter of this model;
     ``held`` are those bench paths that the request lists to be fitted (``listed``: a
     calibration's varied parameters, a diagnosis's ``uncertain``): they are held at their bench
     value, and the answer names them (``bench_held``). ``bench_known: false`` fits them like any
@@ -457,9 +457,9 @@ def calibration_parameters(req):
 
 
 def model_diff(req):
-    """POST /api/models/diff: :func:`pneucore.spec.paths.model_changes` of two models, each
+    """POST /api/models/diff: :func:`pneucore.description.paths.model_changes` of two models, each
     validated first (a wrong one is a 422 naming ``before.<field>`` or ``after.<field>``)."""
-    from pneucore.spec.paths import model_changes
+    from pneucore.description.paths import model_changes
     return model_changes(parse_model(req.before, "before"), parse_model(req.after, "after"))
 
 
@@ -544,7 +544,7 @@ def session_report(session_id, store, limits, progress=None):
     with its errors and what it changed, the last version against the session's experiments)
     as one self-contained HTML text; None for an unknown session."""
     from pneucore.analysis.report import refinement_report as html_report
-    from pneucore.spec.paths import model_changes
+    from pneucore.description.paths import model_changes
     s = store.session(session_id)
     if s is None:
         return None
@@ -695,7 +695,7 @@ def friction_preview(model, pressures, velocities):
 
     Parameters
     ----------
-    model : pneucore.spec.model.Model
+    model : pneucore.description.model.Model
         A validated model
     pressures : list of (float, float)
         Chamber pressure pairs ``(p_a, p_b)``, absolute [Pa]
@@ -712,7 +712,7 @@ def friction_preview(model, pressures, velocities):
     """
     from pneucore.core import layout as L
     from pneucore.physics.friction import FRICTION_LAWS, coulomb_level, viscous_coefficient
-    from pneucore.spec.scenario import Scenario
+    from pneucore.description.scenario import Scenario
     from pneucore.simulate import build_core
 
     prm = build_core(model, Scenario())["model"][0]
@@ -745,9 +745,9 @@ def friction_preview(model, pressures, velocities):
 
 
 def parameter_units():
-    """The SI unit of every model parameter path, from :func:`pneucore.spec.paths.unit_of`.
+    """The SI unit of every model parameter path, from :func:`pneucore.description.paths.unit_of`.
 
-    The paths are those :mod:`pneucore.spec.paths` can address on a model: the numeric fields of
+    The paths are those :mod:`pneucore.description.paths` can address on a model: the numeric fields of
     the model's sections (``jack.bore``, ``friction.retract.kv0``, ...), every heat-model
     parameter (``heat.<name>``), every catalog effect's parameters
     (``effects.<effect>.<parameter>``) and the valve scale factors under the edge ``*``
@@ -757,14 +757,14 @@ def parameter_units():
     -------
     units : dict
         ``{path: unit}`` (``"-"`` for a dimensionless parameter; ``""`` where
-        :mod:`pneucore.spec.paths` knows none)
+        :mod:`pneucore.description.paths` knows none)
     """
     import dataclasses
 
-    from pneucore.spec.effects import EFFECTS
+    from pneucore.description.effects import EFFECTS
     from pneucore.physics.heat import HEAT_PARAMETERS
-    from pneucore.spec.model import Model
-    from pneucore.spec.paths import unit_of
+    from pneucore.description.model import Model
+    from pneucore.description.paths import unit_of
 
     model = Model()
     paths = []
@@ -794,7 +794,7 @@ def display_units():
     Returns
     -------
     units : dict
-        ``systems`` (:func:`pneucore.spec.units.unit_systems`), ``parameters``
+        ``systems`` (:func:`pneucore.description.units.unit_systems`), ``parameters``
         (:func:`parameter_units`) and ``stroke``: the unit and definition of each per-stroke
         metric of a simulation's ``stats.stroke.strokes`` (:data:`pneucore.analysis.strokes.STROKE_FIELDS`)
     """
@@ -1249,7 +1249,7 @@ def check_identify_valve(req):
     the point and field), the model when given and the edge against its valve."""
     from pneucore.identify.valve_bench import BenchPoint
     from pneucore.physics.flow import R_LAMINAR
-    from pneucore.spec.model import VALVE_KINDS
+    from pneucore.description.model import VALVE_KINDS
 
     model = parse_model(req.model) if req.model is not None else None
     u_range = model.valve.opening_range if model is not None else VALVE_KINDS["4/2"]["range"]
@@ -1395,7 +1395,7 @@ def read_friction_files(files, fields, limits):
 
 def catalogue_valve(req):
     """POST /api/valve/catalogue: an on/off valve from catalogue figures (422 naming a bad field)."""
-    from pneucore.spec.valve_data import CATALOGUE_VALVES, catalogue_valve as build
+    from pneucore.description.valve_data import CATALOGUE_VALVES, catalogue_valve as build
     d = req.model_dump(exclude_none=True)
     valve = build(d, path="body")
     return {"valve": valve, "description": CATALOGUE_VALVES[d["function"]]["description"],

@@ -16,8 +16,8 @@ from pydantic import BaseModel, ConfigDict, Field, StrictBool
 from pneucore.sizing.requirement import Choices, Requirement
 from pneucore.sizing.search import REASONS
 from pneucore.sizing.stroke import STROKE_METRIC_UNITS
-from pneucore.spec.docstrings import api_description
-from pneucore.spec.valve_data import FIELDS as VALVE_FIELDS
+from pneucore.description.docstrings import api_description
+from pneucore.description.valve_data import FIELDS as VALVE_FIELDS
 
 from .schemas import Name
 
@@ -70,7 +70,7 @@ class CylinderSpec(_Strict):
 
 
 def _figure(name):
-    """A catalogue figure's field, described from :mod:`pneucore.spec.valve_data` (the one source)."""
+    """A catalogue figure's field, described from :mod:`pneucore.description.valve_data` (the one source)."""
     unit, desc, _, default = VALVE_FIELDS[name]
     return Field(None, description=f"Instead of C, for the valve converter: {desc}"
                                    + ("" if default is None else f"; null = {default:g}")

@@ -7,7 +7,7 @@ then sized on the request's limits (:func:`run_sizing`).
 from __future__ import annotations
 
 from pneucore.sizing import check, load_series, size
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 from .deps import prefixed
 

@@ -500,7 +500,7 @@ class Store:
             Label
         experiments : list of dict
             The experiments every version is compared with (validated JSON)
-        model : pneucore.spec.model.Model
+        model : pneucore.description.model.Model
             The starting model (validated)
         comparison : tuple or None
             Its errors ``(errors, overall)`` on the experiments (:func:`pneucore.analysis.compare.errors`),
@@ -547,7 +547,7 @@ class Store:
         ----------
         sid : str
             Session id
-        model : pneucore.spec.model.Model
+        model : pneucore.description.model.Model
             The new version's model (validated)
         comparison : tuple or None
             Its errors ``(errors, overall)``, None without experiments

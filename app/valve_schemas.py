@@ -1,12 +1,12 @@
 """Schemas of POST /api/valve/convert: the request and the answer, from the library's registry
-(:mod:`pneucore.spec.valve_data`)."""
+(:mod:`pneucore.description.valve_data`)."""
 from typing import Optional
 
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from typing import Any
 
-from pneucore.spec.valve_data import CATALOGUE_FIELDS, CATALOGUE_VALVES, C_UNIT, CONVERSIONS, FIELDS
+from pneucore.description.valve_data import CATALOGUE_FIELDS, CATALOGUE_VALVES, C_UNIT, CONVERSIONS, FIELDS
 
 
 def _description(name, text, unit, default):
@@ -39,7 +39,7 @@ SUMMARY = ("Valve data as catalogues give them (Qn, effective area, Cv, Kv, a fl
 
 
 class CatalogueValveRequest(BaseModel):
-    """An on/off valve as its catalogue gives it (:func:`pneucore.spec.valve_data.catalogue_valve`)."""
+    """An on/off valve as its catalogue gives it (:func:`pneucore.description.valve_data.catalogue_valve`)."""
     model_config = ConfigDict(extra="forbid")
     function: str = Field(..., description=CATALOGUE_FIELDS["function"][1] + " [-]")
     supply: dict[str, Any] = Field(..., description=CATALOGUE_FIELDS["supply"][1])

@@ -51,7 +51,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
 from pneucore.data.experiment import as_experiments  # noqa: E402
-from pneucore.spec.model import Model  # noqa: E402
+from pneucore.description.model import Model  # noqa: E402
 from pneucore.data.synthetic import RIG_CASES, rig_case  # noqa: E402
 from machine import save_figures  # noqa: E402
 from pneucore.data.synthetic import RIG_EFFECTS, RigCase  # noqa: E402
@@ -83,7 +83,7 @@ def long_case(name, cyclic_s, effect=None, strokes=False):
     :func:`stroke_cycles`), the catalogue model otherwise right (a :class:`RigCase` of
     category ``long``)."""
     from bench_long_records import experiment, hold, length_set, true_model
-    from pneucore.spec.presets import model_preset
+    from pneucore.description.presets import model_preset
     truth = true_model()
     if effect is not None:
         truth["effects"] = {effect: dict(RIG_EFFECTS[effect])}
@@ -211,7 +211,7 @@ def recovered(case, model):
     ``{effect, param, unit, true, found, error (relative, None where the truth is 0), fitted}``
     for each parameter the diagnosis fits (:attr:`Effect.diagnosis_params`, those the rig has a
     place for) and the equivalents of :data:`EQUIVALENTS`."""
-    from pneucore.spec.effects import EFFECTS
+    from pneucore.description.effects import EFFECTS
     truth = Model.from_dict(case.truth)
     rows = []
     for name in case.effects:

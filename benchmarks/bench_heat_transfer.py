@@ -105,7 +105,7 @@ def discharge(natural, jet, end=60.0, n=241):
     """Mean-gas pressure [Pa] and temperature [K] of the published vessel discharged from 7.9 bar."""
     import numpy as np
     from pneucore.simulate import simulate
-    from pneucore.spec.model import Model
+    from pneucore.description.model import Model
     heat = {**MODELS[0][1], "natural_multiplier": natural, "jet_multiplier": jet,
             "sensor_time_constant": 0.0}
     sc = {"locked": True, "x0": 0.0, "duration": end, "command": [[0.0, 1.0]],
@@ -145,7 +145,7 @@ def slow_sensor(data, natural=1.0, jet=0.15, switch=19.0, end=78.0):
     import numpy as np
     from scipy.optimize import least_squares
     from pneucore.simulate import simulate
-    from pneucore.spec.model import Model
+    from pneucore.description.model import Model
     t, _, T_meas = read_vessel_record(data)
     ok = np.isfinite(T_meas)
     tm, Tm = t[ok], T_meas[ok]

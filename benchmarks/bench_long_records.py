@@ -69,8 +69,8 @@ from pneucore.analysis.diagnose import diagnose  # noqa: E402
 from pneucore.analysis.history import refine  # noqa: E402
 from pneucore.data.experiment import as_experiments  # noqa: E402
 from pneucore.data.synthetic import diagnostic_scenarios, synthesize  # noqa: E402
-from pneucore.spec.model import Model  # noqa: E402
-from pneucore.spec.scenario import pulse_train  # noqa: E402
+from pneucore.description.model import Model  # noqa: E402
+from pneucore.description.scenario import pulse_train  # noqa: E402
 from machine import machine_info, save_figures  # noqa: E402
 
 #: Hidden piston leak of the true rig: its conductance [kg/(s Pa)]

@@ -50,7 +50,7 @@ from machine import machine_info  # noqa: E402
 from pneucore.analysis.heat_compare import (TABLE2_MOVES, TABLE2_TESTS,  # noqa: E402
                                             heat_model_distances, table2_rows, table2_target,
                                             table2_text)
-from pneucore.spec.presets import model_preset, scenario_preset  # noqa: E402
+from pneucore.description.presets import model_preset, scenario_preset  # noqa: E402
 
 #: The valve's step starts here in both tests, as in the presets before the fit [s]
 T_STEP = 0.05

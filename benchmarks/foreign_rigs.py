@@ -14,7 +14,7 @@ A case is right when
   nothing and recalibrates nothing (at most :data:`MAX_ROUNDS`); the effects of the model
   the loop ends with are exactly those expected.
 
-A request the service refuses (a 4xx: :class:`pneucore.spec.validation.FieldError`) is wrong.
+A request the service refuses (a 4xx: :class:`pneucore.description.validation.FieldError`) is wrong.
 Beside the verdict each row gives the error the last round ends with against the truth's
 floor (:data:`FLOOR_FACTOR`).
 
@@ -79,7 +79,7 @@ def run_case(entry, root=ROOT):
     from app.schemas import DiagnoseRequest
     from app.services import run_diagnose
     from app.store import Store
-    from pneucore.spec.validation import FieldError
+    from pneucore.description.validation import FieldError
     case = load(entry, root)
     body = dict(case["request"])
     store = Store(os.path.join(tempfile.mkdtemp(), "foreign.sqlite3"))

@@ -22,9 +22,9 @@ import time
 from pneucore.analysis.command_line import (COMMANDS, LoopArgumentError, add_loop_commands, load_model,
                                             load_scenario, run_loop)
 from pneucore.physics.gas import T_ZERO_CELSIUS
-from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS
+from pneucore.description.presets import MODEL_PRESETS, SCENARIO_PRESETS
 from pneucore.simulate import SimulationError, simulate
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 #: A simulation of a preset takes milliseconds once compiled; a run above this wall time
 #: [s] includes numba's compilation, and only then the summary says so
@@ -77,7 +77,7 @@ def stroke_table_lines(res, model):
     timed from the valve switching) as lines: one row per command, times [s], speeds [m/s],
     impact energy [J], air [NL]; ``-`` where undefined (a partial stroke)."""
     from pneucore.analysis.strokes import stroke_metrics
-    from pneucore.spec.model import Model
+    from pneucore.description.model import Model
     m = stroke_metrics(res, model if isinstance(model, Model) else Model.from_dict(model))
     if not m["strokes"]:
         return ["strokes: none (no command event)"]
@@ -251,7 +251,7 @@ def _bench_record(path, columns=None):
 def _identify(args):
     """``pneucore identify valve|friction``: print the report, write the JSON."""
     from pneucore.identify import identify_friction, identify_valve, predict_rod_force
-    from pneucore.spec.model import Model
+    from pneucore.description.model import Model
 
     if args.bench == "valve":
         model = Model.from_dict(load_model(args.model)) if args.model else None

@@ -9,18 +9,18 @@ import numpy as np
 from numba import njit
 
 from pneucore.core import layout as L
-from pneucore.spec.effects import EFFECTS, CoreBuild, effect_warnings, effective_model
+from pneucore.description.effects import EFFECTS, CoreBuild, effect_warnings, effective_model
 from pneucore.physics.flow import FLOW_LAWS
 from pneucore.physics.friction import FRICTION_LAWS
 from pneucore.physics.gas import density
 from pneucore.physics.heat import HEAT_MODELS
 from pneucore.core.integrator import (ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES, core_for,
                                      has_lines, integrate)
-from pneucore.spec.model import Model, check_resolvable
-from pneucore.spec.validation import choice
+from pneucore.description.model import Model, check_resolvable
+from pneucore.description.validation import choice
 from pneucore.result import CoreRun
 from pneucore.core.rhs import law_table, no_terms
-from pneucore.spec.scenario import Scenario
+from pneucore.description.scenario import Scenario
 from pneucore.physics.valve import pack_tables, switched_command
 
 
@@ -237,7 +237,7 @@ def command_time_scale(scenario):
     --------
     A 30 ms pulse at 0.1 s in a 1 s run:
 
-    >>> from pneucore.spec.scenario import Scenario
+    >>> from pneucore.description.scenario import Scenario
     >>> command_time_scale(Scenario.from_dict({"command": [[0, 0], [0.1, 1], [0.13, 0]]}))
     0.03
     """
@@ -262,11 +262,11 @@ def simulate(model, scenario, raise_on_error=True, t_out=None):
     Parameters
     ----------
     model : Model or dict
-        The actuator (validated; see :class:`pneucore.spec.model.Model`)
+        The actuator (validated; see :class:`pneucore.description.model.Model`)
     scenario : Scenario or dict
         Command, duration, sampling, initial state; a dict is
-        validated, a :class:`~pneucore.spec.scenario.Scenario` is trusted as
-        :meth:`~pneucore.spec.scenario.Scenario.from_dict` built it and only checked against
+        validated, a :class:`~pneucore.description.scenario.Scenario` is trusted as
+        :meth:`~pneucore.description.scenario.Scenario.from_dict` built it and only checked against
         ``model`` (after editing a Scenario's fields, rebuild it with ``from_dict``)
     raise_on_error : bool
         Raise :class:`SimulationError` if the solver cannot proceed
@@ -576,7 +576,7 @@ def warm_up():
     seconds : float
         Wall time taken [s]
     """
-    from pneucore.spec.presets import model_preset, scenario_preset
+    from pneucore.description.presets import model_preset, scenario_preset
     t0 = time.perf_counter()
     scenario = scenario_preset("paper-fig10-pulses")
     scenario.update(duration=0.01, sample_period=0.001)

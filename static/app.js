@@ -297,7 +297,7 @@ function metricDisplay(unit) {
   }
   return { label: unit || '-', val: (v) => v, diff: (v) => v };
 }
-/** SI unit of the model parameter at `path` (GET /api/units, from pneucore.spec.paths); '' when unknown. */
+/** SI unit of the model parameter at `path` (GET /api/units, from pneucore.description.paths); '' when unknown. */
 function paramUnit(path) {
   const units = (S.units && S.units.parameters) || {};
   const p = String(path || '');

@@ -6,7 +6,7 @@
 'use strict';
 
 /* ------------------------------------------------------------------ robustness study */
-// Paths offered in the parameter picker (any other model path can be typed; see pneucore.spec.paths).
+// Paths offered in the parameter picker (any other model path can be typed; see pneucore.description.paths).
 const STUDY_PATHS = [
   ['friction.extend.fc0', 'Coulomb force, extension'],
   ['friction.retract.fc0', 'Coulomb force, retraction'],

@@ -5,7 +5,7 @@
  * label the shown unit. The choice is kept in localStorage. The ambient pressure itself is
  * always shown absolute (gauge would make it 0). */
 
-const UNITS = { api: null, system: localStorage.getItem('pneucore.spec.units') || 'engineering' };
+const UNITS = { api: null, system: localStorage.getItem('pneucore.description.units') || 'engineering' };
 
 function prettyUnitText(u) { return String(u).replace(/\^3/g, '³').replace(/\^2/g, '²'); }
 
@@ -82,7 +82,7 @@ async function initUnits() {
   sel.value = UNITS.system;
   sel.addEventListener('change', () => {
     UNITS.system = sel.value;
-    localStorage.setItem('pneucore.spec.units', UNITS.system);
+    localStorage.setItem('pneucore.description.units', UNITS.system);
     applyUnits();
   });
   // apply once the page holds its model and scenario

@@ -15,8 +15,8 @@ import numpy as np
 
 from pneucore.data.measurement import Measurement
 from pneucore.data.synthetic import synthesize
-from pneucore.spec.model import Model
-from pneucore.spec.presets import model_preset
+from pneucore.description.model import Model
+from pneucore.description.presets import model_preset
 
 #: Sensor gain [bar/V] of the gauge pressure transducer
 GAIN_BAR_PER_V = 2.0

@@ -9,7 +9,7 @@ import pytest
 from api_conftest import api, model
 from pneucore.cli import main
 from pneucore.data.samples import DATA_DIR, list_samples
-from pneucore.spec.model import Model
+from pneucore.description.model import Model
 
 LEAK = "piston-leak"
 

@@ -59,7 +59,7 @@ def test_every_module_has_a_reference_page(site):
     missing = [m for m in modules if not _page(site, f"reference/api/{m}.md").is_file()]
     assert not missing, f"modules without an API reference page: {missing}"
     # a page holds the module's documentation, not only its title
-    page = _page(site, "reference/api/pneucore.spec.model.md").read_text()
+    page = _page(site, "reference/api/pneucore.description.model.md").read_text()
     assert "Jack" in page and "[m]" in page
 
 

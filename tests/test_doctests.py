@@ -54,7 +54,7 @@ def _docstring_tests():
 def test_the_scan_finds_the_modules_with_examples():
     mods = _modules_with_examples()
     # modules known to carry examples (the scan must see them, not only what is listed here)
-    assert {"pneucore.physics.flow", "pneucore.physics.gas", "pneucore.spec.scenario", "pneucore.study.metrics"} <= set(mods)
+    assert {"pneucore.physics.flow", "pneucore.physics.gas", "pneucore.description.scenario", "pneucore.study.metrics"} <= set(mods)
     assert len(_docstring_tests()) >= 15
 
 

@@ -94,8 +94,8 @@ def test_pneucore_does_not_import_the_web_layer():
 
 
 #: What each lower layer of pneucore may not import: physics is the bottom (the laws, their
-#: registries and the state terms' rates), the core assembles them, spec describes models
-_LOWER_LAYERS = {"physics": ("core", "spec", "simulate", "result", "strokes", "analysis", "data",
+#: registries and the state terms' rates), the core assembles them, description describes models
+_LOWER_LAYERS = {"physics": ("core", "description", "simulate", "result", "strokes", "analysis", "data",
                              "study", "identify", "sizing")}
 
 

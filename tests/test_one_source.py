@@ -18,9 +18,9 @@ from app import schemas
 from app.config import Limits
 from app.deps import parse_model, parse_scenario
 from pneucore.physics.heat import HEAT_PARAMETERS
-from pneucore.spec.docstrings import api_description, field_docs
-from pneucore.spec.model import FrictionSet, Gas, Jack, Model, PortTable, Source, Valve
-from pneucore.spec.scenario import Initial, Scenario, Solver
+from pneucore.description.docstrings import api_description, field_docs
+from pneucore.description.model import FrictionSet, Gas, Jack, Model, PortTable, Source, Valve
+from pneucore.description.scenario import Initial, Scenario, Solver
 
 # the pneucore object a schema mirrors (a default instance; required fields given)
 MIRRORS = {
@@ -176,8 +176,8 @@ def test_the_same_json_gives_the_same_scenario_through_the_api_and_the_library()
 def test_the_api_choices_are_the_pneucore_registries():
     from typing import get_args
 
-    from pneucore.spec.model import VALVE_KINDS
-    from pneucore.spec.scenario import COMMAND_INTERPOLATIONS
+    from pneucore.description.model import VALVE_KINDS
+    from pneucore.description.scenario import COMMAND_INTERPOLATIONS
     from pneucore.study.definition import DISTRIBUTIONS
     assert get_args(schemas.ValveIn.model_fields["kind"].annotation) == tuple(VALVE_KINDS)
     assert get_args(schemas.ScenarioIn.model_fields["command_interpolation"].annotation) \

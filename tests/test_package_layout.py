@@ -1,5 +1,8 @@
-"""The package layout: subpackages by topic, the public API unchanged, old module names
-still importable (the same module object) with a DeprecationWarning."""
+"""The package layout: subpackages by topic, the public API unchanged. The flat module names
+of version 0.1 (``pneucore.model``, ``pneucore.flow``) and the name ``pneucore.spec``, which
+readers from other ecosystems took for a test folder (issue 40), are gone: the project had no
+outside users to keep them for; the model's and scenario's description is
+``pneucore.description``."""
 import importlib
 import os
 import subprocess
@@ -9,7 +12,6 @@ import re
 import pytest
 
 import pneucore
-from pneucore._moved import MOVED
 
 PKG = os.path.dirname(os.path.abspath(pneucore.__file__))
 
@@ -32,7 +34,7 @@ LAYOUT = {
     # position control (issue 42): linearisation, controllers, setpoints, metrics, closed loop
     "control": {"closed_loop", "command_line", "controllers", "linearize", "metrics", "models",
                 "robustness", "setpoints"},
-    "spec": {"docstrings", "effects", "model", "paths", "presets", "provenance", "scenario", "units",
+    "description": {"docstrings", "effects", "model", "paths", "presets", "provenance", "scenario", "units",
              "validation", "valve_data"},
     "data": {"command", "experiment", "export", "fileformats", "matfile", "measurement", "npz", "samples", "synthetic"},
     "analysis": {"autocorrelation", "blas_threads", "calibrate", "calibration_options", "compare", "diagnose",
@@ -45,7 +47,7 @@ LAYOUT = {
     "identify": {"friction_bench", "valve_bench"},
     "sizing": {"requirement", "search", "series", "stroke"},
 }
-TOP_LEVEL = {"__main__", "_moved", "cli", "progress", "result", "simulate"}
+TOP_LEVEL = {"__main__", "cli", "progress", "result", "simulate"}
 
 
 def test_public_api_is_unchanged():
@@ -64,30 +66,21 @@ def test_modules_live_in_their_subpackages():
     assert top == TOP_LEVEL, "a flat module beside the subpackages: put it where it belongs"
 
 
-@pytest.mark.parametrize("old", sorted(MOVED))
-def test_old_module_name_is_the_moved_module_with_a_warning(old):
-    new = importlib.import_module(f"pneucore.{MOVED[old]}")
+#: names that no longer exist: the flat modules of version 0.1 and the package once called spec
+GONE = ["spec", "spec.model", "model", "flow", "effects", "scenario", "study_def", "_moved"]
+
+
+@pytest.mark.parametrize("old", GONE)
+def test_old_names_are_gone(old):
     sys.modules.pop(f"pneucore.{old}", None)
-    with pytest.warns(DeprecationWarning, match=f"pneucore.{old} moved to pneucore.{MOVED[old]}"):
-        mod = importlib.import_module(f"pneucore.{old}")
-    assert mod is new
-
-
-def test_from_pneucore_import_old_module_name():
-    # an earlier ``import pneucore.flow`` binds the attribute on the package: start without it
-    vars(pneucore).pop("flow", None)
-    sys.modules.pop("pneucore.flow", None)
-    with pytest.warns(DeprecationWarning, match="pneucore.flow moved to pneucore.physics.flow"):
-        from pneucore import flow
-    from pneucore.physics import flow as new
-    assert flow is new
-    with pytest.raises(AttributeError, match="no_such_thing"):
-        pneucore.no_such_thing        # noqa: B018 - an unknown name is still an AttributeError
+    with pytest.raises(ModuleNotFoundError):
+        importlib.import_module(f"pneucore.{old}")
+    with pytest.raises(AttributeError):
+        getattr(pneucore, old.split(".")[0])
 
 
 def test_the_package_itself_uses_no_old_name():
-    """Importing every module of the package raises no DeprecationWarning about a moved name:
-    the package, the service and the benchmarks import from the new places."""
+    """Importing every module of the package raises no DeprecationWarning."""
     code = ("import warnings, importlib, pkgutil, pneucore, app.main\n"
             "warnings.simplefilter('error', DeprecationWarning)\n"
             "for m in pkgutil.walk_packages(pneucore.__path__, 'pneucore.'):\n"
@@ -108,15 +101,15 @@ def test_study_command_line_runs_as_a_module():
 
 
 def test_internal_imports_use_new_names():
-    """No source file of the repository names a module by its old flat path."""
+    """No source file of the repository names a module by a name that is gone."""
     root = os.path.dirname(PKG)
     bad = []
-    old = re.compile(r"\bpneucore\.(" + "|".join(sorted(MOVED, key=len, reverse=True)) + r")\b(?![\w/])")
+    old = re.compile(r"\bpneucore\.(" + "|".join(sorted(GONE, key=len, reverse=True)) + r")\b(?![\w/])")
     for top in ("pneucore", "app", "benchmarks", "tests"):
         for dirpath, dirs, files in os.walk(os.path.join(root, top)):
             dirs[:] = [d for d in dirs if d != "__pycache__"]
             for f in files:
-                if f.endswith(".py") and f not in ("_moved.py", "test_package_layout.py"):
+                if f.endswith(".py") and f != "test_package_layout.py":
                     path = os.path.join(dirpath, f)
                     with open(path, encoding="utf-8") as fh:
                         for i, line in enumerate(fh, 1):

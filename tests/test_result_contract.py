@@ -3,7 +3,7 @@
 ``SimulationResult.mode`` is text (``stick``, ``slide``, ``stop``, ``locked``; ``""`` for a
 sample the solver never reached), made from the integer codes of the compiled core
 through a lookup table; the REST answer carries the same strings. ``simulate`` trusts a
-:class:`~pneucore.spec.scenario.Scenario` built by ``Scenario.from_dict`` and does not
+:class:`~pneucore.description.scenario.Scenario` built by ``Scenario.from_dict`` and does not
 validate it again, but still checks it against the model it is run with.
 """
 import numpy as np

@@ -1,5 +1,5 @@
 """GET /api/units: the page's display unit systems, the SI unit of every model and scenario field,
-and of every model parameter path (:mod:`pneucore.spec.paths`)."""
+and of every model parameter path (:mod:`pneucore.description.paths`)."""
 import re
 
 from fastapi import APIRouter
@@ -32,7 +32,7 @@ def _fields(cls, prefix, out):
 class UnitsResponse(BaseModel):
     systems: dict = Field(..., description="Display systems: {name: {label, units: {SI unit: {unit, scale, offset}}}}; display = (SI - offset) / scale, offset 'gauge' = the model's ambient pressure")
     fields: dict[str, str] = Field(..., description="SI unit of each model and scenario field, from the schemas' descriptions")
-    parameters: dict[str, str] = Field(..., description="SI unit of each model parameter path (calibration, studies, diagnosis: jack.bore, friction.extend.fc0, effects.<effect>.<parameter>, valve.ports.*.C for any edge), from pneucore.spec.paths.unit_of")
+    parameters: dict[str, str] = Field(..., description="SI unit of each model parameter path (calibration, studies, diagnosis: jack.bore, friction.extend.fc0, effects.<effect>.<parameter>, valve.ports.*.C for any edge), from pneucore.description.paths.unit_of")
     stroke: dict[str, dict] = Field(..., description="Unit and definition of each per-stroke metric of a simulation's stats.stroke.strokes: {name: {unit, description}}, from pneucore.analysis.strokes.STROKE_FIELDS (SMC's definitions)")
 
 

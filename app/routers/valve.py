@@ -1,6 +1,6 @@
 """POST /api/valve/convert: valve data as catalogues give them (nominal flow Qn, effective
 area, Cv, Kv, one flow point) converted to the model's sonic conductance C and critical ratio b
-(issue 23, item 7; :mod:`pneucore.spec.valve_data`)."""
+(issue 23, item 7; :mod:`pneucore.description.valve_data`)."""
 from fastapi import APIRouter
 
 from ..services import catalogue_valve, convert_valve

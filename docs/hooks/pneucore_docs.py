@@ -41,7 +41,7 @@ def plain_brackets(text: str) -> str:
     return "`".join(_RANGE_UNIT.sub(r"\\]\1[", p) if i % 2 == 0 else p for i, p in enumerate(parts))
 
 
-#: a Sphinx role of the docstrings: :class:`~pneucore.spec.model.Model`, :func:`simulate`
+#: a Sphinx role of the docstrings: :class:`~pneucore.description.model.Model`, :func:`simulate`
 _ROLE = re.compile(r":(?:py:)?(?:class|func|meth|mod|data|attr|obj|exc|const):`(~?)([^`<>]+)`")
 
 

@@ -38,8 +38,8 @@ from pneucore.analysis.compare import plain_json, replay, summarise
 from pneucore.data.experiment import as_experiments
 from pneucore.data.measurement import ACCURACY, sensor_zero
 from pneucore.analysis.metrics import noise_sigma
-from pneucore.spec.model import Model
-from pneucore.spec.paths import parse_parameters, set_values
+from pneucore.description.model import Model
+from pneucore.description.paths import parse_parameters, set_values
 from pneucore.progress import Cancelled
 from pneucore.analysis.blas_threads import single_threaded_blas
 
@@ -135,8 +135,8 @@ def sensor_specs(experiments, signals, fields=("offset", "gain"), parameters=Non
         Offsets in the signal's SI unit, gains relative [-]
     """
     from pneucore.data.measurement import SIGNAL_UNITS
-    from pneucore.spec.paths import ParameterSpec
-    from pneucore.spec.validation import FieldError, number
+    from pneucore.description.paths import ParameterSpec
+    from pneucore.description.validation import FieldError, number
     out = []
     parameters = parameters or {}
     for sig in signals:
@@ -839,7 +839,7 @@ def calibrate(model, experiments, parameters, max_nfev=40, datasets=None, progre
     experiments : list
         Experiments (objects or JSON), fitted jointly
     parameters : dict or list
-        ``{path: {"min", "max", "value"?, "vary"?}}`` (see :mod:`pneucore.spec.paths`)
+        ``{path: {"min", "max", "value"?, "vary"?}}`` (see :mod:`pneucore.description.paths`)
     max_nfev : int
         Budget of residual evaluations of the optimiser
     progress : callable or None
@@ -905,7 +905,7 @@ def check_parameters(model, experiments, parameters):
     """The specs of a calibration's ``parameters``: model paths (:func:`parse_parameters`) and
     sensor paths (:data:`SENSOR_PREFIX`: ``sensors.x.offset``, ``sensors.p_a.gain``) of a signal
     the experiments measure; each error names its ``parameters.<path>``."""
-    from pneucore.spec.validation import FieldError
+    from pneucore.description.validation import FieldError
     if isinstance(parameters, (list, tuple)):
         parameters = {p: {} for p in parameters}
     sensor = {p: o for p, o in (parameters or {}).items() if str(p).startswith(SENSOR_PREFIX)}

@@ -3,13 +3,13 @@
 :func:`calibration_options` lists, for a model, the base parameters commonly
 fitted on rig data and every parameter of the effects the model already
 holds, each with its current value, unit and the default bounds of
-:func:`pneucore.spec.paths.parse_parameters` (so the page shows the very bounds a
+:func:`pneucore.description.paths.parse_parameters` (so the page shows the very bounds a
 fit without explicit bounds would use: one source).
 """
 from __future__ import annotations
 
-from pneucore.spec.effects import EFFECTS
-from pneucore.spec.paths import parse_parameters
+from pneucore.description.effects import EFFECTS
+from pneucore.description.paths import parse_parameters
 
 __all__ = ["BASE_PARAMETERS", "calibration_options"]
 

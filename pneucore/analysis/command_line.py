@@ -21,7 +21,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
+from pneucore.description.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
 
 #: The loop's commands: name -> one line of help
 COMMANDS = {
@@ -169,7 +169,7 @@ def propose_lines(args):
     """
     from pneucore.data.command import propose_command
     from pneucore.data.fileformats import read_measurement
-    from pneucore.spec.model import Model
+    from pneucore.description.model import Model
     if not 0.0 <= args.switching_time <= 0.5:
         raise LoopArgumentError(f"--switching-time {args.switching_time}: between 0 and 0.5 s")
     amb = Model.from_dict(load_model(args.model)).ambient.pressure
@@ -300,7 +300,7 @@ def run_loop(args):
     from pneucore.analysis.compare import compare
     from pneucore.analysis.report import comparison_report, diagnosis_report_on, refinement_report
     from pneucore.data.experiment import as_experiments
-    from pneucore.spec.model import Model
+    from pneucore.description.model import Model
 
     if args.cmd == "propose-command":
         return propose_lines(args)

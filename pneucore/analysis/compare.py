@@ -19,7 +19,7 @@ from pneucore.analysis.metrics import (command_phases, eq25_error, noise_sigma, 
                                        phase_errors, piston_phases, worst_windows)
 from pneucore.analysis.phase_excess import describe, explain_residual
 from pneucore.result import LazyResult, SummarisedResult, kept_columns
-from pneucore.spec.model import Model
+from pneucore.description.model import Model
 
 
 @dataclass
@@ -452,7 +452,7 @@ def with_heat_model(model, name):
 def check_heat_models(heat_models):
     """Validate the ``heat_models`` argument of :func:`compare`; returns the names."""
     from pneucore.physics.heat import HEAT_MODELS
-    from pneucore.spec.validation import FieldError
+    from pneucore.description.validation import FieldError
     if not heat_models:
         return ()
     if heat_models is True:

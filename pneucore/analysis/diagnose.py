@@ -94,9 +94,9 @@ from pneucore.analysis.diagnosis.rules import (ALPHA, CONSISTENT_RTOL, DELTA_BIC
 from pneucore.analysis.diagnosis.stages import NO_EFFECT, RECAL_MIN  # noqa: F401
 from pneucore.analysis.shown import card_badges, flag_changes
 from pneucore.data.experiment import as_experiments
-from pneucore.spec.effects import EFFECTS
-from pneucore.spec.model import Model
-from pneucore.spec.paths import get_value, model_changes, parse_parameters, set_values
+from pneucore.description.effects import EFFECTS
+from pneucore.description.model import Model
+from pneucore.description.paths import get_value, model_changes, parse_parameters, set_values
 
 
 @dataclass
@@ -176,7 +176,7 @@ def _candidate_names(model, candidates):
 
 def _check_paths(model, paths, where):
     """Each of ``paths`` must be a writable model parameter; the error names ``where[i]``."""
-    from pneucore.spec.validation import FieldError
+    from pneucore.description.validation import FieldError
     for i, p in enumerate(paths):
         if not isinstance(p, str):
             raise FieldError(f"{where}[{i}]", f"{p!r} is not a parameter path")
@@ -197,7 +197,7 @@ def _check_paths(model, paths, where):
 def check_request(model, candidates=None, uncertain=(), known=()):
     """Validate ``candidates``, ``uncertain`` and ``known`` before any work; returns the
     candidate names. A path both uncertain and known is refused (naming it)."""
-    from pneucore.spec.validation import FieldError
+    from pneucore.description.validation import FieldError
     if candidates is None:
         names = _candidate_names(model, None)
     else:

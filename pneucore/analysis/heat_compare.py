@@ -27,10 +27,10 @@ from pneucore.analysis.compare import replay, with_heat_model
 from pneucore.data.experiment import as_experiments
 from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
 from pneucore.analysis.metrics import eq25_error
-from pneucore.spec.model import Model
+from pneucore.description.model import Model
 from pneucore.simulate import simulate
-from pneucore.spec.paths import ParameterSpec, set_values, unit_of
-from pneucore.spec.validation import FieldError
+from pneucore.description.paths import ParameterSpec, set_values, unit_of
+from pneucore.description.validation import FieldError
 
 def check_names(names, path="heat_models"):
     """Validate a list of heat-model names (None = all, in registry order); returns a tuple."""
@@ -436,7 +436,7 @@ def table2_rows(model="paper-4way", scenarios=None, factor=1.5):
         [%]), ``target`` [%] or None, ``bound`` [%], ``distance`` [%], ``ratio`` (distance /
         target, or None) and ``ok``
     """
-    from pneucore.spec.presets import model_preset, scenario_preset
+    from pneucore.description.presets import model_preset, scenario_preset
     if isinstance(model, str):
         model = model_preset(model)
     scenarios = scenarios or {v: scenario_preset(n) for v, n in TABLE2_TESTS.items()}

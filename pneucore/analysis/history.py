@@ -15,7 +15,7 @@ from pneucore.analysis.compare import compare
 from pneucore.analysis.diagnose import check_request, diagnose
 from pneucore.analysis import parallel as P
 from pneucore.data.experiment import as_experiments
-from pneucore.spec.model import Model
+from pneucore.description.model import Model
 
 
 @dataclass

@@ -53,8 +53,8 @@ import numpy as np
 
 from pneucore.data.measurement import SIGNAL_UNITS, sensor_zero
 from pneucore.physics.jack import ANGLE_MAX
-from pneucore.spec.paths import VALVE_GROUPS, ParameterSpec, get_value, set_values, unit_of
-from pneucore.spec.units import difference_shown
+from pneucore.description.paths import VALVE_GROUPS, ParameterSpec, get_value, set_values, unit_of
+from pneucore.description.units import difference_shown
 
 #: Sensitivity norm^2 (noise-weighted chi-square units) a typical error must produce to be
 #: considered identifiable: 100 is a 10-sigma effect on the whole record
@@ -71,7 +71,7 @@ class BaseHypothesis:
     Parameters
     ----------
     path : str
-        Model path (:mod:`pneucore.spec.paths`)
+        Model path (:mod:`pneucore.description.paths`)
     label : str
         Human name, e.g. ``heat coefficient``
     typical : float
@@ -132,7 +132,7 @@ def _load_span(m):
 def _user_sets(m):
     """A value its user sets up and knows: a jack's load (on a horizontal jack no weight acts
     along the rod, and on an inclined one the weight is the model's own, moving mass and
-    mounting angle, :attr:`pneucore.spec.model.Jack.gravity_force`, not part of the load) and
+    mounting angle, :attr:`pneucore.description.model.Jack.gravity_force`, not part of the load) and
     its mounting angle (a machine frame's geometry)."""
     return True
 

@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from pneucore.data.measurement import SIGNAL_UNITS
-from pneucore.spec.units import difference_shown
+from pneucore.description.units import difference_shown
 
 #: A residual whose RMS is below this many noise sigmas is within the noise. White noise alone
 #: gives an RMS of about 1 sigma; over 20 samples (the fewest a phase is judged on) its RMS

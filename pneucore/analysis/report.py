@@ -396,7 +396,7 @@ def diagnosis_report_on(model, experiments, diagnosis, provenance=None, title="D
         A self-contained page [-]
     """
     from pneucore.analysis.compare import compare
-    from pneucore.spec.model import Model
+    from pneucore.description.model import Model
     d = diagnosis
     refined = None
     best = next((r for r in d.get("ranking", []) if r.get("effect") == d.get("verdict")), None)
@@ -413,7 +413,7 @@ def refinement_report(answer, comparison, provenance=None, title="Refinement") -
     ----------
     answer : dict
         :func:`pneucore.analysis.history.refinement_answer`, or a stored session's versions
-        (each may carry ``changes``, :func:`pneucore.spec.paths.model_changes` from the
+        (each may carry ``changes``, :func:`pneucore.description.paths.model_changes` from the
         version before, and a ``note``) [-]
     comparison : pneucore.analysis.compare.Comparison
         The refined model compared with the data [-]

@@ -142,7 +142,7 @@ def value_flag(model, path, value):
 
 
 def flag_changes(model, changes, known=()):
-    """``changes`` (:func:`pneucore.spec.paths.model_changes`) each with ``flag`` (severity or
+    """``changes`` (:func:`pneucore.description.paths.model_changes`) each with ``flag`` (severity or
     None), ``why`` and ``known`` (a value the user declared known moves) added: what the page
     lists before "Apply", value by value.
 

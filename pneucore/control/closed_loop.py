@@ -29,9 +29,9 @@ from pneucore.core import rhs as rhs_module
 from pneucore.core.rhs import no_terms
 from pneucore.result import CoreRun
 from pneucore.simulate import SimulationError, build_core, checked_sample_times, output_samples
-from pneucore.spec.model import Model, check_resolvable
-from pneucore.spec.scenario import Scenario
-from pneucore.spec.validation import FieldError
+from pneucore.description.model import Model, check_resolvable
+from pneucore.description.scenario import Scenario
+from pneucore.description.validation import FieldError
 
 #: Shortest controller sample period [s]: 10 us, ten times the solver's smallest useful step
 MIN_SAMPLE_PERIOD = 1e-5

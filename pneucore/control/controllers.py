@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pneucore.core import controllers as C
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 
 @dataclass

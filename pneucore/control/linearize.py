@@ -34,9 +34,9 @@ import numpy as np
 from pneucore.core import layout as L
 from pneucore.core.rhs import rhs
 from pneucore.physics.jack import net_pressure_force
-from pneucore.spec.effects import EFFECTS
-from pneucore.spec.model import Model
-from pneucore.spec.validation import FieldError
+from pneucore.description.effects import EFFECTS
+from pneucore.description.model import Model
+from pneucore.description.validation import FieldError
 
 #: Relative central-difference step on each state, against its scale (atol / rtol of the
 #: core): the truncation error is O(step^2) ~ 1e-12, the rounding error ~ 1e-16 / 1e-6 =
@@ -104,7 +104,7 @@ def closed_form_natural_frequency(model, x, p_a, p_b, k):
     Examples
     --------
     >>> from pneucore import model_preset
-    >>> from pneucore.spec.model import Model
+    >>> from pneucore.description.model import Model
     >>> m = Model.from_dict(model_preset("paper-4way"))
     >>> round(closed_form_natural_frequency(m, 0.125, 4e5, 4e5, 1.0) / (2 * math.pi), 1)
     7.3
@@ -150,8 +150,8 @@ def linearize(model, x=None, p_a=None, p_b=None, u=0.0, frequencies=None):
         k = gamma
     """
     from pneucore.simulate import build_core
-    from pneucore.spec.effects import effective_model
-    from pneucore.spec.scenario import Scenario
+    from pneucore.description.effects import effective_model
+    from pneucore.description.scenario import Scenario
 
     model = Model.from_dict(model) if not isinstance(model, Model) else model
     _check_effects(model)
@@ -238,7 +238,7 @@ def _null_pressures(model, eff, x, u, p_a, p_b):
     ``p_b`` (:func:`equilibrium_pressures`). This is the operating point of a critically
     lapped valve at rest, about which its flow gain is the same both ways."""
     from pneucore.simulate import build_core
-    from pneucore.spec.scenario import Scenario
+    from pneucore.description.scenario import Scenario
 
     lo_u, hi_u = model.valve.opening_range
     if eff.b_chamber_pressure is not None or u - DU < lo_u or u + DU > hi_u:

@@ -4,7 +4,7 @@ from u = 0, where the paper's valve has its 15 % overlap, Fig. 2) and, by defaul
 friction. Catalogue-typical conductance 1e-8 m^3/(s Pa) at full opening, as paper-4way."""
 from __future__ import annotations
 
-from pneucore.spec.presets import model_preset
+from pneucore.description.presets import model_preset
 
 _C4 = 1.0e-8
 

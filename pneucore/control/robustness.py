@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from pneucore.control.closed_loop import simulate_closed_loop
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 #: Metrics of :func:`pneucore.control.metrics.control_metrics` a study records per run
 STUDY_METRICS = ("rise_time", "settling_time", "overshoot", "steady_state_error", "rms_error",

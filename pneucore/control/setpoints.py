@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 SETPOINT_KINDS = ("step", "multi_step", "ramp", "sine", "jerk_limited", "recorded")
 

@@ -3,7 +3,7 @@
 The compiled right-hand side receives the model as one float vector ``prm``
 and the positions of optional states as one integer vector ``iy``. The names
 below are module constants, which numba folds into the compiled code. Effects
-(``pneucore.spec.effects``) fill their own slots and declare their own states, so
+(``pneucore.description.effects``) fill their own slots and declare their own states, so
 the base equations never change when an effect is added. The effects with a
 state per chamber (:mod:`pneucore.physics.states`) get their slots from their
 registry, after the base slots written out here.

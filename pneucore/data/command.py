@@ -336,7 +336,7 @@ def propose_b_chamber(measurement: Measurement, pulses=(), ambient: float = AMBI
     Returns
     -------
     proposal : dict
-        ``b_chamber`` (a mode of :data:`pneucore.spec.model.B_CHAMBER_MODES` or None),
+        ``b_chamber`` (a mode of :data:`pneucore.description.model.B_CHAMBER_MODES` or None),
         ``b_chamber_pressure`` [Pa] for ``held``, ``sure`` [-] and ``why`` (in words)
     """
     sig = measurement.signals

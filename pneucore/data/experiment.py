@@ -33,9 +33,9 @@ from typing import Optional
 import numpy as np
 
 from pneucore.data.measurement import Measurement, MeasurementError
-from pneucore.spec.scenario import Scenario
+from pneucore.description.scenario import Scenario
 from pneucore.simulate import checked_sample_times, simulate, simulate_run
-from pneucore.spec.validation import FieldError, known_keys, mapping, number
+from pneucore.description.validation import FieldError, known_keys, mapping, number
 
 #: A record may start at most this many record lengths after the model's t = 0 (the model
 #: simulates the time before the first sample); beyond, ``time_offset`` is asked for

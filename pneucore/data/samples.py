@@ -12,7 +12,7 @@ import json
 from pathlib import Path
 
 from pneucore.data.measurement import read_csv
-from pneucore.spec.presets import model_preset
+from pneucore.description.presets import model_preset
 from pneucore.data.synthetic import synthetic_experiments
 
 DATA_DIR = Path(__file__).parent / "sample_files"

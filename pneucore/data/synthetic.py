@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from pneucore.data.measurement import Measurement
-from pneucore.spec.model import Model
-from pneucore.spec.scenario import Scenario, pulse_train
+from pneucore.description.model import Model
+from pneucore.description.scenario import Scenario, pulse_train
 from pneucore.simulate import simulate
 
 #: Sensor ranges of the paper's acquisition (0-10 bar transducers, 250 mm LVDT)
@@ -328,7 +328,7 @@ def fifty_mm_jack(kind="4/2"):
     Catalogue-typical values scaled from the paper's 32 mm jack: moving mass 4 kg, dead
     volumes 12 cm^3, friction about the piston perimeter ratio (x1.6) higher.
     """
-    from pneucore.spec.presets import model_preset
+    from pneucore.description.presets import model_preset
     m = model_preset("paper-4way" if kind == "4/2" else "paper-3way")
     m["name"] = "jack-50mm-" + kind.replace("/", "")
     m["jack"].update({"bore": 0.05, "rod_a": 0.02, "rod_b": 0.02 if kind == "4/2" else 0.02,
@@ -431,8 +431,8 @@ def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
     -------
     case : RigCase
     """
-    from pneucore.spec.paths import get_value, set_values
-    from pneucore.spec.presets import model_preset
+    from pneucore.description.paths import get_value, set_values
+    from pneucore.description.presets import model_preset
     rng = np.random.default_rng(seed)
     start = model_preset("paper-4way" if valve == "4/2" else "paper-3way") if jack == "paper" \
         else fifty_mm_jack(valve)

@@ -41,10 +41,10 @@ from scipy.signal import savgol_filter
 from pneucore.analysis.autocorrelation import integrated_time
 from pneucore.physics.friction import FRICTION_LAWS, coulomb_level, stribeck_factor, viscous_coefficient
 from pneucore.physics.gas import P_ATM
-from pneucore.spec.effects import EFFECTS
-from pneucore.spec.model import Model
-from pneucore.spec.provenance import TEXT_MAX, record
-from pneucore.spec.validation import FieldError
+from pneucore.description.effects import EFFECTS
+from pneucore.description.model import Model
+from pneucore.description.provenance import TEXT_MAX, record
+from pneucore.description.validation import FieldError
 
 #: Fewest samples of a record [-]: the velocity filter's default window spans 15 samples at
 #: 100 Hz, and a record must hold more than one window
@@ -139,7 +139,7 @@ class FrictionRecord:
     def from_dict(cls, d, path="experiments[0]"):
         """A validated record from ``{t, x, p_a, p_b, F, name}`` (or ``{name, measurement:
         {...}}``); samples with a missing value (None) are dropped. A
-        :class:`~pneucore.spec.validation.FieldError` names the field."""
+        :class:`~pneucore.description.validation.FieldError` names the field."""
         if not isinstance(d, dict):
             raise FieldError(path, f"must be an object with t, x, p_a, p_b, F, got {type(d).__name__}")
         name = d.get("name") or ""
@@ -226,7 +226,7 @@ def bench_columns(columns, p_atm=P_ATM, field="columns"):
 
     Raises
     ------
-    pneucore.spec.validation.FieldError
+    pneucore.description.validation.FieldError
         An unknown signal or unit, a signal twice, or t, x, p_a or F missing (naming the column)
 
     Examples
@@ -332,7 +332,7 @@ def read_bench_file(source, p_atm=P_ATM, name=None, columns=RIG_COLUMNS, *, fiel
 
     Raises
     ------
-    pneucore.spec.validation.FieldError
+    pneucore.description.validation.FieldError
         A malformed file, naming the line (and column): a row with another number of values, a
         cell that is no number, a value beyond :data:`LIMITS`, times not increasing, a
         pressure not positive, fewer than :data:`MIN_RECORD_SAMPLES` rows
@@ -622,7 +622,7 @@ class FrictionBenchResult:
 
     Parameters
     ----------
-    model : pneucore.spec.model.Model
+    model : pneucore.description.model.Model
         The input model with the identified friction (and moving mass when identified)
     parameters : dict
         By name (``friction.extend.fc0``, ..., ``offset``, ``area_a``, ``mass``,
@@ -704,7 +704,7 @@ def identify_friction(model, records, *, extras=(), stribeck="auto", quadrant=Tr
 
     Parameters
     ----------
-    model : pneucore.spec.model.Model
+    model : pneucore.description.model.Model
         The jack (areas, rods, moving mass) and ambient pressure; its friction gives the
         values of the parameters the records cannot identify
     records : list of FrictionRecord or dict
@@ -733,7 +733,7 @@ def identify_friction(model, records, *, extras=(), stribeck="auto", quadrant=Tr
 
     Raises
     ------
-    pneucore.spec.validation.FieldError
+    pneucore.description.validation.FieldError
         A record without ``F`` or with bad samples (naming it), an unknown extra, or too few
         sliding samples in a direction to identify its friction set (naming it)
     """
@@ -982,7 +982,7 @@ def _bench_provenance(params, quadrant):
 def _write_model(model, values, strib, note="", provenance=None, records=""):
     """The input model with the identified friction sets (and mass, Stribeck) written in, and
     where they came from appended to its notes and recorded in its ``provenance`` (source
-    ``bench``, :mod:`pneucore.spec.provenance`)."""
+    ``bench``, :mod:`pneucore.description.provenance`)."""
     d = model.to_dict()
     if note:
         d["notes"] = (d.get("notes") or "") + ("\n" if d.get("notes") else "") + note
@@ -1083,7 +1083,7 @@ def predict_rod_force(model, record, *, offset=0.0, area_a=0.0, area_b=0.0, wind
 
     Parameters
     ----------
-    model : pneucore.spec.model.Model
+    model : pneucore.description.model.Model
         The model
     record : FrictionRecord
         The record (its ``F`` is not used)
@@ -1105,7 +1105,7 @@ def predict_rod_force(model, record, *, offset=0.0, area_a=0.0, area_b=0.0, wind
     """
     from pneucore.core import layout as L
     from pneucore.simulate import build_core
-    from pneucore.spec.scenario import Scenario
+    from pneucore.description.scenario import Scenario
 
     prm = build_core(model, Scenario())["model"][0]
     law = FRICTION_LAWS[model.friction.law]

@@ -40,9 +40,9 @@ from scipy.optimize import least_squares
 
 from pneucore.physics.flow import FLOW_LAWS, R_LAMINAR
 from pneucore.physics.gas import RHO_REF, T_REF
-from pneucore.spec.model import VALVE_KINDS, Model, PortTable
-from pneucore.spec.provenance import record
-from pneucore.spec.validation import FieldError, number
+from pneucore.description.model import VALVE_KINDS, Model, PortTable
+from pneucore.description.provenance import record
+from pneucore.description.validation import FieldError, number
 
 #: An opening is closed (null / overlap band) when its fitted C is at most this fraction of the
 #: edge's largest C: a leak of 1 % of the full conductance is the order of a centred spool's
@@ -93,7 +93,7 @@ class BenchPoint:
 
     @classmethod
     def from_dict(cls, d, path, u_range=(-1.0, 1.0)):
-        """A validated point; a :class:`~pneucore.spec.validation.FieldError` names the field."""
+        """A validated point; a :class:`~pneucore.description.validation.FieldError` names the field."""
         if not isinstance(d, dict):
             raise FieldError(path, f"must be an object with opening, p_up, p_down, T_up, flow, "
                                    f"got {type(d).__name__}")
@@ -185,7 +185,7 @@ class ValveBenchResult:
         return self.opening == [None]
 
     def port_table(self, u_range=(-1.0, 1.0)):
-        """The result as a model's :class:`~pneucore.spec.model.PortTable`.
+        """The result as a model's :class:`~pneucore.description.model.PortTable`.
 
         A fixed orifice holds its C and b over the whole range ``u_range`` [-]; an edge
         identified at one opening only likewise.
@@ -200,12 +200,12 @@ class ValveBenchResult:
 
         Parameters
         ----------
-        model : pneucore.spec.model.Model
+        model : pneucore.description.model.Model
             The model to write into (left unchanged)
 
         Returns
         -------
-        pneucore.spec.model.Model
+        pneucore.description.model.Model
             The copy, validated again (``Model.from_dict``)
         """
         valve = model.valve
@@ -217,7 +217,7 @@ class ValveBenchResult:
         note = f"valve.ports.{self.edge} identified on a flow bench (ISO 6358, Eq. 4-5), " \
                f"{len(self.points)} points"
         d["notes"] = (d.get("notes") or "") + ("\n" if d.get("notes") else "") + note
-        # provenance: the edge's table as its scale paths (pneucore.spec.paths), with the scale's
+        # provenance: the edge's table as its scale paths (pneucore.description.paths), with the scale's
         # relative standard error, 1 / sqrt(sum (value / se)^2) over the table's fitted points
         # (the inverse-variance combination of independent estimates of one common factor)
         d["provenance"] = record(d.get("provenance"), {
@@ -329,7 +329,7 @@ def identify_valve(points, edge="P-A", *, u_range=(-1.0, 1.0), laminar_ratio=R_L
 
     Raises
     ------
-    pneucore.spec.validation.FieldError
+    pneucore.description.validation.FieldError
         Naming the point and field: a downstream pressure above the upstream one, a negative
         flow, an opening outside ``u_range``; or ``points`` when an open opening has too few
         points to identify C and b (which one, and why)

@@ -437,7 +437,7 @@ class HeatModel:
 
     def core_values(self, heat):
         """This model's slots of the core's parameter vector from ``heat`` (a
-        :class:`pneucore.spec.model.Heat`): ``{slot name: value}``, slot names of
+        :class:`pneucore.description.model.Heat`): ``{slot name: value}``, slot names of
         :data:`pneucore.core.layout.PRM_INDEX`."""
         out = {"H": self.core_coefficient(heat.coefficient),
                "ISOTHERMAL": 1.0 if self.isothermal else 0.0}
@@ -455,7 +455,7 @@ class HeatModel:
         ----------
         heat : Heat
             The model's heat section
-        build : pneucore.spec.effects.CoreBuild
+        build : pneucore.description.effects.CoreBuild
             The core being assembled
         T_a, T_b : float
             Initial gas temperatures [K] (the sensors start there)
@@ -476,7 +476,7 @@ def add_wall(build, mass, c, h_out):
 
     Parameters
     ----------
-    build : pneucore.spec.effects.CoreBuild
+    build : pneucore.description.effects.CoreBuild
         The core being assembled
     mass : float
         Wall mass of each chamber [kg]
@@ -494,7 +494,7 @@ def add_temperature_sensor(build, tau, T_a, T_b):
 
     Parameters
     ----------
-    build : pneucore.spec.effects.CoreBuild
+    build : pneucore.description.effects.CoreBuild
         The core being assembled
     tau : float
         Sensor time constant [s]

@@ -71,7 +71,7 @@ def pack_tables(ports):
     Parameters
     ----------
     ports : dict
-        Edge name -> :class:`pneucore.spec.model.PortTable`; missing edges get C = 0
+        Edge name -> :class:`pneucore.description.model.PortTable`; missing edges get C = 0
 
     Returns
     -------

@@ -118,7 +118,7 @@ def vessel_model(volume, D, wall_area, d, Cd, pressure, temperature, heat=None, 
     Returns
     -------
     model : dict
-        JSON for :meth:`pneucore.spec.model.Model.from_dict`
+        JSON for :meth:`pneucore.description.model.Model.from_dict`
     """
     C = orifice_conductance(d, Cd)
     b = saint_venant_critical_ratio(GAMMA_AIR)   # unused by the nozzle law; the table needs one

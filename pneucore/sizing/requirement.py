@@ -1,7 +1,7 @@
 """What a sizing is asked for: the required motion (:class:`Requirement`) and what may vary
 (:class:`Choices`), both from plain JSON with every field checked.
 
-A bad field raises one :class:`~pneucore.spec.validation.FieldError` naming its path
+A bad field raises one :class:`~pneucore.description.validation.FieldError` naming its path
 (``requirement.stroke``) and its unit. The angle becomes the model's ``jack.mounting_angle``
 and the tube its ``tubing`` effect (:func:`pneucore.sizing.search.build_model`).
 """
@@ -12,9 +12,9 @@ from typing import Optional
 
 from pneucore.physics.gas import P_ATM
 from pneucore.physics.jack import ANGLE_MAX
-from pneucore.spec.effects import EFFECTS
-from pneucore.spec.model import MAX_SWITCHING_TIME
-from pneucore.spec.validation import FieldError, known_keys, mapping, number
+from pneucore.description.effects import EFFECTS
+from pneucore.description.model import MAX_SWITCHING_TIME
+from pneucore.description.validation import FieldError, known_keys, mapping, number
 
 #: Upper bounds of the requirement's fields, in their units: well beyond any pneumatic drive
 #: (ISO 15552 cylinders are rated 10 bar, strokes of a few metres), they keep a mistyped
@@ -229,7 +229,7 @@ class Requirement:
     def unit(cls, name):
         """The unit of field ``name`` as its docstring states it (``m``, ``Pa``, ...)."""
         if not cls.UNITS:
-            from pneucore.spec.docstrings import field_docs
+            from pneucore.description.docstrings import field_docs
             for key, text in field_docs(cls).items():
                 cls.UNITS[key] = text.rsplit("[", 1)[-1].rstrip("]") if text.endswith("]") else "-"
         return cls.UNITS[name]

@@ -55,12 +55,12 @@ from pneucore.simulate import simulate
 from pneucore.sizing.requirement import Choices, Requirement
 from pneucore.sizing.series import dead_length, resolve_cylinders, resolve_tubes, resolve_valves
 from pneucore.sizing.stroke import STROKE_METRIC_UNITS, direction_metrics
-from pneucore.spec.effects import EFFECTS, effective_model
-from pneucore.spec.model import Model
-from pneucore.spec.presets import model_preset
-from pneucore.spec.scenario import Scenario
-from pneucore.spec.valve_data import C_UNIT
-from pneucore.spec.validation import FieldError
+from pneucore.description.effects import EFFECTS, effective_model
+from pneucore.description.model import Model
+from pneucore.description.presets import model_preset
+from pneucore.description.scenario import Scenario
+from pneucore.description.valve_data import C_UNIT
+from pneucore.description.validation import FieldError
 
 #: The model every design is built on (its heat model, friction, gas)
 BASE_PRESET = "paper-4way"
@@ -240,7 +240,7 @@ def build_model(requirement, cylinder, valve, tube=None, settings=(0.0, 0.0), ba
     Returns
     -------
     model : dict
-        Plain JSON of the model (:meth:`pneucore.spec.model.Model.from_dict` accepts it)
+        Plain JSON of the model (:meth:`pneucore.description.model.Model.from_dict` accepts it)
     """
     d = copy.deepcopy(base) if base is not None else model_preset(BASE_PRESET)
     ref_bore = d["jack"]["bore"]

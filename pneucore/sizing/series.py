@@ -20,13 +20,13 @@ import os
 from pneucore.physics.flow import (P_ANR, QN_DP, QN_P1_GAUGE, R_LAMINAR, anr_volume_flow,
                                    iso6358_mass_flow)
 from pneucore.physics.gas import GAMMA_AIR, R_AIR, T_REF
-from pneucore.spec.effects import EFFECTS
-from pneucore.spec.model import VALVE_C_MAX, Jack
-from pneucore.spec.valve_data import CONVERSIONS as VALVE_CONVERSIONS
-from pneucore.spec.valve_data import FIELDS as VALVE_FIELDS
-from pneucore.spec.valve_data import convert_valve_data
-from pneucore.spec.valve_data import unit as valve_unit
-from pneucore.spec.validation import FieldError, known_keys, number
+from pneucore.description.effects import EFFECTS
+from pneucore.description.model import VALVE_C_MAX, Jack
+from pneucore.description.valve_data import CONVERSIONS as VALVE_CONVERSIONS
+from pneucore.description.valve_data import FIELDS as VALVE_FIELDS
+from pneucore.description.valve_data import convert_valve_data
+from pneucore.description.valve_data import unit as valve_unit
+from pneucore.description.validation import FieldError, known_keys, number
 
 #: File holding the series (beside this module)
 SERIES_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "series.json")
@@ -229,7 +229,7 @@ def resolve_valves(items, path="choices.valve"):
     items : list
         Series names, ``series:member`` names or ``{"C": [m^3/(s Pa)], "b": [-]}`` with
         optional ``C_exhaust``, ``b_exhaust`` (default: as the supply edge) and ``name``;
-        instead of ``C``, a catalogue's figure that :func:`pneucore.spec.valve_data.convert_valve_data`
+        instead of ``C``, a catalogue's figure that :func:`pneucore.description.valve_data.convert_valve_data`
         converts: ``{"qn": [NL/min], "b": [-]}``, ``{"effective_area": [m^2], "b": [-]}`` or
         one flow point ``{"flow_rate": [m^3/s], "p1": [Pa], "p2": [Pa], "b": [-]}``
     path : str

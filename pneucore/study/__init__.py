@@ -7,7 +7,7 @@ the command line.
   distributions of the registry :data:`DISTRIBUTIONS` (uniform, normal,
   lognormal; :func:`register_distribution` adds one) with bounds, seed, at most
   :data:`MAX_RUNS` runs; ``Study.from_dict`` raises
-  :class:`~pneucore.spec.validation.FieldError` naming the field.
+  :class:`~pneucore.description.validation.FieldError` naming the field.
 * Metrics (:mod:`pneucore.study.metrics`): the registry :data:`METRICS` with
   units (:func:`register_metric` adds one).
 * Execution (:mod:`pneucore.study.execute`): :func:`run_study` - local process
@@ -51,7 +51,7 @@ from pneucore.study.metrics import METRICS, Metric, RunSeries, register_metric, 
 from pneucore.study.results import (factorial_indices, rank_correlations, runs_csv, runs_npz, study_results,
                                     study_status)
 from pneucore.study.store import STATUSES, delete_study, list_studies, set_study_status
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 __all__ = [
     "Study", "StudyParameter", "DISTRIBUTIONS", "MAX_RUNS", "MIN_MASS", "METRICS", "run_metrics",

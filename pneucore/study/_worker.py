@@ -30,7 +30,7 @@ WATCH_INTERVAL = 0.5
 def warm():
     """Load the compiled core now (errors are left for the first real run to report)."""
     try:
-        from pneucore.spec.presets import model_preset, scenario_preset
+        from pneucore.description.presets import model_preset, scenario_preset
         from pneucore.simulate import simulate
         from pneucore.study.metrics import run_metrics
         scenario = scenario_preset("paper-fig10-pulses")

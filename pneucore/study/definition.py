@@ -53,10 +53,10 @@ from typing import Callable, Optional
 import numpy as np
 from scipy import special
 
-from pneucore.spec.model import Model
-from pneucore.spec.paths import get_value, set_values
-from pneucore.spec.scenario import Scenario
-from pneucore.spec.validation import FieldError, integer, known_keys, mapping, number
+from pneucore.description.model import Model
+from pneucore.description.paths import get_value, set_values
+from pneucore.description.scenario import Scenario
+from pneucore.description.validation import FieldError, integer, known_keys, mapping, number
 
 #: Most runs accepted in one study (grid points x samples)
 MAX_RUNS = 1_000_000
@@ -196,7 +196,7 @@ class StudyParameter:
     Parameters
     ----------
     path : str
-        Model path (see :mod:`pneucore.spec.paths`), e.g. ``friction.extend.fc0``
+        Model path (see :mod:`pneucore.description.paths`), e.g. ``friction.extend.fc0``
     kind : str
         ``grid``, ``uniform``, ``normal`` or ``lognormal``
     grid : list of float or None
@@ -247,10 +247,10 @@ class StudyParameter:
 
 def _preset(value, key):
     """A study's ``model`` or ``scenario``: its JSON, or the name of a preset (``"paper-4way"``,
-    ``"paper-fig10-pulses"``: :mod:`pneucore.spec.presets`)."""
+    ``"paper-fig10-pulses"``: :mod:`pneucore.description.presets`)."""
     if not isinstance(value, str):
         return value
-    from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
+    from pneucore.description.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
     known, load = (MODEL_PRESETS, model_preset) if key == "model" else (SCENARIO_PRESETS, scenario_preset)
     if value not in known:
         raise FieldError(key, f"unknown {key} preset {value!r}; the presets are {sorted(known)}")

@@ -66,7 +66,7 @@ from pneucore.study import store
 from pneucore.simulate import simulate
 from pneucore.study.definition import MAX_RUNS, Study
 from pneucore.study.metrics import run_metrics
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 #: Environment variable naming a Dask scheduler address (used when ``scheduler`` is None)
 ENV_SCHEDULER = "PNEUCORE_DASK_SCHEDULER"

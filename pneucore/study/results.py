@@ -30,7 +30,7 @@ import numpy as np
 from scipy import stats
 
 from pneucore.study import store
-from pneucore.spec.paths import unit_of
+from pneucore.description.paths import unit_of
 from pneucore.study.definition import Study
 from pneucore.study.metrics import METRICS
 

@@ -22,7 +22,7 @@ from pneucore.analysis.autocorrelation import (autocorrelation, effective_lr, in
                                       times_report)
 from pneucore.analysis.diagnose import ALPHA, diagnose
 from pneucore.analysis.metrics import cross_correlation_test
-from pneucore.spec.scenario import pulse_train
+from pneucore.description.scenario import pulse_train
 from pneucore.data.synthetic import colored_noise, synthetic_experiments
 
 from test_diagnosis import base_model, describe, truth_model

@@ -14,7 +14,7 @@ import pytest
 
 from pneucore import Model, model_preset
 from pneucore.analysis.calibrate import calibrate
-from pneucore.spec.paths import set_values
+from pneucore.description.paths import set_values
 from pneucore.data.synthetic import synthetic_experiments
 
 TRUE = {"heat.coefficient": 40.0, "friction.extend.fc0": 12.0, "jack.moving_mass": 2.5}
@@ -297,7 +297,7 @@ def test_tiny_budget_reports_failure_but_finite_values():
 def long_records(seconds=8.0, seed=3):
     """The locked hold plus a free record of a machine cycling once a second for ``seconds``."""
     from pneucore.data.synthetic import diagnostic_scenarios, synthesize
-    from pneucore.spec.scenario import pulse_train
+    from pneucore.description.scenario import pulse_train
     true = truth_model()
     hold = diagnostic_scenarios(true)["locked-hold"]
     events = [e for k in range(int(seconds)) for e in ((k + 0.1, 0.7), (k + 0.55, -0.7))]
@@ -342,7 +342,7 @@ def test_a_warm_refit_of_long_records_goes_straight_to_its_polish(monkeypatch):
     full records, at least as near as the windowed fit from the model as given."""
     from pneucore.analysis import calibrate as C
     from pneucore.data.experiment import as_experiments
-    from pneucore.spec.paths import parse_parameters
+    from pneucore.description.paths import parse_parameters
     exps = as_experiments(long_records())
     first = C.fit(Model.from_dict(model_preset("paper-4way")), exps,
                   parse_parameters(Model.from_dict(model_preset("paper-4way")), dict(BOUNDS)),

@@ -2,9 +2,9 @@
 import pytest
 
 from pneucore import model_preset
-from pneucore.spec.model import Model
-from pneucore.spec.paths import VALVE_GROUPS, get_value, parse_parameters, set_values
-from pneucore.spec.validation import FieldError
+from pneucore.description.model import Model
+from pneucore.description.paths import VALVE_GROUPS, get_value, parse_parameters, set_values
+from pneucore.description.validation import FieldError
 
 
 @pytest.mark.parametrize("kind, group, edges", [

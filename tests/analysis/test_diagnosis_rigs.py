@@ -26,13 +26,13 @@ from pneucore.analysis.diagnose import check_request, diagnose
 from pneucore.data.experiment import as_experiments
 from pneucore.analysis.history import refine
 from pneucore.analysis.hypotheses import identifiable, offered
-from pneucore.spec.model import Model
-from pneucore.spec.paths import get_value
+from pneucore.description.model import Model
+from pneucore.description.paths import get_value
 
 #: The valve edge groups as base-parameter paths (supply edges P-*, exhaust edges *-R)
 GROUPS = {g: f"valve.ports.{pat}.C" for g, pat in {"supply": "P-*", "exhaust": "*-R"}.items()}
 from pneucore.data.synthetic import RIG_CASES, rig_case
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 #: The recalibrated model must come within 20 % of the noise floor: ~8 base parameters against
 #: ~5000 samples leave the fit a fraction of a percent above the truth's error; 20 % allows an

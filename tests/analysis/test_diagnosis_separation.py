@@ -3,7 +3,7 @@ from pneucore import model_preset
 from pneucore.analysis.hypotheses import SEPARATES, separating_experiments
 from pneucore.data.experiment import as_experiments
 from pneucore.data.synthetic import synthetic_experiments
-from pneucore.spec.model import Model
+from pneucore.description.model import Model
 
 
 def _coulomb_in_pb_and_its_constant_twin():

@@ -7,7 +7,7 @@ from pneucore.analysis.diagnose import diagnose
 from pneucore.analysis.engineering import IN_WORDS, in_words
 from pneucore.data.samples import load_sample
 from pneucore.physics.gas import RHO_REF
-from pneucore.spec.effects import EFFECTS
+from pneucore.description.effects import EFFECTS
 
 MODEL = Model.from_dict(model_preset("paper-4way"))
 

@@ -7,7 +7,7 @@
   field and its unit, not a fit silently started at the bound;
 * an effect in the model carries its physics alone: the base parameter of the same physics
   is not offered beside it, and the base parameters it keeps equal move together
-  (:attr:`pneucore.spec.effects.Effect.ties`), so that a recalibration never produces a
+  (:attr:`pneucore.description.effects.Effect.ties`), so that a recalibration never produces a
   model the API refuses;
 * a value at its bound, or far beyond a catalogue's typical error, is flagged; an effect
   whose strength is not determined is never "significant".
@@ -20,8 +20,8 @@ from pneucore.analysis.diagnose import _undetermined
 from pneucore.analysis.hypotheses import IMPLAUSIBLE, offered, plausibility, prior_for
 from pneucore.data.experiment import as_experiments
 from pneucore.data.synthetic import synthetic_experiments
-from pneucore.spec.paths import ParameterSpec, parse_parameters, set_values
-from pneucore.spec.validation import FieldError
+from pneucore.description.paths import ParameterSpec, parse_parameters, set_values
+from pneucore.description.validation import FieldError
 
 from test_diagnosis import hidden_diagnosis
 

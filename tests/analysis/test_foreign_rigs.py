@@ -16,8 +16,8 @@ from pneucore import model_preset
 from pneucore.analysis import hypotheses as H
 from pneucore.analysis.diagnosis import rules as R
 from pneucore.analysis.diagnosis import stages as S
-from pneucore.spec.model import Model
-from pneucore.spec.paths import get_value, parse_parameters, set_values
+from pneucore.description.model import Model
+from pneucore.description.paths import get_value, parse_parameters, set_values
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "benchmarks"))
 import foreign_rigs as F  # noqa: E402
@@ -139,7 +139,7 @@ def test_a_dead_volume_on_a_chamber_b_that_holds_no_gas_is_not_fitted():
     """set2/C3-dead-volume (3/2 valve, B held at 3.5 bar): the B volume acts on nothing, and
     its fit wandered to 202 cm^3, beyond the chamber, which made the dead volume impossible and
     named a line instead."""
-    from pneucore.spec.effects import EFFECTS
+    from pneucore.description.effects import EFFECTS
     m = model_preset("paper-4way")
     assert EFFECTS["dead_volume"].unused_in(Model.from_dict(m)) == ()
     m["valve"] = {"kind": "3/2", "ports": {

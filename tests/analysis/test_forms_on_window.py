@@ -17,12 +17,12 @@ from pneucore.analysis import calibrate as C
 from pneucore.analysis.diagnosis import stages as S
 from pneucore.data.experiment import as_experiments
 from pneucore.data.synthetic import synthetic_experiments
-from pneucore.spec.model import Model
-from pneucore.spec.paths import ParameterSpec
-from pneucore.spec.presets import model_preset
+from pneucore.description.model import Model
+from pneucore.description.paths import ParameterSpec
+from pneucore.description.presets import model_preset
 
 MODEL = Model.from_dict(model_preset("paper-4way"))
-#: The 1 m probe line at 1 kHz: its delay spans three samples (tests/spec/test_effect_forms.py)
+#: The 1 m probe line at 1 kHz: its delay spans three samples (tests/description/test_effect_forms.py)
 SEGMENTED = {"segments": 3}
 
 

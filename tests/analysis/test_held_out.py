@@ -199,7 +199,7 @@ def filling_and_discharge():
     D, d_in = FILLING_TEST["diameter"], FILLING_TEST["orifice"]
     fil, dis = records(reference_inner_coefficient(D, d_in, "churchill_chu", 2.0, 0.5), 2.0,
                        discharge_end=60.0, period=2.0, seed=0)
-    from pneucore.spec.model import Model
+    from pneucore.description.model import Model
     return (Model.from_dict(published_vessel({"model": "isothermal"})),
             as_experiments([fil, dis], FILLING_TEST["p_atm"]))
 
@@ -207,7 +207,7 @@ def filling_and_discharge():
 def test_each_experiment_left_out_is_predicted_by_a_fit_on_the_others_only(filling_and_discharge):
     from pneucore.analysis.calibrate import fit
     from pneucore.analysis.diagnosis import stages as S
-    from pneucore.spec.effects import EFFECTS
+    from pneucore.description.effects import EFFECTS
     model, exps = filling_and_discharge
     name = "heat_exchange"
     start = EFFECTS[name].probe_values(model)
@@ -236,7 +236,7 @@ def test_each_experiment_left_out_is_predicted_by_a_fit_on_the_others_only(filli
 
 def test_experiments_are_not_left_out_where_the_blocks_already_show_it(filling_and_discharge):
     from pneucore.analysis.diagnosis import stages as S
-    from pneucore.spec.effects import EFFECTS
+    from pneucore.description.effects import EFFECTS
     model, exps = filling_and_discharge
     name = "heat_exchange"
     start = EFFECTS[name].probe_values(model)

@@ -11,8 +11,8 @@ import pytest
 from api_conftest import client, db_path, model  # noqa: F401
 from app.store import Store
 from pneucore.analysis.history import RefinementHistory
-from pneucore.spec.model import Model
-from pneucore.spec.presets import model_preset
+from pneucore.description.model import Model
+from pneucore.description.presets import model_preset
 
 
 def _model():

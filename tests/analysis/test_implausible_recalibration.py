@@ -16,7 +16,7 @@ from pneucore.analysis import hypotheses as H
 from pneucore.analysis.hypotheses import BASE_HYPOTHESES, IMPLAUSIBLE, plausibility
 from pneucore.data.experiment import as_experiments
 from pneucore.data.synthetic import RIG_CASES, rig_case
-from pneucore.spec.paths import ParameterSpec, get_value
+from pneucore.description.paths import ParameterSpec, get_value
 
 EXHAUST = "valve.ports.*-R.C"
 

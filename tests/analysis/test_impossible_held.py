@@ -9,7 +9,7 @@ import pytest
 from pneucore import Model, model_preset
 from pneucore.analysis import hypotheses as H
 from pneucore.analysis.diagnosis import stages as S
-from pneucore.spec.paths import ParameterSpec
+from pneucore.description.paths import ParameterSpec
 
 #: The issue's rig: a 1.47 kg mass lifted by a vertical jack (rod up), 14.4 N towards x = 0
 VERTICAL = {"jack.moving_mass": 1.47, "jack.mounting_angle": 90.0}

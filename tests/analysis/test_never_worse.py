@@ -15,7 +15,7 @@ from loop_record import effective_edges, record, truth_dict
 from pneucore.analysis.calibrate import calibrate
 from pneucore.analysis.compare import compare
 from pneucore.data.experiment import Experiment
-from pneucore.spec.model import Model
+from pneucore.description.model import Model
 
 
 def _experiments():

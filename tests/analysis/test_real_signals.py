@@ -9,9 +9,9 @@ from pneucore.analysis.metrics import noise_sigma
 from pneucore.data.experiment import Experiment, as_experiments
 from pneucore.data.measurement import Measurement
 from pneucore.data.synthetic import SENSOR_RANGES, quantise, rig_case
-from pneucore.spec.model import Model
-from pneucore.spec.presets import model_preset
-from pneucore.spec.validation import FieldError
+from pneucore.description.model import Model
+from pneucore.description.presets import model_preset
+from pneucore.description.validation import FieldError
 
 LSB = (SENSOR_RANGES["p_a"][1] - SENSOR_RANGES["p_a"][0]) / 4095
 

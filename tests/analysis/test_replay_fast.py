@@ -22,7 +22,7 @@ from pneucore.analysis.compare import replay
 from pneucore.analysis.metrics import noise_sigma
 from pneucore.data.experiment import as_experiments
 from pneucore.data.synthetic import synthetic_experiments
-from pneucore.spec.model import Model
+from pneucore.description.model import Model
 
 
 @functools.lru_cache(maxsize=None)

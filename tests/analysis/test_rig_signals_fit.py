@@ -114,7 +114,7 @@ def test_a_diagnosis_refits_the_load_from_the_rod_force():
 def test_flow_meters_calibrate_the_valve_conductance():
     """Flow meters are evidence: the valve's conductance scale (every edge, ``valve.ports.*.C``)
     recovered from q_a and q_s with the position, the pressures unmeasured."""
-    from pneucore.spec.paths import set_values
+    from pneucore.description.paths import set_values
     scen = scenario_preset("paper-fig10-pulses")
     true = set_values(Model.from_dict(model_preset("paper-4way")), {"valve.ports.*.C": 1.2})
     res = simulate(true, scen)

@@ -11,7 +11,7 @@ from pneucore.analysis.calibrate import Objective, fit, signal_sigmas
 from pneucore.data.experiment import Experiment
 from pneucore.data.measurement import Measurement, MeasurementError, sensor_accuracy
 from pneucore.data.synthetic import synthetic_experiments
-from pneucore.spec.paths import parse_parameters
+from pneucore.description.paths import parse_parameters
 
 
 def test_accuracy_is_a_difference_in_si():

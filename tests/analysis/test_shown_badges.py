@@ -51,7 +51,7 @@ def test_the_words_follow_the_figures(b, a, words):
 
 def test_the_explanation_says_what_the_figures_say():
     from pneucore.analysis.diagnosis.evidence import explain
-    from pneucore.spec.effects import EFFECTS
+    from pneucore.description.effects import EFFECTS
     cand = {"improvement": [], "params": {}, "error_before": 0.2593,
             "error_after_overall": 0.2747, "p_value": 0.5, "delta_bic": 3.0}
     text = explain(EFFECTS["piston_leakage"], cand, 0.01)

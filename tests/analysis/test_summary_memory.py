@@ -22,7 +22,7 @@ from pneucore.analysis.diagnose import diagnose
 from pneucore.data.experiment import as_experiments
 from pneucore.data.samples import load_sample
 from pneucore.result import SummarisedResult
-from pneucore.spec.model import Model
+from pneucore.description.model import Model
 
 
 @functools.lru_cache(maxsize=None)

@@ -13,7 +13,7 @@ import pytest
 
 from pneucore.analysis.heat_compare import (PAPER_TABLE2, locked_test_windows, table2_rows,
                                             table2_target)
-from pneucore.spec.presets import scenario_preset
+from pneucore.description.presets import scenario_preset
 
 #: The issue's criterion: a preset's distance within this factor of the table's, either way
 FACTOR = 1.5

@@ -7,8 +7,8 @@ import pytest
 
 from loop_record import truth_dict
 from pneucore.analysis.shown import flag_changes, value_flag
-from pneucore.spec.model import Model
-from pneucore.spec.paths import model_changes
+from pneucore.description.model import Model
+from pneucore.description.paths import model_changes
 
 
 @pytest.fixture(scope="module")

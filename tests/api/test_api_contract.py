@@ -3,7 +3,7 @@ import pytest
 
 from api_conftest import api  # noqa: F401  (fixture factory)
 from pneucore.study.definition import Study
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 
 @pytest.fixture

@@ -4,7 +4,7 @@ import math
 import pytest
 
 from api_conftest import assert_field_error, client, db_path, model, scenario  # noqa: F401
-from pneucore.spec.effects import EFFECTS
+from pneucore.description.effects import EFFECTS
 
 
 def _plain_model():

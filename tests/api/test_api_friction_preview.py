@@ -15,9 +15,9 @@ import pytest
 
 from api_conftest import assert_field_error, client, db_path, model  # noqa: F401
 from app.schemas import FRICTION_DEFAULT_VELOCITIES, FRICTION_MAX_PRESSURES, FRICTION_MAX_VELOCITIES
-from pneucore.spec.effects import EFFECTS
+from pneucore.description.effects import EFFECTS
 from pneucore.physics.friction import coulomb_level, sliding_friction, stribeck_factor, viscous_coefficient
-from pneucore.spec.paths import unit_of
+from pneucore.description.paths import unit_of
 
 ROOT = Path(__file__).resolve().parents[2]
 URL = "/api/friction/preview"
@@ -231,7 +231,7 @@ def test_a_bad_model_is_a_422_naming_the_model_field(client):
 # ---------------------------------------------------------------------------- parameter units
 def test_units_serve_every_parameter_path_from_pneucore(client):
     params = client.get("/api/units").json()["parameters"]
-    # every path's unit is pneucore.spec.paths.unit_of's, and none is missing
+    # every path's unit is pneucore.description.paths.unit_of's, and none is missing
     assert params and all(params[p] == unit_of(p) and params[p] for p in params), \
         [p for p in params if params[p] != unit_of(p) or not params[p]]
     for path, unit in {"jack.bore": "m", "jack.wall_area_a": "m^2", "supply.pressure": "Pa",

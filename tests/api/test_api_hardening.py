@@ -207,7 +207,7 @@ def test_light_mass_above_the_bound_matches_a_tight_solve():
     import numpy as np
 
     from pneucore import simulate
-    from pneucore.spec.model import Model, mechanical_time_constant
+    from pneucore.description.model import Model, mechanical_time_constant
     m = model()
     m["jack"]["moving_mass"] = 1e-4
     tau = mechanical_time_constant(Model.from_dict(m))

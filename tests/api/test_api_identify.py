@@ -10,7 +10,7 @@ from pneucore import model_preset
 from pneucore.physics.flow import FLOW_LAWS
 from pneucore.physics.friction import coulomb_level, sliding_friction, viscous_coefficient
 from pneucore.physics.gas import P_ATM
-from pneucore.spec.model import Model
+from pneucore.description.model import Model
 
 DM3_S_BAR = 1e-3 / 1e5     # 1 dm^3/(s bar) in m^3/(s Pa)
 

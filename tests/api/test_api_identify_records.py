@@ -24,7 +24,7 @@ from pneucore import model_preset  # noqa: E402
 from pneucore.cli import main as cli_main  # noqa: E402
 from pneucore.identify import identify_friction, read_bench_file  # noqa: E402
 from pneucore.physics.gas import P_ATM  # noqa: E402
-from pneucore.spec.model import Model  # noqa: E402
+from pneucore.description.model import Model  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT.parent / "shared" / "data" / "friction-bench"

@@ -2,7 +2,7 @@
 import pytest
 
 from api_conftest import client, db_path, sim_body  # noqa: F401
-from pneucore.spec.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
+from pneucore.description.presets import MODEL_PRESETS, SCENARIO_PRESETS, model_preset, scenario_preset
 
 
 def test_list_names_every_preset_with_a_description(client):

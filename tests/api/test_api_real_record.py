@@ -15,9 +15,9 @@ import pytest
 
 from api_conftest import client, db_path  # noqa: F401
 from pneucore.data.synthetic import synthesize
-from pneucore.spec.model import Model
-from pneucore.spec.presets import model_preset
-from pneucore.spec.scenario import pulse_train
+from pneucore.description.model import Model
+from pneucore.description.presets import model_preset
+from pneucore.description.scenario import pulse_train
 
 GAIN_BAR_PER_V = 2.0
 OFFSET_BAR = -0.5

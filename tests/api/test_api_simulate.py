@@ -10,8 +10,8 @@ import pytest
 from api_conftest import (api, assert_field_error, client, db_path, live_server, model,  # noqa: F401
                           scenario, sim_body)
 from pneucore import simulate as lib_simulate
-from pneucore.spec.model import Model
-from pneucore.spec.scenario import Scenario
+from pneucore.description.model import Model
+from pneucore.description.scenario import Scenario
 
 DEFAULT_SERIES = {"t", "u", "p_a", "p_b", "T_a", "T_b", "m_a", "m_b", "x", "v", "a", "q_a", "q_b",
                   "friction", "mode", "u_eff", "p_supply", "q_supply", "net_force"}

@@ -9,20 +9,20 @@ import time
 import pytest
 
 import pneucore.analysis.diagnose as diagnose_module
-import pneucore.spec.scenario as scenario_module
+import pneucore.description.scenario as scenario_module
 from api_conftest import LEAK_IDS, client, db_path, model  # noqa: F401
 from pneucore.analysis.diagnose import diagnose
 from pneucore.data.experiment import as_experiments
-from pneucore.spec.model import Model
-from pneucore.spec.presets import model_preset, scenario_preset
+from pneucore.description.model import Model
+from pneucore.description.presets import model_preset, scenario_preset
 from pneucore.data.samples import load_sample
-from pneucore.spec.scenario import Scenario
-from pneucore.spec.validation import FieldError
+from pneucore.description.scenario import Scenario
+from pneucore.description.validation import FieldError
 
 
 @pytest.fixture
 def validations(monkeypatch):
-    """How many numbers the scenario parser validates (``pneucore.spec.scenario.number`` calls)."""
+    """How many numbers the scenario parser validates (``pneucore.description.scenario.number`` calls)."""
     calls = []
     original = scenario_module.number
 

@@ -11,7 +11,7 @@ from pneucore.control.closed_loop import ControlError, simulate_closed_loop
 from pneucore.control.linearize import linearize
 from pneucore.control.metrics import control_metrics
 from pneucore.control.models import servo_model
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 TS = 1e-3       # the default controller sample period [s]
 

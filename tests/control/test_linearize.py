@@ -7,8 +7,8 @@ import pytest
 
 from pneucore import model_preset
 from pneucore.control.linearize import closed_form_natural_frequency, equilibrium_pressures, linearize
-from pneucore.spec.model import Model
-from pneucore.spec.validation import FieldError
+from pneucore.description.model import Model
+from pneucore.description.validation import FieldError
 
 
 def frictionless(heat):

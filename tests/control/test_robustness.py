@@ -3,7 +3,7 @@ import pytest
 
 from pneucore.control.models import servo_model
 from pneucore.control.robustness import closed_loop_study, tune_controller
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 
 def definition(gains):

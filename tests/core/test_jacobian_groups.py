@@ -19,8 +19,8 @@ from pneucore.core import layout as L
 from pneucore.core.integrator import finite_difference_jacobians
 from pneucore.physics.tube import line_volume
 from pneucore.simulate import build_core
-from pneucore.spec.model import Model
-from pneucore.spec.scenario import Scenario
+from pneucore.description.model import Model
+from pneucore.description.scenario import Scenario
 
 LENGTH, BORE = 1.0, 4e-3        # the line on each port [m]
 

@@ -5,9 +5,9 @@ import pytest
 from pneucore.data.command import propose_command
 from pneucore.data.measurement import Measurement
 from pneucore.data.synthetic import synthesize
-from pneucore.spec.model import Model
-from pneucore.spec.presets import model_preset
-from pneucore.spec.scenario import pulse_train
+from pneucore.description.model import Model
+from pneucore.description.presets import model_preset
+from pneucore.description.scenario import pulse_train
 
 PULSES = [(0.1, 1.0), (0.5, 1.0), (0.9, 1.0)]
 

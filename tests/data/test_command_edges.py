@@ -102,7 +102,7 @@ def test_the_proposed_command_compares_as_well_as_the_true_edges():
     from loop_record import truth_dict
     from pneucore.analysis.compare import compare
     from pneucore.data.experiment import Experiment
-    from pneucore.spec.model import Model
+    from pneucore.description.model import Model
     m, model = record(), Model.from_dict(truth_dict())
     true_cmd = [[0.0, 0.0]]
     for a, b in effective_edges():

@@ -11,9 +11,9 @@ from pneucore import model_preset, scenario_preset
 from pneucore.analysis.compare import compare
 from pneucore.data.experiment import Experiment
 from pneucore.data.measurement import Measurement
-from pneucore.spec.model import Model
+from pneucore.description.model import Model
 from pneucore.simulate import simulate
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 
 def _vessel_record(t_first):

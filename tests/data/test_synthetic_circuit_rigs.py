@@ -14,8 +14,8 @@ import pytest
 from pneucore.analysis.compare import compare
 from pneucore.data.experiment import as_experiments
 from pneucore.data.synthetic import RIG_CASES, full_stroke_scenario, rig_case
-from pneucore.spec.model import Model
-from pneucore.spec.presets import model_preset
+from pneucore.description.model import Model
+from pneucore.description.presets import model_preset
 
 FV = "effect/circuit/tubing/finite-volume"
 VERTICAL = "effect/circuit/meter_out/vertical"

@@ -15,9 +15,9 @@ import pytest
 from pneucore.analysis.compare import compare
 from pneucore.data.experiment import as_experiments
 from pneucore.data.synthetic import EDGE_SNAP, on_sample_grid, synthesize
-from pneucore.spec.model import Model
-from pneucore.spec.presets import model_preset
-from pneucore.spec.scenario import pulse_train
+from pneucore.description.model import Model
+from pneucore.description.presets import model_preset
+from pneucore.description.scenario import pulse_train
 
 DT = 1e-3
 

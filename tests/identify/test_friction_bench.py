@@ -16,8 +16,8 @@ from pneucore.identify import identify_friction, predict_rod_force
 from pneucore.identify.friction_bench import FrictionRecord, kinematics
 from pneucore.physics.friction import coulomb_level, sliding_friction, viscous_coefficient
 from pneucore.physics.gas import P_ATM
-from pneucore.spec.model import Model
-from pneucore.spec.validation import FieldError
+from pneucore.description.model import Model
+from pneucore.description.validation import FieldError
 
 #: The true law: quadrant and pressure dependent, as the paper's Fig. 4 jack
 TRUE = {"extend": {"fc0": 12.0, "fc_a": 2.0e-5, "fc_b": 1.0e-5, "kv0": 150.0, "kv_a": 1.0e-4, "kv_b": 0.0},

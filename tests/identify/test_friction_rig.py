@@ -16,7 +16,7 @@ import pytest
 
 from pneucore import model_preset
 from pneucore.identify import identify_friction, predict_rod_force, read_bench_file
-from pneucore.spec.model import Model
+from pneucore.description.model import Model
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT.parent / "shared" / "data" / "friction-bench"

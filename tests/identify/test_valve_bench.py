@@ -8,8 +8,8 @@ from pneucore import model_preset
 from pneucore.identify import identify_valve
 from pneucore.physics.flow import FLOW_LAWS
 from pneucore.physics.gas import RHO_REF
-from pneucore.spec.model import Model
-from pneucore.spec.validation import FieldError
+from pneucore.description.model import Model
+from pneucore.description.validation import FieldError
 
 #: 1 dm^3/(s bar) in the model's unit m^3/(s Pa)
 DM3_S_BAR = 1e-3 / 1e5

@@ -1,7 +1,7 @@
 """A finding lists everything it would change before it is applied (issue 24, item 4: "Apply"
 had also moved Coulomb levels, supply, mass and valve C without listing them): every value the
 candidate's model differs in, before and after, with its unit, on the card, in Chromium; the
-list is the API's ``changes`` (pneucore.spec.paths.model_changes), checked against the model."""
+list is the API's ``changes`` (pneucore.description.paths.model_changes), checked against the model."""
 import pytest
 
 from test_page import browser, context, page_errors, server  # noqa: F401

@@ -24,7 +24,7 @@ from test_friction_bench import TRUE, _model, synth  # noqa: E402
 from test_valve_bench import B_TRUE, C_TRUE, U, _bench  # noqa: E402
 
 from pneucore.data.synthetic import synthesize  # noqa: E402
-from pneucore.spec.presets import model_preset, scenario_preset  # noqa: E402
+from pneucore.description.presets import model_preset, scenario_preset  # noqa: E402
 from test_page import (_open, browser, no_script_errors, page_errors, plot_data,  # noqa: E402,F401
                        server, wide_context, wait_status)
 

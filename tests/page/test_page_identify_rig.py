@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from pneucore.identify import identify_friction, read_bench_file
-from pneucore.spec.model import Model
+from pneucore.description.model import Model
 from test_page import (_open, browser, no_script_errors, page_errors, server,  # noqa: F401
                        wait_status)
 

@@ -86,8 +86,8 @@ def _recalibration_result():
     import copy
 
     from pneucore.analysis.shown import flag_changes
-    from pneucore.spec.model import Model
-    from pneucore.spec.paths import model_changes
+    from pneucore.description.model import Model
+    from pneucore.description.paths import model_changes
     given = truth_dict()
     base = copy.deepcopy(given)
     base["heat"]["coefficient"] = 30.0                # plausible: applied

@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from pneucore.data.synthetic import synthetic_experiments
-from pneucore.spec.model import Model
-from pneucore.spec.presets import model_preset
+from pneucore.description.model import Model
+from pneucore.description.presets import model_preset
 from test_page import (ARTIFACTS, TIMEOUT_MS, _open, browser, no_script_errors, page_errors, server,  # noqa: F401
                        show_view, wait_status, workspace_ready)
 

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from pneucore.data.synthetic import synthesize
-from pneucore.spec.model import Model
-from pneucore.spec.presets import model_preset
-from pneucore.spec.scenario import pulse_train
+from pneucore.description.model import Model
+from pneucore.description.presets import model_preset
+from pneucore.description.scenario import pulse_train
 from test_page import browser, page_errors, server, wait_status, wide_context  # noqa: F401
 
 PULSES = [(0.1, 1.0), (0.5, 1.0), (0.9, 1.0)]

@@ -12,8 +12,8 @@ import pytest
 from pneucore import model_preset, simulate
 from pneucore.physics.cushion import cushioned_outflow, kinetic_energy
 from pneucore.physics.flow import iso6358_mass_flow
-from pneucore.spec.model import Model
-from pneucore.spec.validation import FieldError
+from pneucore.description.model import Model
+from pneucore.description.validation import FieldError
 
 R, GAMMA = 287.05, 1.4
 

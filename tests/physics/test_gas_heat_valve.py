@@ -11,7 +11,7 @@ import pytest
 from pneucore import model_preset
 from pneucore.physics import gas
 from pneucore.physics.heat import HEAT_MODELS
-from pneucore.spec.model import Model
+from pneucore.description.model import Model
 from pneucore.physics.valve import edge_characteristic, pack_tables, table_interp
 from pneucore.core.layout import PORT_NAMES
 

@@ -16,8 +16,8 @@ from pneucore import EFFECTS, FieldError, model_preset, simulate
 from pneucore.physics.gas import cv
 from pneucore.physics.heat import (HEAT_MODELS, HEAT_PARAMETERS, churchill_chu_cylinder_nusselt,
                            jet_convection_coefficient, natural_convection_coefficient)
-from pneucore.spec.model import Model
-from pneucore.spec.paths import get_value, parse_parameters
+from pneucore.description.model import Model
+from pneucore.description.paths import get_value, parse_parameters
 from pneucore.physics.vessel import orifice_conductance, vessel_model
 
 HOLD = {"duration": 2.0, "sample_period": 1e-3, "command": [[0.0, 0.0]], "locked": True,

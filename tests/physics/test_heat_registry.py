@@ -12,8 +12,8 @@ import pytest
 from pneucore import model_preset, scenario_preset, simulate
 from pneucore.physics.heat import (HEAT_MODELS, convective_heat_flow, register_heat_model,
                                    unregister_heat_model)
-from pneucore.spec.model import Model
-from pneucore.spec.validation import FieldError
+from pneucore.description.model import Model
+from pneucore.description.validation import FieldError
 
 NAME = "test_fixed_and_natural"
 

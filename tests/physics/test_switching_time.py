@@ -6,8 +6,8 @@ import pytest
 
 from pneucore import FieldError, model_preset, simulate
 from pneucore.physics.valve import switched_command
-from pneucore.spec.model import Model
-from pneucore.spec.valve_data import CATALOGUE_VALVES, catalogue_valve
+from pneucore.description.model import Model
+from pneucore.description.valve_data import CATALOGUE_VALVES, catalogue_valve
 
 ON, OFF = 0.015, 0.025      # [s], catalogue-like (SMC SY5000: 12-20 ms)
 T_CMD = 0.05                # command time [s]

@@ -10,9 +10,9 @@ from scipy.integrate import quad
 from pneucore import model_preset, simulate
 from pneucore.physics.flow import conductance_from_area
 from pneucore.physics.tube import darcy_friction, line_volume, tube_characteristic
-from pneucore.spec.effects import effective_model
-from pneucore.spec.model import Model
-from pneucore.spec.validation import FieldError
+from pneucore.description.effects import effective_model
+from pneucore.description.model import Model
+from pneucore.description.validation import FieldError
 
 GAMMA, R, T0, RHO0 = 1.4, 287.05, 293.15, 1.185
 

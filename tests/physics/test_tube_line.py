@@ -21,7 +21,7 @@ from pneucore.physics.gas import GAMMA_AIR, R_AIR, RHO_REF, T_REF
 from pneucore.physics.line import LUMPED_MARGIN, line_regime, simulate_line, sound_speed
 from pneucore.physics.tube import air_viscosity_sutherland, line_volume, tube_characteristic
 from pneucore.simulate import command_time_scale
-from pneucore.spec.scenario import Scenario
+from pneucore.description.scenario import Scenario
 
 
 def _crossing(t, y, level):

@@ -18,9 +18,9 @@ from pneucore.physics.line import simulate_line, sound_speed
 from pneucore.physics.series import combine_table
 from pneucore.physics.tube import MAX_SEGMENTS, line_volume, tube_characteristic
 from pneucore.simulate import build_core
-from pneucore.spec.effects import effect_warnings
-from pneucore.spec.model import Model
-from pneucore.spec.scenario import Scenario
+from pneucore.description.effects import effect_warnings
+from pneucore.description.model import Model
+from pneucore.description.scenario import Scenario
 
 D, LEN, P1 = 4e-3, 5.0, 1e5
 DELAY = LEN / sound_speed(T_REF)          # L / c, 14.6 ms
@@ -187,8 +187,8 @@ def test_a_simulation_warns_only_when_the_segments_are_too_coarse():
 
 def test_segments_are_a_whole_number_never_fitted():
     from pneucore.analysis.calibration_options import calibration_options
-    from pneucore.spec.paths import parse_parameters
-    from pneucore.spec.validation import FieldError
+    from pneucore.description.paths import parse_parameters
+    from pneucore.description.validation import FieldError
     m = model_preset("paper-4way")
     m["effects"] = {"tubing": {"length_a": 2.0, "length_b": 2.0, "segments": 3}}
     model = Model.from_dict(m)

@@ -39,10 +39,10 @@ from pneucore.sizing import (Choices, Requirement, build_model, direction_metric
                              size)
 from pneucore.sizing.series import (dead_length, nominal_flow, resolve_cylinders, resolve_tubes,
                                      resolve_valves)
-from pneucore.spec.effects import EFFECTS, effective_model
+from pneucore.description.effects import EFFECTS, effective_model
 from pneucore.sizing.search import REASONS
-from pneucore.spec.model import VALVE_C_MAX, Jack, Model
-from pneucore.spec.validation import FieldError
+from pneucore.description.model import VALVE_C_MAX, Jack, Model
+from pneucore.description.validation import FieldError
 
 BORE, ROD, STROKE, LOAD, P_S, P_ATM, T_REQ = 0.032, 0.012, 0.2, 100.0, 6e5, 1.013e5, 0.5
 FC = 1.0       # the base model's constant Coulomb friction [N]

@@ -7,7 +7,7 @@ import pytest
 
 from app.sizing_schemas import ChoicesSpec, RequirementSpec, SizingRequest
 from pneucore.sizing import REASONS, Choices, Requirement
-from pneucore.spec.docstrings import api_description, field_docs
+from pneucore.description.docstrings import api_description, field_docs
 
 PAIRS = [(RequirementSpec, Requirement), (ChoicesSpec, Choices)]
 

@@ -21,7 +21,7 @@ import pytest
 from pneucore import simulate
 from pneucore.sizing import Requirement, size
 from pneucore.sizing.search import NEEDLE_XTOL, _stroke_scenario
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 REQ = {"stroke": 0.2, "moving_mass": 5.0, "load_force": 20.0, "angle": 0.0,
        "supply_pressure": 7e5, "extend_time": 0.5, "retract_time": 0.5, "cushion_length": 0.02}
@@ -198,7 +198,7 @@ def test_the_throttle_variable_round_trips_and_stays_within_the_effect():
     near y = 0 the throttle would exceed the ``meter_out_throttle`` effect's bound, which the
     model refuses: it is then none (the pair search probes up to y = 0 on every valve)."""
     from pneucore.sizing.search import path_throttle, path_y
-    from pneucore.spec.effects import EFFECTS
+    from pneucore.description.effects import EFFECTS
     c_edge = 3.8e-8
     for c in (1e-10, 3e-9, 4e-8, 5e-7):
         # round-off of expm1/log1p on numbers of order 1

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from pneucore.analysis import hypotheses as H
-from pneucore.spec.paths import VALVE_GROUPS
+from pneucore.description.paths import VALVE_GROUPS
 
 #: Factor of a path's conductance below which it "passes far less than the catalogue": two
 #: typical catalogue errors of a valve's conductance (15 %, hypotheses.BASE_HYPOTHESES) on the

@@ -15,8 +15,8 @@ from pneucore.analysis.diagnosis.rules import AT_FLOOR, CONSISTENT_RTOL, EXCESS_
 from pneucore.analysis.metrics import eq25_error
 from pneucore.analysis.parallel import pmap
 from pneucore.data.measurement import Measurement
-from pneucore.spec.effects import EFFECTS
-from pneucore.spec.paths import ParameterSpec
+from pneucore.description.effects import EFFECTS
+from pneucore.description.paths import ParameterSpec
 
 
 def excess_drop(e0, e1, floor):

@@ -17,8 +17,8 @@ from pneucore.analysis.diagnosis.rules import AT_FLOOR, EXCESS_MAJOR, indistinct
 from pneucore.analysis.diagnosis.stages import RECAL_MIN, with_effect as _with_effect
 from pneucore.analysis.engineering import in_words
 from pneucore.analysis.metrics import cross_correlation_test, ljung_box
-from pneucore.spec.effects import EFFECTS
-from pneucore.spec.paths import ParameterSpec, get_value, model_changes
+from pneucore.description.effects import EFFECTS
+from pneucore.description.paths import ParameterSpec, get_value, model_changes
 
 #: Relative rise of the Eq. 25 error within which an effect already in the model may be dropped
 #: (its strength indistinguishable from off): 1 %, the scatter of refits stopped by the

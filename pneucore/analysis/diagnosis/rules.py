@@ -129,7 +129,7 @@ def indistinct(c, best):
 def complexity(name):
     """``(fitted parameters, parameters)`` of catalog effect ``name``: what a fit frees (the
     ``k`` of its BIC), then what it asserts about the rig (a line: length, bore, segments)."""
-    from pneucore.spec.effects import EFFECTS
+    from pneucore.description.effects import EFFECTS
     eff = EFFECTS[name]
     return len(eff.diagnosis_params), len(eff.parameters)
 
@@ -138,9 +138,9 @@ def simpler(c, named):
     """Does candidate ``c`` say less than ``named`` where the records cannot tell them apart
     (parsimony)? Its BIC within ``|DELTA_BIC|`` of ``named``'s, and it frees fewer
     parameters, or ``named`` becomes it in a limit of its own parameters
-    (:attr:`pneucore.spec.effects.Effect.reduces_to`: a line whose resistance the records do
+    (:attr:`pneucore.description.effects.Effect.reduces_to`: a line whose resistance the records do
     not see is a dead volume). The simpler one is named, the other an alternative."""
-    from pneucore.spec.effects import EFFECTS
+    from pneucore.description.effects import EFFECTS
     if c is named or abs(c["delta_bic"] - named["delta_bic"]) >= -DELTA_BIC:
         return False
     return (complexity(c["effect"])[0] < complexity(named["effect"])[0]

@@ -33,8 +33,8 @@ from pneucore.analysis.diagnosis.evidence import (consistency, excess_drop, expe
                                                   given_prior, held_out, improvement, explain,
                                                   not_compared, pair, undetermined)
 from pneucore.analysis.engineering import impossible
-from pneucore.spec.effects import EFFECTS
-from pneucore.spec.paths import ParameterSpec, get_value, parse_parameters, set_values, unit_of
+from pneucore.description.effects import EFFECTS
+from pneucore.description.paths import ParameterSpec, get_value, parse_parameters, set_values, unit_of
 
 #: Relative change below which a refitted base parameter is not reported as mis-set
 RECAL_MIN = 0.02
@@ -108,7 +108,7 @@ def candidate_effects(model, names, uncertain=()):
     """``(candidates, skipped)``: the effects of ``names`` not in the model and applicable to
     it; ``skipped`` lists the others with the reason. An effect whose physics the declared
     ``uncertain`` paths already fit (the quadrant effect beside both directions' friction
-    levels declared uncertain: :attr:`pneucore.spec.effects.Effect.ties`) is skipped too: fitted
+    levels declared uncertain: :attr:`pneucore.description.effects.Effect.ties`) is skipped too: fitted
     beside them it is the same freedom twice, and a model carrying both cannot be built."""
     unc = set(uncertain if isinstance(uncertain, (list, tuple)) else dict(uncertain))
     cands, skipped = [], []
@@ -135,8 +135,8 @@ def buildable(cal, name):
     """Why candidate ``name``'s refit ``cal`` is no model a user could be given, or ``""``:
     its model must read back as the API reads a model (a candidate the diagnosis built is
     skipped with the reason, never answered as the user's error)."""
-    from pneucore.spec.model import Model
-    from pneucore.spec.validation import FieldError
+    from pneucore.description.model import Model
+    from pneucore.description.validation import FieldError
     try:
         Model.from_dict(cal.model.to_dict())
     except (FieldError, ValueError) as exc:
@@ -529,7 +529,7 @@ def sample_period(exps):
 def probe(model, exps, null, Ju, name):
     """The score of candidate ``name`` (see :func:`candidate_scores`): ``{effect, lm, dof,
     p_value, score_params, form}``; ``Ju`` the base parameters' sensitivities (or None).
-    An effect with several structural forms (:meth:`pneucore.spec.effects.Effect.forms_for`:
+    An effect with several structural forms (:meth:`pneucore.description.effects.Effect.forms_for`:
     a line lumped or in segments) is probed in each, and scored by the form whose change
     explains most of the residual (``form``: its overrides, ``{}`` for the default)."""
     eff = EFFECTS[name]
@@ -600,7 +600,7 @@ def leading(score, n_refit):
 def effect_specs(model, name, values, form=None, sample_period=0.0):
     """The fit parameters of effect ``name`` (its diagnosis parameters that act on ``model``)
     starting at ``values``, in structural form ``form`` (overrides; its bounds,
-    :meth:`pneucore.spec.effects.Effect.form_bounds`, for records sampled every
+    :meth:`pneucore.description.effects.Effect.form_bounds`, for records sampled every
     ``sample_period`` [s])."""
     eff = EFFECTS[name]
     out = []
@@ -634,7 +634,7 @@ def _rss(cal):
 def joint_refit(model, exps, null, name, max_nfev, report, form=None):
     """Candidate ``name`` fitted with the null's base parameters, from the model as given
     (the null's values are biased by what is missing), in the structural form ``form``
-    (overrides of its probe values, :meth:`pneucore.spec.effects.Effect.forms_for`: a line
+    (overrides of its probe values, :meth:`pneucore.description.effects.Effect.forms_for`: a line
     lumped, or in segments where its delay spans more than a sample; the one the score pass
     preferred, :func:`probe`) and in its default form, or, with ``form`` None, in each form;
     the best kept. A form

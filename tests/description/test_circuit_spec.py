@@ -5,8 +5,8 @@ import math
 import pytest
 
 from pneucore import model_preset
-from pneucore.spec.model import Model
-from pneucore.spec.validation import FieldError
+from pneucore.description.model import Model
+from pneucore.description.validation import FieldError
 
 
 def _3way(**valve):
@@ -123,7 +123,7 @@ def test_candidates_on_a_3_2_valve_hold_port_b_off():
     """A diagnosis candidate built for a 3/2 valve never carries a line or a throttle on the port
     the valve does not drive (the API would refuse the model it proposes: issue 28's 3/2 rig)."""
     from pneucore import Model, model_preset
-    from pneucore.spec.effects import EFFECTS
+    from pneucore.description.effects import EFFECTS
     m3 = Model.from_dict(model_preset("paper-3way"))
     for name, port_b in (("tubing", "length_b"), ("meter_out_throttle", "C_b"),
                          ("meter_in_throttle", "C_b")):

@@ -10,9 +10,9 @@ import pytest
 
 from pneucore.physics.line import delay_cells, sound_speed
 from pneucore.physics.tube import MAX_SEGMENTS
-from pneucore.spec.effects import EFFECTS
-from pneucore.spec.model import Model
-from pneucore.spec.presets import model_preset
+from pneucore.description.effects import EFFECTS
+from pneucore.description.model import Model
+from pneucore.description.presets import model_preset
 
 MODEL = Model.from_dict(model_preset("paper-4way"))
 T = MODEL.supply.temperature

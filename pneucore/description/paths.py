@@ -1,6 +1,6 @@
 """Model parameters addressed by path (``heat.coefficient``, ``friction.extend.fc0``, ...).
 
-Paths name numeric fields of :class:`pneucore.spec.model.Model`:
+Paths name numeric fields of :class:`pneucore.description.model.Model`:
 
 * ``jack.<field>``, ``supply.pressure``, ``ambient.temperature``, ``heat.coefficient`` and the
   other parameters of the model's heat model (``heat.natural_multiplier``, ... :mod:`pneucore.physics.heat`),
@@ -20,14 +20,14 @@ from __future__ import annotations
 import fnmatch
 from dataclasses import dataclass
 
-from pneucore.spec.effects import EFFECTS
+from pneucore.description.effects import EFFECTS
 from pneucore.physics.heat import HEAT_PARAMETERS
-from pneucore.spec.validation import FieldError, number
+from pneucore.description.validation import FieldError, number
 
 _SECTIONS = {"jack", "supply", "ambient", "heat", "friction", "gas"}
 
 #: Named edge groups of a valve (patterns on the edge names of
-#: :data:`pneucore.spec.model.VALVE_KINDS`): the edges from the supply P, and the edges to
+#: :data:`pneucore.description.model.VALVE_KINDS`): the edges from the supply P, and the edges to
 #: the exhaust R
 VALVE_GROUPS = {"supply": "P-*", "exhaust": "*-R"}
 
@@ -310,7 +310,7 @@ def model_changes(before, after):
     >>> [(c["path"], c["before"], c["after"], c["kind"]) for c in model_changes(a, b)]
     [('effects.piston_leakage', None, 'added', 'added'), ('heat.coefficient', 25.0, 35.0, 'changed'), ('effects.piston_leakage.conductance', None, 8e-11, 'added')]
     """
-    from pneucore.spec.model import Model   # a dict is read as the API reads it (defaults filled)
+    from pneucore.description.model import Model   # a dict is read as the API reads it (defaults filled)
     a, b = ((m if isinstance(m, Model) else Model.from_dict(m)).to_dict() for m in (before, after))
     la, lb = _leaves(a), _leaves(b)
     out = []

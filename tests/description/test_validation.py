@@ -25,7 +25,7 @@ import pytest
 
 from pneucore import (FieldError, Model, Scenario, SimulationError, model_preset, scenario_preset,
                       simulate)
-from pneucore.spec.scenario import MAX_DURATION, MAX_SAMPLES
+from pneucore.description.scenario import MAX_DURATION, MAX_SAMPLES
 
 MODES = {"slide", "stick", "stop", "locked"}
 SOLVER = {"rtol": 1e-5, "max_step": 0.02, "max_steps": 5_000_000, "max_events": 200_000}
@@ -531,7 +531,7 @@ _NUMBERS = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers
 def test_the_command_fast_path_accepts_and_refuses_as_the_full_check(cmd):
     # the fast acceptance of plain commands must change nothing: the same breakpoints, or
     # the same error naming the same breakpoint, with and without it
-    import pneucore.spec.scenario as sc
+    import pneucore.description.scenario as sc
     from pneucore import Scenario, scenario_preset
     base = scenario_preset("paper-fig10-pulses")
 

@@ -1,9 +1,9 @@
 """A diagnosis fit of an effect stays within what the model accepts (``Effect.fit_bounds``)."""
 import pytest
 
-from pneucore.spec.effects import EFFECTS
-from pneucore.spec.model import Model
-from pneucore.spec.presets import model_preset
+from pneucore.description.effects import EFFECTS
+from pneucore.description.model import Model
+from pneucore.description.presets import model_preset
 
 
 def test_cushion_fit_keeps_each_cushion_within_half_the_stroke():

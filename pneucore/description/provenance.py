@@ -2,7 +2,7 @@
 
 The paper identifies its model step by step (section 4): the valve on a flow bench, the
 friction on a friction bench, then validates on the locked-chamber and free-motion tests. A
-model records, per parameter path (:mod:`pneucore.spec.paths`: ``friction.extend.fc0``,
+model records, per parameter path (:mod:`pneucore.description.paths`: ``friction.extend.fc0``,
 ``jack.moving_mass``, ``valve.ports.P-A.C`` for an edge's whole table), where its value came
 from::
 
@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 import numbers
 
-from pneucore.spec.validation import FieldError
+from pneucore.description.validation import FieldError
 
 #: Where a value may come from: a maker's catalogue, a bench test made for the component
 #: (flow bench, friction bench), a calibration or a diagnosis on dynamic tests
@@ -141,7 +141,7 @@ def bench_known(model, explicit=()):
 
     Parameters
     ----------
-    model : pneucore.spec.model.Model
+    model : pneucore.description.model.Model
         The model, with its ``provenance`` [-]
     explicit : iterable of str
         Paths the request already names as known (kept once) [-]

@@ -1,7 +1,7 @@
 """``model_changes``: what a finding would change, listed before it is applied (issue 24)."""
 from pneucore import model_preset
-from pneucore.spec.paths import model_changes, set_values
-from pneucore.spec.model import Model
+from pneucore.description.paths import model_changes, set_values
+from pneucore.description.model import Model
 
 
 def test_a_scaled_valve_table_is_one_scale_factor_and_units_are_named():

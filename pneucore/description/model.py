@@ -1,7 +1,7 @@
 """The actuator model as plain dataclasses that round-trip to JSON.
 
 ``Model.from_dict(d)`` validates everything and raises one
-:class:`~pneucore.spec.validation.FieldError` (a ``ValueError``) naming the field
+:class:`~pneucore.description.validation.FieldError` (a ``ValueError``) naming the field
 path; ``Model.to_dict()`` gives back plain JSON. Units are SI, pressures
 absolute [Pa], temperatures [K].
 """
@@ -16,8 +16,8 @@ from pneucore.physics.friction import FRICTION_LAWS
 from pneucore.physics.gas import GAMMA_AIR, P_ATM, P_CONTINUUM_MIN, R_AIR, T_REF
 from pneucore.physics.heat import HEAT_MODELS, HEAT_PARAMETERS
 from pneucore.physics.jack import ANGLE_MAX, annulus_area, chamber_volumes, gravity_load, rod_area
-from pneucore.spec.validation import FieldError, choice, known_keys, mapping, number, number_list, optional_mapping
-from pneucore.spec.provenance import check_provenance
+from pneucore.description.validation import FieldError, choice, known_keys, mapping, number, number_list, optional_mapping
+from pneucore.description.provenance import check_provenance
 
 #: Edges of each valve kind and the opening range of their tables
 VALVE_KINDS = {
@@ -158,7 +158,7 @@ class Jack:
         >>> Jack.checked_rod(0.032, 0.032, "jack.rod_a")
         Traceback (most recent call last):
         ...
-        pneucore.spec.validation.FieldError: jack.rod_a: rod diameter 0.032 m must be smaller than the bore 0.032 m
+        pneucore.description.validation.FieldError: jack.rod_a: rod diameter 0.032 m must be smaller than the bore 0.032 m
         """
         rod = number(rod, path, nonnegative=True)
         if rod >= bore:
@@ -198,7 +198,7 @@ class Jack:
 
 
 #: Largest sonic conductance a valve edge may have [m^3/(s Pa)]: what this package's own
-#: conversions (:mod:`pneucore.spec.valve_data`) give for a Cv of about 2,600 (a large process
+#: conversions (:mod:`pneucore.description.valve_data`) give for a Cv of about 2,600 (a large process
 #: valve) or a nominal flow of about 2.5 million NL/min, hundreds of times the largest
 #: directional valves' (nominal flows of some 10^4 NL/min). Beyond it the number is a slip (a
 #: catalogue's dm^3/(s bar) typed as SI), and a table a thousand times too large makes a
@@ -596,7 +596,7 @@ class Gas:
 class Model:
     """A complete actuator model: jack, valve, supply, ambient, heat, friction, effects.
 
-    ``effects`` maps catalog effect names (:mod:`pneucore.spec.effects`) to their
+    ``effects`` maps catalog effect names (:mod:`pneucore.description.effects`) to their
     parameters; an empty dict is the paper's base model.
 
     Parameters
@@ -627,7 +627,7 @@ class Model:
         Where each identified value came from, by parameter path (``friction.extend.fc0``,
         ``valve.ports.P-A.C`` for an edge's table): ``{"source": "catalogue", "bench",
         "calibration" or "diagnosis", "stderr" (the parameter's unit, null when not known),
-        "unit", "method", "note"}`` (:mod:`pneucore.spec.provenance`); the valve and friction
+        "unit", "method", "note"}`` (:mod:`pneucore.description.provenance`); the valve and friction
         benches write theirs; a bench value is known to later fits unless a request's
         ``bench_known`` is false [-]
     """
@@ -686,7 +686,7 @@ class Model:
                              f"of a 3/2 valve (half the supply) has no meaning: give it")
         if m.valve.b_chamber_pressure is not None and m.valve.kind != "3/2":
             raise FieldError("valve.b_chamber_pressure", "only applies to a 3/2 valve")
-        from pneucore.spec.effects import validate_effects
+        from pneucore.description.effects import validate_effects
         m.effects = validate_effects(m.effects, m)
         return m
 

@@ -19,7 +19,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Optional
 
-from pneucore.spec.validation import FieldError, choice, integer, known_keys, mapping, number, optional_mapping
+from pneucore.description.validation import FieldError, choice, integer, known_keys, mapping, number, optional_mapping
 
 #: Longest simulated time accepted [s]
 MAX_DURATION = 3600.0

@@ -18,7 +18,7 @@ editing the base equations:
   table once, by ISO 6358-3 (:mod:`pneucore.physics.series`).
 
 An effect may also give ``check(params, model, path)``, raising a
-:class:`~pneucore.spec.validation.FieldError` for parameters this model
+:class:`~pneucore.description.validation.FieldError` for parameters this model
 cannot take (a throttle on a port the valve does not have).
 
 With its parameters at their ``off`` values every effect reproduces the base
@@ -41,7 +41,7 @@ from pneucore.physics.sensors import PRESSURE_SENSOR
 from pneucore.physics.series import combine_table
 from pneucore.physics.tube import (LINE_STATES, MAX_SEGMENTS, SEGMENTED_LINE, line_slots,
                                    line_volume, tube_characteristic)
-from pneucore.spec.validation import FieldError, mapping, number, optional_mapping
+from pneucore.description.validation import FieldError, mapping, number, optional_mapping
 
 
 @dataclass
@@ -485,7 +485,7 @@ def _static_b(*names):
     that they act on nothing and a fit would leave them wherever it starts or wanders (a dead
     volume on a held B fitted at 202 cm^3, beyond the chamber, then called impossible)."""
     def unused(model):
-        from pneucore.spec.model import B_CHAMBER_MODES
+        from pneucore.description.model import B_CHAMBER_MODES
         v = model.valve
         if v.kind == "3/2" and not B_CHAMBER_MODES[v.b_chamber]["dynamic"]:
             return names

@@ -1,12 +1,12 @@
 """Field descriptions read from numpydoc docstrings: the one place a parameter is described.
 
-A dataclass of :mod:`pneucore.spec` describes each field once, in its
+A dataclass of :mod:`pneucore.description` describes each field once, in its
 ``Parameters`` section (``name : type`` on one line, the description ending
 in its ``[unit]`` on the next). The REST schemas take their field
 descriptions from here (:func:`api_description`), so the library and the
 API cannot drift apart.
 
->>> from pneucore.spec.model import Jack
+>>> from pneucore.description.model import Jack
 >>> field_docs(Jack)["bore"]
 'Bore (piston) diameter [m]'
 """
@@ -73,7 +73,7 @@ def api_description(cls, name):
     Parameters
     ----------
     cls : type
-        A dataclass of :mod:`pneucore.spec`
+        A dataclass of :mod:`pneucore.description`
     name : str
         One of its fields
 
@@ -87,7 +87,7 @@ def api_description(cls, name):
     KeyError
         When the docstring does not describe the field (every field must be)
 
-    >>> from pneucore.spec.model import Valve
+    >>> from pneucore.description.model import Valve
     >>> api_description(Valve, "b_chamber_pressure")
     '3/2 mode: absolute pressure held in chamber B; null = half the supply pressure, as in the paper [Pa]'
     """

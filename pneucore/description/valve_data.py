@@ -17,14 +17,14 @@ from pneucore.physics.flow import (QN_DP, QN_P1_GAUGE, conductance_from_area,
                                    conductance_from_cv, conductance_from_flow, conductance_from_kv,
                                    conductance_from_qn)
 from pneucore.physics.gas import T_REF
-from pneucore.spec.effects import EFFECTS
-from pneucore.spec.model import VALVE_C_MAX
-from pneucore.spec.validation import FieldError, known_keys, mapping, number
+from pneucore.description.effects import EFFECTS
+from pneucore.description.model import VALVE_C_MAX
+from pneucore.description.validation import FieldError, known_keys, mapping, number
 
 #: Unit of a sonic conductance, as the model's effects state it
 C_UNIT = EFFECTS["meter_out_throttle"].param("C_a").unit
 #: Every field a conversion may read: unit, description, the checks of
-#: :func:`pneucore.spec.validation.number`, and the default (None = required)
+#: :func:`pneucore.description.validation.number`, and the default (None = required)
 FIELDS = {
     "qn": ("NL/min", f"nominal flow (ISO 6358-1 / VDI 3290: {QN_P1_GAUGE / 1e5:g} bar gauge "
                      f"upstream, {QN_DP / 1e5:g} bar drop), at ANR", {"positive": True}, None),
@@ -249,7 +249,7 @@ def catalogue_valve(d, path="valve"):
     >>> v["kind"], v["ports"]["P-A"]["C"], v["rest_opening"]
     ('4/2', [0.0, 1e-08], -1.0)
     """
-    from pneucore.spec.model import MAX_SWITCHING_TIME
+    from pneucore.description.model import MAX_SWITCHING_TIME
     mapping(d, path)
     known_keys(d, CATALOGUE_FIELDS, path)
     fn = d.get("function")

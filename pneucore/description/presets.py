@@ -8,7 +8,7 @@ values and are flagged in each preset's ``notes``.
 """
 import copy
 
-from pneucore.spec.scenario import pulse_train
+from pneucore.description.scenario import pulse_train
 
 _C4 = 1.0e-8      # full-opening conductance of a 4/2 edge [m^3/(s Pa)] (1 dm^3/(s bar), catalogue-typical)
 _C3 = 3.2e-9      # 1.6 mm nozzle: effective area ~1.6 mm^2 ~ 0.32 dm^3/(s bar) (rule S_e ~ 5 C)
