@@ -7,11 +7,55 @@
  *   position and reference, and the valve command, plotted; the loop's metrics in a table;
  * - "Linearise": POST /api/linearize at the setpoint's first position: natural frequency,
  *   damping, and the closed form of the pneumatic spring.
+ * Positions (the start, the setpoint's table, a gain in m or m/s) are typed and shown in the
+ * page's unit system (units.js unitShow: mm in engineering) and sent in SI.
  * All text from the server or the user goes through textContent.
  */
 'use strict';
 
 const CTL = { kinds: [], byKind: {} };
+
+/** How a quantity in SI unit ``si`` ('m', 'm/s') is shown on this page: {unit, scale}. */
+function ctlShown(si) {
+  const d = typeof unitShow === 'function' ? unitShow(si) : { unit: si, scale: 1 };
+  return { unit: d.unit, scale: Number(d.scale) || 1 };
+}
+/** The value of a number input in SI (its shown value times the scale it was shown with). */
+function ctlSI(input) { return Number(input.value) * Number(input.dataset.scale || 1); }
+/** Show ``input`` (holding a value shown with its dataset.scale) with ``scale`` instead. */
+function ctlRescale(input, scale) {
+  const prev = Number(input.dataset.scale || 1);
+  const v = Number(input.value);
+  if (input.value.trim() !== '' && Number.isFinite(v) && prev !== scale) input.value = String(+(v * prev / scale).toPrecision(12));
+  input.dataset.scale = String(scale);
+}
+/** A setpoint table's positions shown with ``scale`` (a shape, an object, is in SI and kept). */
+function ctlRescaleSetpoint(area, scale) {
+  const prev = Number(area.dataset.scale || 1);
+  area.dataset.scale = String(scale);
+  if (prev === scale) return;
+  try {
+    const sp = JSON.parse(area.value);
+    if (Array.isArray(sp)) area.value = JSON.stringify(sp.map(([t, x]) => [t, +(x * prev / scale).toPrecision(12)]));
+  } catch (e) { /* not JSON yet: left as typed */ }
+}
+/** The Control view's lengths in the chosen unit system (called by units.js applyUnits). */
+function applyControlUnits() {
+  const x0 = document.getElementById('control-x0');
+  if (!x0) return;
+  const len = ctlShown('m');
+  ctlRescale(x0, len.scale);
+  document.querySelector('label[for="control-x0"]').textContent = `Start position x0 [${len.unit}]`;
+  const area = document.getElementById('control-setpoint');
+  ctlRescaleSetpoint(area, len.scale);
+  document.querySelector('label[for="control-setpoint"]').textContent =
+    `Setpoint: [[t [s], x [${len.unit}]], ...], or a shape {"kind": "step|multi_step|ramp|sine|jerk_limited|recorded", ...} in SI units`;
+  for (const input of document.querySelectorAll('#control-gains input')) {
+    const shown = ctlShown(input.dataset.si);
+    ctlRescale(input, shown.scale);
+    document.querySelector(`label[for="${CSS.escape(input.id)}"]`).textContent = `${input.dataset.gain} [${shown.unit}]`;
+  }
+}
 
 function ctlField(box, id, label, value, title) {
   const div = document.createElement('div');
@@ -38,10 +82,14 @@ function ctlRenderGains() {
   if (!kind) return;
   document.getElementById('control-desc').textContent = `${kind.description} (valves: ${kind.valves.join(', ')})`;
   for (const [name, g] of Object.entries(kind.gains)) {
-    const input = ctlField(box, `control-gain-${name}`, `${name} [${g.unit}]`, g.default, g.description || '');
+    const shown = ctlShown(g.unit);
+    const value = g.default == null ? null : +(g.default / shown.scale).toPrecision(12);
+    const input = ctlField(box, `control-gain-${name}`, `${name} [${shown.unit}]`, value, g.description || '');
     input.type = 'number';
     input.step = 'any';
     input.dataset.gain = name;
+    input.dataset.si = g.unit;
+    input.dataset.scale = String(shown.scale);
   }
 }
 
@@ -60,21 +108,24 @@ async function ctlInit() {
   }
   sel.addEventListener('change', ctlRenderGains);
   ctlRenderGains();
+  applyControlUnits();
 }
 
 function ctlRequest() {
   const gains = {};
   for (const input of document.querySelectorAll('#control-gains input')) {
-    if (input.value.trim() !== '') gains[input.dataset.gain] = Number(input.value);
+    if (input.value.trim() !== '') gains[input.dataset.gain] = ctlSI(input);
   }
   let setpoint;
-  const x0v = Number(document.getElementById('control-x0').value);
-  const text = document.getElementById('control-setpoint').value.trim();
+  const x0 = ctlSI(document.getElementById('control-x0'));
+  const area = document.getElementById('control-setpoint');
+  const text = area.value.trim();
+  const scale = Number(area.dataset.scale || 1);
   // an empty field: a 20 mm step from the start position at 50 ms
-  try { setpoint = text ? JSON.parse(text) : [[0, x0v], [0.05, x0v + 0.02]]; } catch (e) {
-    throw new Error('setpoint: not valid JSON ([[t [s], x [m]], ...] or {"kind": ...})');
+  try { setpoint = text ? JSON.parse(text) : [[0, x0], [0.05, x0 + 0.02]]; } catch (e) {
+    throw new Error(`setpoint: not valid JSON ([[t [s], x [${ctlShown('m').unit}]], ...] or {"kind": ...})`);
   }
-  const x0 = Number(document.getElementById('control-x0').value);
+  if (text && Array.isArray(setpoint)) setpoint = setpoint.map((row) => (Array.isArray(row) ? [row[0], row[1] * scale] : row));
   return {
     model: S.model,
     scenario: {
@@ -130,7 +181,7 @@ async function ctlRun() {
 
 async function ctlLinearize() {
   if (!S.model) return;
-  const x = Number(document.getElementById('control-x0').value);
+  const x = ctlSI(document.getElementById('control-x0'));
   await busy(document.getElementById('btn-control-linearize'), async () => {
     try {
       const r = await api('POST', '/api/linearize', { model: S.model, operating_point: { x } });

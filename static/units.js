@@ -5,7 +5,7 @@
  * label the shown unit. The choice is kept in localStorage. The ambient pressure itself is
  * always shown absolute (gauge would make it 0). */
 
-const UNITS = { api: null, system: localStorage.getItem('pneucore.description.units') || 'engineering' };
+const UNITS = { api: null, system: localStorage.getItem('pneucore.units') || localStorage.getItem('pneucore.spec.units') || 'engineering' };
 
 function prettyUnitText(u) { return String(u).replace(/\^3/g, '³').replace(/\^2/g, '²'); }
 
@@ -58,6 +58,7 @@ function applyUnits() {
   if (typeof plotEmptyCompare === 'function' && typeof S !== 'undefined' && !S.compare) plotEmptyCompare();
   if (typeof applyFrictionUnits === 'function') applyFrictionUnits();
   if (typeof applyCatalogueUnits === 'function') applyCatalogueUnits();
+  if (typeof applyControlUnits === 'function') applyControlUnits();
   if (typeof renderStudyRows === 'function' && typeof S !== 'undefined' && S.study && S.study.rows) renderStudyRows();
   if (typeof renderCalOptions === 'function' && typeof CAL !== 'undefined' && CAL.options.length) renderCalOptions();
   if (typeof renderCalReport === 'function' && typeof CAL !== 'undefined' && CAL.result) renderCalReport();
@@ -82,7 +83,7 @@ async function initUnits() {
   sel.value = UNITS.system;
   sel.addEventListener('change', () => {
     UNITS.system = sel.value;
-    localStorage.setItem('pneucore.description.units', UNITS.system);
+    localStorage.setItem('pneucore.units', UNITS.system);
     applyUnits();
   });
   // apply once the page holds its model and scenario
