@@ -25,10 +25,15 @@ function scheduleCalReload() {
  * parameters" puts every field back to the service's. */
 async function loadCalOptions(opts) {
   if (!S.model) return;
+  // the answer for a model the user has since replaced (a preset loaded while the request ran)
+  // is dropped: neither its parameters nor its error may overwrite what the newer model shows
+  const model = S.model;
   try {
-    CAL.options = await api('POST', '/api/calibrate/parameters', { model: S.model });
+    const options = await api('POST', '/api/calibrate/parameters', { model });
+    if (S.model !== model) return;
+    CAL.options = options;
     renderCalOptions(!!(opts && opts.keepTyped === true));
-  } catch (e) { showApiError(e, 'Loading the fittable parameters'); }
+  } catch (e) { if (S.model === model) showApiError(e, 'Loading the fittable parameters'); }
 }
 
 function srLabel(control, text) {

@@ -182,6 +182,40 @@ def test_the_calibration_panel_follows_the_model_and_the_known_values(page):
     assert not page.is_checked("#cal-params input[type=checkbox][data-path='jack.moving_mass']")
 
 
+def test_a_stale_parameter_reload_never_overwrites_a_newer_models_status(page):
+    """The calibration panel's reload after a model change is a request; one still running
+    when the user loads another model must not put its answer, or its error, over the newer
+    model's (under CI's load the preset's "Loaded" status was overwritten by the 422 of a
+    reload sent for the model it replaced). The reload is held in the page until the second
+    preset is loaded, then let go."""
+    page.evaluate("loadModelPreset('paper-4way')")
+    page.wait_for_timeout(600)   # the load's own reload (250 ms debounce) has gone out
+    page.evaluate("""() => {
+        window.__held = [];
+        const send = window.__sendApi = api;
+        window.api = async (method, path, body) => {
+            if (path === '/api/calibrate/parameters' && window.__holdReloads)
+                await new Promise((go) => window.__held.push(go));
+            return send(method, path, body);
+        };
+        window.__holdReloads = true;
+        S.model.valve.kind = 'no-such-valve';   // the service refuses this model (422)
+        loadCalOptions({ keepTyped: true });
+    }""")
+    page.wait_for_function("() => window.__held.length >= 1")
+    page.evaluate("window.__holdReloads = false")
+    page.select_option("#model-preset", "paper-3way")
+    page.click("#btn-load-preset")
+    wait_status(page, "paper-3way")
+    page.evaluate("() => { window.__held.forEach((go) => go()); }")
+    # the held request is answered (422) and handled; the newer model's reload lands too
+    page.wait_for_timeout(1500)
+    status = page.inner_text("#status-msg")
+    assert "paper-3way" in status and "fittable" not in status, status
+    assert page.evaluate("S.model.name") == "paper-3way"
+    page.evaluate("() => { window.api = window.__sendApi; }")
+
+
 def test_plots_keep_titles_apart_and_measured_apart_from_simulated(page):
     page.wait_for_function("() => (document.getElementById('dataset-plot').data || []).length > 0")
     # every y-axis title of the data plot within its own space: no two boxes overlap
