@@ -186,6 +186,11 @@ function showApiError(err, what, fieldMap) {
   }
   const detail = err.detail;
   if (Array.isArray(detail)) {
+    // an answer for a model the user has since changed: its model errors are about values no
+    // longer there (a rod typed wider than the bore, then corrected while the request ran), so
+    // they flag no field and the status says the model has changed since
+    const stale = modelChangedSince(err);
+    let dropped = 0;
     for (const e of detail) {
       let field = e.field;
       if (field == null) {
@@ -197,11 +202,13 @@ function showApiError(err, what, fieldMap) {
       if (e.type === 'measurement_error' && e.row != null) msg += ` (row ${e.row})`;
       const bp = /^scenario\.command\[(\d+)\]/.exec(field);
       if (bp) msg += ` (breakpoint ${Number(bp[1]) + 1})`;
+      if (stale && /^model(\.|\[|$)/.test(field)) { dropped += 1; continue; }
       fieldError(field, msg);
     }
     const n = detail.length;
     setStatus(`${what} refused (HTTP ${err.status}): ${n} error${n === 1 ? '' : 's'}: ` +
-      detail.map((e) => e.msg).join('; '), 'error');
+      detail.map((e) => e.msg).join('; ') +
+      (dropped ? ` (for the model as it was when sent; it has changed since: run it again)` : ''), 'error');
   } else {
     setStatus(`${what} failed (HTTP ${err.status}): ${typeof detail === 'string' ? detail : JSON.stringify(detail)}`, 'error');
   }
@@ -224,8 +231,18 @@ async function api(method, path, body) {
   const text = await r.text();
   let data = null;
   try { data = text ? JSON.parse(text) : null; } catch (e) { data = text; }
-  if (!r.ok) throw new ApiError(r.status, data && data.detail !== undefined ? data.detail : (data || r.statusText));
+  if (!r.ok) {
+    const err = new ApiError(r.status, data && data.detail !== undefined ? data.detail : (data || r.statusText));
+    // the model the request carried, as sent: its field errors are stale once the user has edited it
+    if (body && !(body instanceof FormData) && body.model && typeof body.model === 'object') err.sentModel = JSON.stringify(body.model);
+    throw err;
+  }
   return data;
+}
+/** True when ``err`` answered a request whose model differs from the page's model now (an edit
+ * or a preset loaded while the request ran). */
+function modelChangedSince(err) {
+  return !!(err && err.sentModel && S.model && err.sentModel !== JSON.stringify(S.model));
 }
 /** GET /api/units, asked once per page load (units.js and paramUnit share it). */
 let UNITS_REQUEST = null;

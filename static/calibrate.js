@@ -25,15 +25,18 @@ function scheduleCalReload() {
  * parameters" puts every field back to the service's. */
 async function loadCalOptions(opts) {
   if (!S.model) return;
-  // the answer for a model the user has since replaced (a preset loaded while the request ran)
-  // is dropped: neither its parameters nor its error may overwrite what the newer model shows
-  const model = S.model;
+  // the answer for a model the user has since changed (a preset loaded, or a field edited in
+  // place, while the request ran) is dropped: neither its parameters nor its error may
+  // overwrite what the newer model shows (a 422 for a rod typed wider than the bore flagged
+  // the field again after the user had corrected it)
+  const sent = JSON.stringify(S.model);
+  const current = () => JSON.stringify(S.model) === sent;
   try {
-    const options = await api('POST', '/api/calibrate/parameters', { model });
-    if (S.model !== model) return;
+    const options = await api('POST', '/api/calibrate/parameters', { model: JSON.parse(sent) });
+    if (!current()) return;
     CAL.options = options;
     renderCalOptions(!!(opts && opts.keepTyped === true));
-  } catch (e) { if (S.model === model) showApiError(e, 'Loading the fittable parameters'); }
+  } catch (e) { if (current()) showApiError(e, 'Loading the fittable parameters'); }
 }
 
 function srLabel(control, text) {
