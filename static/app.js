@@ -222,8 +222,14 @@ class ApiError extends Error {
     this.detail = detail;
   }
 }
+/** The page's model as JSON now ('' before one is loaded). */
+function pageModelJson() {
+  return typeof S === 'object' && S && S.model ? JSON.stringify(S.model) : '';
+}
 async function api(method, path, body) {
   const opts = { method, headers: {} };
+  // the page's model when the request went out: an answer's model errors are stale once it has changed
+  const modelAtSend = pageModelJson();
   if (body instanceof FormData) opts.body = body;
   else if (body !== undefined) { opts.headers['content-type'] = 'application/json'; opts.body = JSON.stringify(body); }
   let r;
@@ -233,16 +239,15 @@ async function api(method, path, body) {
   try { data = text ? JSON.parse(text) : null; } catch (e) { data = text; }
   if (!r.ok) {
     const err = new ApiError(r.status, data && data.detail !== undefined ? data.detail : (data || r.statusText));
-    // the model the request carried, as sent: its field errors are stale once the user has edited it
-    if (body && !(body instanceof FormData) && body.model && typeof body.model === 'object') err.sentModel = JSON.stringify(body.model);
+    err.modelAtSend = modelAtSend;
     throw err;
   }
   return data;
 }
-/** True when ``err`` answered a request whose model differs from the page's model now (an edit
- * or a preset loaded while the request ran). */
+/** True when the page's model changed (an edit, or a preset loaded) while the request that
+ * ``err`` answers ran. */
 function modelChangedSince(err) {
-  return !!(err && err.sentModel && S.model && err.sentModel !== JSON.stringify(S.model));
+  return !!(err && typeof err.modelAtSend === 'string' && err.modelAtSend !== pageModelJson());
 }
 /** GET /api/units, asked once per page load (units.js and paramUnit share it). */
 let UNITS_REQUEST = null;
