@@ -589,6 +589,8 @@ class RankingEntry(BaseModel):
     delta_bic: Optional[float] = Field(None, description="BIC with the effect minus BIC without [-]")
     params: dict[str, Any] = Field(default_factory=dict, description="Fitted parameters (units in GET /api/effects)")
     explanation: Optional[str] = Field(None, description="The finding in words")
+    held_off: Optional[list[str]] = Field(None, description="Its parameters held at off (the effect's smaller form): fitted on each experiment alone they disagreed, a stand-in; absent where every parameter was fitted [-]")
+    stand_in: Optional[str] = Field(None, description="With held_off: the disagreement that made them a stand-in, in words")
     held_out_not_run: Optional[str] = Field(None, description="Why its held-out prediction was not made (a candidate ahead of it was named, so its flags are its LR test's and BIC's alone); absent where it was made or not needed")
     model: Optional[dict[str, Any]] = Field(None, description="The refitted model with the effect added")
 

@@ -128,7 +128,8 @@ def explain(eff, cand, floor_overall):
     where = "; ".join(f"{d['signal']} while {d['phase']} ({100 * d['before']:.2f} % -> "
                       f"{100 * d['after']:.2f} %)" for d in lands if d["drop"] > 0) or "nowhere in particular"
     # the same standard error as the ranking's table (its 95 % interval is ci95 there)
-    params = ", ".join(f"{k} = {v['value']:.3g} ± {v['stderr']:.2g} {v['unit']}"
+    params = ", ".join(f"{k} = {v['value']:.3g} {v['unit']} (held off)" if v.get("held") else
+                       f"{k} = {v['value']:.3g} ± {v['stderr']:.2g} {v['unit']}"
                        for k, v in cand["params"].items())
     from pneucore.analysis.shown import change_words
     return (f"Adding {eff.name} ({eff.description}) "
@@ -150,7 +151,7 @@ def undetermined(cand):
     bound, vague, n = [], [], 0
     for p in eff.score_params:
         v = cand["params"].get(p)
-        if v is None:
+        if v is None or v.get("held"):   # held off in the effect's smaller form: not fitted
             continue
         n += 1
         off = eff.param(p).off
@@ -180,7 +181,8 @@ def given_prior(v):
 
 
 def pair(model, exps, lead, ranking, refits, u_specs, e0, floor, max_nfev, report):
-    """Candidate ``lead`` refitted together with the next significant one.
+    """Candidate ``lead`` refitted together with the next significant one (each with the
+    parameters its candidate holds off, ``held_off``, left off).
 
     Returns ``{"effect", "error_after_overall", "excess_drop"}`` or None when there is no
     second significant, material candidate.
@@ -192,13 +194,14 @@ def pair(model, exps, lead, ranking, refits, u_specs, e0, floor, max_nfev, repor
     report(0.95, f"refit: {a} with {b}")
     m = model.copy()
     specs = []
-    for name in (a, b):
+    for c in (lead, nxt[0]):
+        name = c["effect"]
         eff = EFFECTS[name]
         vals = refits[name].model.effects[name]
         m.effects[name] = dict(vals)
         specs += [ParameterSpec(f"effects.{name}.{p}", vals[p], eff.param(p).min, eff.param(p).max,
                                 True, eff.param(p).unit) for p in eff.diagnosis_params
-                  if p not in eff.unused_in(model)]
+                  if p not in eff.unused_in(model) and p not in c.get("held_off", ())]
     cal = fit(m, exps, specs + list(u_specs), max_nfev=max_nfev, compute_before=False,
               reweight=True, prior=H.prior_for(model, [s.path for s in u_specs]))
     e1 = cal.error_after.overall
@@ -210,7 +213,7 @@ def fit_alone(model, specs, max_nfev, e):
     return fit(model, [e], specs, max_nfev=max_nfev, compute_before=False)
 
 
-def consistency(cal, exps, name, max_nfev=30, skip=None):
+def consistency(cal, exps, name, max_nfev=30, skip=None, held=()):
     """Do the experiments agree on the effect's parameters? (a physical effect: yes)
 
     The effect's parameters are refitted on each experiment alone, the base
@@ -223,21 +226,22 @@ def consistency(cal, exps, name, max_nfev=30, skip=None):
     Experiments in which the effect does not act (``observable_in``) or whose
     estimate has a relative standard error above 1 are not compared, nor those of
     ``skip`` (:func:`not_compared`: records the effect explains nothing of, beside one it
-    explains down to the noise).
+    explains down to the noise). Parameters of ``held`` stay where ``cal`` has them (off, in
+    an effect's smaller form).
 
     Returns
     -------
     report : dict
         ``consistent`` (True, or False when two estimates disagree), ``per_experiment``
         ``{experiment: {param: {value, stderr}}}``, ``not_compared`` ``{experiment: why}``,
-        ``summary``
+        ``disagree`` (the parameters whose estimates disagree), ``summary``
     """
     skip = dict(skip or {})
     eff = EFFECTS[name]
     per = {}
     specs = [ParameterSpec(f"effects.{name}.{p}", cal.model.effects[name][p], eff.param(p).min,
                            eff.param(p).max, True, eff.param(p).unit)
-             for p in eff.score_params]
+             for p in eff.score_params if p not in held]
     acting = [e for e in exps if e.name not in skip
               and ("locked" if e.scenario.get("locked") else "free") in eff.observable_in]
     if not specs:
@@ -254,18 +258,19 @@ def consistency(cal, exps, name, max_nfev=30, skip=None):
             if abs(v["value"]) > 0 and v["stderr"] < abs(v["value"]):
                 est[sp.path.split(".")[-1]] = {"value": v["value"], "stderr": v["stderr"]}
         per[e.name] = est
-    bad = []
+    bad, disagree = [], set()
     names = list(per)
     for i in range(len(names)):
         for j in range(i + 1, len(names)):
             a, b = per[names[i]], per[names[j]]
-            for p in set(a) & set(b):
+            for p in sorted(set(a) & set(b)):
                 va, vb = a[p]["value"], b[p]["value"]
                 se = math.sqrt(a[p]["stderr"] ** 2 + b[p]["stderr"] ** 2)
                 if abs(va - vb) > CONSISTENT_RTOL * max(abs(va), abs(vb)) and abs(va - vb) > 3 * se:
                     bad.append(f"{p} = {va:.3g} on {names[i]}, {vb:.3g} on {names[j]}")
+                    disagree.add(p)
     return {"consistent": not bad, "per_experiment": per, "not_compared": skip,
-            "summary": "; ".join(bad) if bad else "the experiments agree"}
+            "disagree": sorted(disagree), "summary": "; ".join(bad) if bad else "the experiments agree"}
 
 
 def not_compared(rows):

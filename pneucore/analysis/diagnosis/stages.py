@@ -597,15 +597,16 @@ def leading(score, n_refit):
 
 # -- 5. joint refits ----------------------------------------------------------------------
 
-def effect_specs(model, name, values, form=None, sample_period=0.0):
-    """The fit parameters of effect ``name`` (its diagnosis parameters that act on ``model``)
-    starting at ``values``, in structural form ``form`` (overrides; its bounds,
+def effect_specs(model, name, values, form=None, sample_period=0.0, held=()):
+    """The fit parameters of effect ``name`` (its diagnosis parameters that act on ``model``,
+    but those of ``held``: held where ``values`` has them) starting at ``values``, in
+    structural form ``form`` (overrides; its bounds,
     :meth:`pneucore.description.effects.Effect.form_bounds`, for records sampled every
     ``sample_period`` [s])."""
     eff = EFFECTS[name]
     out = []
     for p in eff.diagnosis_params:
-        if p in eff.unused_in(model):
+        if p in eff.unused_in(model) or p in held:
             continue
         lo, hi = eff.form_bounds(p, model, form, sample_period)
         v = min(max(values[p], lo), hi) if form else values[p]
@@ -746,24 +747,26 @@ def _form_key(form):
     return tuple(sorted(form.items()))
 
 
-def _refit_setup(model, null, name, start, form, sample_period):
+def _refit_setup(model, null, name, start, form, sample_period, held=()):
     """``(model, specs, start)`` of a joint refit: the effect at ``start`` (within its form's
-    bounds) and its parameters free beside the null's base parameters."""
-    specs = effect_specs(model, name, start, form, sample_period) + null.specs_start
+    bounds) and its parameters free beside the null's base parameters (those of ``held``
+    held at ``start``)."""
+    specs = effect_specs(model, name, start, form, sample_period, held) + null.specs_start
     start = {**start, **{s.path.rsplit(".", 1)[1]: s.value for s in specs
                          if s.path.startswith(f"effects.{name}.")}}
     return with_effect(model, name, start), specs, start
 
 
 def _joint_refit_from(model, exps, null, name, start, max_nfev, report, form=None,
-                      sample_period=0.0, prefit=None):
+                      sample_period=0.0, prefit=None, held=()):
     """:func:`joint_refit` in one form (``form``: its overrides, within its bounds for records
     sampled every ``sample_period`` [s]), the effect starting at ``start``. Base parameters the
     joint fit leaves at their catalogue values (within :data:`RECAL_MIN`) are not mis-set:
     they are held there and the rest refitted from this point, so that they do not blur the
     effect's parameters (kept unless the fit gets materially worse). ``prefit``: the fit's
-    window already fitted (:func:`forms_on_window`)."""
-    m, specs, start = _refit_setup(model, null, name, start, form, sample_period)
+    window already fitted (:func:`forms_on_window`); ``held``: parameters of the effect held at
+    ``start`` (its smaller form, :func:`smaller_form`)."""
+    m, specs, start = _refit_setup(model, null, name, start, form, sample_period, held)
     # the refit checks the time limit at each evaluation (progress stays at its level)
     cal = fit(m, exps, specs, max_nfev=max_nfev, compute_before=False,
               progress=lambda f, s: report(0.4, f"refit: {name}"), reweight=True, prior=null.prior,
@@ -871,7 +874,7 @@ def prior_cost(values, prior):
     return out
 
 
-def candidate_evidence(name, cal, null, taus, e0_cal):
+def candidate_evidence(name, cal, null, taus, e0_cal, held=()):
     """The evidence of one refit against the null: error drop, share of the excess over the
     floor (also once the sensors' gains and offsets are removed), LR with its p-value,
     delta BIC / AIC on the common effective samples, fitted parameters, explanation.
@@ -880,9 +883,10 @@ def candidate_evidence(name, cal, null, taus, e0_cal):
     (:func:`prior_cost`), the objective both fits minimised: a candidate that needs the
     valve's conductance at x1.75 to stand (a line whose resistance the records do not see,
     taken back by the valve) pays for it against one that leaves the catalogue as it is
-    (least change)."""
+    (least change). ``held``: parameters of the effect held off (its smaller form,
+    :func:`smaller_form`), not counted in its ``k``."""
     eff = EFFECTS[name]
-    k_eff = len(eff.diagnosis_params)
+    k_eff = len([p for p in eff.diagnosis_params if p not in held])
     lr_eff, n_eff = effective_lr(null.rss, cal.rss_after, taus)
     cost_null = prior_cost(null.fit.values, null.prior) if null.fit is not None else 0.0
     cost = prior_cost(cal.values, null.prior)
@@ -890,9 +894,11 @@ def candidate_evidence(name, cal, null, taus, e0_cal):
     lr = max(lr_eff, 0.0)
     p = float(stats.chi2.sf(lr, k_eff))
     params = {p_: v for p_, v in cal.values.items() if p_.startswith(f"effects.{name}.")}
+    held_off = {p_: {"value": cal.model.effects[name][p_], "stderr": 0.0, "unit": eff.param(p_).unit,
+                     "held": True} for p_ in held}
     # an effect's parameter given the user's values along what the records do not resolve
     # (the catalogue prior; a quadrant level beside an undeclared load and the extend level)
-    params = {k.split(".")[-1]: given_prior(v) for k, v in params.items()}
+    params = {**{k.split(".")[-1]: given_prior(v) for k, v in params.items()}, **held_off}
     e0, e1 = null.comp.overall, cal.error_after.overall
     floor = null.floor_overall
     cand = {"effect": name, "error_before": e0, "error_after": cal.error_after.errors,
@@ -915,6 +921,8 @@ def candidate_evidence(name, cal, null, taus, e0_cal):
             "fit_success": cal.success, "fit_message": cal.message,
             "description": eff.description, "signature": eff.signature,
             "reference": eff.reference, "model_obj": cal.model}
+    if held:
+        cand["held_off"] = sorted(held)
     cand["explanation"] = explain(eff, cand, floor)
     cand["model"] = cal.model.to_dict()
     return cand
@@ -967,13 +975,34 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
     def consistent(c):
         report(0.96, f"consistency across experiments: {c['effect']}")
         return consistency(refits[c["effect"]], exps, c["effect"], max_nfev,
-                           skip=not_compared(c.get("experiments", ())))
+                           skip=not_compared(c.get("experiments", ())),
+                           held=c.get("held_off", ()))
     ctx.consistency = consistent
 
     def predicts(c):
         report(0.96, f"held-out prediction: {c['effect']}")
-        return held_out_evidence(model, exps, null, c["effect"], refits[c["effect"]], max_nfev)
+        return held_out_evidence(model, exps, null, c["effect"], refits[c["effect"]], max_nfev,
+                                 c.get("held_off", ()))
     ctx.held_out = predicts
+
+    def smaller(c):
+        # a candidate whose parameters disagree between experiments on some of them only:
+        # those are a stand-in, the others may be physics; the effect is judged again with
+        # them held off (:func:`smaller_form`), and named in that form if it passes
+        held = smaller_held(c)
+        if not held:
+            return None
+        name = c["effect"]
+        full = refits[name]
+        s, refits[name] = smaller_form(model, exps, null, c, held, refits, max_nfev, report)
+        determine(s)
+        flag(s)
+        if R.judge(s, ctx):
+            ranking[ranking.index(c)] = s
+            return s
+        refits[name] = full
+        c["smaller_form"] = {"held_off": sorted(held), "failed": s["failed"]}
+        return None
     if not ranking:
         if at_noise_floor(null):
             return None, (NO_EFFECT + f" (the base model's error, {100 * null.error:.3f} %, is at "
@@ -987,7 +1016,8 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
     # leak) cannot change the verdict any more, unless the records cannot tell them from it
     # (an alternative, reported when significant: R.indistinct)
     named = None
-    for c in ranking:
+
+    def determine(c):
         # physical plausibility: a strength at its fit bound, or not distinguishable from off by
         # its own standard error, is no evidence of the effect however much the fit improves
         # (and a base parameter refitted beside it that points against its declared direction:
@@ -996,14 +1026,19 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
             c["effect"], (c["model"].get("effects") or {}).get(c["effect"]) or c["params"],
             model) or H.first_against_direction(model, c["uncertain_params"])
     for c in ranking:
+        determine(c)
+    for c in ranking:
         if named is not None and id(c) not in flagged:
             ctx.held_out = predicts if R.indistinct(c, named) else None
             if ctx.held_out is None:
                 c["held_out_not_run"] = (f"{named['effect']}, ahead of it, was named: its "
                                          "flags are its likelihood ratio's and its BIC's alone")
         flag(c)
-        if named is None and c["significant"] and c["strong"] and R.judge(c, ctx):
-            named = c
+        if named is None and c["significant"] and c["strong"]:
+            if R.judge(c, ctx):
+                named = c
+            elif c["failed"] == "consistent":
+                named = smaller(c)
     contenders = [c for c in ranking if c["significant"] and c["strong"]]
     if named is None and not contenders and R.judge(ranking[0], ctx):
         named = ranking[0]
@@ -1024,10 +1059,53 @@ def verdict(model, exps, ranking, refits, null, alpha, max_nfev, report):
         simpler = (f" Named before {named['simpler_than']}, which the records cannot tell "
                    f"from it (BIC within {-R.DELTA_BIC:g}) and which says more about the rig."
                    if named.get("simpler_than") else "")
+        if named.get("held_off"):
+            simpler += (f" Named without {', '.join(named['held_off'])}: fitted on each "
+                        f"experiment alone, {'it' if len(named['held_off']) == 1 else 'they'} "
+                        f"disagreed ({named['stand_in']}), a stand-in for something else, and "
+                        f"the effect without {'it' if len(named['held_off']) == 1 else 'them'} "
+                        "passes every rule.")
         return named["effect"], (f"{named['effect']}: {named['description']}. Error "
                                  f"{100 * named['error_before']:.2f} % -> "
                                  f"{100 * named['error_after_overall']:.2f} %.{simpler}")
     return None, NO_EFFECT + " (" + "; ".join(why_not(ranking[0])) + ")"
+
+
+def smaller_held(c):
+    """The parameters candidate ``c`` is judged again without (held off): those whose
+    estimates disagreed between experiments (:func:`consistency`), where some of its other
+    strength parameters act and every one of them has an ``off`` value; ``()`` otherwise (all
+    disagreed: the whole effect is a stand-in)."""
+    eff = EFFECTS[c["effect"]]
+    dis = set((c.get("consistency") or {}).get("disagree") or ())
+    if not dis:
+        return ()
+    unused = set(eff.unused_in(c["model_obj"]))
+    rest = [p for p in eff.score_params if p not in dis and p not in unused]
+    if not rest or any(eff.param(p).off is None for p in dis):
+        return ()
+    return tuple(sorted(dis))
+
+
+def smaller_form(model, exps, null, c, held, refits, max_nfev, report):
+    """Candidate ``c`` (whose parameters ``held`` disagreed between experiments) refitted with
+    them held off, from its fit: ``(candidate, calibration)``, the candidate's evidence on the
+    same null and effective samples as the ranking's (:func:`candidate_evidence`, ``held`` not
+    counted in its ``k``). A stand-in parameter takes whatever helps each record (a leak on
+    B standing in for a retract level mis-set, beside a leak on A both records agree on); the
+    effect without it is what the records may still show (least change: it claims less)."""
+    name = c["effect"]
+    eff = EFFECTS[name]
+    cal = refits[name]
+    form = {k: v for k, v in cal.model.effects[name].items() if k not in eff.diagnosis_params}
+    start = {**cal.model.effects[name], **{p: eff.param(p).off for p in held}}
+    report(0.96, f"refit: {name} without {', '.join(held)}")
+    cal2 = _joint_refit_from(model, exps, null, name, start, max_nfev, report, form,
+                             sample_period(exps), held=held)
+    taus = common_times(refits, null)
+    cand = candidate_evidence(name, cal2, null, taus, H.calibrated_error(null.replays)[0], held)
+    cand["stand_in"] = c["consistency"]["summary"]
+    return cand, cal2
 
 
 def fitted_specs(fitted, specs):
@@ -1042,9 +1120,10 @@ def fitted_specs(fitted, specs):
     return out
 
 
-def held_out_evidence(model, exps, null, name, cal, max_nfev):
+def held_out_evidence(model, exps, null, name, cal, max_nfev, held=()):
     """:func:`pneucore.analysis.diagnosis.evidence.held_out` of candidate ``name`` (its joint
-    refit ``cal``) against the null, each refitted from its own fit without each block."""
+    refit ``cal``; ``held``: its parameters held off) against the null, each refitted from its
+    own fit without each block."""
     scales = {(e, s): rms for e, s, _, rms in null.keys}
     base = fitted_specs(null.base, null.specs_start)
     # the candidate in the form its refit kept (the values the diagnosis does not fit: a
@@ -1052,13 +1131,13 @@ def held_out_evidence(model, exps, null, name, cal, max_nfev):
     eff = EFFECTS[name]
     form = {k: v for k, v in cal.model.effects[name].items() if k not in eff.diagnosis_params}
     dt = sample_period(exps)
-    cand = effect_specs(model, name, cal.model.effects[name], form, dt) + fitted_specs(
+    cand = effect_specs(model, name, cal.model.effects[name], form, dt, held) + fitted_specs(
         cal.model, null.specs_start)
     # the experiments left out in turn start where the null fit and the joint refit start:
     # the model as given, the effect at its probe dose in the form the refit kept
-    start = {**eff.probe_values(model), **form}
+    start = {**eff.probe_values(model), **form, **{p: eff.param(p).off for p in held}}
     loeo = (model, list(null.specs_start), with_effect(model, name, start),
-            effect_specs(model, name, start, form, dt) + list(null.specs_start))
+            effect_specs(model, name, start, form, dt, held) + list(null.specs_start))
     return held_out(null.base, base, cal.model, cand, exps, scales, null.prior,
                     R.HELD_OUT_FOLDS, max(max_nfev // 2, 8), loeo=loeo,
                     enough=R.blocks_predict)
