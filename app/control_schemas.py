@@ -47,6 +47,7 @@ class ControllerIn(_Strict):
     setpoint: Any = Field(..., description="Reference position: [[t [s], x [m]], ...] held between points, or a shape {kind: step|multi_step|ramp|sine|jerk_limited|recorded, ...} [m, s]")
     sample_period: Number = Field(1e-3, description="Controller sample period (zero-order hold) [s]")
     settle_band: Optional[Number] = Field(None, description="Settling band of the metrics [m]; null = 2 % of the last move")
+    seed: int = Field(0, description="Seed of the sensors' noise (model.effects.sensor_lag: position_noise [m], pressure_noise [Pa]): the same seed, the same noise [-]")
 
 
 class ControllerInfo(BaseModel):

@@ -35,7 +35,8 @@ def linearize_answer(req):
 def closed_loop_simulation(req, limits, max_steps=None, form="json"):
     """POST /api/simulate with a scenario's ``controller``: the closed loop
     (:func:`pneucore.control.closed_loop.simulate_closed_loop`), answered as an open-loop run
-    is, with ``series.x_ref`` [m] and ``stats.control``. An unstable loop is a 422 naming
+    is, with ``series.x_ref`` [m] (and ``series.x_sensed`` [m], the position the controller
+    read, where the model has a position sensor) and ``stats.control``. An unstable loop is a 422 naming
     ``scenario.controller.gains``.
 
     Parameters
@@ -68,13 +69,11 @@ def closed_loop_simulation(req, limits, max_steps=None, form="json"):
     series = req.series
     if series is None:
         from .services import DEFAULT_SERIES
-        series = [s for s in DEFAULT_SERIES if s in res.series] + ["x_ref"]
+        series = [s for s in DEFAULT_SERIES if s in res.series] + \
+            [s for s in ("x_ref", "x_sensed") if s in res.series]
     if form == "npz":
         return result_npz(res, series)
-    out = result_json(res, series)
-    if "x_ref" in out["units"]:
-        out["units"]["x_ref"] = "m"
-    return out
+    return result_json(res, series)
 
 
 def controllers_answer():
