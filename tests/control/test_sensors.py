@@ -91,9 +91,10 @@ def test_a_position_lag_lowers_the_phase_margin_more_overshoot_as_the_linear_loo
     # P loop of tests/control/test_closed_loop.py (0.5 mm step, kp 15 1/m) overshoots more.
     # The nonlinear loop with the lagged sensor against its linearisation with the same lag:
     # overshoot within the 5 % (measured 0.4 %), the response within 5 % of the step
-    # all along (measured 1.7 %: the flow's pressure dependence, of second order in the step). Not the 2 % settling time: with 35 % overshoot the
-    # decaying swing meets the 2 % band at a peak, and a 1 % change of damping moves the last
-    # entry by half a period (measured 0.599 s linear, 0.543 s simulated)
+    # all along (measured 1.7 %: the flow's pressure dependence, of second order in the
+    # step). Not the 2 % settling time: with 35 % overshoot the decaying swing meets the
+    # 2 % band at a peak, and a 1 % change of damping moves the last entry by half a period
+    # (measured 0.599 s linear, 0.543 s simulated)
     x0, step, kp, tau, N = 0.1, 5e-4, 15.0, 0.01, 1500
     m = servo_model()
     plain, op, _ = _linear_p_step(m, x0, step, kp, 0.0, N)
