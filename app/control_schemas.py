@@ -47,6 +47,7 @@ class ControllerIn(_Strict):
     setpoint: Any = Field(..., description="Reference position: [[t [s], x [m]], ...] held between points, or a shape {kind: step|multi_step|ramp|sine|jerk_limited|recorded, ...} [m, s]")
     sample_period: Number = Field(1e-3, description="Controller sample period (zero-order hold) [s]")
     settle_band: Optional[Number] = Field(None, description="Settling band of the metrics [m]; null = 2 % of the last move")
+    seed: int = Field(0, description="Seed of the sensors' noise (model.effects.sensor_lag: position_noise [m], pressure_noise [Pa]): the same seed, the same noise [-]")
 
 
 class ControllerInfo(BaseModel):
@@ -60,11 +61,16 @@ class ControllersResponse(BaseModel):
     controllers: list[ControllerInfo] = Field(..., description="The registered controller kinds")
 
 
+_SPEC = "Specification {metric: largest |value|} in the metric's unit: rise_time, settling_time [s], overshoot [-], steady_state_error, rms_error, hunting_amplitude [m], hunting_frequency [Hz], switchings [-], air_per_move [NL]; a run meets it when stable and every listed metric is defined and within its bound; null = none"
+
+
 class ControlStudyRequest(_Strict):
     study: dict[str, Any] = Field(..., description="A robustness study (model, scenario with a controller, parameters by path with grids or distributions, samples, seed); see docs/guides/position-control.md")
+    specification: Optional[dict[str, Any]] = Field(None, description=_SPEC + " (the answer adds meets per run and summary.meets_fraction)")
 
 
 class TuneRequest(_Strict):
     study: dict[str, Any] = Field(..., description="The ensemble: a closed-loop study (its controller's gains are the base)")
     gains: dict[str, list[Number]] = Field(..., description="Gain values to try, full factorial, SI units of the controller's gains")
     objective: str = Field("rms_error", max_length=64, description="Metric whose worst |value| over the ensemble is minimised: rise_time, settling_time [s], overshoot [-], steady_state_error, rms_error, hunting_amplitude [m], ...")
+    specification: Optional[dict[str, Any]] = Field(None, description=_SPEC + " (the sets meeting it on the most runs rank first, then the worst objective)")

@@ -35,7 +35,8 @@ def linearize_answer(req):
 def closed_loop_simulation(req, limits, max_steps=None, form="json"):
     """POST /api/simulate with a scenario's ``controller``: the closed loop
     (:func:`pneucore.control.closed_loop.simulate_closed_loop`), answered as an open-loop run
-    is, with ``series.x_ref`` [m] and ``stats.control``. An unstable loop is a 422 naming
+    is, with ``series.x_ref`` [m] (and ``series.x_sensed`` [m], the position the controller
+    read, where the model has a position sensor) and ``stats.control``. An unstable loop is a 422 naming
     ``scenario.controller.gains``.
 
     Parameters
@@ -68,13 +69,11 @@ def closed_loop_simulation(req, limits, max_steps=None, form="json"):
     series = req.series
     if series is None:
         from .services import DEFAULT_SERIES
-        series = [s for s in DEFAULT_SERIES if s in res.series] + ["x_ref"]
+        series = [s for s in DEFAULT_SERIES if s in res.series] + \
+            [s for s in ("x_ref", "x_sensed") if s in res.series]
     if form == "npz":
         return result_npz(res, series)
-    out = result_json(res, series)
-    if "x_ref" in out["units"]:
-        out["units"]["x_ref"] = "m"
-    return out
+    return result_json(res, series)
 
 
 def controllers_answer():
@@ -86,20 +85,33 @@ def controllers_answer():
 
 def check_control_study(req, limits):
     """A closed-loop study or tuning request checked before its job starts (422 now): the
-    study, its controller, and its scenario within the API's limits (duration, samples)."""
-    from pneucore.control.robustness import check_study
+    study, its controller, its specification, and its scenario within the API's limits
+    (duration, samples)."""
+    from pneucore.control.robustness import check_specification, check_study
     from .deps import check_scenario_limits
     study, _ = check_study(req.study)
     check_scenario_limits(study.scenario, limits, "study.scenario")
+    check_specification(req.specification)
 
 
-def run_control_study(req, progress=None):
-    """The closed-loop study job's work (:func:`pneucore.control.robustness.closed_loop_study`)."""
+def control_engine(settings):
+    """Where a closed-loop study or tuning runs: the studies' engine (the configured Dask
+    cluster, else the local process pool), with the studies' scheduler time limit."""
+    from .services import cluster_address
+    address = cluster_address(settings, None)
+    return {"scheduler": address, "scheduler_timeout": settings.limits.scheduler_timeout}
+
+
+def run_control_study(req, progress=None, engine=None):
+    """The closed-loop study job's work (:func:`pneucore.control.robustness.closed_loop_study`)
+    on the studies' engine; ``progress`` (the job's report) raising stops it."""
     from pneucore.control.robustness import closed_loop_study
-    return closed_loop_study(req.study, progress)
+    return closed_loop_study(req.study, progress, req.specification, engine)
 
 
-def run_tune(req, progress=None):
-    """The tuning job's work (:func:`pneucore.control.robustness.tune_controller`)."""
+def run_tune(req, progress=None, engine=None):
+    """The tuning job's work (:func:`pneucore.control.robustness.tune_controller`) on the
+    studies' engine."""
     from pneucore.control.robustness import tune_controller
-    return tune_controller(req.study, dict(req.gains), req.objective, progress)
+    return tune_controller(req.study, dict(req.gains), req.objective, progress,
+                           req.specification, engine)

@@ -196,7 +196,7 @@ class ScenarioIn(_Strict):
     solver: Optional[SolverIn] = Field(None, description=described(Scenario, "solver"))
     name: Name = Field("", description=described(Scenario, "name"))
     description: Text = Field("", description=described(Scenario, "description"))
-    controller: Optional[dict[str, Any]] = Field(None, description="Closed loop instead of command (issue 42): {kind: pid|sliding_mode|onoff|pva|force_pid, gains: {...} (SI; kp [1/m]: valve opening per metre of error), setpoint: [[t [s], x [m]], ...] or a shape, sample_period [s] (default 0.001), settle_band [m]}; the answer adds series.x_ref [m] and stats.control (docs/guides/position-control.md)")
+    controller: Optional[dict[str, Any]] = Field(None, description="Closed loop instead of command (issue 42): {kind: pid|sliding_mode|onoff|pva|force_pid, gains: {...} (SI; kp [1/m]: valve opening per metre of error), setpoint: [[t [s], x [m]], ...] or a shape, sample_period [s] (default 0.001), settle_band [m], seed [-] (of the sensors' noise, default 0)}; the controller reads the position and pressures through the model's sensors (model.effects.sensor_lag: position_resolution [m], position_time_constant [s], position_noise [m], time_constant [s], pressure_noise [Pa]); the answer adds series.x_ref [m], series.x_sensed [m] (what the controller read, where the model has a position sensor) and stats.control (docs/guides/position-control.md)")
 
     def plain(self):
         d = self.model_dump(exclude_none=True)

@@ -51,8 +51,8 @@ from pneucore.study import (Study, check_run_options, delete_study, list_studies
 
 from .analysis_memory import admitted, analysis_estimate, check_alone, samples_estimate, seconds_of
 from .config import STUDY_CLUSTERS, Limits
-from .control_service import (check_control_study, closed_loop_simulation, controllers_answer,  # noqa: F401
-                              linearize_answer, run_control_study, run_tune)  # (issue 42)
+from .control_service import (check_control_study, closed_loop_simulation, control_engine,  # noqa: F401
+                              controllers_answer, linearize_answer, run_control_study, run_tune)  # (issue 42)
 from .deps import parse_experiments, parse_model, parse_scenario
 from .request_memory import check_file
 from .responses import dumps

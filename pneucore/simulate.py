@@ -447,6 +447,52 @@ def cyclic_start(model, scenario, max_cycles=CYCLIC_MAX_CYCLES):
                       "T_b": float(s["T_b"]), "x0": float(s["x"]), "v0": float(s["v"])}}
 
 
+def output_times(scenario, t_out=None, checked=False):
+    """The sample times of a run (open or closed loop): ``t = 0, T_s, 2 T_s, ...`` up to the
+    scenario's duration, the last one at most the duration; or ``t_out`` checked
+    (:func:`checked_sample_times`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Its ``duration`` [s] and ``sample_period`` [s]
+    t_out : array_like or None
+        Sample times [s]; None = every ``sample_period``
+    checked : bool
+        ``t_out`` is already a checked float array for this duration: used as it is [-]
+
+    Returns
+    -------
+    t_out : ndarray
+        Sample times [s]
+    """
+    if t_out is None:
+        n_out = output_samples(scenario.duration, scenario.sample_period)
+        t_out = np.arange(n_out) * scenario.sample_period
+        t_out[-1] = min(t_out[-1], scenario.duration)
+        return t_out
+    return t_out if checked else checked_sample_times(t_out, scenario.duration)
+
+
+def output_buffers(n_out, n):
+    """The core's output arrays for ``n_out`` samples of ``n`` states: ``y_out``, ``aux_out``,
+    ``mode_out``, ``u_out``, filled with "not written" (NaN, mode -1), not left
+    uninitialised: a sample the core does not reach reads as missing, never as memory's
+    leftovers."""
+    return (np.full((n_out, n), np.nan), np.full((n_out, L.N_AUX), np.nan),
+            np.full(n_out, -1, np.int64), np.full(n_out, np.nan))
+
+
+def mark_unreached(t_out, t_reached, y_out, aux_out, mode_out, u_out):
+    """Samples after ``t_reached`` [s] (a run that stopped early) marked missing in place:
+    the core never wrote them."""
+    bad = t_out > t_reached
+    y_out[bad] = np.nan
+    aux_out[bad] = np.nan
+    u_out[bad] = np.nan
+    mode_out[bad] = -1
+
+
 def simulate_run(model, scenario, t_out=None, checked_times=False, start=None):
     """:func:`simulate`'s work, its outputs not yet wrapped: a :class:`pneucore.result.CoreRun`
     (:meth:`~pneucore.result.CoreRun.result` gives the :class:`SimulationResult`; a solver failure
@@ -481,24 +527,11 @@ def simulate_run(model, scenario, t_out=None, checked_times=False, start=None):
         scenario = Scenario.from_dict(scenario, model)
     check_resolvable(model, scenario.solver.rtol, scenario.solver.max_step)
     core = build_core(model, scenario)
-    if t_out is None:
-        n_out = output_samples(scenario.duration, scenario.sample_period)
-        t_out = np.arange(n_out) * scenario.sample_period
-        t_out[-1] = min(t_out[-1], scenario.duration)
-    elif checked_times:
-        n_out = t_out.shape[0]
-    else:
-        t_out = checked_sample_times(t_out, scenario.duration)
-        n_out = t_out.shape[0]
-    n = core["y0"].shape[0]
+    t_out = output_times(scenario, t_out, checked_times)
+    n_out = t_out.shape[0]
     y_start, mode_start = (core["y0"], core["mode0"]) if start is None else \
         (np.asarray(start[0], float), int(start[1]))
-    # filled with "not written" (NaN, mode -1), not left uninitialised: a sample the core
-    # does not reach reads as missing, never as memory's leftovers
-    y_out = np.full((n_out, n), np.nan)
-    aux_out = np.full((n_out, L.N_AUX), np.nan)
-    mode_out = np.full(n_out, -1, np.int64)
-    u_out = np.full(n_out, np.nan)
+    y_out, aux_out, mode_out, u_out = output_buffers(n_out, core["y0"].shape[0])
     max_ev = scenario.solver.max_events
     cmd = np.asarray(scenario.command, float)
     valve = core["effective_model"].valve
@@ -535,12 +568,7 @@ def simulate_run(model, scenario, t_out=None, checked_times=False, start=None):
         ev_t, ev_kind, ev_mode = _signal_command_events(ev_t[:n_ev], ev_kind[:n_ev],
                                                         ev_mode[:n_ev], cmd[:, 0], signal_times)
     if status != OK:
-        # samples after the point reached were never written: mark them missing
-        bad = t_out > t_reached
-        y_out[bad] = np.nan
-        aux_out[bad] = np.nan
-        u_out[bad] = np.nan
-        mode_out[bad] = -1
+        mark_unreached(t_out, t_reached, y_out, aux_out, mode_out, u_out)
     # only an effect that can warn needs the command's time scale (a scan of the command)
     time_scale = (command_time_scale(scenario)
                   if any(EFFECTS[n].warn is not None for n in model.effects) else None)

@@ -36,6 +36,7 @@ SMALL = {
     # the table of the presets as they are (six short runs); --fit adds about 130 more
     "bench_table2_presets.py": [],
     "bench_closed_loop.py": ["--runs", "1", "--duration", "0.5"],
+    "bench_tuning.py": ["--duration", "0.2", "--kp", "1", "--workers", "1", "--single-runs", "2"],
     "bench_tube_segments.py": ["--runs", "2", "--pairs", "1", "--segments", "1", "2"],
 }
 #: figures a script must write (phases that could silently drop out of its --json)

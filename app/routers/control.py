@@ -1,15 +1,15 @@
 """POST /api/linearize: the actuator's state-space model at an operating point (issue 42,
 item 5; :mod:`pneucore.control.linearize`). Closed-loop runs go through POST /api/simulate
 with a scenario's ``controller``."""
-from fastapi import APIRouter, HTTPException
+from fastapi import APIRouter, HTTPException, Request
 
 from ..control_schemas import (ControllersResponse, ControlStudyRequest, LinearizeRequest,
                                LinearizeResponse, TuneRequest)
 from ..deps import JobsDep, LimitsDep
 from ..responses import JSON
 from ..schemas import JobResponse
-from ..services import (check_control_study, controllers_answer, linearize_answer,
-                        run_control_study, run_tune)
+from ..services import (check_control_study, control_engine, controllers_answer,
+                        linearize_answer, run_control_study, run_tune)
 
 router = APIRouter(prefix="/api", tags=["control"])
 
@@ -34,14 +34,16 @@ def _job(jobs, kind, fn):
 
 
 @router.post("/jobs/control-study", status_code=202, response_model=JobResponse,
-             summary="Closed-loop robustness over a study's parameter sets, as a job")
-def control_study_job(req: ControlStudyRequest, jobs: JobsDep, limits: LimitsDep):
+             summary="Closed-loop robustness over a study's parameter sets, as a job on the study pool")
+def control_study_job(req: ControlStudyRequest, request: Request, jobs: JobsDep, limits: LimitsDep):
     check_control_study(req, limits)
-    return _job(jobs, "control-study", lambda job: run_control_study(req, job.report))
+    engine = control_engine(request.app.state.settings)
+    return _job(jobs, "control-study", lambda job: run_control_study(req, job.report, engine))
 
 
 @router.post("/jobs/tune-controller", status_code=202, response_model=JobResponse,
-             summary="Rank controller gains on their worst case over a study's ensemble, as a job")
-def tune_job(req: TuneRequest, jobs: JobsDep, limits: LimitsDep):
+             summary="Rank controller gains on their worst case over a study's ensemble, as a job on the study pool")
+def tune_job(req: TuneRequest, request: Request, jobs: JobsDep, limits: LimitsDep):
     check_control_study(req, limits)
-    return _job(jobs, "tune-controller", lambda job: run_tune(req, job.report))
+    engine = control_engine(request.app.state.settings)
+    return _job(jobs, "tune-controller", lambda job: run_tune(req, job.report, engine))

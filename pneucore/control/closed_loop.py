@@ -7,10 +7,17 @@ A controller spec (the scenario's ``controller`` in the API) is::
     {"kind": "pid", "gains": {"kp": 20, "ki": 5, "kd": 0.2},
      "setpoint": [[0, 0.1], [0.05, 0.15]], "sample_period": 0.001, "settle_band": 0.001}
 
-(SI: m, s; ``kp`` in 1/m is the valve opening per metre of error.) The result is the
-:class:`pneucore.result.SimulationResult` of an open-loop run plus ``series["x_ref"]`` [m] and
-``stats["control"]`` (:func:`pneucore.control.metrics.control_metrics`, and the controller's
-kind, gains and sample period).
+(SI: m, s; ``kp`` in 1/m is the valve opening per metre of error; ``seed`` [-], default 0,
+seeds the sensors' noise.) The result is the :class:`pneucore.result.SimulationResult` of an
+open-loop run plus ``series["x_ref"]`` [m] and ``stats["control"]``
+(:func:`pneucore.control.metrics.control_metrics`, and the controller's kind, gains and sample
+period).
+
+The controller reads the position and the pressures through the model's sensors, the
+``sensor_lag`` effect (:func:`sensor_signals`; laws in :mod:`pneucore.physics.sensors`): the
+position sensor's resolution [m], lag [s] and noise [m], the transducers' lag [s] and noise
+[Pa]. The series keep the true position ``x``; a model with a position sensor adds
+``series["x_sensed"]`` [m], what the controller read. The metrics judge the true position.
 """
 from __future__ import annotations
 
@@ -28,7 +35,8 @@ from pneucore.core.integrator import (ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_M
 from pneucore.core import rhs as rhs_module
 from pneucore.core.rhs import no_terms
 from pneucore.result import CoreRun
-from pneucore.simulate import SimulationError, build_core, checked_sample_times, output_samples
+from pneucore.simulate import (SimulationError, build_core, mark_unreached, output_buffers,
+                               output_times)
 from pneucore.description.model import Model, check_resolvable
 from pneucore.description.scenario import Scenario
 from pneucore.description.validation import FieldError
@@ -48,9 +56,9 @@ def parse_controller(spec, model, duration, path="scenario.controller"):
     if not isinstance(spec, dict):
         raise FieldError(path, "must be an object {kind, gains, setpoint, sample_period}")
     for k in spec:
-        if k not in ("kind", "gains", "setpoint", "sample_period", "settle_band"):
+        if k not in ("kind", "gains", "setpoint", "sample_period", "settle_band", "seed"):
             raise FieldError(f"{path}.{k}", "unknown field; fields: kind, gains, setpoint, "
-                                            "sample_period [s], settle_band [m]")
+                                            "sample_period [s], settle_band [m], seed [-]")
     kind = controller_kind(spec.get("kind"), f"{path}.kind")
     if model.valve.kind not in kind.valves:
         raise FieldError(f"{path}.kind", f"a {kind.name} controller sets a proportional "
@@ -71,7 +79,51 @@ def parse_controller(spec, model, duration, path="scenario.controller"):
     if band is not None and (isinstance(band, bool) or not isinstance(band, (int, float))
                              or not math.isfinite(band) or band <= 0):
         raise FieldError(f"{path}.settle_band", f"must be a finite band > 0 [m], got {band!r}")
+    seed = spec.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2 ** 63:
+        raise FieldError(f"{path}.seed", f"must be a whole number >= 0 [-] (the sensors' "
+                                         f"noise), got {seed!r}")
     return kind, gains, sp, float(Ts), band
+
+
+def sensor_signals(model, Ts, n, seed):
+    """The closed loop's sensors, from the model's ``sensor_lag`` effect (the one description
+    of its sensors: :mod:`pneucore.physics.sensors`): the position sensor's parameters for the
+    core, and the noise of each sample instant, drawn before the run.
+
+    Parameters
+    ----------
+    model : Model
+        The actuator
+    Ts : float
+        Controller sample period [s]
+    n : int
+        Sample instants [-]
+    seed : int
+        Seed of ``numpy.random.default_rng`` [-]: the same seed, the same noise
+
+    Returns
+    -------
+    sens : ndarray
+        ``(resolution [m], time_constant [s], T_s [s])`` of the position sensor
+    noise : ndarray
+        ``(n, 3)``: noise on the position [m] and on the pressures of A and B [Pa] at each
+        instant ``k T_s`` (zeros without noise)
+    declared : bool
+        The model has a position sensor that is not ideal (the result then carries
+        ``series["x_sensed"]``)
+    """
+    p = model.effects.get("sensor_lag") or {}
+    q = float(p.get("position_resolution", 0.0))
+    tau = float(p.get("position_time_constant", 0.0))
+    sx = float(p.get("position_noise", 0.0))
+    sp = float(p.get("pressure_noise", 0.0))
+    noise = np.zeros((n, 3))
+    if sx > 0.0 or sp > 0.0:
+        # one draw of the three columns together: a seed gives the same noise whichever
+        # of them the model turns on
+        noise[:] = np.random.default_rng(seed).standard_normal((n, 3)) * np.array([sx, sp, sp])
+    return np.array([q, tau, Ts]), noise, (q > 0.0 or tau > 0.0 or sx > 0.0)
 
 
 def simulate_closed_loop(model, scenario, controller=None, raise_on_error=True, t_out=None):
@@ -109,28 +161,22 @@ def simulate_closed_loop(model, scenario, controller=None, raise_on_error=True, 
     if controller is None:
         raise FieldError("scenario.controller", "is required for a closed-loop run")
     kind, gains, sp, Ts, band = parse_controller(controller, model, scenario.duration)
+    seed = controller.get("seed", 0)
     check_resolvable(model, scenario.solver.rtol, scenario.solver.max_step)
     core = build_core(model, scenario)
-    if t_out is None:
-        n_out = output_samples(scenario.duration, scenario.sample_period)
-        t_out = np.arange(n_out) * scenario.sample_period
-        t_out[-1] = min(t_out[-1], scenario.duration)
-    else:
-        t_out = checked_sample_times(t_out, scenario.duration)
-        n_out = t_out.shape[0]
-    n = core["y0"].shape[0]
-    y_out = np.empty((n_out, n))
-    aux_out = np.empty((n_out, L.N_AUX))
-    mode_out = np.empty(n_out, np.int64)
-    u_out = np.empty(n_out)
+    t_out = output_times(scenario, t_out)
+    y_out, aux_out, mode_out, u_out = output_buffers(t_out.shape[0], core["y0"].shape[0])
     n_ref = int(math.floor(scenario.duration / Ts + 1e-9)) + 2
     t_ref = np.arange(n_ref) * Ts
     ref = np.ascontiguousarray(np.column_stack(sp.evaluate(t_ref)))
     lo, hi = model.valve.opening_range
     i_sens = int(core["model"][1][L.STATE_IY0["pressure_sensor"]])
     cst = np.zeros(C.N_CST)
+    sens, noise, sensor_declared = sensor_signals(model, Ts, n_ref, seed)
+    sst = np.zeros(3)
+    sensed = np.full(n_ref, np.nan)
     ctl = (np.int64(kind.code), gains, ref, Ts, cst, np.array([lo, hi], float),
-           np.int64(i_sens), np.zeros(C.N_MEAS))
+           np.int64(i_sens), np.zeros(C.N_MEAS), sens, noise, sst, sensed)
     if kind.law is not None:
         if core["hook"] is not no_terms or core["flow_laws"] != rhs_module.flow_laws \
                 or core["friction_laws"] != rhs_module.friction_laws:
@@ -147,6 +193,7 @@ def simulate_closed_loop(model, scenario, controller=None, raise_on_error=True, 
         ev_mode = np.empty(cap, np.int64)
         stats = np.zeros(N_STATS, np.int64)
         cst[:] = 0.0
+        sst[:] = 0.0
         status, n_ev, t_reached = run(
             core["y0"], core["mode0"], core["model"], ctl, scenario.duration, t_out,
             scenario.solver.rtol, core["atol"], min(scenario.solver.max_step, Ts), 1e-6,
@@ -158,15 +205,21 @@ def simulate_closed_loop(model, scenario, controller=None, raise_on_error=True, 
         break
     n_ev = min(n_ev, cap)
     if status != OK:
-        bad = t_out > t_reached
-        y_out[bad] = np.nan
-        aux_out[bad] = np.nan
-        u_out[bad] = np.nan
-        mode_out[bad] = -1
+        mark_unreached(t_out, t_reached, y_out, aux_out, mode_out, u_out)
     res = CoreRun(model, scenario, core, t_out, y_out, aux_out, mode_out, u_out, ev_t[:n_ev],
                   ev_kind[:n_ev], ev_mode[:n_ev], stats, status, t_reached, []).result()
     x_ref = sp.evaluate(res.t)[0]
     res.series["x_ref"] = x_ref
+    if sensor_declared:
+        # what the controller read, held from each sample instant to the next (an output
+        # sample at an instant shows that instant's reading; the run's end, an instant the
+        # controller no longer acts at, the last reading); NaN where the run never got
+        done = np.flatnonzero(np.isfinite(sensed))
+        k = np.minimum(np.floor(res.t / Ts + 1e-9).astype(np.int64),
+                       done[-1] if done.size else 0)
+        x_sensed = sensed[k]
+        x_sensed[~np.isfinite(res.series["x"])] = np.nan
+        res.series["x_sensed"] = x_sensed
     moves = sp.moves()
     x_start = float(res.series["x"][0])
     if sp.kind in ("step", "multi_step", "recorded") and sp.pts[0, 1] != x_start \

@@ -12,21 +12,33 @@ on that run's model, and its metrics are the loop's (``stats.control``)::
      "samples": 10, "seed": 1}
 
 :func:`tune_controller` runs it for each gain set of a grid and ranks the sets on the worst
-case of a metric over the ensemble (an unstable or failed run counts as infinitely bad).
+case of a metric over the ensemble (an unstable or failed run counts as infinitely bad), or on
+the share of runs meeting a specification (``{metric: largest |value|}``).
+
+The runs go to the study's engines (:func:`pneucore.study.execute.map_runs`: the local process
+pool on its warm forkserver, or the Dask cluster), in batches of run indices: each task gets the
+study's canonical JSON and the gain sets, and run ``i`` is gain set ``i // n_runs`` on the
+study's run ``i % n_runs`` (:func:`run_control_block`). Progress, time limit and cancellation
+are the studies' (an exception raised by ``progress`` kills the pool's running processes).
 """
 from __future__ import annotations
 
 import itertools
+import json
 import math
 
 import numpy as np
 
-from pneucore.control.closed_loop import simulate_closed_loop
+from pneucore.control.closed_loop import parse_controller, simulate_closed_loop
 from pneucore.description.validation import FieldError
 
 #: Metrics of :func:`pneucore.control.metrics.control_metrics` a study records per run
 STUDY_METRICS = ("rise_time", "settling_time", "overshoot", "steady_state_error", "rms_error",
                  "hunting_amplitude", "hunting_frequency", "switchings", "air_per_move")
+#: Unit of each of :data:`STUDY_METRICS`
+METRIC_UNITS = {"rise_time": "s", "settling_time": "s", "overshoot": "-",
+                "steady_state_error": "m", "rms_error": "m", "hunting_amplitude": "m",
+                "hunting_frequency": "Hz", "switchings": "-", "air_per_move": "NL"}
 #: Most closed-loop runs of one tuning job (gain sets x ensemble)
 MAX_TUNING_RUNS = 5000
 
@@ -35,8 +47,6 @@ def check_study(definition):
     """The closed-loop study checked (a FieldError naming the field), before any run: the
     :class:`pneucore.study.definition.Study` and the controller, checked against the nominal
     model."""
-    from pneucore.control.closed_loop import parse_controller
-
     study, controller = _split(definition)
     parse_controller(controller, study.model, study.scenario.duration)
     return study, controller
@@ -56,30 +66,132 @@ def _split(definition):
     return Study.from_dict(d), controller
 
 
-def _runs(study, controller, progress=None, label=""):
+class ControlBlock:
+    """A batch of closed-loop runs, as a pool worker returns it: run ``indices`` [-], their
+    metrics (rows, :data:`STUDY_METRICS` columns, NaN where undefined or failed), whether each
+    ran to its end stably, and each one's error (None, ``"unstable"`` or the failure)."""
+
+    def __init__(self, indices, metrics, stable, errors):
+        self.indices, self.metrics, self.stable, self.errors = indices, metrics, stable, errors
+
+    def __len__(self):
+        return len(self.indices)
+
+
+_PAYLOADS = {}
+
+
+def _payload(text):
+    """The parsed task payload (kept per process: a worker parses it once)."""
+    got = _PAYLOADS.get(text)
+    if got is None:
+        from pneucore.study.definition import Study
+        if len(_PAYLOADS) >= 4:
+            _PAYLOADS.clear()
+        d = json.loads(text)
+        got = (Study.from_dict(d["study"]), d["controllers"])
+        got[0].values()
+        _PAYLOADS[text] = got
+    return got
+
+
+def run_control_block(text, indices):
+    """The task body of a closed-loop study or tuning (in a pool or Dask worker): run ``i``
+    is gain set ``i // n_runs`` on the study's run ``i % n_runs``.
+
+    Parameters
+    ----------
+    text : str
+        ``{"study": the study's canonical definition, "controllers": [spec, ...]}`` (JSON)
+    indices : list of int
+        Runs [-]
+
+    Returns
+    -------
+    block : ControlBlock
+    """
+    study, controllers = _payload(text)
     rows, errors, stable = [], [], []
-    for i in range(study.n_runs):
+    for i in indices:
+        controller = controllers[i // study.n_runs]
         try:
-            res = simulate_closed_loop(study.run_model(i), study.scenario, controller,
-                                       raise_on_error=False)
+            res = simulate_closed_loop(study.run_model(i % study.n_runs), study.scenario,
+                                       controller, raise_on_error=False)
             c = res.stats["control"]
             ok = c["stable"] and res.status == 0
             rows.append([np.nan if c[k] is None else float(c[k]) for k in STUDY_METRICS])
             errors.append(None if ok else (res.message if res.status else "unstable"))
             stable.append(ok)
-        except FieldError:
-            raise
         except Exception as exc:          # a run's model or simulation failed: recorded
             rows.append([np.nan] * len(STUDY_METRICS))
             errors.append(f"{type(exc).__name__}: {exc}")
             stable.append(False)
-        if progress is not None:
-            progress((i + 1) / study.n_runs, f"{label}run {i + 1} of {study.n_runs}")
-    return np.array(rows).reshape(len(rows), len(STUDY_METRICS)), errors, stable
+    M = np.array(rows, float).reshape(len(rows), len(STUDY_METRICS))
+    return ControlBlock(list(indices), M, stable, errors)
 
 
-def _summary(M, stable):
+def _runs(study, controllers, progress=None, engine=None):
+    """Every gain set of ``controllers`` on every run of ``study``, on the study's engines
+    (:func:`pneucore.study.execute.map_runs`): per gain set, the metrics matrix, the errors
+    and the stable flags."""
+    from pneucore.study.execute import map_runs
+
+    n = study.n_runs * len(controllers)
+    text = json.dumps({"study": json.loads(study.to_json()), "controllers": controllers},
+                      sort_keys=True, allow_nan=False)
+    M = np.full((n, len(STUDY_METRICS)), np.nan)
+    errors = [None] * n
+    stable = [False] * n
+
+    def keep(block):
+        for j, i in enumerate(block.indices):
+            M[i] = block.metrics[j]
+            errors[i] = block.errors[j]
+            stable[i] = block.stable[j]
+
+    e = dict(engine or {})
+    map_runs(run_control_block, text, n, keep, progress=progress,
+             what="closed-loop runs", **e)
+    r = study.n_runs
+    return [(M[s * r:(s + 1) * r], errors[s * r:(s + 1) * r], stable[s * r:(s + 1) * r])
+            for s in range(len(controllers))]
+
+
+def check_specification(spec, path="specification"):
+    """A specification ``{metric: largest |value|}`` checked: metrics of
+    :data:`STUDY_METRICS`, bounds finite and >= 0 in the metric's unit; None passes."""
+    if spec is None:
+        return None
+    if not isinstance(spec, dict) or not spec:
+        raise FieldError(path, "must be {metric: largest |value|}, e.g. {\"settling_time\": "
+                               "0.5 [s], \"overshoot\": 0.1 [-]}")
+    out = {}
+    for k, v in spec.items():
+        if k not in STUDY_METRICS:
+            raise FieldError(f"{path}.{k}", f"unknown metric; one of {list(STUDY_METRICS)}")
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
+                or v < 0:
+            raise FieldError(f"{path}.{k}", f"must be a finite bound >= 0 "
+                                            f"[{METRIC_UNITS[k]}], got {v!r}")
+        out[k] = float(v)
+    return out
+
+
+def _meets(M, stable, spec):
+    """Per run: stable, and every metric of ``spec`` defined and within its bound."""
+    if spec is None:
+        return None
+    ok = np.array(stable, bool)
+    for k, bound in spec.items():
+        col = M[:, STUDY_METRICS.index(k)]
+        ok &= np.isfinite(col) & (np.abs(np.where(np.isfinite(col), col, 0.0)) <= bound)
+    return ok.tolist()
+
+
+def _summary(M, stable, meets=None):
     out = {"runs": len(stable), "stable_fraction": float(np.mean(stable)) if stable else 0.0}
+    if meets is not None:
+        out["meets_fraction"] = float(np.mean(meets)) if meets else 0.0
     for j, k in enumerate(STUDY_METRICS):
         col = M[:, j][np.isfinite(M[:, j])]
         out[k] = None if col.size == 0 else {
@@ -88,33 +200,52 @@ def _summary(M, stable):
     return out
 
 
-def closed_loop_study(definition, progress=None):
-    """Run a closed-loop study (see the module).
+def closed_loop_study(definition, progress=None, specification=None, engine=None):
+    """Run a closed-loop study (see the module) on the study's engines.
 
     Parameters
     ----------
     definition : dict
         The study with ``scenario.controller``
     progress : callable or None
-        ``progress(fraction, step)``
+        ``progress(fraction, step)``; an exception raised there stops the runs (the pool's
+        processes killed) and propagates
+    specification : dict or None
+        ``{metric: largest |value|}`` in the metric's unit (:data:`METRIC_UNITS`), e.g.
+        ``{"settling_time": 0.5, "overshoot": 0.1}``: a run meets it when it is stable and
+        each listed metric is defined and within its bound
+    engine : dict or None
+        :func:`pneucore.study.execute.map_runs`'s ``workers``, ``scheduler``,
+        ``batch_size``, ``time_limit`` [s], ``scheduler_timeout`` [s]; None = the local
+        pool on every CPU (or ``$PNEUCORE_DASK_SCHEDULER``)
 
     Returns
     -------
     out : dict
-        ``paths``, ``values`` (per run), ``metrics`` (names), ``rows`` (per run, None where
-        undefined), ``errors`` (per run: None, ``"unstable"`` or the failure), ``summary``
-        (per metric min/median/max/worst |value|, and the stable fraction)
+        ``paths``, ``values`` (per run), ``metrics`` (names), ``units``, ``rows`` (per run,
+        None where undefined), ``errors`` (per run: None, ``"unstable"`` or the failure),
+        ``meets`` (per run, with a specification), ``summary`` (per metric
+        min/median/max/worst |value|, the stable fraction and the fraction meeting the
+        specification)
     """
-    study, controller = _split(definition)
-    M, errors, stable = _runs(study, controller, progress)
-    return {"paths": list(study.paths), "values": np.asarray(study.values()).tolist(),
-            "metrics": list(STUDY_METRICS),
-            "rows": [[None if not math.isfinite(v) else v for v in r] for r in M.tolist()],
-            "errors": errors, "summary": _summary(M, stable)}
+    spec = check_specification(specification)
+    study, controller = check_study(definition)
+    ((M, errors, stable),) = _runs(study, [controller], progress, engine)
+    meets = _meets(M, stable, spec)
+    out = {"paths": list(study.paths), "values": np.asarray(study.values()).tolist(),
+           "metrics": list(STUDY_METRICS), "units": dict(METRIC_UNITS),
+           "rows": [[None if not math.isfinite(v) else v for v in r] for r in M.tolist()],
+           "errors": errors, "summary": _summary(M, stable, meets)}
+    if spec is not None:
+        out["specification"] = spec
+        out["meets"] = meets
+    return out
 
 
-def tune_controller(definition, gains, objective="rms_error", progress=None):
-    """Rank the gain sets of a grid on the worst case of ``objective`` over a study's ensemble.
+def tune_controller(definition, gains, objective="rms_error", progress=None,
+                    specification=None, engine=None):
+    """Rank the gain sets of a grid on the worst case of ``objective`` over a study's ensemble,
+    every run of every set on the study's engines at once.
 
     Parameters
     ----------
@@ -127,12 +258,19 @@ def tune_controller(definition, gains, objective="rms_error", progress=None):
         (a run that is unstable, fails, or leaves it undefined counts as infinite)
     progress : callable or None
         ``progress(fraction, step)``
+    specification : dict or None
+        As :func:`closed_loop_study`: with one, the sets meeting it on the most runs rank
+        first (all of them: the set meets it over the whole ensemble), then the worst
+        objective
+    engine : dict or None
+        As :func:`closed_loop_study`
 
     Returns
     -------
     out : dict
-        ``best`` (gains, worst objective), ``candidates`` (every gain set with its worst
-        objective, stable fraction and summary), ``objective``
+        ``best`` (gains, worst objective, and the fraction meeting the specification),
+        ``candidates`` (every gain set with its worst objective, stable fraction and
+        summary), ``objective``
     """
     if objective not in STUDY_METRICS:
         raise FieldError("objective", f"unknown metric {objective!r}; one of {list(STUDY_METRICS)}")
@@ -141,29 +279,40 @@ def tune_controller(definition, gains, objective="rms_error", progress=None):
     for k, vals in gains.items():
         if not isinstance(vals, list) or not vals:
             raise FieldError(f"gains.{k}", "must be a non-empty list of values")
+    spec = check_specification(specification)
     study, controller = _split(definition)
     names = sorted(gains)
     sets = list(itertools.product(*(gains[k] for k in names)))
     if len(sets) * study.n_runs > MAX_TUNING_RUNS:
         raise FieldError("gains", f"{len(sets)} gain sets x {study.n_runs} runs = "
                                   f"{len(sets) * study.n_runs}; the limit is {MAX_TUNING_RUNS}")
+    ctls = []
+    for values in sets:
+        ctl = dict(controller, gains=dict(controller.get("gains", {}), **dict(zip(names, values))))
+        # each set's gains checked before any run: a bad value is the request's field
+        parse_controller(ctl, study.model, study.scenario.duration,
+                         path="scenario.controller")
+        ctls.append(ctl)
     j = STUDY_METRICS.index(objective)
     cands = []
-    for s, values in enumerate(sets):
-        ctl = dict(controller, gains=dict(controller.get("gains", {}), **dict(zip(names, values))))
-
-        def step(frac, text, s=s):
-            if progress is not None:
-                progress((s + frac) / len(sets), f"gain set {s + 1} of {len(sets)}: {text}")
-        M, errors, stable = _runs(study, ctl, step)
+    for ctl, (M, errors, stable) in zip(ctls, _runs(study, ctls, progress, engine)):
         col = M[:, j]
         worst = math.inf if (not all(stable) or not np.all(np.isfinite(col))) \
             else float(np.abs(col).max())
+        meets = _meets(M, stable, spec)
         cands.append({"gains": ctl["gains"], "worst": worst,
-                      "stable_fraction": float(np.mean(stable)), "summary": _summary(M, stable)})
-    best = min(cands, key=lambda c: c["worst"])
+                      "stable_fraction": float(np.mean(stable)),
+                      "summary": _summary(M, stable, meets)})
+    if spec is None:
+        best = min(cands, key=lambda c: c["worst"])
+    else:
+        best = min(cands, key=lambda c: (-c["summary"]["meets_fraction"], c["worst"]))
     for c in cands:
         if not math.isfinite(c["worst"]):
             c["worst"] = None
-    return {"objective": objective, "best": {"gains": best["gains"], "worst": best["worst"]},
-            "candidates": cands}
+    out = {"objective": objective, "best": {"gains": best["gains"], "worst": best["worst"]},
+           "candidates": cands}
+    if spec is not None:
+        out["specification"] = spec
+        out["best"]["meets_fraction"] = best["summary"]["meets_fraction"]
+    return out

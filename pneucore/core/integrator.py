@@ -64,6 +64,7 @@ from pneucore.physics.friction import coulomb_level
 from pneucore.physics.jack import chamber_volumes, net_pressure_force, spring_force
 from pneucore.core.rhs import call_line_cells, line_terms, rhs, static_friction
 from pneucore.core.controllers import control_law
+from pneucore.physics.sensors import sense_position
 from numba.core.registry import CPUDispatcher
 
 
@@ -1075,28 +1076,31 @@ def _control_segment(t, y, mode, seg_t0, seg_u0, seg_slope, model, ctl, k, ftmp,
     the controller's law (:func:`pneucore.core.controllers.control_law`) on the signals
     measured at ``t`` and the reference at ``t_k``; the segment ends at ``(k + 1) T_s``.
 
-    ``ctl`` is ``(code, gains, ref, T_s, memory, (u_lo, u_hi), i_sensor, meas)``
-    (:func:`integrate_closed`). The pressures are the transducers' states when the model
-    has the pressure-sensor lag (``i_sensor >= 0``), else the chambers'; position,
-    velocity and acceleration are the piston's (ideal sensors).
+    ``ctl`` is ``(code, gains, ref, T_s, memory, (u_lo, u_hi), i_sensor, meas, sens,
+    noise, sens_state, sensed)`` (:func:`integrate_closed`). The position is read through
+    the model's position sensor (:func:`pneucore.physics.sensors.sense_position`: lag, noise,
+    resolution) and written to ``sensed[k]``; the pressures are the transducers' states when
+    the model has the pressure-sensor lag (``i_sensor >= 0``), else the chambers', plus their
+    noise; velocity and acceleration are the piston's (ideal).
     """
-    code, g, ref, Ts, cst, urange, i_sens, meas = ctl
+    code, g, ref, Ts, cst, urange, i_sens, meas, sens, noise, sst, sensed = ctl
     # the right-hand side at the held command gives the pressures and the acceleration
     _feval(t, y, mode, seg_t0, seg_u0, seg_slope, model, ftmp, aux)
     prm = model[0]
-    meas[0] = y[L.Y_X]
+    kk = min(k, ref.shape[0] - 1)
+    meas[0] = sense_position(y[L.Y_X], sens, sst, noise[kk, 0])
+    sensed[kk] = meas[0]
     meas[1] = y[L.Y_V]
     meas[2] = aux[L.AUX_ACC]
     if i_sens >= 0:
-        meas[3] = y[i_sens]
-        meas[4] = y[i_sens + 1]
+        meas[3] = y[i_sens] + noise[kk, 1]
+        meas[4] = y[i_sens + 1] + noise[kk, 2]
     else:
-        meas[3] = aux[L.AUX_PA]
-        meas[4] = aux[L.AUX_PB]
+        meas[3] = aux[L.AUX_PA] + noise[kk, 1]
+        meas[4] = aux[L.AUX_PB] + noise[kk, 2]
     meas[5] = prm[L.P_A_A]
     meas[6] = prm[L.P_A_B]
     meas[7] = t
-    kk = min(k, ref.shape[0] - 1)
     u = control_law(code, g, ref[kk, 0], ref[kk, 1], ref[kk, 2], meas, cst, Ts, urange[0],
                     urange[1])
     return t, u, 0.0, (k + 1) * Ts
@@ -1450,12 +1454,15 @@ def integrate_closed(y0, mode0, model, ctl, t_end, t_out, rtol, atol, h_max, h_i
     Parameters
     ----------
     ctl : tuple
-        ``(code, gains, ref, T_s, memory, urange, i_sensor, meas)``: controller code
-        (``pneucore.core.controllers.CTL_*``) [-], gains (SI), reference ``(n, 3)`` of
-        ``x [m], v [m/s], a [m/s^2]`` at ``t_k = k T_s``, sample period [s], controller
-        memory (``CST_*``, updated: the valve switchings are read from it), valve range
-        ``(u_lo, u_hi)`` [-], first pressure-sensor state or -1, work vector of
-        ``N_MEAS`` floats
+        ``(code, gains, ref, T_s, memory, urange, i_sensor, meas, sens, noise, sens_state,
+        sensed)``: controller code (``pneucore.core.controllers.CTL_*``) [-], gains (SI),
+        reference ``(n, 3)`` of ``x [m], v [m/s], a [m/s^2]`` at ``t_k = k T_s``, sample
+        period [s], controller memory (``CST_*``, updated: the valve switchings are read
+        from it), valve range ``(u_lo, u_hi)`` [-], first pressure-sensor state or -1, work
+        vector of ``N_MEAS`` floats, position sensor ``(resolution [m], time_constant [s],
+        T_s [s])``, noise ``(n, 3)`` added at ``t_k`` to the position [m] and the two
+        pressures [Pa], the position sensor's state (3 floats, zeros), the sensed position
+        at each ``t_k`` ``(n,)`` [m] (written)
     """
     cmd = np.zeros(1)
     return _run(y0, mode0, model, cmd, cmd, False, t_end, t_out, rtol, atol, h_max, h_init,

@@ -894,11 +894,26 @@ for _e in [
            strength="C", pack=_pack_supply, fit_params=("C",), probe={"C": 5e-8},
            refit_params=("volume",)),
     Effect("sensor_lag",
-           "first-order lag of the pressure transducers",
+           "the model's sensors: first-order lag of the pressure transducers; and what a "
+           "closed loop's controller reads (pneucore.physics.sensors): the position sensor's "
+           "resolution, lag and noise, the transducers' noise",
            "measured pressures trail the model by a fixed delay at every fast transient",
            "paper Sect. 4 (phase lags of the acquisition chain)",
-           [Parameter("time_constant", "s", 0.002, 0.0, 0.1, 0.0, "transducer time constant")],
-           strength="time_constant", pack=_pack_sensor, probe={"time_constant": 0.002}),
+           [Parameter("time_constant", "s", 0.002, 0.0, 0.1, 0.0, "transducer time constant"),
+            Parameter("pressure_noise", "Pa", 0.0, 0.0, 1e5, 0.0,
+                      "standard deviation of the transducers' noise a controller reads "
+                      "(seeded by scenario.controller.seed)"),
+            Parameter("position_resolution", "m", 0.0, 0.0, 0.01, 0.0,
+                      "position sensor's resolution (an encoder's count; 0 = continuous)"),
+            Parameter("position_time_constant", "s", 0.0, 0.0, 1.0, 0.0,
+                      "position sensor's first-order lag (0 = none)"),
+            Parameter("position_noise", "m", 0.0, 0.0, 0.01, 0.0,
+                      "standard deviation of the position sensor's noise a controller reads "
+                      "(seeded by scenario.controller.seed)")],
+           strength="time_constant", pack=_pack_sensor, probe={"time_constant": 0.002},
+           # the controller's signals only: no open-loop record shows them, the diagnosis
+           # fits the transducers' lag alone
+           fit_params=("time_constant",)),
     Effect("return_spring",
            "a return spring on the piston, F = F0 + k x towards x = 0 (spring-return "
            "single-acting cylinder, or a spring on any jack)",

@@ -10,7 +10,16 @@ A transducer of time constant ``tau`` reports ``y_s`` with
 the sensor's state in place of the chamber's value
 (:meth:`pneucore.result.SimulationResult.observed`). Each sensor is registered here, once:
 its rate law, its parameter (the time constant), its states and where they start.
+
+The closed loop's controller (:func:`pneucore.core.integrator.integrate_closed`) reads the
+signals at its sample instants ``t_k = k T_s`` through the model's sensors (effect
+``sensor_lag``, :mod:`pneucore.description.effects`): the position through
+:func:`sense_position` (a first-order lag, then a seeded Gaussian noise drawn before the run,
+then the encoder's quantisation: the chain of an analog sensor read by a converter, or of an
+encoder with a resolution), the pressures through the transducers' lag above plus their noise.
 """
+import math
+
 from numba import njit
 
 from pneucore.physics.states import StateTerm, register_state_term
@@ -37,6 +46,94 @@ def first_order_lag(y_s, y, tau):
     50000000.0
     """
     return (y - y_s) / tau
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def quantise(y, q):
+    """A reading on a grid of step ``q`` (the mid-tread quantiser: the nearest level, error
+    within ``q / 2``); ``q <= 0`` leaves it as it is.
+
+    Parameters
+    ----------
+    y : float
+        Reading (position [m])
+    q : float
+        Resolution, same unit (an encoder's count)
+
+    Examples
+    --------
+    >>> quantise(0.10034, 0.0005)
+    0.1005
+    """
+    if q <= 0.0:
+        return y
+    return q * math.floor(y / q + 0.5)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def sampled_lag(y_s, y_prev, y, dt, tau):
+    """The first-order sensor (:func:`first_order_lag`) advanced over one sample interval
+    ``dt`` exactly, its input ``y`` taken straight (linear) between the two samples.
+
+    Parameters
+    ----------
+    y_s : float
+        Reading at the previous sample (position [m])
+    y_prev, y : float
+        True value at the previous and at this sample, same unit
+    dt : float
+        Sample interval [s]
+    tau : float
+        Time constant [s]; ``tau <= 0``: no lag (returns ``y``)
+
+    Returns
+    -------
+    y_s : float
+        Reading at this sample
+
+    Examples
+    --------
+    From rest, a 1 mm rise over one 1 ms sample read through a 10 ms lag: 48.4 um
+    (``1 mm (1 - tau / dt (1 - exp(-dt / tau)))``)
+
+    >>> round(sampled_lag(0.0, 0.0, 1e-3, 1e-3, 0.01) * 1e6, 3)
+    48.374
+    """
+    if tau <= 0.0:
+        return y
+    a = math.exp(-dt / tau)
+    # exact for y(s) = y_prev + (y - y_prev) s / dt on [0, dt]
+    return a * y_s + (1.0 - a) * y_prev + (y - y_prev) * (1.0 - tau / dt * (1.0 - a))
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def sense_position(x, sens, state, noise):
+    """The position a controller reads at one sample instant: the true ``x`` [m] through the
+    position sensor's lag, plus the sample's noise draw, quantised to the resolution.
+
+    Parameters
+    ----------
+    x : float
+        True position at this sample [m]
+    sens : ndarray
+        ``(resolution [m], time_constant [s], sample interval [s])``
+    state : ndarray
+        ``(lagged reading [m], previous true position [m], started flag)``, updated
+    noise : float
+        This sample's noise [m] (drawn before the run from the controller's seed)
+
+    Returns
+    -------
+    x_s : float
+        Sensed position [m]
+    """
+    if state[2] == 0.0:
+        state[0] = x              # the sensor starts settled at the true position
+    else:
+        state[0] = sampled_lag(state[0], state[1], x, sens[2], sens[1])
+    state[1] = x
+    state[2] = 1.0
+    return quantise(state[0] + noise, sens[0])
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)

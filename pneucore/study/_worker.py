@@ -36,6 +36,10 @@ def warm():
         scenario = scenario_preset("paper-fig10-pulses")
         scenario["duration"] = 0.02
         run_metrics(simulate(model_preset("paper-4way"), scenario))
+        # and the closed loop's core (closed-loop studies and tunings run on the same pool)
+        from pneucore.control.closed_loop import simulate_closed_loop
+        simulate_closed_loop(model_preset("paper-4way"), {
+            "duration": 0.005, "x0": 0.1, "controller": {"kind": "onoff", "setpoint": [[0, 0.1]]}})
     except Exception:  # pragma: no cover - a broken install fails at the first run instead
         pass
 

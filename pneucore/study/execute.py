@@ -164,6 +164,9 @@ class _InlineEngine:
     name = "inline (calling process)"
     n_slots = 1
 
+    def __init__(self, task=None):
+        self.task = task or run_block
+
     class _Task:
         def __init__(self, args):
             self.args, self.out, self.exc = args, None, None
@@ -174,7 +177,7 @@ class _InlineEngine:
     def wait_first(self, pending, timeout):
         task = next(iter(pending))
         try:
-            task.out = run_block(*task.args)
+            task.out = self.task(*task.args)
         except Exception as exc:
             task.exc = exc
         return [task]
@@ -200,8 +203,9 @@ class _InlineEngine:
 class _LocalEngine:
     """``concurrent.futures.ProcessPoolExecutor`` on a warm forkserver (see the module docstring)."""
 
-    def __init__(self, workers):
+    def __init__(self, workers, task=None):
         self.workers = workers
+        self.task = task or run_block
         self.restarts = 0
         self.name = f"local process pool ({workers} worker{'s' if workers > 1 else ''})"
         self.n_slots = workers
@@ -215,7 +219,7 @@ class _LocalEngine:
         self.generation = getattr(self, "generation", -1) + 1
 
     def submit(self, text, indices, key):
-        f = self.pool.submit(run_block, text, indices)
+        f = self.pool.submit(self.task, text, indices)
         f.generation = self.generation
         return f
 
@@ -272,8 +276,9 @@ def _quiet(fn):
 class _DaskEngine:
     """A ``dask.distributed.Client``: the scheduler places, retries and reschedules tasks."""
 
-    def __init__(self, client, owned, address, timeout):
+    def __init__(self, client, owned, address, timeout, task=None):
         self.client, self.owned, self.address, self.timeout = client, owned, address, timeout
+        self.task = task or run_block
         self._done = None  # distributed.as_completed over every submitted future
         self.probing = True
         try:
@@ -295,7 +300,7 @@ class _DaskEngine:
 
     def submit(self, text, indices, key):
         from distributed import as_completed
-        f = self.client.submit(run_block, text, indices, key=key, pure=False)
+        f = self.client.submit(self.task, text, indices, key=key, pure=False)
         if self._done is None:
             self._done = as_completed([f], loop=self.client.loop)
         else:
@@ -608,18 +613,12 @@ def run_study(study=None, store_path=None, scheduler=None, workers=None, batch_s
         elif study is None:
             raise FieldError("study_id", f"no study {study_id!r} in the store {path!r}")
         text = study.to_json()
-        client = None
-        if scheduler is not None:
-            try:
-                client, owned, address = connect_scheduler(scheduler, scheduler_timeout)
-            except SchedulerError:
-                if existing is not None and existing["status"] != "done":
-                    store.set_status(db, study_id, "interrupted")   # resumable, not left queued
-                raise
-            engine_factory = lambda: _DaskEngine(client, owned, address, scheduler_timeout)  # noqa: E731
-        else:
-            n_workers = default_workers() if workers is None else workers
-            engine_factory = (lambda: _LocalEngine(n_workers)) if n_workers > 0 else _InlineEngine
+        try:
+            engine_factory, client, owned = _engines(scheduler, workers, scheduler_timeout)
+        except SchedulerError:
+            if existing is not None and existing["status"] != "done":
+                store.set_status(db, study_id, "interrupted")   # resumable, not left queued
+            raise
         # ---- work starts
         try:
             sid = study_id or uuid.uuid4().hex[:12]
@@ -635,6 +634,87 @@ def run_study(study=None, store_path=None, scheduler=None, workers=None, batch_s
                       time_limit)
     finally:
         db.close()
+
+
+def _engines(scheduler, workers, scheduler_timeout, task=None):
+    """``(engine factory, client, owned)``: the Dask engine on ``scheduler`` (connected now),
+    else the local pool of ``workers`` processes (None = the CPUs available; 0 = this
+    process), each running ``task(text, indices)`` (default :func:`run_block`)."""
+    if scheduler is not None:
+        client, owned, address = connect_scheduler(scheduler, scheduler_timeout)
+        return (lambda: _DaskEngine(client, owned, address, scheduler_timeout, task)), client, owned
+    n_workers = default_workers() if workers is None else workers
+    if n_workers > 0:
+        return (lambda: _LocalEngine(n_workers, task)), None, False
+    return (lambda: _InlineEngine(task)), None, False
+
+
+def map_runs(task, text, n, on_block, scheduler=None, workers=None, batch_size=None,
+             progress=None, time_limit=None, scheduler_timeout=SCHEDULER_TIMEOUT,
+             what="runs"):
+    """Run ``n`` indexed runs of a task on the study's engines (the local process pool on its
+    warm forkserver, or a Dask cluster) without a store: the same batches, progress,
+    heartbeat, time limit, retries and cancellation as :func:`run_study`. A closed-loop
+    study and a controller tuning run this way (:mod:`pneucore.control.robustness`).
+
+    Parameters
+    ----------
+    task : callable
+        ``task(text, indices) -> block``, a module-level function (pickled by name) [-]
+    text : str
+        What every task receives (a JSON definition) [-]
+    n : int
+        Runs, indices ``0 .. n - 1`` [-]
+    on_block : callable
+        ``on_block(block)`` in the calling process, for each finished batch; ``len(block)``
+        is its number of runs [-]
+    scheduler, workers, batch_size, time_limit, scheduler_timeout
+        As :func:`run_study` (the scheduler an address from trusted code only) [-, -, -, s, s]
+    progress : callable or None
+        ``progress(fraction, step)``; an exception raised there stops the work (the pool's
+        running processes killed) and propagates [-]
+    what : str
+        What the runs are, for the progress text [-]
+
+    Returns
+    -------
+    summary : dict
+        ``engine``, ``batches``, ``batch_size``, ``wall_time`` [s]
+    """
+    t0 = time.perf_counter()
+    if scheduler is None and workers is None:
+        scheduler = os.environ.get(ENV_SCHEDULER) or None
+    if isinstance(scheduler, str) and scheduler.strip().lower() == "local":
+        scheduler = None
+    _check_options(workers, batch_size, None, scheduler, time_limit)
+    engine_factory, _, _ = _engines(scheduler, workers, scheduler_timeout, task)
+    report = progress or (lambda f, s: None)
+    deadline = None if time_limit is None else time.monotonic() + time_limit
+    done = [0]
+    pending = {}
+    engine = None
+    finished = False
+    try:
+        engine = engine_factory()
+        size = batch_size or max(1, min(MAX_AUTO_BATCH, math.ceil(n / (4 * engine.n_slots))))
+        batches = [list(range(k, min(n, k + size))) for k in range(0, n, size)]
+        report(0.0, f"{n} {what} in {len(batches)} batches on {engine.name}")
+
+        def keep(block):
+            on_block(block)
+            done[0] += len(block)
+            report(done[0] / n, f"{done[0]}/{n} {what} done")
+
+        _pump(engine, text, batches, pending, keep, lambda: done[0], n, report, deadline,
+              time_limit, "start again", f"pneucore-runs-{uuid.uuid4().hex[:8]}", "done")
+        finished = True
+    finally:
+        if engine is not None:
+            if not finished:
+                engine.cancel(list(pending))
+            engine.close()
+    return {"engine": engine.name, "batches": len(batches), "batch_size": size,
+            "wall_time": time.perf_counter() - t0}
 
 
 def _drive(db, sid, study, text, engine_factory, batch_size, progress, path, t0, time_limit=None):
@@ -656,40 +736,16 @@ def _drive(db, sid, study, text, engine_factory, batch_size, progress, path, t0,
         summary.update(engine=engine.name, batch_size=size, batches=len(batches))
         report(n_done / n, f"{n_done}/{n} runs stored; {len(missing)} to compute in "
                            f"{len(batches)} batches on {engine.name}")
-        attempts = {}
-        for k, b in enumerate(batches):
-            pending[engine.submit(text, b, f"pneucore-study-{sid}-{k}-{uuid.uuid4().hex[:8]}")] = k
-        while pending:
-            finished = engine.wait_first(pending, HEARTBEAT)
-            if not finished:   # nothing finished within a heartbeat: limits still hold
-                report(n_done / n, f"{n_done}/{n} runs stored")
-                if deadline is not None and time.monotonic() > deadline:
-                    raise StudyInterrupted(f"the study exceeded its time limit of {time_limit:g} s; "
-                                           f"{n_done}/{n} runs are stored, resume with "
-                                           f"study_id={sid!r}")
-                engine.check()
-                continue
-            for f in finished:
-                k = pending.pop(f)
-                try:
-                    block = engine.result(f)
-                except Exception as exc:
-                    attempts[k] = attempts.get(k, 1) + 1
-                    if not engine.retry(f, exc, attempts[k] - 1):
-                        raise StudyInterrupted(
-                            f"batch of runs {batches[k][0]}-{batches[k][-1]} could not be computed "
-                            f"({type(exc).__name__}: {exc}); {n_done}/{n} runs are stored, resume "
-                            f"with study_id={sid!r}") from exc
-                    key = f"pneucore-study-{sid}-{k}-{uuid.uuid4().hex[:8]}"
-                    pending[engine.submit(text, batches[k], key)] = k
-                    continue
-                store.write_runs(db, sid, block)
-                n_done += len(block)
-                computed += len(block)
-                report(n_done / n, f"{n_done}/{n} runs stored")
-            if deadline is not None and pending and time.monotonic() > deadline:
-                raise StudyInterrupted(f"the study exceeded its time limit of {time_limit:g} s; "
-                                       f"{n_done}/{n} runs are stored, resume with study_id={sid!r}")
+
+        def keep(block):
+            nonlocal n_done, computed
+            store.write_runs(db, sid, block)
+            n_done += len(block)
+            computed += len(block)
+            report(n_done / n, f"{n_done}/{n} runs stored")
+
+        _pump(engine, text, batches, pending, keep, lambda: n_done, n, report, deadline,
+              time_limit, f"resume with study_id={sid!r}", f"pneucore-study-{sid}")
         status = "done"
     finally:
         if engine is not None:
@@ -706,3 +762,44 @@ def _drive(db, sid, study, text, engine_factory, batch_size, progress, path, t0,
         from pneucore.study.results import results_from_db
         summary["results"] = results_from_db(db, sid)
     return summary
+
+
+def _pump(engine, text, batches, pending, on_block, n_done, n, report, deadline, time_limit,
+          resume, key_prefix, word="stored"):
+    """Submit ``batches`` of run indices to ``engine`` (its task on ``text``), hand each
+    finished block to ``on_block`` and keep the limits while waiting: ``report`` at least
+    every :data:`HEARTBEAT` s (an exception there stops the work), the ``deadline``
+    (``time.monotonic()``) and the engine's health; a failed batch is resubmitted as far as
+    the engine allows. ``pending`` (future -> batch number) is filled as it goes, for the
+    caller to cancel on the way out. ``n_done()`` counts the runs ``word`` (stored) of ``n``;
+    ``resume`` says how to go on after an interruption."""
+    attempts = {}
+    for k, b in enumerate(batches):
+        pending[engine.submit(text, b, f"{key_prefix}-{k}-{uuid.uuid4().hex[:8]}")] = k
+    while pending:
+        finished = engine.wait_first(pending, HEARTBEAT)
+        if not finished:   # nothing finished within a heartbeat: limits still hold
+            report(n_done() / n, f"{n_done()}/{n} runs {word}")
+            if deadline is not None and time.monotonic() > deadline:
+                raise StudyInterrupted(f"the study exceeded its time limit of {time_limit:g} s; "
+                                       f"{n_done()}/{n} runs are {word}, {resume}")
+            engine.check()
+            continue
+        for f in finished:
+            k = pending.pop(f)
+            try:
+                block = engine.result(f)
+            except Exception as exc:
+                attempts[k] = attempts.get(k, 1) + 1
+                if not engine.retry(f, exc, attempts[k] - 1):
+                    raise StudyInterrupted(
+                        f"batch of runs {batches[k][0]}-{batches[k][-1]} could not be computed "
+                        f"({type(exc).__name__}: {exc}); {n_done()}/{n} runs are {word}, "
+                        f"{resume}") from exc
+                key = f"{key_prefix}-{k}-{uuid.uuid4().hex[:8]}"
+                pending[engine.submit(text, batches[k], key)] = k
+                continue
+            on_block(block)
+        if deadline is not None and pending and time.monotonic() > deadline:
+            raise StudyInterrupted(f"the study exceeded its time limit of {time_limit:g} s; "
+                                   f"{n_done()}/{n} runs are {word}, {resume}")

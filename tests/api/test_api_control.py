@@ -107,3 +107,39 @@ def test_tuning_runs_as_a_job_and_bad_studies_are_422s_now(client):
     bad["scenario"]["controller"]["gains"] = {"kp": -1}
     assert_field_error(client.post("/api/jobs/control-study", json={"study": bad}),
                        "scenario.controller.gains.kp")
+
+
+def test_control_study_job_runs_on_the_study_pool_with_a_specification(client):
+    from api_conftest import wait_job
+    r = client.post("/api/jobs/control-study",
+                    json={"study": _study(), "specification": {"overshoot": 10.0}})
+    assert r.status_code == 202, r.text
+    job, _ = wait_job(client, r.json()["id"])
+    assert job["status"] == "done", job
+    res = job["result"]
+    assert res["meets"] == [True, True] and res["summary"]["meets_fraction"] == 1.0
+    assert res["units"]["overshoot"] == "-"
+    assert_field_error(client.post("/api/jobs/control-study",
+                                   json={"study": _study(), "specification": {"overshoot": -1}}),
+                       "specification.overshoot", msg_contains="[-]")
+
+
+def test_sensed_position_in_the_answer_and_bad_sensor_values_are_422s(client):
+    body = closed({"kind": "pid", "gains": {"kp": 15}, "setpoint": [[0, 0.1], [0.05, 0.11]],
+                   "seed": 3})
+    body["model"]["effects"] = {"sensor_lag": {"time_constant": 0.0,
+                                               "position_resolution": 1e-4}}
+    r = client.post("/api/simulate", json=body)
+    assert r.status_code == 200, r.text
+    ans = r.json()
+    assert ans["units"]["x_sensed"] == "m" and ans["units"]["x_ref"] == "m"
+    assert len(ans["series"]["x_sensed"]) == len(ans["series"]["x"])
+    for param, value, unit in (("position_resolution", -1e-4, "[m]"),
+                               ("position_noise", "inf", "[m]"),
+                               ("pressure_noise", -5.0, "[Pa]")):
+        body["model"]["effects"] = {"sensor_lag": {param: value}}
+        assert_field_error(client.post("/api/simulate", json=body),
+                           f"model.effects.sensor_lag.{param}", msg_contains=unit)
+    body["model"]["effects"] = {}
+    body["scenario"]["controller"]["seed"] = -1
+    assert_field_error(client.post("/api/simulate", json=body), "scenario.controller.seed")
