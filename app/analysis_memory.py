@@ -35,40 +35,39 @@ from contextlib import contextmanager
 from pneucore.description.validation import FieldError
 
 #: Peak memory of one analysis per replayed sample, by kind [bytes]: the largest of the
-#: peaks measured by ``benchmarks/bench_long_records.py --memory --memory-kinds
-#: compare,calibrate,refine,heat,simulate`` (2-core AMD EPYC VM, Python 3.11, numpy 2.4, scipy
-#: 1.17, after the replays were slimmed) on a 1 s hold + 5 s cyclic record (6,002 samples),
-#: 1 s + 20 s (21,002) and 10 x 2 s (20,010), at 1 kHz with 2-3 signals each, rounded up:
-#: the traced peak (tracemalloc, numpy's arrays included) and the resident growth of a forked
-#: child, whichever is larger. Measured, bytes a sample:
+#: peaks measured up to the cost limit by ``benchmarks/bench_memory_estimate.py`` (resident
+#: growth of a forked child running the analysis as the API does, 2 Jacobian threads; 2-core
+#: AMD EPYC VM, load 3.5-7, Python 3.11, numpy 2.4.6, scipy 1.17.1) on a 1 s hold plus a
+#: cyclic record of 60, 120 and 198.9 s at 1 kHz (61,002 / 121,002 / 199,902 samples, the
+#: last the cost limit, ``Limits.max_analysis_seconds``), rounded up. Measured, bytes a sample:
 #:
-#: - compare 576 / 584 / 537 (resident 1,516 / 676 / 655: 8-14 MB of it fixed, the floor's);
-#: - calibrate 919 / 966 / 697;
-#: - diagnose 5,243 / 3,945 / 4,438 (resident 4,441 / 2,741 / 4,414), 7,990 / 6,147 / 7,852
-#:   before the slimming; on 1 s + 60 s (61,002 samples) 4,706 (resident 5,774), the figure
-#:   taken;
-#: - refine 5,270 / 3,877 / 4,479 (its rounds one after the other);
+#: - compare 818 / 739 / 708;
+#: - calibrate 1,404 / 1,381 / 1,303;
+#: - diagnose 9,205 / 9,638 / 7,784 (not monotonic: the leading candidates, and so the fits
+#:   of the round, change with the record; 5,800 was taken from records up to 61 s before
+#:   and under-estimated a diagnosis at 61 and 121 s, ratios 0.95 and 0.90);
+#: - refine 8,921 / 8,521 / 7,905 (its rounds one after the other);
 #: - heat: one calibration per heat model compared, the calibrate figure each;
-#: - simulate (output samples, the answer's JSON written): 866 on 20 s, 1,115 on 100 s.
+#: - simulate (output samples, the answer's JSON written): 866 on 20 s, 1,115 on 100 s
+#:   (``bench_long_records.py --memory --memory-kinds simulate``).
 #:
-#: What a sample costs at a diagnosis's peak is now mostly the least-squares algebra
-#: (Jacobians of samples x signals x fitted parameters and their SVD), so the compared
-#: signals (2-6) are in the figure rather than a term of their own.
+#: What a sample costs at a diagnosis's peak is mostly the least-squares algebra (Jacobians
+#: of samples x signals x fitted parameters and their SVD), so the compared signals (2-6) are
+#: in the figure rather than a term of their own. The table is in docs/guides/memory.md.
 BYTES_PER_SAMPLE = {
-    "compare": 700,
-    "calibrate": 1_000,
-    "diagnose": 5_800,
-    "refine": 5_800,
-    "heat": 1_000,      # per heat model compared (each is one calibration)
+    "compare": 850,
+    "calibrate": 1_450,
+    "diagnose": 9_700,
+    "refine": 9_700,
+    "heat": 1_450,      # per heat model compared (each is one calibration)
     "simulate": 1_200,  # per output sample: the core's outputs, the series and the answer
 }
-#: Factor on the measured figures [-]: a diagnosis's traced peak still grows slightly faster
-#: than its samples (as samples^1.17 from 21,002 to 61,002), which from the 61 s measured to
-#: the 200 s of the cost limit is a factor (200 / 61)^0.17 = 1.22; and four diagnoses of
-#: 1 s + 20 s in one server took 121 MB each (``benchmarks/bench_analysis_budget.py --budget
-#: 0``: 485 MB, 2 malloc arenas), 1.46 times one's traced peak alone. Extrapolated, a
-#: diagnosis at the cost limit takes about 1.15 GB traced, 1.7 GB in a busy server; its
-#: estimate is 200,000 x 5,800 x 1.5 = 1.74 GB
+#: Factor on the measured figures [-]: what a busy server takes beyond one analysis's own
+#: peak. Four diagnoses of 1 s + 20 s in one server took 121 MB each
+#: (``benchmarks/bench_analysis_budget.py --budget 0``: 485 MB, 2 malloc arenas), 1.46 times
+#: one's traced peak alone. The per-sample figures are measured up to the cost limit, so the
+#: factor no longer covers an extrapolation: a diagnosis at the cost limit (200,000 samples)
+#: is estimated 200,000 x 9,700 x 1.5 = 2.91 GB (one of 199,902 samples measured 1.56 GB alone)
 MARGIN = 1.5
 #: Smallest estimate of an analysis [bytes]: its fixed part (the model, the optimiser, the
 #: answer's structure) whatever its records, about 8 MB of resident growth measured for a
@@ -174,6 +173,87 @@ def samples_estimate(kind, samples, models=1):
     return max(FLOOR_BYTES, int(math.ceil(samples * BYTES_PER_SAMPLE[kind] * MARGIN * models)))
 
 
+# ----------------------------------------------------------------------------- other kinds
+# One estimate per kind of heavy work, all here: the analyses above (analysis_estimate), a
+# simulation (simulation_estimate), and what follows. Each is held on the same budget
+# (MemoryBudget) by a synchronous request (503 when it does not fit) and by a job (waits in
+# the queue), and refused at once (check_alone, 422) when it alone exceeds the budget.
+
+#: Resident memory one worker process of a study's local pool adds [bytes]: a fork of the
+#: warm forkserver (pneucore.study._worker) shares its imports and compiled core; what it
+#: writes (its interpreter's heap, a batch's runs and metrics) is its own. Set from the
+#: server's own 300-400 MB of which most is shared, not yet measured per worker
+STUDY_WORKER_BYTES = 60_000_000
+#: What a run of a closed-loop study or tuning keeps in the answer [bytes]: its parameter
+#: values and about ten metrics as Python floats in lists (24 B a float, 8 B a list slot),
+#: rounded up; not measured
+CONTROL_RUN_BYTES = 2_000
+#: Bytes a friction-bench sample takes at the identification's peak [bytes]: a fit of a few
+#: parameters on the force balance, set at the calibration's order (1,300-1,400 B a sample
+#: measured, with many more columns); not measured
+IDENTIFY_FRICTION_BYTES_PER_SAMPLE = 1_000
+
+
+def simulation_estimate(samples, runs=1):
+    """``runs`` simulations of ``samples`` output samples each held at once [bytes]
+    (:data:`BYTES_PER_SAMPLE` ``simulate``)."""
+    return samples_estimate("simulate", samples, runs)
+
+
+def study_estimate(run_samples, workers, local=True):
+    """A robustness study's job [bytes]: each worker process of the local pool
+    (:data:`STUDY_WORKER_BYTES`) simulating one run of ``run_samples`` output samples; on a
+    Dask cluster (``local`` False) the runs take the cluster's memory, not this server's:
+    the floor (the batches' metrics pass through to the store).
+
+    Parameters
+    ----------
+    run_samples : int
+        Output samples of one run [-]
+    workers : int
+        Processes of the local pool (0: the runs in the job's own thread) [-]
+    """
+    if not local:
+        return FLOOR_BYTES
+    per_run = samples_estimate("simulate", run_samples)
+    return max(FLOOR_BYTES, max(1, workers) * (STUDY_WORKER_BYTES * (workers > 0) + per_run))
+
+
+def control_estimate(run_samples, runs):
+    """A closed-loop robustness study or a tuning [bytes]: one closed-loop run at a time in
+    the job's thread (``run_samples`` output samples) and every run's row of the answer
+    (:data:`CONTROL_RUN_BYTES`; a tuning: runs times gain sets)."""
+    return samples_estimate("simulate", run_samples) + int(runs) * CONTROL_RUN_BYTES
+
+
+def sizing_estimate(run_samples, workers):
+    """A sizing [bytes]: ``workers`` threads each simulating one candidate's run of at most
+    ``run_samples`` output samples (:func:`pneucore.sizing.search.run_samples_bound`)."""
+    return samples_estimate("simulate", run_samples, max(1, workers))
+
+
+def identify_estimate(kind, samples):
+    """An identification [bytes]: ``valve`` (flow-bench points, a few kB): the floor;
+    ``friction``: the bench records' ``samples`` at
+    :data:`IDENTIFY_FRICTION_BYTES_PER_SAMPLE` each, with :data:`MARGIN`."""
+    if kind == "valve":
+        return FLOOR_BYTES
+    return max(FLOOR_BYTES, int(math.ceil(samples * IDENTIFY_FRICTION_BYTES_PER_SAMPLE * MARGIN)))
+
+
+def body_estimate(values):
+    """A JSON request body's parsed values held while its request is answered [bytes]
+    (:data:`app.request_memory.JSON_VALUE_BYTES` each, the figure its 413 uses)."""
+    from .request_memory import JSON_VALUE_BYTES
+    return int(values) * JSON_VALUE_BYTES
+
+
+#: The estimate of this request's body, held on the budget while it is answered
+#: (:class:`app.bodies.OffLoopRoute`) [bytes]; 0 for a small one (not counted). Added to a
+#: job's estimate, since the job keeps the parsed request until it ends
+BODY = contextvars.ContextVar("pneucore_body_estimate", default=0)
+
+
 def _mb(n):
     return f"{n / 1e6:,.0f} MB"
 
@@ -191,6 +271,7 @@ def check_alone(estimate, budget, field, what):
     what : str
         Its size in words (``200 s of records, 200,000 samples``) [-]
     """
+    estimate += BODY.get()   # the request's own body, held besides
     if estimate > budget:
         raise FieldError(field, f"{what} would take about {_mb(estimate)} of memory, more than the "
                                 f"server's whole analysis memory budget of {_mb(budget)} "
@@ -307,6 +388,12 @@ class MemoryBudget:
         with self._cv:
             return {"budget": self.budget, "held": self.held, "running": self.running,
                     "waiting": len(self._queue)}
+
+
+def job_estimate(estimate):
+    """A job's estimate [bytes]: its work's and the body of the request that queued it
+    (:data:`BODY`), which the job keeps until it ends."""
+    return int(estimate) + BODY.get()
 
 
 @contextmanager

@@ -13,6 +13,7 @@ at the size limit.
 from __future__ import annotations
 
 import json
+from contextlib import nullcontext
 
 import orjson
 from fastapi.routing import APIRoute
@@ -21,7 +22,8 @@ from starlette.exceptions import HTTPException
 from starlette.requests import Request
 
 from .asgi import TrackedSend, send_json
-from .request_memory import check_json
+from .analysis_memory import BODY, CURRENT as MEMORY, body_estimate
+from .request_memory import check_json, json_values
 
 
 class BodyTooLarge(HTTPException):
@@ -157,18 +159,46 @@ class OffLoopRoute(APIRoute):
         handler = super().get_route_handler()
 
         async def off_loop_handler(request: Request):
-            ctype = request.headers.get("content-type", "")
-            # only for a route whose body FastAPI parses: one that reads its body itself (an
-            # upload) would hold the parsed objects beside its own, several times the body's size
-            if self.body_field is not None and "json" in ctype.split(";", 1)[0]:
-                body = await request.body()
-                # refused before parsing when its values would exceed the memory budget (413)
-                check_json(body, request.app.state.settings.limits.max_request_memory)
+            # the analyses' memory budget for this request's work (an upload's decoding, a
+            # synchronous analysis: app.analysis_memory.admitted); a job holds its own
+            budget = getattr(request.app.state, "memory", None)
+            token = MEMORY.set(budget)
+            try:
+                return await self._handle(handler, request, budget)
+            finally:
+                try:
+                    MEMORY.reset(token)
+                except ValueError:   # exited in another context: the request's task ends anyway
+                    pass
+        return off_loop_handler
+
+    async def _handle(self, handler, request, budget):
+        ctype = request.headers.get("content-type", "")
+        estimate = 0
+        # only for a route whose body FastAPI parses: one that reads its body itself (an
+        # upload) would hold the parsed objects beside its own, several times the body's size
+        if self.body_field is not None and "json" in ctype.split(";", 1)[0]:
+            body = await request.body()
+            # refused before parsing when its values would exceed the memory budget (413)
+            check_json(body, request.app.state.settings.limits.max_request_memory)
+            if len(body) > LOOP_PARSE_BYTES:
+                # a large body's parsed values are held on the analyses' budget until the
+                # answer (503 when they do not fit now; a job adds them to its own estimate)
+                estimate = body_estimate(json_values(body))
+            with budget.hold(estimate, "request body") if budget is not None and estimate \
+                    else nullcontext():
                 if body:
                     try:
                         request._json = parse_json(body) if len(body) <= LOOP_PARSE_BYTES \
                             else await run_in_threadpool(parse_json, body)
                     except (ValueError, RecursionError):
                         pass   # FastAPI parses it again and reports the syntax error (422)
-            return await handler(request)
-        return off_loop_handler
+                token = BODY.set(estimate)
+                try:
+                    return await handler(request)
+                finally:
+                    try:
+                        BODY.reset(token)
+                    except ValueError:
+                        pass
+        return await handler(request)

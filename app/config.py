@@ -141,3 +141,7 @@ class Settings:
     #: Dask scheduler address for studies (the cluster named "dask"); None = none configured
     dask_scheduler: Optional[str] = field(
         default_factory=lambda: os.environ.get("PNEUCORE_DASK_SCHEDULER", "").strip() or None)
+    #: Folder of the built documentation site served at /docs-site/ (``mkdocs build``'s
+    #: output); None = ``site/`` beside the package (:mod:`app.docs_site`)
+    docs_site: Optional[str] = field(
+        default_factory=lambda: os.environ.get("PNEUCORE_DOCS_SITE", "").strip() or None)

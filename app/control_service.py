@@ -62,8 +62,16 @@ def closed_loop_simulation(req, limits, max_steps=None, form="json"):
     controller = d.pop("controller")
     d.pop("command", None)
     scen = parse_scenario(d, model, limits)
+    from .analysis_memory import admitted, check_alone, simulation_estimate
+    from pneucore.simulate import output_samples
+    samples = output_samples(scen.duration, scen.sample_period)
+    estimate = simulation_estimate(samples)
+    check_alone(estimate, limits.analysis_memory_budget, "scenario.duration",
+                f"a closed-loop simulation of {scen.duration:g} s ({samples:,} output samples)")
     try:
-        res = simulate_closed_loop(model, scen, controller)
+        # held on the request's budget while it runs (503 when it does not fit now)
+        with admitted(estimate, "closed-loop simulation"):
+            res = simulate_closed_loop(model, scen, controller)
     except ControlError as exc:
         raise FieldError("scenario.controller.gains", str(exc)) from None
     series = req.series
@@ -86,12 +94,32 @@ def controllers_answer():
 def check_control_study(req, limits):
     """A closed-loop study or tuning request checked before its job starts (422 now): the
     study, its controller, its specification, and its scenario within the API's limits
-    (duration, samples)."""
+    (duration, samples).
+
+    Returns
+    -------
+    estimate : int
+        The job's memory estimate [bytes] (:func:`app.analysis_memory.control_estimate`: one
+        run at a time, every run's row; a tuning's runs are its gain sets times the study's),
+        a 422 naming ``study.samples`` when it alone exceeds ``limits.analysis_memory_budget``
+    """
+    import math
+
     from pneucore.control.robustness import check_specification, check_study
+    from pneucore.simulate import output_samples
+
+    from .analysis_memory import check_alone, control_estimate
     from .deps import check_scenario_limits
     study, _ = check_study(req.study)
     check_scenario_limits(study.scenario, limits, "study.scenario")
     check_specification(req.specification)
+    samples = output_samples(study.scenario.duration, study.scenario.sample_period)
+    gains = getattr(req, "gains", None) or {}
+    runs = study.n_runs * math.prod(len(v) for v in gains.values())
+    estimate = control_estimate(samples, runs)
+    check_alone(estimate, limits.analysis_memory_budget, "study.samples",
+                f"{runs:,} closed-loop runs of {samples:,} samples")
+    return estimate
 
 
 def control_engine(settings):

@@ -21,7 +21,7 @@ from pathlib import Path
 import plotly
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import FileResponse, HTMLResponse, JSONResponse
+from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, RedirectResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
@@ -29,6 +29,7 @@ from pneucore.data.measurement import MeasurementError
 from pneucore.simulate import SimulationError, start_warm_up
 from pneucore.description.validation import FieldError
 
+from . import docs_site
 from .analysis_memory import MemoryBudget, MemoryBusy, limit_malloc_arenas
 from .asgi import TrackedSend, send_json
 from .bodies import BodyLimit
@@ -291,6 +292,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             f'<body><div id="swagger-ui" data-openapi="{url}"></div>'
             '<script src="/docs-assets/swagger-ui-bundle.js"></script>'
             '<script src="/static/swagger-init.js"></script></body></html>')
+
+    # the documentation site, built by mkdocs, with a policy of its own (app.docs_site)
+    @app.get("/docs-site", include_in_schema=False)
+    def docs_site_root():
+        return RedirectResponse(docs_site.PREFIX, status_code=307)
+
+    @app.get("/docs-site/{path:path}", include_in_schema=False)
+    def docs_site_page(path: str, request: Request):
+        return docs_site.serve(settings.docs_site, path, request.url.path.endswith("/"))
 
     @app.get("/redoc", include_in_schema=False)
     def redoc_docs():

@@ -260,10 +260,17 @@ def check_file(data: bytes, filename, budget: int, preview=False):
     preview : bool
         For a preview (POST /api/datasets/inspect), which reads a CSV's first rows only and
         every column of the other formats: CSV not checked [-]
+
+    Returns
+    -------
+    estimate : int
+        The decoded size [bytes] (0 for what is not estimated here: ``.npz``, a CSV preview),
+        held on the analyses' memory budget while the file is decoded
+        (:func:`app.analysis_memory.admitted`)
     """
     fmt = detect_format(data, filename)
     if fmt == "csv" and preview:
-        return
+        return 0
     if fmt == "csv":
         estimate, what = csv_cells(data) * CSV_CELL_BYTES, "cells"
     elif fmt == "tdms":
@@ -271,9 +278,15 @@ def check_file(data: bytes, filename, budget: int, preview=False):
     elif fmt == "mat":
         estimate, what = mat_bytes(data, budget), "variables"
     else:
-        return   # .npz: checked by its reader from the members' headers
+        return 0   # .npz: checked by its reader from the members' headers
     if estimate > budget:
         raise _refuse(what, estimate, budget)
+    return estimate
+
+
+def json_values(body: bytes) -> int:
+    """Values of a JSON text, at most: its commas, one between two values, plus one [-]."""
+    return body.count(b",") + 1
 
 
 def check_json(body: bytes, budget: int):
@@ -290,7 +303,7 @@ def check_json(body: bytes, budget: int):
     # at most one value per 2 bytes ("0,"): a body that small cannot exceed it, not counted
     if len(body) // 2 * JSON_VALUE_BYTES <= budget:
         return
-    values = body.count(b",") + 1
+    values = json_values(body)
     if values * JSON_VALUE_BYTES > budget:
         raise HTTPException(413, f"the JSON body's {values} values would take about "
                                  f"{values * JSON_VALUE_BYTES / 1e6:.0f} MB once parsed, more than "

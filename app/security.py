@@ -18,7 +18,8 @@ One ASGI middleware, :class:`Guard`, checks every HTTP request in this order:
    address bar; the page's own requests then carry it.
 
 Every response carries a strict Content-Security-Policy (scripts only from this
-server, no inline script, no plug-ins, not framed) and ``X-Content-Type-Options:
+server, no inline script, no plug-ins, not framed; the documentation site's pages a policy
+of their own allowing their inline scripts by hash, :mod:`app.docs_site`) and ``X-Content-Type-Options:
 nosniff``; the page inserts user-supplied text only as text.
 """
 from __future__ import annotations
@@ -116,7 +117,12 @@ class Guard:
 
         async def send_with_headers(message):
             if message["type"] == "http.response.start":
-                message = {**message, "headers": list(message.get("headers", [])) + SECURITY_HEADERS}
+                headers = list(message.get("headers", []))
+                # a response with a policy of its own (the documentation site's pages,
+                # app.docs_site) keeps it alone: a second policy would be enforced besides
+                own = any(k.lower() == b"content-security-policy" for k, _ in headers)
+                message = {**message, "headers": headers + (SECURITY_HEADERS[1:] if own
+                                                            else SECURITY_HEADERS)}
             await send(message)
         await self.app(scope, receive, send_with_headers)
 

@@ -49,7 +49,8 @@ from pneucore.study import (Study, check_run_options, delete_study, list_studies
                             requeue_study, run_study, runs_csv, runs_npz, set_study_status,
                             study_results, study_status)
 
-from .analysis_memory import admitted, analysis_estimate, check_alone, samples_estimate, seconds_of
+from .analysis_memory import (admitted, analysis_estimate, check_alone, identify_estimate,
+                              job_estimate, samples_estimate, seconds_of, study_estimate)
 from .config import STUDY_CLUSTERS, Limits
 from .control_service import (check_control_study, closed_loop_simulation, control_engine,  # noqa: F401
                               controllers_answer, linearize_answer, run_control_study, run_tune)  # (issue 42)
@@ -954,9 +955,12 @@ def store_upload(store, data, filename, fields, name, description="", limits=Non
     name = form_name({"name": name}, "name", limits)
     description = form_name({"description": description}, "description", limits, "", text=True)
     columns = _columns(fields, limits)
-    check_file(data, filename, limits.max_request_memory)   # before anything is decoded
-    meas = read_measurement(data, filename, ambient_pressure=_ambient(fields), name=name,
-                            columns=columns, memory_budget=limits.max_request_memory)
+    decoded = check_file(data, filename, limits.max_request_memory)   # before anything is decoded
+    # the decoded columns held on the analyses' memory budget while they are read (503 when
+    # they do not fit now: app.analysis_memory.admitted)
+    with admitted(decoded, "upload") if decoded else nullcontext():
+        meas = read_measurement(data, filename, ambient_pressure=_ambient(fields), name=name,
+                                columns=columns, memory_budget=limits.max_request_memory)
     scen = _context(fields, limits)
     info = store.add_dataset(meas, scen, name=name, description=description)
     return {**info, "import": meas.meta.get("import")}
@@ -1001,8 +1005,9 @@ def inspect_rig_file(data, filename, limits=None):
     """POST /api/datasets/inspect: a rig file's dialect, columns, units and a proposed mapping
     (:func:`pneucore.data.fileformats.inspect_file`), nothing stored; a TDMS or MATLAB file
     (read whole) within ``limits.max_request_memory`` (:func:`app.request_memory.check_file`)."""
-    check_file(data, filename, (limits or Limits()).max_request_memory, preview=True)
-    return inspect_file(data, filename)
+    decoded = check_file(data, filename, (limits or Limits()).max_request_memory, preview=True)
+    with admitted(decoded, "upload") if decoded else nullcontext():
+        return inspect_file(data, filename)
 
 
 # ------------------------------------------------------------------------------ sessions
@@ -1085,13 +1090,49 @@ def cluster_address(settings, name=None):
     return "local" if name == "local" else settings.dask_scheduler
 
 
-def start_study(app_state, db_path, sid, scheduler=None, workers=None, time_limit=None):
+def study_memory(scenario, address, workers, limits=None):
+    """A study job's memory estimate [bytes] (:func:`app.analysis_memory.study_estimate`): the
+    local pool's ``workers`` processes (None: the CPUs available) each simulating one run of
+    ``scenario`` (a Scenario or its dict); a Dask cluster's runs are not this server's. A 422
+    naming ``workers`` when it alone exceeds ``limits.analysis_memory_budget``."""
+    from pneucore.simulate import output_samples
+    from pneucore.study.execute import default_workers
+    get = scenario.get if isinstance(scenario, dict) else lambda k, d=None: getattr(scenario, k, d)
+    samples = output_samples(float(get("duration")), float(get("sample_period", 1e-3) or 1e-3))
+    n = default_workers() if workers is None else int(workers)
+    estimate = study_estimate(samples, n, local=address == "local")
+    if limits is not None:
+        check_alone(estimate, limits.analysis_memory_budget, "workers",
+                    f"a study on {n} worker processes, runs of {samples:,} samples,")
+    return estimate
+
+
+def _stored_study_memory(db_path, sid, address, workers):
+    """:func:`study_memory` of a stored study (a resume, the start-up recovery) [bytes]; the
+    floor's estimate where its definition cannot be read (the study then fails and says why)."""
+    import json
+
+    from pneucore.study.store import connect, get_study
+    try:
+        db = connect(db_path)
+        try:
+            rec = get_study(db, sid)
+        finally:
+            db.close()
+        return study_memory(json.loads(rec["definition"])["scenario"], address, workers)
+    except Exception:   # noqa: BLE001 - a damaged record: run_study names what is wrong
+        return study_estimate(1, 0)
+
+
+def start_study(app_state, db_path, sid, scheduler=None, workers=None, time_limit=None,
+                memory=None):
     """Queue ``run_study`` for a stored study as a job (POST, resume, start-up recovery).
 
     ``scheduler`` is a cluster *name* (see :func:`cluster_address`; None = the default).
     A study deleted while it runs is stopped within a second and its runs removed; the
     time limit holds whether or not batches finish. Raises :class:`QueueFull` when the
-    job queue is full.
+    job queue is full. ``memory``: the job's estimate [bytes] (:func:`study_memory`; None:
+    computed from the stored study), waited for in the queue.
     """
     cancelled = app_state.cancelled_studies
     settings = app_state.settings
@@ -1120,8 +1161,10 @@ def start_study(app_state, db_path, sid, scheduler=None, workers=None, time_limi
             elif app_state.jobs.stopping:
                 # stopped by a shutdown: queued again, so the next start resumes it
                 requeue_study(db_path, sid)
+    if memory is None:
+        memory = _stored_study_memory(db_path, sid, address, workers)
     try:
-        job = app_state.jobs.submit("study", run, time_limit=time_limit)
+        job = app_state.jobs.submit("study", run, time_limit=time_limit, memory=memory)
     except RuntimeError as exc:   # JobManager.submit: the queue is full
         raise QueueFull(str(exc)) from None
     job.study_id = sid
@@ -1182,11 +1225,13 @@ def queue_new_study(req, app_state, limits):
         raise FieldError("workers", f"must be a whole number in [0, {limits.max_workers}] (max_workers "
                                     f"of GET /api/limits: the CPUs available), got {req.workers}")
     check_run_options(workers=req.workers, scheduler=None if address == "local" else address)
+    # (the job keeps the study's id, not the parsed request: no body's estimate added)
+    memory = study_memory(study.scenario, address, req.workers, limits)
     if app_state.jobs.active() >= app_state.jobs.max_jobs:
         raise QueueFull(f"too many jobs queued or running (limit {app_state.jobs.max_jobs})")
     sid = queue_study(study, settings.db_path)   # the id exists in the store from now on
     job = start_study(app_state, settings.db_path, sid, req.scheduler, req.workers,
-                      limits.study_time_limit)
+                      limits.study_time_limit, memory)
     return {"id": sid, "job_id": job.id, "n_runs": study.n_runs, "status": "queued"}
 
 
@@ -1262,12 +1307,31 @@ def check_identify_valve(req):
     return {"model": model, "u_range": u_range, "laminar_ratio": r_lam, "points": points}
 
 
-def run_identify_valve(req, progress=None, checked=None):
+def identify_memory(kind, checked, limits=None):
+    """An identification's memory estimate [bytes]
+    (:func:`app.analysis_memory.identify_estimate`: a friction bench's records' samples, fitted
+    and validated); a 422 naming ``experiments`` when it alone exceeds the budget."""
+    limits = limits or Limits()
+    samples = 0 if kind == "valve" else \
+        sum(int(r.t.size) for r in list(checked["fit"]) + list(checked["validate"]))
+    estimate = identify_estimate(kind, samples)
+    check_alone(estimate, limits.analysis_memory_budget, "experiments",
+                f"a {kind} identification of {samples:,} samples")
+    return estimate
+
+
+def run_identify_valve(req, progress=None, checked=None, limits=None):
     """The edge's C(u), b(u) tables (:func:`pneucore.identify.identify_valve`), with the model's
     valve table written when a model was given."""
+    c = checked or check_identify_valve(req)
+    # held on a synchronous request's budget (503 when it does not fit); a job held it before
+    with admitted(identify_memory("valve", c, limits), "valve identification"):
+        return _identify_valve(req, c, progress)
+
+
+def _identify_valve(req, c, progress):
     from pneucore.identify import identify_valve
 
-    c = checked or check_identify_valve(req)
     res = identify_valve(c["points"], req.edge, u_range=c["u_range"], laminar_ratio=c["laminar_ratio"],
                          openings=req.openings, progress=progress)
     out = res.to_dict()
@@ -1302,13 +1366,19 @@ def check_identify_friction(req, store=None):
     return {"model": model, "fit": fit, "validate": val}
 
 
-def run_identify_friction(req, progress=None, checked=None, store=None):
+def run_identify_friction(req, progress=None, checked=None, store=None, limits=None):
     """The model's friction law from the bench records
     (:func:`pneucore.identify.identify_friction`) and the rod force it predicts on the
     validation records (:func:`pneucore.identify.predict_rod_force`)."""
+    c = checked or check_identify_friction(req, store)
+    # held on a synchronous request's budget (503 when it does not fit); a job held it before
+    with admitted(identify_memory("friction", c, limits), "friction identification"):
+        return _identify_friction(req, c, progress)
+
+
+def _identify_friction(req, c, progress):
     from pneucore.identify import identify_friction, predict_rod_force
 
-    c = checked or check_identify_friction(req, store)
     progress = progress or (lambda f, s: None)
     res = identify_friction(c["model"], c["fit"], extras=req.extras, stribeck=req.stribeck,
                             quadrant=req.quadrant, v_min=req.v_min, window=req.window,
@@ -1368,11 +1438,12 @@ def read_friction_files(files, fields, limits):
     layout = bench_columns(columns, p_atm)
     records, summary = [], []
     for i, (filename, data) in enumerate(files):
-        check_file(data, "bench.csv", limits.max_request_memory)   # 422 before any is decoded
+        decoded = check_file(data, "bench.csv", limits.max_request_memory)   # 422 before decoding
         name = "".join(ch for ch in str(filename or f"file {i + 1}") if ch.isprintable())
         name = name.rsplit(".", 1)[0][:limits.max_name_length] or f"file {i + 1}"
-        rec = read_bench_file(data, p_atm, name, columns, field=f"file[{i}]",
-                              max_rows=MAX_RECORD_SAMPLES)
+        with admitted(decoded, "upload"):   # held on the analyses' budget while decoded
+            rec = read_bench_file(data, p_atm, name, columns, field=f"file[{i}]",
+                                  max_rows=MAX_RECORD_SAMPLES)
         records.append(rec.to_dict())
         summary.append({"name": name, "samples": int(rec.t.size), "duration": float(rec.t[-1] - rec.t[0]),
                         "p_a_median": float(np.median(rec.p_a)), "p_b_median": float(np.median(rec.p_b)),

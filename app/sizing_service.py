@@ -7,8 +7,10 @@ then sized on the request's limits (:func:`run_sizing`).
 from __future__ import annotations
 
 from pneucore.sizing import check, load_series, size
+from pneucore.sizing.search import run_samples_bound
 from pneucore.description.validation import FieldError
 
+from .analysis_memory import admitted, check_alone, sizing_estimate
 from .deps import prefixed
 
 
@@ -35,6 +37,17 @@ def check_sizing(req, limits):
         raise prefixed(exc, "") from None
 
 
+def sizing_memory(checked, limits):
+    """A sizing's memory estimate [bytes] (:func:`app.analysis_memory.sizing_estimate`:
+    ``max_workers`` threads each simulating one run); a 422 naming ``requirement`` when it
+    alone exceeds ``limits.analysis_memory_budget``."""
+    samples = run_samples_bound(checked[0])
+    estimate = sizing_estimate(samples, limits.max_workers)
+    check_alone(estimate, limits.analysis_memory_budget, "requirement",
+                f"a sizing on {limits.max_workers} threads, runs of up to {samples:,} samples,")
+    return estimate
+
+
 def run_sizing(req, limits, progress=None, checked=None):
     """Size the request's drive (the answer of :func:`pneucore.sizing.size`).
 
@@ -51,8 +64,10 @@ def run_sizing(req, limits, progress=None, checked=None):
     """
     checked = checked if checked is not None else check_sizing(req, limits)
     requirement, choices = req.plain()
-    return size(requirement, choices, workers=limits.max_workers, progress=progress,
-                checked=checked)
+    # held on a synchronous request's budget (503 when it does not fit); a job held it before
+    with admitted(sizing_memory(checked, limits), "sizing"):
+        return size(requirement, choices, workers=limits.max_workers, progress=progress,
+                    checked=checked)
 
 
 def sizing_series():

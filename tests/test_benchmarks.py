@@ -32,6 +32,7 @@ SMALL = {
                               "--memory-kinds", "compare,simulate"],
     "bench_analysis_budget.py": ["--length", "1", "--clients", "2", "--workers", "2",
                                  "--budget", "0", "--retry", "0.2"],
+    "bench_memory_estimate.py": ["--lengths", "1", "--kinds", "compare"],
     "bench_heat_transfer.py": ["--quick"],
     # the table of the presets as they are (six short runs); --fit adds about 130 more
     "bench_table2_presets.py": [],

@@ -3,6 +3,8 @@ item 5; :mod:`pneucore.control.linearize`). Closed-loop runs go through POST /ap
 with a scenario's ``controller``."""
 from fastapi import APIRouter, HTTPException, Request
 
+from ..analysis_memory import job_estimate
+from ..bodies import OffLoopRoute
 from ..control_schemas import (ControllersResponse, ControlStudyRequest, LinearizeRequest,
                                LinearizeResponse, TuneRequest)
 from ..deps import JobsDep, LimitsDep
@@ -11,7 +13,8 @@ from ..schemas import JobResponse
 from ..services import (check_control_study, control_engine, controllers_answer,
                         linearize_answer, run_control_study, run_tune)
 
-router = APIRouter(prefix="/api", tags=["control"])
+# a large body (a study's ensemble) counted on the memory budget (app.bodies.OffLoopRoute)
+router = APIRouter(prefix="/api", tags=["control"], route_class=OffLoopRoute)
 
 
 @router.post("/linearize", response_model=LinearizeResponse, response_class=JSON,
@@ -26,9 +29,11 @@ def controllers_endpoint():
     return JSON(controllers_answer())
 
 
-def _job(jobs, kind, fn):
+def _job(jobs, kind, fn, memory):
+    """Queue ``fn``; ``memory``: its estimate [bytes] (:func:`app.services.check_control_study`),
+    with the request body's, waited for in the queue."""
     try:
-        return jobs.submit(kind, fn).to_dict(with_result=False)
+        return jobs.submit(kind, fn, memory=job_estimate(memory)).to_dict(with_result=False)
     except RuntimeError as exc:
         raise HTTPException(429, str(exc)) from None
 
@@ -36,14 +41,14 @@ def _job(jobs, kind, fn):
 @router.post("/jobs/control-study", status_code=202, response_model=JobResponse,
              summary="Closed-loop robustness over a study's parameter sets, as a job on the study pool")
 def control_study_job(req: ControlStudyRequest, request: Request, jobs: JobsDep, limits: LimitsDep):
-    check_control_study(req, limits)
+    estimate = check_control_study(req, limits)
     engine = control_engine(request.app.state.settings)
-    return _job(jobs, "control-study", lambda job: run_control_study(req, job.report, engine))
+    return _job(jobs, "control-study", lambda job: run_control_study(req, job.report, engine), estimate)
 
 
 @router.post("/jobs/tune-controller", status_code=202, response_model=JobResponse,
              summary="Rank controller gains on their worst case over a study's ensemble, as a job on the study pool")
 def tune_job(req: TuneRequest, request: Request, jobs: JobsDep, limits: LimitsDep):
-    check_control_study(req, limits)
+    estimate = check_control_study(req, limits)
     engine = control_engine(request.app.state.settings)
-    return _job(jobs, "tune-controller", lambda job: run_tune(req, job.report, engine))
+    return _job(jobs, "tune-controller", lambda job: run_tune(req, job.report, engine), estimate)

@@ -1,6 +1,7 @@
 """GET /api/heat-models; POST /api/heat-models/simulate, /compare and /compare/job."""
 from fastapi import APIRouter, HTTPException, Request
 
+from ..analysis_memory import job_estimate
 from ..deps import JobsDep, LimitsDep, StoreDep
 from ..sync_pool import sync_slot
 from ..responses import JSON
@@ -43,7 +44,7 @@ def compare_job(req: HeatModelsCompareRequest, store: StoreDep, limits: LimitsDe
         job = jobs.submit("heat-models", lambda job: run_heat_compare(req, store, limits,
                                                                       progress=job.report,
                                                                       checked=checked),
-                          memory=estimate)
+                          memory=job_estimate(estimate))   # with the request body's
     except RuntimeError as exc:
         raise HTTPException(429, str(exc)) from None
     return job.to_dict(with_result=False)

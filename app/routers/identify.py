@@ -3,13 +3,15 @@ benches (paper section 2), and the same as jobs (POST /api/jobs/identify/...).""
 from fastapi import APIRouter, HTTPException, Request
 from starlette.concurrency import run_in_threadpool
 
+from ..analysis_memory import job_estimate
 from ..bodies import RAW_FILE_TYPES, OffLoopRoute, read_multipart
 from ..deps import JobsDep, LimitsDep, StoreDep
 from ..responses import JSON
 from ..schemas import JobResponse
 from ..schemas_identify import (RECORDS_UPLOAD_DOC, FrictionIdentifyRequest, FrictionIdentifyResponse,
                                 FrictionRecordsResponse, ValveIdentifyRequest, ValveIdentifyResponse)
-from ..services import (FieldError, check_identify_friction, check_identify_valve, read_friction_files,
+from ..services import (FieldError, check_identify_friction, check_identify_valve, identify_memory,
+                        read_friction_files,
                         run_identify_friction, run_identify_valve)
 
 # long records are large bodies: parsed off the event loop (app.bodies.OffLoopRoute)
@@ -20,15 +22,15 @@ jobs_router = APIRouter(prefix="/api/jobs/identify", tags=["jobs"], route_class=
 @router.post("/valve", response_class=JSON, response_model=ValveIdentifyResponse,
              summary="A valve edge's C(u), b(u) tables from flow-bench points (ISO 6358, paper Eq. 4-5, "
                      "Fig. 2): standard errors, null band, residuals, the model's table")
-def identify_valve(req: ValveIdentifyRequest):
-    return JSON(run_identify_valve(req))
+def identify_valve(req: ValveIdentifyRequest, limits: LimitsDep):
+    return JSON(run_identify_valve(req, limits=limits))
 
 
 @router.post("/friction", response_class=JSON, response_model=FrictionIdentifyResponse,
              summary="The friction law (Eq. 18-20) from friction-bench records by the force balance "
                      "(Eq. 17), validated on records not fitted on (paper Fig. 4)")
-def identify_friction(req: FrictionIdentifyRequest, store: StoreDep):
-    return JSON(run_identify_friction(req, store=store))
+def identify_friction(req: FrictionIdentifyRequest, store: StoreDep, limits: LimitsDep):
+    return JSON(run_identify_friction(req, store=store, limits=limits))
 
 
 @router.post("/friction/records", response_class=JSON, response_model=FrictionRecordsResponse,
@@ -55,9 +57,11 @@ async def friction_records(request: Request, limits: LimitsDep):
     return JSON(await run_in_threadpool(read_friction_files, files, fields, limits))
 
 
-def _submit(jobs, kind, fn):
+def _submit(jobs, kind, fn, memory):
+    """Queue ``fn``; ``memory``: its estimate [bytes] (:func:`app.services.identify_memory`),
+    with the request body's, waited for in the queue."""
     try:
-        job = jobs.submit(kind, fn)
+        job = jobs.submit(kind, fn, memory=job_estimate(memory))
     except RuntimeError as exc:
         raise HTTPException(429, str(exc)) from None
     return job.to_dict(with_result=False)
@@ -65,15 +69,18 @@ def _submit(jobs, kind, fn):
 
 @jobs_router.post("/valve", status_code=202, response_model=JobResponse,
                   summary="The valve bench as a job (progress and result at GET /api/jobs/{id})")
-def identify_valve_job(req: ValveIdentifyRequest, jobs: JobsDep):
+def identify_valve_job(req: ValveIdentifyRequest, jobs: JobsDep, limits: LimitsDep):
     checked = check_identify_valve(req)      # bad input is a 422 now, not a failed job later
     return _submit(jobs, "identify-valve",
-                   lambda job: run_identify_valve(req, progress=job.report, checked=checked))
+                   lambda job: run_identify_valve(req, progress=job.report, checked=checked),
+                   identify_memory("valve", checked, limits))
 
 
 @jobs_router.post("/friction", status_code=202, response_model=JobResponse,
                   summary="The friction bench as a job (progress and result at GET /api/jobs/{id})")
-def identify_friction_job(req: FrictionIdentifyRequest, jobs: JobsDep, store: StoreDep):
+def identify_friction_job(req: FrictionIdentifyRequest, jobs: JobsDep, store: StoreDep,
+                          limits: LimitsDep):
     checked = check_identify_friction(req, store)
     return _submit(jobs, "identify-friction",
-                   lambda job: run_identify_friction(req, progress=job.report, checked=checked))
+                   lambda job: run_identify_friction(req, progress=job.report, checked=checked),
+                   identify_memory("friction", checked, limits))

@@ -2,13 +2,14 @@
 from fastapi import APIRouter, HTTPException
 from ..responses import JSON
 
+from ..analysis_memory import job_estimate
 from ..bodies import OffLoopRoute
 from ..deps import JobsDep, LimitsDep, SettingsDep, StoreDep, not_found
 from ..schemas import CalibrateRequest, CompareRequest, DiagnoseRequest, JobResponse, RefineRequest
 from ..services import (check_calibrate, check_compare, check_diagnose, check_refine, memory_estimate,
                         run_calibrate, run_compare, run_diagnose, run_refine)
 from ..sizing_schemas import SizingRequest
-from ..sizing_service import check_sizing, run_sizing
+from ..sizing_service import check_sizing, run_sizing, sizing_memory
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"], route_class=OffLoopRoute)
 
@@ -17,7 +18,8 @@ def _submit(jobs, kind, fn, memory=0):
     """Queue ``fn`` as a job of ``kind``; ``memory``: its estimate [bytes], waited for in the
     queue (:func:`app.services.memory_estimate`, a 422 now when it alone exceeds the budget)."""
     try:
-        job = jobs.submit(kind, fn, memory=memory)
+        # the job keeps its parsed request: its body's estimate too (app.analysis_memory.BODY)
+        job = jobs.submit(kind, fn, memory=job_estimate(memory) if memory else 0)
     except RuntimeError as exc:
         raise HTTPException(429, str(exc)) from None
     return job.to_dict(with_result=False)
@@ -73,7 +75,8 @@ def refine_job(req: RefineRequest, store: StoreDep, limits: LimitsDep, jobs: Job
 def sizing_job(req: SizingRequest, limits: LimitsDep, jobs: JobsDep):
     checked = check_sizing(req, limits)
     return _submit(jobs, "sizing", lambda job: run_sizing(req, limits, progress=job.report,
-                                                          checked=checked))
+                                                          checked=checked),
+                   sizing_memory(checked, limits))
 
 
 @router.get("/{job_id}", response_model=JobResponse, summary="Job progress and result",

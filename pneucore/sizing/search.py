@@ -1201,6 +1201,16 @@ def default_workers():
         return os.cpu_count() or 1
 
 
+def run_samples_bound(requirement):
+    """Most output samples one run of a sizing of ``requirement`` takes [-]: a stroke's run
+    lasts :data:`DURATION_FACTOR` times its time bound, sampled :data:`RUN_SAMPLES` times over
+    it or every :data:`MAX_SAMPLE_PERIOD`, whichever is closer; a cycle's run twice
+    :data:`RUN_SAMPLES` (the memory estimate of a sizing, :mod:`app.analysis_memory`)."""
+    req = requirement if isinstance(requirement, Requirement) else Requirement.from_dict(requirement)
+    longest = max(DURATION_FACTOR * req.time_bound(k) for k in DIRECTIONS)
+    return int(max(2 * RUN_SAMPLES, math.ceil(longest / MAX_SAMPLE_PERIOD))) + 2
+
+
 def check(requirement, choices=None, max_duration=None):
     """Everything a sizing request can get wrong, checked before any work.
 
