@@ -75,7 +75,6 @@
    Ljung-Box whiteness and command cross-correlation tests of the residual.
 """
 from __future__ import annotations
-from __future__ import annotations
 
 from dataclasses import dataclass, field
 
@@ -357,6 +356,15 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                 null, weighed = null_h, weighed_h
                 break
         score, lead, refits, ranking, verdict, message = weighed
+        # an effect that is only a difference of base parameters within a catalogue error of
+        # the user's values (a retract level 17 % above the extend level) is a recalibration
+        folded = S.as_recalibration(model, verdict, refits, null)
+        if folded is not None:
+            null, words = folded
+            for c in ranking:
+                if c["effect"] == verdict:
+                    c["as_recalibration"] = words
+            verdict, message = None, NO_EFFECT + " (" + words + ")"
         f = findings(model, exps, verdict, message, ranking, refits, null, hyp, comp_start,
                      rps_start, known, lead, max_nfev, report)
         # a valve path passing far less than the catalogue: the components that could do it

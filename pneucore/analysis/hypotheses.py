@@ -290,22 +290,32 @@ def plausibility(model, path, after, at_bound=False):
         return "at its fit bound: the data push it further than the fit allows"
     if h is None:
         return ""
-    v = get_value(model, path)
-    if h.additive:
-        z = abs(after - v) / h.typical
-        if z > IMPLAUSIBLE:
-            return f"{z:.0f} times the typical error of {h.label} ({h.typical:g} {unit_of(path)})"
-        return ""
-    if v != 0.0 and after / v > 0.0:
-        # a relative catalogue error is a factor: x 1/2.8 is as far from the catalogue as x 2.8
-        # (a valve's conductance at 0.35 of its catalogue value is 7 typical errors of 15 %)
-        z = abs(math.log(after / v)) / math.log1p(h.typical)
-    else:
-        sg = typical_step(model, h)
-        z = abs(after - v) / sg if sg > 0 else 0.0
+    z = typical_errors(model, path, after)
     if z > IMPLAUSIBLE:
+        if h.additive:
+            return f"{z:.0f} times the typical error of {h.label} ({h.typical:g} {unit_of(path)})"
         return f"{z:.0f} times the typical catalogue error of {h.label}"
     return ""
+
+
+def typical_errors(model, path, after):
+    """How many typical catalogue errors base parameter ``path`` moves from ``model``'s value
+    to ``after`` [-] (:data:`BASE_HYPOTHESES`; ``inf`` for a path that is none of them).
+
+    A relative catalogue error is a factor: x 1/2.8 is as far from the catalogue as x 2.8, so
+    it is counted on the logarithm of the factor (``ln(1 + typical)`` wide: a valve's
+    conductance at 0.35 of its catalogue value is 7 typical errors of 15 %); an additive one
+    (an angle) in its unit; a relative one from a value of 0 on its span."""
+    h = BASE_HYPOTHESES.get(path)
+    if h is None:
+        return math.inf
+    v = get_value(model, path)
+    if h.additive:
+        return abs(after - v) / h.typical
+    if v != 0.0 and after / v > 0.0:
+        return abs(math.log(after / v)) / math.log1p(h.typical)
+    sg = typical_step(model, h)
+    return abs(after - v) / sg if sg > 0 else 0.0
 
 
 def against_direction(model, path, after):

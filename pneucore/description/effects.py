@@ -144,6 +144,12 @@ class Effect:
     #: diagnosis parameters once it is in the model (a supply line's volume: the rounds after
     #: the regulator's conductance was named bring the model to the noise floor)
     refit_params: tuple = ()
+    #: ``base_change(params, model) -> {base path: value}``: for an effect that is nothing but
+    #: a difference of the model's own base parameters (the quadrant effect: the retract set
+    #: minus the extend set), the base values it amounts to on ``model``; where they lie within
+    #: a catalogue error of the user's values, the diagnosis reports a recalibration, not the
+    #: effect (:func:`pneucore.analysis.diagnosis.stages.as_recalibration`)
+    base_change: Optional[Callable] = None
 
     def needs_refit_in(self, new, old):
         """Must a fit in structural form ``old`` whose values call for form ``new`` (both
@@ -471,6 +477,12 @@ def _quadrant_transform(m, p):
     for k in _FRICTION_KEYS:
         v = p[k]
         setattr(m.friction.retract, k, getattr(m.friction.extend, k) + v)
+
+
+def _quadrant_base_change(p, m):
+    # the retract values the difference gives on top of the extend set (those it moves)
+    return {f"friction.retract.{k}": getattr(m.friction.extend, k) + p[k]
+            for k in _FRICTION_KEYS if p.get(k, 0.0) != 0.0}
 
 
 def _quadrant_applies(m):
@@ -875,6 +887,7 @@ for _e in [
             Parameter("kv_b", "N s/(m Pa)", 0.0, -1e-3, 1e-3, 0.0, "retract - extend viscous per p_b")],
            strength="fc0", transform=_quadrant_transform, applies=_quadrant_applies,
            observable_in=("free",), fit_params=("fc0", "kv0"), probe={"fc0": 5.0, "kv0": 10.0},
+           base_change=_quadrant_base_change,
            ties={f"friction.extend.{k}": (f"friction.retract.{k}",) for k in _FRICTION_KEYS}),
     Effect("dead_volume",
            "extra volume between valve and chamber (tubing, fittings)",

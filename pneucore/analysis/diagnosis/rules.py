@@ -32,6 +32,12 @@ EXCESS_MAJOR = 0.5
 #: floor's estimate from second differences on quantised records, measured 0.06-0.08 % on
 #: the confusion table's base cases against a 0.06 % noise level)
 AT_FLOOR = 1.2
+#: Typical catalogue errors within which an effect that is only a difference of base
+#: parameters (:attr:`pneucore.description.effects.Effect.base_change`: the quadrant effect) is a
+#: recalibration of them, not the effect: one. Each catalogue value is somewhat off on its own
+#: (a retract Coulomb level 17 % above the extend level, against a typical 30 % error of a
+#: level, is a mis-set level); the effect is a difference no catalogue error reaches (x1.5)
+BASE_CHANGE = 1.0
 #: Held-out prediction is an alternative path to "significant" and "strong" (judged only on a
 #: determined, material candidate that failed the effective-sample LR or BIC test)
 HELD_OUT = True

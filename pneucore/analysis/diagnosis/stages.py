@@ -1108,6 +1108,48 @@ def smaller_form(model, exps, null, c, held, refits, max_nfev, report):
     return cand, cal2
 
 
+def as_recalibration(model, verdict, refits, null):
+    """The named effect as a recalibration, where it is one: ``(null, words)`` or None.
+
+    An effect that is nothing but a difference of the model's own base parameters
+    (:attr:`pneucore.description.effects.Effect.base_change`: the quadrant effect is the
+    retract friction set minus the extend set) is, where the base values it amounts to lie
+    within :data:`pneucore.analysis.diagnosis.rules.BASE_CHANGE` typical catalogue errors of
+    the user's values (:func:`pneucore.analysis.hypotheses.typical_errors`), a change the base
+    parameters make: a catalogue value mis-set on one side, not a missing effect. The returned
+    null is the effect's refit with the effect folded into those base values (the same
+    physics, so the same replays and error), its base paths extended by them."""
+    import dataclasses
+    if verdict is None or EFFECTS[verdict].base_change is None:
+        return None
+    eff = EFFECTS[verdict]
+    cal = refits[verdict]
+    params = cal.model.effects[verdict]
+    change = eff.base_change(params, cal.model)
+    if not change or any(H.typical_errors(model, p, v) > R.BASE_CHANGE for p, v in change.items()):
+        return None
+    m = set_values(cal.model, change)
+    m.effects.pop(verdict, None)
+    values = {k: v for k, v in cal.values.items() if not k.startswith(f"effects.{verdict}.")}
+    for path, v in change.items():
+        k = path.rsplit(".", 1)[1]
+        se = (cal.values.get(f"effects.{verdict}.{k}") or {}).get("stderr", 0.0)
+        values[path] = {"value": v, "stderr": se, "unit": unit_of(path), "at_bound": False}
+    fit_b = dataclasses.replace(cal, model=m, values=values)
+    paths = list(null.base_paths) + [p for p in change if p not in null.base_paths]
+    comp = cal.error_after
+    null_b = dataclasses.replace(null, base=m, fit=fit_b, base_paths=paths, comp=comp,
+                                 replays=comp.replays)
+    moved = "; ".join(f"{H.label_of(p)} {get_value(model, p):.3g} -> {v:.3g} {unit_of(p)}".rstrip()
+                      + f" ({H.typical_errors(model, p, v):.1f} typical catalogue errors)"
+                      for p, v in change.items())
+    words = (f"{verdict} would remove the misfit (error {100 * null.error:.2f} % -> "
+             f"{100 * comp.overall:.2f} %), but it is a difference of base parameters within "
+             f"{R.BASE_CHANGE:g} typical catalogue error of the user's values ({moved}): a "
+             "mis-set value, recalibrated, not a missing effect")
+    return null_b, words
+
+
 def fitted_specs(fitted, specs):
     """``specs`` restarted at ``fitted``'s values (a valve scale factor at 1 on its table)."""
     out = []
