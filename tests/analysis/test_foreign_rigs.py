@@ -151,3 +151,73 @@ def test_a_dead_volume_on_a_chamber_b_that_holds_no_gas_is_not_fitted():
         == ["effects.dead_volume.volume_a"]
     m["valve"]["b_chamber"] = "closed"     # an air spring: a gas volume of its own
     assert EFFECTS["dead_volume"].unused_in(Model.from_dict(m)) == ()
+
+
+def test_a_quadrant_difference_within_a_catalogue_error_is_a_mis_set_level_not_the_effect():
+    """set3/T-rig-extleak-spool: its retract Coulomb level alone is 17 % above the extend one,
+    a catalogue value off by less than a level's typical error (30 %); it came out as
+    quadrant_friction. set3/J-quadrant's x1.5 (and set2/G-bigjack-quadrant's x1.6) are
+    differences no catalogue error reaches: the effect."""
+    import dataclasses
+    from types import SimpleNamespace
+    m = _quadrant_model()
+    level = m.friction.extend.fc0
+
+    def folded(diff):
+        fitted = m.copy()
+        fitted.effects["quadrant_friction"] = {"fc0": diff, "fc_a": 0.0, "fc_b": 0.0, "kv0": 0.0,
+                                               "kv_a": 0.0, "kv_b": 0.0}
+        comp = SimpleNamespace(overall=0.001, replays=["replays with the effect"])
+        cal = SimpleNamespace(model=fitted, error_after=comp, values={
+            "effects.quadrant_friction.fc0": {"value": diff, "stderr": 0.1, "unit": "N"},
+            "friction.*.fc0": {"value": level, "stderr": 0.2, "unit": "N"}})
+        null = S.Null(m, None, [], [], [], ["friction.*.fc0"], {}, SimpleNamespace(overall=0.002),
+                      [], None, 0.0, 0, None, [], None, 0.0007)
+        return S.as_recalibration(m, "quadrant_friction", {"quadrant_friction": _dc(cal)}, null)
+
+    def _dc(ns):   # a calibration stand-in that dataclasses.replace accepts
+        C = dataclasses.make_dataclass("Cal", ["model", "error_after", "values"])
+        return C(ns.model, ns.error_after, ns.values)
+
+    null_b, words = folded(0.17 * level)
+    assert "quadrant_friction" not in null_b.base.effects
+    # the same physics: the retract level carries the difference, the replays are the refit's
+    assert null_b.base.friction.retract.fc0 == pytest.approx(1.17 * level)
+    assert null_b.base.friction.extend.fc0 == pytest.approx(level)
+    assert null_b.fit.values["friction.retract.fc0"]["value"] == pytest.approx(1.17 * level)
+    assert "effects.quadrant_friction.fc0" not in null_b.fit.values
+    assert "friction.retract.fc0" in null_b.base_paths and null_b.error == 0.001
+    assert "Coulomb friction retracting" in words and "typical catalogue error" in words
+    # x1.5: beyond one typical error of 30 % (ln 1.5 / ln 1.3 = 1.5 of them): the effect
+    assert folded(0.5 * level) is None
+    # an effect that is no difference of base parameters is never folded
+    assert S.as_recalibration(m, "piston_leakage", {}, None) is None
+    assert H.typical_errors(m, "friction.retract.fc0", 1.3 * level) == pytest.approx(1.0)
+    assert H.typical_errors(m, "no.such.path", 1.0) == float("inf")
+
+
+def test_a_candidate_with_some_parameters_disagreeing_is_judged_again_without_them():
+    """set3/T-rig-extleak-spool: external_leakage's leak on A agreed between the two records
+    (1.63e-10 and 1.60e-10 kg/(s Pa)) and its leak on B did not (1.1e-11 and 2.4e-11): the B
+    leak stood in for a mis-set retract level. The effect is judged again with the B leak
+    held off; where every strength disagrees, the whole effect is the stand-in."""
+    m = _quadrant_model()
+    c = {"effect": "external_leakage", "model_obj": m,
+         "consistency": {"disagree": ["conductance_b"]}}
+    assert S.smaller_held(c) == ("conductance_b",)
+    c["consistency"]["disagree"] = ["conductance_a", "conductance_b"]
+    assert S.smaller_held(c) == ()
+    c["consistency"]["disagree"] = []
+    assert S.smaller_held(c) == ()
+    # a one-strength effect has no smaller form
+    assert S.smaller_held({"effect": "piston_leakage", "model_obj": m,
+                           "consistency": {"disagree": ["conductance"]}}) == ()
+    # held off, a parameter is neither fitted nor counted as undetermined
+    specs = S.effect_specs(m, "external_leakage", {"conductance_a": 1e-10, "conductance_b": 0.0},
+                           held=("conductance_b",))
+    assert [s.path for s in specs] == ["effects.external_leakage.conductance_a"]
+    from pneucore.analysis.diagnosis.evidence import undetermined
+    cand = {"effect": "external_leakage", "params": {
+        "conductance_a": {"value": 1.6e-10, "stderr": 4e-12, "unit": "kg/(s Pa)"},
+        "conductance_b": {"value": 0.0, "stderr": 0.0, "unit": "kg/(s Pa)", "held": True}}}
+    assert undetermined(cand) == ""
