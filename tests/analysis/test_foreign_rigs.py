@@ -43,6 +43,11 @@ def _entry(name):
     # undeclared load of -9.8 N once stood in for the quadrant effect (held: what the effect
     # carries counts among what a known value is confounded with)
     "set3/J-quadrant.json",
+    # a leak on A, a spool lag, the retract level alone 17 % high: was a meter-out throttle
+    # beside the spool lag (the leak failed consistency on a B leak standing in for the
+    # level; its smaller form, the leak on A, passes; the level is a recalibration); 262 s
+    # under load before, about 10 s now
+    "set3/T-rig-extleak-spool.json",
 ])
 def test_a_foreign_case_is_diagnosed_as_its_truth_says(name):
     row = F.run_case(_entry(name))
