@@ -1,11 +1,12 @@
 """POST /api/friction/preview: a model's friction force map, computed by the simulator's law."""
 from fastapi import APIRouter
 
+from ..bodies import OffLoopRoute
 from ..responses import JSON
 from ..schemas import FrictionPreviewRequest, FrictionPreviewResponse
 from ..services import friction_map
 
-router = APIRouter(prefix="/api/friction", tags=["model"])
+router = APIRouter(prefix="/api/friction", tags=["model"], route_class=OffLoopRoute)
 
 
 @router.post("/preview", response_class=JSON, response_model=FrictionPreviewResponse,

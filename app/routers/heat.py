@@ -1,6 +1,7 @@
 """GET /api/heat-models; POST /api/heat-models/simulate, /compare and /compare/job."""
 from fastapi import APIRouter, HTTPException, Request
 
+from ..bodies import OffLoopRoute
 from ..analysis_memory import job_estimate
 from ..deps import JobsDep, LimitsDep, StoreDep
 from ..sync_pool import sync_slot
@@ -10,7 +11,7 @@ from ..schemas import (HeatModelInfo, HeatModelsCompareRequest, HeatModelsCompar
 from ..services import (check_heat_compare, deadline_progress, heat_model_catalog, heat_model_count,
                         memory_estimate, run_heat_compare, simulate_every_heat_model)
 
-router = APIRouter(prefix="/api/heat-models", tags=["heat"])
+router = APIRouter(prefix="/api/heat-models", tags=["heat"], route_class=OffLoopRoute)
 
 
 @router.get("", summary="The heat models with their parameters (name, unit, default, min, max)",

@@ -1,10 +1,11 @@
 """POST /api/models/diff: what changes from one model to another, parameter by parameter."""
 from fastapi import APIRouter
 
+from ..bodies import OffLoopRoute
 from ..schemas import ModelChange, ModelDiffRequest
 from ..services import model_diff
 
-router = APIRouter(prefix="/api/models", tags=["models"])
+router = APIRouter(prefix="/api/models", tags=["models"], route_class=OffLoopRoute)
 
 
 @router.post("/diff", response_model=list[ModelChange],

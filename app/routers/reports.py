@@ -3,13 +3,14 @@
 from fastapi import APIRouter, Path
 from fastapi.responses import Response
 
+from ..bodies import OffLoopRoute
 from ..deps import LimitsDep, SettingsDep, StoreDep, not_found
 from ..sync_pool import sync_slot
 from ..schemas import CompareRequest, DiagnoseReportRequest, RefineRequest
 from ..services import (comparison_report, deadline_progress, diagnosis_report, refinement_report,
                         session_report)
 
-router = APIRouter(prefix="/api/reports", tags=["reports"])
+router = APIRouter(prefix="/api/reports", tags=["reports"], route_class=OffLoopRoute)
 
 _HTML = {200: {"content": {"text/html": {"schema": {
     "type": "string", "description": "One HTML file that opens offline: inline SVG plots, tables "

@@ -3,11 +3,12 @@ area, Cv, Kv, one flow point) converted to the model's sonic conductance C and c
 (issue 23, item 7; :mod:`pneucore.description.valve_data`)."""
 from fastapi import APIRouter
 
+from ..bodies import OffLoopRoute
 from ..services import catalogue_valve, convert_valve
 from ..valve_schemas import (CATALOGUE_SUMMARY, SUMMARY, CatalogueValveRequest,
                              CatalogueValveResponse, ValveConvertRequest, ValveConvertResponse)
 
-router = APIRouter(prefix="/api", tags=["valve"])
+router = APIRouter(prefix="/api", tags=["valve"], route_class=OffLoopRoute)
 
 
 @router.post("/valve/convert", response_model=ValveConvertResponse, summary=SUMMARY)
