@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pneucore.data.measurement import Measurement
+from pneucore.description.effects import effective_model
 from pneucore.description.model import Model
 from pneucore.description.scenario import Scenario, pulse_train
 from pneucore.simulate import simulate
@@ -124,6 +125,21 @@ def on_sample_grid(command, sample_period):
     return out
 
 
+def commanded_u(model, scenario, res):
+    """The valve command a rig logs of run ``res`` of ``model`` on ``scenario`` [-]: the
+    core's ``u`` where the valve switches at the command, else the ``u`` of the same run with
+    the switching times removed (the valve's ``on_time``/``off_time`` and any
+    ``valve_switching_delay``), at the same samples."""
+    eff = effective_model(model)
+    if eff.valve.on_time <= 0.0 and eff.valve.off_time <= 0.0:
+        return res.u.copy()
+    m = model.copy()
+    m.valve = copy.copy(m.valve)
+    m.valve.on_time = m.valve.off_time = 0.0
+    m.effects.pop("valve_switching_delay", None)
+    return np.asarray(simulate(m, scenario).u, float).copy()
+
+
 def synthesize(model, scenario, signals=("p_a", "p_b", "x"), noise=None, bits=12, seed=0,
                name="synthetic", noise_corr_time=0.0):
     """Simulate ``model`` and return what the rig's sensors would record.
@@ -162,7 +178,10 @@ def synthesize(model, scenario, signals=("p_a", "p_b", "x"), noise=None, bits=12
     res = simulate(model, scenario)
     rng = np.random.default_rng(seed)
     noise = DEFAULT_NOISE if noise is None else noise
-    sig = {"u": res.u.copy()}
+    # the rig logs the command it sends; the core's u is the spool's, which a valve's switching
+    # times (its own, or a switching delay) shift behind it: the command is the one simulated
+    # without them (replayed, the model delays it once, not twice)
+    sig = {"u": commanded_u(model, scenario, res)}
     for s in signals:
         y = np.asarray(res.observed(s), float).copy()
         dt = float(res.t[1] - res.t[0]) if res.t.shape[0] > 1 else 0.0

@@ -56,6 +56,9 @@ HIDDEN = {
     "external_leakage": {"conductance_a": 1.0e-10, "conductance_b": 7.0e-11},
     # 8 ms first-order spool lag (probe 5 ms); first order: natural_frequency 0
     "valve_spool_dynamics": {"time_constant": 0.008, "natural_frequency": 0.0, "damping": 0.7},
+    # the valve switches 3 ms after each command change (probe 5 ms); the paper's proportional
+    # valve has no rest position, so every change takes on_time and off_time acts on nothing
+    "valve_switching_delay": {"on_time": 0.003, "off_time": 0.0},
     # 1 % of the full edge conductance leaks through the centred spool (probe 0.5 %)
     "valve_null_leakage": {"fraction": 0.01},
     # breakaway force twice the Coulomb force, Stribeck velocity 15 mm/s (probe 1.5, default 10 mm/s)
@@ -212,8 +215,12 @@ def test_refitted_parameters_match_the_truth(name):
     cand = {c["effect"]: c for c in d.ranking}.get(name)
     assert cand is not None, describe(d)
     eff = EFFECTS[name]
-    assert set(cand["params"]) == set(eff.diagnosis_params)
-    for p in eff.diagnosis_params:
+    # the parameters acting on this model (a proportional valve has no rest position for a
+    # switching delay's off_time to return to: it is not fitted)
+    acting = [p for p in eff.diagnosis_params
+              if p not in eff.unused_in(Model.from_dict(base_model(name)))]
+    assert set(cand["params"]) == set(acting)
+    for p in acting:
         v = cand["params"][p]
         want = truth_value(name, p)
         assert abs(v["value"] - want) <= PARAM_RTOL * abs(want), (p, v, want, describe(d))
