@@ -43,6 +43,14 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
+class CushionCapacitySpec(_Strict):
+    bore: float = Field(..., description="Bore (piston) diameter this capacity is for [m]")
+    capacity: float = Field(..., description="The cushion's allowable kinetic energy at that "
+                                             "bore, as the catalogue gives it [J]")
+    series: Optional[Name] = Field(None, description="Cylinder series it is for (iso6432); "
+                                                     "null = every series with that bore [-]")
+
+
 class RequirementSpec(_Strict):
     stroke: float = _lib(Requirement, _REQ, "stroke", required=True)
     moving_mass: float = _lib(Requirement, _REQ, "moving_mass", required=True)
@@ -61,6 +69,9 @@ class RequirementSpec(_Strict):
     ambient_pressure: float = _lib(Requirement, _REQ, "ambient_pressure")
     valve_on_time: float = _lib(Requirement, _REQ, "valve_on_time")
     valve_off_time: float = _lib(Requirement, _REQ, "valve_off_time")
+    cushion_capacities: list[CushionCapacitySpec] = _lib(Requirement, _REQ, "cushion_capacities")
+    max_load_factor: float = _lib(Requirement, _REQ, "max_load_factor")
+    min_buckling_safety: float = _lib(Requirement, _REQ, "min_buckling_safety")
 
 
 class CylinderSpec(_Strict):
@@ -189,8 +200,12 @@ class CushionStrokeOut(BaseModel):
 
 class CushionOut(BaseModel):
     length: float = Field(..., description="Cushion length at each end (the requirement's) [m]")
-    capacity: float = Field(..., description="Energy the cushion absorbs at most (the "
-                                             "requirement's) [J]")
+    capacity: float = Field(..., description="Energy the cushion absorbs at most: the "
+                                             "cylinder's own (requirement.cushion_capacities) "
+                                             "or requirement.cushion_capacity [J]")
+    capacity_source: Optional[str] = Field(None, description="Where the capacity comes from: "
+                                                             "cushion_capacities[i] or "
+                                                             "cushion_capacity [-]")
     needle_open_C: float = Field(..., description="The needle fully open: ten times the valve's "
                                                   "exhaust conductance [m^3/(s Pa)]")
     extend: CushionStrokeOut = Field(..., description="The x = stroke end (chamber B's needle)")
@@ -198,7 +213,9 @@ class CushionOut(BaseModel):
 
 
 class DesignOut(BaseModel):
-    rank: int = Field(..., description="1 = best: least air per cycle, then smallest [-]")
+    rank: int = Field(..., description="1 = best: the designs keeping a 20 % margin on every "
+                                       "check first (margins), then least air per cycle, then "
+                                       "smallest [-]")
     cylinder: CylinderOut
     valve: ValveOut
     tube: Optional[TubeOut] = Field(None, description="Tube on each port; null = no tube")
@@ -222,18 +239,28 @@ class DesignOut(BaseModel):
                                                             "needles; null = no cushion in the "
                                                             "requirement")
     steady_cycle: Optional[dict[str, Any]] = Field(None, description=(
-        "The first ranked designs' strokes in the machine's steady cycle: scenario (the "
-        "design's cycle, start: cyclic, as POST /api/simulate accepts it), full_stroke_time "
-        "{extend, retract} [s], end_speed {extend, retract} [m/s], cycles repeated [-], "
-        "converged [-], start (p_a, p_b [Pa abs], T_a, T_b [K], x0 [m], v0 [m/s]); null "
-        "beyond them"))
+        "The design's strokes in the machine's steady cycle, the state its strokes were sized "
+        "from: scenario (the design's cycle, start: cyclic, as POST /api/simulate accepts it), "
+        "full_stroke_time {extend, retract} [s], end_speed {extend, retract} [m/s], cycles "
+        "repeated [-], converged [-], start (p_a, p_b [Pa abs], T_a, T_b [K], x0 [m], v0 "
+        "[m/s]); null for a closest infeasible design beyond the first ranked"))
+    stroke_starts: Optional[dict[str, dict[str, float]]] = Field(None, description=(
+        "The state each stroke of the sizing starts from {extend, retract}: p_a, p_b [Pa abs], "
+        "T_a, T_b [K], the steady cycle's at that stroke's command; null = the default start "
+        "(exhausting chamber at the supply, gases at the model's temperature)"))
+    margins: Optional[dict[str, Any]] = Field(None, description=(
+        "Each check's headroom as a share of its limit: load_factor (1 - factor / limit), "
+        "buckling (1 - minimum / safety), cushion (1 - impact energy / capacity) [-]; least "
+        "[-]; ok: every one at least 0.2, ranked before the designs without [-]"))
     checks: Optional[dict[str, Any]] = Field(None, description=(
         "The cylinder makers' checks besides the motion: load_factor {extend, retract} (the "
         "static load over the theoretical output at the supply) [-] with load_factor_limits "
-        "(SMC: static 0.7, on a guide 1.0, moving the load 0.5) [-] and load_factor_ok [-]; "
-        "buckling_load (Euler, steel rod, one end fixed and one free, K = 2, over the stroke) "
-        "[N], buckling_safety (it over the extension's theoretical output) [-], buckling_ok "
-        "(at least 3) [-]"))
+        "(SMC: static 0.7, on a guide 1.0, moving the load 0.5) [-], load_factor_limit "
+        "(requirement.max_load_factor) [-] and load_factor_ok [-]; buckling_load (Euler, steel "
+        "rod, one end fixed and one free, K = 2, over the stroke) [N], buckling_safety (it over "
+        "the extension's theoretical output) [-], buckling_safety_min "
+        "(requirement.min_buckling_safety) [-], buckling_ok [-]. A family failing either is "
+        "rejected (infeasible, reasons load_factor, buckling)"))
     best_of_cylinder: Optional[bool] = Field(None, description="The first (least air) design of "
                                                                "its cylinder: the short list [-]")
     why: Optional[str] = Field(None, description="Why the design is where it is, in words")

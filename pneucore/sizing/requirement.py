@@ -31,6 +31,53 @@ BOUNDS = {"stroke": 10.0, "moving_mass": 1e5, "load_force": 1e7, "supply_pressur
           "valve_on_time": MAX_SWITCHING_TIME, "valve_off_time": MAX_SWITCHING_TIME}
 
 
+#: Highest load factor accepted (the load as large as the theoretical output: the cylinder
+#: stalls) [-]; highest buckling safety factor accepted [-]
+MAX_LOAD_FACTOR = 1.0
+MAX_BUCKLING_SAFETY = 100.0
+#: Two bores closer than this are the same bore (a table's 0.016 and a series' 16 mm) [m]
+BORE_MATCH = 1e-6
+#: Most entries of cushion_capacities [-]
+MAX_CAPACITY_ENTRIES = 200
+
+
+def _capacities(value, path, cushion_length):
+    """``cushion_capacities`` checked: a list of ``{"bore", "capacity", "series"}``."""
+    if value is None:
+        return []
+    if not isinstance(value, (list, tuple)):
+        raise FieldError(path, f"must be a list of {{bore [m], capacity [J], series}}, got "
+                               f"{type(value).__name__} (unit: -)")
+    if value and cushion_length is None:
+        raise FieldError(path, "per-bore capacities need the cushion: give cushion_length "
+                               "and cushion_capacity (the capacity of bores not listed) "
+                               "(unit: -)")
+    if len(value) > MAX_CAPACITY_ENTRIES:
+        raise FieldError(path, f"{len(value)} entries, more than {MAX_CAPACITY_ENTRIES} (unit: -)")
+    out, seen = [], {}
+    for i, e in enumerate(value):
+        p = f"{path}[{i}]"
+        mapping(e, p)
+        known_keys(e, ("bore", "capacity", "series"), p)
+        for key in ("bore", "capacity"):
+            if e.get(key) is None:
+                raise FieldError(f"{p}.{key}", f"is required (unit: {'m' if key == 'bore' else 'J'})")
+        bore = _checked(e["bore"], f"{p}.bore", "m", positive=True, high=1.0)
+        cap = _checked(e["capacity"], f"{p}.capacity", "J", positive=True,
+                       high=BOUNDS["cushion_capacity"])
+        series = e.get("series")
+        if series is not None and (not isinstance(series, str) or not series.strip()):
+            raise FieldError(f"{p}.series", f"must be a series name (iso6432), got {series!r} "
+                                            "(unit: -)")
+        key = (series, round(bore / BORE_MATCH))
+        if key in seen:
+            raise FieldError(f"{p}.bore", f"{bore:g} m{' of ' + series if series else ''} is "
+                                          f"already given in entry {seen[key]} (unit: m)")
+        seen[key] = i
+        out.append({"bore": bore, "capacity": cap, "series": series})
+    return out
+
+
 def _checked(value, path, unit, **bounds):
     """``number(value, path, **bounds)`` whose error also states the unit; the field's upper
     bound is :data:`BOUNDS`'s."""
@@ -91,6 +138,13 @@ class Requirement:
         Kinetic energy the cushion absorbs at most (the catalogue's cushioning energy): each
         design's needles are solved for the impact energy to be within it; required with
         cushion_length, null = no cushion [J]
+    cushion_capacities : list
+        Each bore's own cushion capacity, as its catalogue gives it (SMC and Festo publish the
+        allowable kinetic energy per bore and cushion): entries ``{"bore": [m], "capacity":
+        [J]}``, optionally ``"series"`` (a cylinder series name, ``iso6432``; absent = every
+        series with that bore). A family's cylinder takes the entry of its series and bore,
+        else the series-less entry of its bore, else cushion_capacity; needs the cushion
+        (cushion_length); empty = cushion_capacity for every bore [-]
     tube_length : float or None
         Length of the tube between the valve and each cylinder port; null = valve on the
         cylinder [m]
@@ -102,6 +156,15 @@ class Requirement:
     valve_off_time : float
         The valve's switching time de-energising (the 5/2 valve's spring return): the
         retraction starts this long after the command; it counts in the retraction's time [s]
+    max_load_factor : float
+        Largest load factor a design may have: the static load a stroke works against over
+        the cylinder's theoretical output at the supply, (p_s - p_atm) A. SMC's selection
+        limits: 0.5 moving a load (the default), 0.7 static (clamping), 1.0 a load carried on
+        a guide; a family above it is rejected with the reason load_factor [-]
+    min_buckling_safety : float
+        Smallest safety factor of the rod against Euler buckling over the stroke (steel rod,
+        one end fixed and the rod end free) at the extension's theoretical output; a family
+        below it is rejected with the reason buckling [-]
     """
     stroke: float = 0.1
     moving_mass: float = 1.0
@@ -120,6 +183,9 @@ class Requirement:
     ambient_pressure: float = P_ATM
     valve_on_time: float = 0.0
     valve_off_time: float = 0.0
+    cushion_capacities: list = field(default_factory=list)
+    max_load_factor: float = 0.5
+    min_buckling_safety: float = 3.0
 
     #: fields a request must give (the others have their defaults)
     REQUIRED = ("stroke", "moving_mass", "supply_pressure")
@@ -207,7 +273,43 @@ class Requirement:
             d["tube_length"], f"{path}.tube_length", u("tube_length"), positive=True)
         for key in ("valve_on_time", "valve_off_time"):
             setattr(r, key, _checked(d.get(key, 0.0), f"{path}.{key}", u(key), nonnegative=True))
+        r.max_load_factor = _checked(d.get("max_load_factor", r.max_load_factor),
+                                     f"{path}.max_load_factor", u("max_load_factor"),
+                                     positive=True, high=MAX_LOAD_FACTOR)
+        r.min_buckling_safety = _checked(d.get("min_buckling_safety", r.min_buckling_safety),
+                                         f"{path}.min_buckling_safety",
+                                         u("min_buckling_safety"), low=1.0,
+                                         high=MAX_BUCKLING_SAFETY)
+        r.cushion_capacities = _capacities(d.get("cushion_capacities"),
+                                           f"{path}.cushion_capacities", r.cushion_length)
         return r
+
+    def capacity_for(self, cylinder):
+        """The cushion capacity of one cylinder [J]: its series' and bore's entry of
+        ``cushion_capacities``, else its bore's series-less entry, else ``cushion_capacity``
+        (None without a cushion).
+
+        Parameters
+        ----------
+        cylinder : dict
+            ``bore`` [m] and ``name`` (``series:member`` for a shipped one)
+
+        Returns
+        -------
+        capacity, source : float or None, str
+            The capacity [J] and where it comes from (``cushion_capacities[i]`` or
+            ``cushion_capacity``)
+        """
+        if self.cushion_length is None:
+            return None, "no cushion"
+        name = str(cylinder.get("name") or "")
+        series = name.split(":", 1)[0] if ":" in name else None
+        for want in (series, None):
+            for i, e in enumerate(self.cushion_capacities):
+                if e.get("series") == want and abs(e["bore"] - cylinder["bore"]) <= BORE_MATCH:
+                    if want is None or series is not None:
+                        return e["capacity"], f"cushion_capacities[{i}]"
+        return self.cushion_capacity, "cushion_capacity"
 
     def to_dict(self):
         """Plain JSON (round-trips through :meth:`from_dict`)."""

@@ -47,6 +47,8 @@ import copy
 import math
 import os
 
+import numpy as np
+
 from scipy.optimize import brentq, minimize_scalar
 
 from pneucore.physics.jack import annulus_area, net_pressure_force, rod_area
@@ -92,6 +94,10 @@ REASONS = {
     "simulation": "the simulation of this family failed",
     "model": "the simulator refuses this family's model (the detail names the field and why: "
              "a moving mass too light to resolve, say)",
+    "load_factor": "load factor (load over the theoretical output at the supply) above "
+                   "requirement.max_load_factor (SMC: 0.5 moving a load)",
+    "buckling": "the rod's Euler buckling safety over the stroke below "
+                "requirement.min_buckling_safety",
 }
 DIRECTIONS = ("extend", "retract")
 #: The valve edge each direction exhausts through
@@ -185,7 +191,7 @@ def needle_open(valve):
     return min(NEEDLE_OPEN_FACTOR * valve["C_exhaust"], EFFECTS["end_cushion"].param("C_a").max)
 
 
-def end_cushions(requirement, needles):
+def end_cushions(requirement, needles, capacity=None):
     """The ``end_cushion`` effect of a design: the requirement's cushion at both ends.
 
     Parameters
@@ -195,6 +201,9 @@ def end_cushions(requirement, needles):
     needles : tuple of float
         Needle conductances ``(extend, retract)``: of the x = stroke end (chamber B, met
         while extending) and of the x = 0 end (chamber A) [m^3/(s Pa)]
+    capacity : float or None
+        The cushion's capacity (the cylinder's own: :meth:`Requirement.capacity_for`); None =
+        the requirement's ``cushion_capacity`` [J]
 
     Returns
     -------
@@ -207,7 +216,7 @@ def end_cushions(requirement, needles):
     n_ext, n_ret = needles
     return {"length_a": L, "volume_a": 0.0, "C_a": float(n_ret), "length_b": L, "volume_b": 0.0,
             "C_b": float(n_ext), "b": EFFECTS["end_cushion"].param("b").default,
-            "capacity": requirement.cushion_capacity}
+            "capacity": requirement.cushion_capacity if capacity is None else capacity}
 
 
 def build_model(requirement, cylinder, valve, tube=None, settings=(0.0, 0.0), base=None,
@@ -280,7 +289,7 @@ def build_model(requirement, cylinder, valve, tube=None, settings=(0.0, 0.0), ba
         d["effects"]["tubing"] = {"length_a": L, "diameter_a": di, "length_b": L, "diameter_b": di}
     if needles is None:
         needles = (needle_open(valve),) * 2
-    cushions = end_cushions(requirement, needles)
+    cushions = end_cushions(requirement, needles, requirement.capacity_for(cylinder)[0])
     if cushions is not None:
         d["effects"]["end_cushion"] = cushions
     s_ext, s_ret = settings
@@ -386,11 +395,11 @@ class _Direction:
     #: the needle of the cushion this direction meets (the end it travels to)
     NEEDLE = {"extend": "C_b", "retract": "C_a"}
 
-    def __init__(self, model, requirement, direction):
+    def __init__(self, model, requirement, direction, start=None):
         self.model = model
         self.direction = direction
         self.t_req = requirement.time_bound(direction)
-        self.scenario = Scenario.from_dict(_stroke_scenario(requirement, direction), model)
+        self.scenario = Scenario.from_dict(_stroke_scenario(requirement, direction, start), model)
         self.cushion = model.effects.get("end_cushion")
         #: the needle of the other end (None = fully open): the piston leaves that end's
         #: cushion as the stroke starts, so it is part of this stroke's model
@@ -655,19 +664,25 @@ def path_throttle(y, C_edge):
     return 0.0 if C > EFFECTS["meter_out_throttle"].param("C_a").max else C
 
 
-def _stroke_scenario(requirement, direction):
+def _stroke_scenario(requirement, direction, start=None):
     """The scenario of one full stroke: at rest at one end stop, the chamber to be exhausted
     at the supply pressure (where the previous stroke left it), the valve switched at the
-    first sample after t = 0 (the ``command`` event :mod:`pneucore.analysis.strokes` times from)."""
+    first sample after t = 0 (the ``command`` event :mod:`pneucore.analysis.strokes` times from).
+
+    ``start`` = ``{"p_a", "p_b" [Pa], "T_a", "T_b" [K]}``: the chambers' state at the command
+    instead (the design's cyclic steady state: :func:`cycle_starts`); None = the exhausting
+    chamber at the supply, the other at ambient, both gases at the model's temperature."""
     t_req = requirement.time_bound(direction)
     period = min(DURATION_FACTOR * t_req / RUN_SAMPLES, MAX_SAMPLE_PERIOD)
     p_s, p_0 = requirement.supply_pressure, requirement.ambient_pressure
     ext = direction == "extend"
+    initial = {"p_a": p_0 if ext else p_s, "p_b": p_s if ext else p_0}
+    if start is not None:
+        initial = {k: float(start[k]) for k in ("p_a", "p_b", "T_a", "T_b")}
     return {"duration": period + DURATION_FACTOR * t_req, "sample_period": period,
             "command": [[0.0, 0.0], [period, 1.0 if ext else -1.0]],
             "command_interpolation": "hold", "locked": False,
-            "x0": 0.0 if ext else requirement.stroke,
-            "initial": {"p_a": p_0 if ext else p_s, "p_b": p_s if ext else p_0}}
+            "x0": 0.0 if ext else requirement.stroke, "initial": initial}
 
 
 #: Spread of the robustness studies: seal friction from half to twice the design's (it
@@ -723,8 +738,11 @@ def robustness_studies(design, requirement, samples=ROBUSTNESS_SAMPLES):
                                "command": [[0.0, 1.0 if ext else -1.0]],
                                "command_interpolation": "hold", "locked": False,
                                "x0": 0.0 if ext else requirement.stroke,
-                               "initial": {"p_a": p_0 if ext else p_s,
-                                           "p_b": p_s if ext else p_0}},
+                               # the stroke as the sizing timed it: from the design's steady
+                               # state where it was sized from one
+                               "initial": dict(design["stroke_starts"][k])
+                               if design.get("stroke_starts") else
+                               {"p_a": p_0 if ext else p_s, "p_b": p_s if ext else p_0}},
                   "parameters": params, "samples": int(samples), "seed": 1,
                   "metrics": ["t95", "x_final", "overshoot", "air_consumption"]}
     return out
@@ -746,7 +764,8 @@ def cycle_scenario(design, requirement):
     share, period = both shares: each share is :data:`CYCLE_MARGIN` times the stroke's time
     (the required one or, when longer, the sized one) plus the requirement's dwell. The
     scenario's ``start`` is ``cyclic`` (:func:`pneucore.simulate.cyclic_start`), its first
-    guess the sizing's own start (the extension's exhausting chamber at the supply).
+    guess the design's ``stroke_starts`` (the steady state it was sized from) where it has
+    them, else the sizing's default start (the extension's exhausting chamber at the supply).
 
     Parameters
     ----------
@@ -766,11 +785,13 @@ def cycle_scenario(design, requirement):
         share[k] = CYCLE_MARGIN * max(design["required_times"][k], sized) + requirement.dwell
     duration = share["extend"] + share["retract"]
     period = min(duration / (2 * RUN_SAMPLES), MAX_SAMPLE_PERIOD)
+    guess = {"p_a": requirement.ambient_pressure, "p_b": requirement.supply_pressure}
+    if design.get("stroke_starts"):
+        guess = dict(design["stroke_starts"]["extend"])
     return {"duration": period + duration, "sample_period": period,
             "command": [[0.0, -1.0], [period, 1.0], [period + share["extend"], -1.0]],
             "command_interpolation": "hold", "locked": False, "x0": 0.0,
-            "initial": {"p_a": requirement.ambient_pressure, "p_b": requirement.supply_pressure},
-            "start": "cyclic",
+            "initial": guess, "start": "cyclic",
             "name": f"steady cycle of {design['cylinder']['name']} + {design['valve']['name']}",
             "description": "extension, dwell, retraction, dwell, repeated until pressures and "
                            "temperatures repeat (start: cyclic)"}
@@ -788,12 +809,41 @@ def steady_cycle(design, requirement):
         ``cycles`` repeated [-], ``converged`` [-] and the ``start`` state (``p_a``, ``p_b``
         [Pa abs], ``T_a``, ``T_b`` [K], ``x0`` [m], ``v0`` [m/s])
     """
+    return cycle_starts(design, requirement)[0]
+
+
+def cycle_starts(design, requirement):
+    """A design's steady cycle (:func:`steady_cycle`'s answer) and the chambers' state at each
+    of its stroke commands: where the sizing's strokes start from (:func:`_stroke_scenario`).
+
+    Returns
+    -------
+    steady, starts : dict, dict or None
+        :func:`steady_cycle`'s answer; ``{"extend": state, "retract": state}``, each state
+        ``p_a``, ``p_b`` [Pa abs], ``T_a``, ``T_b`` [K]: the extension's the cyclic steady
+        state (at t = 0, the valve then switched at the first sample), the retraction's the
+        last sample at or before its command (the piston at rest at its stop; the gas there
+        changes by heat exchange only, a sample period at most); None when the cycle failed or
+        did not converge
+    """
     from pneucore.simulate import SimulationError, simulate
     scen = cycle_scenario(design, requirement)
     try:
         res = simulate(design["model"], scen)
     except (SimulationError, FieldError, ArithmeticError, ValueError) as exc:
-        return {"scenario": scen, "error": f"{type(exc).__name__}: {exc}"}
+        return {"scenario": scen, "error": f"{type(exc).__name__}: {exc}"}, None
+    out = _steady_out(scen, res)
+    if not out["converged"]:
+        return out, None
+    t_ret = scen["command"][2][0]
+    i = max(int(np.searchsorted(res.t, t_ret, side="right")) - 1, 0)
+    keys = ("p_a", "p_b", "T_a", "T_b")
+    starts = {"extend": {k: float(out["start"][k]) for k in keys},
+              "retract": {k: float(getattr(res, k)[i]) for k in keys}}
+    return out, starts
+
+
+def _steady_out(scen, res):
     strokes = res.stroke_metrics()["strokes"]
     out = {"scenario": scen, "full_stroke_time": dict.fromkeys(DIRECTIONS),
            "end_speed": dict.fromkeys(DIRECTIONS)}
@@ -839,7 +889,53 @@ def evaluate_family(requirement, choices, cylinder, valve, tube=None, base=None)
                 "direction": None, "detail": f"{type(exc).__name__}: {exc}"}
 
 
+#: Passes of a family's sizing from its cyclic steady state (:func:`_evaluate`): the first from
+#: the default start, then from the steady state of the design the last pass gave, until the
+#: design's steady cycle reproduces the pass's stroke times within :data:`STEADY_RTOL`. The
+#: state moves little with the settings: the second pass agrees within 0.1 % on the 1 m tube
+#: cases of tests/sizing/test_sizing_steady.py [-]
+STEADY_PASSES = 3
+#: The steady cycle and the sizing's strokes agree when their full-stroke times are this close
+#: (relative): a tenth of the 1 % the issue asks of page and table [-]
+STEADY_RTOL = 1e-3
+#: An infeasible family is sized again from its steady state only when it misses by less than
+#: this factor (its ``shortfall``): the steady state moves a stroke by a few per cent (the gas
+#: of the exhausting chamber is warmer than ambient after its filling), so a family further
+#: off stays infeasible [-]
+STEADY_SLACK = 1.1
+
+
 def _evaluate(requirement, choices, cylinder, valve, tube, base):
+    """A family sized from the machine's running state: :func:`_evaluate_from` from the default
+    start, then from the cyclic steady state of the design it gives (:func:`cycle_starts`),
+    repeated (:data:`STEADY_PASSES`) until that design's steady cycle reproduces its strokes
+    (:data:`STEADY_RTOL`); the design carries that ``steady_cycle`` and its ``stroke_starts``."""
+    starts, steady = None, None
+    for _ in range(STEADY_PASSES):
+        out = _evaluate_from(requirement, choices, cylinder, valve, tube, base, starts)
+        design = out.get("design")
+        if design is None or not (out["feasible"] or out.get("shortfall", math.inf) <= STEADY_SLACK):
+            return out
+        design["stroke_starts"] = starts
+        steady, new = cycle_starts(design, requirement)
+        if new is None or (starts is not None and _steady_agrees(design, steady)):
+            break
+        starts = new
+    design["steady_cycle"] = steady
+    return out
+
+
+def _steady_agrees(design, steady):
+    """Whether a design's steady cycle times its strokes as the sizing did
+    (:data:`STEADY_RTOL`)."""
+    for k in DIRECTIONS:
+        a, b = design["metrics"][k]["full_stroke_time"], (steady.get("full_stroke_time") or {}).get(k)
+        if a is None or b is None or abs(b / a - 1.0) > STEADY_RTOL:
+            return False
+    return True
+
+
+def _evaluate_from(requirement, choices, cylinder, valve, tube, base, starts=None):
     family = _family_key(cylinder, valve, tube)
     d = build_model(requirement, cylinder, valve, tube, base=base)
     try:
@@ -851,8 +947,12 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
     if weak is not None:
         return {**family, "feasible": False, "reason": "force", "direction": weak[0],
                 "detail": weak[1]}
+    loads = _load_reason(requirement, cylinder, model)
+    if loads is not None:
+        return {**family, "feasible": False, **loads}
     try:
-        dirs = {k: _Direction(model.copy(), requirement, k) for k in DIRECTIONS}
+        dirs = {k: _Direction(model.copy(), requirement, k, None if starts is None else starts[k])
+                for k in DIRECTIONS}
         full = {k: dr.run(0.0) for k, dr in dirs.items()}
         for k, m in full.items():
             if "failure" in m:
@@ -887,10 +987,12 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
         needles = None
         if requirement.cushion_capacity is not None:
             pair = (C_min, valve["C_exhaust"]) if throttled else None
-            needles, failed = _solve_needles(requirement, valve, dirs, settings, metrics, pair)
+            capacity, source = requirement.capacity_for(cylinder)
+            needles, failed = _solve_needles(requirement, valve, dirs, settings, metrics, pair,
+                                             capacity)
             if failed is not None:
                 k, (C_t, energy) = failed
-                cap = cushion_energy_limit(requirement)
+                cap = cushion_energy_limit(requirement, capacity)
                 design = _design(requirement, cylinder, valve, tube, settings, metrics, base,
                                  {n: dirs[n].t_req for n in DIRECTIONS}, needles)
                 how = (f", the least over the meter-out throttle and needle pairs searched that "
@@ -900,9 +1002,9 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
                        f"{dirs[k].t_req:.4g} s allows (no meter-out throttle: meter_out false)")
                 return {**family, "feasible": False, "reason": "cushion", "direction": k,
                         "detail": f"{k}: kinetic energy at the end stop {energy:.3g} J{how}, "
-                                  f"cushion capacity {requirement.cushion_capacity:.3g} J"
+                                  f"cushion capacity {capacity:.3g} J ({source})"
                                   + (f" (the end limits allow {cap:.3g} J)"
-                                     if cap < requirement.cushion_capacity else ""),
+                                     if cap < capacity else ""),
                         "shortfall": energy / cap, "design": {**design, "feasible": False}}
     except FieldError as exc:   # a run's own check (the mass the solver resolves, say)
         return {**family, "feasible": False, "reason": "model", "direction": None,
@@ -926,12 +1028,13 @@ def _evaluate(requirement, choices, cylinder, valve, tube, base):
     return {**family, "feasible": True, "design": design}
 
 
-def cushion_energy_limit(requirement):
-    """The impact energy the cushion needles are solved for [J]: the cushion's capacity, and
-    below it the requirement's own end limits where given (``max_end_energy``, and
-    ``max_end_speed`` as the moving mass's ``m v^2 / 2``): a needle closed for the end speed
-    is what a fitter does with an end speed too high."""
-    limits = [requirement.cushion_capacity]
+def cushion_energy_limit(requirement, capacity=None):
+    """The impact energy the cushion needles are solved for [J]: the cushion's capacity
+    (``capacity`` [J], the cylinder's own; None = ``cushion_capacity``), and below it the
+    requirement's own end limits where given (``max_end_energy``, and ``max_end_speed`` as
+    the moving mass's ``m v^2 / 2``): a needle closed for the end speed is what a fitter does
+    with an end speed too high."""
+    limits = [requirement.cushion_capacity if capacity is None else capacity]
     if requirement.max_end_energy is not None:
         limits.append(requirement.max_end_energy)
     if requirement.max_end_speed is not None:
@@ -939,7 +1042,7 @@ def cushion_energy_limit(requirement):
     return min(limits)
 
 
-def _solve_needles(requirement, valve, dirs, settings, metrics, pair=None):
+def _solve_needles(requirement, valve, dirs, settings, metrics, pair=None, capacity=None):
     """Each direction's cushion needle: fully open where the stroke sized by its meter-out
     throttle already meets the end within the cushion's capacity, else solved without the
     throttle (:meth:`_Direction.solve_needle`), and where no needle alone meets both the time
@@ -953,7 +1056,7 @@ def _solve_needles(requirement, valve, dirs, settings, metrics, pair=None):
         The needle per direction [m^3/(s Pa)]; ``(direction, (needle, energy))`` of the first
         direction no needle brings within the capacity in its time, else None
     """
-    cap = cushion_energy_limit(requirement)
+    cap = cushion_energy_limit(requirement, capacity)
     C_open = needle_open(valve)
     needles = {k: C_open for k in DIRECTIONS}
     solved, paired = [], set()
@@ -1056,7 +1159,8 @@ def _design(requirement, cylinder, valve, tube, settings, metrics, base, times=N
         # the full-stroke time each direction was sized for (with a cycle time, its share)
         "required_times": {k: requirement.time_bound(k) if times is None else times[k]
                            for k in DIRECTIONS},
-        "cushion": None if needles is None else _cushion_out(requirement, valve, needles, metrics),
+        "cushion": None if needles is None else _cushion_out(requirement, cylinder, valve,
+                                                              needles, metrics),
         "checks": load_checks(requirement, cylinder, Model.from_dict(model)),
         "feasible": True,
     }
@@ -1111,9 +1215,72 @@ def load_checks(requirement, cylinder, model):
     f_cr = math.pi ** 2 * ROD_YOUNG_MODULUS * I / (BUCKLING_K * L) ** 2 if d > 0 else None
     safety = f_cr / out["extend"] if f_cr is not None and out["extend"] > 0 else None
     return {"load_factor": lf, "load_factor_limits": dict(LOAD_FACTOR_LIMITS),
-            "load_factor_ok": all(v is None or v <= LOAD_FACTOR_LIMITS["dynamic"] for v in lf.values()),
+            "load_factor_limit": requirement.max_load_factor,
+            "load_factor_ok": all(v is None or v <= requirement.max_load_factor for v in lf.values()),
             "buckling_load": f_cr, "buckling_safety": safety,
-            "buckling_ok": safety is None or safety >= BUCKLING_SAFETY}
+            "buckling_safety_min": requirement.min_buckling_safety,
+            "buckling_ok": safety is None or safety >= requirement.min_buckling_safety}
+
+
+def _load_reason(requirement, cylinder, model):
+    """The rejection (``reason``, ``direction``, ``detail``, ``checks``) of a family whose load
+    factor is above ``requirement.max_load_factor`` or whose rod's buckling safety is below
+    ``requirement.min_buckling_safety`` (:func:`load_checks`), else None: no run is needed."""
+    ch = load_checks(requirement, cylinder, model)
+    if not ch["load_factor_ok"]:
+        k = max((k for k in DIRECTIONS if ch["load_factor"][k] is not None),
+                key=lambda k: ch["load_factor"][k])
+        return {"reason": "load_factor", "direction": k, "checks": ch,
+                "detail": f"{k}: load factor {ch['load_factor'][k]:.3g} (the load against the "
+                          f"theoretical output at {requirement.supply_pressure / 1e5:.4g} bar abs), "
+                          f"above {requirement.max_load_factor:g} (requirement.max_load_factor; "
+                          f"SMC: 0.5 moving a load, 0.7 static, 1.0 on a guide)"}
+    if not ch["buckling_ok"]:
+        return {"reason": "buckling", "direction": "extend", "checks": ch,
+                "detail": f"rod {cylinder['rod'] * 1e3:g} mm over a {requirement.stroke:g} m "
+                          f"stroke: Euler load {ch['buckling_load']:.4g} N (K = {BUCKLING_K:g}), "
+                          f"{ch['buckling_safety']:.3g} times the extension's theoretical output, "
+                          f"below {requirement.min_buckling_safety:g} "
+                          f"(requirement.min_buckling_safety)"}
+    return None
+
+
+#: A design keeps a margin when every check stays this share of its limit away from it:
+#: load factor at most (1 - MARGIN) of its limit, buckling safety at least 1 / (1 - MARGIN) of
+#: its minimum, impact energy at most (1 - MARGIN) of the cushion's capacity. The ranking puts
+#: those first: a design at 98 % of its cushion's capacity has nothing left for a heavier
+#: load, a higher supply or worn seals [-]
+MARGIN = 0.2
+
+
+def margins(design):
+    """Each check's headroom, as a share of its limit [-]: ``load_factor`` (1 - factor /
+    limit), ``buckling`` (1 - minimum / safety), ``cushion`` (1 - impact energy / capacity, the
+    worse end); absent where the check does not apply; ``least`` the smallest, ``ok`` whether
+    it is at least :data:`MARGIN`.
+
+    Parameters
+    ----------
+    design : dict
+        A design of :func:`size` (``checks``, ``cushion``)
+
+    Returns
+    -------
+    margins : dict
+    """
+    ch, out = design.get("checks") or {}, {}
+    lf = [v for v in (ch.get("load_factor") or {}).values() if v is not None]
+    if lf:
+        out["load_factor"] = 1.0 - max(lf) / ch["load_factor_limit"]
+    if ch.get("buckling_safety"):
+        out["buckling"] = 1.0 - ch["buckling_safety_min"] / ch["buckling_safety"]
+    cu = design.get("cushion")
+    if cu:
+        ratios = [cu[k]["energy_ratio"] for k in DIRECTIONS if cu[k]["energy_ratio"] is not None]
+        if ratios:
+            out["cushion"] = 1.0 - max(ratios)
+    least = min(out.values(), default=1.0)
+    return out | {"least": least, "ok": least >= MARGIN - 1e-12}
 
 
 def _why(design, first_of_bore):
@@ -1131,19 +1298,30 @@ def _why(design, first_of_bore):
     if ch:
         lf = [x for x in ch["load_factor"].values() if x is not None]
         bits.append(f"load factor {max(lf) if lf else 0:.2g} "
-                    f"({'within' if ch['load_factor_ok'] else 'ABOVE'} SMC's 0.5 for a moving load)")
+                    f"({'within' if ch['load_factor_ok'] else 'ABOVE'} "
+                    f"{ch['load_factor_limit']:g}; SMC: 0.5 for a moving load)")
         if ch["buckling_safety"] is not None:
             bits.append(f"rod buckling safety {ch['buckling_safety']:.3g} "
-                        f"({'at least' if ch['buckling_ok'] else 'BELOW'} {BUCKLING_SAFETY:g})")
+                        f"({'at least' if ch['buckling_ok'] else 'BELOW'} "
+                        f"{ch['buckling_safety_min']:g})")
+    mg = design.get("margins")
+    if mg:
+        bits.insert(0, (f"every check {MARGIN:.0%} or more inside its limit (ranked before "
+                        "designs without that margin)") if mg["ok"] else
+                    (f"ranked after the designs with a {MARGIN:.0%} margin: "
+                     + ", ".join(f"{k} {v:.0%}" for k, v in mg.items()
+                                 if k not in ("least", "ok") and v < MARGIN)
+                     + " from its limit"))
     return f"{c} + {v}: " + "; ".join(bits)
 
 
-def _cushion_out(requirement, valve, needles, metrics):
-    """A design's cushions: length, capacity and per direction the needle, whether it was
-    solved (false: fully open, the stroke meets the end within the capacity without it), the
-    impact speed and energy, and the energy against the capacity."""
-    cap = requirement.cushion_capacity
-    out = {"length": requirement.cushion_length, "capacity": cap,
+def _cushion_out(requirement, cylinder, valve, needles, metrics):
+    """A design's cushions: length, capacity (the cylinder's own, and where it comes from) and
+    per direction the needle, whether it was solved (false: fully open, the stroke meets the
+    end within the capacity without it), the impact speed and energy, and the energy against
+    the capacity."""
+    cap, source = requirement.capacity_for(cylinder)
+    out = {"length": requirement.cushion_length, "capacity": cap, "capacity_source": source,
            "needle_open_C": needle_open(valve)}
     for k in DIRECTIONS:
         e = metrics[k]["end_energy"]
@@ -1160,9 +1338,12 @@ AIR_DIGITS = 3
 
 
 def _size_key(design):
+    """The ranking: designs keeping a margin on every check first (:func:`margins`), then by
+    air per cycle (:data:`AIR_DIGITS`), bore, valve conductance and tube."""
     tube = design["tube"]["inner_diameter"] if design["tube"] else 0.0
     air = float(f"{design['air_per_cycle']:.{AIR_DIGITS}g}")
-    return (air, design["cylinder"]["bore"], design["valve"]["C"], tube)
+    return (not design["margins"]["ok"], air, design["cylinder"]["bore"], design["valve"]["C"],
+            tube)
 
 
 def families(requirement, choices):
@@ -1307,6 +1488,9 @@ def size(requirement, choices=None, workers=None, progress=None, base=None, chec
 
 
 def _answer(req, ch, outcomes):
+    for o in outcomes:
+        if "design" in o:
+            o["design"]["margins"] = margins(o["design"])
     designs = sorted((o["design"] for o in outcomes if o["feasible"]), key=_size_key)
     infeasible = []
     for o in outcomes:
@@ -1332,8 +1516,11 @@ def _answer(req, ch, outcomes):
         # near-identical valve sizes of the same bore
         dsg["best_of_cylinder"] = first
         dsg["why"] = _why(dsg, first)
-        # the machine running: the first ranked designs' strokes in the steady cycle
-        dsg["steady_cycle"] = steady_cycle(dsg, req) if rank <= STEADY_DESIGNS else None
+        # the machine running: every design sized from it carries its steady cycle; the first
+        # ranked others (closest infeasible ones) get it here
+        if dsg.get("steady_cycle") is None:
+            dsg["steady_cycle"] = steady_cycle(dsg, req) if rank <= STEADY_DESIGNS else None
+        dsg.setdefault("stroke_starts", None)
     summary = (f"{sum(o['feasible'] for o in outcomes)} of {len(outcomes)} families meet the "
                "requirement")
     if not any(o["feasible"] for o in outcomes):
@@ -1344,10 +1531,17 @@ def _answer(req, ch, outcomes):
             "robustness_studies": robust,
             "reason_meanings": dict(REASONS), "families": len(outcomes),
             "notes": model_notes(req) + [
-                f"steady cycle (the first {STEADY_DESIGNS} designs): the design's cycle "
-                "(extension, dwell, retraction, dwell) repeated until pressures and "
-                "temperatures repeat; the sizing's strokes start at rest, the exhausting "
-                "chamber at the supply, both gases at ambient temperature"] + ([
+                "steady cycle: the design's cycle (extension, dwell, retraction, dwell) "
+                "repeated until pressures and temperatures repeat; each stroke of the sizing "
+                "starts from that cycle's state at its command (stroke_starts: both chambers' "
+                "pressures and temperatures), so the table's times are the running machine's; "
+                "the settings are solved again from it until the steady cycle agrees within "
+                f"{STEADY_RTOL:.1%} ({STEADY_PASSES} passes at most)",
+                f"load checks: a family above requirement.max_load_factor "
+                f"({req.max_load_factor:g}) or below requirement.min_buckling_safety "
+                f"({req.min_buckling_safety:g}) is rejected (infeasible, reasons load_factor, "
+                f"buckling); the designs keeping {MARGIN:.0%} of every limit (load factor, "
+                "buckling, cushion energy) rank first"] + ([
                 "tube_inner_diameter choices ignored: the requirement has no tube_length."]
                 if ch.tube_inner_diameter and req.tube_length is None else []),
             "requirement": req.to_dict(), "choices": ch.to_dict(),

@@ -43,7 +43,9 @@ def _impact(design, direction, needle=None):
         model["effects"]["end_cushion"][NEEDLE[direction]] = needle
     req = Requirement.from_dict({**REQ, "cushion_capacity": design["cushion"]["capacity"],
                                  **{f"{k}_time": t for k, t in design["required_times"].items()}})
-    res = simulate(model, _stroke_scenario(req, direction))
+    # from the state the sizing timed the stroke from: the design's steady cycle's
+    starts = design["stroke_starts"]
+    res = simulate(model, _stroke_scenario(req, direction, starts and starts[direction]))
     (s,) = [s for s in res.stroke_metrics()["strokes"] if s["direction"] == direction]
     return s
 
