@@ -492,6 +492,7 @@ class ExperimentComparison(BaseModel):
     name: str = Field(..., description="Experiment label")
     dataset_id: Optional[str] = Field(None, description="Stored dataset, if used")
     command_source: Optional[str] = Field(None, description="Where the replayed valve command came from: measured (the record's u) or scenario (given with the experiment) [-]")
+    closed_loop: Optional[dict[str, Any]] = Field(None, description="A record made in closed loop (its scenario names the controller): {controller, command_source, note}; replayed open loop with its recorded valve command, the controller not simulated; absent for an open-loop record [-]")
     errors: dict[str, Optional[float]] = Field(..., description=FRACTION)
     overall: Optional[float] = Field(..., description=FRACTION)
     status: str = Field(..., description="Solver status of the replay")
@@ -611,6 +612,7 @@ class DiagnoseResponse(BaseModel):
     changes: list[ModelChange] = Field(default_factory=list, description="Every value of the model that 'model' (the verdict applied) changes")
     known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
     bench_held: list[str] = Field(default_factory=list, description="The bench-identified paths (model provenance) that the request listed in uncertain, held at their bench value [-]")
+    closed_loop: Optional[list[dict[str, Any]]] = Field(None, description="The experiments recorded in closed loop (their scenario names the controller): [{experiment, controller, command_source, note}], each replayed open loop with its recorded valve command; absent when none [-]")
     cluster: Optional[dict[str, Any]] = Field(None, description="Present when the work ran on the Dask cluster: 'lost' is null, or why the cluster was given up midway (no worker, no answer for the studies' grace time, a task lost) and the rest ran on this server, to the same answer [-]; null on this server alone")
 
 
@@ -817,6 +819,7 @@ class RefineResponse(_Open):
     model: dict[str, Any] = Field(..., description="The refined model (ModelIn JSON), ready for the next test")
     versions: list[RefineVersion] = Field(..., description="One version per step: the error falling")
     diagnoses: list[DiagnoseResponse] = Field(..., description="The diagnosis of each round")
+    closed_loop: Optional[list[dict[str, Any]]] = Field(None, description="The experiments recorded in closed loop, as in the diagnosis: each replayed open loop with its recorded valve command [-]")
     message: str = Field(..., description="The last round's finding in words")
     at_floor: bool = Field(..., description="The error reached the noise floor [-]")
 

@@ -404,7 +404,18 @@ def run_diagnose(req: DiagnoseRequest, store, limits, progress=None, checked=Non
                        scheduler=diagnosis_scheduler(req, settings),
                        scheduler_timeout=limits.scheduler_timeout).to_dict()
     out["bench_held"] = held
+    closed = closed_loop_replays(exps)
+    if closed:
+        out["closed_loop"] = closed
     return out
+
+
+def closed_loop_replays(exps):
+    """The experiments recorded in closed loop, as a diagnosis or refinement answer names
+    them: ``[{experiment, controller, command_source, note}]`` (each replayed open loop with
+    its recorded command, :attr:`pneucore.data.experiment.Experiment.closed_loop`)."""
+    return [dict(experiment=e.name or f"experiments[{i}]", **e.closed_loop)
+            for i, e in enumerate(exps) if e.closed_loop is not None]
 
 
 def check_refine(req: RefineRequest, store, limits, settings=None):
@@ -440,7 +451,11 @@ def run_refine(req: RefineRequest, store, limits, progress=None, checked=None, s
                                            validated=True, known=known,   # check_refine checked it
                                            scheduler=diagnosis_scheduler(req, settings),
                                            scheduler_timeout=limits.scheduler_timeout)
-        return refinement_answer(final, history, diagnoses)
+        out = refinement_answer(final, history, diagnoses)
+    closed = closed_loop_replays(exps)
+    if closed and isinstance(out, dict):
+        out["closed_loop"] = closed
+    return out
 
 
 def compare_csv(req: CompareRequest, store, limits, progress=None):

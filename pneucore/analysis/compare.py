@@ -423,6 +423,8 @@ def summarise(replays, n_windows=5):
             "mode": rp.result.mode,
             "events": rp.result.events,
         })
+        if rp.experiment.closed_loop is not None:   # a closed-loop record replayed open loop
+            exps[-1]["closed_loop"] = rp.experiment.closed_loop
     windows.sort(key=lambda w: -w["energy"])
     errors = _pooled(replays)
     return Comparison(errors, _overall(errors), _phase_table(replays, "command"),

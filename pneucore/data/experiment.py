@@ -18,7 +18,9 @@ at its first sample.
 The scenario's command defaults to the measured ``u`` (zero-order hold at
 the measured breakpoints) and its duration to the measurement's. An initial
 state given in the scenario (``initial``, ``x0``) applies at the model's
-t = 0. Missing initial pressures, temperatures and position are estimated
+t = 0. A record made in closed loop names the ``controller`` it ran under in its
+scenario; it is replayed open loop with its recorded command all the same, and the
+answers say so (:attr:`Experiment.closed_loop`). Missing initial pressures, temperatures and position are estimated
 from the first measured samples (:meth:`Experiment._first`), once per
 experiment: from the quiet samples before the first command change, never
 extrapolated across a transient and never outside the measured range.
@@ -55,6 +57,13 @@ NO_COMMAND = ("the record has no valve command column 'u': give the command as s
               "measured pressure's edges (POST /api/datasets/{id}/propose-command, or on the command line "
               "`pneucore propose-command FILE`, or --propose-command on compare, diagnose, "
               "refine) and confirm it")
+
+#: What the answers say of a record made in closed loop (an experiment whose scenario carries the
+#: ``controller`` it ran under): it is replayed open loop with its recorded valve command, so the
+#: model is judged on the same valve signal as the rig (the controller's own law is not simulated:
+#: the model's error would feed back into the command and hide itself)
+CLOSED_LOOP_NOTE = ("recorded in closed loop ({kind} controller): replayed open loop with its "
+                    "recorded valve command ({source}); the controller is not simulated")
 
 
 @dataclass
@@ -113,6 +122,16 @@ class Experiment:
         load = number(d.get("load_force"), f"{path}.load_force", allow_none=True)
         sup = number(d.get("supply_pressure"), f"{path}.supply_pressure", positive=True, allow_none=True)
         offset = number(d.get("time_offset"), f"{path}.time_offset", allow_none=True)
+        if scen.get("controller") is not None:
+            ctl = mapping(scen["controller"], f"{path}.scenario.controller")
+            if not isinstance(ctl.get("kind"), str) or not ctl["kind"]:
+                raise FieldError(f"{path}.scenario.controller.kind",
+                                 "the controller the record ran under, by name (e.g. pid)")
+            if "u" not in meas.signals and scen.get("command") is None:
+                raise FieldError(f"{path}.scenario.controller", (
+                    "a closed-loop record is replayed open loop with its recorded valve "
+                    "command: the record needs its command column 'u' [-] (or give "
+                    "scenario.command, breakpoints [[t [s], u [-]], ...])"))
         if "u" not in meas.signals and scen.get("command") is None:
             raise FieldError(f"{path}.scenario.command", NO_COMMAND)
         if scen.get("command") is not None:   # read as breakpoints before anything samples it
@@ -177,6 +196,21 @@ class Experiment:
         """Where the command replayed comes from: ``"scenario"`` (given with the experiment) or
         ``"measured"`` (the record's ``u`` column) [-]."""
         return "scenario" if self.scenario.get("command") is not None else "measured"
+
+    @property
+    def closed_loop(self):
+        """For a record made in closed loop (its scenario names the ``controller``): what was
+        replayed, ``{"controller": kind, "command_source", "note"}``; None for an open-loop
+        record. The replay is open loop with the recorded command (:data:`CLOSED_LOOP_NOTE`)."""
+        ctl = self.scenario.get("controller")
+        if ctl is None:
+            return None
+        source = self.command_source
+        return {"controller": str(ctl.get("kind")), "command_source": source,
+                "note": CLOSED_LOOP_NOTE.format(
+                    kind=ctl.get("kind"),
+                    source="the record's u column" if source == "measured"
+                    else "scenario.command")}
 
     @property
     def command_samples(self):
@@ -306,6 +340,7 @@ class Experiment:
                 f"record's length ({meas.duration:g} s) after the model's t = 0; give time_offset "
                 f"(e.g. {float(meas.t[0]):g} s) to start the model at the first sample"))
         d = dict(self.scenario)
+        d.pop("controller", None)   # a closed-loop record: replayed with its recorded command
         if "command" not in d:
             if "u" not in meas.signals:
                 raise FieldError("scenario.command", NO_COMMAND)
