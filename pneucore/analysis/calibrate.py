@@ -42,6 +42,7 @@ from pneucore.description.model import Model
 from pneucore.description.paths import parse_parameters, set_values
 from pneucore.progress import Cancelled
 from pneucore.analysis.blas_threads import single_threaded_blas
+from pneucore.analysis.records import Records
 
 #: Worker threads for the finite-difference Jacobian (the machine has 2 cores)
 THREADS = 2
@@ -208,7 +209,10 @@ class Objective:
         self.experiments = experiments
         self.specs = [s for s in specs if s.vary]
         self.fixed = {s.path: s.value for s in specs if not s.vary}
-        self.sigma = [signal_sigmas(e) for e in experiments]
+        # the records' weights, prepared once (:class:`pneucore.analysis.records.Records`),
+        # copied: a fit reweights its own
+        self.sigma = ([dict(d) for d in experiments.sigma] if isinstance(experiments, Records)
+                      else [signal_sigmas(e) for e in experiments])
         self.n_eval = 0
         self.best = (np.inf, None)
         self._finite_cache = {}
@@ -422,6 +426,14 @@ def window(experiments, seconds=None):
         The cut experiments (None when the records hold no more than ``seconds``) [-]
     """
     seconds = PREFIT_SECONDS if seconds is None else seconds
+    if isinstance(experiments, Records):   # cut once per length, held by the records
+        return experiments.window(seconds)
+    return cut_window(experiments, seconds)
+
+
+def cut_window(experiments, seconds):
+    """:func:`window` cut anew: the experiments to their first ``seconds`` in all [s], or None
+    when they are shorter."""
     lengths = np.array([_duration(e) for e in experiments], float)
     if lengths.sum() <= seconds:
         return None
@@ -854,7 +866,7 @@ def calibrate(model, experiments, parameters, max_nfev=40, datasets=None, progre
         best point found.
     """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
-    exps = as_experiments(experiments, model.ambient.pressure, datasets)
+    exps = Records(as_experiments(experiments, model.ambient.pressure, datasets))
     specs = check_parameters(model, exps, parameters)
     return kept_better(model, fit(model, exps, specs, max_nfev=max_nfev, progress=progress,
                                   step="calibrating"))

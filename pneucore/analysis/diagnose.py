@@ -81,6 +81,7 @@ from dataclasses import dataclass, field
 from pneucore.analysis import parallel as P
 from pneucore.analysis.blas_threads import single_threaded_blas
 from pneucore.analysis.compare import plain_json, replay, summarise
+from pneucore.analysis.records import Records, prepared
 from pneucore.analysis.diagnosis import stages as S
 from pneucore.analysis.diagnosis.circuits import restricted_paths
 from pneucore.analysis.diagnosis.evidence import consistency, excess_drop as _excess_drop  # noqa: F401
@@ -277,7 +278,8 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
         and residual tests
     """
     model = Model.from_dict(model) if not isinstance(model, Model) else model
-    exps = as_experiments(experiments, model.ambient.pressure, datasets)
+    # the records prepared once (weights, sample period, windows), read by every stage
+    exps = Records(as_experiments(experiments, model.ambient.pressure, datasets))
     report = progress or (lambda f, s: None)
 
     names = _candidate_names(model, candidates) if validated else \
@@ -292,7 +294,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
 
         hyp = S.base_hypotheses(model, exps, cands, uncertain, known, base_hypotheses, rps_start,
                                 report)
-        exps = hyp.exps
+        exps = prepared(hyp.exps)
         report(0.02, "fitting the base model")
         unc = S.uncertain_paths(model, hyp, known, refit_existing)
         # a value the user typically knows (a jack's load, an inclined jack's angle) is held at

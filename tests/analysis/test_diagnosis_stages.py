@@ -414,7 +414,7 @@ def _judged(monkeypatch, ranking):
     monkeypatch.setattr(S, "undetermined", lambda c: None)
     monkeypatch.setattr(S, "impossible", lambda *a: None)
     monkeypatch.setattr(S.H, "first_against_direction", lambda *a: None)
-    monkeypatch.setattr(S, "held_out_evidence", lambda model, exps, null, name, cal, n: (
+    monkeypatch.setattr(S, "held_out_evidence", lambda model, exps, null, name, cal, n, held=(): (
         calls.append(("held_out", name)) or {"wins": 0, "drop": 0.0, "n_folds": 5}))
     monkeypatch.setattr(S, "consistency", lambda *a, **k: (
         calls.append(("consistency", a[2])) or {"consistent": True}))

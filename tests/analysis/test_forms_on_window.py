@@ -24,6 +24,8 @@ from pneucore.description.presets import model_preset
 MODEL = Model.from_dict(model_preset("paper-4way"))
 #: The 1 m probe line at 1 kHz: its delay spans three samples (tests/description/test_effect_forms.py)
 SEGMENTED = {"segments": 3}
+#: The stubbed null's error and noise floor [-] (:func:`_stub_refits`' fits remove most of it)
+NULL = {"error": 0.02, "floor_overall": 0.001}
 
 
 def _experiments():
@@ -45,11 +47,14 @@ def _stub_refits(monkeypatch, window_rss):
         return SimpleNamespace(rss_after=[("e", "p_a", window_rss[seg], 1)], seg=seg)
 
     def full(model, exps, null, name, start, max_nfev, report, form=None, sample_period=0.0,
-             prefit=None):
+             prefit=None, held=()):
         asked.append((dict(form or {}), None if prefit is None else prefit.seg))
         values = {**start, **(form or {})}
+        # every form removes most of the null's excess (NULL: 2 % against a 0.1 % floor), so
+        # the default form shows the effect and a finer one is worth its fit
         return SimpleNamespace(model=SimpleNamespace(effects={name: values}),
-                               rss_after=[("e", "p_a", 1.0, 1)])
+                               rss_after=[("e", "p_a", 1.0, 1)],
+                               error_after=SimpleNamespace(overall=0.005))
     monkeypatch.setattr(C, "window_fit", window_fit)
     monkeypatch.setattr(S, "_joint_refit_from", full)
     return made, asked
@@ -69,7 +74,7 @@ def test_a_form_far_behind_on_the_window_is_not_fitted_on_the_full_records(
     # two records of 1 s each: long once the window is shorter than they are
     monkeypatch.setattr(C, "PREFIT_SECONDS", 1.0)
     made, asked = _stub_refits(monkeypatch, window_rss)
-    null = SimpleNamespace(specs_start=[], prior=None)
+    null = SimpleNamespace(specs_start=[], prior=None, **NULL)
     S.joint_refit(MODEL, exps, null, "tubing", 30, _quiet, SEGMENTED)
     assert made == [1, 3]           # each form's window fit, once
     assert asked == fitted          # the kept forms, each from its own window fit
@@ -78,8 +83,8 @@ def test_a_form_far_behind_on_the_window_is_not_fitted_on_the_full_records(
 def test_records_fitted_whole_compare_no_forms_on_a_window(monkeypatch):
     exps = _experiments()
     made, asked = _stub_refits(monkeypatch, {1: 1.0, 3: 9.0})
-    S.joint_refit(MODEL, exps, SimpleNamespace(specs_start=[], prior=None), "tubing", 30,
-                  _quiet, SEGMENTED)
+    S.joint_refit(MODEL, exps, SimpleNamespace(specs_start=[], prior=None, **NULL), "tubing",
+                  30, _quiet, SEGMENTED)
     assert made == []
     assert asked == [({}, None), (SEGMENTED, None)]
 

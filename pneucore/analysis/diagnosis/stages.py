@@ -28,6 +28,7 @@ from pneucore.analysis import parallel as P
 from pneucore.analysis.autocorrelation import effective_lr, residual_times, times_report
 from pneucore.analysis.calibrate import Objective, fit, information_criteria
 from pneucore.analysis.compare import replay
+from pneucore.analysis.records import prepared
 from pneucore.analysis.diagnosis import rules as R
 from pneucore.analysis.diagnosis.evidence import (consistency, excess_drop, experiment_excess,
                                                   given_prior, held_out, improvement, explain,
@@ -521,9 +522,9 @@ def uncertain_column(exps, base, keys, y0, s):
 
 
 def sample_period(exps):
-    """The finest sample period of the experiments' records [s] (their median spacing)."""
-    dts = [float(np.median(np.diff(e.times))) for e in exps if e.times.size > 1]
-    return min(dts) if dts else 0.0
+    """The finest sample period of the experiments' records [s] (their median spacing; read
+    from :class:`pneucore.analysis.records.Records`, where it was found once)."""
+    return prepared(exps).sample_period
 
 
 def probe(model, exps, null, Ju, name):
