@@ -302,6 +302,50 @@ def _mechanical_mode(A, scale):
     return wn, float(-(s1 + s2).real / (2.0 * wn))
 
 
+def discretize(A, B, sample_period):
+    """The state-space model ``dx/dt = A x + B u`` sampled with a zero-order hold (a controller
+    that holds its output between samples, as the closed loop's core does).
+
+    .. math:: A_d = e^{A T_s}, \qquad B_d = \int_0^{T_s} e^{A s} \, ds \; B
+
+    both read off one matrix exponential of the augmented matrix ``[[A, B], [0, 0]] T_s``
+    (Van Loan 1978, "Computing integrals involving the matrix exponential").
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        State matrix (:func:`linearize`'s ``A``) [SI per s]
+    B : array_like, shape (n,) or (n, 1)
+        Input matrix, one input (:func:`linearize`'s ``B``) [SI per s]
+    sample_period : float
+        Controller sample period T_s [s]
+
+    Returns
+    -------
+    Ad : ndarray, shape (n, n)
+        Discrete state matrix [-]
+    Bd : ndarray, shape (n,)
+        Discrete input matrix [SI]
+
+    Examples
+    --------
+    An integrator ``dx/dt = u`` held for 0.1 s moves by 0.1 u:
+
+    >>> Ad, Bd = discretize([[0.0]], [1.0], 0.1)
+    >>> float(Ad[0, 0]), round(float(Bd[0]), 12)
+    (1.0, 0.1)
+    """
+    from scipy.linalg import expm
+    A = np.asarray(A, float)
+    B = np.asarray(B, float).reshape(A.shape[0], -1)[:, 0]
+    n = A.shape[0]
+    M = np.zeros((n + 1, n + 1))
+    M[:n, :n] = A * sample_period
+    M[:n, n] = B * sample_period
+    E = expm(M)
+    return E[:n, :n], E[:n, n]
+
+
 def to_json(lin):
     """:func:`linearize`'s result as plain JSON (complex poles as ``[re, im]``)."""
     fr = lin["frequency_response"]

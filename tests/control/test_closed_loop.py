@@ -4,11 +4,10 @@ import math
 
 import numpy as np
 import pytest
-from scipy.linalg import expm
 
 from pneucore import model_preset
 from pneucore.control.closed_loop import ControlError, simulate_closed_loop
-from pneucore.control.linearize import linearize
+from pneucore.control.linearize import discretize, linearize
 from pneucore.control.metrics import control_metrics
 from pneucore.control.models import servo_model
 from pneucore.description.validation import FieldError
@@ -33,11 +32,7 @@ def test_small_p_step_matches_the_linearised_closed_loop():
     op = lin["operating_point"]
     A, B, C = lin["A"], lin["B"], lin["C"]
     n = A.shape[0]
-    M = np.zeros((n + 1, n + 1))
-    M[:n, :n] = A * TS
-    M[:n, n:] = B * TS
-    E = expm(M)
-    Ad, Bd = E[:n, :n], E[:n, n]
+    Ad, Bd = discretize(A, B, TS)
     N = 1500
     z = np.zeros(n)
     xs = np.empty(N)
@@ -204,11 +199,7 @@ def test_small_sine_tracking_matches_the_linearised_closed_loop(f):
     lin = linearize(m, x=x0)
     A, B, C = lin["A"], lin["B"], lin["C"]
     n = A.shape[0]
-    M = np.zeros((n + 1, n + 1))
-    M[:n, :n] = A * TS
-    M[:n, n:] = B * TS
-    E = expm(M)
-    Ad, Bd = E[:n, :n], E[:n, n]
+    Ad, Bd = discretize(A, B, TS)
     N = 2001
     t = np.arange(N) * TS
     ref = x0 + amp * np.sin(2 * np.pi * f * t)

@@ -3,10 +3,9 @@ item 1): the ``sensor_lag`` effect's position resolution, lag and noise, the tra
 noise (pneucore.physics.sensors). The series keep the true position and add the sensed one."""
 import numpy as np
 import pytest
-from scipy.linalg import expm
 
 from pneucore.control.closed_loop import simulate_closed_loop
-from pneucore.control.linearize import linearize
+from pneucore.control.linearize import discretize, linearize
 from pneucore.control.metrics import control_metrics
 from pneucore.control.models import servo_model
 from pneucore.description.validation import FieldError
@@ -68,11 +67,7 @@ def _linear_p_step(m, x0, step, kp, tau, n_steps):
     lin = linearize(m, x=x0)
     A, B, C = lin["A"], lin["B"], lin["C"]
     n = A.shape[0]
-    M = np.zeros((n + 1, n + 1))
-    M[:n, :n] = A * TS
-    M[:n, n:] = B * TS
-    E = expm(M)
-    Ad, Bd = E[:n, :n], E[:n, n]
+    Ad, Bd = discretize(A, B, TS)
     z = np.zeros(n)
     xs = np.empty(n_steps)
     sensed = prev = x0
