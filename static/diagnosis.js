@@ -81,6 +81,8 @@ function renderDiagnosis() {
       // shown in the page's unit system (static/units.js)
       const u = typeof unitShow === 'function' ? unitShow(p.unit) : { unit: p.unit, scale: 1, offset: 0 };
       const v = (x) => (typeof x === 'number' ? (x - u.offset) / u.scale : x);
+      // a parameter of the effect's smaller form, held off (not fitted: a stand-in, r.stand_in)
+      if (p.held) return `<tr><th scope="row">${esc(k)}</th><td class="num">${num(v(p.value))} ${esc(prettyUnit(u.unit || ''))} (held off)</td><td class="num">–</td><td></td></tr>`;
       return `<tr><th scope="row">${esc(k)}</th><td class="num">${num(v(p.value))} ± ${num(p.stderr / u.scale, 2)} ${esc(prettyUnit(u.unit || ''))}</td>` +
         `<td class="num">${p.ci95 ? `[${num(v(p.ci95[0]))}, ${num(v(p.ci95[1]))}]` : '–'}</td>${p.at_bound ? '<td class="warn">at bound</td>' : '<td></td>'}</tr>`;
     }).join('');
