@@ -39,7 +39,7 @@ LAYOUT = {
     "data": {"command", "experiment", "export", "fileformats", "matfile", "measurement", "npz", "samples", "synthetic"},
     "analysis": {"autocorrelation", "blas_threads", "calibrate", "calibration_options", "compare", "diagnose",
                  "command_line", "engineering", "heat_compare", "history", "hypotheses", "metrics", "parallel", "report",
-                 "phase_excess", "shown", "strokes"},
+                 "phase_excess", "records", "shown", "strokes"},
     # the diagnosis's stages, its acceptance rules, its evidence and its findings (and what a
     # designer can act on for a restricted valve path: circuits)
     "analysis/diagnosis": {"circuits", "evidence", "findings", "rules", "stages"},

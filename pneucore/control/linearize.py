@@ -303,7 +303,7 @@ def _mechanical_mode(A, scale):
 
 
 def discretize(A, B, sample_period):
-    """The state-space model ``dx/dt = A x + B u`` sampled with a zero-order hold (a controller
+    r"""The state-space model ``dx/dt = A x + B u`` sampled with a zero-order hold (a controller
     that holds its output between samples, as the closed loop's core does).
 
     .. math:: A_d = e^{A T_s}, \qquad B_d = \int_0^{T_s} e^{A s} \, ds \; B
