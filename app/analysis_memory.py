@@ -86,6 +86,21 @@ RETRY_AFTER_S = 10
 CURRENT = contextvars.ContextVar("pneucore_memory_budget", default=None)
 
 
+@contextmanager
+def budget_of_request(budget):
+    """:data:`CURRENT` set to ``budget`` for the block (a request's work and the worker threads
+    it starts, which get a copy of this context), put back after; a block exited in another
+    context (the request's task ends anyway) leaves it."""
+    token = CURRENT.set(budget)
+    try:
+        yield
+    finally:
+        try:
+            CURRENT.reset(token)
+        except ValueError:
+            pass
+
+
 #: Malloc arenas of the server's process [-] (glibc's ``M_ARENA_MAX``; its default is 8 per
 #: core): each thread that allocates gets an arena of its own, which keeps its high-water mark
 #: once its analysis is done, so that the resident memory grew as the sum of every thread's

@@ -22,7 +22,7 @@ from starlette.exceptions import HTTPException
 from starlette.requests import Request
 
 from .asgi import TrackedSend, send_json
-from .analysis_memory import BODY, CURRENT as MEMORY, body_estimate
+from .analysis_memory import BODY, body_estimate, budget_of_request
 from .request_memory import check_json, json_values
 
 
@@ -162,14 +162,8 @@ class OffLoopRoute(APIRoute):
             # the analyses' memory budget for this request's work (an upload's decoding, a
             # synchronous analysis: app.analysis_memory.admitted); a job holds its own
             budget = getattr(request.app.state, "memory", None)
-            token = MEMORY.set(budget)
-            try:
+            with budget_of_request(budget):
                 return await self._handle(handler, request, budget)
-            finally:
-                try:
-                    MEMORY.reset(token)
-                except ValueError:   # exited in another context: the request's task ends anyway
-                    pass
         return off_loop_handler
 
     async def _handle(self, handler, request, budget):

@@ -27,7 +27,7 @@ from fastapi import Depends, HTTPException, Request
 
 from pneucore.progress import Cancelled
 
-from .analysis_memory import CURRENT as MEMORY
+from .analysis_memory import budget_of_request
 
 
 class ClientGone(Cancelled):
@@ -160,14 +160,8 @@ def _admitted(what):
         async with request.app.state.sync_pool.slot(what, request.receive):
             # the analysis holds its memory estimate once its records are read (in its worker
             # thread, which gets a copy of this context: app.analysis_memory.admitted)
-            token = MEMORY.set(getattr(request.app.state, "memory", None))
-            try:
+            with budget_of_request(getattr(request.app.state, "memory", None)):
                 yield
-            finally:
-                try:
-                    MEMORY.reset(token)
-                except ValueError:   # exited in another context: the request's task ends anyway
-                    pass
     return admission
 
 
