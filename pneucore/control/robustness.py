@@ -23,6 +23,7 @@ are the studies' (an exception raised by ``progress`` kills the pool's running p
 """
 from __future__ import annotations
 
+import functools
 import itertools
 import json
 import math
@@ -78,20 +79,14 @@ class ControlBlock:
         return len(self.indices)
 
 
-_PAYLOADS = {}
-
-
+@functools.lru_cache(maxsize=4)
 def _payload(text):
-    """The parsed task payload (kept per process: a worker parses it once)."""
-    got = _PAYLOADS.get(text)
-    if got is None:
-        from pneucore.study.definition import Study
-        if len(_PAYLOADS) >= 4:
-            _PAYLOADS.clear()
-        d = json.loads(text)
-        got = (Study.from_dict(d["study"]), d["controllers"])
-        got[0].values()
-        _PAYLOADS[text] = got
+    """The parsed task payload, its study's values drawn (kept per process, the last four: a
+    worker parses it once)."""
+    from pneucore.study.definition import Study
+    d = json.loads(text)
+    got = (Study.from_dict(d["study"]), d["controllers"])
+    got[0].values()
     return got
 
 

@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures as cf
+import functools
 import math
 import os
 import re
@@ -96,18 +97,12 @@ class StudyInterrupted(RuntimeError):
 
 
 # -- worker side ------------------------------------------------------------------------
-_STUDIES = {}
-
-
+@functools.lru_cache(maxsize=4)
 def _study_for(text):
-    """The parsed study of a definition text (kept per process: a worker parses it once)."""
-    s = _STUDIES.get(text)
-    if s is None:
-        if len(_STUDIES) >= 4:
-            _STUDIES.clear()
-        s = Study.from_json(text)
-        s.values()
-        _STUDIES[text] = s
+    """The parsed study of a definition text, its values drawn (kept per process, the last
+    four: a worker parses it once)."""
+    s = Study.from_json(text)
+    s.values()
     return s
 
 
