@@ -387,7 +387,8 @@ async function loadExtras() {
   if (IDF.extras.length) box.append(h('span', { class: 'small', text: 'Also identify: ' }));
   for (const x of IDF.extras) {
     const cb = h('input', { type: 'checkbox', id: `id-extra-${x}`, value: x });
-    box.append(h('label', { class: 'check small' }, cb, ` ${x} `));
+    // a choice, not a quantity: [-] (the extra's own unit is in its result row)
+    box.append(h('label', { class: 'check small' }, cb, ` ${x} `, h('span', { class: 'sr-only', text: '(identify it) [-]' })));
   }
 }
 

@@ -161,6 +161,9 @@ def click_and_wait_for_plot(page, selector):
 
 # --------------------------------------------------------------------------- tests
 def test_every_control_is_labelled_with_units(page):
+    # controls written after a request (the friction step's extras, from the OpenAPI schema)
+    # are there before they are checked (once they were, and once not, by the race)
+    page.wait_for_function("() => document.querySelectorAll('#id-fric-extras input').length > 0")
     missing = page.evaluate("""() => Array.from(document.querySelectorAll('input, select, textarea'))
         .filter(e => !e.labels || e.labels.length === 0).map(e => e.id || e.outerHTML.slice(0, 80))""")
     assert missing == []
