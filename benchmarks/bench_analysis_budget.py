@@ -86,6 +86,8 @@ def child(length, clients, workers, budget_mb, retry):
                 while True:
                     r = c.post("/api/diagnose", json=body)
                     if r.status_code != 503:
+                        if r.status_code != 200:   # what refused it, for the report
+                            print(f"answer {r.status_code}: {r.text[:300]}", file=sys.stderr)
                         return r.status_code
                     refused.append(r.json())
                     time.sleep(retry)
@@ -133,6 +135,10 @@ def main(argv=None):
                          capture_output=True, text=True, env=env, cwd=ROOT, timeout=3600)
     if out.returncode != 0:
         sys.exit(out.stderr[-3000:])
+    # what refused an analysis (a 4xx other than the budget's 503), as the child wrote it
+    for line in out.stderr.splitlines():
+        if line.startswith("answer "):
+            print(line)
     fig = json.loads(out.stdout.strip().splitlines()[-1])
     print(json.dumps(fig, indent=1))
     print(f"peak resident growth {fig['growth_mb']:.0f} MB for a budget of {fig['budget_mb']:.0f} MB "
