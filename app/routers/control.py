@@ -38,17 +38,21 @@ def _job(jobs, kind, fn, memory):
         raise HTTPException(429, str(exc)) from None
 
 
+def _control_job(kind, run, req, request, limits, jobs):
+    """A closed-loop study or tuning checked now (422) and run as a job on the studies' engine
+    with its memory estimate; ``run(req, report, engine)`` is its work."""
+    estimate = check_control_study(req, limits)
+    engine = control_engine(request.app.state.settings)
+    return _job(jobs, kind, lambda job: run(req, job.report, engine), estimate)
+
+
 @router.post("/jobs/control-study", status_code=202, response_model=JobResponse,
              summary="Closed-loop robustness over a study's parameter sets, as a job on the study pool")
 def control_study_job(req: ControlStudyRequest, request: Request, jobs: JobsDep, limits: LimitsDep):
-    estimate = check_control_study(req, limits)
-    engine = control_engine(request.app.state.settings)
-    return _job(jobs, "control-study", lambda job: run_control_study(req, job.report, engine), estimate)
+    return _control_job("control-study", run_control_study, req, request, limits, jobs)
 
 
 @router.post("/jobs/tune-controller", status_code=202, response_model=JobResponse,
              summary="Rank controller gains on their worst case over a study's ensemble, as a job on the study pool")
 def tune_job(req: TuneRequest, request: Request, jobs: JobsDep, limits: LimitsDep):
-    estimate = check_control_study(req, limits)
-    engine = control_engine(request.app.state.settings)
-    return _job(jobs, "tune-controller", lambda job: run_tune(req, job.report, engine), estimate)
+    return _control_job("tune-controller", run_tune, req, request, limits, jobs)
