@@ -36,6 +36,16 @@ _FRICTION = {
     "retract": {"fc0": 10.0, "fc_a": 1.0e-5, "fc_b": 1.5e-5, "kv0": 45.0, "kv_a": 3e-5, "kv_b": 5e-5},
 }
 
+#: What both presets share beyond the jack: the paper's supply (7 bar abs) and ambient, its
+#: convective heat model (Eq. 9, h 25 W/(m^2 K)), its friction, no effect (SI)
+_RIG = {
+    "supply": {"pressure": 7e5, "temperature": 293.15},
+    "ambient": {"pressure": 1.013e5, "temperature": 293.15},
+    "heat": {"model": "convective", "coefficient": 25.0},
+    "friction": _FRICTION,
+    "effects": {},
+}
+
 MODEL_PRESETS = {
     "paper-4way": {
         "name": "paper-4way",
@@ -50,11 +60,7 @@ MODEL_PRESETS = {
                   "ports": {"P-A": _SUPPLY_EDGE, "A-R": _EXHAUST_EDGE,
                             "P-B": _mirror(_SUPPLY_EDGE), "B-R": _mirror(_EXHAUST_EDGE)},
                   "b_chamber_pressure": None},
-        "supply": {"pressure": 7e5, "temperature": 293.15},
-        "ambient": {"pressure": 1.013e5, "temperature": 293.15},
-        "heat": {"model": "convective", "coefficient": 25.0},
-        "friction": _FRICTION,
-        "effects": {},
+        **_RIG,
     },
     "paper-3way": {
         "name": "paper-3way",
@@ -68,11 +74,7 @@ MODEL_PRESETS = {
                   "ports": {"P-A": {"opening": [0.5, 0.51], "C": [0.0, _C3], "b": [0.42, 0.42]},
                             "A-R": {"opening": [0.49, 0.5], "C": [_C3, 0.0], "b": [0.42, 0.42]}},
                   "b_chamber_pressure": None},
-        "supply": {"pressure": 7e5, "temperature": 293.15},
-        "ambient": {"pressure": 1.013e5, "temperature": 293.15},
-        "heat": {"model": "convective", "coefficient": 25.0},
-        "friction": _FRICTION,
-        "effects": {},
+        **_RIG,
     },
 }
 
