@@ -272,7 +272,10 @@ class Objective:
             if sp is not None:
                 sensors.setdefault(sp[0], {})[sp[1]] = v
         if not sensors:
-            # the core's outputs freed at once: a fit reads the signals, a summary a few more
+            # the core's outputs freed at once: a fit reads the signals, a summary a few more;
+            # a model the records were replayed on already is taken from their cache
+            if isinstance(self.experiments, Records):
+                return self.experiments.replayed(m)
             return [replay(m, e).drop_core_outputs() for e in self.experiments]
         amb = self.model.ambient.pressure
         rps = [replay(m, _sensed(e, sensors, amb, m.jack.stroke)) for e in self.experiments]

@@ -13,18 +13,87 @@ noise and initial state anew). :class:`Records` holds them once:
 - ``sample_period``: the finest sample period of the records [s];
 - :meth:`Records.window`: the records cut to their first seconds
   (:func:`pneucore.analysis.calibrate.window`), cut once per length and itself a
-  :class:`Records`.
+  :class:`Records`;
+- :meth:`Records.subset`: some of the experiments (one fitted alone, the others when one is
+  left out), with their weights as found for the whole;
+- :meth:`Records.replayed`: the experiments replayed on a model, kept for the next stage that
+  asks for the same model (the replay cache, shared by the records, their windows and subsets).
 
 It is a list of the experiments (every function that takes a list of experiments takes it);
 :class:`pneucore.analysis.calibrate.Objective` starts from its weights (a copy: a fit
-reweights its own), :func:`pneucore.analysis.calibrate.window` answers from its cache, and
-:func:`pneucore.analysis.diagnosis.stages.sample_period` reads its period. A slice or a
-subset (one experiment fitted alone, a fold with a block held out) is a plain list again and
-derives its own.
+reweights its own) and replays through its cache, :func:`pneucore.analysis.calibrate.window`
+answers from its windows, and :func:`pneucore.analysis.diagnosis.stages.sample_period` reads
+its period. A plain slice is a plain list again and derives its own; a record with a block of
+samples masked (:func:`pneucore.analysis.diagnosis.evidence.masked`) is a new record with
+weights of its own.
+
+**The replay cache.** A diagnosis fits the same records from a hundred starting points; a
+finite-difference column whose step meets a bound, a refit that starts where another ended,
+and a stage that replays a model another stage fitted ask for a model that was simulated
+already (4-7 % of the replays of a foreign case's diagnosis, measured). A replay is a pure
+function of the model and the record, so the one kept serves (the compiled core is
+deterministic: the same floats in, the same floats out). Keys are the model's plain form, found
+in 0.04 ms against 0.5-50 ms a replay; the cache holds at most :data:`REPLAY_CACHE_SAMPLES`
+samples of replays, the oldest dropped first. Replays are read, never changed, by those who get
+them (as the two an objective keeps of its last evaluations always were); an objective that
+adds a sensor's gain to the simulated signals replays without the cache.
 """
 from __future__ import annotations
 
+import json
+import threading
+from collections import OrderedDict
+
 import numpy as np
+
+#: Samples of replays the cache keeps, over all its entries [-]: a replay keeps its measured
+#: and simulated signals, the time and the command (about ten 8-byte numbers a sample), so
+#: 400,000 samples are about 32 MB, 2 % of one diagnosis's memory estimate at the API's cost
+#: limit (9,700 B a sample over 200,000 samples, docs/guides/memory.md); two 1 s records at
+#: 1 kHz keep about 200 models, a 120 s record a few
+REPLAY_CACHE_SAMPLES = 400_000
+
+
+class ReplayCache:
+    """Replays by (model, record), the oldest dropped past :data:`REPLAY_CACHE_SAMPLES`;
+    safe for the fits' threads."""
+
+    def __init__(self, limit=REPLAY_CACHE_SAMPLES):
+        self.limit = int(limit)
+        self._entries = OrderedDict()     # (model key, id(record)) -> (record, replay, samples)
+        self._samples = 0
+        self._lock = threading.Lock()
+        self.hits = 0
+        self.misses = 0
+
+    def get(self, key, experiment):
+        with self._lock:
+            hit = self._entries.get((key, id(experiment)))
+            if hit is None or hit[0] is not experiment:   # an id reused by a new record
+                self.misses += 1
+                return None
+            self._entries.move_to_end((key, id(experiment)))
+            self.hits += 1
+            return hit[1]
+
+    def put(self, key, experiment, rp):
+        n = int(np.asarray(rp.t).size)
+        if n > self.limit:
+            return
+        with self._lock:
+            k = (key, id(experiment))
+            if k in self._entries:
+                return
+            self._entries[k] = (experiment, rp, n)
+            self._samples += n
+            while self._samples > self.limit:
+                _, (_, _, m) = self._entries.popitem(last=False)
+                self._samples -= m
+
+
+def model_key(model):
+    """The plain form of ``model`` as one string: equal for models that simulate alike [-]."""
+    return json.dumps(model.to_dict(), sort_keys=True, default=repr)
 
 
 class Records(list):
@@ -36,11 +105,12 @@ class Records(list):
         Prepared experiments (:func:`pneucore.data.experiment.as_experiments`) [-]
     """
 
-    def __init__(self, experiments):
+    def __init__(self, experiments, cache=None):
         super().__init__(experiments)
         self._sigma = None
         self._period = None
         self._windows = {}
+        self._cache = cache if cache is not None else ReplayCache()
 
     @property
     def sigma(self):
@@ -67,16 +137,46 @@ class Records(list):
         if seconds not in self._windows:
             from pneucore.analysis.calibrate import cut_window
             short = cut_window(list(self), seconds)
-            self._windows[seconds] = None if short is None else Records(short)
+            self._windows[seconds] = None if short is None else Records(short, self._cache)
         return self._windows[seconds]
+
+    def subset(self, indices):
+        """The experiments at ``indices`` as :class:`Records`, with their weights as found for
+        these records and the same replay cache [-]."""
+        indices = [int(i) for i in indices]
+        out = Records([self[i] for i in indices], self._cache)
+        if self._sigma is not None:
+            out._sigma = [self._sigma[i] for i in indices]
+        return out
+
+    def replayed(self, model):
+        """Each experiment replayed on ``model`` (:func:`pneucore.analysis.compare.replay`,
+        the core's outputs dropped), taken from the cache where the same model was replayed on
+        the same record already [-]. The replays are to be read, not changed."""
+        from pneucore.analysis.compare import replay
+        key = model_key(model)
+        out = []
+        for e in self:
+            rp = self._cache.get(key, e)
+            if rp is None:
+                rp = replay(model, e).drop_core_outputs()
+                self._cache.put(key, e, rp)
+            out.append(rp)
+        return out
+
+    @property
+    def cache(self):
+        """The replay cache these records share with their windows and subsets."""
+        return self._cache
 
     def __getstate__(self):
         # sent to a Dask worker: the experiments and their weights; the windows are cut again
-        # there if needed (each holds a copy of every cut record)
+        # there if needed (each holds a copy of every cut record), the replays made again
         return {"_sigma": self._sigma, "_period": self._period, "_windows": {}}
 
     def __setstate__(self, state):
         self.__dict__.update(state)
+        self._cache = ReplayCache()
 
     def __reduce_ex__(self, protocol):
         return (Records, (list(self),), self.__getstate__())

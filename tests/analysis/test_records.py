@@ -57,3 +57,62 @@ def test_the_records_travel_to_a_worker_without_their_windows(exps):
     back = pickle.loads(pickle.dumps(rec))
     assert isinstance(back, Records) and len(back) == len(rec)
     assert back.sigma == rec.sigma and back._windows == {}
+
+
+def test_a_model_replayed_again_comes_from_the_cache_with_the_same_values(exps):
+    from pneucore.analysis.compare import replay
+    from pneucore.data.experiment import as_experiments
+    rec = Records(as_experiments(exps))
+    model = Model.from_dict(model_preset("paper-4way"))
+    first = rec.replayed(model)
+    assert rec.cache.misses == len(rec) and rec.cache.hits == 0
+    # the same model built anew (equal plain form) is a hit, the very replays come back
+    again = rec.replayed(Model.from_dict(model_preset("paper-4way")))
+    assert rec.cache.hits == len(rec) and all(a is b for a, b in zip(first, again))
+    # and they are what a replay without the cache gives, to the last bit (the core is
+    # deterministic: equality, no tolerance)
+    for rp, e in zip(first, rec):
+        fresh = replay(model, e)
+        for s in rp.simulated:
+            np.testing.assert_array_equal(rp.simulated[s], fresh.simulated[s])
+    # another model is another entry; a window and a subset share the cache
+    other = model.copy()
+    other.jack.moving_mass *= 1.5
+    rec.replayed(other)
+    assert rec.cache.misses == 2 * len(rec)
+    sub = rec.subset([1])
+    assert sub.cache is rec.cache and sub.replayed(model)[0] is first[1]
+    assert sub.sigma == [rec.sigma[1]]
+
+
+def test_the_cache_keeps_a_bounded_number_of_samples():
+    from types import SimpleNamespace
+    from pneucore.analysis.records import ReplayCache
+    cache = ReplayCache(limit=250)
+    e = object()
+    for k in range(5):
+        cache.put(str(k), e, SimpleNamespace(t=np.zeros(100)))
+    # two of 100 samples fit under 250: the oldest three were dropped, the newest kept
+    assert cache.get("0", e) is None and cache.get("2", e) is None
+    assert cache.get("3", e) is not None and cache.get("4", e) is not None
+    # a replay longer than the whole limit is not kept at all
+    cache.put("big", e, SimpleNamespace(t=np.zeros(300)))
+    assert cache.get("big", e) is None
+    # a record with the same id but not the same object is a miss
+    assert cache.get("4", object()) is None
+
+
+def test_a_fit_through_the_cache_is_the_fit_without_it(exps):
+    """The objective reads replays through the records' cache: the fit's values equal to the last
+    digit those of the same fit on the plain list (no cache)."""
+    from pneucore.data.experiment import as_experiments
+    from pneucore.description.paths import ParameterSpec
+    model = Model.from_dict(model_preset("paper-4way"))
+    model.jack.moving_mass *= 1.2
+    specs = [ParameterSpec("jack.moving_mass", model.jack.moving_mass, 0.1, 10.0, True, "kg")]
+    plain = as_experiments(exps)
+    a = C.fit(model, plain, specs, max_nfev=8, compute_before=False)
+    rec = Records(as_experiments(exps))
+    b = C.fit(model, rec, specs, max_nfev=8, compute_before=False)
+    assert a.values == b.values
+    assert rec.cache.hits > 0   # the end point, simulated again to summarise it, was a hit

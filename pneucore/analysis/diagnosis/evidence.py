@@ -14,6 +14,7 @@ from pneucore.analysis.compare import noise_floor, replay
 from pneucore.analysis.diagnosis.rules import AT_FLOOR, CONSISTENT_RTOL, EXCESS_MATERIAL
 from pneucore.analysis.metrics import eq25_error
 from pneucore.analysis.parallel import pmap
+from pneucore.analysis.records import Records
 from pneucore.data.measurement import Measurement
 from pneucore.description.effects import EFFECTS
 from pneucore.description.paths import ParameterSpec
@@ -209,8 +210,11 @@ def pair(model, exps, lead, ranking, refits, u_specs, e0, floor, max_nfev, repor
 
 
 def fit_alone(model, specs, max_nfev, e):
-    """``specs`` fitted on experiment ``e`` alone from ``model`` (one fit of :func:`consistency`)."""
-    return fit(model, [e], specs, max_nfev=max_nfev, compute_before=False)
+    """``specs`` fitted on experiment ``e`` alone from ``model`` (one fit of :func:`consistency`);
+    ``e`` an experiment, or the records of it alone (:meth:`pneucore.analysis.records.Records.
+    subset`: its weights and the replay cache as prepared for all of them)."""
+    return fit(model, e if isinstance(e, list) else [e], specs, max_nfev=max_nfev,
+               compute_before=False)
 
 
 def consistency(cal, exps, name, max_nfev=30, skip=None, held=()):
@@ -249,7 +253,10 @@ def consistency(cal, exps, name, max_nfev=30, skip=None, held=()):
 
     # each experiment's fit is independent of the others': in parallel on the cores, or one
     # task each on the diagnosis's Dask cluster
-    fits = pmap(fit_alone, acting, (cal.model, specs, max(max_nfev // 2, 8)),
+    at = {id(e): i for i, e in enumerate(exps)}
+    alone = ([exps.subset([at[id(e)]]) for e in acting] if isinstance(exps, Records)
+             else acting)
+    fits = pmap(fit_alone, alone, (cal.model, specs, max(max_nfev // 2, 8)),
                 f"consistency across experiments: {name}")
     for e, c1 in zip(acting, fits):
         est = {}
@@ -430,7 +437,9 @@ def experiment_fold(loeo, exps, scales, prior, max_nfev, i):
     """Experiment ``i`` left out of :func:`held_out`'s fits: ``{"experiment", "null",
     "candidate"}``, each model fitted on the others from its start in ``loeo`` and predicting
     it whole (a piece of work for :func:`pneucore.analysis.parallel.pmap`) [-]."""
-    held, train = exps[i], exps[:i] + exps[i + 1:]
+    held = exps[i]
+    others = [j for j in range(len(exps)) if j != i]
+    train = exps.subset(others) if isinstance(exps, Records) else [exps[j] for j in others]
     out = {"experiment": held.name}
     for key, m, specs in (("null",) + tuple(loeo[:2]), ("candidate",) + tuple(loeo[2:])):
         mk = m
