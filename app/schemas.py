@@ -329,7 +329,7 @@ class VersionCreate(_Strict):
 
 class StudyRequest(_Strict):
     model: ModelIn = Field(..., description="Actuator model")
-    scenario: ScenarioIn = Field(..., description="Scenario run for every parameter set")
+    scenario: ScenarioIn = Field(..., description="Scenario run for every parameter set; one naming a controller (instead of a command) makes a closed-loop study: every run is that closed loop, its metrics the loop's (pneucore.control.metrics.CONTROL_METRICS: rise_time, settling_time [s], overshoot [-], steady_state_error [m], ...)")
     parameters: dict[str, dict[str, Any]] = Field(..., description=f"Parameter path -> {{grid: [...]}} or {{distribution: NAME, fields}} with the fields of each distribution ({_DISTRIBUTION_FIELDS}), in the unit of the parameter")
     samples: Optional[int] = Field(None, description="Number of random samples (distributions) [-]")
     seed: int = Field(0, description="Random seed [-]")

@@ -1220,9 +1220,19 @@ def queue_new_study(req, app_state, limits):
     workers), store it and queue it as a job; returns ``{id, job_id, n_runs, status}``.
     Raises :class:`QueueFull` (before anything is stored) when the job queue is full."""
     model = parse_model(req.model)
-    parse_scenario(req.scenario, model, limits)
+    scenario = req.scenario.plain()
+    controller = scenario.pop("controller", None)
+    if controller is not None:
+        # a closed-loop study (issue 42): every run is the loop on the run's model
+        if "command" in req.scenario.model_fields_set and req.scenario.command is not None:
+            raise FieldError("scenario.command", "give either a command (open loop) or a "
+                             "controller (closed loop), not both")
+        scenario.pop("command", None)
+    parse_scenario(scenario, model, limits)
+    if controller is not None:
+        scenario["controller"] = controller
     # the validated Model itself: Study.from_dict takes it as it is (validated once, above)
-    d = {"model": model, "scenario": req.scenario.plain(), "parameters": req.parameters,
+    d = {"model": model, "scenario": scenario, "parameters": req.parameters,
          "samples": req.samples, "seed": req.seed, "metrics": req.metrics, "name": req.name}
     study = Study.from_dict(d)
     if study.n_runs > limits.max_study_runs:
