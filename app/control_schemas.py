@@ -48,6 +48,8 @@ class ControllerIn(_Strict):
     sample_period: Number = Field(1e-3, description="Controller sample period (zero-order hold) [s]")
     settle_band: Optional[Number] = Field(None, description="Settling band of the metrics [m]; null = 2 % of the last move")
     seed: int = Field(0, description="Seed of the sensors' noise (model.effects.sensor_lag: position_noise [m], pressure_noise [Pa]): the same seed, the same noise [-]")
+    rate_filter: Number = Field(2e-3, description="Time constant of the filtered differentiator that estimates, from the sensed position, the velocity and acceleration the laws read (v_k = a v_(k-1) + (1 - a)(x_k - x_(k-1))/T_s, a = tau/(tau + T_s), and the same on v for the acceleration); 0 = the plain backward difference [s]")
+    ideal_rates: bool = Field(False, description="The laws read the piston's true velocity and acceleration instead of the estimates (a simulation's idealisation, no rig has it) [-]")
 
 
 class ControllerInfo(BaseModel):

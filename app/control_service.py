@@ -32,11 +32,17 @@ def linearize_answer(req):
     return to_json(linearize(model, op.x, op.p_a, op.p_b, op.u, freq))
 
 
+#: The closed loop's series an answer carries by default, where the run has them
+CLOSED_LOOP_SERIES = ("x_ref", "x_sensed", "v_est", "a_est", "p_a_sensed", "p_b_sensed")
+
+
 def closed_loop_simulation(req, limits, max_steps=None, form="json"):
     """POST /api/simulate with a scenario's ``controller``: the closed loop
     (:func:`pneucore.control.closed_loop.simulate_closed_loop`), answered as an open-loop run
-    is, with ``series.x_ref`` [m] (and ``series.x_sensed`` [m], the position the controller
-    read, where the model has a position sensor) and ``stats.control``. An unstable loop is a 422 naming
+    is, with ``series.x_ref`` [m], what the controller read (``series.v_est`` [m/s],
+    ``series.a_est`` [m/s^2], the estimated rates; ``series.x_sensed`` [m] where the model has
+    a position sensor; ``series.p_a_sensed``, ``p_b_sensed`` [Pa] where its transducers have
+    noise or a resolution) and ``stats.control``. An unstable loop is a 422 naming
     ``scenario.controller.gains``.
 
     Parameters
@@ -78,7 +84,7 @@ def closed_loop_simulation(req, limits, max_steps=None, form="json"):
     if series is None:
         from .services import DEFAULT_SERIES
         series = [s for s in DEFAULT_SERIES if s in res.series] + \
-            [s for s in ("x_ref", "x_sensed") if s in res.series]
+            [s for s in CLOSED_LOOP_SERIES if s in res.series]
     if form == "npz":
         return result_npz(res, series)
     return result_json(res, series)

@@ -196,7 +196,7 @@ class ScenarioIn(_Strict):
     solver: Optional[SolverIn] = Field(None, description=described(Scenario, "solver"))
     name: Name = Field("", description=described(Scenario, "name"))
     description: Text = Field("", description=described(Scenario, "description"))
-    controller: Optional[dict[str, Any]] = Field(None, description="Closed loop instead of command (issue 42): {kind: pid|sliding_mode|onoff|pva|force_pid, gains: {...} (SI; kp [1/m]: valve opening per metre of error), setpoint: [[t [s], x [m]], ...] or a shape, sample_period [s] (default 0.001), settle_band [m], seed [-] (of the sensors' noise, default 0)}; the controller reads the position and pressures through the model's sensors (model.effects.sensor_lag: position_resolution [m], position_time_constant [s], position_noise [m], time_constant [s], pressure_noise [Pa]); the answer adds series.x_ref [m], series.x_sensed [m] (what the controller read, where the model has a position sensor) and stats.control (docs/guides/position-control.md)")
+    controller: Optional[dict[str, Any]] = Field(None, description="Closed loop instead of command (issue 42): {kind: pid|sliding_mode|onoff|pva|force_pid, gains: {...} (SI; kp [1/m]: valve opening per metre of error), setpoint: [[t [s], x [m]], ...] or a shape, sample_period [s] (default 0.001), settle_band [m], seed [-] (of the sensors' noise, default 0), rate_filter [s] (time constant of the velocity and acceleration estimator, default 0.002), ideal_rates [-] (true: the laws read the piston's true velocity and acceleration, default false)}; the controller reads the position and pressures through the model's sensors (model.effects.sensor_lag: position_resolution [m], position_time_constant [s], position_noise [m], time_constant [s], pressure_noise [Pa], pressure_resolution [Pa]) and the velocity and acceleration estimated from the sensed position; the answer adds series.x_ref [m], what the controller read (series.v_est [m/s], series.a_est [m/s^2]; series.x_sensed [m] where the model has a position sensor; series.p_a_sensed, p_b_sensed [Pa] where its transducers have noise or a resolution) and stats.control (docs/guides/position-control.md)")
 
     def plain(self):
         d = self.model_dump(exclude_none=True)
@@ -329,7 +329,7 @@ class VersionCreate(_Strict):
 
 class StudyRequest(_Strict):
     model: ModelIn = Field(..., description="Actuator model")
-    scenario: ScenarioIn = Field(..., description="Scenario run for every parameter set")
+    scenario: ScenarioIn = Field(..., description="Scenario run for every parameter set; one naming a controller (instead of a command) makes a closed-loop study: every run is that closed loop, its metrics the loop's (pneucore.control.metrics.CONTROL_METRICS: rise_time, settling_time [s], overshoot [-], steady_state_error [m], ...)")
     parameters: dict[str, dict[str, Any]] = Field(..., description=f"Parameter path -> {{grid: [...]}} or {{distribution: NAME, fields}} with the fields of each distribution ({_DISTRIBUTION_FIELDS}), in the unit of the parameter")
     samples: Optional[int] = Field(None, description="Number of random samples (distributions) [-]")
     seed: int = Field(0, description="Random seed [-]")

@@ -28,6 +28,7 @@ from pneucore.analysis.compare import check_heat_models, compare, errors as mode
 from pneucore.analysis.diagnose import check_request, diagnose
 from pneucore.analysis.heat_compare import check_names, compare_heat_models, simulate_heat_models
 from pneucore.core.integrator import ERR_MAX_STEPS, integrate  # noqa: F401 (read by the express lane)
+from pneucore.data.experiment import closed_loop_replays
 from pneucore.data.fileformats import inspect_file, read_measurement
 from pneucore.data.measurement import DEFAULT_AMBIENT_PRESSURE, Measurement, MeasurementError
 from pneucore.data.npz import simulation_npz
@@ -408,14 +409,6 @@ def run_diagnose(req: DiagnoseRequest, store, limits, progress=None, checked=Non
     if closed:
         out["closed_loop"] = closed
     return out
-
-
-def closed_loop_replays(exps):
-    """The experiments recorded in closed loop, as a diagnosis or refinement answer names
-    them: ``[{experiment, controller, command_source, note}]`` (each replayed open loop with
-    its recorded command, :attr:`pneucore.data.experiment.Experiment.closed_loop`)."""
-    return [dict(experiment=e.name or f"experiments[{i}]", **e.closed_loop)
-            for i, e in enumerate(exps) if e.closed_loop is not None]
 
 
 def check_refine(req: RefineRequest, store, limits, settings=None):
@@ -1227,9 +1220,19 @@ def queue_new_study(req, app_state, limits):
     workers), store it and queue it as a job; returns ``{id, job_id, n_runs, status}``.
     Raises :class:`QueueFull` (before anything is stored) when the job queue is full."""
     model = parse_model(req.model)
-    parse_scenario(req.scenario, model, limits)
+    scenario = req.scenario.plain()
+    controller = scenario.pop("controller", None)
+    if controller is not None:
+        # a closed-loop study (issue 42): every run is the loop on the run's model
+        if "command" in req.scenario.model_fields_set and req.scenario.command is not None:
+            raise FieldError("scenario.command", "give either a command (open loop) or a "
+                             "controller (closed loop), not both")
+        scenario.pop("command", None)
+    parse_scenario(scenario, model, limits)
+    if controller is not None:
+        scenario["controller"] = controller
     # the validated Model itself: Study.from_dict takes it as it is (validated once, above)
-    d = {"model": model, "scenario": req.scenario.plain(), "parameters": req.parameters,
+    d = {"model": model, "scenario": scenario, "parameters": req.parameters,
          "samples": req.samples, "seed": req.seed, "metrics": req.metrics, "name": req.name}
     study = Study.from_dict(d)
     if study.n_runs > limits.max_study_runs:

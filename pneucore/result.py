@@ -14,8 +14,10 @@ SERIES_UNITS = {
     "x": "m", "v": "m/s", "a": "m/s^2", "q_a": "kg/s", "q_b": "kg/s", "friction": "N",
     "mode": "-", "u_eff": "-", "p_supply": "Pa", "q_supply": "kg/s", "net_force": "N",
     "heat_a": "W", "heat_b": "W", "V_a": "m^3", "V_b": "m^3", "rod_force": "N",
-    # a closed loop's (pneucore.control.closed_loop): the reference, the position as sensed
-    "x_ref": "m", "x_sensed": "m",
+    # a closed loop's (pneucore.control.closed_loop): the reference, and what the controller
+    # read: the position as sensed, the velocity and acceleration estimated, the pressures
+    "x_ref": "m", "x_sensed": "m", "v_est": "m/s", "a_est": "m/s^2", "p_a_sensed": "Pa",
+    "p_b_sensed": "Pa",
 }
 
 #: Measured signal (:data:`pneucore.data.measurement.SIGNALS`) -> the series that models it,

@@ -8,7 +8,8 @@
  * - "Linearise": POST /api/linearize at the setpoint's first position: natural frequency,
  *   damping, and the closed form of the pneumatic spring.
  * - the sensors the controller reads (model.effects.sensor_lag: position resolution, lag and
- *   noise, pressure noise) and the noise's seed (scenario.controller.seed), sent with the run;
+ *   noise, pressure noise and resolution), the noise's seed (scenario.controller.seed) and the
+ *   velocity estimator's filter (scenario.controller.rate_filter), sent with the run;
  *   the sensed position x_sensed plotted beside the true one when the answer has it;
  * - robustness: uncertain ranges (Coulomb friction factor, moving mass, supply pressure, valve
  *   C factor), drawn uniformly over N runs by POST /api/jobs/control-study with a specification
@@ -22,9 +23,10 @@
  */
 'use strict';
 
-const CTL = { kinds: [], byKind: {}, filled: false, robust: null, tune: null };
-/** The sensor_lag parameters the Control view sets (SI: m, s, m, Pa) */
-const CTL_SENSORS = ['position_resolution', 'position_time_constant', 'position_noise', 'pressure_noise'];
+const CTL = { kinds: [], byKind: {}, filled: false, robust: null, tune: null, linear: null };
+/** The sensor_lag parameters the Control view sets (SI: m, s, m, Pa, Pa) */
+const CTL_SENSORS = ['position_resolution', 'position_time_constant', 'position_noise', 'pressure_noise',
+  'pressure_resolution'];
 /** Metrics a study records (pneucore.control.robustness.STUDY_METRICS) with their labels */
 const CTL_METRICS = [['settling_time', 'settling time (2 %)'], ['overshoot', 'overshoot'],
   ['steady_state_error', 'steady-state error'], ['rise_time', 'rise time (10-90 %)'], ['rms_error', 'RMS tracking error'],
@@ -100,7 +102,8 @@ function applyControlUnits() {
     const label = document.querySelector(`label[for="${CSS.escape(input.id)}"]`);
     if (label) label.textContent = `${input.dataset.label} [${shown.unit}]`;
   }
-  if (CTL.run) ctlPlotRun();
+  if (CTL.run) { ctlPlotRun(); ctlTable(CTL.run.stats.control); }
+  if (CTL.linear) ctlLinearText();
   if (CTL.robust) ctlPlotHist();
   if (CTL.tune) ctlTuneTable();
 }
@@ -251,6 +254,8 @@ function ctlRequest() {
   const controller = { kind: document.getElementById('control-kind').value, gains, setpoint,
     sample_period: Number(document.getElementById('control-ts').value) };
   if (seedText !== '') controller.seed = Number(seedText);
+  const rate = document.getElementById('control-rate-filter');
+  if (rate.value.trim() !== '') controller.rate_filter = ctlSI(rate);
   return {
     model: ctlModel(),
     scenario: {
@@ -271,6 +276,7 @@ function ctlTarget(field) {
   if (f.startsWith('scenario.controller.setpoint')) return id('control-setpoint');
   if (f.startsWith('scenario.controller.sample_period')) return id('control-ts');
   if (f.startsWith('scenario.controller.seed')) return id('control-seed');
+  if (f.startsWith('scenario.controller.rate_filter')) return id('control-rate-filter');
   if (f.startsWith('scenario.controller')) return id('control-kind');
   if (f.startsWith('scenario.duration') || f.startsWith('scenario.sample_period')) return id('control-duration');
   if (f.startsWith('scenario.x0') || f.startsWith('scenario.initial')) return id('control-x0');
@@ -310,19 +316,28 @@ function ctlApiError(e, what) {
   setStatus(`${what} refused (HTTP ${e.status}): ${e.detail.map((d) => d.msg).join('; ')}`, 'error');
 }
 
+/** The closed loop's metrics in the table's order (labels from CTL_METRICS). */
+const CTL_TABLE = ['rise_time', 'settling_time', 'overshoot', 'steady_state_error', 'rms_error',
+  'hunting_amplitude', 'hunting_frequency', 'switchings', 'air_per_move'];
+
+/** The closed loop's metrics tabled in the page's unit system (ctlMetricShown: lengths as the
+ * system shows them, times in s, overshoot in %); redrawn when the system changes. */
 function ctlTable(c) {
-  const rows = [['rise time (10-90 %)', c.rise_time, 1e3, 'ms'], ['settling time (2 %)', c.settling_time, 1e3, 'ms'],
-    ['overshoot', c.overshoot, 100, '%'], ['steady-state error', c.steady_state_error, 1e6, 'µm'],
-    ['RMS tracking error', c.rms_error, 1e6, 'µm'], ['hunting amplitude', c.hunting_amplitude, 1e3, 'mm'],
-    ['hunting frequency', c.hunting_frequency, 1, 'Hz'], ['valve switchings', c.switchings, 1, '-'],
-    ['air per move', c.air_per_move, 1, 'NL']];
+  const labels = Object.fromEntries(CTL_METRICS);
   const table = document.createElement('table');
   table.className = 'data';
   const body = table.createTBody();
-  for (const [name, v, scale, unit] of rows) {
+  for (const k of CTL_TABLE) {
+    const d = ctlMetricShown(k);
+    const v = c[k];
     const tr = body.insertRow();
-    tr.insertCell().textContent = `${name} [${unit}]`;
-    tr.insertCell().textContent = v == null ? '—' : num(v * scale, 4);
+    const th = document.createElement('th');
+    th.scope = 'row';
+    th.textContent = `${labels[k] || k.replace(/_/g, ' ')} [${d.label}]`;
+    tr.append(th);
+    const td = tr.insertCell();
+    td.dataset.metric = k;
+    td.textContent = v == null ? '—' : num(d.val(v), 4);
   }
   const box = document.getElementById('control-table');
   box.textContent = '';
@@ -370,13 +385,22 @@ async function ctlLinearize() {
   const x = ctlSI(document.getElementById('control-x0'));
   await busy(document.getElementById('btn-control-linearize'), async () => {
     try {
-      const r = await api('POST', '/api/linearize', { model: S.model, operating_point: { x } });
-      document.getElementById('control-linear').textContent =
-        `At x = ${num(x * 1e3, 4)} mm, p_a = ${num(r.operating_point.p_a / 1e5, 4)} bar abs: natural frequency ` +
-        `${num(r.natural_frequency, 4)} Hz, damping ${num(r.damping, 3)} (closed chambers, no friction: ` +
-        `${num(r.closed_form.isothermal, 4)} Hz isothermal, ${num(r.closed_form.adiabatic, 4)} Hz adiabatic).`;
+      CTL.linear = await api('POST', '/api/linearize', { model: S.model, operating_point: { x } });
+      ctlLinearText();
     } catch (e) { showApiError(e, 'Linearisation'); }
   });
+}
+
+/** The linearisation's answer in words, its position and pressure in the page's unit system. */
+function ctlLinearText() {
+  const r = CTL.linear;
+  const len = ctlShown('m');
+  const pr = ctlShown('Pa');
+  document.getElementById('control-linear').textContent =
+    `At x = ${num((r.operating_point.x - len.offset) / len.scale, 4)} ${len.unit}, p_a = ` +
+    `${num((r.operating_point.p_a - pr.offset) / pr.scale, 4)} ${pr.unit}: natural frequency ` +
+    `${num(r.natural_frequency, 4)} Hz, damping ${num(r.damping, 3)} (closed chambers, no friction: ` +
+    `${num(r.closed_form.isothermal, 4)} Hz isothermal, ${num(r.closed_form.adiabatic, 4)} Hz adiabatic).`;
 }
 
 /* ------------------------------------------------------------------ robustness and tuning */

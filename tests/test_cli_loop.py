@@ -145,3 +145,57 @@ def test_known_values_stay_as_declared(tmp_path, capsys):
     assert m["heat"]["coefficient"] == model()["heat"]["coefficient"]
     assert main(["diagnose", "--sample", LEAK, "--known", "jack.no_such"]) == 2
     assert "jack.no_such" in capsys.readouterr().err
+
+
+def _closed_loop_record(tmp_path):
+    """A closed-loop step of the servo jack (PID) saved as a rig's file (t, u, p_a, p_b, x) with
+    its scenario naming the controller, and the model; the files' arguments."""
+    import numpy as np
+    from pneucore.control.closed_loop import simulate_closed_loop
+    from pneucore.control.models import servo_model
+    ctl = {"kind": "pid", "gains": {"kp": 15.0}, "setpoint": [[0, 0.1], [0.05, 0.11]]}
+    res = simulate_closed_loop(servo_model(), {"duration": 0.3, "sample_period": 0.001,
+                                               "x0": 0.1, "initial": {"p_a": 5.3e5, "p_b": 5.3e5},
+                                               "controller": ctl})
+    np.savetxt(tmp_path / "servo_step.csv", np.column_stack([res.t, res.u, res.p_a, res.p_b, res.x]),
+               delimiter=",", header="t,u,p_a,p_b,x", comments="")
+    (tmp_path / "servo.json").write_text(json.dumps(servo_model()))
+    return ["--model", str(tmp_path / "servo.json"), "--data", str(tmp_path / "servo_step.csv"),
+            "--scenario", json.dumps({"x0": 0.1, "controller": ctl})]
+
+
+def test_compare_replays_a_closed_loop_record_with_its_command_and_says_so(tmp_path, capsys):
+    """A recorded closed-loop test (its scenario names the controller): replayed open loop with
+    the record's u column, as POST /api/compare does; the terminal and the JSON say so."""
+    args = _closed_loop_record(tmp_path)
+    out = tmp_path / "c.json"
+    assert main(["compare", *args, "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    line = next(s for s in text.splitlines() if s.startswith("closed loop:"))
+    assert "servo_step" in line and "pid controller" in line
+    assert "replayed open loop with its recorded valve command (the record's u column)" in line
+    e = json.loads(out.read_text())["experiments"][0]
+    assert e["closed_loop"]["controller"] == "pid"
+    assert e["closed_loop"]["command_source"] == "measured"
+    # the record is the model's own run: replayed with its command it matches (1e-3 is the
+    # API test's bound for the same record; measured 2e-10)
+    assert e["overall"] < 1e-3
+    # without the command column there is nothing to replay: exit 2 naming the field
+    csv = tmp_path / "servo_step.csv"
+    rows = [r.split(",") for r in csv.read_text().splitlines()]
+    csv.write_text("\n".join(",".join(r[:1] + r[2:]) for r in rows))
+    assert main(["compare", *args]) == 2
+    assert "experiments[0].scenario.controller" in capsys.readouterr().err
+
+
+def test_diagnose_says_a_closed_loop_record_was_replayed_open_loop(tmp_path, capsys):
+    args = _closed_loop_record(tmp_path)
+    out = tmp_path / "d.json"
+    assert main(["diagnose", *args, "--candidates", "piston_leakage", "--json", str(out)]) == 0
+    assert "closed loop: servo_step: recorded in closed loop" in capsys.readouterr().out
+    (cl,) = json.loads(out.read_text())["closed_loop"]
+    assert cl["experiment"] == "servo_step" and cl["controller"] == "pid"
+    # an open-loop record (no controller named) says nothing of it
+    args[-1] = json.dumps({"x0": 0.1})
+    assert main(["compare", *args]) == 0
+    assert "closed loop" not in capsys.readouterr().out

@@ -15,6 +15,11 @@ Examples
 ``pneucore propose-command rig.mat --columns map.json`` (a record without a command column: the
 command read from its pressure's edges, as the page proposes it; ``--propose-command`` on the
 loop's commands uses it directly).
+
+A record made in closed loop (its ``--scenario`` names the ``controller``, as POST
+/api/simulate takes it) is replayed open loop with its recorded valve command (the file's
+``u`` column, or ``scenario.command``), the controller not simulated, and the output says so:
+a ``closed loop:`` line per such record, and ``closed_loop`` in the JSON as the API answers it.
 """
 from __future__ import annotations
 
@@ -284,6 +289,22 @@ def _errors_line(errors, overall):
         else "Eq. 25 error: none computable"
 
 
+def closed_loop_lines(replays):
+    """The terminal's lines on the experiments recorded in closed loop.
+
+    Parameters
+    ----------
+    replays : list of dict
+        :func:`pneucore.data.experiment.closed_loop_replays` [-]
+
+    Returns
+    -------
+    lines : list of str
+        One per experiment: its name and what was replayed [-]
+    """
+    return [f"closed loop: {r['experiment']}: {r['note']}" for r in replays]
+
+
 def run_loop(args):
     """Run one loop command; returns the lines to print.
 
@@ -299,7 +320,7 @@ def run_loop(args):
     """
     from pneucore.analysis.compare import compare
     from pneucore.analysis.report import comparison_report, diagnosis_report_on, refinement_report
-    from pneucore.data.experiment import as_experiments
+    from pneucore.data.experiment import as_experiments, closed_loop_replays
     from pneucore.description.model import Model
 
     if args.cmd == "propose-command":
@@ -347,6 +368,13 @@ def run_loop(args):
                          else f"version {v['version']}: {v['label']}")
         lines.append(answer["message"])
         model_out = final
+    # a record made in closed loop is replayed open loop with its recorded command: said in
+    # the answer (compare: each experiment's closed_loop; diagnose and refine: closed_loop, as
+    # the API answers) and on the terminal
+    closed = closed_loop_replays(exps)
+    if closed and args.cmd != "compare" and isinstance(answer, dict):
+        answer["closed_loop"] = closed
+    lines += closed_loop_lines(closed)
     if args.json:
         Path(args.json).write_text(json.dumps(answer))
         lines.append(f"wrote {args.json}")

@@ -8,16 +8,22 @@ A controller spec (the scenario's ``controller`` in the API) is::
      "setpoint": [[0, 0.1], [0.05, 0.15]], "sample_period": 0.001, "settle_band": 0.001}
 
 (SI: m, s; ``kp`` in 1/m is the valve opening per metre of error; ``seed`` [-], default 0,
-seeds the sensors' noise.) The result is the :class:`pneucore.result.SimulationResult` of an
+seeds the sensors' noise; ``rate_filter`` [s] and ``ideal_rates`` [-]: see below.) The result is the :class:`pneucore.result.SimulationResult` of an
 open-loop run plus ``series["x_ref"]`` [m] and ``stats["control"]``
 (:func:`pneucore.control.metrics.control_metrics`, and the controller's kind, gains and sample
 period).
 
 The controller reads the position and the pressures through the model's sensors, the
 ``sensor_lag`` effect (:func:`sensor_signals`; laws in :mod:`pneucore.physics.sensors`): the
-position sensor's resolution [m], lag [s] and noise [m], the transducers' lag [s] and noise
-[Pa]. The series keep the true position ``x``; a model with a position sensor adds
-``series["x_sensed"]`` [m], what the controller read. The metrics judge the true position.
+position sensor's resolution [m], lag [s] and noise [m], the transducers' lag [s], noise [Pa]
+and resolution [Pa]. The velocity and acceleration the laws read are estimated from the sensed
+position by a filtered differentiator (:func:`pneucore.physics.sensors.estimate_rates`, time
+constant ``rate_filter`` [s], default :data:`RATE_FILTER`); ``"ideal_rates": true`` gives the
+laws the piston's true velocity and acceleration instead (a simulation's idealisation, no
+rig has it). The series keep the true position ``x`` and add what the controller read:
+``series["v_est"]`` [m/s] and ``series["a_est"]`` [m/s^2] (the estimates), ``x_sensed`` [m]
+where the model has a position sensor, ``p_a_sensed``, ``p_b_sensed`` [Pa] where its
+transducers have noise or a resolution. The metrics judge the true position.
 """
 from __future__ import annotations
 
@@ -33,6 +39,7 @@ from pneucore.core import layout as L
 from pneucore.core.integrator import (ERR_EVENTS_OVERFLOW, N_STATS, OK, STATUS_MESSAGES,
                                      closed_core_for, closed_core_with_law)
 from pneucore.core import rhs as rhs_module
+from pneucore.physics import sensors as S
 from pneucore.core.rhs import no_terms
 from pneucore.result import CoreRun
 from pneucore.simulate import (SimulationError, build_core, mark_unreached, output_buffers,
@@ -43,6 +50,19 @@ from pneucore.description.validation import FieldError
 
 #: Shortest controller sample period [s]: 10 us, ten times the solver's smallest useful step
 MIN_SAMPLE_PERIOD = 1e-5
+
+#: Default time constant of the filtered differentiator that estimates the velocity and the
+#: acceleration the laws read from the sensed position [s]: 2 ms, a cut-off of 80 Hz, eight
+#: to ten times the servo jack's pneumatic natural frequency (8.4 Hz at mid-stroke, 10.2 Hz at
+#: a fifth of the stroke, :func:`pneucore.control.linearize.linearize`), and the PID's own
+#: default derivative filter (:func:`pneucore.physics.sensors.estimate_rates`)
+RATE_FILTER = 2e-3
+#: Longest rate filter accepted [s]: one second would lag any servo axis out of control
+MAX_RATE_FILTER = 1.0
+
+#: The fields of a controller spec
+CONTROLLER_FIELDS = ("kind", "gains", "setpoint", "sample_period", "settle_band", "seed",
+                     "rate_filter", "ideal_rates")
 
 
 class ControlError(SimulationError):
@@ -56,9 +76,10 @@ def parse_controller(spec, model, duration, path="scenario.controller"):
     if not isinstance(spec, dict):
         raise FieldError(path, "must be an object {kind, gains, setpoint, sample_period}")
     for k in spec:
-        if k not in ("kind", "gains", "setpoint", "sample_period", "settle_band", "seed"):
+        if k not in CONTROLLER_FIELDS:
             raise FieldError(f"{path}.{k}", "unknown field; fields: kind, gains, setpoint, "
-                                            "sample_period [s], settle_band [m], seed [-]")
+                                            "sample_period [s], settle_band [m], seed [-], "
+                                            "rate_filter [s], ideal_rates [-]")
     kind = controller_kind(spec.get("kind"), f"{path}.kind")
     if model.valve.kind not in kind.valves:
         raise FieldError(f"{path}.kind", f"a {kind.name} controller sets a proportional "
@@ -83,13 +104,22 @@ def parse_controller(spec, model, duration, path="scenario.controller"):
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2 ** 63:
         raise FieldError(f"{path}.seed", f"must be a whole number >= 0 [-] (the sensors' "
                                          f"noise), got {seed!r}")
+    tau = spec.get("rate_filter", RATE_FILTER)
+    if isinstance(tau, bool) or not isinstance(tau, (int, float)) or not math.isfinite(tau) \
+            or not 0.0 <= tau <= MAX_RATE_FILTER:
+        raise FieldError(f"{path}.rate_filter", f"must be a finite time constant from 0 to "
+                         f"{MAX_RATE_FILTER:g} [s] (the velocity and acceleration estimator's "
+                         f"filter; 0 = the plain backward difference), got {tau!r}")
+    ideal = spec.get("ideal_rates", False)
+    if not isinstance(ideal, bool):
+        raise FieldError(f"{path}.ideal_rates", f"must be true or false [-], got {ideal!r}")
     return kind, gains, sp, float(Ts), band
 
 
-def sensor_signals(model, Ts, n, seed):
+def sensor_signals(model, Ts, n, seed, rate_filter=RATE_FILTER, ideal_rates=False):
     """The closed loop's sensors, from the model's ``sensor_lag`` effect (the one description
-    of its sensors: :mod:`pneucore.physics.sensors`): the position sensor's parameters for the
-    core, and the noise of each sample instant, drawn before the run.
+    of its sensors: :mod:`pneucore.physics.sensors`): the sensors' parameters for the core,
+    and the noise of each sample instant, drawn before the run.
 
     Parameters
     ----------
@@ -101,29 +131,45 @@ def sensor_signals(model, Ts, n, seed):
         Sample instants [-]
     seed : int
         Seed of ``numpy.random.default_rng`` [-]: the same seed, the same noise
+    rate_filter : float
+        Time constant of the velocity and acceleration estimator
+        (:func:`pneucore.physics.sensors.estimate_rates`) [s]
+    ideal_rates : bool
+        The laws read the piston's true velocity and acceleration instead [-]
 
     Returns
     -------
     sens : ndarray
-        ``(resolution [m], time_constant [s], T_s [s])`` of the position sensor
+        The sensors' parameters (:data:`pneucore.physics.sensors.SENS_Q` ... slots: position
+        resolution [m], position lag [s], T_s [s], rate filter [s], ideal-rates flag [-],
+        pressure resolution [Pa])
     noise : ndarray
         ``(n, 3)``: noise on the position [m] and on the pressures of A and B [Pa] at each
         instant ``k T_s`` (zeros without noise)
-    declared : bool
+    declared : tuple of bool
         The model has a position sensor that is not ideal (the result then carries
-        ``series["x_sensed"]``)
+        ``series["x_sensed"]``), pressure transducers with noise or a resolution
+        (``series["p_a_sensed"]``, ``series["p_b_sensed"]``) [-]
     """
     p = model.effects.get("sensor_lag") or {}
     q = float(p.get("position_resolution", 0.0))
     tau = float(p.get("position_time_constant", 0.0))
     sx = float(p.get("position_noise", 0.0))
     sp = float(p.get("pressure_noise", 0.0))
+    qp = float(p.get("pressure_resolution", 0.0))
     noise = np.zeros((n, 3))
     if sx > 0.0 or sp > 0.0:
         # one draw of the three columns together: a seed gives the same noise whichever
         # of them the model turns on
         noise[:] = np.random.default_rng(seed).standard_normal((n, 3)) * np.array([sx, sp, sp])
-    return np.array([q, tau, Ts]), noise, (q > 0.0 or tau > 0.0 or sx > 0.0)
+    sens = np.zeros(S.N_SENS)
+    sens[S.SENS_Q] = q
+    sens[S.SENS_TAU] = tau
+    sens[S.SENS_TS] = Ts
+    sens[S.SENS_RATE_TAU] = rate_filter
+    sens[S.SENS_IDEAL_RATES] = 1.0 if ideal_rates else 0.0
+    sens[S.SENS_P_Q] = qp
+    return sens, noise, (q > 0.0 or tau > 0.0 or sx > 0.0, sp > 0.0 or qp > 0.0)
 
 
 def simulate_closed_loop(model, scenario, controller=None, raise_on_error=True, t_out=None):
@@ -162,6 +208,8 @@ def simulate_closed_loop(model, scenario, controller=None, raise_on_error=True, 
         raise FieldError("scenario.controller", "is required for a closed-loop run")
     kind, gains, sp, Ts, band = parse_controller(controller, model, scenario.duration)
     seed = controller.get("seed", 0)
+    rate_filter = float(controller.get("rate_filter", RATE_FILTER))
+    ideal_rates = bool(controller.get("ideal_rates", False))
     check_resolvable(model, scenario.solver.rtol, scenario.solver.max_step)
     core = build_core(model, scenario)
     t_out = output_times(scenario, t_out)
@@ -172,9 +220,10 @@ def simulate_closed_loop(model, scenario, controller=None, raise_on_error=True, 
     lo, hi = model.valve.opening_range
     i_sens = int(core["model"][1][L.STATE_IY0["pressure_sensor"]])
     cst = np.zeros(C.N_CST)
-    sens, noise, sensor_declared = sensor_signals(model, Ts, n_ref, seed)
-    sst = np.zeros(3)
-    sensed = np.full(n_ref, np.nan)
+    sens, noise, (position_declared, pressure_declared) = sensor_signals(
+        model, Ts, n_ref, seed, rate_filter, ideal_rates)
+    sst = np.zeros(S.N_SST)
+    sensed = np.full((n_ref, 5), np.nan)
     ctl = (np.int64(kind.code), gains, ref, Ts, cst, np.array([lo, hi], float),
            np.int64(i_sens), np.zeros(C.N_MEAS), sens, noise, sst, sensed)
     if kind.law is not None:
@@ -210,16 +259,20 @@ def simulate_closed_loop(model, scenario, controller=None, raise_on_error=True, 
                   ev_kind[:n_ev], ev_mode[:n_ev], stats, status, t_reached, []).result()
     x_ref = sp.evaluate(res.t)[0]
     res.series["x_ref"] = x_ref
-    if sensor_declared:
-        # what the controller read, held from each sample instant to the next (an output
-        # sample at an instant shows that instant's reading; the run's end, an instant the
-        # controller no longer acts at, the last reading); NaN where the run never got
-        done = np.flatnonzero(np.isfinite(sensed))
-        k = np.minimum(np.floor(res.t / Ts + 1e-9).astype(np.int64),
-                       done[-1] if done.size else 0)
-        x_sensed = sensed[k]
-        x_sensed[~np.isfinite(res.series["x"])] = np.nan
-        res.series["x_sensed"] = x_sensed
+    # what the controller read, held from each sample instant to the next (an output sample
+    # at an instant shows that instant's reading; the run's end, an instant the controller no
+    # longer acts at, the last reading); NaN where the run never got
+    done = np.flatnonzero(np.isfinite(sensed[:, 0]))
+    k = np.minimum(np.floor(res.t / Ts + 1e-9).astype(np.int64), done[-1] if done.size else 0)
+    unreached = ~np.isfinite(res.series["x"])
+    read = [("x_sensed", 0, position_declared), ("v_est", 1, not ideal_rates),
+            ("a_est", 2, not ideal_rates), ("p_a_sensed", 3, pressure_declared),
+            ("p_b_sensed", 4, pressure_declared)]
+    for name, col, shown in read:
+        if shown:
+            sig = sensed[k, col]
+            sig[unreached] = np.nan
+            res.series[name] = sig
     moves = sp.moves()
     x_start = float(res.series["x"][0])
     if sp.kind in ("step", "multi_step", "recorded") and sp.pts[0, 1] != x_start \

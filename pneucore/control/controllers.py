@@ -149,7 +149,8 @@ def register_user_controller(name, law, gains=(), valves=("4/2",), description="
         ``@njit`` function ``law(g, x_ref, v_ref, a_ref, meas, cst, Ts, u_lo, u_hi) -> u``:
         gains vector (in the order of ``gains``), reference position [m], velocity [m/s],
         acceleration [m/s^2], measured signals (``pneucore.core.controllers.MEAS_*``: x [m],
-        v [m/s], a [m/s^2], p_a, p_b [Pa abs], A_a, A_b [m^2], t [s]), memory (slots from
+        v [m/s], a [m/s^2] (estimated from the sensed position), p_a, p_b [Pa abs], A_a,
+        A_b [m^2], t [s]), memory (slots from
         ``CST_USER0`` are the law's), sample period [s], valve range [-]; returns the valve
         command (clipped to the range after it). No allocation, no Python objects.
     gains : sequence of (name, unit, default) or Gain

@@ -25,6 +25,21 @@ import numpy as np
 #: Density of air at ISO 8778 normal conditions (20 degC, 100 kPa) [kg/m^3]
 RHO_NORMAL = 1.189
 
+#: The metrics a closed-loop study records per run: name -> (unit, definition) (see the module)
+CONTROL_METRICS = {
+    "rise_time": ("s", "10 % to 90 % of the first move"),
+    "settling_time": ("s", "from the first move's start to its last exit of the 2 % band (or "
+                           "the controller's settle_band); null when it never settles"),
+    "overshoot": ("-", "largest excursion past the move's end, over the move"),
+    "steady_state_error": ("m", "x_ref - x averaged over the last 10 % of the run"),
+    "rms_error": ("m", "root mean square of x_ref - x over the run"),
+    "hunting_amplitude": ("m", "half the peak-to-peak position over the last 30 % of the run"),
+    "hunting_frequency": ("Hz", "rate of the position crossing its mean over the last 30 %, "
+                                "halved"),
+    "switchings": ("-", "changes of the valve command's side of its centre"),
+    "air_per_move": ("NL", "supply air per move at ISO 8778 normal conditions"),
+}
+
 
 def _integral(y, t):
     return float(np.sum(0.5 * (y[1:] + y[:-1]) * np.diff(t))) if len(t) > 1 else 0.0

@@ -31,15 +31,13 @@ import math
 import numpy as np
 
 from pneucore.control.closed_loop import parse_controller, simulate_closed_loop
+from pneucore.control.metrics import CONTROL_METRICS
 from pneucore.description.validation import FieldError
 
 #: Metrics of :func:`pneucore.control.metrics.control_metrics` a study records per run
-STUDY_METRICS = ("rise_time", "settling_time", "overshoot", "steady_state_error", "rms_error",
-                 "hunting_amplitude", "hunting_frequency", "switchings", "air_per_move")
+STUDY_METRICS = tuple(CONTROL_METRICS)
 #: Unit of each of :data:`STUDY_METRICS`
-METRIC_UNITS = {"rise_time": "s", "settling_time": "s", "overshoot": "-",
-                "steady_state_error": "m", "rms_error": "m", "hunting_amplitude": "m",
-                "hunting_frequency": "Hz", "switchings": "-", "air_per_move": "NL"}
+METRIC_UNITS = {k: unit for k, (unit, _) in CONTROL_METRICS.items()}
 #: Most closed-loop runs of one tuning job (gain sets x ensemble)
 MAX_TUNING_RUNS = 5000
 

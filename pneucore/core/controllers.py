@@ -2,9 +2,10 @@
 sample instant ``t_k = k T_s`` (:func:`pneucore.core.integrator.integrate_closed`), their output
 held until the next (zero-order hold). No Python runs on this path.
 
-A law reads the measured signals ``meas`` (``MEAS_*`` slots: position [m], velocity [m/s],
-acceleration [m/s^2], chamber pressures [Pa abs] as the pressure transducers report them,
-the areas [m^2]), the reference ``(x_ref [m], v_ref [m/s], a_ref [m/s^2])`` at ``t_k``, its
+A law reads the measured signals ``meas`` (``MEAS_*`` slots: position [m] as the position
+sensor reports it, velocity [m/s] and acceleration [m/s^2] estimated from that position
+(:func:`pneucore.physics.sensors.estimate_rates`), chamber pressures [Pa abs] as the pressure
+transducers report them, the areas [m^2]), the reference ``(x_ref [m], v_ref [m/s], a_ref [m/s^2])`` at ``t_k``, its
 gains ``g`` (``G_*`` slots of each kind, SI) and its memory ``cst`` (``CST_*``), and returns the
 valve command, clipped to the valve's range ``[u_lo, u_hi]``.
 

@@ -64,7 +64,8 @@ from pneucore.physics.friction import coulomb_level
 from pneucore.physics.jack import chamber_volumes, net_pressure_force, spring_force
 from pneucore.core.rhs import call_line_cells, line_terms, rhs, static_friction
 from pneucore.core.controllers import control_law
-from pneucore.physics.sensors import sense_position
+from pneucore.physics.sensors import (SENS_IDEAL_RATES, SENS_P_Q, SENS_RATE_TAU, SST_A, SST_V,
+                                      estimate_rates, quantise, sense_position)
 from numba.core.registry import CPUDispatcher
 
 
@@ -1079,9 +1080,12 @@ def _control_segment(t, y, mode, seg_t0, seg_u0, seg_slope, model, ctl, k, ftmp,
     ``ctl`` is ``(code, gains, ref, T_s, memory, (u_lo, u_hi), i_sensor, meas, sens,
     noise, sens_state, sensed)`` (:func:`integrate_closed`). The position is read through
     the model's position sensor (:func:`pneucore.physics.sensors.sense_position`: lag, noise,
-    resolution) and written to ``sensed[k]``; the pressures are the transducers' states when
-    the model has the pressure-sensor lag (``i_sensor >= 0``), else the chambers', plus their
-    noise; velocity and acceleration are the piston's (ideal).
+    resolution); the velocity and acceleration are estimated from that sensed position
+    (:func:`pneucore.physics.sensors.estimate_rates`, the filtered differentiator), or are
+    the piston's own where ``sens[SENS_IDEAL_RATES]`` is set; the pressures are the
+    transducers' states when the model has the pressure-sensor lag (``i_sensor >= 0``), else
+    the chambers', plus their noise, quantised to the transducers' resolution. What the law
+    read is written to ``sensed[k]``: x [m], v [m/s], a [m/s^2], p_a, p_b [Pa].
     """
     code, g, ref, Ts, cst, urange, i_sens, meas, sens, noise, sst, sensed = ctl
     # the right-hand side at the held command gives the pressures and the acceleration
@@ -1089,18 +1093,26 @@ def _control_segment(t, y, mode, seg_t0, seg_u0, seg_slope, model, ctl, k, ftmp,
     prm = model[0]
     kk = min(k, ref.shape[0] - 1)
     meas[0] = sense_position(y[L.Y_X], sens, sst, noise[kk, 0])
-    sensed[kk] = meas[0]
-    meas[1] = y[L.Y_V]
-    meas[2] = aux[L.AUX_ACC]
-    if i_sens >= 0:
-        meas[3] = y[i_sens] + noise[kk, 1]
-        meas[4] = y[i_sens + 1] + noise[kk, 2]
+    if sens[SENS_IDEAL_RATES] != 0.0:
+        meas[1] = y[L.Y_V]
+        meas[2] = aux[L.AUX_ACC]
     else:
-        meas[3] = aux[L.AUX_PA] + noise[kk, 1]
-        meas[4] = aux[L.AUX_PB] + noise[kk, 2]
+        estimate_rates(meas[0], sst, Ts, sens[SENS_RATE_TAU])
+        meas[1] = sst[SST_V]
+        meas[2] = sst[SST_A]
+    if i_sens >= 0:
+        pa = y[i_sens]
+        pb = y[i_sens + 1]
+    else:
+        pa = aux[L.AUX_PA]
+        pb = aux[L.AUX_PB]
+    meas[3] = quantise(pa + noise[kk, 1], sens[SENS_P_Q])
+    meas[4] = quantise(pb + noise[kk, 2], sens[SENS_P_Q])
     meas[5] = prm[L.P_A_A]
     meas[6] = prm[L.P_A_B]
     meas[7] = t
+    for i in range(5):
+        sensed[kk, i] = meas[i]
     u = control_law(code, g, ref[kk, 0], ref[kk, 1], ref[kk, 2], meas, cst, Ts, urange[0],
                     urange[1])
     return t, u, 0.0, (k + 1) * Ts
@@ -1459,10 +1471,12 @@ def integrate_closed(y0, mode0, model, ctl, t_end, t_out, rtol, atol, h_max, h_i
         reference ``(n, 3)`` of ``x [m], v [m/s], a [m/s^2]`` at ``t_k = k T_s``, sample
         period [s], controller memory (``CST_*``, updated: the valve switchings are read
         from it), valve range ``(u_lo, u_hi)`` [-], first pressure-sensor state or -1, work
-        vector of ``N_MEAS`` floats, position sensor ``(resolution [m], time_constant [s],
-        T_s [s])``, noise ``(n, 3)`` added at ``t_k`` to the position [m] and the two
-        pressures [Pa], the position sensor's state (3 floats, zeros), the sensed position
-        at each ``t_k`` ``(n,)`` [m] (written)
+        vector of ``N_MEAS`` floats, sensor parameters
+        (:data:`pneucore.physics.sensors.SENS_Q` ...: position resolution [m], position lag
+        [s], T_s [s], rate filter time constant [s], ideal-rates flag [-], pressure resolution
+        [Pa]), noise ``(n, 3)`` added at ``t_k`` to the position [m] and the two pressures
+        [Pa], the sensors' state (``N_SST`` floats, zeros), what the law read at each
+        ``t_k`` ``(n, 5)``: x [m], v [m/s], a [m/s^2], p_a, p_b [Pa] (written)
     """
     cmd = np.zeros(1)
     return _run(y0, mode0, model, cmd, cmd, False, t_end, t_out, rtol, atol, h_max, h_init,

@@ -409,6 +409,26 @@ class Experiment:
         return t[t <= duration * (1 + 1e-12)]
 
 
+def closed_loop_replays(experiments):
+    """The experiments recorded in closed loop, as a diagnosis or refinement answer names them
+    (the API's and the command line's).
+
+    Parameters
+    ----------
+    experiments : list of Experiment
+        The experiments of a request [-]
+
+    Returns
+    -------
+    replays : list of dict
+        ``[{experiment, controller, command_source, note}]``, one per experiment whose scenario
+        names a controller (each replayed open loop with its recorded command,
+        :attr:`Experiment.closed_loop`); empty when none [-]
+    """
+    return [dict(experiment=e.name or f"experiments[{i}]", **e.closed_loop)
+            for i, e in enumerate(experiments) if e.closed_loop is not None]
+
+
 def as_experiments(experiments, ambient_pressure=101300.0, datasets=None):
     """Normalise a list of experiments given as objects or JSON dicts."""
     if isinstance(experiments, (Experiment, dict)):

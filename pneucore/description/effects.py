@@ -909,13 +909,16 @@ for _e in [
     Effect("sensor_lag",
            "the model's sensors: first-order lag of the pressure transducers; and what a "
            "closed loop's controller reads (pneucore.physics.sensors): the position sensor's "
-           "resolution, lag and noise, the transducers' noise",
+           "resolution, lag and noise, the transducers' noise and resolution",
            "measured pressures trail the model by a fixed delay at every fast transient",
            "paper Sect. 4 (phase lags of the acquisition chain)",
            [Parameter("time_constant", "s", 0.002, 0.0, 0.1, 0.0, "transducer time constant"),
             Parameter("pressure_noise", "Pa", 0.0, 0.0, 1e5, 0.0,
                       "standard deviation of the transducers' noise a controller reads "
                       "(seeded by scenario.controller.seed)"),
+            Parameter("pressure_resolution", "Pa", 0.0, 0.0, 1e5, 0.0,
+                      "pressure transducers' resolution a controller reads (the converter's "
+                      "step; 0 = continuous)"),
             Parameter("position_resolution", "m", 0.0, 0.0, 0.01, 0.0,
                       "position sensor's resolution (an encoder's count; 0 = continuous)"),
             Parameter("position_time_constant", "s", 0.0, 0.0, 1.0, 0.0,

@@ -106,6 +106,19 @@ def sampled_lag(y_s, y_prev, y, dt, tau):
     return a * y_s + (1.0 - a) * y_prev + (y - y_prev) * (1.0 - tau / dt * (1.0 - a))
 
 
+#: Slots of the position sensor's state (``sense_position``) and the rate estimator's
+#: (``estimate_rates``) in the closed loop's sensor state vector
+SST_LAG, SST_XPREV, SST_STARTED, SST_XS_PREV, SST_V, SST_A, SST_EST_STARTED = range(7)
+N_SST = 7
+
+#: Slots of the closed loop's sensor parameters (:func:`pneucore.control.closed_loop.sensor_signals`):
+#: position resolution [m], position lag [s], sample period [s], the rate estimator's filter
+#: time constant [s], the ideal-rates flag (1: the laws read the piston's true velocity and
+#: acceleration) [-], the pressure transducers' resolution [Pa]
+SENS_Q, SENS_TAU, SENS_TS, SENS_RATE_TAU, SENS_IDEAL_RATES, SENS_P_Q = range(6)
+N_SENS = 6
+
+
 @njit(cache=True, error_model="numpy", _nrt=False)
 def sense_position(x, sens, state, noise):
     """The position a controller reads at one sample instant: the true ``x`` [m] through the
@@ -116,9 +129,11 @@ def sense_position(x, sens, state, noise):
     x : float
         True position at this sample [m]
     sens : ndarray
-        ``(resolution [m], time_constant [s], sample interval [s])``
+        Sensor parameters (``SENS_*`` slots; here the resolution [m], the time constant [s]
+        and the sample interval [s])
     state : ndarray
-        ``(lagged reading [m], previous true position [m], started flag)``, updated
+        The sensor state: ``(lagged reading [m], previous true position [m], started flag)``
+        in slots ``SST_LAG``, ``SST_XPREV``, ``SST_STARTED``, updated
     noise : float
         This sample's noise [m] (drawn before the run from the controller's seed)
 
@@ -127,13 +142,72 @@ def sense_position(x, sens, state, noise):
     x_s : float
         Sensed position [m]
     """
-    if state[2] == 0.0:
-        state[0] = x              # the sensor starts settled at the true position
+    if state[SST_STARTED] == 0.0:
+        state[SST_LAG] = x              # the sensor starts settled at the true position
     else:
-        state[0] = sampled_lag(state[0], state[1], x, sens[2], sens[1])
-    state[1] = x
-    state[2] = 1.0
-    return quantise(state[0] + noise, sens[0])
+        state[SST_LAG] = sampled_lag(state[SST_LAG], state[SST_XPREV], x, sens[SENS_TS],
+                                     sens[SENS_TAU])
+    state[SST_XPREV] = x
+    state[SST_STARTED] = 1.0
+    return quantise(state[SST_LAG] + noise, sens[SENS_Q])
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def estimate_rates(x_s, state, Ts, tau):
+    """The velocity and acceleration a controller reads: estimated from the sensed position by
+    a first-order filtered differentiator at the sample period, twice (the velocity from the
+    position, the acceleration from that velocity).
+
+    Each stage is the filtered derivative ``s / (tau s + 1)`` discretised by backward
+    differences, ``s -> (1 - z^-1) / T_s`` (the derivative term of a digital PID as Astrom
+    and Hagglund implement it, *PID Controllers: Theory, Design and Tuning*, 2nd ed., ISA,
+    1995, computer implementation; the PID law here does the same on the error; stable for
+    every ``tau >= 0``)::
+
+        v_k = a v_(k-1) + (1 - a) (x_k - x_(k-1)) / T_s,   a = tau / (tau + T_s)
+        a_k = a a_(k-1) + (1 - a) (v_k - v_(k-1)) / T_s
+
+    so that ``V(z) / X(z) = (1 - z^-1) / (tau + T_s - tau z^-1)``: on a ramp the estimate
+    converges to the slope (geometrically, ratio ``a``), a sine of frequency ``w`` comes out
+    multiplied by ``H(exp(j w T_s))``, and a reading quantised to a step ``q`` (error within
+    ``q / 2``) errs by at most ``q / (tau + T_s)``. ``tau = 0``: the plain backward difference.
+    The first sample starts the estimator at rest (``v = a = 0``).
+
+    Parameters
+    ----------
+    x_s : float
+        Sensed position at this sample [m]
+    state : ndarray
+        The sensor state (``SST_*`` slots; the estimator's: the previous sensed position [m],
+        the velocity [m/s] and acceleration [m/s^2] estimates, a started flag), updated
+    Ts : float
+        Sample period [s]
+    tau : float
+        Filter time constant [s] (cut-off ``1 / (2 pi tau)`` [Hz])
+
+    Examples
+    --------
+    A ramp of 0.1 m/s sampled at 1 ms through a 2 ms filter: after 60 samples the estimate is
+    ``0.1 (1 - (2/3)^59)``, the slope to 4e-12 m/s
+
+    >>> import numpy as np
+    >>> st = np.zeros(N_SST)
+    >>> for k in range(60):
+    ...     estimate_rates(1e-4 * k, st, 1e-3, 2e-3)
+    >>> round(float(st[SST_V]), 9), round(float(st[SST_A]), 6)
+    (0.1, 0.0)
+    """
+    if state[SST_EST_STARTED] == 0.0:
+        state[SST_XS_PREV] = x_s
+        state[SST_V] = 0.0
+        state[SST_A] = 0.0
+        state[SST_EST_STARTED] = 1.0
+        return
+    a = tau / (tau + Ts)
+    v = a * state[SST_V] + (1.0 - a) * (x_s - state[SST_XS_PREV]) / Ts
+    state[SST_A] = a * state[SST_A] + (1.0 - a) * (v - state[SST_V]) / Ts
+    state[SST_V] = v
+    state[SST_XS_PREV] = x_s
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)

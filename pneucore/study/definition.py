@@ -274,10 +274,15 @@ class Study:
     seed : int
         Seed of ``numpy.random.default_rng`` [-]
     metrics : list of str or None
-        Metrics to compute (None = all of
-        :data:`pneucore.study.metrics.METRICS`)
+        Metrics to compute (None = all of :data:`pneucore.study.metrics.METRICS`, or of
+        :data:`pneucore.control.metrics.CONTROL_METRICS` for a closed-loop study)
     name, description : str
         Free text
+    controller : dict or None
+        A closed-loop study's controller (the scenario's ``controller``, as POST /api/simulate
+        takes it: every run is that closed loop on the run's model,
+        :func:`pneucore.control.closed_loop.simulate_closed_loop`, its metrics the loop's);
+        None: open loop [-]
     """
     model: Model
     scenario: Scenario
@@ -287,6 +292,7 @@ class Study:
     metrics: Optional[list] = None
     name: str = ""
     description: str = ""
+    controller: Optional[dict] = None
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     # -- derived sizes ----------------------------------------------------------------
@@ -324,12 +330,21 @@ class Study:
 
     @property
     def metric_names(self):
-        from pneucore.study.metrics import METRICS
-        return list(self.metrics) if self.metrics else list(METRICS)
+        return list(self.metrics) if self.metrics else list(self.metric_table)
+
+    @property
+    def metric_table(self):
+        """The metrics this study can record: name -> ``(unit, definition)``
+        (:data:`pneucore.study.metrics.METRICS` for an open-loop study, the closed loop's
+        :data:`pneucore.control.metrics.CONTROL_METRICS` for one with a controller)."""
+        return metric_table(self.controller is not None)
 
     # -- JSON -------------------------------------------------------------------------
     def to_dict(self):
-        d = {"model": self.model.to_dict(), "scenario": self.scenario.to_dict(),
+        scenario = self.scenario.to_dict()
+        if self.controller is not None:
+            scenario["controller"] = self.controller
+        d = {"model": self.model.to_dict(), "scenario": scenario,
              "parameters": {p.path: p.to_dict() for p in self.parameters},
              "samples": self.samples, "seed": self.seed, "metrics": self.metrics}
         for key in ("name", "description"):
@@ -360,12 +375,23 @@ class Study:
             model = Model.from_dict(_preset(d["model"], "model"))
         except FieldError as exc:
             raise FieldError(f"model.{exc.path}" if exc.path != "model" else "model", exc.detail) from None
-        scenario = Scenario.from_dict(_preset(d["scenario"], "scenario"), model)
+        scen = _preset(d["scenario"], "scenario")
+        controller = None
+        if isinstance(scen, dict) and scen.get("controller") is not None:
+            scen = dict(scen)
+            controller = scen.pop("controller")
+        scenario = Scenario.from_dict(scen, model)
+        if controller is not None:
+            from pneucore.control.closed_loop import parse_controller
+            # checked against the nominal model (errors name scenario.controller.<field>)
+            parse_controller(controller, model, scenario.duration)
+            controller = json.loads(json.dumps(controller, allow_nan=False))
         params = _parse_parameters(model, d["parameters"])
         seed = _seed(d.get("seed", 0))
         samples = d.get("samples")
-        study = cls(model, scenario, params, None, seed, _parse_metrics(d.get("metrics")),
-                    str(d.get("name", "")), str(d.get("description", "")))
+        study = cls(model, scenario, params, None, seed,
+                    _parse_metrics(d.get("metrics"), controller is not None),
+                    str(d.get("name", "")), str(d.get("description", "")), controller)
         n_grid = _factorial_size(study)
         if study.random_parameters:
             if samples is None:
@@ -443,8 +469,30 @@ def _factorial_size(study):
     return n
 
 
-def _parse_metrics(metrics):
+def metric_table(closed_loop=False):
+    """The metrics a study can record: name -> ``(unit, definition)``.
+
+    Parameters
+    ----------
+    closed_loop : bool
+        A closed-loop study's (:data:`pneucore.control.metrics.CONTROL_METRICS`: its
+        ``overshoot`` [-] and ``settling_time`` [s] are the loop's, not the open-loop
+        stroke's), else an open-loop one's (:data:`pneucore.study.metrics.METRICS`) [-]
+
+    Returns
+    -------
+    table : dict
+        ``{name: (unit, definition)}`` [-]
+    """
+    if closed_loop:
+        from pneucore.control.metrics import CONTROL_METRICS
+        return dict(CONTROL_METRICS)
     from pneucore.study.metrics import METRICS
+    return {k: (m[0], m[1]) for k, m in METRICS.items()}
+
+
+def _parse_metrics(metrics, closed_loop=False):
+    METRICS = metric_table(closed_loop)
     if metrics is None:
         return None
     if not isinstance(metrics, (list, tuple)) or not metrics:

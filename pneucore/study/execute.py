@@ -124,6 +124,10 @@ def run_block(study_json, indices):
     errors = []
     for j, i in enumerate(idx.tolist()):
         try:
+            if study.controller is not None:
+                M[j], error = _closed_loop_run(study, i, names)
+                errors.append(error)
+                continue
             res = simulate(study.run_model(i), study.scenario)
             m = run_metrics(res, names)
             M[j] = [np.nan if m[k] is None else m[k] for k in names]
@@ -131,6 +135,17 @@ def run_block(study_json, indices):
         except Exception as exc:  # recorded per run; the batch goes on
             errors.append(f"{type(exc).__name__}: {exc}")
     return store.RunBlock(idx, np.array(P, dtype=float).reshape(len(idx), len(study.paths)), M, errors)
+
+
+def _closed_loop_run(study, i, names):
+    """Run ``i`` of a closed-loop study (:func:`pneucore.control.closed_loop.simulate_closed_loop`
+    on the run's model): its metrics (``names``, NaN where undefined) and its error (None; an
+    unstable loop or a run stopped early raises :class:`pneucore.control.closed_loop.ControlError`,
+    recorded by the caller as ``"ControlError: ..."`` with NaN metrics, like any failed run)."""
+    from pneucore.control.closed_loop import simulate_closed_loop
+
+    c = simulate_closed_loop(study.run_model(i), study.scenario, study.controller).stats["control"]
+    return [np.nan if c.get(k) is None else float(c[k]) for k in names], None
 
 
 def run_batch(study_json, indices):

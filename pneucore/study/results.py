@@ -32,7 +32,6 @@ from scipy import stats
 from pneucore.study import store
 from pneucore.description.paths import unit_of
 from pneucore.study.definition import Study
-from pneucore.study.metrics import METRICS
 
 #: Percentiles reported per metric [%]
 PERCENTILES = (5, 25, 50, 75, 95)
@@ -123,11 +122,12 @@ def results_from_db(db, study_id, include_runs=True):
     n_failed = int((~ok).sum())
 
     metrics = {}
+    table = study.metric_table
     for m in names:
         y = Y[m]
         good = np.isfinite(y)
         v = y[good]
-        d = {"unit": METRICS[m][0], "definition": METRICS[m][1], "count": int(good.sum()),
+        d = {"unit": table[m][0], "definition": table[m][1], "count": int(good.sum()),
              "failed": n_failed, "undefined": int((ok & ~good).sum())}
         if v.size:
             same = v.min() == v.max()  # exact zero spread, not rounding noise
@@ -365,8 +365,10 @@ def factorial_indices(y, shape):
 
 
 def _stored_runs(store_path, study_id):
-    """``(paths, names, block)``: a study's parameter paths, metric names and every stored
-    run (:func:`pneucore.study.store.load_arrays`); KeyError for an unknown study."""
+    """``(paths, names, units, block)``: a study's parameter paths, metric names, the metrics'
+    units (its :attr:`pneucore.study.definition.Study.metric_table`'s: a closed-loop study's
+    are the loop's) and every stored run (:func:`pneucore.study.store.load_arrays`); KeyError
+    for an unknown study."""
     db = store.connect(store_path)
     try:
         info = store.get_study(db, study_id)
@@ -374,7 +376,8 @@ def _stored_runs(store_path, study_id):
             raise KeyError(f"no study {study_id!r} in the store")
         study = Study.from_json(info["definition"])
         paths, names = study.paths, study.metric_names
-        return paths, names, store.load_arrays(db, study_id, paths, names)
+        units = [study.metric_table[m][0] for m in names]
+        return paths, names, units, store.load_arrays(db, study_id, paths, names)
     finally:
         db.close()
 
@@ -383,7 +386,8 @@ def runs_csv(store_path, study_id, chunk_rows=5000):
     """The stored runs of a study as CSV text, in chunks (for a download).
 
     Columns: ``run_index``, every parameter ``PATH [unit]`` (``Study.paths`` order),
-    every metric ``NAME [unit]`` (units of :data:`~pneucore.study.metrics.METRICS`),
+    every metric ``NAME [unit]`` (units of :data:`~pneucore.study.metrics.METRICS`, or of
+    :data:`~pneucore.control.metrics.CONTROL_METRICS` for a closed-loop study),
     ``error``. Values in SI units with 17 significant digits (exact round trip);
     an undefined metric, and every metric of a failed run, is an empty cell.
 
@@ -409,10 +413,10 @@ def runs_csv(store_path, study_id, chunk_rows=5000):
     import csv
     import io
     from pneucore.data.export import spreadsheet_safe
-    paths, names, block = _stored_runs(store_path, study_id)
+    paths, names, units, block = _stored_runs(store_path, study_id)
     # text cells neutralised for spreadsheets (a parameter path, an error message): CSV injection
     header = [spreadsheet_safe(h) for h in ["run_index"] + [f"{p} [{unit_of(p)}]" for p in paths]
-              + [f"{m} [{METRICS[m][0]}]" for m in names] + ["error"]]
+              + [f"{m} [{u}]" for m, u in zip(names, units)] + ["error"]]
 
     def cells(a):
         return ["" if not math.isfinite(v) else repr(v) for v in a.tolist()]
@@ -460,7 +464,7 @@ def runs_npz(store_path, study_id):
         Unknown study id
     """
     from pneucore.data.npz import npz_bytes
-    paths, names, block = _stored_runs(store_path, study_id)
+    paths, names, units, block = _stored_runs(store_path, study_id)
     failed = [(int(i), e) for i, e in zip(block.indices.tolist(), block.errors) if e is not None]
     n, k, m = len(block.indices), len(paths), len(names)
     return npz_bytes({
@@ -470,7 +474,7 @@ def runs_npz(store_path, study_id):
         "param_units": np.array([unit_of(q) for q in paths], dtype=str),
         "metrics": np.asarray(block.metrics, dtype=np.float64).reshape(n, m),
         "metric_names": np.array(names, dtype=str),
-        "metric_units": np.array([METRICS[q][0] for q in names], dtype=str),
+        "metric_units": np.array(units, dtype=str),
         "failed_index": np.array([i for i, _ in failed], dtype=np.int64),
         "failed_error": np.array([str(e) for _, e in failed], dtype=str),
     })

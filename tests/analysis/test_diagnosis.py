@@ -71,8 +71,9 @@ HIDDEN = {
     "supply_pressure_drop": {"C": 3e-8, "b": 0.3, "volume": 1e-4},
     # 4 ms transducer lag (probe 2 ms)
     # the controller's signals (noise, the position sensor) off: no open-loop record shows them
-    "sensor_lag": {"time_constant": 0.004, "pressure_noise": 0.0, "position_resolution": 0.0,
-                   "position_time_constant": 0.0, "position_noise": 0.0},
+    "sensor_lag": {"time_constant": 0.004, "pressure_noise": 0.0, "pressure_resolution": 0.0,
+                   "position_resolution": 0.0, "position_time_constant": 0.0,
+                   "position_noise": 0.0},
     # Churchill-Chu natural convection at 3x the correlation on top of h = 25 (probe 1x)
     "natural_convection": {"multiplier": 3.0},
     # the inflow jet at 0.4x Woodfield's correlation through a 4 mm port (probe 1x)

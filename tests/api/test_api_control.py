@@ -143,3 +143,32 @@ def test_sensed_position_in_the_answer_and_bad_sensor_values_are_422s(client):
     body["model"]["effects"] = {}
     body["scenario"]["controller"]["seed"] = -1
     assert_field_error(client.post("/api/simulate", json=body), "scenario.controller.seed")
+
+
+def test_estimated_rates_and_sensed_pressures_in_the_answer_and_their_422s(client):
+    # the laws read the velocity and acceleration estimated from the sensed position: the
+    # answer carries them (v_est [m/s], a_est [m/s^2]); ideal_rates drops them; quantised
+    # transducers add the pressures read (p_a_sensed, p_b_sensed [Pa])
+    body = closed({"kind": "pva", "gains": {"kp": 15, "kv": 0.05},
+                   "setpoint": [[0, 0.1], [0.05, 0.11]], "rate_filter": 0.004})
+    body["model"]["effects"] = {"sensor_lag": {"time_constant": 0.0,
+                                               "pressure_resolution": 1000.0}}
+    r = client.post("/api/simulate", json=body)
+    assert r.status_code == 200, r.text
+    ans = r.json()
+    assert ans["units"]["v_est"] == "m/s" and ans["units"]["a_est"] == "m/s^2"
+    assert ans["units"]["p_a_sensed"] == "Pa" and ans["units"]["p_b_sensed"] == "Pa"
+    assert len(ans["series"]["v_est"]) == len(ans["series"]["x"])
+    # a 1 kPa grid: every pressure read is a whole number of kPa (to the JSON's rounding)
+    pa = [p for p in ans["series"]["p_a_sensed"] if p is not None]
+    assert max(abs(p / 1000.0 - round(p / 1000.0)) for p in pa) < 1e-9
+    body["scenario"]["controller"]["ideal_rates"] = True
+    ans = client.post("/api/simulate", json=body).json()
+    assert "v_est" not in ans["series"] and "a_est" not in ans["series"]
+    for field, value, unit in (("rate_filter", -0.001, "[s]"), ("ideal_rates", "no", "[-]")):
+        bad = closed({"kind": "pva", "gains": {"kp": 15}, "setpoint": [[0, 0.1]], field: value})
+        assert_field_error(client.post("/api/simulate", json=bad),
+                           f"scenario.controller.{field}", msg_contains=unit)
+    body["model"]["effects"] = {"sensor_lag": {"pressure_resolution": -1.0}}
+    assert_field_error(client.post("/api/simulate", json=body),
+                       "model.effects.sensor_lag.pressure_resolution", msg_contains="[Pa]")

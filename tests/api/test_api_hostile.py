@@ -71,7 +71,8 @@ def test_study_runs_csv_neutralises_error_messages(monkeypatch):
     from pneucore.study import results
     block = SimpleNamespace(indices=np.array([0, 1]), params=np.array([[-1.5], [2.0]]),
                             metrics=np.array([[np.nan], [3.0]]), errors=["=HYPERLINK(1)", None])
-    monkeypatch.setattr(results, "_stored_runs", lambda *a: (["supply.pressure"], ["t95"], block))
+    monkeypatch.setattr(results, "_stored_runs",
+                        lambda *a: (["supply.pressure"], ["t95"], ["s"], block))
     text = "".join(results.runs_csv("unused", "s1"))
     _text_cells_are_safe(text)
     rows = list(csv.reader(io.StringIO(text)))

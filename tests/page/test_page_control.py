@@ -85,6 +85,57 @@ def test_the_sensed_position_is_plotted_beside_the_true_one(page):
     assert len({round(v) for v in sensed}) > 1
 
 
+def _metrics_table(page):
+    """The metrics table: {row header: (text, value shown)}."""
+    return {th: (th, td) for th, td in page.evaluate("""() => Array.from(
+        document.querySelectorAll('#control-table tr')).map(tr => [tr.querySelector('th').textContent,
+        tr.querySelector('td').textContent])""")}
+
+
+def _unit_system(page, system):
+    page.select_option("#unit-system", system)
+    page.wait_for_function(f"() => document.body.dataset.units === '{system}'")
+
+
+def test_the_metrics_table_and_the_linearisation_follow_the_unit_system(page):
+    # the last run (a sliding-mode step, quantised pressures, the velocity filter sent) in the
+    # engineering system: lengths in mm; in SI: in m, the values 1000x smaller; times in s in
+    # both (no system converts a time), overshoot in %
+    _sliding(page)
+    page.fill("#control-sensor-pressure_resolution", "0.01")   # bar: sent as 1 kPa
+    page.fill("#control-rate-filter", "0.004")
+    page.evaluate("document.getElementById('panel-control').dataset.ran = ''")
+    page.click("#btn-control-run")
+    _wait(page, "ran")
+    sent = page.evaluate("CTL.run.series.p_a_sensed.filter(v => v != null)")
+    assert sent and all(abs(v / 1000 - round(v / 1000)) < 1e-6 for v in sent)   # whole kPa
+    rows = {h.split(" [")[0]: (h, v) for h, v in _metrics_table(page).values()}
+    assert rows["steady-state error"][0].endswith("[mm]")
+    assert rows["RMS tracking error"][0].endswith("[mm]")
+    assert rows["settling time (2 %)"][0].endswith("[s]") and rows["overshoot"][0].endswith("[%]")
+    ctl = page.evaluate("CTL.run.stats.control")
+    # shown to 4 significant digits: 1e-3 relative is their rounding
+    assert float(rows["RMS tracking error"][1]) == pytest.approx(ctl["rms_error"] * 1e3, rel=1e-3)
+    assert float(rows["rise time (10-90 %)"][1]) == pytest.approx(ctl["rise_time"], rel=1e-3)
+    page.click("#btn-control-linearize")
+    page.wait_for_function("() => document.getElementById('control-linear').textContent.length > 0")
+    assert " mm, p_a = " in page.inner_text("#control-linear") and "bar abs" in page.inner_text("#control-linear")
+    _unit_system(page, "si")
+    try:
+        rows = {h.split(" [")[0]: (h, v) for h, v in _metrics_table(page).values()}
+        assert rows["steady-state error"][0].endswith("[m]")
+        assert rows["hunting amplitude"][0].endswith("[m]")
+        assert float(rows["RMS tracking error"][1]) == pytest.approx(ctl["rms_error"], rel=1e-3)
+        assert float(rows["rise time (10-90 %)"][1]) == pytest.approx(ctl["rise_time"], rel=1e-3)
+        text = page.inner_text("#control-linear")
+        assert " m, p_a = " in text and " Pa" in text and "mm" not in text and "bar" not in text
+        assert page.inner_text("label[for='control-sensor-pressure_resolution']").endswith("[Pa]")
+    finally:
+        _unit_system(page, "engineering")
+        page.fill("#control-sensor-pressure_resolution", "0")
+        page.fill("#control-rate-filter", "0.002")
+
+
 def test_a_bad_sensor_value_is_shown_next_to_its_field(page):
     page.fill("#control-sensor-position_resolution", "0")
     page.fill("#control-sensor-position_noise", "-1")
