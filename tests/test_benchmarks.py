@@ -33,6 +33,9 @@ SMALL = {
     "bench_analysis_budget.py": ["--length", "1", "--clients", "2", "--workers", "2",
                                  "--budget", "0", "--retry", "0.2"],
     "bench_memory_estimate.py": ["--lengths", "1", "--kinds", "compare"],
+    "bench_job_memory.py": ["--study-workers", "1", "--study-durations", "1", "--study-runs", "2",
+                            "--friction-samples", "2000", "--control-runs", "25",
+                            "--control-duration", "0.2"],
     "bench_heat_transfer.py": ["--quick"],
     # the table of the presets as they are (six short runs); --fit adds about 130 more
     "bench_table2_presets.py": [],
