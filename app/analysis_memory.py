@@ -194,19 +194,35 @@ def samples_estimate(kind, samples, models=1):
 # (MemoryBudget) by a synchronous request (503 when it does not fit) and by a job (waits in
 # the queue), and refused at once (check_alone, 422) when it alone exceeds the budget.
 
-#: Resident memory one worker process of a study's local pool adds [bytes]: a fork of the
-#: warm forkserver (pneucore.study._worker) shares its imports and compiled core; what it
-#: writes (its interpreter's heap, a batch's runs and metrics) is its own. Set from the
-#: server's own 300-400 MB of which most is shared, not yet measured per worker
-STUDY_WORKER_BYTES = 60_000_000
-#: What a run of a closed-loop study or tuning keeps in the answer [bytes]: its parameter
-#: values and about ten metrics as Python floats in lists (24 B a float, 8 B a list slot),
-#: rounded up; not measured
-CONTROL_RUN_BYTES = 2_000
-#: Bytes a friction-bench sample takes at the identification's peak [bytes]: a fit of a few
-#: parameters on the force balance, set at the calibration's order (1,300-1,400 B a sample
-#: measured, with many more columns); not measured
-IDENTIFY_FRICTION_BYTES_PER_SAMPLE = 1_000
+#: Resident memory one worker process of a study's local pool adds besides its run [bytes]:
+#: a fork of the warm forkserver (pneucore.study._worker) shares its imports and compiled
+#: core; what it writes (its interpreter's heap, a batch's metrics) is its own. Measured by
+#: ``benchmarks/bench_job_memory.py --kinds study`` (the peak unique set size of each pool
+#: worker, sampled every 20 ms; 2-core AMD EPYC VM shared, load 4.9-5.0): 15.7-15.8 MB a
+#: worker on 1 s runs (1 and 2 workers, 32 runs each), 18.8 MB on 10 s runs; 25 MB is a
+#: margin of 1.6 on the largest. The run itself is the simulation's estimate beside it
+#: (60 s runs: 44.5-83.5 MB a worker measured, 25 + 108 MB estimated). The forkserver's own
+#: 110-210 MB, once per server, is the server's, outside the budget as its imports are.
+#: Was 60 MB, set from the server's size before it was measured
+STUDY_WORKER_BYTES = 25_000_000
+#: What a run of a closed-loop study or tuning adds to the job's own process [bytes]: its
+#: parameter values, metrics and error in the answer and its JSON. Measured by
+#: ``benchmarks/bench_job_memory.py --kinds control`` (the tracemalloc peak of the calling
+#: process, the answer's JSON written; the runs simulated by a pool of one worker; 0.5 s
+#: runs; load 4.8-5.0): a closed-loop study 858-1,047 B a run over 100-3,000 runs (1,167 B
+#: a run from 400 to 1,000 runs, the steepest step), a tuning 246-754 B; 1,750 B is a margin
+#: of 1.5 on the largest. Was 2,000 B, set from a count of floats before it was measured
+CONTROL_RUN_BYTES = 1_750
+#: Bytes a friction-bench sample takes at the identification's peak [bytes], before
+#: :data:`MARGIN` (the estimate is samples x this x 1.5, as an analysis's): measured by
+#: ``benchmarks/bench_job_memory.py --kinds friction`` (POST /api/identify/friction's work
+#: and its answer's JSON, in a forked child of a warm process, the larger of its resident
+#: growth and its tracemalloc peak; five records at 100 Hz, one of them validated; load
+#: 4.2-4.5): 1,184-1,195 B a sample on 10,000 samples (its fixed part, 12 MB, counts most),
+#: 599-800 B on 50,000, 599-628 B on 200,000, with and without the extras; the largest,
+#: rounded up. Was 1,000 B, set from the calibration's before it was measured (10,000
+#: samples: 15 MB estimated, 12 MB measured; now 18 MB)
+IDENTIFY_FRICTION_BYTES_PER_SAMPLE = 1_200
 
 
 def simulation_estimate(samples, runs=1):

@@ -4,15 +4,20 @@
 A fresh child process builds the app (``--workers`` synchronous workers, the budget
 ``--budget`` MB), answers one small diagnosis (the core compiled, the caches filled), resets
 its peak resident size (``/proc/self/clear_refs``), then ``--clients`` clients each ask for
-a diagnosis of a 1 s locked hold plus a ``--length`` s cyclic record at 1 kHz
-(``bench_long_records.py``'s rig), retrying ``--retry`` s after each 503 until answered. It
+a diagnosis of a 1 s locked hold plus ``--records`` cyclic records of ``--length`` s each at
+1 kHz (``bench_long_records.py``'s rig, each record its own noise), retrying ``--retry`` s after each 503 until answered. It
 reports the growth of the peak resident memory over the start, the most analyses running
 and the most held on the budget at once (sampled every 20 ms), the 503s, and each
 diagnosis's estimate: the growth must stay under the budget. With ``--budget 0`` the budget
 is the sum of every client's estimate (nothing refused: the figure without admission).
 
-Usage: ``python benchmarks/bench_analysis_budget.py [--length 20] [--clients 4] [--workers 4]
-[--budget 400] [--retry 1] [--json out.json]``.
+The API's cost limit (``Limits.max_analysis_seconds``, 200 s, and ``max_analysis_samples``,
+200,000, over all of a request's records) is out of one record's reach (a record is limited to
+120 s): ``--records 2 --length 99.45`` loads it (1 s + 2 x 99.45 s = 199.9 s, 199,903
+samples).
+
+Usage: ``python benchmarks/bench_analysis_budget.py [--length 20] [--records 1] [--clients 4]
+[--workers 4] [--budget 400] [--retry 1] [--json out.json]``.
 """
 from __future__ import annotations
 
@@ -38,28 +43,37 @@ def _vm_kb(field):
     return None
 
 
-def _body(length):
+def _body(length, records=1):
+    """The diagnosis request: a 1 s hold and ``records`` cyclic records of ``length`` s."""
     import bench_long_records as B
     from pneucore import model_preset
+    from pneucore.data.experiment import as_experiments
+    true = B.true_model()
     exps = []
-    for e in B.length_set(B.true_model(), length):
+    sets = as_experiments([B.experiment(true, B.hold(true), "hold", 1)]
+                          + [B.experiment(true, B.cyclic(length), f"cyclic {i + 1}", 2 + i)
+                             for i in range(records)])
+    for e in sets:
         m = e.measurement
         meas = {"t": m.t.tolist(), **{k: v.tolist() for k, v in m.signals.items()}}
         exps.append({"name": e.name, "scenario": dict(e.scenario), "measurement": meas})
     return {"model": model_preset("paper-4way"), "experiments": exps}
 
 
-def child(length, clients, workers, budget_mb, retry):
+def child(length, clients, workers, budget_mb, retry, records=1):
     """The measured run in this (fresh) process; prints its figures as JSON."""
     from fastapi.testclient import TestClient
 
-    from app.analysis_memory import samples_estimate
+    from app.analysis_memory import body_estimate, samples_estimate
+    from app.request_memory import json_values
     from app.config import Limits, Settings
     from app.main import create_app
-    body = _body(length)
+    body = _body(length, records)
     samples = sum(len(e["measurement"]["t"]) for e in body["experiments"])
     estimate = samples_estimate("diagnose", samples)
-    budget = int(budget_mb * 1e6) if budget_mb > 0 else estimate * clients
+    # a body over 64 kB is held on the budget too, its parsed values (app.bodies)
+    body_held = body_estimate(json_values(json.dumps(body).encode()))
+    budget = int(budget_mb * 1e6) if budget_mb > 0 else (estimate + body_held) * clients
     with tempfile.TemporaryDirectory() as tmp:
         app = create_app(Settings(db_path=os.path.join(tmp, "b.sqlite3"), seed_samples=False,
                                   resume_studies=False,
@@ -104,9 +118,10 @@ def child(length, clients, workers, budget_mb, retry):
             seconds = time.perf_counter() - t0
             done.set()
             peak = _vm_kb("VmHWM")
-    print(json.dumps({"length_s": length, "samples": samples, "clients": clients,
+    print(json.dumps({"length_s": length, "records": records, "samples": samples, "clients": clients,
                       "workers": workers, "budget_mb": budget / 1e6,
-                      "estimate_mb": estimate / 1e6, "start_rss_mb": start / 1e3,
+                      "estimate_mb": estimate / 1e6, "body_estimate_mb": body_held / 1e6,
+                      "start_rss_mb": start / 1e3,
                       "growth_mb": (peak - start) / 1e3, "most_running": seen["running"],
                       "most_held_mb": seen["held"] / 1e6, "refused_503": len(refused),
                       "statuses": sorted(statuses), "seconds": seconds}))
@@ -115,6 +130,8 @@ def child(length, clients, workers, budget_mb, retry):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--length", type=float, default=20.0, help="cyclic record after the 1 s hold [s]")
+    ap.add_argument("--records", type=int, default=1,
+                    help="cyclic records of --length s each after the 1 s hold [-]")
     ap.add_argument("--clients", type=int, default=4)
     ap.add_argument("--workers", type=int, default=4, help="sync_workers [-]")
     ap.add_argument("--budget", type=float, default=400.0,
@@ -124,13 +141,13 @@ def main(argv=None):
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.child:
-        return child(a.length, a.clients, a.workers, a.budget, a.retry)
+        return child(a.length, a.clients, a.workers, a.budget, a.retry, a.records)
     from machine import machine_info, save_figures
     info = machine_info("scipy", "fastapi")
     print("machine:", info)
     env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
     out = subprocess.run([sys.executable, os.path.abspath(__file__), "--child", "--length",
-                          str(a.length), "--clients", str(a.clients), "--workers", str(a.workers),
+                          str(a.length), "--records", str(a.records), "--clients", str(a.clients), "--workers", str(a.workers),
                           "--budget", str(a.budget), "--retry", str(a.retry)],
                          capture_output=True, text=True, env=env, cwd=ROOT, timeout=3600)
     if out.returncode != 0:

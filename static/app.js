@@ -252,6 +252,13 @@ function modelChangedSince(err) {
 /** GET /api/units, asked once per page load (units.js and paramUnit share it). */
 let UNITS_REQUEST = null;
 function fetchUnits() { return UNITS_REQUEST || (UNITS_REQUEST = api('GET', '/api/units')); }
+/** GET /openapi.json, asked once per page load: the API's own defaults and choices (the one
+ * source of a field's default; the page keeps no copy of the numbers). A failed request is
+ * asked again next time. */
+let OPENAPI_REQUEST = null;
+function fetchOpenApi() {
+  return OPENAPI_REQUEST || (OPENAPI_REQUEST = api('GET', '/openapi.json').catch((e) => { OPENAPI_REQUEST = null; throw e; }));
+}
 async function busy(btn, fn) {
   const buttons = btn ? [btn] : [];
   buttons.forEach((b) => { b.disabled = true; b.classList.add('busy'); });

@@ -378,7 +378,7 @@ async function readRigFiles(btn) {
 async function loadExtras() {
   // the extras the service can identify, from its own schema (pneucore.identify.friction_bench.EXTRAS)
   try {
-    const spec = await api('GET', '/openapi.json');
+    const spec = await fetchOpenApi();
     const req = spec.components.schemas.FrictionIdentifyRequest.properties.extras;
     IDF.extras = (req.items && req.items.enum) || [];
   } catch (e) { IDF.extras = []; }

@@ -27,7 +27,13 @@ const SIZING_FIELDS = [
   ['tube_length', 'Tube length per port', 'm', '', 'blank: no tube'],
   ['valve_on_time', 'Valve switching time ON, catalogue', 's', '', 'blank: 0'],
   ['valve_off_time', 'Valve switching time OFF, spring return', 's', '', 'blank: 0'],
+  // the load checks' limits: their defaults and notes are the API's (its OpenAPI schema, read
+  // by sizingLimitDefaults), never a copy here
+  ['max_load_factor', 'Max load factor, load over the theoretical output at the supply', '-', '', ''],
+  ['min_buckling_safety', "Min buckling safety of the rod (Euler)", '-', '', ''],
 ];
+/** The fields whose default is the API's own (RequirementSpec's in /openapi.json). */
+const SIZING_LIMITS = ['max_load_factor', 'min_buckling_safety'];
 /** How a sizing field's SI unit is shown: {unit, scale, offset} (a supply pressure in bar g
  * is gauge against the requirement's ambient, the model's). */
 function sizingShown(si) {
@@ -80,12 +86,14 @@ function applySizingUnits() {
     const v = el.dataset.siValue;
     el.value = v === '' || v == null ? '' : String(+((Number(v) - d.offset) / d.scale).toPrecision(10));
   }
+  applyCapacityUnits();
   if (SZ.ans) renderSizing();
   drawSizingPlot();
 }
 function sizingInput(ev) {
   const el = ev.target;
   if (!el.dataset || !el.dataset.si) return;
+  if (ev.type === 'input') el.dataset.edited = 'true';
   const raw = el.value.trim();
   const d = sizingShown(el.dataset.si);
   el.dataset.siValue = raw === '' ? '' : (Number.isFinite(Number(raw)) ? String(+(Number(raw) * d.scale + d.offset).toPrecision(12)) : raw);
@@ -103,14 +111,22 @@ function sizingFromModel() {
   if (m.supply) set('supply_pressure', m.supply.pressure);
   applySizingUnits();
 }
+/** A number field's text the browser could not read ("1e", "0,7"): its value reads '' and would
+ * send nothing (the API's default, or an older value, in place of what the user typed), so the
+ * request carries this instead and the API's 422 names the field. */
+const NOT_A_NUMBER = 'not a number';
+function badNumber(el) { return !!(el.validity && el.validity.badInput); }
 function sizingRequest() {
   const requirement = {};
   for (const [name] of SIZING_FIELDS) {
     const el = document.getElementById(`sz-${name}`);
+    if (badNumber(el)) { requirement[name] = NOT_A_NUMBER; continue; }
     sizingInput({ target: el });
     const v = (el.dataset.siValue || '').trim();
     if (v !== '') requirement[name] = Number(v);
   }
+  const table = capacityRequest();
+  if (table.length) requirement.cushion_capacities = table;
   const choices = {};
   for (const [name] of SIZING_CHOICES) {
     const v = document.getElementById(`sz-${name}`).value.trim();
@@ -160,7 +176,7 @@ function renderSizing() {
   document.getElementById('sizing-table').innerHTML = `<table id="sizing-designs"><thead><tr><th></th><th>rank</th>
     <th>cylinder</th><th>valve</th><th>tube</th><th>air per cycle [NL]</th><th>extend [s]</th><th>retract [s]</th>
     <th>steady cycle ext / ret [s]</th>
-    <th>end speed out [${esc(VU.label)}]</th><th>end speed in [${esc(VU.label)}]</th><th>meter-out throttle C ext / ret [${esc(CU.label)}] (0: none)</th>${cushioned ? `<th>cushion needle C ext / ret [${esc(CU.label)}] (open: not needed)</th><th>impact energy ext / ret / capacity [J]</th>` : ''}<th title="SMC load factor (limit 0.5 moving a load) / Euler buckling safety of the rod (at least 3)">load factor / buckling safety [-]</th><th>feasible</th></tr></thead>
+    <th>end speed out [${esc(VU.label)}]</th><th>end speed in [${esc(VU.label)}]</th><th>meter-out throttle C ext / ret [${esc(CU.label)}] (0: none)</th>${cushioned ? `<th>cushion needle C ext / ret [${esc(CU.label)}] (open: not needed)</th><th>impact energy ext / ret / capacity [J]</th>` : ''}<th title="${esc(limitsTitle(ans))}">load factor / buckling safety [-]</th><th>feasible</th></tr></thead>
     <tbody>${rows}</tbody></table>
     <p class="small" id="sizing-shortlist">${shortList ? `Short list: the best design of each cylinder (${shown.length} of ${ans.designs.length}). <button type="button" id="btn-size-all">Show all ${ans.designs.length}</button>`
       : (ans.designs.some((d) => d.best_of_cylinder === false) ? `All ${ans.designs.length} designs. <button type="button" id="btn-size-all">Short list</button>` : '')}</p>
@@ -179,6 +195,135 @@ function renderSizing() {
   const none = !ans.designs.length;
   document.getElementById('btn-size-use').disabled = none;
   document.getElementById('btn-size-export').disabled = none;
+}
+
+/** The load checks' column title with the limits the answer was sized to (the request's). */
+function limitsTitle(ans) {
+  const r = ans.requirement || {};
+  return `SMC load factor (limit ${r.max_load_factor}) / Euler buckling safety of the rod (at least ${r.min_buckling_safety})`;
+}
+
+/* ---------------------------------------------------------- the cushion capacity table
+ * requirement.cushion_capacities: one row per {series, bore [m], capacity [J]}; the bore is
+ * shown in the page's units (its SI value kept in data-si-value like the form's fields), the
+ * energy in J. Each cell's data-field is its index in the request, renumbered as rows go, so
+ * that a 422 lands next to the cell it names; the request is read from the cells as they are
+ * when Size is pressed (a removed row is gone, an edited cell sends what it shows). */
+const CAP_COLUMNS = [
+  ['series', 'series (blank: every series)', '-'],
+  ['bore', 'bore', 'm'],
+  ['capacity', 'capacity', 'J'],
+];
+let CAP_ROW_KEY = 0;
+function capacityRows() { return Array.from(document.querySelectorAll('#sz-cap-table tbody tr')); }
+function capLabel(i, text, si) { return `Row ${i + 1} ${text} [${prettyUnitText(sizingShown(si).unit)}]`; }
+/** Add a row (values in SI; blank by default). */
+function addCapacityRow(values = {}) {
+  const key = CAP_ROW_KEY++;
+  const tr = document.createElement('tr');
+  tr.dataset.key = String(key);
+  for (const [col, , si] of CAP_COLUMNS) {
+    const td = document.createElement('td');
+    const input = document.createElement('input');
+    input.id = `sz-cap-${key}-${col}`;
+    input.className = `sz-cap-${col}`;
+    if (col === 'series') {
+      input.type = 'text';
+      input.setAttribute('list', 'sz-cap-series-list');
+      input.value = values.series || '';
+    } else {
+      input.type = 'number';
+      input.step = 'any';
+      input.dataset.si = si;
+      input.dataset.siValue = values[col] == null ? '' : String(values[col]);
+    }
+    const lab = document.createElement('label');
+    lab.htmlFor = input.id;
+    lab.className = 'sr-only';
+    const err = document.createElement('span');
+    err.className = 'field-error';
+    err.setAttribute('role', 'alert');
+    td.append(lab, input, err);
+    tr.append(td);
+  }
+  const td = document.createElement('td');
+  const rm = document.createElement('button');
+  rm.type = 'button';
+  rm.className = 'sz-cap-remove';
+  rm.textContent = 'Remove';
+  rm.addEventListener('click', () => { tr.remove(); renumberCapacityRows(); });
+  td.append(rm);
+  tr.append(td);
+  document.querySelector('#sz-cap-table tbody').append(tr);
+  renumberCapacityRows();
+  applyCapacityUnits();
+  return tr;
+}
+/** Each row's data-field and labels follow its place in the table (the request's index). */
+function renumberCapacityRows() {
+  capacityRows().forEach((tr, i) => {
+    for (const [col, text, si] of CAP_COLUMNS) {
+      const input = tr.querySelector(`.sz-cap-${col}`);
+      input.dataset.field = `requirement.cushion_capacities[${i}].${col}`;
+      document.querySelector(`label[for="${input.id}"]`).textContent = capLabel(i, text, si);
+    }
+    tr.querySelector('.sz-cap-remove').setAttribute('aria-label', `remove row ${i + 1}`);
+    // an error shown for the index this row had is not this row's any more
+    for (const e of tr.querySelectorAll('.field-error')) e.textContent = '';
+    for (const e of tr.querySelectorAll('.invalid')) { e.classList.remove('invalid'); e.removeAttribute('aria-invalid'); }
+  });
+}
+/** The table's headers, labels and bores in the page's unit system. */
+function applyCapacityUnits() {
+  for (const [col, text, si] of CAP_COLUMNS) {
+    const th = document.getElementById(`sz-cap-h-${col}`);
+    if (th) th.textContent = `${text} [${prettyUnitText(sizingShown(si).unit)}]`;
+  }
+  capacityRows().forEach((tr, i) => {
+    for (const [col, text, si] of CAP_COLUMNS) {
+      const input = tr.querySelector(`.sz-cap-${col}`);
+      document.querySelector(`label[for="${input.id}"]`).textContent = capLabel(i, text, si);
+      if (col === 'series') continue;
+      const d = sizingShown(si);
+      const v = input.dataset.siValue;
+      input.value = v === '' || v == null ? '' : String(+((Number(v) - d.offset) / d.scale).toPrecision(10));
+    }
+  });
+}
+/** The table as the request's requirement.cushion_capacities: every row, read now. A blank
+ * bore or capacity goes as null and unreadable text as NOT_A_NUMBER, so that the API's 422
+ * names the cell rather than a row being dropped (which would move the others' indices). */
+function capacityRequest() {
+  return capacityRows().map((tr) => {
+    const out = {};
+    for (const [col] of CAP_COLUMNS) {
+      const input = tr.querySelector(`.sz-cap-${col}`);
+      if (col === 'series') { out.series = input.value.trim() || null; continue; }
+      if (badNumber(input)) { out[col] = NOT_A_NUMBER; continue; }
+      sizingInput({ target: input });
+      const v = (input.dataset.siValue || '').trim();
+      out[col] = v === '' ? null : (Number.isFinite(Number(v)) ? Number(v) : NOT_A_NUMBER);
+    }
+    return out;
+  });
+}
+/** The limits' defaults and meanings from the API's schema (RequirementSpec in /openapi.json). */
+async function sizingLimitDefaults() {
+  let props;
+  try { props = (await fetchOpenApi()).components.schemas.RequirementSpec.properties; } catch (e) { return; }
+  for (const name of SIZING_LIMITS) {
+    const p = props[name];
+    const el = document.getElementById(`sz-${name}`);
+    const row = SIZING_FIELDS.find((f) => f[0] === name);
+    if (!p || !el || !row || p.default == null) continue;
+    row[4] = `blank: ${p.default}`;
+    el.title = p.description || '';
+    el.dataset.default = String(p.default);
+    // the user's own value stays; a field not yet typed in takes the API's default
+    if ((el.dataset.siValue || '') === '' && !el.dataset.edited) el.dataset.siValue = String(p.default);
+  }
+  applySizingUnits();
+  document.getElementById('panel-sizing').dataset.limits = 'true';
 }
 
 /** A design's cushion cells: each end's needle (open where not needed), impact energy and capacity. */
@@ -268,11 +413,27 @@ async function showSizingSeries() {
   const list = (kind) => Object.entries(s[kind]).map(([n, v]) => `${n} (${v.members.join(', ')})`).join('; ');
   p.textContent = `Series you may name (a series, or series:member): cylinders ${list('cylinders')}; valves ${list('valves')}; tubes ${list('tubes')}.`;
   box.append(p);
+  // the capacity table's series: the cylinder series (a typed name is sent as typed)
+  const dl = document.getElementById('sz-cap-series-list');
+  dl.textContent = '';
+  for (const n of Object.keys(s.cylinders)) { const o = document.createElement('option'); o.value = n; dl.append(o); }
 }
 function initSizing() {
   buildSizingForm();
   showSizingSeries();
   document.getElementById('sizing-form').addEventListener('input', sizingInput);
+  sizingLimitDefaults();
+  const caps = document.getElementById('sizing-capacities');
+  caps.addEventListener('input', (ev) => {
+    sizingInput(ev);
+    // the cell's 422 goes once it is edited (it was about the value no longer there)
+    const el = ev.target;
+    el.classList.remove('invalid');
+    el.removeAttribute('aria-invalid');
+    const slot = el.nextElementSibling;
+    if (slot && slot.classList.contains('field-error')) { slot.textContent = ''; slot.removeAttribute('data-error-for'); }
+  });
+  document.getElementById('btn-sz-cap-add').addEventListener('click', () => addCapacityRow().querySelector('input').focus());
   // the form starts from the model panel's design once the page holds it
   const wait = setInterval(() => { if (document.body.dataset.ready && S.model) { clearInterval(wait); sizingFromModel(); } }, 100);
   document.getElementById('btn-size').addEventListener('click', (ev) => busy(ev.target, () => runSizing(ev.target)));

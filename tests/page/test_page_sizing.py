@@ -141,3 +141,124 @@ def test_a_cushion_shows_each_ends_solved_needle_and_impact_energy(page):
     assert "0.05" in page.inner_text("#sizing-designs tbody tr:nth-child(1) .sz-impact")
     for field, value in (("cushion_length", ""), ("cushion_capacity", ""), ("max_end_speed", "1000")):
         page.fill(f"#sz-{field}", value)
+
+
+def _sizing_request(page):
+    """Size and return the JSON body the page sent to POST /api/sizing."""
+    with page.expect_request(lambda r: r.url.endswith("/api/sizing") and r.method == "POST") as rq:
+        _size(page)
+    return json.loads(rq.value.post_data)
+
+
+def test_the_load_limits_default_to_the_apis_and_reach_the_request(page):
+    from app.sizing_schemas import RequirementSpec
+    page.wait_for_function("() => document.getElementById('panel-sizing').dataset.limits === 'true'")
+    for field in ("max_load_factor", "min_buckling_safety"):
+        default = RequirementSpec.model_fields[field].default
+        # the API's default (0.5 and 3 today), shown as typed: the page holds no copy of it
+        assert float(page.input_value(f"#sz-{field}")) == default
+        label = page.inner_text(f"label[for='sz-{field}']")
+        assert label.endswith("[-]") and f"blank: {default:g}" in label
+    page.fill("#sz-bore", "iso15552:32")
+    page.fill("#sz-valve", "ckd-4ga:M4GA1")
+    page.fill("#sz-max_load_factor", "0.7")
+    page.fill("#sz-min_buckling_safety", "4")
+    sent = _sizing_request(page)["requirement"]
+    assert sent["max_load_factor"] == 0.7 and sent["min_buckling_safety"] == 4
+    assert page.get_attribute("#panel-sizing", "data-sized") == "1", page.inner_text("#status")
+    # the table's column says the limits it was sized to
+    title = page.get_attribute("#sizing-designs th[title*='load factor']", "title")
+    assert "limit 0.7" in title and "at least 4" in title
+    # a limit the API refuses: its 422 next to the field
+    page.fill("#sz-max_load_factor", "1.5")
+    _size(page)
+    assert page.get_attribute("#panel-sizing", "data-sized") == "error"
+    assert "unit: -" in page.inner_text("#sz-max_load_factor + .field-error")
+    # text the browser cannot read as a number ("0.7e") is not sent as nothing (the API's
+    # default in its place): the API's 422 is shown next to it
+    page.fill("#sz-max_load_factor", "")
+    page.focus("#sz-max_load_factor")
+    page.keyboard.type("0.7e")
+    assert page.evaluate("document.getElementById('sz-max_load_factor').validity.badInput")
+    assert _sizing_request(page)["requirement"]["max_load_factor"] == "not a number"
+    assert "number" in page.inner_text("#sz-max_load_factor + .field-error")
+    page.fill("#sz-max_load_factor", "0.5")
+    page.fill("#sz-min_buckling_safety", "3")
+
+
+def _cap_cell(page, row, col):
+    return page.locator(f"#sz-cap-table tbody tr:nth-child({row}) .sz-cap-{col}")
+
+
+def test_a_capacity_below_the_top_designs_end_energy_ranks_it_down_with_its_reason(page):
+    _requirement(page)
+    page.fill("#sz-bore", "iso15552:32, iso15552:40")
+    page.fill("#sz-valve", "ckd-4ga:M4GA1")
+    page.fill("#sz-max_end_speed", "1000")
+    page.fill("#sz-cushion_length", "20")
+    page.fill("#sz-cushion_capacity", "0.2")
+    assert page.locator("#sz-cap-table tbody tr").count() == 0
+    sent = _sizing_request(page)["requirement"]
+    assert "cushion_capacities" not in sent
+    top = page.evaluate("SZ.ans.designs[0]")
+    assert top["cylinder"]["name"] == "iso15552:32", page.inner_text("#status")
+    energy = max(top["cushion"][k]["end_energy"] for k in ("extend", "retract"))
+    # the catalogue's figure for the top design's series and bore, well below its end energy
+    # (0.2 J at the typed capacity): no needle meets the 0.6 s with it
+    low = round(energy / 200, 6)
+    page.click("#btn-sz-cap-add")
+    # the bore in the page's unit system (engineering: mm), the energy in J
+    assert "[mm]" in page.inner_text("#sz-cap-h-bore") and "[J]" in page.inner_text("#sz-cap-h-capacity")
+    assert "[mm]" in page.inner_text("#sz-cap-table label.sr-only >> nth=1")
+    _cap_cell(page, 1, "series").fill("iso15552")
+    _cap_cell(page, 1, "bore").fill("32")
+    _cap_cell(page, 1, "capacity").fill(str(low))
+    sent = _sizing_request(page)["requirement"]["cushion_capacities"]
+    assert len(sent) == 1 and sent[0]["series"] == "iso15552" and sent[0]["capacity"] == low
+    # 32 mm typed, 0.032 m sent (1e-12 m: the float of a mm scaled)
+    assert sent[0]["bore"] == pytest.approx(0.032, abs=1e-12)
+    names = page.evaluate("SZ.ans.designs.map(d => d.cylinder.name)")
+    assert names[0] == "iso15552:40", names
+    rejected = page.evaluate("SZ.ans.infeasible.map(f => [f.cylinder.name, f.reason, f.detail])")
+    assert [r[:2] for r in rejected] == [["iso15552:32", "cushion"]]
+    assert "cushion_capacities[0]" in rejected[0][2]
+    assert "1 cushion (" in page.inner_text("#sizing-table")
+    # the SI system shows the same bore in m
+    page.select_option("#unit-system", "si")
+    page.wait_for_function("() => document.body.dataset.units === 'si'")
+    assert _cap_cell(page, 1, "bore").input_value() == "0.032"
+    assert "[m]" in page.inner_text("#sz-cap-h-bore")
+    page.select_option("#unit-system", "engineering")
+    page.wait_for_function("() => document.body.dataset.units === 'engineering'")
+    assert _cap_cell(page, 1, "bore").input_value() == "32"
+
+
+def test_a_bad_capacity_cell_shows_the_apis_422_and_removed_rows_are_not_sent(page):
+    # continues the previous test's table (one row: iso15552, 32 mm)
+    page.click("#btn-sz-cap-add")
+    _cap_cell(page, 2, "bore").fill("40")
+    _cap_cell(page, 2, "capacity").fill("-1")
+    _size(page)
+    assert page.get_attribute("#panel-sizing", "data-sized") == "error"
+    err = _cap_cell(page, 2, "capacity").locator("xpath=following-sibling::span[1]")
+    assert "unit: J" in err.inner_text()
+    assert _cap_cell(page, 1, "capacity").locator("xpath=following-sibling::span[1]").inner_text() == ""
+    # the first row removed: the second is now entry 0, its error goes with the index it had,
+    # and the removed row's values are not sent
+    page.click("#sz-cap-table tbody tr:nth-child(1) .sz-cap-remove")
+    assert page.get_attribute("#sz-cap-table tbody tr:nth-child(1) .sz-cap-capacity", "data-field") \
+        == "requirement.cushion_capacities[0].capacity"
+    assert _cap_cell(page, 1, "capacity").locator("xpath=following-sibling::span[1]").inner_text() == ""
+    _cap_cell(page, 1, "capacity").fill("0.2")
+    sent = _sizing_request(page)["requirement"]["cushion_capacities"]
+    # 40 mm typed, 0.04 m sent (1e-12 m: the float of a mm scaled)
+    assert len(sent) == 1 and sent[0]["bore"] == pytest.approx(0.04, abs=1e-12) and sent[0]["capacity"] == 0.2
+    assert sent[0]["series"] is None
+    assert page.get_attribute("#panel-sizing", "data-sized") not in (None, "error"), page.inner_text("#status")
+    # a blank bore is sent as null, and the API's 422 says so next to it
+    _cap_cell(page, 1, "bore").fill("")
+    assert _sizing_request(page)["requirement"]["cushion_capacities"][0]["bore"] is None
+    assert "number" in _cap_cell(page, 1, "bore").locator("xpath=following-sibling::span[1]").inner_text()
+    page.click("#sz-cap-table tbody tr:nth-child(1) .sz-cap-remove")
+    for field, value in (("cushion_length", ""), ("cushion_capacity", "")):
+        page.fill(f"#sz-{field}", value)
