@@ -250,11 +250,13 @@ def study_estimate(run_samples, workers, local=True):
     return max(FLOOR_BYTES, max(1, workers) * (STUDY_WORKER_BYTES * (workers > 0) + per_run))
 
 
-def control_estimate(run_samples, runs):
-    """A closed-loop robustness study or a tuning [bytes]: one closed-loop run at a time in
-    the job's thread (``run_samples`` output samples) and every run's row of the answer
-    (:data:`CONTROL_RUN_BYTES`; a tuning: runs times gain sets)."""
-    return samples_estimate("simulate", run_samples) + int(runs) * CONTROL_RUN_BYTES
+def control_estimate(run_samples, runs, workers=0, local=True):
+    """A closed-loop robustness study or a tuning [bytes]: its runs on the studies' engine as a
+    study's are (:func:`study_estimate`: each of the local pool's ``workers`` processes
+    simulating one closed-loop run of ``run_samples`` output samples; 0 workers: one run at a
+    time in the job's thread; a Dask cluster's runs are not this server's), and every run's
+    row of the answer (:data:`CONTROL_RUN_BYTES`; a tuning: runs times gain sets)."""
+    return study_estimate(run_samples, workers, local) + int(runs) * CONTROL_RUN_BYTES
 
 
 def sizing_estimate(run_samples, workers):

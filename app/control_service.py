@@ -97,16 +97,18 @@ def controllers_answer():
     return {"controllers": [k.describe() for k in CONTROLLERS.values()]}
 
 
-def check_control_study(req, limits):
+def check_control_study(req, limits, address="local"):
     """A closed-loop study or tuning request checked before its job starts (422 now): the
     study, its controller, its specification, and its scenario within the API's limits
-    (duration, samples).
+    (duration, samples). ``address``: where its runs go (:func:`control_engine`'s
+    ``scheduler``: ``"local"`` for the local process pool, else a cluster's address) [-].
 
     Returns
     -------
     estimate : int
-        The job's memory estimate [bytes] (:func:`app.analysis_memory.control_estimate`: one
-        run at a time, every run's row; a tuning's runs are its gain sets times the study's),
+        The job's memory estimate [bytes] (:func:`app.analysis_memory.control_estimate`: the
+        local pool's processes each on one run, every run's row; a tuning's runs are its gain
+        sets times the study's),
         a 422 naming ``study.samples`` when it alone exceeds ``limits.analysis_memory_budget``
     """
     import math
@@ -122,7 +124,9 @@ def check_control_study(req, limits):
     samples = output_samples(study.scenario.duration, study.scenario.sample_period)
     gains = getattr(req, "gains", None) or {}
     runs = study.n_runs * math.prod(len(v) for v in gains.values())
-    estimate = control_estimate(samples, runs)
+    from pneucore.study.execute import default_workers
+    # its runs go where a study's go (control_engine): the local pool's processes, or a cluster
+    estimate = control_estimate(samples, runs, default_workers(), local=address == "local")
     check_alone(estimate, limits.analysis_memory_budget, "study.samples",
                 f"{runs:,} closed-loop runs of {samples:,} samples")
     return estimate

@@ -41,8 +41,8 @@ def _job(jobs, kind, fn, memory):
 def _control_job(kind, run, req, request, limits, jobs):
     """A closed-loop study or tuning checked now (422) and run as a job on the studies' engine
     with its memory estimate; ``run(req, report, engine)`` is its work."""
-    estimate = check_control_study(req, limits)
     engine = control_engine(request.app.state.settings)
+    estimate = check_control_study(req, limits, engine["scheduler"])
     return _job(jobs, kind, lambda job: run(req, job.report, engine), estimate)
 
 

@@ -232,3 +232,30 @@ def test_every_route_that_takes_a_json_body_counts_a_large_one():
     assert len(body) > 30 and any("heat-models" in p for p, _ in body)
     plain = [p for p, r in body if not isinstance(r, OffLoopRoute)]
     assert plain == [], plain
+
+
+
+def test_a_closed_loop_jobs_estimate_counts_the_pool_processes_its_runs_take(monkeypatch):
+    """A closed-loop study or tuning runs on the studies' engine: on the local pool each
+    process holds its own run (and its interpreter), so the job's estimate counts them as a
+    study's does; on a cluster the runs are not this server's (the gap the memory guide
+    reported: one run in the job's thread was counted where the pool's processes ran)."""
+    import pneucore.study.execute as X
+    from app.analysis_memory import CONTROL_RUN_BYTES, study_estimate
+    from app.config import Limits
+    from app.control_schemas import ControlStudyRequest
+    from app.control_service import check_control_study
+    from pneucore.simulate import output_samples
+    req = ControlStudyRequest(study=control_study())
+    samples = output_samples(0.5, 1e-3)          # the study's scenario: 0.5 s at 1 kHz
+    runs = 2                                     # its grid of two masses
+    est = {}
+    for n in (1, 4):
+        monkeypatch.setattr(X, "default_workers", lambda n=n: n)
+        est[n] = check_control_study(req, Limits())
+        # the study's figure for the same pool, and each run's row of the answer: exactly
+        assert est[n] == study_estimate(samples, n) + runs * CONTROL_RUN_BYTES
+    assert est[4] > est[1]
+    # on a cluster: the floor and the answer's rows, whatever the local pool
+    far = check_control_study(req, Limits(), "tcp://cluster:8786")
+    assert far == study_estimate(samples, 4, local=False) + runs * CONTROL_RUN_BYTES < est[1]
