@@ -215,6 +215,8 @@ class Objective:
                       else [signal_sigmas(e) for e in experiments])
         self.n_eval = 0
         self.best = (np.inf, None)
+        #: the best cost after each evaluation of the residuals (:meth:`residuals`) [-]
+        self.trace = []
         self._finite_cache = {}
         self._recent = []
         prior = prior or {}
@@ -326,6 +328,7 @@ class Objective:
         c = float(r @ r)
         if c < self.best[0]:
             self.best = (c, np.array(theta, float))
+        self.trace.append(self.best[0])
         return r
 
     def rss(self, replays):
@@ -505,6 +508,9 @@ class Calibration:
     bic_before: float = float("nan")
     #: the fit raised the overall error: the model as given was kept (:func:`kept_better`)
     kept_start: bool = False
+    #: share of its residual energy the fit's last pass removed in the second half of its
+    #: evaluations (:func:`tail_drop`) [-]: how much a fit its budget stopped was still gaining
+    tail_drop: float = float("nan")
 
     @property
     def autocorrelation_time(self):
@@ -616,6 +622,7 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         rms_start = _series_rms(obj, rps0)
         cache = {tuple(np.round(z0, 15)): r0}
         obj.best = (float(r0 @ r0), theta0.copy())
+        mark = len(obj.trace)   # where the last pass's costs start
 
         def fun(z):
             key = tuple(np.round(z, 15))
@@ -662,6 +669,7 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
                 # than the model as given on the fit's own objective
                 r_start = obj.full(rps0, theta0)
                 obj.best = (float(r_start @ r_start), theta0.copy())
+                mark = len(obj.trace)
                 sol = least_squares(fun, np.clip(sol.x, lo / sc, hi / sc), jac=jac,
                                     bounds=(lo / sc, hi / sc), method="trf", x_scale=1.0,
                                     max_nfev=(max(max_nfev // 2, 5) if broyden is None
@@ -681,6 +689,7 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
             success = False
             message = f"fit failed ({exc}); returning the best point found"
             theta = obj.best[1] if obj.best[1] is not None else theta0
+    drop = tail_drop(obj.trace[mark:]) if vs else float("nan")
     rps1 = obj.replays(theta)
     if vs:
         r_end = obj.full(rps1, theta)
@@ -692,7 +701,7 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         return Calibration(obj.model_at(theta), {s.path: {"value": float(theta[i])}
                                                  for i, s in enumerate(vs)}, {}, before, None,
                            math.nan, math.nan, math.nan, 0, len(vs), success, message, obj.n_eval,
-                           rss_after=obj.rss(rps1))
+                           rss_after=obj.rss(rps1), tail_drop=drop)
     after = summarise(rps1)
     rss1 = obj.rss(rps1)
     m2ll, aic, bic, n_all = information_criteria(rss1, len(vs))
@@ -746,7 +755,18 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         values[p] = {"value": v, "stderr": 0.0, "vary": False}
     return Calibration(obj.model_at(theta), values, corr, before, after, aic, bic, m2ll, n_all,
                        len(vs), success, message, obj.n_eval,
-                       taus, rss1, rss0, aic0, bic0)
+                       taus, rss1, rss0, aic0, bic0, tail_drop=drop)
+
+
+def tail_drop(costs):
+    """Share of the residual energy removed over the second half of a fit's evaluations [-]:
+    ``1 - best_end / best_middle`` of the best cost after each evaluation (``costs``), 0 for a
+    fit of fewer than four; a fit stopped by its budget that was still gaining this much is
+    worth going on with (:func:`pneucore.analysis.diagnosis.stages.out_of_evaluations`)."""
+    if len(costs) < 4:
+        return 0.0
+    mid, end = costs[len(costs) // 2 - 1], costs[-1]
+    return float(1.0 - end / mid) if mid > 0 and np.isfinite(mid) else 0.0
 
 
 #: Distance to a bound, as a fraction of the bound's own size (or, for a bound at 0, of the

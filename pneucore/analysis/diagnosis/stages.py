@@ -789,29 +789,66 @@ def _joint_refit_from(model, exps, null, name, start, max_nfev, report, form=Non
               prefit=prefit)
     back = moved_back(model, cal, {q.path for q in null.auto_specs})
     if back:
-        m2 = with_effect(model, name, {**start, **cal.model.effects[name]})
-        vals = {q.path: cal.values[q.path]["value"] for q in specs
-                if not q.path.startswith(f"effects.{name}.") and q.path not in back}
-        m2 = set_values(m2, vals)
-        specs2 = []
-        for q in specs:
-            if q.path in back:
-                continue
-            v = get_value(m2, q.path)
-            if q.path.startswith("valve."):   # a scale factor: bounds relative to m2's table
-                f = vals[q.path]
-                specs2.append(ParameterSpec(q.path, 1.0, q.min / f, q.max / f, True, q.unit))
-            else:
-                specs2.append(ParameterSpec(q.path, v, q.min, q.max, True, q.unit))
-        scale = {q: vals[q] for q in vals if q.startswith("valve.")}
-        # from the first fit's end point (on long records straight to its polish)
-        cal2 = fit(m2, exps, specs2, max_nfev=max_nfev, compute_before=False, reweight=True,
-                   prior=H.prior_for(model, [q.path for q in specs2], scale), warm=True)
-        absolute_scales(cal2, scale)
+        cal2 = _go_on(model, exps, name, start, cal, specs, max_nfev, back)
         # kept unless materially worse (2 % of the residual energy: 1 % of the Eq. 25 error)
         if _rss(cal2) <= 1.02 * _rss(cal):
             cal = cal2
+    if out_of_evaluations(cal) and cal.tail_drop >= GOING_ON:
+        # a fit its budget stopped while still gaining is continued once from where it
+        # stopped, and kept where that is materially better (the same 2 % of the residual
+        # energy): an effect in series
+        # with a base parameter it is confounded with (a meter-out throttle with the exhaust
+        # edges' scale) creeps along their valley, and the candidate that stopped short there
+        # loses to one that converged in another form (a silencer, named over the meter-out
+        # pair that made the records: 0.111 % against 0.099 %, the meter-out's fit continued
+        # reaching 0.074 % at a floor of 0.070 %)
+        cal2 = _go_on(model, exps, name, start, cal, specs, max_nfev)
+        if _rss(cal2) < 0.98 * _rss(cal):
+            cal = cal2
     return cal
+
+
+#: Share of its residual energy a fit must have removed over the second half of its last pass
+#: (:attr:`pneucore.analysis.calibrate.Calibration.tail_drop`) to be continued when its budget
+#: stopped it [-]: 2 %, what a continuation must gain to be kept (materially better); a fit
+#: gaining less than that at its end will not gain it in as many evaluations more (the
+#: meter-out pair of the circuit rig, apart: 7.6 %, continued to the floor; the lines in
+#: segments stopped on the foreign rigs: under 1e-5, not continued)
+GOING_ON = 0.02
+
+
+def out_of_evaluations(cal):
+    """Did the fit ``cal`` stop at its budget of evaluations, not at convergence? [-]"""
+    return (not cal.success and isinstance(cal.message, str)
+            and "maximum number of function evaluations" in cal.message)
+
+
+def _go_on(model, exps, name, start, cal, specs, max_nfev, back=()):
+    """A joint refit continued from ``cal``'s end point (on long records straight to its
+    polish), the base parameters of ``back`` held at the model's values: the valve scales
+    restart at 1 on the table ``cal`` reached and are reported against the model as given
+    (:func:`absolute_scales`), the prior still centred on the catalogue."""
+    # a parameter the fit held (not among its values: moved back by an earlier pass) stays held
+    back = set(back) | {q.path for q in specs if q.path not in cal.values}
+    m2 = with_effect(model, name, {**start, **cal.model.effects[name]})
+    vals = {q.path: cal.values[q.path]["value"] for q in specs
+            if not q.path.startswith(f"effects.{name}.") and q.path not in back}
+    m2 = set_values(m2, vals)
+    specs2 = []
+    for q in specs:
+        if q.path in back:
+            continue
+        v = get_value(m2, q.path)
+        if q.path.startswith("valve."):   # a scale factor: bounds relative to m2's table
+            f = vals[q.path]
+            specs2.append(ParameterSpec(q.path, 1.0, q.min / f, q.max / f, True, q.unit))
+        else:
+            specs2.append(ParameterSpec(q.path, v, q.min, q.max, True, q.unit))
+    scale = {q: vals[q] for q in vals if q.startswith("valve.")}
+    cal2 = fit(m2, exps, specs2, max_nfev=max_nfev, compute_before=False, reweight=True,
+               prior=H.prior_for(model, [q.path for q in specs2], scale), warm=True)
+    absolute_scales(cal2, scale)
+    return cal2
 
 
 def absolute_scales(cal, scale):
