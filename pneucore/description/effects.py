@@ -479,6 +479,19 @@ def _quadrant_transform(m, p):
         setattr(m.friction.retract, k, getattr(m.friction.extend, k) + v)
 
 
+def _switching_transform(m, p):
+    # the valve's catalogue switching times (ISO 12238), lengthened by the delay found
+    m.valve = copy.copy(m.valve)
+    m.valve.on_time = m.valve.on_time + p["on_time"]
+    m.valve.off_time = m.valve.off_time + p["off_time"]
+
+
+def _switching_unused(model):
+    # a valve without a rest position (a proportional spool, a bistable valve) takes on_time
+    # for every change (physics.valve.switched_command): off_time acts on nothing
+    return ("off_time",) if model.valve.rest_opening is None else ()
+
+
 def _quadrant_base_change(p, m):
     # the retract values the difference gives on top of the extend set (those it moves)
     return {f"friction.retract.{k}": getattr(m.friction.extend, k) + p[k]
@@ -849,6 +862,20 @@ for _e in [
             Parameter("damping", "-", 0.7, 0.05, 5.0, None, "second-order damping ratio")],
            strength="time_constant", pack=_pack_spool, fit_params=("time_constant",),
            probe={"time_constant": 0.005, "natural_frequency": 0.0}),
+    Effect("valve_switching_delay",
+           "a pure delay between each command change and the valve's switch (a solenoid's "
+           "switching time, on energising and on de-energising)",
+           "every pressure change starts the same few ms after its command edge, with the shape "
+           "it would have at once (a spool lag rounds it instead)",
+           "ISO 12238 (switching times of directional control valves); solenoid-valve "
+           "catalogues give them (SMC, Festo: 5-30 ms)",
+           [Parameter("on_time", "s", 0.005, 0.0, 0.1, 0.0,
+                      "switching time on energising, added to the valve's own"),
+            Parameter("off_time", "s", 0.005, 0.0, 0.1, 0.0,
+                      "switching time on de-energising (back to the rest position), added to "
+                      "the valve's own")],
+           strength="on_time", transform=_switching_transform, unused=_switching_unused,
+           probe={"on_time": 0.005, "off_time": 0.005}),
     Effect("valve_null_leakage",
            "leakage of a centred spool: a fraction of each edge's full C on all four edges",
            "with the valve centred, both chambers drift towards the supply/exhaust equilibrium",

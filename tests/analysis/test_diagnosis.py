@@ -56,6 +56,9 @@ HIDDEN = {
     "external_leakage": {"conductance_a": 1.0e-10, "conductance_b": 7.0e-11},
     # 8 ms first-order spool lag (probe 5 ms); first order: natural_frequency 0
     "valve_spool_dynamics": {"time_constant": 0.008, "natural_frequency": 0.0, "damping": 0.7},
+    # the valve switches 3 ms after each command change (probe 5 ms); the paper's proportional
+    # valve has no rest position, so every change takes on_time and off_time acts on nothing
+    "valve_switching_delay": {"on_time": 0.003, "off_time": 0.0},
     # 1 % of the full edge conductance leaks through the centred spool (probe 0.5 %)
     "valve_null_leakage": {"fraction": 0.01},
     # breakaway force twice the Coulomb force, Stribeck velocity 15 mm/s (probe 1.5, default 10 mm/s)
