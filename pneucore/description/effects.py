@@ -143,9 +143,10 @@ class Effect:
     #: dose, while a fit tells them apart (a valve's switching delay and a line's transport delay
     #: L / c: both start each pressure change later; only the line also fills its volume
     #: through its resistance). The score pass, linear at the probes' doses, may rank this one
-    #: ahead and push them out of the refitted lead; where this one leads, they are refitted
-    #: beside it (:func:`pneucore.analysis.diagnosis.stages.leading`), so the evidence of both,
-    #: fitted on the same records, decides
+    #: ahead and push them out of the refits; before this one is named, they are fitted on the
+    #: same records and every candidate is judged again
+    #: (:func:`pneucore.analysis.diagnosis.rules.unfitted_resemblances`), so the evidence of
+    #: both decides
     resembles: tuple = ()
     #: Parameters held at their defaults while the effect is sought (a strength and a shape
     #: fitted together on records that barely separate them wander) and refitted with its

@@ -5,10 +5,10 @@
 finite volumes also delays each pressure change, by its transport delay L / c: at the score
 pass's probe doses the delay's change explains more of a long line's residual than the line's
 own, and on the 2.5 m line rig fitted on its window it took the line's place among the three
-refits. The catalogue says the delay resembles the line
-(:attr:`pneucore.description.effects.Effect.resembles`): where the delay leads, the line is
-refitted beside it and the evidence of both decides
-(:func:`pneucore.analysis.diagnosis.stages.leading`). The line rig itself is
+refits and was named. The catalogue says the delay resembles the line
+(:attr:`pneucore.description.effects.Effect.resembles`): before the delay is named, the line, if
+the score pass left it out, is refitted on the same records and every candidate judged again
+(:func:`pneucore.analysis.diagnosis.rules.unfitted_resemblances`). The line rig itself is
 ``tests/analysis/test_forms_on_window.py::test_a_line_in_finite_volumes_wins_its_window_and_is_named_on_long_records``.
 """
 import functools
@@ -18,7 +18,7 @@ import pytest
 from pneucore import EFFECTS, Model, model_preset
 from pneucore.analysis.compare import compare
 from pneucore.analysis.diagnose import diagnose
-from pneucore.analysis.diagnosis import stages as S
+from pneucore.analysis.diagnosis import rules as R
 from pneucore.data.synthetic import synthetic_experiments
 
 #: The hidden switching times [s]: 6 ms on energising, 4 ms back to rest (a spring return)
@@ -39,20 +39,19 @@ def test_every_resemblance_names_a_catalog_effect():
     assert "tubing" in EFFECTS["valve_switching_delay"].resembles
 
 
-def test_a_leading_delay_brings_the_line_it_resembles_into_the_refits():
+def test_a_named_delay_asks_for_the_line_it_resembles_where_it_was_not_refitted():
     score = _score("valve_switching_delay", "sensor_lag", "valve_spool_dynamics", "tubing",
                    "dead_volume")
-    assert S.leading(score, 3) == ["valve_switching_delay", "sensor_lag",
-                                   "valve_spool_dynamics", "tubing"]
-    # the line already among the leaders: refitted once
-    assert S.leading(score[:1] + score[3:], 3) == ["valve_switching_delay", "tubing",
-                                                   "dead_volume"]
-    # the delay not leading: nothing added
-    assert S.leading(score[1:], 3) == ["sensor_lag", "valve_spool_dynamics", "tubing"]
-    # the line not a candidate (already in the model, or no testable strength): nothing added
+    lead = ["valve_switching_delay", "sensor_lag", "valve_spool_dynamics"]
+    assert R.unfitted_resemblances("valve_switching_delay", score, lead) == ["tubing"]
+    # the line already refitted: nothing more
+    assert R.unfitted_resemblances("valve_switching_delay", score, lead + ["tubing"]) == []
+    # another effect named, or none: nothing (a line in segments costs tens of seconds a fit)
+    assert R.unfitted_resemblances("sensor_lag", score, lead) == []
+    assert R.unfitted_resemblances(None, score, lead) == []
+    # the line not a candidate (already in the model, or no testable strength): nothing
     untestable = score[:3] + [{"effect": "tubing", "dof": 0, "lm": 0.0}]
-    assert S.leading(untestable, 3) == ["valve_switching_delay", "sensor_lag",
-                                        "valve_spool_dynamics"]
+    assert R.unfitted_resemblances("valve_switching_delay", untestable, lead) == []
 
 
 @functools.lru_cache(maxsize=None)
@@ -79,7 +78,7 @@ def test_a_hidden_switching_delay_is_named_with_its_times():
 
 
 def test_the_line_refitted_beside_a_hidden_delay_does_not_explain_it():
-    """The line was refitted (the delay leads the score pass) and removes a small part of the
+    """The line was refitted (the delay, named, resembles it) and removes a small part of the
     excess only: a line's delay is the same both ways on each port, and its volume and
     resistance slow the rise; the valve's is per command, 6 ms and 4 ms."""
     d, _ = _hidden_delay()

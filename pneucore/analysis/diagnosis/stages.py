@@ -592,14 +592,8 @@ def at_noise_floor(null):
 
 
 def leading(score, n_refit):
-    """The ``n_refit`` best-scored candidates with a testable strength, followed by any scored
-    candidate one of them resembles (:attr:`pneucore.description.effects.Effect.resembles`:
-    the score pass, linear at the probes' doses, does not tell them apart; their fits do)."""
-    testable = [s["effect"] for s in score if s["dof"] > 0]
-    lead = testable[:n_refit]
-    for name in list(lead):
-        lead += [r for r in EFFECTS[name].resembles if r in testable and r not in lead]
-    return lead
+    """The ``n_refit`` best-scored candidates with a testable strength."""
+    return [s["effect"] for s in score if s["dof"] > 0][:n_refit]
 
 
 # -- 5. joint refits ----------------------------------------------------------------------
