@@ -82,6 +82,7 @@ from pneucore.analysis import parallel as P
 from pneucore.analysis.blas_threads import single_threaded_blas
 from pneucore.analysis.compare import plain_json, replay, summarise
 from pneucore.analysis.records import Records, prepared
+from pneucore.analysis.diagnosis import rules as R
 from pneucore.analysis.diagnosis import stages as S
 from pneucore.analysis.diagnosis.circuits import restricted_paths
 from pneucore.analysis.diagnosis.evidence import consistency, excess_drop as _excess_drop  # noqa: F401
@@ -314,8 +315,17 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
             refits = S.joint_refits(model, exps, null, lead, max_nfev, report,
                                     {c["effect"]: c.get("form", {}) for c in score})
             ranking = S.evidence(null, refits, skipped)
-            return (score, lead, refits, ranking) + S.verdict(model, exps, ranking, refits, null,
-                                                              alpha, max_nfev, report)
+            named = S.verdict(model, exps, ranking, refits, null, alpha, max_nfev, report)
+            # an effect the named one resembles and the score pass left out is fitted on the
+            # same records before any is named (a switching delay against a line's L / c)
+            more = R.unfitted_resemblances(named[0], score, refits)
+            if more:
+                refits.update(S.joint_refits(model, exps, null, more, max_nfev, report,
+                                             {c["effect"]: c.get("form", {}) for c in score}))
+                lead = lead + more
+                ranking = S.evidence(null, refits, skipped)
+                named = S.verdict(model, exps, ranking, refits, null, alpha, max_nfev, report)
+            return (score, lead, refits, ranking) + named
 
         weighed = weigh(null)
         # a recalibration at a bound, or far beyond a catalogue error, is a symptom: the catalog

@@ -98,8 +98,17 @@ def _stribeck(p, model):
             f"{1e3 * p.get('stribeck_velocity', 0.0):.3g} mm/s")
 
 
+def _switching(p, model):
+    text = f"the valve switches {1e3 * p['on_time']:.3g} ms after its command"
+    if model.valve.rest_opening is not None:
+        text += (f" when energised, {1e3 * p.get('off_time', 0.0):.3g} ms when de-energised "
+                 "(its spring return)")
+    return text + " (a pure delay, beside the catalogue's switching times)"
+
+
 #: Effect name -> ``f(params, model) -> str`` (params as plain values in SI units)
 IN_WORDS = {
+    "valve_switching_delay": _switching,
     "piston_leakage": _piston_leak, "external_leakage": _external_leak,
     "dead_volume": _dead_volume, "valve_spool_dynamics": _spool, "sensor_lag": _sensor,
     "valve_null_leakage": _null_leak, "supply_pressure_drop": _supply,

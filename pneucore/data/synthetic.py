@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pneucore.data.measurement import Measurement
+from pneucore.description.effects import effective_model
 from pneucore.description.model import Model
 from pneucore.description.scenario import Scenario, pulse_train
 from pneucore.simulate import simulate
@@ -127,12 +128,15 @@ def on_sample_grid(command, sample_period):
 def commanded_u(model, scenario, res):
     """The valve command a rig logs of run ``res`` of ``model`` on ``scenario`` [-]: the
     core's ``u`` where the valve switches at the command, else the ``u`` of the same run with
-    the valve's switching times (``on_time``/``off_time``) removed, at the same samples."""
-    if model.valve.on_time <= 0.0 and model.valve.off_time <= 0.0:
+    the switching times removed (the valve's ``on_time``/``off_time`` and any
+    ``valve_switching_delay``), at the same samples."""
+    eff = effective_model(model)
+    if eff.valve.on_time <= 0.0 and eff.valve.off_time <= 0.0:
         return res.u.copy()
     m = model.copy()
     m.valve = copy.copy(m.valve)
     m.valve.on_time = m.valve.off_time = 0.0
+    m.effects.pop("valve_switching_delay", None)
     return np.asarray(simulate(m, scenario).u, float).copy()
 
 

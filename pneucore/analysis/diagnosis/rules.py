@@ -153,6 +153,24 @@ def simpler(c, named):
             or c["effect"] in EFFECTS[named["effect"]].reduces_to)
 
 
+def unfitted_resemblances(name, score, refitted):
+    """The effects named candidate ``name`` resembles
+    (:attr:`pneucore.description.effects.Effect.resembles`) that the score pass ranked testable
+    (``score``: its entries) but left out of the refits (``refitted``: their names). Before
+    ``name`` is named they are fitted on the same records and every candidate is judged again:
+    the score pass is linear at the probes' doses, where a valve's 5 ms switching delay
+    explains more of a 2.5 m line's residual than the line's 1 m probe (both start each
+    pressure change later; L / c is 7.3 ms), and it pushed the line out of the three refits.
+    Only fitted do they differ (a pure shift of each command's edges against a line's slowed,
+    attenuated rise), so only their fits can tell them apart. Asked only of a named candidate:
+    a line in segments costs tens of seconds a refit."""
+    from pneucore.description.effects import EFFECTS
+    if name is None:
+        return []
+    testable = {s["effect"] for s in score if s["dof"] > 0}
+    return [r for r in EFFECTS[name].resembles if r in testable and r not in refitted]
+
+
 def blocks_predict(h):
     """The vote of the blocks in time of a held-out report
     (:func:`pneucore.analysis.diagnosis.evidence.held_out`)."""
