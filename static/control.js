@@ -14,7 +14,8 @@
  * - robustness: uncertain ranges (Coulomb friction factor, moving mass, supply pressure, valve
  *   C factor), drawn uniformly over N runs by POST /api/jobs/control-study with a specification
  *   (settling time, overshoot, steady-state band): a histogram of a chosen metric with the
- *   bound marked and the share of runs meeting it; "Tune": POST /api/jobs/tune-controller over
+ *   bound marked and the share of runs meeting it (the last study and tuning shown again after a
+ *   reload, from their job records: ctlRestore); "Tune": POST /api/jobs/tune-controller over
  *   values per gain, the sets ranked, the best taken into the gain fields.
  * Positions (the start, the setpoint's table, a gain in m or m/s, sensor resolution and noise,
  * the band) and pressures are typed and shown in the page's unit system (units.js unitShow: mm
@@ -206,6 +207,7 @@ async function ctlInit() {
   document.getElementById('control-tune-objective').value = 'settling_time';
   ctlRenderGains();
   applyControlUnits();
+  await ctlRestore();
 }
 
 /** A client-side error next to the element ``id``, naming ``field``; returns an Error to throw. */
@@ -481,12 +483,31 @@ function ctlStudy() {
   return { model: req.model, scenario: req.scenario, parameters: ctlParameters(), samples: runs, seed: 1 };
 }
 
-/** Submit a job and follow it (progress bar and step), its result, or an Error with its message. */
-async function ctlJob(path, body, prog, step) {
+/** Where the page keeps the id of its last robustness study's and tuning's job (localStorage):
+ * their answers stay on the server as job records, so a reload shows them again
+ * (ctlRestore), said to be for the model and ranges they were run on. */
+const CTL_KEEP = { robust: 'pneucore.control.robust-job', tune: 'pneucore.control.tune-job' };
+function ctlKept(which, id) {
+  try {
+    if (id === undefined) return localStorage.getItem(CTL_KEEP[which]);
+    if (id) localStorage.setItem(CTL_KEEP[which], id); else localStorage.removeItem(CTL_KEEP[which]);
+  } catch (e) { /* storage refused: nothing is kept across a reload */ }
+  return null;
+}
+
+/** Submit a job and follow it (progress bar and step), its result, or an Error with its message;
+ * ``which``: the kept job (CTL_KEEP) it becomes. */
+async function ctlJob(path, body, prog, step, which) {
   prog.value = 0;
   delete prog.dataset.done;
   step.textContent = 'submitting';
-  let j = await api('POST', path, body);
+  const j = await api('POST', path, body);
+  if (which) ctlKept(which, j.id);
+  return ctlFollow(j, prog, step);
+}
+
+/** Follow a job's record ``j`` to its end: its result, or an Error with its message. */
+async function ctlFollow(j, prog, step) {
   while (j.status === 'queued' || j.status === 'running') {
     prog.value = j.progress || 0;
     step.textContent = `${j.step || j.status} (${Math.round((j.progress || 0) * 100)} %)`;
@@ -522,13 +543,38 @@ async function ctlRobust() {
   await busy(document.getElementById('btn-control-robust'), async () => {
     try {
       const res = await ctlJob('/api/jobs/control-study', body, document.getElementById('control-rob-progress'),
-        document.getElementById('control-rob-step'));
-      CTL.robust = res;
-      ctlPlotHist();
-      document.getElementById('panel-control').dataset.robust = '1';
+        document.getElementById('control-rob-step'), 'robust');
+      ctlShowRobust(res);
       setStatus(`Robustness study done: ${res.summary.runs} runs, ${num(res.summary.stable_fraction * 100, 3)} % stable.`, 'ok');
     } catch (e) { ctlApiError(e, 'Robustness study'); }
   });
+}
+
+function ctlShowRobust(res) {
+  CTL.robust = res;
+  ctlPlotHist();
+  document.getElementById('panel-control').dataset.robust = '1';
+}
+
+/** The last robustness study and tuning this browser ran, shown again after a reload from their
+ * job records (followed on if still running); a job the server no longer holds is forgotten. */
+async function ctlRestore() {
+  const views = {
+    robust: ['control-rob', ctlShowRobust, 'robustness study'],
+    tune: ['control-tune', ctlShowTune, 'tuning'],
+  };
+  for (const [which, [pre, show, what]] of Object.entries(views)) {
+    const id = ctlKept(which);
+    if (!id) continue;
+    let j;
+    try { j = await api('GET', `/api/jobs/${encodeURIComponent(id)}`); } catch (e) { ctlKept(which, null); continue; }
+    const step = document.getElementById(`${pre}-step`);
+    try {
+      const res = await ctlFollow(j, document.getElementById(`${pre}-progress`), step);
+      show(res);
+      step.textContent = `the last ${what} on this browser (job ${id}): for the model, gains and ranges it was run on`;
+    } catch (e) { ctlKept(which, null); }
+  }
 }
 
 /** The spec's bounds in words, in the page's units. */
@@ -632,17 +678,21 @@ async function ctlTune() {
   await busy(document.getElementById('btn-control-tune'), async () => {
     try {
       const res = await ctlJob('/api/jobs/tune-controller', body, document.getElementById('control-tune-progress'),
-        document.getElementById('control-tune-step'));
-      const worst = (c) => (c.worst == null ? Infinity : c.worst);
-      const meets = (c) => (c.summary.meets_fraction == null ? 0 : c.summary.meets_fraction);
-      res.ranked = res.candidates.slice().sort((a, b) => (meets(b) - meets(a)) || (worst(a) - worst(b)));
-      CTL.tune = res;
-      ctlTuneTable();
-      use.disabled = false;
-      document.getElementById('panel-control').dataset.tuned = '1';
+        document.getElementById('control-tune-step'), 'tune');
+      ctlShowTune(res);
       setStatus(`Tuning done: ${res.candidates.length} gain sets ranked.`, 'ok');
     } catch (e) { ctlApiError(e, 'Tuning'); }
   });
+}
+
+function ctlShowTune(res) {
+  const worst = (c) => (c.worst == null ? Infinity : c.worst);
+  const meets = (c) => (c.summary.meets_fraction == null ? 0 : c.summary.meets_fraction);
+  res.ranked = res.candidates.slice().sort((a, b) => (meets(b) - meets(a)) || (worst(a) - worst(b)));
+  CTL.tune = res;
+  ctlTuneTable();
+  document.getElementById('btn-control-tune-use').disabled = false;
+  document.getElementById('panel-control').dataset.tuned = '1';
 }
 
 /** The ranked gain sets: gains in the page's units, the worst objective, stable and meeting shares. */

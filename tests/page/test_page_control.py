@@ -217,3 +217,36 @@ def test_a_tuning_takes_the_best_gains_into_the_fields(page):
     page.fill("#control-gain-lambda", "1")
     page.click("#btn-control-tune-use")
     assert float(page.input_value("#control-gain-lambda")) == best_lambda
+
+
+def test_a_reload_shows_the_last_robustness_study_and_tuning_again(page, context, server,
+                                                                   page_errors):
+    """The robustness study and the tuning above ran as jobs; their answers stay on the server,
+    and a page opened again on this browser (the same context: its localStorage) shows both,
+    saying they are for what they were run on, without running them again."""
+    kept = page.evaluate("[localStorage.getItem('pneucore.control.robust-job'),"
+                         " localStorage.getItem('pneucore.control.tune-job')]")
+    assert all(kept), kept                         # the two tests above each kept a job id
+    posts = []
+    again = _open(context, server, page_errors, view="control")
+    again.on("request", lambda r: posts.append(r.url) if r.method == "POST" else None)
+    try:
+        again.wait_for_function("() => document.getElementById('panel-control').dataset.robust"
+                                " && document.getElementById('panel-control').dataset.tuned")
+        assert again.get_attribute("#control-rob-hist", "data-runs") == "6"
+        assert len(again.eval_on_selector_all("#control-tune-ranked tbody tr", "t => t")) == 2
+        for step in ("#control-rob-step", "#control-tune-step"):
+            text = again.inner_text(step)
+            assert "run on" in text and kept[0 if "rob" in step else 1] in text, text
+        assert not [u for u in posts if "/api/jobs/" in u]      # shown, not run again
+        # a job the server no longer holds is forgotten, never an error on the page
+        again.evaluate("localStorage.setItem('pneucore.control.robust-job', 'no-such-job')")
+    finally:
+        again.close()
+    third = _open(context, server, page_errors, view="control")
+    try:
+        third.wait_for_function("() => document.getElementById('panel-control').dataset.tuned")
+        assert third.evaluate("localStorage.getItem('pneucore.control.robust-job')") is None
+        assert third.get_attribute("#panel-control", "data-robust") is None
+    finally:
+        third.close()
