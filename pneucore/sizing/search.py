@@ -353,6 +353,19 @@ def model_notes(requirement, tube=None):
                      "and the capacity and the throttle may vary (choices.meter_out), the "
                      "throttle and the needle together; fully open (settings.*_needle_C = "
                      "cushion.needle_open_C) where it is not needed.")
+        if not requirement.cushion_capacities:
+            # a catalogue gives each bore its own allowable kinetic energy, growing with the
+            # bore; one figure for all lets a small bore pass against a large bore's capacity
+            notes.append(f"One cushion capacity ({requirement.cushion_capacity:g} J) taken for "
+                         "every bore and series: a catalogue gives each bore its own allowable "
+                         "kinetic energy, smaller for a smaller bore, so a small bore may pass "
+                         "here against a capacity its cushion does not have; give each series' "
+                         "and bore's in cushion_capacities.")
+        else:
+            listed = {(e.get("series"), e["bore"]) for e in requirement.cushion_capacities}
+            notes.append(f"Cushion capacities of {len(listed)} series and bore"
+                         f"{'s' * (len(listed) != 1)} from cushion_capacities; any other bore "
+                         f"takes cushion_capacity ({requirement.cushion_capacity:g} J).")
     if requirement.tube_length is not None:
         notes.append(f"Tube of {requirement.tube_length:g} m on each port: the model's tubing "
                      "effect, its volume pi d^2 L / 4 added to each chamber's dead volume and its "

@@ -207,3 +207,21 @@ def test_the_throttle_variable_round_trips_and_stays_within_the_effect():
         assert path_throttle(path_y(c, c_edge), c_edge) == pytest.approx(c, rel=1e-9)
     assert path_throttle(0.0, c_edge) == path_throttle(-1e-9, c_edge) == 0.0
     assert path_throttle(-1e-3, c_edge) < EFFECTS["meter_out_throttle"].param("C_a").max
+
+
+def test_one_capacity_for_every_bore_is_said_and_a_table_is_counted():
+    """The issue's designer: one capacity typed for every bore let a 16 mm cylinder rank first
+    against a capacity its cushion does not have. With no table of each bore's own capacity the
+    answer says so; with one it says how many it holds and what the other bores take."""
+    from pneucore.sizing.search import model_notes
+    one = model_notes(Requirement.from_dict({**REQ, "cushion_capacity": 0.4}))
+    assert any("One cushion capacity (0.4 J) taken for every bore" in n for n in one)
+    table = [{"series": "iso15552", "bore": 0.032, "capacity": 0.3},
+             {"series": "iso15552", "bore": 0.04, "capacity": 0.5}]
+    two = model_notes(Requirement.from_dict({**REQ, "cushion_capacity": 0.4,
+                                             "cushion_capacities": table}))
+    assert not any("One cushion capacity" in n for n in two)
+    assert any("Cushion capacities of 2 series and bores" in n and "(0.4 J)" in n for n in two)
+    # no cushion, no word of capacities
+    none = model_notes(Requirement.from_dict({k: v for k, v in REQ.items() if k != "cushion_length"}))
+    assert not any("apacit" in n for n in none)
