@@ -92,8 +92,13 @@ class ReplayCache:
 
 
 def model_key(model):
-    """The plain form of ``model`` as one string: equal for models that simulate alike [-]."""
-    return json.dumps(model.to_dict(), sort_keys=True, default=repr)
+    """The plain form of ``model`` as one string: equal for models that simulate alike; None
+    where it holds something that is not plain JSON (such a model is not cached: a repr may
+    elide an array's middle, and two models would share a key) [-]."""
+    try:
+        return json.dumps(model.to_dict(), sort_keys=True, allow_nan=True)
+    except (TypeError, ValueError):
+        return None
 
 
 class Records(list):
@@ -157,10 +162,11 @@ class Records(list):
         key = model_key(model)
         out = []
         for e in self:
-            rp = self._cache.get(key, e)
+            rp = None if key is None else self._cache.get(key, e)
             if rp is None:
                 rp = replay(model, e).drop_core_outputs()
-                self._cache.put(key, e, rp)
+                if key is not None:
+                    self._cache.put(key, e, rp)
             out.append(rp)
         return out
 

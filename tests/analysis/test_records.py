@@ -116,3 +116,17 @@ def test_a_fit_through_the_cache_is_the_fit_without_it(exps):
     b = C.fit(model, rec, specs, max_nfev=8, compute_before=False)
     assert a.values == b.values
     assert rec.cache.hits > 0   # the end point, simulated again to summarise it, was a hit
+
+
+def test_a_model_that_is_not_plain_json_is_replayed_without_the_cache(exps, monkeypatch):
+    """A key from a repr could elide an array's middle and give two models one key: such a model
+    is never cached (replayed each time)."""
+    from pneucore.analysis import records as Rm
+    from pneucore.data.experiment import as_experiments
+    rec = Records(as_experiments(exps))
+    model = Model.from_dict(model_preset("paper-4way"))
+    plain = model.to_dict
+    monkeypatch.setattr(type(model), "to_dict", lambda self: {**plain(), "odd": np.arange(3)})
+    assert Rm.model_key(model) is None
+    a, b = rec.replayed(model), rec.replayed(model)
+    assert rec.cache.hits == 0 and rec.cache.misses == 0 and a[0] is not b[0]
