@@ -511,6 +511,9 @@ class Calibration:
     #: share of its residual energy the fit's last pass removed in the second half of its
     #: evaluations (:func:`tail_drop`) [-]: how much a fit its budget stopped was still gaining
     tail_drop: float = float("nan")
+    #: the optimiser stopped at its budget of evaluations (``max_nfev``), not at a tolerance;
+    #: a long record's polish, whose budget is its design, is not [-]
+    out_of_budget: bool = False
 
     @property
     def autocorrelation_time(self):
@@ -605,6 +608,7 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         before = summarise(rps0)
     rss0 = obj.rss(rps0)
     success, message = True, "converged"
+    out_of_budget = False   # stopped by max_nfev, not by a tolerance (the polish's budget aside)
     theta = theta0
     z_first = theta0 / sc
     short = prefit_window(experiments, len(vs))
@@ -678,6 +682,7 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
             theta = np.clip(sol.x * sc, lo, hi)
             success = sol.status > 0
             message = sol.message if success else f"did not converge: {sol.message}"
+            out_of_budget = sol.status == 0 and broyden is None
             if broyden is not None and sol.status == 0:   # the polish's budget, by design
                 success = pre.success if pre is not None else True
                 message = (f"{pre.message} (on the records' first {PREFIT_SECONDS:g} s in all), "
@@ -701,7 +706,8 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         return Calibration(obj.model_at(theta), {s.path: {"value": float(theta[i])}
                                                  for i, s in enumerate(vs)}, {}, before, None,
                            math.nan, math.nan, math.nan, 0, len(vs), success, message, obj.n_eval,
-                           rss_after=obj.rss(rps1), tail_drop=drop)
+                           rss_after=obj.rss(rps1), tail_drop=drop,
+                           out_of_budget=out_of_budget)
     after = summarise(rps1)
     rss1 = obj.rss(rps1)
     m2ll, aic, bic, n_all = information_criteria(rss1, len(vs))
@@ -755,7 +761,8 @@ def fit(model, experiments, specs, max_nfev=40, compute_before=True, progress=No
         values[p] = {"value": v, "stderr": 0.0, "vary": False}
     return Calibration(obj.model_at(theta), values, corr, before, after, aic, bic, m2ll, n_all,
                        len(vs), success, message, obj.n_eval,
-                       taus, rss1, rss0, aic0, bic0, tail_drop=drop)
+                       taus, rss1, rss0, aic0, bic0, tail_drop=drop,
+                       out_of_budget=out_of_budget)
 
 
 def tail_drop(costs):

@@ -53,6 +53,7 @@ def _stub(monkeypatch, ends):
         end = set_values(model, {p: v["value"] for p, v in values.items()})
         return SimpleNamespace(model=end, values=values, success=ok,
                                message="converged" if ok else STOPPED, tail_drop=drop,
+                               out_of_budget=not ok,
                                rss_after=[("e", "p_a", rss, 1)])
     monkeypatch.setattr(S, "fit", fake)
     monkeypatch.setattr(S, "moved_back", lambda *a: set())

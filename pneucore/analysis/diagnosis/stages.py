@@ -819,8 +819,7 @@ GOING_ON = 0.02
 
 def out_of_evaluations(cal):
     """Did the fit ``cal`` stop at its budget of evaluations, not at convergence? [-]"""
-    return (not cal.success and isinstance(cal.message, str)
-            and "maximum number of function evaluations" in cal.message)
+    return bool(getattr(cal, "out_of_budget", False))
 
 
 def _go_on(model, exps, name, start, cal, specs, max_nfev, back=()):
