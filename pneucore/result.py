@@ -6,6 +6,7 @@ import numpy as np
 from pneucore.core import layout as L
 from pneucore.core.integrator import ST_BACKSTEPS, ST_EVENTS, ST_FEVALS, ST_JACOBIANS, ST_REJECTED, ST_STEPS, \
     STATUS_MESSAGES
+from pneucore.physics.flow_control import node_state_unit
 from pneucore.physics.tube import line_state_unit
 
 #: Sampled series of every result, with their units
@@ -397,6 +398,9 @@ def _state_unit(name):
     line = line_state_unit(name)
     if line is not None:
         return line
+    node = node_state_unit(name)
+    if node is not None:
+        return node
     if name.startswith("p_"):
         return "Pa"
     if name.startswith("m_"):

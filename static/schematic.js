@@ -333,29 +333,43 @@ function drawSchematic(model, opts = {}) {
     const L = tube && typeof tube === 'object' ? schemNum(tube[`length_${end}`]) : null;
     const tubeOn = L !== null && L > 0;
     const line = schemGroup(below, `schem-line-${end}`, `Working line, port ${end.toUpperCase()}`);
+    // each control with its volume before the valve (physics.flow_control) sits at the
+    // cylinder's port, above the tube; one in series with the valve's edge, below it
     const slots = [];
-    if (schemPortOn(mo, `C_${end}`)) slots.push(['out', mo[`C_${end}`]]);
-    if (schemPortOn(mi, `C_${end}`)) slots.push(['in', mi[`C_${end}`]]);
+    for (const [kind, eff] of [['out', mo], ['in', mi]]) {
+      if (!schemPortOn(eff, `C_${end}`)) continue;
+      const V = schemNum(eff[`volume_${end}`]);
+      slots.push([kind, eff[`C_${end}`], V !== null && V > 0 ? V : null]);
+    }
+    const order = [...slots.filter(s => s[2] !== null), 'tube', ...slots.filter(s => s[2] === null)];
+    while (order.length < 3) order.push(null);
     let y = cy1;
-    if (tubeOn) {
-      const g = schemGroup(below, `schem-tube-${end}`, `Tube on port ${end.toUpperCase()}: length ${show(L, `effects.tubing.length_${end}`)}, ` +
-        `inner diameter ${show(tube[`diameter_${end}`], `effects.tubing.diameter_${end}`)}`, 'schem-tube');
-      schemLine(g, px, y, px, y + 50, { class: 'schem-tube-line' });
-      schemText(g, px + 8, y + 26, `tube ${show(L, `effects.tubing.length_${end}`)}`);
-      schemText(g, px + 8, y + 40, `⌀ ${show(tube[`diameter_${end}`], `effects.tubing.diameter_${end}`)}`);
-    } else schemLine(line, px, y, px, y + 50);
-    y += 50;
-    for (let i = 0; i < 2; i++) {
+    for (const item of order) {
+      if (item === 'tube') {
+        if (tubeOn) {
+          const g = schemGroup(below, `schem-tube-${end}`, `Tube on port ${end.toUpperCase()}: length ${show(L, `effects.tubing.length_${end}`)}, ` +
+            `inner diameter ${show(tube[`diameter_${end}`], `effects.tubing.diameter_${end}`)}`, 'schem-tube');
+          schemLine(g, px, y, px, y + 50, { class: 'schem-tube-line' });
+          schemText(g, px + 8, y + 26, `tube ${show(L, `effects.tubing.length_${end}`)}`);
+          schemText(g, px + 8, y + 40, `⌀ ${show(tube[`diameter_${end}`], `effects.tubing.diameter_${end}`)}`);
+        } else schemLine(line, px, y, px, y + 50);
+        y += 50;
+        continue;
+      }
+      if (!item) { schemLine(line, px, y, px, y + 60); y += 60; continue; }
+      const [kind, C, V] = item;
       const yc = y + 30;
-      const slot = slots[i];
-      if (!slot) { schemLine(line, px, y, px, y + 60); y += 60; continue; }
-      const out = slot[0] === 'out';
-      const g = schemGroup(below, `schem-meter-${slot[0]}-${end}`, `One-way flow control (ISO 1219-1), meter-${slot[0]} on port ` +
-        `${end.toUpperCase()}: throttle C ${show(slot[1], `effects.meter_${slot[0]}_throttle.C_${end}`)} in parallel with a check valve`, 'schem-flow-control');
+      const out = kind === 'out';
+      const path = `effects.meter_${kind}_throttle`;
+      const where = V !== null ? ` at the cylinder's port, ${show(V, `${path}.volume_${end}`)} between it and the valve`
+        : ' in series with the valve\'s edge';
+      const g = schemGroup(below, `schem-meter-${kind}-${end}`, `One-way flow control (ISO 1219-1), meter-${kind} on port ` +
+        `${end.toUpperCase()}: throttle C ${show(C, `${path}.C_${end}`)} in parallel with a check valve,${where}`, 'schem-flow-control');
       schemLine(g, px, y, px, y + 6);
       schemLine(g, px, y + 54, px, y + 60);
       schemFlowControl(g, px, yc, out);   // meter-out: free flow into the chamber (upward)
-      schemText(g, px + 24, yc + 4, `meter-${slot[0]} ${show(slot[1], `effects.meter_${slot[0]}_throttle.C_${end}`)}`);
+      schemText(g, px + 24, yc + 4, `meter-${kind} ${show(C, `${path}.C_${end}`)}`);
+      if (V !== null) schemText(g, px + 24, yc + 18, `V ${show(V, `${path}.volume_${end}`)}`);
       y += 60;
     }
     // to the valve port

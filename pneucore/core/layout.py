@@ -12,6 +12,7 @@ registry, after the base slots written out here.
 import pneucore.physics.heat       # noqa: F401  (registers the state term ``wall``)
 import pneucore.physics.sensors    # noqa: F401  (registers the sensors' state terms)
 import pneucore.physics.tube       # noqa: F401  (registers the line term ``line``)
+import pneucore.physics.flow_control  # noqa: F401  (registers the line term ``flow_control_node``)
 from pneucore.physics.states import slot_blocks
 from pneucore.physics.valve import PORT_NAMES
 

@@ -227,7 +227,12 @@ def call_line_node(table, port, iy, y, prm, p, T, r):
     raise NotImplementedError("called from compiled code only")
 
 
-@overload(call_line_node)
+# The line terms' dispatchers are inlined at numba IR level: called as a function, the table
+# is an argument, and numba lowers each compiled function in it as a dynamic address (numba
+# 0.68's first-class functions), which LLVM drops only where it inlines the callee; with two
+# line terms it did not, and the core could no longer be cached (16 "cannot cache" warnings,
+# the first compile repeated in every process)
+@overload(call_line_node, inline="always")
 def _generate_line_node(table, port, iy, y, prm, p, T, r):
     lines = ["def impl(table, port, iy, y, prm, p, T, r):"]
     for i in range(len(table)):
@@ -253,7 +258,7 @@ def call_line_rates(table, port, iy, y, dy, prm, q, H, p, T, r, cp, cv, isotherm
     raise NotImplementedError("called from compiled code only")
 
 
-@overload(call_line_rates)
+@overload(call_line_rates, inline="always")
 def _generate_line_rates(table, port, iy, y, dy, prm, q, H, p, T, r, cp, cv, isothermal, C_end,
                          b_end, r_lam, gamma):
     lines = ["def impl(table, port, iy, y, dy, prm, q, H, p, T, r, cp, cv, isothermal, C_end, "
@@ -279,7 +284,7 @@ def call_line_cells(table, port, iy, prm, cell):
     raise NotImplementedError("called from compiled code only")
 
 
-@overload(call_line_cells)
+@overload(call_line_cells, inline="always")
 def _generate_line_cells(table, port, iy, prm, cell):
     lines = ["def impl(table, port, iy, prm, cell):"]
     for i in range(len(table)):

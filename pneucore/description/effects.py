@@ -35,6 +35,8 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 from pneucore.core import layout as L
+from pneucore.physics.flow_control import (METER_IN, METER_OUT, NODE_STATES, PORT_NODE,
+                                           node_slots)
 from pneucore.physics.heat import HEAT_PARAMETERS, add_wall
 from pneucore.physics.line import LUMPED_MARGIN, delay_cells, line_regime, sound_speed
 from pneucore.physics.sensors import PRESSURE_SENSOR
@@ -153,12 +155,23 @@ class Effect:
     #: diagnosis parameters once it is in the model (a supply line's volume: the rounds after
     #: the regulator's conductance was named bring the model to the noise floor)
     refit_params: tuple = ()
+    #: ``refit_only(values) -> names``: of :attr:`refit_params`, those to refit at the effect's
+    #: values in the model (a flow control's volume only where its node is there: a volume 0
+    #: is the series form, which the diagnosis named; refitted from 0 it would grow a node the
+    #: records did not ask for); None = all of them
+    refit_only: Optional[Callable] = None
     #: ``base_change(params, model) -> {base path: value}``: for an effect that is nothing but
     #: a difference of the model's own base parameters (the quadrant effect: the retract set
     #: minus the extend set), the base values it amounts to on ``model``; where they lie within
     #: a catalogue error of the user's values, the diagnosis reports a recalibration, not the
     #: effect (:func:`pneucore.analysis.diagnosis.stages.as_recalibration`)
     base_change: Optional[Callable] = None
+
+    def refit_in(self, values):
+        """The :attr:`refit_params` refitted once the effect is in a model at ``values``."""
+        if self.refit_only is None:
+            return tuple(self.refit_params)
+        return tuple(self.refit_only(values))
 
     def needs_refit_in(self, new, old):
         """Must a fit in structural form ``old`` whose values call for form ``new`` (both
@@ -570,17 +583,100 @@ def _check_ports(p, model, path):
                              f"[{_C_UNIT}]")
 
 
+def _value(model, effect, name):
+    """Parameter ``name`` of ``effect`` in ``model`` as given, its default where not given
+    (None where the effect is not in the model)."""
+    given = (model.effects or {}).get(effect)
+    if given is None:
+        return None
+    given = given if isinstance(given, dict) else {}
+    return given.get(name, EFFECTS[effect].param(name).default)
+
+
+def _line_on_port(model, sfx, other):
+    """What else holds a line term on port ``sfx`` besides the flow control ``other`` excludes:
+    ``tubing`` in segments, or the other flow control with a volume (None: nothing)."""
+    seg = _value(model, "tubing", "segments")
+    if seg is not None and seg > 1 and (_value(model, "tubing", f"length_{sfx}") or 0.0) > 0.0:
+        return "a tubing line in segments"
+    V = _value(model, other, f"volume_{sfx}")
+    if V is not None and V > 0.0 and (_value(model, other, f"C_{sfx}") or 0.0) > 0.0:
+        return f"{other} with a volume"
+    return None
+
+
+def _check_flow_control(other):
+    """``check`` of a flow control: its ports (:func:`_check_ports`), and a volume before it
+    only on a port no other line term holds (the node and a line in segments, or two nodes,
+    on one port are not modelled)."""
+    def check(p, model, path):
+        _check_ports(p, model, path)
+        for sfx, (port, _, _) in _FLOW_CONTROL_PORTS.items():
+            if p[f"C_{sfx}"] <= 0.0 or p[f"volume_{sfx}"] <= 0.0:
+                continue
+            held = _line_on_port(model, sfx, other)
+            if held is not None:
+                raise FieldError(f"{path}.volume_{sfx}",
+                                 f"port {port} already has {held} between the valve and the "
+                                 f"chamber: a flow control's volume is not modelled beside it; "
+                                 f"set volume_{sfx} to 0 (the control in series with the valve's "
+                                 f"edge) or give the volume as a lumped line [m^3]")
+    return check
+
+
+def _flow_control_refit(p):
+    # the volumes of the ports whose control has its node: a volume 0 stays the series form
+    return tuple(f"volume_{sfx}" for sfx in _FLOW_CONTROL_PORTS
+                 if p.get(f"C_{sfx}", 0.0) > 0.0 and p.get(f"volume_{sfx}", 0.0) > 0.0)
+
+
+def _in_series(p, sfx):
+    """The control on port ``sfx`` is in series with the valve's edge, no volume between."""
+    return p[f"C_{sfx}"] > 0.0 and p.get(f"volume_{sfx}", 0.0) <= 0.0
+
+
 def _meter_out_series(p, model):
     # chamber -> throttle (check valve closed) -> exhaust edge; the check valve opens for
-    # the flow into the chamber, which passes freely (its conductance taken as large)
+    # the flow into the chamber, which passes freely (its conductance taken as large); with
+    # a volume between, the node (physics.flow_control, _pack_flow_control) holds the control
     return {exhaust: ([(p[f"C_{sfx}"], p[f"b_{sfx}"])], [])
-            for sfx, (_, exhaust, _) in _FLOW_CONTROL_PORTS.items() if p[f"C_{sfx}"] > 0.0}
+            for sfx, (_, exhaust, _) in _FLOW_CONTROL_PORTS.items() if _in_series(p, sfx)}
 
 
 def _meter_in_series(p, model):
     # supply edge -> throttle (check valve closed) -> chamber; the exhaust passes freely
     return {supply: ([], [(p[f"C_{sfx}"], p[f"b_{sfx}"])])
-            for sfx, (_, _, supply) in _FLOW_CONTROL_PORTS.items() if p[f"C_{sfx}"] > 0.0}
+            for sfx, (_, _, supply) in _FLOW_CONTROL_PORTS.items() if _in_series(p, sfx)}
+
+
+def _pack_flow_control(direction):
+    """``pack`` of a flow control: on each port whose control has a volume before it, the
+    node's slots (``physics.flow_control.node_slots``) and its states, the gas at the
+    chamber's pressure and temperature."""
+    def pack(p, build):
+        m = build.model
+        term = PORT_NODE
+        k0 = L.STATE_PRM0[term.name]
+        i0 = L.STATE_IY0[term.name]
+        size = len(term.parameters)
+        for k, sfx in enumerate(("a", "b")):
+            V = p.get(f"volume_{sfx}", 0.0)
+            if p[f"C_{sfx}"] <= 0.0 or V <= 0.0:
+                continue
+            build.prm[k0 + k * size:k0 + (k + 1) * size] = node_slots(
+                V, p[f"C_{sfx}"], p[f"b_{sfx}"], p.get("C_check", _CHECK[0]),
+                p.get("b_check", _CHECK[1]), direction,
+                build.prm[L.P_H], m.ambient.temperature)
+            p0, T0 = build.y_base[f"p_{sfx}"], build.y_base[f"T_{sfx}"]
+            m0 = p0 * V / (m.gas.r * T0)
+            # tolerances: a millionth of the node's mass at the supply pressure and of its
+            # temperature, as a line's cells (_pack_tubing)
+            m_tol = 1e-6 * m.supply.pressure * V / (m.gas.r * T0)
+            start = {"m": (m0, m_tol), "T": (T0, 1e-6 * T0)}
+            first = [build.add_state(f"node_{sfx}_{kind}", *start[kind])
+                     for kind, _ in NODE_STATES][0]     # the order node_rates reads them
+            build.iy[i0 + k] = first
+    return pack
 
 
 def _silencer_series(p, model):
@@ -589,10 +685,11 @@ def _silencer_series(p, model):
     return {edge: ([], [(p["C"], p["b"])]) for edge in ("A-R", "B-R")}
 
 
-def _missing_ports(prefix):
-    """``unused`` of a per-port effect: its ``<prefix>_<port>`` strengths on ports the valve
+def _missing_ports(*prefixes):
+    """``unused`` of a per-port effect: its ``<prefix>_<port>`` parameters on ports the valve
     does not drive (port B of a 3/2 valve)."""
-    return lambda model: tuple(f"{prefix}_{sfx}" for sfx, (_, exhaust, _) in _FLOW_CONTROL_PORTS.items()
+    return lambda model: tuple(f"{prefix}_{sfx}" for prefix in prefixes
+                               for sfx, (_, exhaust, _) in _FLOW_CONTROL_PORTS.items()
                                if exhaust not in model.valve.ports)
 
 
@@ -785,13 +882,31 @@ def effect_warnings(model, time_scale):
     return out
 
 
+#: The open check valve of a flow control, (C [m^3/(s Pa)], b [-]): 1 dm^3/(s bar), the order of
+#: the free flow of a cylinder-port speed controller for 6 mm tube (no one model's value: a user
+#: with a catalogue gives its own), b 0.3 as the throttle's
+_CHECK = (1e-8, 0.3)
+
+
 def _flow_control_parameters(what):
     return [Parameter("C_a", _C_UNIT, 3e-9, 0.0, 1e-6, 0.0,
                       f"sonic conductance of the {what} throttle on port A (0 = none)"),
             Parameter("b_a", "-", 0.3, 0.0, 0.99, None, "its critical pressure ratio"),
             Parameter("C_b", _C_UNIT, 3e-9, 0.0, 1e-6, 0.0,
                       f"sonic conductance of the {what} throttle on port B (0 = none)"),
-            Parameter("b_b", "-", 0.3, 0.0, 0.99, None, "its critical pressure ratio")]
+            Parameter("b_b", "-", 0.3, 0.0, 0.99, None, "its critical pressure ratio"),
+            Parameter("volume_a", "m^3", 0.0, 0.0, 1e-3, 0.0,
+                      "volume between the flow control on port A and the valve (tube and "
+                      "fittings, the control at the cylinder's port: physics.flow_control); "
+                      "0 = none, the throttle in series with the valve's edge"),
+            Parameter("volume_b", "m^3", 0.0, 0.0, 1e-3, 0.0,
+                      "volume between the flow control on port B and the valve; 0 = none"),
+            Parameter("C_check", _C_UNIT, _CHECK[0], 1e-10, 1e-6, None,
+                      "sonic conductance of the open check valve, in parallel with the "
+                      "throttle, where a volume lies before the control (with volume 0 the "
+                      "check valve passes freely)"),
+            Parameter("b_check", "-", _CHECK[1], 0.0, 0.99, None,
+                      "the open check valve's critical pressure ratio")]
 
 
 for _e in [
@@ -990,23 +1105,33 @@ for _e in [
     Effect("meter_out_throttle",
            "one-way flow control on a cylinder port, throttling the air leaving the chamber: an "
            "ISO 6358 throttle in parallel with a check valve that lets the inflow pass freely, "
-           "in series with the valve's exhaust edge with no volume between (ISO 6358-3)",
+           "in series with the valve's exhaust edge with no volume between (ISO 6358-3); with "
+           "volume_a or volume_b the control sits at the cylinder's port and that volume (tube, "
+           "fittings) between it and the valve is a node of its own (physics.flow_control)",
            "the exhausting chamber's pressure stays high while the piston moves (back pressure), "
            "speed held low and steady, the exhausting chamber empties slowly after each stroke; "
            "the filling side is as the model says",
            "ISO 6358-3:2014 (series combination); SMC speed controllers (meter-out)",
            _flow_control_parameters("meter-out"),
-           strength="C_a", series=_meter_out_series, check=_check_ports, unused=_missing_ports("C"),
+           strength="C_a", series=_meter_out_series, pack=_pack_flow_control(METER_OUT),
+           refit_params=("volume_a", "volume_b"),
+           refit_only=_flow_control_refit,
+           check=_check_flow_control("meter_in_throttle"), unused=_missing_ports("C", "volume"),
            fit_params=("C_a", "C_b"), probe={"C_a": 3e-9, "C_b": 3e-9}),
     Effect("meter_in_throttle",
            "one-way flow control on a cylinder port, throttling the air entering the chamber: an "
            "ISO 6358 throttle in parallel with a check valve that lets the outflow pass freely, "
-           "in series with the valve's supply edge with no volume between (ISO 6358-3)",
+           "in series with the valve's supply edge with no volume between (ISO 6358-3); with "
+           "volume_a or volume_b the control sits at the cylinder's port and that volume "
+           "between it and the valve is a node of its own (physics.flow_control)",
            "the filling chamber's pressure rises slower than the model while the exhaust is as "
            "the model says; a slow, stick-slip prone start",
            "ISO 6358-3:2014 (series combination); SMC speed controllers (meter-in)",
            _flow_control_parameters("meter-in"),
-           strength="C_a", series=_meter_in_series, check=_check_ports, unused=_missing_ports("C"),
+           strength="C_a", series=_meter_in_series, pack=_pack_flow_control(METER_IN),
+           refit_params=("volume_a", "volume_b"),
+           refit_only=_flow_control_refit,
+           check=_check_flow_control("meter_out_throttle"), unused=_missing_ports("C", "volume"),
            fit_params=("C_a", "C_b"), probe={"C_a": 3e-9, "C_b": 3e-9}),
     Effect("tubing",
            "the line between valve and chamber on each port. Lumped (segments 1): its volume "

@@ -125,12 +125,13 @@ def test_candidates_on_a_3_2_valve_hold_port_b_off():
     from pneucore import Model, model_preset
     from pneucore.description.effects import EFFECTS
     m3 = Model.from_dict(model_preset("paper-3way"))
-    for name, port_b in (("tubing", "length_b"), ("meter_out_throttle", "C_b"),
-                         ("meter_in_throttle", "C_b")):
+    # a flow control's volume before the valve on port B too (physics.flow_control)
+    for name, port_b in (("tubing", ("length_b",)), ("meter_out_throttle", ("C_b", "volume_b")),
+                         ("meter_in_throttle", ("C_b", "volume_b"))):
         eff = EFFECTS[name]
-        assert eff.unused_in(m3) == (port_b,)
+        assert eff.unused_in(m3) == port_b
         vals = eff.probe_values(m3)
-        assert vals[port_b] == eff.param(port_b).off
+        assert all(vals[p] == eff.param(p).off for p in port_b)
         d = model_preset("paper-3way")
         d["effects"] = {name: vals}
         Model.from_dict(d)   # accepted as it is

@@ -206,6 +206,33 @@ def test_end_cushions_and_unknown_shapes_in_the_drawing_function(page):
     assert "future_effect" in res["others"]
 
 
+def test_a_flow_control_with_a_volume_is_drawn_at_the_cylinder_port(page):
+    """A meter-out control with the volume between it and the valve (issue 43 item 5,
+    physics.flow_control) is drawn between the cylinder and the tube, its volume named; one in
+    series with the valve's edge stays between the tube and the valve."""
+    _load_preset(page, "paper-4way")
+    res = page.evaluate("""() => {
+        const m = JSON.parse(JSON.stringify(S.model));
+        m.effects = {tubing: {length_a: 2.0, diameter_a: 0.004, length_b: 2.0, diameter_b: 0.004},
+                     meter_out_throttle: {C_a: 3e-9, b_a: 0.3, C_b: 3e-9, b_b: 0.3,
+                                          volume_a: 1.5e-5, volume_b: 0}};
+        const svg = drawSchematic(m);
+        const y = (id) => Number(svg.querySelector('#' + id + ' line').getAttribute('y1'));
+        const title = (id) => svg.querySelector('#' + id + ' > title').textContent;
+        return {a: y('schem-meter-out-a') - y('schem-tube-a'), b: y('schem-meter-out-b') - y('schem-tube-b'),
+                ta: title('schem-meter-out-a'), tb: title('schem-meter-out-b'),
+                text: svg.querySelector('#schem-meter-out-a').textContent};
+    }""")
+    assert res["a"] < 0 < res["b"]           # A: above the tube (the cylinder's side); B: below
+    assert "at the cylinder's port" in res["ta"] and "between it and the valve" in res["ta"]
+    assert "in series with the valve's edge" in res["tb"]
+    # loaded into the page, the labels in the page's units
+    _paste_model(page, "m.effects = {meter_out_throttle: {C_a: 3e-9, b_a: 0.3, C_b: 0, b_b: 0.3, "
+                       "volume_a: 1.5e-5, volume_b: 0}}")
+    assert "V 15 cm³" in page.text_content("#schem-meter-out-a")          # 1.5e-5 m^3
+    assert "15 cm³ between it and the valve" in _title(page, "schem-meter-out-a")
+
+
 def test_hostile_text_in_the_model_never_becomes_markup(page):
     _load_preset(page, "paper-4way")
     res = page.evaluate("""(h) => {

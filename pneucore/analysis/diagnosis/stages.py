@@ -246,7 +246,8 @@ def uncertain_paths(model, hyp, known, refit_existing):
     unc = dict(hyp.unc)
     if refit_existing:
         for name in model.effects:
-            for p in EFFECTS[name].diagnosis_params + tuple(EFFECTS[name].refit_params):
+            eff = EFFECTS[name]
+            for p in eff.diagnosis_params + eff.refit_in(model.effects[name]):
                 if f"effects.{name}.{p}" not in known:
                     unc.setdefault(f"effects.{name}.{p}", {})
     return unc
