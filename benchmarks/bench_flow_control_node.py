@@ -9,9 +9,11 @@ model with the controls in series (volume 0); a calibration of the throttles alo
 from the user's model (nothing declared) round by round: the diagnosis does not seek the
 volume (docs/limits.md), so it names a stand-in there.
 
-Run: ``python benchmarks/bench_flow_control_node.py [--volume 1.5e-5] [--scale 0] [--diagnose]``
+Run: ``python benchmarks/bench_flow_control_node.py [--volume 1.5e-5] [--scale 0] [--diagnose]
+[--json PATH]``
 """
 import argparse
+import json
 import time
 
 from pneucore.analysis.calibrate import calibrate
@@ -31,15 +33,19 @@ def main():
                     help="factor on the drawn catalogue errors (0: the base values right)")
     ap.add_argument("--seed", type=int, default=41)
     ap.add_argument("--diagnose", action="store_true", help="run the refine loop too")
+    ap.add_argument("--json", help="write the figures to this file")
     a = ap.parse_args()
+    figures = {"volume_m3": a.volume, "scale": a.scale}
     case = rig_case("circuit/meter_out+node", seed=a.seed, effects=(EFFECT,), scale=a.scale,
                     effect_values={EFFECT: {"volume_a": a.volume, "volume_b": a.volume}})
     exps = as_experiments(case.experiments)
     truth = Model.from_dict(case.truth)
-    print(f"floor (the truth's error): {compare(truth, exps).overall:.4%}")
+    figures["floor"] = compare(truth, exps).overall
+    print(f"floor (the truth's error): {figures['floor']:.4%}")
     series = dict(truth.effects[EFFECT], volume_a=0.0, volume_b=0.0)
-    print(f"the truth with the controls in series: "
-          f"{compare(Model.from_dict(dict(case.truth, effects={EFFECT: series})), exps).overall:.4%}")
+    figures["series_error"] = compare(Model.from_dict(dict(case.truth, effects={EFFECT: series})),
+                                      exps).overall
+    print(f"the truth with the controls in series: {figures['series_error']:.4%}")
     throttles = [f"effects.{EFFECT}.C_a", f"effects.{EFFECT}.C_b"]
     volumes = [f"effects.{EFFECT}.volume_a", f"effects.{EFFECT}.volume_b"]
     for params, V0 in ((throttles, 0.0), (throttles + volumes, 5e-6)):
@@ -47,9 +53,14 @@ def main():
                                                                         volume_b=V0)}))
         t0 = time.perf_counter()
         cal = calibrate(start, exps, params, max_nfev=60)
+        seconds = time.perf_counter() - t0
+        err = compare(cal.model, exps).overall
+        key = "throttles_and_volumes" if len(params) > 2 else "throttles"
+        figures[key] = {"error": err, "seconds": seconds,
+                        **{p.split(".")[-1]: v["value"] for p, v in cal.values.items()}}
         found = ", ".join(f"{p.split('.')[-1]} {v['value']:.4g}" for p, v in cal.values.items())
         print(f"calibrated {', '.join(p.split('.')[-1] for p in params)}: {found}; error "
-              f"{compare(cal.model, exps).overall:.4%} ({time.perf_counter() - t0:.1f} s)")
+              f"{err:.4%} ({seconds:.1f} s)")
     if a.diagnose:
         model = Model.from_dict(case.start)
         for r in range(5):
@@ -61,8 +72,12 @@ def main():
             if d.verdict is None and not d.recalibrate:
                 break
             model = d.model            # the answer's model, as the refine loop takes it
-        print("the loop ends with", sorted(model.effects), f"at {compare(model, exps).overall:.4%}",
+        figures["loop_error"] = compare(model, exps).overall
+        print("the loop ends with", sorted(model.effects), f"at {figures['loop_error']:.4%}",
               {k: {p: f"{v:.4g}" for p, v in vals.items()} for k, vals in model.effects.items()})
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(figures, f, indent=1)
 
 
 if __name__ == "__main__":

@@ -42,13 +42,16 @@ SMALL = {
     "bench_closed_loop.py": ["--runs", "1", "--duration", "0.5"],
     "bench_tuning.py": ["--duration", "0.2", "--kp", "1", "--workers", "1", "--single-runs", "2"],
     "bench_tube_segments.py": ["--runs", "2", "--pairs", "1", "--segments", "1", "2"],
+    "bench_flow_control_node.py": [],
 }
 #: figures a script must write (phases that could silently drop out of its --json)
 KEYS = {"bench_api.py": ("sequential_lean", "sequential_lean_npz", "http_alone_lean",
                          "http_alone_lean_npz", "work_bound_ratio", "above_work_bound_ms")}
 #: scripts whose smallest run is too long for the suite: their command line only
 HELP_ONLY = ["bench_cold_start.py", "bench_diagnosis_threads.py", "bench_loop_block.py",
-             "bench_analysis.py", "bench_initial_state.py"]
+             "bench_analysis.py", "bench_initial_state.py",
+             # two source trees, each compiled in its own children
+             "bench_core_ab.py"]
 
 
 def _run(args, timeout=600):

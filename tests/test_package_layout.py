@@ -28,7 +28,8 @@ PUBLIC = [
 
 #: The subpackages and the modules each holds (a new module is added here on purpose)
 LAYOUT = {
-    "physics": {"chamber", "cushion", "flow", "friction", "gas", "heat", "jack", "line", "sensors",
+    "physics": {"chamber", "cushion", "flow", "flow_control", "friction", "gas", "heat", "jack",
+                "line", "sensors",
                 "series", "states", "tube", "valve", "vessel"},
     "core": {"cache", "controllers", "integrator", "layout", "rhs"},
     # position control (issue 42): linearisation, controllers, setpoints, metrics, closed loop

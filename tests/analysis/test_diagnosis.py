@@ -88,10 +88,14 @@ HIDDEN = {
     # a return spring of 500 N/m preloaded to 40 N (probe 300 N/m, 20 N)
     "return_spring": {"rate": 500.0, "preload": 40.0},
     # meter-out flow controls half / 40 % of the valve's full C on A / B (probe 3e-9 each);
-    # b at the catalog default (not refitted)
-    "meter_out_throttle": {"C_a": 5e-9, "b_a": 0.3, "C_b": 4e-9, "b_b": 0.3},
+    # b at the catalog default (not refitted); in series with the valve's edges (no volume
+    # before them: the form the diagnosis seeks; tests/analysis/test_diagnosis_flow_control_node.py
+    # has one with its volume), the check valve's values unused there
+    "meter_out_throttle": {"C_a": 5e-9, "b_a": 0.3, "C_b": 4e-9, "b_b": 0.3,
+                           "volume_a": 0.0, "volume_b": 0.0, "C_check": 1e-8, "b_check": 0.3},
     # meter-in flow controls, same sizes
-    "meter_in_throttle": {"C_a": 5e-9, "b_a": 0.3, "C_b": 4e-9, "b_b": 0.3},
+    "meter_in_throttle": {"C_a": 5e-9, "b_a": 0.3, "C_b": 4e-9, "b_b": 0.3,
+                          "volume_a": 0.0, "volume_b": 0.0, "C_check": 1e-8, "b_check": 0.3},
     # 2 m and 1.5 m of 4 mm line on A / B (probe 1 m each; the diameter is held), lumped
     "tubing": {"length_a": 2.0, "diameter_a": 4e-3, "length_b": 1.5, "diameter_b": 4e-3,
                "segments": 1.0},
