@@ -48,13 +48,18 @@ def get_studies(request: Request, jobs: JobsDep):
 @router.get("/{study_id}", summary="Study progress: runs stored, failed, fraction, the job's state",
             response_model=StudyStatus, response_model_exclude_unset=True)
 def get_study(study_id: str, request: Request, jobs: JobsDep):
+    # the job first, then the study's row: a study job writes the row's status before its own
+    # (pneucore.study.execute, then app.jobs), so a job read as done has a row that reads done;
+    # read the other way round, a poll between the two writes saw the row still running and
+    # the job done ("... no job of this server runs it", a page test failing under load)
+    job = jobs.latest_for_study(study_id)
+    job_state = job.to_dict(with_result=False) if job is not None else None
     st = study_progress(_db(request), study_id)
     if st is None:
         raise not_found("study", study_id)
-    job = jobs.latest_for_study(study_id)
     if job is not None:
         study_state_from_job(st, job, _db(request))
-        st["job"] = job.to_dict(with_result=False)
+        st["job"] = job_state
     return st
 
 

@@ -712,3 +712,39 @@ def test_kill_9_of_the_server_leaves_no_worker_and_the_study_resumes(tmp_path):
     finally:
         proc.kill()
         proc.wait()
+
+
+def test_a_poll_reads_the_job_before_the_study_row(db_path, monkeypatch):
+    """A study job writes the study's row ("done") before its own status, so GET reads the job
+    first: a poll that falls between the two writes must not see the job done and the row still
+    running (the page then said "no job of this server runs it"). The race is made certain
+    here: the job finishes between the two reads, whichever order they come in."""
+    import app.routers.studies as R
+
+    with studies_api(db_path) as c:
+        p = post_study(c, study_body(samples=4, workers=0))
+        wait_study(c, p["id"], p["job_id"])
+        jobs = c.app.state.jobs
+        job = jobs.latest_for_study(p["id"])
+        order = []
+        real_progress = R.study_progress
+
+        def progress(db, sid):
+            order.append("row")
+            st = real_progress(db, sid)
+            if "job" not in order:              # the row read first: the job not yet done
+                st["status"] = "running"
+            return st
+
+        real_latest = jobs.latest_for_study
+
+        def latest(sid):
+            order.append("job")
+            return real_latest(sid)
+
+        monkeypatch.setattr(R, "study_progress", progress)
+        monkeypatch.setattr(jobs, "latest_for_study", latest)
+        st = c.get(f"/api/studies/{p['id']}").json()
+        assert order == ["job", "row"]
+        assert st["status"] == "done" and st["job"]["status"] == "done"
+        assert job.status == "done"
