@@ -624,15 +624,20 @@ def _check_flow_control(other):
     return check
 
 
+def _has_node(p, sfx):
+    """The control on port ``sfx`` has a volume before the valve: its node
+    (physics.flow_control) holds it."""
+    return p.get(f"C_{sfx}", 0.0) > 0.0 and p.get(f"volume_{sfx}", 0.0) > 0.0
+
+
 def _flow_control_refit(p):
     # the volumes of the ports whose control has its node: a volume 0 stays the series form
-    return tuple(f"volume_{sfx}" for sfx in _FLOW_CONTROL_PORTS
-                 if p.get(f"C_{sfx}", 0.0) > 0.0 and p.get(f"volume_{sfx}", 0.0) > 0.0)
+    return tuple(f"volume_{sfx}" for sfx in _FLOW_CONTROL_PORTS if _has_node(p, sfx))
 
 
 def _in_series(p, sfx):
     """The control on port ``sfx`` is in series with the valve's edge, no volume between."""
-    return p[f"C_{sfx}"] > 0.0 and p.get(f"volume_{sfx}", 0.0) <= 0.0
+    return p[f"C_{sfx}"] > 0.0 and not _has_node(p, sfx)
 
 
 def _meter_out_series(p, model):
@@ -660,9 +665,9 @@ def _pack_flow_control(direction):
         i0 = L.STATE_IY0[term.name]
         size = len(term.parameters)
         for k, sfx in enumerate(("a", "b")):
-            V = p.get(f"volume_{sfx}", 0.0)
-            if p[f"C_{sfx}"] <= 0.0 or V <= 0.0:
+            if not _has_node(p, sfx):
                 continue
+            V = p[f"volume_{sfx}"]
             build.prm[k0 + k * size:k0 + (k + 1) * size] = node_slots(
                 V, p[f"C_{sfx}"], p[f"b_{sfx}"], p.get("C_check", _CHECK[0]),
                 p.get("b_check", _CHECK[1]), direction,
