@@ -22,8 +22,10 @@ async function runCompare(opts = {}) {
       S.compare = { result: res, experiments: exps, model: JSON.stringify(S.model) };
       await Promise.all(exps.map((e) => measured(e.dataset_id)));
       renderCompare();
-      setStatus(`Comparison done: overall error ${pct(res.overall)} % (noise floor about ${pct(floorOf(res.noise_floor))} %).`, 'ok');
+      // the session first, then "done": a status that says done with the session still being
+      // started let a reader (a test under load) find no session yet
       if (!opts.noSession) await ensureSession();
+      setStatus(`Comparison done: overall error ${pct(res.overall)} % (noise floor about ${pct(floorOf(res.noise_floor))} %).`, 'ok');
       return res;
     } catch (e) { showApiError(e, 'Comparison', (f) => (f.startsWith('experiments') ? 'experiments' : f)); return null; }
   });
