@@ -304,6 +304,14 @@ class SeriesOut(BaseModel):
     source: str = Field(..., description="Where its figures come from")
     members: list[Optional[str]] = Field(..., description="Its members' names (choices name them "
                                                            "as series:member) [-]")
+    cushion_capacity: Optional[dict[str, float]] = Field(
+        None, description="Cylinders: each member's air cushion's allowable kinetic energy as "
+                          "its catalogue gives it (a sizing with a cushion takes it unless "
+                          "cushion_capacities names that bore); null = the catalogue gives none [J]")
+    bumper_capacity: Optional[dict[str, float]] = Field(
+        None, description="Cylinders: each member's rubber bumper's allowable kinetic energy as "
+                          "its catalogue gives it (a sizing without a cushion refuses an impact "
+                          "above it); null = the catalogue gives none [J]")
 
 
 class SizingSeriesResponse(BaseModel):

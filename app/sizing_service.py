@@ -7,6 +7,7 @@ then sized on the request's limits (:func:`run_sizing`).
 from __future__ import annotations
 
 from pneucore.sizing import check, load_series, size
+from pneucore.sizing.series import CYLINDER_ENERGIES
 from pneucore.sizing.search import run_samples_bound
 from pneucore.description.validation import FieldError
 
@@ -75,7 +76,13 @@ def sizing_series():
     label, source and members (sizes in SI: bore and rod [m], C [m^3/(s Pa)], tube diameters
     [m])."""
     s = load_series()
-    return {kind: {name: {"label": v.get("label", ""), "source": v.get("source", ""),
-                          "members": [m.get("name") for m in v.get("members", [])]}
-                   for name, v in s[kind].items()}
-            for kind in ("cylinders", "valves", "tubes")}
+    out = {kind: {name: {"label": v.get("label", ""), "source": v.get("source", ""),
+                         "members": [m.get("name") for m in v.get("members", [])]}
+                  for name, v in s[kind].items()}
+           for kind in ("cylinders", "valves", "tubes")}
+    # each cylinder member's catalogue energies where its series gives them [J]
+    for name, v in s["cylinders"].items():
+        for key, rec in CYLINDER_ENERGIES.items():
+            figures = {m["name"]: m[key] for m in v["members"] if key in m}
+            out["cylinders"][name][rec] = figures or None
+    return out

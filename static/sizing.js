@@ -23,7 +23,7 @@ const SIZING_FIELDS = [
   ['max_end_speed', 'Max stroke-end speed', 'm/s', 1.0, 'blank: none'],
   ['max_end_energy', 'Max kinetic energy at the end stop', 'J', '', 'blank: none'],
   ['cushion_length', 'Cushion length at each end', 'm', '', 'blank: no cushion'],
-  ['cushion_capacity', 'Cushion capacity, its cushioning energy', 'J', '', 'with a cushion length'],
+  ['cushion_capacity', 'Cushion capacity of bores no catalogue gives', 'J', '', 'blank: none (such a bore is refused)'],
   ['tube_length', 'Tube length per port', 'm', '', 'blank: no tube'],
   ['valve_on_time', 'Valve switching time ON, catalogue', 's', '', 'blank: 0'],
   ['valve_off_time', 'Valve switching time OFF, spring return', 's', '', 'blank: 0'],
@@ -413,6 +413,17 @@ async function showSizingSeries() {
   const list = (kind) => Object.entries(s[kind]).map(([n, v]) => `${n} (${v.members.join(', ')})`).join('; ');
   p.textContent = `Series you may name (a series, or series:member): cylinders ${list('cylinders')}; valves ${list('valves')}; tubes ${list('tubes')}.`;
   box.append(p);
+  // the catalogue's cushion capacities: what a sizing with a cushion takes for those bores
+  // (the table below overrides one), and the rubber bumpers' (a sizing without a cushion)
+  const energies = (key) => Object.entries(s.cylinders).filter(([, v]) => v[key])
+    .map(([n, v]) => `${n}: ${Object.entries(v[key]).map(([m, e]) => `${m} ${num(e, 3)}`).join(', ')}`).join('; ');
+  const q = document.createElement('p');
+  q.id = 'sz-series-capacities';
+  q.className = 'muted small';
+  const cu = energies('cushion_capacity'), bu = energies('bumper_capacity');
+  q.textContent = (cu ? `Catalogue cushion capacities [J] (taken for those bores unless the table names them): ${cu}.` : '')
+    + (bu ? ` Rubber bumpers [J] (without a cushion): ${bu}.` : '');
+  if (q.textContent) box.append(q);
   // the capacity table's series: the cylinder series (a typed name is sent as typed)
   const dl = document.getElementById('sz-cap-series-list');
   dl.textContent = '';

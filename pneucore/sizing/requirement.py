@@ -50,7 +50,6 @@ def _capacities(value, path, cushion_length):
                                f"{type(value).__name__} (unit: -)")
     if value and cushion_length is None:
         raise FieldError(path, "per-bore capacities need the cushion: give cushion_length "
-                               "and cushion_capacity (the capacity of bores not listed) "
                                "(unit: -)")
     if len(value) > MAX_CAPACITY_ENTRIES:
         raise FieldError(path, f"{len(value)} entries, more than {MAX_CAPACITY_ENTRIES} (unit: -)")
@@ -132,19 +131,23 @@ class Requirement:
         solved); null = no limit [J]
     cushion_length : float or None
         Length of the adjustable end cushion at each end of the cylinder (the spear's travel
-        in the cushion seal, a catalogue figure); with cushion_capacity the search solves each
-        end's cushion needle; null = no cushion [m]
+        in the cushion seal, a catalogue figure); the search solves each end's cushion needle
+        for the impact energy to be within the cylinder's cushion capacity; null = no cushion
+        (a series' rubber bumper, where its catalogue gives one, then limits the impact
+        energy) [m]
     cushion_capacity : float or None
-        Kinetic energy the cushion absorbs at most (the catalogue's cushioning energy): each
-        design's needles are solved for the impact energy to be within it; required with
-        cushion_length, null = no cushion [J]
+        Kinetic energy the cushion absorbs at most (the catalogue's cushioning energy), for
+        a cylinder whose capacity neither ``cushion_capacities`` nor its series' catalogue
+        gives; read with cushion_length only; null = none (such a cylinder is then refused
+        with the reason ``cushion``) [J]
     cushion_capacities : list
         Each bore's own cushion capacity, as its catalogue gives it (SMC and Festo publish the
         allowable kinetic energy per bore and cushion): entries ``{"bore": [m], "capacity":
         [J]}``, optionally ``"series"`` (a cylinder series name, ``iso6432``; absent = every
         series with that bore). A family's cylinder takes the entry of its series and bore,
-        else the series-less entry of its bore, else cushion_capacity; needs the cushion
-        (cushion_length); empty = cushion_capacity for every bore [-]
+        else the series-less entry of its bore, else its series' catalogue figure (the shipped
+        ``smc-cm2``, ``smc-ca2``), else cushion_capacity; needs the cushion (cushion_length)
+        [-]
     tube_length : float or None
         Length of the tube between the valve and each cylinder port; null = valve on the
         cylinder [m]
@@ -261,10 +264,10 @@ class Requirement:
         for key in ("cushion_length", "cushion_capacity"):
             setattr(r, key, None if d.get(key) is None else _checked(
                 d[key], f"{path}.{key}", u(key), positive=True))
-        for key, other in (("cushion_length", "cushion_capacity"),
-                           ("cushion_capacity", "cushion_length")):
-            if getattr(r, key) is not None and getattr(r, other) is None:
-                raise FieldError(f"{path}.{other}", f"is required with {key} (unit: {u(other)})")
+        if r.cushion_capacity is not None and r.cushion_length is None:
+            # a capacity with no cushion to hold it: the cushion's length makes the cushion
+            raise FieldError(f"{path}.cushion_length", "is required with cushion_capacity "
+                                                       f"(unit: {u('cushion_length')})")
         if r.cushion_length is not None and 2.0 * r.cushion_length > r.stroke:
             raise FieldError(f"{path}.cushion_length",
                              f"{r.cushion_length:g} m at each end: the two cushions overlap on a "
@@ -286,19 +289,21 @@ class Requirement:
 
     def capacity_for(self, cylinder):
         """The cushion capacity of one cylinder [J]: its series' and bore's entry of
-        ``cushion_capacities``, else its bore's series-less entry, else ``cushion_capacity``
-        (None without a cushion).
+        ``cushion_capacities``, else its bore's series-less entry, else its series'
+        catalogue figure (the cylinder's ``cushion_capacity``), else ``cushion_capacity``
+        (None without a cushion, or where none of these gives one).
 
         Parameters
         ----------
         cylinder : dict
-            ``bore`` [m] and ``name`` (``series:member`` for a shipped one)
+            ``bore`` [m], ``name`` (``series:member`` for a shipped one) and, for a member of
+            a series whose catalogue gives it, ``cushion_capacity`` [J]
 
         Returns
         -------
         capacity, source : float or None, str
-            The capacity [J] and where it comes from (``cushion_capacities[i]`` or
-            ``cushion_capacity``)
+            The capacity [J] and where it comes from (``cushion_capacities[i]``, ``catalogue
+            <series>`` or ``cushion_capacity``; ``none`` where nothing gives one)
         """
         if self.cushion_length is None:
             return None, "no cushion"
@@ -309,7 +314,11 @@ class Requirement:
                 if e.get("series") == want and abs(e["bore"] - cylinder["bore"]) <= BORE_MATCH:
                     if want is None or series is not None:
                         return e["capacity"], f"cushion_capacities[{i}]"
-        return self.cushion_capacity, "cushion_capacity"
+        if cylinder.get("cushion_capacity") is not None:
+            return cylinder["cushion_capacity"], f"catalogue {cylinder.get('series') or series}"
+        if self.cushion_capacity is not None:
+            return self.cushion_capacity, "cushion_capacity"
+        return None, "none"
 
     def to_dict(self):
         """Plain JSON (round-trips through :meth:`from_dict`)."""

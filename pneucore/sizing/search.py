@@ -17,9 +17,11 @@ inner diameter. For each family :func:`size`
    (:func:`scipy.optimize.brentq`; the time falls monotonically as the throttle opens,
    towards the valve's own time as the throttle's conductance grows past the valve's). The slowest motion that meets the time is the
    gentlest: its stroke-end speed is the smallest this family reaches;
-4. with a cushion in the requirement (``cushion_length``, ``cushion_capacity``; the model's
-   ``end_cushion`` at both ends, its needles fully open in the runs above): where the stroke
-   so sized meets its end stop with more kinetic energy than the capacity, solves the needle
+4. with a cushion in the requirement (``cushion_length``; the model's ``end_cushion`` at both
+   ends, its needles fully open in the runs above; its capacity the cylinder's own,
+   :meth:`Requirement.capacity_for`: a cylinder with none is refused, reason ``cushion``):
+   where the stroke so sized meets its end stop with more kinetic energy than the capacity,
+   solves the needle
    of that end without the throttle, the most open needle whose impact energy is within the
    capacity while the stroke still meets its time (:meth:`_Direction.solve_needle`, a 1-D
    root on the needle bracketed from its open side); where no needle alone does and the
@@ -55,7 +57,8 @@ from pneucore.physics.jack import annulus_area, net_pressure_force, rod_area
 from pneucore.progress import no_progress
 from pneucore.simulate import simulate
 from pneucore.sizing.requirement import Choices, Requirement
-from pneucore.sizing.series import dead_length, resolve_cylinders, resolve_tubes, resolve_valves
+from pneucore.sizing.series import (dead_length, energy_series, resolve_cylinders, resolve_tubes,
+                                    resolve_valves)
 from pneucore.sizing.stroke import STROKE_METRIC_UNITS, direction_metrics
 from pneucore.description.effects import EFFECTS, effective_model
 from pneucore.description.model import Model
@@ -197,13 +200,12 @@ def end_cushions(requirement, needles, capacity=None):
     Parameters
     ----------
     requirement : Requirement
-        ``cushion_length`` [m] and ``cushion_capacity`` [J]
+        ``cushion_length`` [m]
     needles : tuple of float
         Needle conductances ``(extend, retract)``: of the x = stroke end (chamber B, met
         while extending) and of the x = 0 end (chamber A) [m^3/(s Pa)]
-    capacity : float or None
-        The cushion's capacity (the cylinder's own: :meth:`Requirement.capacity_for`); None =
-        the requirement's ``cushion_capacity`` [J]
+    capacity : float
+        The cushion's capacity (the cylinder's own: :meth:`Requirement.capacity_for`) [J]
 
     Returns
     -------
@@ -216,7 +218,7 @@ def end_cushions(requirement, needles, capacity=None):
     n_ext, n_ret = needles
     return {"length_a": L, "volume_a": 0.0, "C_a": float(n_ret), "length_b": L, "volume_b": 0.0,
             "C_b": float(n_ext), "b": EFFECTS["end_cushion"].param("b").default,
-            "capacity": requirement.cushion_capacity if capacity is None else capacity}
+            "capacity": capacity}
 
 
 def build_model(requirement, cylinder, valve, tube=None, settings=(0.0, 0.0), base=None,
@@ -344,28 +346,43 @@ def model_notes(requirement, tube=None):
                      "times (both slowed by the same factor); each design's required_times "
                      "gives its share.")
     if requirement.cushion_length is not None:
-        notes.append(f"End cushions of {requirement.cushion_length:g} m at both ends, capacity "
-                     f"{requirement.cushion_capacity:g} J (from the requirement: no catalogue "
-                     "series of cushion figures is shipped): the model's end_cushion effect. "
+        cat = energy_series("cushion_capacity")
+        generic = ("cushion_capacity" + (f" ({requirement.cushion_capacity:g} J)"
+                                         if requirement.cushion_capacity is not None else
+                                         " (none given: such a cylinder is refused, reason "
+                                         "cushion)"))
+        notes.append(f"End cushions of {requirement.cushion_length:g} m at both ends: the model's "
+                     "end_cushion effect. Each cylinder's capacity: its entry in "
+                     "cushion_capacities, else its series' catalogue figure (the allowable "
+                     f"kinetic energy per bore of {', '.join(cat)}; GET /api/sizing/series "
+                     f"gives each source), else {generic}. "
                      "Where a stroke would meet its end with more energy than the capacity, "
                      "its needle is solved (no meter-out throttle that way) for the impact "
                      "energy to be at the capacity; where no needle alone meets both the time "
                      "and the capacity and the throttle may vary (choices.meter_out), the "
                      "throttle and the needle together; fully open (settings.*_needle_C = "
                      "cushion.needle_open_C) where it is not needed.")
-        if not requirement.cushion_capacities:
-            # a catalogue gives each bore its own allowable kinetic energy, growing with the
-            # bore; one figure for all lets a small bore pass against a large bore's capacity
-            notes.append(f"One cushion capacity ({requirement.cushion_capacity:g} J) taken for "
-                         "every bore and series: a catalogue gives each bore its own allowable "
-                         "kinetic energy, smaller for a smaller bore, so a small bore may pass "
-                         "here against a capacity its cushion does not have; give each series' "
-                         "and bore's in cushion_capacities.")
-        else:
+        if requirement.cushion_capacities:
             listed = {(e.get("series"), e["bore"]) for e in requirement.cushion_capacities}
             notes.append(f"Cushion capacities of {len(listed)} series and bore"
                          f"{'s' * (len(listed) != 1)} from cushion_capacities; any other bore "
-                         f"takes cushion_capacity ({requirement.cushion_capacity:g} J).")
+                         f"without a catalogue figure takes {generic}.")
+        elif requirement.cushion_capacity is not None:
+            # a catalogue gives each bore its own allowable kinetic energy, growing with the
+            # bore; one figure for all lets a small bore pass against a large bore's capacity
+            notes.append(f"One cushion capacity ({requirement.cushion_capacity:g} J) taken for "
+                         "every bore whose capacity neither cushion_capacities nor its series' "
+                         "catalogue gives: a catalogue gives each bore its own allowable "
+                         "kinetic energy, smaller for a smaller bore, so a small bore may pass "
+                         "here against a capacity its cushion does not have; give each series' "
+                         "and bore's in cushion_capacities.")
+    else:
+        bumpers = energy_series("bumper_capacity")
+        notes.append("No end cushion (cushion_length null): the piston meets each end stop as "
+                     "the stroke leaves it; a cylinder of a series whose catalogue gives its "
+                     f"rubber bumper's allowable kinetic energy ({', '.join(bumpers)}) is refused "
+                     "above it (reason end_energy), other stops are checked only against "
+                     "max_end_energy and max_end_speed.")
     if requirement.tube_length is not None:
         notes.append(f"Tube of {requirement.tube_length:g} m on each port: the model's tubing "
                      "effect, its volume pi d^2 L / 4 added to each chamber's dead volume and its "
@@ -950,6 +967,11 @@ def _steady_agrees(design, steady):
 
 def _evaluate_from(requirement, choices, cylinder, valve, tube, base, starts=None):
     family = _family_key(cylinder, valve, tube)
+    if requirement.cushion_length is not None and requirement.capacity_for(cylinder)[0] is None:
+        return {**family, "feasible": False, "reason": "cushion", "direction": None,
+                "detail": f"no cushion capacity for {cylinder['name']}: neither "
+                          "cushion_capacities nor its series' catalogue gives one, and no "
+                          "cushion_capacity is given for such a cylinder"}
     d = build_model(requirement, cylinder, valve, tube, base=base)
     try:
         model = Model.from_dict(d)
@@ -998,7 +1020,7 @@ def _evaluate_from(requirement, choices, cylinder, valve, tube, base, starts=Non
                     for k, dr in dirs.items()}
         metrics = {k: dirs[k].run(settings[k]) for k in DIRECTIONS}
         needles = None
-        if requirement.cushion_capacity is not None:
+        if requirement.cushion_length is not None:
             pair = (C_min, valve["C_exhaust"]) if throttled else None
             capacity, source = requirement.capacity_for(cylinder)
             needles, failed = _solve_needles(requirement, valve, dirs, settings, metrics, pair,
@@ -1024,11 +1046,7 @@ def _evaluate_from(requirement, choices, cylinder, valve, tube, base, starts=Non
                 "detail": f"the model of this family is refused: {exc}"}
     design = _design(requirement, cylinder, valve, tube, settings, metrics, base,
                      {k: dirs[k].t_req for k in DIRECTIONS}, needles)
-    checks = (("end_speed", "stroke-end speed", requirement.max_end_speed, "m/s"),
-              ("end_energy", "kinetic energy at the end stop", requirement.max_end_energy, "J"))
-    for reason, what, limit, unit in checks:
-        if limit is None:
-            continue
+    for reason, what, limit, unit, whose in _end_limits(requirement, cylinder):
         for k in DIRECTIONS:
             value = metrics[k][reason]
             if value is not None and value > limit:
@@ -1036,18 +1054,40 @@ def _evaluate_from(requirement, choices, cylinder, valve, tube, base, starts=Non
                         "detail": f"{k}: {what} {value:.3g} {unit} at the slowest setting that "
                                   f"meets {dirs[k].t_req:.4g} s (meter-out throttle C "
                                   f"{settings[k]:.3g} m^3/(s Pa), 0 = none), "
-                                  f"limit {limit:.3g} {unit}",
+                                  f"limit {limit:.3g} {unit} ({whose})",
                         "shortfall": value / limit, "design": {**design, "feasible": False}}
     return {**family, "feasible": True, "design": design}
 
 
-def cushion_energy_limit(requirement, capacity=None):
+def _end_limits(requirement, cylinder):
+    """The limits each stroke's end is checked against: ``(metric, words, limit, unit,
+    whose)`` for the requirement's ``max_end_speed`` and ``max_end_energy``, and without a
+    cushion the cylinder's rubber bumper where its series' catalogue gives it (its
+    ``bumper_capacity`` [J]), the lower of the two energies."""
+    out = []
+    if requirement.max_end_speed is not None:
+        out.append(("end_speed", "stroke-end speed", requirement.max_end_speed, "m/s",
+                    "max_end_speed"))
+    energies = []
+    if requirement.max_end_energy is not None:
+        energies.append((requirement.max_end_energy, "max_end_energy"))
+    bumper = cylinder.get("bumper_capacity")
+    if requirement.cushion_length is None and bumper is not None:
+        energies.append((bumper, f"the rubber bumper of {cylinder['name']}, its catalogue's "
+                                 "allowable kinetic energy"))
+    if energies:
+        limit, whose = min(energies, key=lambda e: e[0])
+        out.append(("end_energy", "kinetic energy at the end stop", limit, "J", whose))
+    return out
+
+
+def cushion_energy_limit(requirement, capacity):
     """The impact energy the cushion needles are solved for [J]: the cushion's capacity
-    (``capacity`` [J], the cylinder's own; None = ``cushion_capacity``), and below it the
+    (``capacity`` [J], the cylinder's own: :meth:`Requirement.capacity_for`), and below it the
     requirement's own end limits where given (``max_end_energy``, and ``max_end_speed`` as
     the moving mass's ``m v^2 / 2``): a needle closed for the end speed is what a fitter does
     with an end speed too high."""
-    limits = [requirement.cushion_capacity if capacity is None else capacity]
+    limits = [capacity]
     if requirement.max_end_energy is not None:
         limits.append(requirement.max_end_energy)
     if requirement.max_end_speed is not None:
@@ -1150,7 +1190,7 @@ def _share_cycle(requirement, dirs, family, cylinder, valve, tube, full, base):
 
 def _design(requirement, cylinder, valve, tube, settings, metrics, base, times=None,
             needles=None):
-    if requirement.cushion_capacity is not None and needles is None:
+    if requirement.cushion_length is not None and needles is None:
         needles = {k: needle_open(valve) for k in DIRECTIONS}
     model = build_model(requirement, cylinder, valve, tube,
                         (settings["extend"], settings["retract"]), base=base,
@@ -1269,7 +1309,8 @@ MARGIN = 0.2
 def margins(design):
     """Each check's headroom, as a share of its limit [-]: ``load_factor`` (1 - factor /
     limit), ``buckling`` (1 - minimum / safety), ``cushion`` (1 - impact energy / capacity, the
-    worse end); absent where the check does not apply; ``least`` the smallest, ``ok`` whether
+    worse end), ``bumper`` (without a cushion, 1 - impact energy / the series' rubber bumper's
+    allowable energy, the worse end); absent where the check does not apply; ``least`` the smallest, ``ok`` whether
     it is at least :data:`MARGIN`.
 
     Parameters
@@ -1292,6 +1333,13 @@ def margins(design):
         ratios = [cu[k]["energy_ratio"] for k in DIRECTIONS if cu[k]["energy_ratio"] is not None]
         if ratios:
             out["cushion"] = 1.0 - max(ratios)
+    bumper = (design.get("cylinder") or {}).get("bumper_capacity")
+    if not cu and bumper:
+        # no cushion: the series' rubber bumper takes the impact (_end_limits)
+        energies = [design["metrics"][k]["end_energy"] for k in DIRECTIONS]
+        energies = [e for e in energies if e is not None]
+        if energies:
+            out["bumper"] = 1.0 - max(energies) / bumper
     least = min(out.values(), default=1.0)
     return out | {"least": least, "ok": least >= MARGIN - 1e-12}
 

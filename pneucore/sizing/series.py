@@ -31,7 +31,11 @@ from pneucore.description.validation import FieldError, known_keys, number
 #: File holding the series (beside this module)
 SERIES_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "series.json")
 #: SI factor of each unit the series file uses
-_UNIT_FACTORS = {"mm": 1e-3, "m": 1.0, "dm^3/(s bar)": 1e-8}
+_UNIT_FACTORS = {"mm": 1e-3, "m": 1.0, "dm^3/(s bar)": 1e-8, "J": 1.0}
+#: A cylinder member's catalogue energies (in its series' ``energy_unit``) and the record key
+#: each becomes: the kinetic energy its air cushion absorbs at most, and its rubber bumper
+#: (the series without an air cushion)
+CYLINDER_ENERGIES = {"cushion_energy": "cushion_capacity", "bumper_energy": "bumper_capacity"}
 
 
 @functools.lru_cache(maxsize=None)
@@ -43,11 +47,15 @@ def _load():
                        ("valves", ("C", "C_exhaust"))):
         for name, series in raw[kind].items():
             f = _UNIT_FACTORS[series["unit"]]
+            fe = _UNIT_FACTORS[series.get("energy_unit", "J")]
             members = []
             for m in series["members"]:
                 m = dict(m)
                 for k in keys:
                     m[k] = round(m[k] * f, 15)
+                for k in CYLINDER_ENERGIES:
+                    if k in m:
+                        m[k] = round(m[k] * fe, 15)
                 members.append(m)
             out[kind][name] = {**series, "members": members, "unit": "SI"}
     out["dead_length"] = {**raw["dead_length"],
@@ -66,6 +74,14 @@ def load_series():
         with its source
     """
     return copy.deepcopy(_load())
+
+
+def energy_series(key):
+    """Names of the shipped cylinder series whose catalogue gives ``key``
+    (``cushion_capacity`` or ``bumper_capacity``, :data:`CYLINDER_ENERGIES`) for every member."""
+    src = {rec: k for k, rec in CYLINDER_ENERGIES.items()}[key]
+    return [name for name, s in _load()["cylinders"].items()
+            if s["members"] and all(src in m for m in s["members"])]
 
 
 def dead_length():
@@ -215,10 +231,14 @@ def resolve_cylinders(items, path="choices.bore"):
     Returns
     -------
     cylinders : list of dict
-        ``{"series", "name", "bore" [m], "rod" [m]}``
+        ``{"series", "name", "bore" [m], "rod" [m]}``, and where the series' catalogue gives
+        them ``cushion_capacity`` (the kinetic energy its air cushion absorbs at most) and
+        ``bumper_capacity`` (its rubber bumper's) [J]
     """
     return _resolve("cylinders", items, path, "cylinder",
-                    lambda m: {"bore": m["bore"], "rod": m["rod"]}, _given_cylinder)
+                    lambda m: {"bore": m["bore"], "rod": m["rod"],
+                               **{rec: m[k] for k, rec in CYLINDER_ENERGIES.items() if k in m}},
+                    _given_cylinder)
 
 
 def resolve_valves(items, path="choices.valve"):

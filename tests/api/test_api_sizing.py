@@ -210,7 +210,7 @@ def test_a_cushion_in_the_requirement_gets_its_needles_solved(client):
 
 
 @pytest.mark.parametrize("change,field,unit", [
-    ({"cushion_length": 0.02}, "requirement.cushion_capacity", "J"),
+    ({"cushion_capacity": 0.1}, "requirement.cushion_length", "m"),
     ({"cushion_length": 0.02, "cushion_capacity": -1.0}, "requirement.cushion_capacity", "J"),
     ({"cushion_length": 0.15, "cushion_capacity": 0.1}, "requirement.cushion_length", "m"),
 ])
@@ -264,3 +264,23 @@ def test_a_bad_cushion_capacity_entry_is_a_422_naming_it(client, table, field):
 def test_a_load_factor_limit_out_of_range_is_a_422_naming_it(client):
     assert_field_error(client.post("/api/sizing", json=_body(max_load_factor=2.0)),
                        "requirement.max_load_factor")
+
+
+def test_the_series_route_lists_each_series_with_its_catalogue_energies(client):
+    """GET /api/sizing/series: every shipped series a choice may name, with its source, and for
+    the cylinder series whose catalogue gives them each member's cushion and bumper capacity
+    [J] (the figures a sizing takes); null where the catalogue gives none."""
+    r = client.get("/api/sizing/series")
+    assert r.status_code == 200, r.text[:400]
+    s = r.json()
+    assert {"iso15552", "iso6432", "smc-cm2", "smc-ca2"} <= set(s["cylinders"])
+    cm2 = s["cylinders"]["smc-cm2"]
+    assert cm2["members"] == ["20", "25", "32", "40"]
+    assert cm2["cushion_capacity"] == {"20": 0.54, "25": 0.78, "32": 1.27, "40": 2.35}
+    assert cm2["bumper_capacity"] == {"20": 0.27, "25": 0.4, "32": 0.65, "40": 1.2}
+    assert s["cylinders"]["smc-ca2"]["bumper_capacity"] is None
+    assert s["cylinders"]["iso15552"]["cushion_capacity"] is None
+    assert "SMC" in cm2["source"] and s["valves"]["ckd-4ga"]["members"][0] == "M4GA1"
+    # each unit is in the schema's description
+    props = client.get("/openapi.json").json()["components"]["schemas"]["SeriesOut"]["properties"]
+    assert props["cushion_capacity"]["description"].endswith("[J]")

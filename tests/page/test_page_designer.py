@@ -189,3 +189,7 @@ def test_the_sizing_form_lists_the_accepted_series(page):
     page.wait_for_selector("#sz-series-hint")
     hint = page.inner_text("#sz-series-hint")
     assert "iso15552 (32, 40" in hint and "ckd-4ga (M4GA1" in hint and "pu-tube" in hint
+    # the catalogue's cushion and bumper capacities, as GET /api/sizing/series gives them
+    caps = page.inner_text("#sz-series-capacities")
+    assert "smc-cm2: 20 0.54, 25 0.78, 32 1.27, 40 2.35" in caps
+    assert "smc-ca2: 40 2.8" in caps and "Rubber bumpers [J]" in caps and "iso15552" not in caps

@@ -167,12 +167,13 @@ def test_a_cushion_not_needed_stays_fully_open_and_brakes_nothing():
         # edge's): the same full-stroke time to the solver's rtol
         assert d["metrics"][k]["full_stroke_time"] == pytest.approx(
             p["metrics"][k]["full_stroke_time"], rel=1e-6)
-    assert any("no catalogue series of cushion figures" in n for n in ans["notes"])
+    assert any("else its series' catalogue figure" in n and "smc-cm2" in n for n in ans["notes"])
 
 
 @pytest.mark.parametrize("change,field,text", [
-    ({"cushion_length": 0.02}, "requirement.cushion_capacity", "required with cushion_length (unit: J)"),
     ({"cushion_capacity": 0.1}, "requirement.cushion_length", "required with cushion_capacity (unit: m)"),
+    ({"cushion_capacities": [{"bore": 0.032, "capacity": 0.1}]}, "requirement.cushion_capacities",
+     "need the cushion"),
     ({"cushion_length": -0.02, "cushion_capacity": 0.1}, "requirement.cushion_length", "(unit: m)"),
     ({"cushion_length": 0.02, "cushion_capacity": 0.0}, "requirement.cushion_capacity", "(unit: J)"),
     ({"cushion_length": 0.15, "cushion_capacity": 0.1}, "requirement.cushion_length", "overlap"),
