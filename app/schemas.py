@@ -610,6 +610,7 @@ class DiagnoseResponse(BaseModel):
     uncertain: list[str] = Field(default_factory=list, description="Base parameter paths refitted along [-]")
     hints: list[ContextHint] = Field(default_factory=list, description="Where a record contradicts the context declared with it; also at the end of the message")
     changes: list[ModelChange] = Field(default_factory=list, description="Every value of the model that 'model' (the verdict applied) changes")
+    recalibrate_effects: list[dict[str, Any]] = Field(default_factory=list, description="Parameters of the effects already in the model that the records moved (a line's length, a flow control's volume), refitted beside the base parameters: path, label, before, after, stderr, unit (the parameter's own: m, m^3, m^3/(s Pa)); 'model' carries them and the message names them")
     known: list[str] = Field(default_factory=list, description=KNOWN_DOC)
     bench_held: list[str] = Field(default_factory=list, description="The bench-identified paths (model provenance) that the request listed in uncertain, held at their bench value [-]")
     closed_loop: Optional[list[dict[str, Any]]] = Field(None, description="The experiments recorded in closed loop (their scenario names the controller): [{experiment, controller, command_source, note}], each replayed open loop with its recorded valve command; absent when none [-]")
@@ -812,7 +813,7 @@ class RefineVersion(_Open):
     errors: dict[str, Optional[float]] = Field(..., description="Per signal: " + FRACTION)
     overall: Optional[float] = Field(..., description="Overall: " + FRACTION)
     added: Optional[str] = Field(None, description="Catalog effect added at this step")
-    recalibrated: list[dict[str, Any]] = Field(default_factory=list, description="Mis-set base parameters corrected at this step: path, before, after, stderr, unit")
+    recalibrated: list[dict[str, Any]] = Field(default_factory=list, description="Parameters corrected at this step (mis-set base parameters, and those of effects already in the model the records moved): path, before, after, stderr, unit")
 
 
 class RefineResponse(_Open):

@@ -68,7 +68,8 @@
    declared direction, a negative mass) never stands: it is held at the declared value
    first, the rest refitted and steps 1-4 run against that null, which replaces the
    recalibration (``remaining["held_impossible"]``, and the message says why).
-5. **Findings.** ``recalibrate`` (mis-set base parameters, before/after),
+5. **Findings.** ``recalibrate`` (mis-set base parameters, before/after;
+   ``recalibrate_effects`` the same of the effects already in the model),
    ``model`` (the next version), ``alternatives`` (what the data cannot tell
    apart from the verdict), ``remaining`` (error, noise floor, whether the
    remainder lies outside the catalog, and its signature in words), with
@@ -129,6 +130,9 @@ class Diagnosis:
     cluster: object = None
     #: the significance level the candidates were judged at (over their number) [-]
     alpha: float = ALPHA
+    #: parameters of the effects already in the model that the data moved, each ``path``,
+    #: ``label``, ``before``, ``after``, ``stderr``, ``unit`` (the answer's model carries them)
+    recalibrate_effects: list = field(default_factory=list)
 
     def best(self):
         return self.ranking[0] if self.ranking else None
@@ -152,6 +156,7 @@ class Diagnosis:
             "noise_floor": self.noise_floor, "base_model": self.base_model.to_dict(),
             "uncertain": self.uncertain, "known": self.known,
             "recalibrate": self.recalibrate, "refitted": self.refitted,
+            "recalibrate_effects": self.recalibrate_effects,
             "model": self.model.to_dict() if self.model is not None else None,
             "changes": (flag_changes(self._given_model(), model_changes(self.given, self.model),
                                      self.known)
@@ -414,7 +419,7 @@ def diagnose(model, experiments, candidates=None, uncertain=(), n_refit=N_REFIT,
                          identifiability=hyp.identifiability, error_start=comp_start,
                          dropped=f.dropped, initial_state=hyp.initial_state, hints=comp_start.hints,
                          given=model.to_dict(), known=list(known), cluster=runner.describe(),
-                         alpha=alpha)
+                         alpha=alpha, recalibrate_effects=f.recalibrate_effects)
 
 
 def apply_diagnosis(model, diagnosis, effect=None):

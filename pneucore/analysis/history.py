@@ -236,7 +236,11 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
                 # pressurised): later rounds, and this version's errors, start from it, if it
                 # does not raise the error (it is part of the round's proposal)
                 new_exps = from_initial_state(exps, d.initial_state)
-            if d.verdict is None and not d.recalibrate:
+            # a round that names nothing and moves no parameter ends the loop as it stands;
+            # one that moves a parameter (base, or of an effect already in the model) is taken
+            # first when it does not raise the error, and then ends it (verdict None, below)
+            moved = list(d.recalibrate) + list(getattr(d, "recalibrate_effects", []) or [])
+            if d.verdict is None and not moved:
                 if d.initial_state:
                     comp_init = compare(model, new_exps)
                     if _worse(comp_init, comp_prev):
@@ -260,7 +264,7 @@ def refine(model, experiments, max_rounds=4, uncertain=(), history=None, progres
             exps = new_exps
             model = d.model.copy()
             params = d.ranking[0]["params"] if d.verdict else {}
-            history.add(model, comp_new, d.verdict, params, d.message, d.recalibrate)
+            history.add(model, comp_new, d.verdict, params, d.message, moved)
             if d.verdict is None or d.remaining.get("at_floor"):
                 break
     return model, history, diagnoses

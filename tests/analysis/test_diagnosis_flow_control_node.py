@@ -35,6 +35,14 @@ def test_a_guessed_volume_before_the_controls_is_refitted_to_the_floor():
     assert vals["volume_a"] == pytest.approx(V, rel=0.05)
     assert vals["volume_b"] == pytest.approx(V, rel=0.05)
     assert compare(d.model, exps).overall < 1.1 * floor
+    # what moved in the user's own effects is said, with the values the answer's model carries
+    moved = {r["path"]: r for r in d.recalibrate_effects}
+    for k in ("volume_a", "volume_b"):
+        r = moved[f"effects.{EFFECT}.{k}"]
+        assert (r["before"], r["after"], r["unit"]) == (5e-6, vals[k], "m^3")
+        assert f"{EFFECT} {k} 5e-06 -> " in d.message
+    assert "Refitted in the model's own effects: " in d.message
+    assert d.to_dict()["recalibrate_effects"] == d.recalibrate_effects
 
 
 def test_a_control_in_series_grows_no_volume():

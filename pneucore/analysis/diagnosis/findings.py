@@ -170,6 +170,29 @@ def _recalibration(model, cal, paths):
     return recal, refitted
 
 
+def _effect_refits(model, cal, verdict):
+    """Parameters of the effects already in ``model`` (not the verdict's) that ``cal`` moved
+    by the rule of :func:`_recalibration` (beyond three standard errors and
+    :data:`RECAL_MIN` of the value): a line's length, a control's volume, refitted beside the
+    base parameters (:meth:`pneucore.description.effects.Effect.refit_in`). The answer's
+    model carries them; the message says so."""
+    if cal is None:
+        return []
+    out = []
+    for p, v in cal.values.items():
+        parts = p.split(".")
+        if len(parts) != 3 or parts[0] != "effects" or parts[1] == verdict \
+                or parts[1] not in model.effects:
+            continue
+        before, after, se = get_value(model, p), v["value"], v.get("stderr", 0.0)
+        d = abs(after - before)
+        if d > 3.0 * se and d > RECAL_MIN * max(abs(before), 1e-300):
+            out.append({"path": p, "label": f"{parts[1]} {parts[2]}", "before": before,
+                        "after": after, "stderr": se, "unit": v.get("unit", "") or "",
+                        "at_bound": v.get("at_bound", False)})
+    return out
+
+
 #: Correlation of two fitted parameters above which they form a confounded group
 CONFOUNDED_CORR = 0.9
 
@@ -321,7 +344,7 @@ def _fmt(v):
     return f"{v:.3g}"
 
 
-def _message(message, recal, remaining, verdict, initial_state=()):
+def _message(message, recal, remaining, verdict, initial_state=(), recal_fx=()):
     parts = []
     if initial_state:
         parts.append("initial state not in the records: " + "; ".join(
@@ -339,6 +362,10 @@ def _message(message, recal, remaining, verdict, initial_state=()):
         for g in groups:
             parts.append("these experiments identify " + ", ".join(H.label_of(p) for p in g)
                          + " only in combination (the split among them is not determined)")
+    if recal_fx:
+        parts.append("refitted in the model's own effects: " + "; ".join(
+            f"{r['label']} {_fmt(r['before'])} -> {_fmt(r['after'])} {r['unit']}".rstrip()
+            for r in recal_fx))
     odd = [r for r in recal if r.get("implausible")]
     if odd:
         parts.append("implausible as catalogue errors: " + "; ".join(
@@ -361,7 +388,7 @@ def _message(message, recal, remaining, verdict, initial_state=()):
 class Findings:
     """What :func:`findings` reports: the residual tests (of the null, and after the verdict),
     ``recalibrate``/``refitted`` base parameters, the next ``model``, the effects ``dropped``
-    from it, ``alternatives``, ``remaining`` and the ``message``."""
+    from it, ``alternatives``, ``remaining``, the ``message`` and ``recalibrate_effects``."""
     tests: dict
     recalibrate: list
     refitted: list
@@ -370,6 +397,8 @@ class Findings:
     alternatives: list = field(default_factory=list)
     remaining: dict = field(default_factory=dict)
     message: str = ""
+    #: parameters of the effects already in the model that the data moved (:func:`_effect_refits`)
+    recalibrate_effects: list = field(default_factory=list)
 
 
 def findings(model, exps, verdict, message, ranking, refits, null, hyp, comp_start, rps_start,
@@ -388,6 +417,7 @@ def findings(model, exps, verdict, message, ranking, refits, null, hyp, comp_sta
     final_tests = tests.get("after_verdict", tests)
 
     recal, refitted = _recalibration(model, chosen, null.base_paths)
+    recal_fx = _effect_refits(model, chosen, verdict)
     next_model = chosen.model.copy() if chosen is not None else model.copy()
     # an effect named in an earlier round leaves the model only when the data say so: its
     # refitted strength is indistinguishable from off *and* the model without it fits as well
@@ -416,6 +446,7 @@ def findings(model, exps, verdict, message, ranking, refits, null, hyp, comp_sta
         if sensed is not None:
             cal_s, remaining["sensor"], remaining["sensor_fit"] = sensed
             recal, refitted = _recalibration(model, cal_s, null.base_paths)
+            recal_fx = _effect_refits(model, cal_s, verdict)
             next_model = cal_s.model.copy()
             for name in dropped:
                 next_model.effects.pop(name, None)
@@ -423,7 +454,7 @@ def findings(model, exps, verdict, message, ranking, refits, null, hyp, comp_sta
         m_final = chosen.model if chosen is not None else model
         remaining["known_disagree"] = H.known_disagreements(
             m_final, exps, known, best_rps, Objective(m_final, exps, []))
-    message = _message(message, recal, remaining, verdict, hyp.initial_state)
+    message = _message(message, recal, remaining, verdict, hyp.initial_state, recal_fx)
     for name in dropped:
         message += (f" Dropped {name}: its refitted strength is indistinguishable from off and "
                     f"the model without it fits as well (error {100 * err_chosen:.2f} %).")
@@ -452,7 +483,8 @@ def findings(model, exps, verdict, message, ranking, refits, null, hyp, comp_sta
                     message += f" In engineering terms: {words}."
     for hint in comp_start.hints:   # the records contradict their declared context
         message += " Check the context: " + hint["message"]
-    return Findings(tests, recal, refitted, next_model, dropped, alternatives, remaining, message)
+    return Findings(tests, recal, refitted, next_model, dropped, alternatives, remaining, message,
+                    recal_fx)
 
 
 def _base_alternatives(model, exps, hyp, recal, null):
