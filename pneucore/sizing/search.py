@@ -194,7 +194,7 @@ def needle_open(valve):
     return min(NEEDLE_OPEN_FACTOR * valve["C_exhaust"], EFFECTS["end_cushion"].param("C_a").max)
 
 
-def end_cushions(requirement, needles, capacity=None):
+def end_cushions(requirement, needles, capacity):
     """The ``end_cushion`` effect of a design: the requirement's cushion at both ends.
 
     Parameters
@@ -1482,7 +1482,15 @@ def check(requirement, choices=None, max_duration=None):
                     f"times the most it may take ({req.time_bound(k):g} s), more than the "
                     f"{max_duration:g} s a run may last here (GET /api/limits: max_duration) "
                     f"(unit: s)"))
-    return req, ch, families(req, ch)
+    fams = families(req, ch)
+    if req.cushion_length is not None and fams and \
+            all(req.capacity_for(c)[0] is None for c, _, _ in fams):
+        # not one design could be sized: the request lacks the figure, not the designs
+        raise FieldError("requirement.cushion_capacity", (
+            "is required here: none of the cylinders chosen has a cushion capacity from "
+            "cushion_capacities or from its series' catalogue (shipped for "
+            f"{', '.join(energy_series('cushion_capacity'))}) (unit: J)"))
+    return req, ch, fams
 
 
 def size(requirement, choices=None, workers=None, progress=None, base=None, checked=None):

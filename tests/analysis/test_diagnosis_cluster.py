@@ -110,9 +110,9 @@ def test_a_refinements_rounds_share_one_runner_and_a_lost_cluster_stays_lost(mon
             scheduler.lost = "the Dask cluster's scheduler has no worker (for 10 s)"
         # a round that proposes the model as it is: the loop goes on to the next round
         return dataclasses.replace(_local_small(), model=m, verdict="piston_leakage",
-                                   recalibrate=False, initial_state=[], dropped=[],
+                                   recalibrate=[], initial_state=[], dropped=[],
                                    remaining={}) if len(seen) == 1 else \
-            dataclasses.replace(_local_small(), verdict=None, recalibrate=False,
+            dataclasses.replace(_local_small(), verdict=None, recalibrate=[],
                                 initial_state=[])
     monkeypatch.setattr(history, "diagnose", one_round)
     # a runner on a "cluster" nothing can reach: were any work sent to it, it would fail

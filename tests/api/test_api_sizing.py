@@ -211,6 +211,8 @@ def test_a_cushion_in_the_requirement_gets_its_needles_solved(client):
 
 @pytest.mark.parametrize("change,field,unit", [
     ({"cushion_capacity": 0.1}, "requirement.cushion_length", "m"),
+    # a cushion none of the chosen ISO cylinders has a capacity for
+    ({"cushion_length": 0.02}, "requirement.cushion_capacity", "J"),
     ({"cushion_length": 0.02, "cushion_capacity": -1.0}, "requirement.cushion_capacity", "J"),
     ({"cushion_length": 0.15, "cushion_capacity": 0.1}, "requirement.cushion_length", "m"),
 ])

@@ -138,3 +138,17 @@ def test_the_issues_designer_no_longer_gets_a_small_bore_first_on_a_typed_capaci
     for d in small.values():
         assert d["cushion"]["capacity_source"] == "cushion_capacity"
         assert d["margins"]["cushion"] < MARGIN and d["rank"] > first["rank"]
+
+
+def test_a_cushion_no_chosen_cylinder_has_a_capacity_for_is_a_field_error():
+    """Not one family could be sized: the request lacks the figure, so it is refused before
+    any work, naming the field; one covered cylinder among them is enough to go on."""
+    from pneucore.description.validation import FieldError
+    from pneucore.sizing.search import check
+    req = {**REQ, "cushion_length": 0.015}
+    with pytest.raises(FieldError) as e:
+        check(req, {"bore": ["iso6432:16", "iso15552:32"], "valve": VALVE})
+    assert e.value.path == "requirement.cushion_capacity"
+    assert "smc-cm2" in e.value.detail and "(unit: J)" in e.value.detail
+    _, _, fams = check(req, {"bore": ["iso6432:16", "smc-cm2:20"], "valve": VALVE})
+    assert len(fams) == 2
