@@ -32,11 +32,23 @@ finite-difference column whose step meets a bound, a refit that starts where ano
 and a stage that replays a model another stage fitted ask for a model that was simulated
 already (4-7 % of the replays of a foreign case's diagnosis, measured). A replay is a pure
 function of the model and the record, so the one kept serves (the compiled core is
-deterministic: the same floats in, the same floats out). Keys are the model's plain form, found
-in 0.04 ms against 0.5-50 ms a replay; the cache holds at most :data:`REPLAY_CACHE_SAMPLES`
+deterministic: the same floats in, the same floats out). Keys are the model's plain form (as the
+record reads it, below), found in 0.04 ms against 0.5-50 ms a replay; the cache holds at most :data:`REPLAY_CACHE_SAMPLES`
 samples of replays, the oldest dropped first. Replays are read, never changed, by those who get
 them (as the two an objective keeps of its last evaluations always were); an objective that
 adds a sensor's gain to the simulated signals replays without the cache.
+
+**What a record reads of a model.** The key of a record's replay is the model as that record
+reads it (:func:`replay_key`): with the load and supply pressure the experiment declares in
+place of the model's (:meth:`pneucore.data.experiment.Experiment.model_for`), and, on a record
+whose piston is locked, without the piston's dynamics (:data:`LOCKED_UNREAD`: the friction
+coefficients, the moving mass, the load), which the core reads only for the piston's
+acceleration and its static limits, never in the locked mode. Two models that differ there
+replay such a record alike to the last bit, so a finite-difference column in a friction
+coefficient or the mass replays the free records alone: on the circuit rig measured apart
+(``benchmarks/bench_diagnosis_confusion.py --apart``: a 1 s locked hold beside 1 s of free
+pulses, 11-13 parameters fitted) 16-21 % of a round's replays, the locked hold's, which cost a
+third of a free record's.
 """
 from __future__ import annotations
 
@@ -89,6 +101,62 @@ class ReplayCache:
             while self._samples > self.limit:
                 _, (_, _, m) = self._entries.popitem(last=False)
                 self._samples -= m
+
+
+#: What the compiled core never reads of a model on a record whose piston is locked (the
+#: scenario's ``locked``: the core's mode ``MODE_LOCKED``, which no event leaves), as
+#: ``{section of the model's plain form: its fields}``: the friction coefficients of each
+#: direction, the moving mass and the load reach only the piston's acceleration (the sliding
+#: modes) and the net force and static limits written beside the states
+#: (:func:`pneucore.core.rhs.rhs`), never a state's derivative. A locked record's replay is
+#: therefore the same, bit for bit, whatever they are (``tests/analysis/test_records.py``)
+LOCKED_UNREAD = {"friction": ("extend", "retract"), "jack": ("moving_mass", "load_force")}
+#: Signals a locked record's replay holds unchanged by :data:`LOCKED_UNREAD`: states, or the
+#: chambers' pressures made of them (a rod force, say, is the net force: not among them)
+LOCKED_SIGNALS = frozenset({"p_a", "p_b", "x", "v", "T_a", "T_b", "m_a", "m_b"})
+
+
+def replay_key(model, experiment, plain=None, memo=None):
+    """The plain form of ``model`` as ``experiment`` reads it, as one string (:func:`model_key`
+    of :meth:`pneucore.data.experiment.Experiment.model_for`, the fields of
+    :data:`LOCKED_UNREAD` left out on a locked record whose compared signals and kept series
+    are all among :data:`LOCKED_SIGNALS`): equal for models whose replays of the record are
+    equal; None where the model is not plain JSON [-].
+
+    ``plain``: ``model.to_dict()`` already made, and ``memo`` a dict kept over the records of
+    one replay of ``model`` (the records that read the model as it is share their two keys,
+    each serialised once: a lumped model's replay costs 0.5 ms, its key 0.04 ms)."""
+    m = experiment.model_for(model)
+    locked = _locked_alike(experiment)
+    shared = m is model
+    if shared and memo is not None and locked in memo:
+        return memo[locked]
+    try:
+        d = plain if shared and plain is not None else m.to_dict()
+        if locked:
+            d = dict(d)
+            for section, fields in LOCKED_UNREAD.items():
+                part = d.get(section)
+                if isinstance(part, dict):
+                    d[section] = {k: v for k, v in part.items() if k not in fields}
+        key = json.dumps(d, sort_keys=True, allow_nan=True)
+    except (TypeError, ValueError):
+        key = None
+    if shared and memo is not None:
+        memo[locked] = key
+    return key
+
+
+def _locked_alike(experiment):
+    """Whether ``experiment`` is a locked record whose replay :data:`LOCKED_UNREAD` leaves
+    unchanged: locked, and every signal it compares and every series a summarised replay keeps
+    (:data:`pneucore.analysis.compare.SUMMARY_SERIES`) among :data:`LOCKED_SIGNALS` [-]."""
+    from pneucore.analysis.compare import SUMMARY_SERIES
+    scenario = experiment.scenario
+    locked = scenario.get("locked", False) if isinstance(scenario, dict) else \
+        getattr(scenario, "locked", False)
+    return bool(locked) and LOCKED_SIGNALS.issuperset(experiment.signals) and \
+        LOCKED_SIGNALS.issuperset(SUMMARY_SERIES)
 
 
 def model_key(model):
@@ -159,9 +227,16 @@ class Records(list):
         the core's outputs dropped), taken from the cache where the same model was replayed on
         the same record already [-]. The replays are to be read, not changed."""
         from pneucore.analysis.compare import replay
-        key = model_key(model)
         out = []
+        try:
+            plain = model.to_dict()
+        except (TypeError, ValueError):
+            plain = None
+        memo = {}
         for e in self:
+            # the model as this record reads it: a locked record shares its replay with the
+            # models that differ only in what it never reads
+            key = replay_key(model, e, plain, memo)
             rp = None if key is None else self._cache.get(key, e)
             if rp is None:
                 rp = replay(model, e).drop_core_outputs()

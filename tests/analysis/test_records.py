@@ -77,7 +77,7 @@ def test_a_model_replayed_again_comes_from_the_cache_with_the_same_values(exps):
             np.testing.assert_array_equal(rp.simulated[s], fresh.simulated[s])
     # another model is another entry; a window and a subset share the cache
     other = model.copy()
-    other.jack.moving_mass *= 1.5
+    other.heat.coefficient *= 1.5
     rec.replayed(other)
     assert rec.cache.misses == 2 * len(rec)
     sub = rec.subset([1])
@@ -130,3 +130,48 @@ def test_a_model_that_is_not_plain_json_is_replayed_without_the_cache(exps, monk
     assert Rm.model_key(model) is None
     a, b = rec.replayed(model), rec.replayed(model)
     assert rec.cache.hits == 0 and rec.cache.misses == 0 and a[0] is not b[0]
+
+
+def test_a_locked_record_shares_its_replay_with_models_that_differ_in_what_it_never_reads(exps):
+    """A locked record's replay is the same to the last bit whatever the friction coefficients,
+    the moving mass and the load (the core reads them only for a sliding piston): the cache
+    hands the one replay to models differing there, and a free record is replayed anew."""
+    from pneucore.analysis.compare import SUMMARY_SERIES, replay
+    from pneucore.analysis.records import LOCKED_UNREAD, replay_key
+    from pneucore.data.experiment import as_experiments
+    from pneucore.description.paths import get_value, set_values
+    rec = Records(as_experiments(exps))
+    locked = [i for i, e in enumerate(rec) if e.scenario.get("locked")]
+    free = [i for i, e in enumerate(rec) if not e.scenario.get("locked")]
+    assert locked and free
+    model = Model.from_dict(model_preset("paper-4way"))
+    first = rec.replayed(model)
+    # every field left out of a locked record's key, moved: each coefficient of each direction
+    d = model.to_dict()
+    paths = [f"{sec}.{f}.{k}" if isinstance(d[sec][f], dict) else f"{sec}.{f}"
+             for sec, fields in LOCKED_UNREAD.items() for f in fields
+             for k in (d[sec][f] if isinstance(d[sec][f], dict) else [None])]
+    paths = [p.removesuffix(".None") for p in paths]
+    assert "friction.extend.fc0" in paths and "jack.moving_mass" in paths
+    other = set_values(model, {p: 1.3 * get_value(model, p) + 1.0 for p in paths})
+    misses = rec.cache.misses
+    again = rec.replayed(other)
+    assert rec.cache.misses == misses + len(free)
+    for i in locked:
+        assert again[i] is first[i]
+        # what a replay without the cache gives on the other model: the same, to the last bit
+        # (the signals, the series a summary keeps, the modes and the events)
+        fresh = replay(other, rec[i])
+        for s in rec[i].signals:
+            np.testing.assert_array_equal(first[i].simulated[s], fresh.simulated[s])
+        for s in SUMMARY_SERIES:
+            np.testing.assert_array_equal(first[i].result.observed(s), fresh.result.observed(s))
+        assert list(first[i].result.mode) == list(fresh.result.mode)
+        assert first[i].result.events == fresh.result.events
+    for i in free:
+        assert again[i] is not first[i]
+        assert replay_key(model, rec[i]) != replay_key(other, rec[i])
+    # anything else the locked record reads is another entry (the heat coefficient)
+    hot = model.copy()
+    hot.heat.coefficient *= 1.5
+    assert all(replay_key(hot, rec[i]) != replay_key(model, rec[i]) for i in locked)
