@@ -38,12 +38,13 @@ alone. A folder that is missing is said and skipped.
 at 500 Hz, 8 bar abs at 2 kHz with a PWM free test), a category of their own (``jacks``), not
 among the 40: a base-only case is right when nothing is named, an effect case when exactly its
 hidden effects are. Their rows also give the truth's own error against its records
-(``truth_error``, the floor the loop's final error is measured against). Measured at 45f7894
-(2-core VM, load 5.6): 11 / 12, 24 s; the six base-only cases name nothing (the 20 mm jack at
+(``truth_error``, the floor the loop's final error is measured against). Measured on the tree
+of 45f7894 (2-core VM, load 1.3): 13 / 14, 20 s; the seven base-only cases (a 40 mm jack with
+a PWM train at 4 bar abs, 500 Hz: 6 samples a pulse, too) name nothing (the 20 mm jack at
 4 bar abs, 500 Hz ends at 1.38x the truth: its retract Coulomb level is not separable from the
 viscous coefficients on those records and stays at the catalogue), the leak on B beside extend
-and retract levels off in opposite senses is the leak with the levels recalibrated on both
-jacks; the finite supply with a 3 ms sensor lag on the paper's jack at 4 bar abs, 500 Hz names
+and retract levels off in opposite senses is the leak with the levels recalibrated on the
+three jacks; the finite supply with a 3 ms sensor lag on the paper's jack at 4 bar abs, 500 Hz names
 the lag only: the loop stops at 0.141 %, 1.16x the floor's estimate (inside ``at_floor``'s 20 %
 margin), 1.23x the truth, while a round more names the supply drop (delta BIC -881, C 3.09e-8
 against 3e-8 m^3/(s Pa)) and ends at 0.114 %.

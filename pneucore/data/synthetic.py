@@ -384,8 +384,9 @@ def fifty_mm_jack(kind="4/2"):
 
 #: Catalogue jacks of other bores (issue 43 item 6: a foreign set runs 20, 40 and 63 mm jacks),
 #: ``jack`` name -> (bore, rod) [m]: the rods of the ISO series that make them (ISO 6432 mini
-#: cylinder 20 mm: 8 mm rod; ISO 15552 63 mm: 20 mm rod), scaled by :func:`scaled_jack`
-OTHER_JACKS = {"20mm": (0.020, 0.008), "63mm": (0.063, 0.020)}
+#: cylinder 20 mm: 8 mm rod; ISO 15552 40 mm: 16 mm rod, 63 mm: 20 mm rod), scaled by
+#: :func:`scaled_jack`
+OTHER_JACKS = {"20mm": (0.020, 0.008), "40mm": (0.040, 0.016), "63mm": (0.063, 0.020)}
 
 
 def scaled_jack(bore, rod, kind="4/2"):
@@ -677,6 +678,9 @@ HIGH_FAST_PWM = {"supply_pressure": 8e5, "sample_period": 0.0005, "pwm": (25.0, 
 #: acts on the larger chambers with the time constant it has on the paper's jack
 AREA_63 = (0.063 / 0.032) ** 2
 
+#: Piston area ratio of the 40 mm jack to the paper's [-] (as :data:`AREA_63`)
+AREA_40 = (0.040 / 0.032) ** 2
+
 #: Rig cases on other jacks and operating points (issue 43 item 6; ``--jacks`` of the confusion
 #: benchmark, not among its 40): (name, keyword arguments of :func:`rig_case`). Base-only cases on
 #: the 20 mm, 63 mm and paper jacks at both operating points (nothing to name); a leak out of
@@ -714,4 +718,12 @@ JACK_CASES = [
         seed=62, jack="63mm", effects=("piston_leakage",),
         effect_values={"piston_leakage": {"conductance": round(1.5e-10 * AREA_63, 12)}},
         **HIGH_FAST_PWM)),
+    # the PWM train at 4 bar abs and 500 Hz: its 12 ms pulses are 6 samples
+    ("jacks/base/40mm-4bar-500Hz-pwm", dict(seed=63, jack="40mm", pwm=(25.0, 0.3), **LOW_SLOW)),
+    ("jacks/effect/leakB+asym-friction/40mm-4bar-500Hz-pwm", dict(
+        seed=64, jack="40mm", effects=("external_leakage",),
+        effect_values={"external_leakage": {"conductance_a": 0.0,
+                                            "conductance_b": round(7e-11 * AREA_40, 13)}},
+        base_errors={"friction.extend.fc0": -0.3, "friction.retract.fc0": 0.5},
+        pwm=(25.0, 0.3), **LOW_SLOW)),
 ]

@@ -133,7 +133,7 @@ def test_existing_draws_are_unchanged(name):
 
 def test_jack_cases_draw():
     names = [n for n, _ in JACK_CASES]
-    assert len(names) == len(set(names)) and 10 <= len(names) <= 14
+    assert len(names) == len(set(names)) and 10 <= len(names) <= 14   # issue 43 item 6: 10-14
     name, kw = JACK_CASES[1]                        # the 63 mm jack at 4 bar abs, 500 Hz
     c = rig_case(name, **kw)
     assert Model.from_dict(c.start).supply.pressure == 4e5
