@@ -16,7 +16,7 @@ import numpy as np
 from pneucore.data.measurement import Measurement
 from pneucore.description.effects import effective_model
 from pneucore.description.model import Model
-from pneucore.description.scenario import Scenario, pulse_train
+from pneucore.description.scenario import Scenario, pulse_train, pwm_train
 from pneucore.simulate import simulate
 
 #: Sensor ranges of the paper's acquisition (0-10 bar transducers, 250 mm LVDT)
@@ -195,7 +195,12 @@ def synthesize(model, scenario, signals=("p_a", "p_b", "x"), noise=None, bits=12
     return m.validate()
 
 
-def diagnostic_scenarios(model):
+#: The PWM free test's two bursts (:func:`diagnostic_scenarios`): towards A from 0.15 to 0.35 s,
+#: towards B from 0.55 to 0.75 s [s], the valve at the free pulse test's opening of 0.7 [-]
+PWM_BURSTS = ((0.15, 0.35, 0.7), (0.55, 0.75, -0.7))
+
+
+def diagnostic_scenarios(model, sample_period=0.001, pwm=None):
     """Two experiments that expose most effects: a locked hold test and a free pulse test.
 
     * ``locked-hold``: piston locked mid-stroke; the valve opens (0.05 s),
@@ -209,6 +214,12 @@ def diagnostic_scenarios(model):
     ----------
     model : Model
         Used for the stroke and the valve kind
+    sample_period : float
+        Sample period of both records [s] (the paper's rig: 1 ms)
+    pwm : tuple or None
+        ``(frequency [Hz], duty [-])``: the free test's command is a PWM train instead of the
+        pulses, the valve switched between 0 and 0.7 in two bursts (:data:`PWM_BURSTS`: towards
+        A, then towards B; a 3/2 valve: the burst towards B is the valve held closed)
 
     Returns
     -------
@@ -225,10 +236,16 @@ def diagnostic_scenarios(model):
         hold = [[0.0, 0.0], [0.05, 0.8], [0.30, 0.0], [0.55, -0.8], [0.75, 0.0]]
         free = pulse_train([(0.18, 0.7), (0.28, -0.7), (0.564, -0.7), (0.62, 0.7)], 0.04)
         x_free = 0.2 * stroke
+    if pwm is not None:
+        freq, duty = pwm
+        free = [[0.0, 0.0]]
+        for t0, t1, u in PWM_BURSTS:
+            if u > 0.0 or model.valve.kind != "3/2":
+                free += pwm_train(t0, t1, freq, duty, u)[1:]
     return {
-        "locked-hold": {"duration": 1.0, "sample_period": 0.001, "command": hold,
+        "locked-hold": {"duration": 1.0, "sample_period": sample_period, "command": hold,
                         "locked": True, "x0": 0.5 * stroke},
-        "free-pulses": {"duration": 1.0, "sample_period": 0.001, "command": free,
+        "free-pulses": {"duration": 1.0, "sample_period": sample_period, "command": free,
                         "locked": False, "x0": x_free},
     }
 
@@ -238,7 +255,7 @@ def diagnostic_scenarios(model):
 FULL_STROKE_HOLD = 0.55
 
 
-def full_stroke_scenario(model, hold=FULL_STROKE_HOLD):
+def full_stroke_scenario(model, hold=FULL_STROKE_HOLD, sample_period=0.001):
     """A free full stroke each way from the lower stop, hitting both end stops (what an end
     cushion acts on): the valve switched fully open towards A at 0.05 s, towards B ``hold``
     later (a 3/2 valve: back to exhausting A), recorded for ``hold`` more at 1 kHz (1.2 s by
@@ -251,6 +268,8 @@ def full_stroke_scenario(model, hold=FULL_STROKE_HOLD):
     hold : float
         Time the valve stays open each way [s] (longer for a slow stroke: a jack lowered
         against meter-out throttles)
+    sample_period : float
+        Sample period [s]
 
     Returns
     -------
@@ -260,18 +279,20 @@ def full_stroke_scenario(model, hold=FULL_STROKE_HOLD):
     back = 0.0 if model.valve.kind == "3/2" else -1.0
     # rounded to the nanosecond: 0.05 + 0.55 is 0.6000000000000001 in binary, and a record
     # 1.2000000000000002 s long ends a sample later than 1.2 s
-    return {"duration": round(0.1 + 2.0 * hold, 9), "sample_period": 0.001,
+    return {"duration": round(0.1 + 2.0 * hold, 9), "sample_period": sample_period,
             "command": [[0.0, 0.0], [0.05, 1.0], [round(0.05 + hold, 9), back]],
             "locked": False, "x0": 0.0}
 
 
 def synthetic_experiments(true_model, signals=("p_a", "p_b", "x"), noise=None, bits=12, seed=0,
                           which=None, noise_corr_time=0.0, initial=None, full_strokes=False,
-                          free_x0=None):
+                          free_x0=None, sample_period=0.001, pwm=None):
     """Synthetic experiments (JSON-ready dicts) of the diagnostic scenarios on ``true_model``
     (and, with ``full_strokes``, of :func:`full_stroke_scenario`, named ``full-strokes``;
     ``full_strokes`` a number: the time the valve stays open each way [s]); ``free_x0``, where
-    given, the free pulse test's starting position as a fraction of the stroke [-].
+    given, the free pulse test's starting position as a fraction of the stroke [-];
+    ``sample_period`` [s] and ``pwm`` (``(frequency [Hz], duty [-])``, a PWM free test) as in
+    :func:`diagnostic_scenarios`.
 
     ``initial`` (``{"p_a", "p_b"}`` [Pa abs]) is the true initial chamber state of every
     test; the experiments do not declare it (the engineer does not know the rig was left
@@ -284,10 +305,10 @@ def synthetic_experiments(true_model, signals=("p_a", "p_b", "x"), noise=None, b
     """
     true_model = Model.from_dict(true_model) if not isinstance(true_model, Model) else true_model
     out = []
-    scenarios = diagnostic_scenarios(true_model)
+    scenarios = diagnostic_scenarios(true_model, sample_period, pwm)
     if full_strokes:
         hold = FULL_STROKE_HOLD if full_strokes is True else float(full_strokes)
-        scenarios["full-strokes"] = full_stroke_scenario(true_model, hold)
+        scenarios["full-strokes"] = full_stroke_scenario(true_model, hold, sample_period)
     if free_x0 is not None:
         scenarios["free-pulses"]["x0"] = float(free_x0) * true_model.jack.stroke
     for k, (name, scen) in enumerate(scenarios.items()):
@@ -361,6 +382,63 @@ def fifty_mm_jack(kind="4/2"):
     return m
 
 
+#: Catalogue jacks of other bores (issue 43 item 6: a foreign set runs 20, 40 and 63 mm jacks),
+#: ``jack`` name -> (bore, rod) [m]: the rods of the ISO series that make them (ISO 6432 mini
+#: cylinder 20 mm: 8 mm rod; ISO 15552 40 mm: 16 mm rod, 63 mm: 20 mm rod), scaled by
+#: :func:`scaled_jack`
+OTHER_JACKS = {"20mm": (0.020, 0.008), "40mm": (0.040, 0.016), "63mm": (0.063, 0.020)}
+
+
+def scaled_jack(bore, rod, kind="4/2"):
+    """A jack of another bore, its catalogue-typical values scaled from the paper's 32 mm one.
+
+    With ``r`` the bore ratio ``bore / 32 mm`` and ``a = r^2`` the piston area ratio:
+
+    * stroke 250 mm, as the paper's (the rig's LVDT spans 0-250 mm: :data:`SENSOR_RANGES`);
+    * moving mass ``2 kg * a`` (to 0.1 kg): a jack is chosen for a load about proportional to its
+      force, i.e. its area, so a pressure gives the piston about the paper's acceleration (and
+      the free test about its travel); :func:`fifty_mm_jack` has 4 kg at ``a = 2.4``;
+    * dead volumes ``5 cm^3 * a`` (to 0.1 cm^3): the ports' and the cushions' bores are a fixed
+      few millimetres of the cylinder's length, so their volume goes with the area (the 50 mm
+      jack: 12 cm^3 at ``a = 2.4``);
+    * every friction coefficient ``* r`` (the constant Coulomb force, the viscous coefficient and
+      their per-pressure parts): a seal's force is per unit length of lip, the piston's
+      perimeter (the 50 mm jack: x1.6 at ``r = 1.56``, on the constant parts);
+    * the valve's conductances ``* a`` (to 0.1): a valve sized for the jack fills its chambers in
+      about the paper's time (volume over conductance) (the 50 mm jack: x2 at ``a = 2.4``);
+    * supply, heat coefficient (per unit wall area) and the valve's shape (overlap, critical
+      ratios) as the paper's.
+
+    Parameters
+    ----------
+    bore, rod : float
+        Bore and rod diameter [m] (a 4/2 jack: a through rod on both sides, as the paper's)
+    kind : str
+        ``4/2`` or ``3/2`` valve
+
+    Returns
+    -------
+    model : dict
+        The catalogue model (JSON)
+    """
+    from pneucore.description.presets import model_preset
+    m = model_preset("paper-4way" if kind == "4/2" else "paper-3way")
+    r = bore / m["jack"]["bore"]
+    a = r * r
+    m["name"] = f"jack-{round(1e3 * bore)}mm-" + kind.replace("/", "")
+    m["jack"].update({"bore": bore, "rod_a": rod, "rod_b": rod if m["jack"]["rod_b"] else 0.0,
+                      "dead_volume_a": round(5e-6 * a, 7), "dead_volume_b": round(5e-6 * a, 7),
+                      "moving_mass": round(2.0 * a, 1)})
+    for side in ("extend", "retract"):
+        f = m["friction"][side]
+        for k in ("fc0", "fc_a", "fc_b", "kv0", "kv_a", "kv_b"):
+            f[k] *= r
+    size = round(a, 1)
+    for port in m["valve"]["ports"].values():
+        port["C"] = [size * c for c in port["C"]]
+    return m
+
+
 @dataclass
 class RigCase:
     """A synthetic rig case: what the engineer starts from, what the rig really is, and the answer.
@@ -398,7 +476,8 @@ class RigCase:
 def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
              signals=("p_a", "p_b", "x"), noise_corr_time=0.0, base_errors=None, scale=1.0,
              base_values=None, initial=None, full_strokes=False, declared=None,
-             effect_values=None, free_x0=None):
+             effect_values=None, free_x0=None, supply_pressure=None, sample_period=None,
+             pwm=None):
     """Draw one rig case: every base parameter of :data:`RIG_BASE_ERRORS` somewhat off.
 
     Parameters
@@ -408,7 +487,8 @@ def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
     seed : int
         Seed of the drawn errors and of the noise
     jack : str
-        ``paper`` (32 mm) or ``50mm``
+        ``paper`` (32 mm), ``50mm`` (:func:`fifty_mm_jack`), or a key of :data:`OTHER_JACKS`
+        (``20mm``, ``63mm``: :func:`scaled_jack`)
     valve : str
         ``4/2`` or ``3/2``
     effects : tuple of str
@@ -445,6 +525,15 @@ def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
         a 4/2 valve); 0 for a rod-up jack, which rests on its lower stop: placed mid-stroke
         with its chambers at ambient it falls from the first sample, and the initial state the
         replay reads from the first samples is already off
+    supply_pressure : float or None
+        The regulator's setting, ABSOLUTE [Pa] (4e5: 4 bar abs, about 3 bar gauge), on the
+        catalogue model and the truth before the errors (the engineer knows the setting; the
+        drawn ``supply.pressure`` error is then off it); None: the paper's 7e5
+    sample_period : float or None
+        Sample period of every record [s] (None: the paper's 1 ms)
+    pwm : tuple or None
+        ``(frequency [Hz], duty [-])``: the free test driven by a PWM train
+        (:func:`diagnostic_scenarios`) instead of the pulses
 
     Returns
     -------
@@ -453,8 +542,14 @@ def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
     from pneucore.description.paths import get_value, set_values
     from pneucore.description.presets import model_preset
     rng = np.random.default_rng(seed)
-    start = model_preset("paper-4way" if valve == "4/2" else "paper-3way") if jack == "paper" \
-        else fifty_mm_jack(valve)
+    if jack == "paper":
+        start = model_preset("paper-4way" if valve == "4/2" else "paper-3way")
+    elif jack == "50mm":
+        start = fifty_mm_jack(valve)
+    else:
+        start = scaled_jack(*OTHER_JACKS[jack], kind=valve)
+    if supply_pressure is not None:
+        start["supply"]["pressure"] = float(supply_pressure)
     start_m = Model.from_dict(start)
     if declared:
         start_m = set_values(start_m, dict(declared))
@@ -479,7 +574,9 @@ def rig_case(name, seed=0, jack="paper", valve="4/2", effects=(), outside=None,
     truth = truth_m.to_dict()
     exps = synthetic_experiments(truth_m, signals=signals, seed=seed + 100,
                                  noise_corr_time=noise_corr_time, initial=initial,
-                                 full_strokes=full_strokes, free_x0=free_x0)
+                                 full_strokes=full_strokes, free_x0=free_x0,
+                                 sample_period=0.001 if sample_period is None else sample_period,
+                                 pwm=pwm)
     if outside is not None:
         sig, gain, offset = RIG_TRANSDUCER_ERRORS[outside]
         amb = start_m.ambient.pressure if sig.startswith("p") else 0.0
@@ -567,4 +664,66 @@ RIG_CASES = [
     ("effect/circuit/meter_out/vertical", dict(seed=37, effects=("meter_out_throttle",),
                                                declared={"jack.mounting_angle": 90.0},
                                                full_strokes=0.8, free_x0=0.0)),
+]
+
+#: Operating points of :data:`JACK_CASES` (issue 43 item 6: a foreign set runs 4-8 bar supplies,
+#: 0.5-2 kHz sampling and PWM command trains): 4 bar ABSOLUTE (about 3 bar gauge) sampled at
+#: 500 Hz, and 8 bar absolute sampled at 2 kHz with the free test a 25 Hz PWM train at 30 % duty
+#: (12 ms pulses: 6 samples at 500 Hz, 24 at 2 kHz)
+LOW_SLOW = {"supply_pressure": 4e5, "sample_period": 0.002}
+HIGH_FAST_PWM = {"supply_pressure": 8e5, "sample_period": 0.0005, "pwm": (25.0, 0.3)}
+
+#: Piston area ratio of the 63 mm jack to the paper's 32 mm one [-]: an effect hidden on it is
+#: given at the paper's strength times this (a leak's conductance, a dead volume), so that it
+#: acts on the larger chambers with the time constant it has on the paper's jack
+AREA_63 = (0.063 / 0.032) ** 2
+
+#: Piston area ratio of the 40 mm jack to the paper's [-] (as :data:`AREA_63`)
+AREA_40 = (0.040 / 0.032) ** 2
+
+#: Rig cases on other jacks and operating points (issue 43 item 6; ``--jacks`` of the confusion
+#: benchmark, not among its 40): (name, keyword arguments of :func:`rig_case`). Base-only cases on
+#: the 20 mm, 63 mm and paper jacks at both operating points (nothing to name); a leak out of
+#: chamber B beside extend and retract Coulomb levels off in opposite senses (the issue's case
+#: b: the leak, the levels recalibrated); a finite supply with a 3 ms pressure-sensor lag (case
+#: c); single effects on the 63 mm jack
+JACK_CASES = [
+    ("jacks/base/20mm-4bar-500Hz", dict(seed=51, jack="20mm", **LOW_SLOW)),
+    ("jacks/base/63mm-4bar-500Hz", dict(seed=52, jack="63mm", **LOW_SLOW)),
+    ("jacks/base/paper-4bar-500Hz", dict(seed=53, **LOW_SLOW)),
+    ("jacks/base/20mm-8bar-2kHz-pwm", dict(seed=54, jack="20mm", **HIGH_FAST_PWM)),
+    ("jacks/base/63mm-8bar-2kHz-pwm", dict(seed=55, jack="63mm", **HIGH_FAST_PWM)),
+    ("jacks/base/paper-8bar-2kHz-pwm", dict(seed=56, **HIGH_FAST_PWM)),
+    ("jacks/effect/leakB+asym-friction/paper-4bar-500Hz", dict(
+        seed=57, effects=("external_leakage",),
+        effect_values={"external_leakage": {"conductance_a": 0.0}},
+        base_errors={"friction.extend.fc0": -0.25, "friction.retract.fc0": 0.4}, **LOW_SLOW)),
+    ("jacks/effect/leakB+asym-friction/63mm-8bar-2kHz-pwm", dict(
+        seed=58, jack="63mm", effects=("external_leakage",),
+        effect_values={"external_leakage": {"conductance_a": 0.0,
+                                            "conductance_b": round(7e-11 * AREA_63, 13)}},
+        base_errors={"friction.extend.fc0": 0.3, "friction.retract.fc0": -0.3},
+        **HIGH_FAST_PWM)),
+    ("jacks/effect/supply_drop+lag/paper-4bar-500Hz", dict(
+        seed=59, effects=("supply_pressure_drop", "sensor_lag"),
+        effect_values={"sensor_lag": {"time_constant": 0.003}}, **LOW_SLOW)),
+    ("jacks/effect/supply_drop+lag/63mm-8bar-2kHz-pwm", dict(
+        seed=60, jack="63mm", effects=("supply_pressure_drop", "sensor_lag"),
+        effect_values={"sensor_lag": {"time_constant": 0.003}}, **HIGH_FAST_PWM)),
+    ("jacks/effect/dead_volume/63mm-4bar-500Hz", dict(
+        seed=61, jack="63mm", effects=("dead_volume",),
+        effect_values={"dead_volume": {"volume_a": round(1.2e-5 * AREA_63, 7),
+                                       "volume_b": round(8e-6 * AREA_63, 7)}}, **LOW_SLOW)),
+    ("jacks/effect/piston_leakage/63mm-8bar-2kHz-pwm", dict(
+        seed=62, jack="63mm", effects=("piston_leakage",),
+        effect_values={"piston_leakage": {"conductance": round(1.5e-10 * AREA_63, 12)}},
+        **HIGH_FAST_PWM)),
+    # the PWM train at 4 bar abs and 500 Hz: its 12 ms pulses are 6 samples
+    ("jacks/base/40mm-4bar-500Hz-pwm", dict(seed=63, jack="40mm", pwm=(25.0, 0.3), **LOW_SLOW)),
+    ("jacks/effect/leakB+asym-friction/40mm-4bar-500Hz-pwm", dict(
+        seed=64, jack="40mm", effects=("external_leakage",),
+        effect_values={"external_leakage": {"conductance_a": 0.0,
+                                            "conductance_b": round(7e-11 * AREA_40, 13)}},
+        base_errors={"friction.extend.fc0": -0.3, "friction.retract.fc0": 0.5},
+        pwm=(25.0, 0.3), **LOW_SLOW)),
 ]

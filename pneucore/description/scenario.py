@@ -273,6 +273,48 @@ def pulse_train(pulses, width, rest=0.0):
     return cmd
 
 
+def pwm_train(t_start, t_end, frequency, duty, opening, rest=0.0):
+    """Command breakpoints of a valve switched on and off at a fixed frequency and duty (PWM).
+
+    A pulse of ``opening`` starts every ``1 / frequency`` seconds from ``t_start`` and lasts
+    ``duty / frequency``; the last starts before ``t_end``. Times are rounded to the nanosecond
+    (far below any sample period) so that a pulse edge written as a sum lands on the instant it
+    names.
+
+    Parameters
+    ----------
+    t_start, t_end : float
+        First pulse's start, and the time no pulse starts at or after [s]
+    frequency : float
+        Switching frequency [Hz]
+    duty : float
+        Fraction of each period the valve is at ``opening`` [-], in (0, 1)
+    opening : float
+        Opening during a pulse [-]
+    rest : float
+        Opening between pulses [-]
+
+    Returns
+    -------
+    command : list of [t, u]
+        Breakpoints (hold interpolation): time [s], opening [-]
+
+    Examples
+    --------
+    >>> pwm_train(0.1, 0.2, 20.0, 0.4, 0.7)
+    [[0.0, 0.0], [0.1, 0.7], [0.12, 0.0], [0.15, 0.7], [0.17, 0.0]]
+    """
+    if frequency <= 0.0 or not 0.0 < duty < 1.0:
+        raise ValueError("pwm_train: frequency > 0 and 0 < duty < 1")
+    period = 1.0 / frequency
+    n = int(math.ceil((t_end - t_start) * frequency - 1e-9))
+    cmd = [[0.0, float(rest)]]
+    for k in range(n):
+        t = t_start + k * period
+        cmd += [[round(t, 9), float(opening)], [round(t + duty * period, 9), float(rest)]]
+    return cmd
+
+
 def _plain_command(cmd):
     """Fast acceptance of a command whose breakpoints are all ``[t, u]`` pairs of plain finite
     numbers with ``t >= 0`` not decreasing: the breakpoints as floats, or None when any
