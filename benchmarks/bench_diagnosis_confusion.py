@@ -144,16 +144,14 @@ APART_CASES = [
 ]
 
 
-def _apart_case(name, **kw):
-    """:func:`rig_case` of :data:`APART_CASES`, in a category of its own (``apart``)."""
+def _in_category(category):
+    """:func:`rig_case`, its case put in the category ``category`` (the cases measured apart,
+    ``apart``; the other jacks, ``jacks``): a category of their own, not among the 40."""
     import dataclasses
-    return dataclasses.replace(rig_case(name, **kw), category="apart")
 
-
-def _jacks_case(name, **kw):
-    """:func:`rig_case` of :data:`JACK_CASES`, in a category of its own (``jacks``)."""
-    import dataclasses
-    return dataclasses.replace(rig_case(name, **kw), category="jacks")
+    def make(name, **kw):
+        return dataclasses.replace(rig_case(name, **kw), category=category)
+    return make
 
 
 def truth_error(case):
@@ -339,9 +337,9 @@ def main(argv=None):
     t_all = time.perf_counter()
     own = [] if a.only_foreign else ([(n, k, rig_case) for n, k in RIG_CASES]
                                      + [(n, k, long_case) for n, k in LONG_CASES]
-                                     + ([(n, k, _apart_case) for n, k in APART_CASES]
+                                     + ([(n, k, _in_category("apart")) for n, k in APART_CASES]
                                         if a.apart else [])
-                                     + ([(n, k, _jacks_case) for n, k in JACK_CASES]
+                                     + ([(n, k, _in_category("jacks")) for n, k in JACK_CASES]
                                         if a.jacks else []))
     for name, kw, make in own:
         if not fnmatch.fnmatch(name, a.cases):
